@@ -1,0 +1,281 @@
+//! Levenberg–Marquardt for small dense problems (n ≲ 100 parameters, any number of residuals).
+//!
+//! Damping is Marquardt's: (JᵀJ + μ·diag(JᵀJ)) δ = −Jᵀr, μ adapted by Nielsen's gain-ratio rule.
+//! Box bounds are honoured by clipping each trial step into the box.
+
+use faer::linalg::matmul::matmul;
+use faer::prelude::Solve;
+use faer::{Accum, Mat, Par, Side};
+
+use super::{LeastSquares, Progress};
+
+/// Stopping and damping settings.
+#[derive(Debug, Clone)]
+pub struct LmOptions {
+    pub max_iterations: usize,
+    /// Stop when the relative decrease of the cost in an accepted step is below this.
+    pub cost_tolerance: f64,
+    /// Stop when every |δᵢ| ≤ step_tolerance · (|pᵢ| + step_tolerance).
+    pub step_tolerance: f64,
+    /// Stop when ‖Jᵀr‖∞ is below this.
+    pub gradient_tolerance: f64,
+    pub initial_damping: f64,
+    /// Optional box: parameters are clipped into [lower, upper].
+    pub lower: Option<Vec<f64>>,
+    pub upper: Option<Vec<f64>>,
+}
+
+impl Default for LmOptions {
+    fn default() -> Self {
+        LmOptions {
+            max_iterations: 200,
+            cost_tolerance: 1e-15,
+            step_tolerance: 1e-12,
+            gradient_tolerance: 1e-14,
+            initial_damping: 1e-3,
+            lower: None,
+            upper: None,
+        }
+    }
+}
+
+/// Why the solver stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LmStop {
+    CostTolerance,
+    StepTolerance,
+    GradientTolerance,
+    MaxIterations,
+    /// Damping grew without finding a better point: a (local) minimum to machine precision.
+    NoProgress,
+}
+
+/// Result of a Levenberg–Marquardt run.
+#[derive(Debug, Clone)]
+pub struct LmReport {
+    pub params: Vec<f64>,
+    /// Sum of squared residuals at `params`.
+    pub sse: f64,
+    pub iterations: usize,
+    pub stop: LmStop,
+    /// JᵀJ at `params` (n × n), for covariance and identifiability.
+    pub jtj: Mat<f64>,
+}
+
+/// Minimises ½‖r(p)‖² from `p0`.
+pub fn levenberg_marquardt(
+    problem: &dyn LeastSquares,
+    p0: &[f64],
+    options: &LmOptions,
+    observer: &mut dyn FnMut(Progress),
+) -> LmReport {
+    let n = problem.n_params();
+    let m = problem.n_residuals();
+    let clip = |p: &mut [f64]| {
+        if let (Some(lo), Some(hi)) = (&options.lower, &options.upper) {
+            for i in 0..p.len() {
+                p[i] = p[i].clamp(lo[i], hi[i]);
+            }
+        }
+    };
+    let mut p = p0.to_vec();
+    clip(&mut p);
+    let mut r = vec![0.0; m];
+    let mut r_trial = vec![0.0; m];
+    let mut jac = Mat::<f64>::zeros(m, n);
+    let mut jtj = Mat::<f64>::zeros(n, n);
+    let mut g = vec![0.0; n];
+    let mut trial = vec![0.0; n];
+
+    problem.residuals(&p, &mut r);
+    let mut sse = sum_sq(&r);
+    let mut mu = options.initial_damping;
+    let mut nu = 2.0;
+    let mut stop = LmStop::MaxIterations;
+    let mut iterations = 0;
+    let mut need_jacobian = true;
+
+    while iterations < options.max_iterations {
+        if need_jacobian {
+            problem.jacobian(&p, jac.as_mut());
+            matmul(
+                jtj.as_mut(),
+                Accum::Replace,
+                jac.transpose(),
+                jac.as_ref(),
+                1.0,
+                Par::Seq,
+            );
+            for (k, gk) in g.iter_mut().enumerate() {
+                *gk = (0..m).map(|i| jac[(i, k)] * r[i]).sum();
+            }
+            need_jacobian = false;
+            if g.iter().fold(0.0f64, |a, v| a.max(v.abs())) < options.gradient_tolerance {
+                stop = LmStop::GradientTolerance;
+                break;
+            }
+        }
+        iterations += 1;
+        // Parameters on a bound whose descent direction points out of the box stay put.
+        let pinned: Vec<bool> = (0..n)
+            .map(|k| match (&options.lower, &options.upper) {
+                (Some(lo), Some(hi)) => (p[k] <= lo[k] && g[k] > 0.0) || (p[k] >= hi[k] && g[k] < 0.0),
+                _ => false,
+            })
+            .collect();
+        let Some(delta) = damped_step(&jtj, &g, mu, &pinned) else {
+            mu *= nu;
+            nu *= 2.0;
+            if mu > 1e30 {
+                stop = LmStop::NoProgress;
+                break;
+            }
+            continue;
+        };
+        for k in 0..n {
+            trial[k] = p[k] + delta[k];
+        }
+        clip(&mut trial);
+        let step: Vec<f64> = (0..n).map(|k| trial[k] - p[k]).collect();
+        problem.residuals(&trial, &mut r_trial);
+        let sse_trial = sum_sq(&r_trial);
+        // Predicted decrease of the quadratic model for the (clipped) step.
+        let mut predicted = 0.0;
+        for a in 0..n {
+            let mut jtj_step = 0.0;
+            for b in 0..n {
+                jtj_step += jtj[(a, b)] * step[b];
+            }
+            predicted -= step[a] * (2.0 * g[a] + jtj_step);
+        }
+        let rho = (sse - sse_trial) / predicted.max(f64::MIN_POSITIVE);
+        if sse_trial.is_finite() && sse_trial < sse {
+            let relative = (sse - sse_trial) / sse.max(f64::MIN_POSITIVE);
+            let small_step = step
+                .iter()
+                .zip(&p)
+                .all(|(d, x)| d.abs() <= options.step_tolerance * (x.abs() + options.step_tolerance));
+            p.copy_from_slice(&trial);
+            std::mem::swap(&mut r, &mut r_trial);
+            sse = sse_trial;
+            mu *= (1.0 / 3.0f64).max(1.0 - (2.0 * rho - 1.0).powi(3));
+            nu = 2.0;
+            need_jacobian = true;
+            observer(Progress {
+                iteration: iterations,
+                cost: sse,
+            });
+            if relative < options.cost_tolerance {
+                stop = LmStop::CostTolerance;
+                break;
+            }
+            if small_step {
+                stop = LmStop::StepTolerance;
+                break;
+            }
+        } else {
+            mu *= nu;
+            nu *= 2.0;
+            if mu > 1e30 {
+                stop = LmStop::NoProgress;
+                break;
+            }
+        }
+    }
+    problem.jacobian(&p, jac.as_mut());
+    matmul(
+        jtj.as_mut(),
+        Accum::Replace,
+        jac.transpose(),
+        jac.as_ref(),
+        1.0,
+        Par::Seq,
+    );
+    LmReport {
+        params: p,
+        sse,
+        iterations,
+        stop,
+        jtj,
+    }
+}
+
+/// Solves (JᵀJ + μ·diag(JᵀJ)) δ = −g with δ = 0 for pinned parameters; `None` when the damped
+/// matrix is not positive definite.
+fn damped_step(jtj: &Mat<f64>, g: &[f64], mu: f64, pinned: &[bool]) -> Option<Vec<f64>> {
+    let n = g.len();
+    let max_diag = (0..n).fold(0.0f64, |a, k| a.max(jtj[(k, k)]));
+    let floor = max_diag * 1e-15 + f64::MIN_POSITIVE;
+    let a = Mat::from_fn(n, n, |i, j| {
+        if pinned[i] || pinned[j] {
+            if i == j {
+                1.0
+            } else {
+                0.0
+            }
+        } else if i == j {
+            jtj[(i, i)] + mu * jtj[(i, i)].max(floor)
+        } else {
+            jtj[(i, j)]
+        }
+    });
+    let llt = a.llt(Side::Lower).ok()?;
+    let rhs = Mat::from_fn(n, 1, |i, _| if pinned[i] { 0.0 } else { -g[i] });
+    let x = llt.solve(&rhs);
+    let delta: Vec<f64> = (0..n).map(|i| x[(i, 0)]).collect();
+    delta.iter().all(|d| d.is_finite()).then_some(delta)
+}
+
+fn sum_sq(r: &[f64]) -> f64 {
+    r.iter().map(|v| v * v).sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::MatMut;
+
+    /// Rosenbrock as least squares: r = (10 (y − x²), 1 − x).
+    struct Rosenbrock;
+    impl LeastSquares for Rosenbrock {
+        fn n_params(&self) -> usize {
+            2
+        }
+        fn n_residuals(&self) -> usize {
+            2
+        }
+        fn residuals(&self, p: &[f64], out: &mut [f64]) {
+            out[0] = 10.0 * (p[1] - p[0] * p[0]);
+            out[1] = 1.0 - p[0];
+        }
+        fn jacobian(&self, p: &[f64], mut out: MatMut<'_, f64>) {
+            out[(0, 0)] = -20.0 * p[0];
+            out[(0, 1)] = 10.0;
+            out[(1, 0)] = -1.0;
+            out[(1, 1)] = 0.0;
+        }
+    }
+
+    #[test]
+    fn solves_rosenbrock_from_the_classic_start() {
+        let report = levenberg_marquardt(&Rosenbrock, &[-1.2, 1.0], &LmOptions::default(), &mut |_| {});
+        assert!((report.params[0] - 1.0).abs() < 1e-10, "{:?}", report);
+        assert!((report.params[1] - 1.0).abs() < 1e-10);
+        assert!(report.sse < 1e-20);
+    }
+
+    #[test]
+    fn respects_bounds() {
+        let options = LmOptions {
+            lower: Some(vec![-2.0, -2.0]),
+            upper: Some(vec![0.5, 2.0]),
+            ..LmOptions::default()
+        };
+        let report = levenberg_marquardt(&Rosenbrock, &[-1.2, 1.0], &options, &mut |_| {});
+        assert!(report.params[0] <= 0.5);
+        // Constrained minimum sits on the bound x = 0.5, y = 0.25.
+        assert!((report.params[0] - 0.5).abs() < 1e-8, "{:?}", report.params);
+        assert!((report.params[1] - 0.25).abs() < 1e-6, "{:?}", report.params);
+    }
+}

@@ -1,0 +1,30 @@
+//! Small optimisers shared by the turntable fit, the system-identification fits and the trainers.
+//!
+//! A problem implements [`LeastSquares`] (residuals and their Jacobian); solvers report progress
+//! through an observer callback and never print.
+
+pub mod lm;
+pub mod nelder_mead;
+
+pub use lm::{levenberg_marquardt, LmOptions, LmReport, LmStop};
+pub use nelder_mead::{nelder_mead_bounded, Bounds, BoundsError, NelderMeadOptions, NelderMeadReport};
+
+use faer::MatMut;
+
+/// A nonlinear least-squares problem: minimise ½‖r(p)‖².
+pub trait LeastSquares {
+    fn n_params(&self) -> usize;
+    fn n_residuals(&self) -> usize;
+    /// Writes r(p) into `out` (length `n_residuals`).
+    fn residuals(&self, p: &[f64], out: &mut [f64]);
+    /// Writes ∂r/∂p (`n_residuals × n_params`) into `out`.
+    fn jacobian(&self, p: &[f64], out: MatMut<'_, f64>);
+}
+
+/// One observer call per iteration of any solver.
+#[derive(Debug, Clone, Copy)]
+pub struct Progress {
+    pub iteration: usize,
+    /// Current objective (sum of squared residuals for least squares).
+    pub cost: f64,
+}

@@ -1,0 +1,526 @@
+//! A recording: time, three accelerometer axes and optionally three gyro axes, in SI units.
+//!
+//! Frame: the sensor's own axes as printed on its case (x, y, z right-handed). Inside spincal time is
+//! in seconds, acceleration in m/s², angular rate in rad/s; files may use g, ms or deg/s and say so
+//! in their column names (`ax_g`, `t_ms`, `gx_dps`) or through [`ColumnMap`] options.
+
+use std::io::{BufRead, Write};
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::table::{find_column, Location, Table, TableError, TableOptions};
+
+/// Standard gravity, m/s² (the default local g).
+pub const STANDARD_GRAVITY: f64 = 9.80665;
+
+/// Unit of acceleration values in a file.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AccelUnit {
+    /// Metres per second squared.
+    Mps2,
+    /// Multiples of standard gravity (9.80665 m/s²).
+    G,
+}
+
+impl AccelUnit {
+    pub fn to_si(self) -> f64 {
+        match self {
+            AccelUnit::Mps2 => 1.0,
+            AccelUnit::G => STANDARD_GRAVITY,
+        }
+    }
+    pub fn parse(text: &str) -> Option<AccelUnit> {
+        match text.to_ascii_lowercase().as_str() {
+            "g" => Some(AccelUnit::G),
+            "mps2" | "m/s2" | "m/s^2" | "m/s²" | "si" => Some(AccelUnit::Mps2),
+            _ => None,
+        }
+    }
+    pub fn suffix(self) -> &'static str {
+        match self {
+            AccelUnit::Mps2 => "mps2",
+            AccelUnit::G => "g",
+        }
+    }
+}
+
+/// Unit of time values in a file.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TimeUnit {
+    S,
+    Ms,
+    Us,
+}
+
+impl TimeUnit {
+    pub fn to_si(self) -> f64 {
+        match self {
+            TimeUnit::S => 1.0,
+            TimeUnit::Ms => 1e-3,
+            TimeUnit::Us => 1e-6,
+        }
+    }
+    pub fn parse(text: &str) -> Option<TimeUnit> {
+        match text.to_ascii_lowercase().as_str() {
+            "s" => Some(TimeUnit::S),
+            "ms" => Some(TimeUnit::Ms),
+            "us" | "µs" => Some(TimeUnit::Us),
+            _ => None,
+        }
+    }
+}
+
+/// Unit of angular-rate values in a file.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GyroUnit {
+    Radps,
+    Dps,
+}
+
+impl GyroUnit {
+    pub fn to_si(self) -> f64 {
+        match self {
+            GyroUnit::Radps => 1.0,
+            GyroUnit::Dps => std::f64::consts::PI / 180.0,
+        }
+    }
+    pub fn parse(text: &str) -> Option<GyroUnit> {
+        match text.to_ascii_lowercase().as_str() {
+            "radps" | "rad/s" => Some(GyroUnit::Radps),
+            "dps" | "deg/s" => Some(GyroUnit::Dps),
+            _ => None,
+        }
+    }
+}
+
+/// Where a recording came from and how it was read.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct Source {
+    /// File name or other description.
+    pub name: String,
+    /// Format name as detected or chosen (`csv`, `phyphox`, `3dm-gx1`, …).
+    pub format: String,
+    /// Columns used, as `t,ax,ay,az[,gx,gy,gz]` names from the file.
+    pub columns: Vec<String>,
+    /// Lines skipped before the data (metadata), as read.
+    pub metadata: Vec<String>,
+    /// 1-based source line of every sample, when read from text (empty otherwise).
+    #[serde(skip)]
+    pub lines: Vec<usize>,
+}
+
+/// Time series of one IMU session, SI units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recording {
+    /// Sample times, s.
+    pub time_s: Vec<f64>,
+    /// Accelerometer x, y, z, m/s² (specific force, sensor frame).
+    pub accel_mps2: [Vec<f64>; 3],
+    /// Gyro x, y, z, rad/s (sensor frame), when recorded.
+    pub gyro_radps: Option<[Vec<f64>; 3]>,
+    pub source: Source,
+}
+
+/// Everything that can be wrong with a recording as a whole.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RecordingError {
+    #[error(transparent)]
+    Table(#[from] TableError),
+    #[error("{file}: no column '{key}' (columns: {available})")]
+    NoSuchColumn {
+        file: String,
+        key: String,
+        available: String,
+    },
+    #[error("{file}: cannot tell which columns hold time and acceleration (columns: {available}); pass --columns t,ax,ay,az")]
+    AmbiguousColumns { file: String, available: String },
+    #[error("--columns needs 4 or 7 entries (t,ax,ay,az[,gx,gy,gz]), got {0}")]
+    ColumnCount(usize),
+    #[error("{at}: time goes backwards or repeats ({previous} s, then {current} s)")]
+    TimeNotIncreasing {
+        at: Location,
+        previous: f64,
+        current: f64,
+    },
+    #[error("{file}: only {found} samples; at least {needed} are needed")]
+    TooShort {
+        file: String,
+        found: usize,
+        needed: usize,
+    },
+    #[error("{file}: cannot write: {source}")]
+    Write {
+        file: String,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// Which columns hold what, and in which units.
+#[derive(Debug, Clone, Default)]
+pub struct ColumnMap {
+    /// `t,ax,ay,az[,gx,gy,gz]` as names or 1-based indices; guessed from the header when `None`.
+    pub columns: Option<Vec<String>>,
+    /// Acceleration unit; from the column name suffix (`_g`, `_mps2`) or m/s² when `None`.
+    pub accel_unit: Option<AccelUnit>,
+    /// Time unit; from the column name suffix (`_s`, `_ms`, `_us`) or seconds when `None`.
+    pub time_unit: Option<TimeUnit>,
+    /// Gyro unit; from the column name suffix (`_dps`, `_radps`) or rad/s when `None`.
+    pub gyro_unit: Option<GyroUnit>,
+    pub table: TableOptions,
+}
+
+impl ColumnMap {
+    /// Parses `t,ax,ay,az[,gx,gy,gz]`.
+    pub fn with_columns(mut self, spec: &str) -> Result<Self, RecordingError> {
+        let keys: Vec<String> = spec.split(',').map(|s| s.trim().to_string()).collect();
+        if keys.len() != 4 && keys.len() != 7 {
+            return Err(RecordingError::ColumnCount(keys.len()));
+        }
+        self.columns = Some(keys);
+        Ok(self)
+    }
+}
+
+const TIME_NAMES: &[&str] = &[
+    "t",
+    "time",
+    "timestamp",
+    "time (s)",
+    "t_s",
+    "t_ms",
+    "t_us",
+    "time_s",
+    "time_ms",
+];
+const AXIS: [&str; 3] = ["x", "y", "z"];
+
+/// Header names spincal recognises for accelerometer axis `a` (0 = x).
+fn accel_names(a: usize) -> Vec<String> {
+    let x = AXIS[a];
+    let mut names = vec![
+        format!("a{x}"),
+        format!("acc_{x}"),
+        format!("acc{x}"),
+        format!("accel_{x}"),
+        format!("accel{x}"),
+        format!("a_{x}"),
+        format!("linear acceleration {x} (m/s^2)"),
+        format!("acceleration {x} (m/s^2)"),
+    ];
+    for unit in ["g", "mps2"] {
+        names.push(format!("a{x}_{unit}"));
+        names.push(format!("acc_{x}_{unit}"));
+    }
+    names
+}
+
+fn gyro_names(a: usize) -> Vec<String> {
+    let x = AXIS[a];
+    let mut names = vec![
+        format!("g{x}"),
+        format!("gyr_{x}"),
+        format!("gyro_{x}"),
+        format!("gyro{x}"),
+        format!("w{x}"),
+        format!("gyroscope {x} (rad/s)"),
+    ];
+    for unit in ["dps", "radps"] {
+        names.push(format!("g{x}_{unit}"));
+        names.push(format!("gyr_{x}_{unit}"));
+    }
+    names
+}
+
+fn find_any(header: &[String], names: &[String]) -> Option<usize> {
+    header
+        .iter()
+        .position(|h| names.iter().any(|n| h.trim().eq_ignore_ascii_case(n)))
+}
+
+impl Recording {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.time_s.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.time_s.is_empty()
+    }
+
+    /// Duration from first to last sample, s.
+    pub fn duration_s(&self) -> f64 {
+        match (self.time_s.first(), self.time_s.last()) {
+            (Some(a), Some(b)) => b - a,
+            _ => 0.0,
+        }
+    }
+
+    /// Nominal sample rate, Hz: the inverse of the median sample interval.
+    pub fn sample_rate_hz(&self) -> f64 {
+        1.0 / median_interval(&self.time_s)
+    }
+
+    /// Reads a recording from a delimited text file.
+    pub fn read_csv_path(path: &Path, map: &ColumnMap) -> Result<Recording, RecordingError> {
+        let table = Table::read_path(path, &map.table)?;
+        Recording::from_table(&table, map)
+    }
+
+    /// Reads a recording from any text source; `name` is used in errors.
+    pub fn read_csv<R: BufRead>(reader: R, name: &str, map: &ColumnMap) -> Result<Recording, RecordingError> {
+        let table = Table::read(reader, name, &map.table)?;
+        Recording::from_table(&table, map)
+    }
+
+    /// Picks time/accel/gyro columns out of a table and converts them to SI.
+    pub fn from_table(table: &Table, map: &ColumnMap) -> Result<Recording, RecordingError> {
+        let indices = resolve_columns(table, map)?;
+        let name_of = |i: usize| {
+            table
+                .header
+                .get(i)
+                .cloned()
+                .unwrap_or_else(|| format!("column {}", i + 1))
+        };
+        let time_unit = map
+            .time_unit
+            .or_else(|| unit_from_name(&name_of(indices[0]), TimeUnit::parse))
+            .unwrap_or(TimeUnit::S);
+        let accel_unit = map
+            .accel_unit
+            .or_else(|| unit_from_name(&name_of(indices[1]), AccelUnit::parse))
+            .unwrap_or(AccelUnit::Mps2);
+        let scale = |c: usize, k: f64| table.columns[c].iter().map(|v| v * k).collect::<Vec<f64>>();
+        let time_s = scale(indices[0], time_unit.to_si());
+        let accel_mps2 = [1, 2, 3].map(|k| scale(indices[k], accel_unit.to_si()));
+        let gyro_radps = if indices.len() == 7 {
+            let unit = map
+                .gyro_unit
+                .or_else(|| unit_from_name(&name_of(indices[4]), GyroUnit::parse))
+                .unwrap_or(GyroUnit::Radps);
+            Some([4, 5, 6].map(|k| scale(indices[k], unit.to_si())))
+        } else {
+            None
+        };
+        let recording = Recording {
+            time_s,
+            accel_mps2,
+            gyro_radps,
+            source: Source {
+                name: table.file.clone(),
+                format: "csv".into(),
+                columns: indices.iter().map(|&i| name_of(i)).collect(),
+                metadata: table.metadata.iter().map(|(_, s)| s.clone()).collect(),
+                lines: table.lines.clone(),
+            },
+        };
+        recording.check_time()?;
+        Ok(recording)
+    }
+
+    /// Checks that time strictly increases; the error names the file line.
+    pub fn check_time(&self) -> Result<(), RecordingError> {
+        for i in 1..self.time_s.len() {
+            let (previous, current) = (self.time_s[i - 1], self.time_s[i]);
+            if current <= previous {
+                return Err(RecordingError::TimeNotIncreasing {
+                    at: self.location(i),
+                    previous,
+                    current,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Location of sample `i` in the source file (sample number when not read from text).
+    pub fn location(&self, i: usize) -> Location {
+        Location {
+            file: self.source.name.clone(),
+            line: self.source.lines.get(i).copied().unwrap_or(i + 1),
+            column: None,
+            column_name: None,
+        }
+    }
+
+    /// Writes the recording as CSV with unit-bearing header names (`t_s,ax_mps2,…` or `ax_g`).
+    pub fn write_csv<W: Write>(&self, mut out: W, unit: AccelUnit) -> std::io::Result<()> {
+        let u = unit.suffix();
+        write!(out, "t_s,ax_{u},ay_{u},az_{u}")?;
+        if self.gyro_radps.is_some() {
+            write!(out, ",gx_radps,gy_radps,gz_radps")?;
+        }
+        writeln!(out)?;
+        let k = 1.0 / unit.to_si();
+        for i in 0..self.len() {
+            let a = &self.accel_mps2;
+            write!(
+                out,
+                "{},{},{},{}",
+                self.time_s[i],
+                a[0][i] * k,
+                a[1][i] * k,
+                a[2][i] * k
+            )?;
+            if let Some(g) = &self.gyro_radps {
+                write!(out, ",{},{},{}", g[0][i], g[1][i], g[2][i])?;
+            }
+            writeln!(out)?;
+        }
+        out.flush()
+    }
+
+    /// Writes the recording to a file path (see [`Recording::write_csv`]).
+    pub fn write_csv_path(&self, path: &Path, unit: AccelUnit) -> Result<(), RecordingError> {
+        let write_err = |source| RecordingError::Write {
+            file: path.display().to_string(),
+            source,
+        };
+        let file = std::fs::File::create(path).map_err(write_err)?;
+        self.write_csv(std::io::BufWriter::new(file), unit)
+            .map_err(write_err)
+    }
+}
+
+/// Median of successive differences of `t` (NaN for fewer than two samples).
+pub fn median_interval(t: &[f64]) -> f64 {
+    if t.len() < 2 {
+        return f64::NAN;
+    }
+    let mut dt: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    let mid = dt.len() / 2;
+    *dt.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// Reads a unit from a column-name suffix: `ax_g`, `t_ms`, `gx (deg/s)`.
+fn unit_from_name<U>(name: &str, parse: impl Fn(&str) -> Option<U>) -> Option<U> {
+    let lower = name.to_ascii_lowercase();
+    if let (Some(open), Some(close)) = (lower.rfind('('), lower.rfind(')')) {
+        if open < close {
+            if let Some(u) = parse(lower[open + 1..close].trim()) {
+                return Some(u);
+            }
+        }
+    }
+    lower.rsplit_once('_').and_then(|(_, suffix)| parse(suffix))
+}
+
+fn resolve_columns(table: &Table, map: &ColumnMap) -> Result<Vec<usize>, RecordingError> {
+    let available = || {
+        if table.header.is_empty() {
+            format!("{} unnamed", table.n_columns())
+        } else {
+            table.header.join(", ")
+        }
+    };
+    if let Some(keys) = &map.columns {
+        return keys
+            .iter()
+            .map(|k| {
+                find_column(&table.header, table.n_columns(), k).ok_or_else(|| RecordingError::NoSuchColumn {
+                    file: table.file.clone(),
+                    key: k.clone(),
+                    available: available(),
+                })
+            })
+            .collect();
+    }
+    if table.header.is_empty() {
+        return match table.n_columns() {
+            4 => Ok(vec![0, 1, 2, 3]),
+            n if n >= 7 => Ok((0..7).collect()),
+            _ => Err(RecordingError::AmbiguousColumns {
+                file: table.file.clone(),
+                available: available(),
+            }),
+        };
+    }
+    let names: Vec<String> = TIME_NAMES.iter().map(|s| s.to_string()).collect();
+    let time = find_any(&table.header, &names);
+    let accel: Option<Vec<usize>> = (0..3).map(|a| find_any(&table.header, &accel_names(a))).collect();
+    let (Some(time), Some(accel)) = (time, accel) else {
+        return Err(RecordingError::AmbiguousColumns {
+            file: table.file.clone(),
+            available: available(),
+        });
+    };
+    let mut indices = vec![time];
+    indices.extend(accel);
+    let gyro: Option<Vec<usize>> = (0..3).map(|a| find_any(&table.header, &gyro_names(a))).collect();
+    if let Some(gyro) = gyro {
+        indices.extend(gyro);
+    }
+    Ok(indices)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn read(text: &str, map: &ColumnMap) -> Result<Recording, RecordingError> {
+        Recording::read_csv(text.as_bytes(), "rec.csv", map)
+    }
+
+    #[test]
+    fn guesses_columns_and_units_from_header() {
+        let r = read(
+            "t_ms;ax_g;ay_g;az_g\n0;0;0;1\n10;0.1;0;1\n",
+            &ColumnMap::default(),
+        )
+        .unwrap();
+        assert_eq!(r.time_s, [0.0, 0.01]);
+        assert!((r.accel_mps2[2][0] - STANDARD_GRAVITY).abs() < 1e-12);
+        assert!((r.sample_rate_hz() - 100.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn explicit_columns_by_name_and_index() {
+        let map = ColumnMap::default().with_columns("4,x,y,z").unwrap();
+        let r = read("x y z time\n1 2 3 0\n4 5 6 1\n", &map).unwrap();
+        assert_eq!(r.time_s, [0.0, 1.0]);
+        assert_eq!(r.accel_mps2[0], [1.0, 4.0]);
+        let e = read(
+            "x y z time\n1 2 3 0\n",
+            &ColumnMap::default().with_columns("t,x,y,z").unwrap(),
+        )
+        .unwrap_err();
+        assert_eq!(e.to_string(), "rec.csv: no column 't' (columns: x, y, z, time)");
+    }
+
+    #[test]
+    fn time_going_backwards_names_the_line() {
+        let e = read(
+            "t,ax,ay,az\n0,0,0,1\n0.02,0,0,1\n0.01,0,0,1\n",
+            &ColumnMap::default(),
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "rec.csv:4: time goes backwards or repeats (0.02 s, then 0.01 s)"
+        );
+    }
+
+    #[test]
+    fn round_trips_through_csv() {
+        let r = read(
+            "t,ax,ay,az,gx,gy,gz\n0,0.5,0,9.8,0,0,0.1\n0.01,0.25,0,9.7,0,0,0.2\n",
+            &ColumnMap::default(),
+        )
+        .unwrap();
+        let mut out = Vec::new();
+        r.write_csv(&mut out, AccelUnit::G).unwrap();
+        let back = read(std::str::from_utf8(&out).unwrap(), &ColumnMap::default()).unwrap();
+        for a in 0..3 {
+            for (x, y) in r.accel_mps2[a].iter().zip(&back.accel_mps2[a]) {
+                assert!((x - y).abs() < 1e-12);
+            }
+        }
+        assert_eq!(back.gyro_radps, r.gyro_radps);
+    }
+}
