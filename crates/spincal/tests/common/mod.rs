@@ -1,0 +1,19 @@
+//! Support shared by the integration tests.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+/// Path of a file under `../shared/data` (or `$SPINCAL_SHARED_DATA`), or `None` with a printed
+/// reason when the data is not there (a user's clone); CI always has it.
+pub fn shared_data(relative: &str) -> Option<PathBuf> {
+    let root = std::env::var_os("SPINCAL_SHARED_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data")));
+    let path = root.join(relative);
+    if path.exists() {
+        Some(path)
+    } else {
+        eprintln!("skipped: {} is absent (set SPINCAL_SHARED_DATA to the shared data folder)", path.display());
+        None
+    }
+}
