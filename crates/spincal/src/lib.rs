@@ -9,3 +9,7 @@ pub mod recording;
 pub mod table;
 
 pub use recording::{AccelUnit, ColumnMap, Recording, RecordingError, STANDARD_GRAVITY};
+pub mod checks;
+pub mod simulate;
+pub mod spectrum;
+pub mod turntable;

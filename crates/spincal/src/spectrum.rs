@@ -1,0 +1,189 @@
+//! Rotation rate from the spectrum: the turntable shows up as a line at f = ω / 2π on x and y.
+//!
+//! Each horizontal axis is detrended and Hann-windowed; their power spectra (real FFT, zero-padded
+//! to a power of two at least twice the length) are summed; the highest line in the allowed band
+//! is refined below one bin by maximising the windowed DTFT power directly (golden section).
+
+use realfft::RealFftPlanner;
+use serde::{Deserialize, Serialize};
+
+use crate::recording::{median_interval, Recording};
+
+/// Where to look for the rotation line.
+#[derive(Debug, Clone, Copy)]
+pub struct RateSearch {
+    pub min_rpm: f64,
+    pub max_rpm: f64,
+}
+
+impl Default for RateSearch {
+    /// 5–600 rpm: record players (16⅔–78 rpm) and ordinary rate tables.
+    fn default() -> Self {
+        RateSearch {
+            min_rpm: 5.0,
+            max_rpm: 600.0,
+        }
+    }
+}
+
+/// A rotation-rate estimate and the spectrum it came from (for plots).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RateEstimate {
+    pub frequency_hz: f64,
+    pub rpm: f64,
+    pub omega_radps: f64,
+    /// Peak power over the median power in the search band (a detection margin).
+    pub peak_to_median: f64,
+    /// One-sided summed x+y power spectrum: frequencies, Hz…
+    pub spectrum_hz: Vec<f64>,
+    /// …and power (arbitrary units, window-normalised).
+    pub spectrum_power: Vec<f64>,
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SpectrumError {
+    #[error("{file}: {samples} samples are too few for a spectrum (need at least 64)")]
+    TooShort { file: String, samples: usize },
+    #[error("{file}: the band {min_rpm}–{max_rpm} rpm holds no spectral bin (duration {duration_s:.1} s, sample rate {rate_hz:.1} Hz)")]
+    EmptyBand {
+        file: String,
+        min_rpm: f64,
+        max_rpm: f64,
+        duration_s: f64,
+        rate_hz: f64,
+    },
+}
+
+/// Estimates the rotation rate of a recording from its x and y axes.
+pub fn estimate_rotation_rate(
+    recording: &Recording,
+    search: RateSearch,
+) -> Result<RateEstimate, SpectrumError> {
+    let n = recording.len();
+    if n < 64 {
+        return Err(SpectrumError::TooShort {
+            file: recording.source.name.clone(),
+            samples: n,
+        });
+    }
+    let dt = median_interval(&recording.time_s);
+    let rate_hz = 1.0 / dt;
+    let window: Vec<f64> = (0..n)
+        .map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / (n - 1) as f64).cos())
+        .collect();
+    let prepared: Vec<Vec<f64>> = recording.accel_mps2[..2]
+        .iter()
+        .map(|axis| detrend(axis).iter().zip(&window).map(|(v, w)| v * w).collect())
+        .collect();
+
+    let padded = (2 * n).next_power_of_two();
+    let fft = RealFftPlanner::<f64>::new().plan_fft_forward(padded);
+    let mut input = fft.make_input_vec();
+    let mut output = fft.make_output_vec();
+    let mut power = vec![0.0; output.len()];
+    let norm = window.iter().map(|w| w * w).sum::<f64>();
+    for axis in &prepared {
+        input[..n].copy_from_slice(axis);
+        input[n..].iter_mut().for_each(|v| *v = 0.0);
+        fft.process(&mut input, &mut output)
+            .expect("buffer sizes come from the planner");
+        for (p, c) in power.iter_mut().zip(&output) {
+            *p += c.norm_sqr() / norm;
+        }
+    }
+    let bin_hz = rate_hz / padded as f64;
+    let spectrum_hz: Vec<f64> = (0..power.len()).map(|k| k as f64 * bin_hz).collect();
+    let lo = (search.min_rpm / 60.0 / bin_hz).ceil() as usize;
+    let hi = ((search.max_rpm / 60.0 / bin_hz).floor() as usize).min(power.len().saturating_sub(2));
+    if lo < 1 || lo > hi {
+        return Err(SpectrumError::EmptyBand {
+            file: recording.source.name.clone(),
+            min_rpm: search.min_rpm,
+            max_rpm: search.max_rpm,
+            duration_s: recording.duration_s(),
+            rate_hz,
+        });
+    }
+    let peak = (lo..=hi)
+        .max_by(|&a, &b| power[a].total_cmp(&power[b]))
+        .expect("non-empty band");
+    let mut band: Vec<f64> = power[lo..=hi].to_vec();
+    let mid = band.len() / 2;
+    let median = *band.select_nth_unstable_by(mid, f64::total_cmp).1;
+
+    // The padded bins are a fine grid of the same DTFT; refine between the neighbours exactly.
+    let t0 = recording.time_s[0];
+    let dtft_power = |f: f64| -> f64 {
+        let w = 2.0 * std::f64::consts::PI * f;
+        prepared
+            .iter()
+            .map(|axis| {
+                let (mut re, mut im) = (0.0, 0.0);
+                crate::turntable::model::for_each_rotation(&recording.time_s, t0, w, 0.0, |i, s, c| {
+                    re += axis[i] * c;
+                    im -= axis[i] * s;
+                });
+                re * re + im * im
+            })
+            .sum()
+    };
+    let frequency_hz = golden_section_max(
+        dtft_power,
+        (peak as f64 - 1.0) * bin_hz,
+        (peak as f64 + 1.0) * bin_hz,
+    );
+    Ok(RateEstimate {
+        frequency_hz,
+        rpm: frequency_hz * 60.0,
+        omega_radps: 2.0 * std::f64::consts::PI * frequency_hz,
+        peak_to_median: power[peak] / median.max(f64::MIN_POSITIVE),
+        spectrum_hz,
+        spectrum_power: power,
+    })
+}
+
+/// Removes the least-squares straight line (drift would otherwise leak into low bins).
+fn detrend(x: &[f64]) -> Vec<f64> {
+    let n = x.len() as f64;
+    let mean_i = (n - 1.0) / 2.0;
+    let mean_x = x.iter().sum::<f64>() / n;
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (i, v) in x.iter().enumerate() {
+        let di = i as f64 - mean_i;
+        sxy += di * (v - mean_x);
+        sxx += di * di;
+    }
+    let slope = sxy / sxx;
+    x.iter()
+        .enumerate()
+        .map(|(i, v)| v - mean_x - slope * (i as f64 - mean_i))
+        .collect()
+}
+
+/// Maximiser of a unimodal function on [a, b] to ~1e-10 relative.
+fn golden_section_max(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
+    let ratio = (5f64.sqrt() - 1.0) / 2.0;
+    let mut c = b - ratio * (b - a);
+    let mut d = a + ratio * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..80 {
+        if (b - a).abs() <= 1e-12 * b.abs().max(1e-12) {
+            break;
+        }
+        if fc > fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - ratio * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + ratio * (b - a);
+            fd = f(d);
+        }
+    }
+    0.5 * (a + b)
+}

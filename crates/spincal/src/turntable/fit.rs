@@ -1,0 +1,831 @@
+//! Fitting the turntable model to one or more recordings (SPEC §2, issue "foundation" point 6).
+//!
+//! Stages: rotation rate from the spectrum → a linear sinusoid fit at that rate per axis (starting
+//! values, sense of rotation, noise level per axis) → bounded Nelder–Mead on the noise-weighted
+//! squared error of the chosen axes (the paper's fminsearchbnd step) → Levenberg–Marquardt polish
+//! with the analytic Jacobian → standard errors, correlations, and which parameters the data did
+//! not determine (null directions of the column-scaled JᵀJ).
+//!
+//! Parameters: shared by all recordings: β and the three offsets (the sensor and its mounting);
+//! per recording: r (or one shared r), ω, α, φ and, when fitted, a drift per axis.
+
+use faer::{Mat, MatMut, Side};
+use serde::{Deserialize, Serialize};
+
+use crate::checks::{inspect, Inspection};
+use crate::metrics::fit_percent;
+use crate::optim::{
+    levenberg_marquardt, nelder_mead_bounded, Bounds, BoundsError, LeastSquares, LmOptions, LmStop,
+    NelderMeadOptions, Progress,
+};
+use crate::recording::{Recording, STANDARD_GRAVITY};
+use crate::spectrum::{estimate_rotation_rate, RateEstimate, RateSearch, SpectrumError};
+use crate::turntable::model::{evaluate, for_each_derivative, Direction, Mounting, Session};
+
+/// Which axes enter the objective.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AxesObjective {
+    Xyz,
+    Xy,
+    /// The paper's choice when y drifts.
+    X,
+}
+
+impl AxesObjective {
+    pub fn axes(self) -> &'static [usize] {
+        match self {
+            AxesObjective::Xyz => &[0, 1, 2],
+            AxesObjective::Xy => &[0, 1],
+            AxesObjective::X => &[0],
+        }
+    }
+    pub fn parse(text: &str) -> Option<AxesObjective> {
+        match text {
+            "xyz" => Some(AxesObjective::Xyz),
+            "xy" => Some(AxesObjective::Xy),
+            "x" => Some(AxesObjective::X),
+            _ => None,
+        }
+    }
+}
+
+/// Whether to fit a linear drift per axis and recording.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DriftMode {
+    Off,
+    /// Fit drift terms and report where they are significant (the default).
+    Fit,
+}
+
+/// A radius measured with a ruler: a Gaussian prior of standard deviation `tolerance_m`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RadiusPrior {
+    pub value_m: f64,
+    pub tolerance_m: f64,
+}
+
+/// Everything that can be set about a fit.
+#[derive(Debug, Clone)]
+pub struct FitOptions {
+    pub axes: AxesObjective,
+    pub drift: DriftMode,
+    pub gravity_mps2: f64,
+    /// Nominal speed: narrows the spectral search to ±10 % of it.
+    pub rpm_hint: Option<f64>,
+    /// A measured radius (applies to every recording).
+    pub radius: Option<RadiusPrior>,
+    /// One radius for all recordings (the sensor was not moved between them).
+    pub shared_radius: bool,
+    /// Fit the sensor offsets (else they are held at zero, the paper's model).
+    pub fit_offsets: bool,
+    /// Replacement bounds by parameter name: (name, lower, upper), SI units.
+    pub bounds: Vec<(String, f64, f64)>,
+    /// Sensor range, m/s², for the saturation check.
+    pub range_mps2: Option<f64>,
+    pub nelder_mead: NelderMeadOptions,
+    pub lm: LmOptions,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            axes: AxesObjective::Xyz,
+            drift: DriftMode::Fit,
+            gravity_mps2: STANDARD_GRAVITY,
+            rpm_hint: None,
+            radius: None,
+            shared_radius: true,
+            fit_offsets: true,
+            bounds: Vec::new(),
+            range_mps2: None,
+            nelder_mead: NelderMeadOptions {
+                tol_x: 1e-7,
+                tol_f: 0.0,
+                max_iterations_per_param: 200,
+            },
+            lm: LmOptions::default(),
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum FitError {
+    #[error("no recordings to fit")]
+    NoRecordings,
+    #[error(transparent)]
+    Spectrum(#[from] SpectrumError),
+    #[error(transparent)]
+    Bounds(#[from] BoundsError),
+    #[error("{file}: only {rotations:.1} rotations at {rpm:.2} rpm in {duration_s:.1} s; at least 3 are needed to fit the turntable")]
+    TooFewRotations {
+        file: String,
+        rotations: f64,
+        rpm: f64,
+        duration_s: f64,
+    },
+    #[error("no parameter is called '{0}' (bounds can be set for: {1})")]
+    UnknownParameter(String, String),
+    #[error("radius prior {value_m} m ± {tolerance_m} m is invalid: the tolerance must be positive and the radius within [0, 2] m")]
+    BadRadius { value_m: f64, tolerance_m: f64 },
+    #[error(
+        "{file}: the fit did not produce finite parameters (the data may not contain a turntable signal)"
+    )]
+    NotFinite { file: String },
+}
+
+/// One fitted parameter as reported.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct FittedParam {
+    pub name: String,
+    pub value: f64,
+    /// One standard error; `None` when the data do not determine the parameter.
+    pub std_error: Option<f64>,
+    pub unit: String,
+    pub lower: f64,
+    pub upper: f64,
+    pub at_bound: bool,
+    pub determined: bool,
+}
+
+/// Drift found on one axis of one recording.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct DriftFinding {
+    pub recording: usize,
+    pub axis: char,
+    /// Change over the whole recording, m/s².
+    pub change_mps2: f64,
+    pub std_error_mps2: f64,
+    pub significant: bool,
+}
+
+/// Per-recording outcome.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RecordingFit {
+    pub name: String,
+    pub rate: RateEstimate,
+    pub inspection: Inspection,
+    pub session: Session,
+    /// Model fit % per axis x, y, z (SPEC §4).
+    pub fit_percent: [f64; 3],
+    /// RMS of measured − model per axis, m/s².
+    pub residual_rms_mps2: [f64; 3],
+}
+
+/// The complete result of a turntable fit.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TurntableFit {
+    pub gravity_mps2: f64,
+    pub axes: AxesObjective,
+    pub mounting: Mounting,
+    pub recordings: Vec<RecordingFit>,
+    /// Free parameters in fit order, with errors.
+    pub params: Vec<FittedParam>,
+    /// Correlation matrix of the free parameters (NaN rows for undetermined ones).
+    pub correlation: Vec<Vec<f64>>,
+    /// Names of parameters the data did not determine, and what to do about it.
+    pub undetermined: Vec<String>,
+    pub remedy: Option<String>,
+    pub drift: Vec<DriftFinding>,
+    /// Weighted squared error after Nelder–Mead and after Levenberg–Marquardt.
+    pub cost_nelder_mead: f64,
+    pub cost_final: f64,
+    pub nelder_mead_iterations: usize,
+    pub lm_iterations: usize,
+    pub lm_stop: LmStop,
+    /// Noise standard deviation per recording and axis used as weights, m/s².
+    pub noise_mps2: Vec<[f64; 3]>,
+    /// Starting values handed to Nelder–Mead (free parameters, SI), for reproduction by peers.
+    pub start: Vec<f64>,
+}
+
+impl TurntableFit {
+    /// The reference acceleration (fitted model) at the samples of recording `k`, m/s².
+    pub fn reference(&self, k: usize, time_s: &[f64]) -> [Vec<f64>; 3] {
+        let mut out = [Vec::new(), Vec::new(), Vec::new()];
+        evaluate(
+            &self.recordings[k].session,
+            &self.mounting,
+            self.gravity_mps2,
+            time_s,
+            &mut out,
+        );
+        out
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Role {
+    Beta,
+    Offset(usize),
+    Radius(Option<usize>),
+    Omega(usize),
+    Tilt(usize),
+    Phase(usize),
+    Drift(usize, usize),
+}
+
+#[derive(Debug, Clone)]
+struct ParamDef {
+    name: String,
+    unit: &'static str,
+    role: Role,
+    lower: f64,
+    upper: f64,
+    start: f64,
+}
+
+/// The weighted least-squares problem over all recordings.
+struct Problem<'a> {
+    recordings: &'a [&'a Recording],
+    defs: Vec<ParamDef>,
+    directions: Vec<Direction>,
+    axes: &'static [usize],
+    /// 1 / noise per recording and axis.
+    weights: Vec<[f64; 3]>,
+    gravity: f64,
+    prior: Option<(usize, RadiusPrior)>,
+    n_recordings: usize,
+}
+
+impl Problem<'_> {
+    fn unpack(&self, p: &[f64]) -> (Mounting, Vec<Session>) {
+        let mut mounting = Mounting {
+            beta_rad: 0.0,
+            offset_mps2: [0.0; 3],
+        };
+        let mut sessions: Vec<Session> = self
+            .directions
+            .iter()
+            .map(|&direction| Session {
+                radius_m: 0.0,
+                omega_radps: 0.0,
+                tilt_rad: 0.0,
+                phase_rad: 0.0,
+                direction,
+                drift_mps2_per_s: [0.0; 3],
+            })
+            .collect();
+        for (def, &v) in self.defs.iter().zip(p) {
+            match def.role {
+                Role::Beta => mounting.beta_rad = v,
+                Role::Offset(a) => mounting.offset_mps2[a] = v,
+                Role::Radius(None) => sessions.iter_mut().for_each(|s| s.radius_m = v),
+                Role::Radius(Some(k)) => sessions[k].radius_m = v,
+                Role::Omega(k) => sessions[k].omega_radps = v,
+                Role::Tilt(k) => sessions[k].tilt_rad = v,
+                Role::Phase(k) => sessions[k].phase_rad = v,
+                Role::Drift(k, a) => sessions[k].drift_mps2_per_s[a] = v,
+            }
+        }
+        (mounting, sessions)
+    }
+
+    fn rows_of(&self, k: usize) -> usize {
+        self.recordings[k].len() * self.axes.len()
+    }
+
+    fn cost(&self, p: &[f64]) -> f64 {
+        let mut r = vec![0.0; self.n_residuals()];
+        self.residuals(p, &mut r);
+        r.iter().map(|v| v * v).sum()
+    }
+}
+
+impl LeastSquares for Problem<'_> {
+    fn n_params(&self) -> usize {
+        self.defs.len()
+    }
+
+    fn n_residuals(&self) -> usize {
+        (0..self.n_recordings).map(|k| self.rows_of(k)).sum::<usize>() + usize::from(self.prior.is_some())
+    }
+
+    fn residuals(&self, p: &[f64], out: &mut [f64]) {
+        let (mounting, sessions) = self.unpack(p);
+        let mut model = [Vec::new(), Vec::new(), Vec::new()];
+        let mut row = 0;
+        for (k, rec) in self.recordings.iter().enumerate() {
+            evaluate(&sessions[k], &mounting, self.gravity, &rec.time_s, &mut model);
+            for &a in self.axes {
+                let w = self.weights[k][a];
+                for (i, m) in model[a].iter().enumerate() {
+                    out[row + i] = w * (m - rec.accel_mps2[a][i]);
+                }
+                row += rec.len();
+            }
+        }
+        if let Some((index, prior)) = self.prior {
+            out[row] = (p[index] - prior.value_m) / prior.tolerance_m;
+        }
+    }
+
+    fn jacobian(&self, p: &[f64], mut out: MatMut<'_, f64>) {
+        let (mounting, sessions) = self.unpack(p);
+        for j in 0..out.ncols() {
+            for i in 0..out.nrows() {
+                out[(i, j)] = 0.0;
+            }
+        }
+        let mut row0 = 0;
+        for (k, rec) in self.recordings.iter().enumerate() {
+            let n = rec.len();
+            // Column of each role for this recording (None when not free).
+            let column = |role: Role| self.defs.iter().position(|d| d.role == role);
+            let radius_col = column(Role::Radius(Some(k))).or_else(|| column(Role::Radius(None)));
+            let cols = (
+                radius_col,
+                column(Role::Omega(k)),
+                column(Role::Tilt(k)),
+                column(Role::Phase(k)),
+                column(Role::Beta),
+            );
+            let offset_cols = [0, 1, 2].map(|a| column(Role::Offset(a)));
+            let drift_cols = [0, 1, 2].map(|a| column(Role::Drift(k, a)));
+            for_each_derivative(&sessions[k], &mounting, self.gravity, &rec.time_s, |i, d| {
+                for (slot, &a) in self.axes.iter().enumerate() {
+                    let w = self.weights[k][a];
+                    let row = row0 + slot * n + i;
+                    let pairs = [
+                        (cols.0, d.radius[a]),
+                        (cols.1, d.omega[a]),
+                        (cols.2, d.tilt[a]),
+                        (cols.3, d.phase[a]),
+                        (cols.4, d.beta[a]),
+                        (offset_cols[a], 1.0),
+                        (drift_cols[a], d.drift),
+                    ];
+                    for (col, value) in pairs {
+                        if let Some(c) = col {
+                            out[(row, c)] = w * value;
+                        }
+                    }
+                }
+            });
+            row0 += self.rows_of(k);
+        }
+        if let Some((index, prior)) = self.prior {
+            out[(row0, index)] = 1.0 / prior.tolerance_m;
+        }
+    }
+}
+
+/// Starting values for one recording from a linear fit of mean + sine + cosine (+ slope) at ω.
+struct SinusoidFit {
+    mean: [f64; 3],
+    sin: [f64; 3],
+    cos: [f64; 3],
+    noise: [f64; 3],
+}
+
+fn sinusoid_fit(rec: &Recording, omega: f64) -> SinusoidFit {
+    let t0 = rec.time_s[0];
+    let t_mid = 0.5 * (t0 + rec.time_s[rec.len() - 1]);
+    let mut out = SinusoidFit {
+        mean: [0.0; 3],
+        sin: [0.0; 3],
+        cos: [0.0; 3],
+        noise: [0.0; 3],
+    };
+    // Columns 1, sin, cos, t − t_mid: solve the 4×4 normal equations (well conditioned here).
+    for a in 0..3 {
+        let y = &rec.accel_mps2[a];
+        let mut ata = Mat::<f64>::zeros(4, 4);
+        let mut aty = Mat::<f64>::zeros(4, 1);
+        crate::turntable::model::for_each_rotation(&rec.time_s, t0, omega, 0.0, |i, s, c| {
+            let row = [1.0, s, c, rec.time_s[i] - t_mid];
+            for p in 0..4 {
+                aty[(p, 0)] += row[p] * y[i];
+                for q in 0..4 {
+                    ata[(p, q)] += row[p] * row[q];
+                }
+            }
+        });
+        let coef = match ata.llt(Side::Lower) {
+            Ok(llt) => faer::prelude::Solve::solve(&llt, &aty),
+            Err(_) => Mat::zeros(4, 1),
+        };
+        let mut sse = 0.0;
+        crate::turntable::model::for_each_rotation(&rec.time_s, t0, omega, 0.0, |i, s, c| {
+            let m =
+                coef[(0, 0)] + coef[(1, 0)] * s + coef[(2, 0)] * c + coef[(3, 0)] * (rec.time_s[i] - t_mid);
+            sse += (y[i] - m) * (y[i] - m);
+        });
+        out.mean[a] = coef[(0, 0)];
+        out.sin[a] = coef[(1, 0)];
+        out.cos[a] = coef[(2, 0)];
+        out.noise[a] = (sse / (rec.len() as f64 - 4.0)).sqrt().max(1e-6);
+    }
+    out
+}
+
+fn wrap_angle(x: f64) -> f64 {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let mut y = x.rem_euclid(two_pi);
+    if y > std::f64::consts::PI {
+        y -= two_pi;
+    }
+    y
+}
+
+/// Fits the turntable model to the recordings jointly.
+pub fn fit_turntable(
+    recordings: &[&Recording],
+    options: &FitOptions,
+    observer: &mut dyn FnMut(&str, Progress),
+) -> Result<TurntableFit, FitError> {
+    if recordings.is_empty() {
+        return Err(FitError::NoRecordings);
+    }
+    if let Some(prior) = options.radius {
+        if !(prior.tolerance_m > 0.0 && (0.0..=2.0).contains(&prior.value_m)) {
+            return Err(FitError::BadRadius {
+                value_m: prior.value_m,
+                tolerance_m: prior.tolerance_m,
+            });
+        }
+    }
+    let g = options.gravity_mps2;
+    let search = match options.rpm_hint {
+        Some(rpm) => RateSearch {
+            min_rpm: 0.9 * rpm,
+            max_rpm: 1.1 * rpm,
+        },
+        None => RateSearch::default(),
+    };
+    let axes = options.axes.axes();
+    let mut rates = Vec::new();
+    let mut starts = Vec::new();
+    let mut inspections = Vec::new();
+    for rec in recordings {
+        let rate = estimate_rotation_rate(rec, search)?;
+        let rotations = rec.duration_s() * rate.frequency_hz;
+        if rotations < 3.0 {
+            return Err(FitError::TooFewRotations {
+                file: rec.source.name.clone(),
+                rotations,
+                rpm: rate.rpm,
+                duration_s: rec.duration_s(),
+            });
+        }
+        starts.push(sinusoid_fit(rec, rate.omega_radps));
+        inspections.push(inspect(rec, options.range_mps2));
+        rates.push(rate);
+    }
+
+    // Sense of rotation: y leads x by a quarter turn for s = +1 (see the model's equations).
+    let directions: Vec<Direction> = starts
+        .iter()
+        .map(|s| Direction::from_sign(s.cos[1] * s.sin[0] - s.sin[1] * s.cos[0]))
+        .collect();
+
+    let n = recordings.len();
+    let pi = std::f64::consts::PI;
+    let mut defs = Vec::new();
+    let suffix = |k: usize| {
+        if n > 1 {
+            format!("[{}]", k + 1)
+        } else {
+            String::new()
+        }
+    };
+    // Mean levels give ω²r cos β + b_x and ω²r sin β + b_y; start with zero offsets.
+    let s0 = &starts[0];
+    let beta0 = s0.mean[1].atan2(s0.mean[0]);
+    let radius_start = |k: usize| -> f64 {
+        options.radius.map(|p| p.value_m).unwrap_or_else(|| {
+            let s = &starts[k];
+            (s.mean[0].hypot(s.mean[1]) / rates[k].omega_radps.powi(2)).clamp(0.002, 0.49)
+        })
+    };
+    let (radius_lo, radius_hi) = match options.radius {
+        Some(p) => (
+            (p.value_m - 10.0 * p.tolerance_m).max(0.0),
+            p.value_m + 10.0 * p.tolerance_m,
+        ),
+        None => (0.0, 0.5),
+    };
+    let axis_used = |a: usize| axes.contains(&a);
+    let uses_y = axis_used(1);
+    defs.push(ParamDef {
+        name: "beta".into(),
+        unit: "rad",
+        role: Role::Beta,
+        lower: -2.0 * pi,
+        upper: 2.0 * pi,
+        start: beta0,
+    });
+    if options.fit_offsets {
+        for a in 0..3 {
+            if axis_used(a) {
+                defs.push(ParamDef {
+                    name: format!("offset_{}", ['x', 'y', 'z'][a]),
+                    unit: "m/s²",
+                    role: Role::Offset(a),
+                    lower: -0.5 * g,
+                    upper: 0.5 * g,
+                    start: 0.0,
+                });
+            }
+        }
+    }
+    if options.shared_radius {
+        defs.push(ParamDef {
+            name: "radius".into(),
+            unit: "m",
+            role: Role::Radius(None),
+            lower: radius_lo,
+            upper: radius_hi,
+            start: radius_start(0),
+        });
+    }
+    for k in 0..n {
+        let s = &starts[k];
+        let w = rates[k].omega_radps;
+        if !options.shared_radius {
+            defs.push(ParamDef {
+                name: format!("radius{}", suffix(k)),
+                unit: "m",
+                role: Role::Radius(Some(k)),
+                lower: radius_lo,
+                upper: radius_hi,
+                start: radius_start(k),
+            });
+        }
+        defs.push(ParamDef {
+            name: format!("omega{}", suffix(k)),
+            unit: "rad/s",
+            role: Role::Omega(k),
+            lower: 0.97 * w,
+            upper: 1.03 * w,
+            start: w,
+        });
+        // Amplitude A = g sin α; x = A sin(u): sin-coefficient A cos(φ−β), cos-coefficient A sin(φ−β).
+        let amplitude = if uses_y {
+            0.5 * (s.sin[0].hypot(s.cos[0]) + s.sin[1].hypot(s.cos[1]))
+        } else {
+            s.sin[0].hypot(s.cos[0])
+        };
+        defs.push(ParamDef {
+            name: format!("tilt{}", suffix(k)),
+            unit: "rad",
+            role: Role::Tilt(k),
+            lower: 0.0,
+            upper: 30f64.to_radians(),
+            start: (amplitude / g).clamp(0.0, 0.49).asin(),
+        });
+        defs.push(ParamDef {
+            name: format!("phase{}", suffix(k)),
+            unit: "rad",
+            role: Role::Phase(k),
+            lower: -2.0 * pi,
+            upper: 2.0 * pi,
+            start: wrap_angle(s.cos[0].atan2(s.sin[0]) + beta0),
+        });
+        if options.drift == DriftMode::Fit {
+            let span = recordings[k].duration_s();
+            for a in 0..3 {
+                if axis_used(a) {
+                    defs.push(ParamDef {
+                        name: format!("drift_{}{}", ['x', 'y', 'z'][a], suffix(k)),
+                        unit: "m/s³",
+                        role: Role::Drift(k, a),
+                        lower: -0.2 * g / span,
+                        upper: 0.2 * g / span,
+                        start: 0.0,
+                    });
+                }
+            }
+        }
+    }
+    for (name, lower, upper) in &options.bounds {
+        let Some(def) = defs.iter_mut().find(|d| &d.name == name) else {
+            let names: Vec<&str> = defs.iter().map(|d| d.name.as_str()).collect();
+            return Err(FitError::UnknownParameter(name.clone(), names.join(", ")));
+        };
+        def.lower = *lower;
+        def.upper = *upper;
+        def.start = def.start.clamp(lower.min(*upper), upper.max(*lower));
+    }
+    let bounds = Bounds {
+        names: defs.iter().map(|d| d.name.clone()).collect(),
+        lower: defs.iter().map(|d| d.lower).collect(),
+        upper: defs.iter().map(|d| d.upper).collect(),
+    };
+    bounds.validate()?;
+    let prior = options.radius.and_then(|p| {
+        defs.iter()
+            .position(|d| matches!(d.role, Role::Radius(_)))
+            .map(|i| (i, p))
+    });
+    let problem = Problem {
+        recordings,
+        directions: directions.clone(),
+        axes,
+        weights: starts.iter().map(|s| s.noise.map(|v| 1.0 / v)).collect(),
+        gravity: g,
+        prior,
+        n_recordings: n,
+        defs,
+    };
+    let start: Vec<f64> = problem.defs.iter().map(|d| d.start).collect();
+
+    let start_cost = problem.cost(&start);
+    let nm_options = NelderMeadOptions {
+        tol_f: if options.nelder_mead.tol_f > 0.0 {
+            options.nelder_mead.tol_f
+        } else {
+            1e-9 * start_cost
+        },
+        ..options.nelder_mead.clone()
+    };
+    let nm = nelder_mead_bounded(
+        &mut |p| problem.cost(p),
+        &start,
+        &bounds,
+        &nm_options,
+        &mut |pr| observer("nelder-mead", pr),
+    )?;
+    let lm_options = LmOptions {
+        lower: Some(bounds.lower.clone()),
+        upper: Some(bounds.upper.clone()),
+        ..options.lm.clone()
+    };
+    let lm = levenberg_marquardt(&problem, &nm.params, &lm_options, &mut |pr| {
+        observer("levenberg-marquardt", pr)
+    });
+    if lm.params.iter().any(|v| !v.is_finite()) {
+        return Err(FitError::NotFinite {
+            file: recordings[0].source.name.clone(),
+        });
+    }
+
+    let dof = (problem.n_residuals() as f64 - problem.n_params() as f64).max(1.0);
+    let (covariance, null_params) = covariance(&lm.jtj, lm.sse / dof);
+    let mut params = Vec::new();
+    let mut values = lm.params.clone();
+    for (i, def) in problem.defs.iter().enumerate() {
+        let determined = !null_params[i];
+        let at_bound = bounds.at_bound(i, values[i]);
+        if matches!(def.role, Role::Beta | Role::Phase(_)) {
+            values[i] = wrap_angle(values[i]);
+        }
+        params.push(FittedParam {
+            name: def.name.clone(),
+            value: values[i],
+            std_error: determined.then(|| covariance[(i, i)].max(0.0).sqrt()),
+            unit: def.unit.to_string(),
+            lower: def.lower,
+            upper: def.upper,
+            at_bound,
+            determined,
+        });
+    }
+    let correlation = (0..values.len())
+        .map(|i| {
+            (0..values.len())
+                .map(|j| {
+                    if null_params[i] || null_params[j] {
+                        f64::NAN
+                    } else {
+                        covariance[(i, j)] / (covariance[(i, i)] * covariance[(j, j)]).sqrt()
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let undetermined: Vec<String> = params
+        .iter()
+        .filter(|p| !p.determined)
+        .map(|p| p.name.clone())
+        .collect();
+    let remedy = remedy_for(&undetermined, n, options);
+    let (mounting, sessions) = problem.unpack(&values);
+
+    let mut drift = Vec::new();
+    for (i, def) in problem.defs.iter().enumerate() {
+        if let Role::Drift(k, a) = def.role {
+            let span = recordings[k].duration_s();
+            let se = params[i].std_error.unwrap_or(f64::NAN) * span;
+            let change = values[i] * span;
+            drift.push(DriftFinding {
+                recording: k,
+                axis: ['x', 'y', 'z'][a],
+                change_mps2: change,
+                std_error_mps2: se,
+                // Significant: beyond 5 standard errors and above 1 mg over the recording.
+                significant: change.abs() > 5.0 * se && change.abs() > 1e-3 * STANDARD_GRAVITY,
+            });
+        }
+    }
+
+    let mut recording_fits = Vec::new();
+    for (k, rec) in recordings.iter().enumerate() {
+        let mut model = [Vec::new(), Vec::new(), Vec::new()];
+        evaluate(&sessions[k], &mounting, g, &rec.time_s, &mut model);
+        let fit = [0, 1, 2].map(|a| fit_percent(&rec.accel_mps2[a], &model[a]));
+        let rms = [0, 1, 2].map(|a| crate::metrics::rmse(&rec.accel_mps2[a], &model[a]));
+        recording_fits.push(RecordingFit {
+            name: rec.source.name.clone(),
+            rate: rates[k].clone(),
+            inspection: inspections[k].clone(),
+            session: sessions[k],
+            fit_percent: fit,
+            residual_rms_mps2: rms,
+        });
+    }
+    Ok(TurntableFit {
+        gravity_mps2: g,
+        axes: options.axes,
+        mounting,
+        recordings: recording_fits,
+        params,
+        correlation,
+        undetermined,
+        remedy,
+        drift,
+        cost_nelder_mead: nm.cost,
+        cost_final: lm.sse,
+        nelder_mead_iterations: nm.iterations,
+        lm_iterations: lm.iterations,
+        lm_stop: lm.stop,
+        noise_mps2: starts.iter().map(|s| s.noise).collect(),
+        start,
+    })
+}
+
+/// Scaled pseudo-inverse covariance σ²(JᵀJ)⁺ and the parameters caught in null directions.
+fn covariance(jtj: &Mat<f64>, sigma2: f64) -> (Mat<f64>, Vec<bool>) {
+    let n = jtj.nrows();
+    let scale: Vec<f64> = (0..n)
+        .map(|i| {
+            if jtj[(i, i)] > 0.0 {
+                1.0 / jtj[(i, i)].sqrt()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let scaled = Mat::from_fn(n, n, |i, j| jtj[(i, j)] * scale[i] * scale[j]);
+    let mut null = vec![false; n];
+    let mut cov = Mat::<f64>::zeros(n, n);
+    for i in 0..n {
+        if scale[i] == 0.0 {
+            null[i] = true;
+        }
+    }
+    let Ok(eigen) = scaled.self_adjoint_eigen(Side::Lower) else {
+        return (cov, vec![true; n]);
+    };
+    let values = eigen.S();
+    let vectors = eigen.U();
+    let largest = (0..n).map(|k| values[k]).fold(0.0f64, f64::max);
+    for k in 0..n {
+        let lambda = values[k];
+        if lambda <= 1e-10 * largest {
+            for i in 0..n {
+                if vectors[(i, k)].abs() > 0.05 {
+                    null[i] = true;
+                }
+            }
+            continue;
+        }
+        for i in 0..n {
+            for j in 0..n {
+                cov[(i, j)] += vectors[(i, k)] * vectors[(j, k)] / lambda;
+            }
+        }
+    }
+    for i in 0..n {
+        for j in 0..n {
+            cov[(i, j)] *= sigma2 * scale[i] * scale[j];
+        }
+    }
+    (cov, null)
+}
+
+fn remedy_for(undetermined: &[String], recordings: usize, options: &FitOptions) -> Option<String> {
+    if undetermined.is_empty() {
+        return None;
+    }
+    let mut text = format!("the data do not determine {}: ", undetermined.join(", "));
+    if recordings == 1 {
+        text.push_str(
+            "from one recording at one radius and speed the constant ω²r cos β cannot be told apart from \
+             the x offset (nor ω²r sin β from the y offset, nor β from the phase). ",
+        );
+    }
+    if options.radius.is_none() {
+        text.push_str("Give the radius measured with a ruler (--radius 0.10 --radius-tol 0.005) ");
+        text.push_str("and add ");
+    } else {
+        text.push_str("Add ");
+    }
+    text.push_str(
+        "a recording at another speed or radius, fitted jointly (the offsets are shared); \
+         or hold the offsets at zero (--no-offsets) as the paper does.",
+    );
+    Some(text)
+}

@@ -1,0 +1,8 @@
+//! The turntable: its model (SPEC §2), the fit, and the sensitivity table.
+
+pub mod fit;
+pub mod model;
+pub mod sensitivity;
+
+pub use fit::{fit_turntable, AxesObjective, DriftMode, FitError, FitOptions, RadiusPrior, TurntableFit};
+pub use model::{Direction, Mounting, Session};

@@ -1,0 +1,181 @@
+//! The turntable fit recovers what the simulator put in.
+
+use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
+use spincal::spectrum::{estimate_rotation_rate, RateSearch};
+use spincal::turntable::{fit_turntable, Direction, DriftMode, FitOptions, TurntableFit};
+
+fn options() -> FitOptions {
+    FitOptions {
+        drift: DriftMode::Off,
+        ..FitOptions::default()
+    }
+}
+
+fn value(fit: &TurntableFit, name: &str) -> (f64, Option<f64>) {
+    let p = fit
+        .params
+        .iter()
+        .find(|p| p.name == name)
+        .unwrap_or_else(|| panic!("no {name}"));
+    (p.value, p.std_error)
+}
+
+#[test]
+fn rotation_rate_from_a_minute_at_33_rpm_is_within_0_05_rpm() {
+    for seed in 0..5 {
+        let table = TurntableSetup {
+            speed_error_pct: 0.3 * seed as f64 - 0.6,
+            ..TurntableSetup::default()
+        };
+        let sim = simulate(&SensorProfile::default(), &table, seed).unwrap();
+        let rate = estimate_rotation_rate(&sim.recording, RateSearch::default()).unwrap();
+        let true_rpm = sim.truth.session.omega_radps * 60.0 / (2.0 * std::f64::consts::PI);
+        assert!(
+            (rate.rpm - true_rpm).abs() < 0.05,
+            "seed {seed}: {} vs {true_rpm}",
+            rate.rpm
+        );
+    }
+}
+
+#[test]
+fn single_recording_fit_reports_what_is_not_determined() {
+    let sim = simulate(&SensorProfile::ideal(), &TurntableSetup::default(), 11).unwrap();
+    let fit = fit_turntable(&[&sim.recording], &options(), &mut |_, _| {}).unwrap();
+    for name in ["radius", "beta", "offset_x", "offset_y", "phase"] {
+        assert!(
+            fit.undetermined.contains(&name.to_string()),
+            "{name} in {:?}",
+            fit.undetermined
+        );
+    }
+    for name in ["omega", "tilt", "offset_z"] {
+        assert!(
+            !fit.undetermined.contains(&name.to_string()),
+            "{name} in {:?}",
+            fit.undetermined
+        );
+    }
+    let remedy = fit.remedy.as_deref().unwrap();
+    assert!(remedy.contains("--radius 0.10 --radius-tol 0.005"), "{remedy}");
+    assert!(remedy.contains("another speed or radius"), "{remedy}");
+    // The model still reproduces the signal: only noise is left.
+    assert!(
+        fit.recordings[0].fit_percent[0] > 80.0,
+        "{:?}",
+        fit.recordings[0].fit_percent
+    );
+}
+
+#[test]
+fn paper_model_without_offsets_determines_everything_from_one_recording() {
+    let sensor = SensorProfile {
+        bias_g: [0.0; 3],
+        ..SensorProfile::ideal()
+    };
+    let table = TurntableSetup {
+        wow_pct: 0.0,
+        flutter_pct: 0.0,
+        ..TurntableSetup::default()
+    };
+    let sim = simulate(&sensor, &table, 5).unwrap();
+    let opts = FitOptions {
+        fit_offsets: false,
+        ..options()
+    };
+    let fit = fit_turntable(&[&sim.recording], &opts, &mut |_, _| {}).unwrap();
+    assert!(fit.undetermined.is_empty(), "{:?}", fit.undetermined);
+    let (r, se) = value(&fit, "radius");
+    assert!((r - 0.10).abs() < 3.0 * se.unwrap() + 1e-9, "{r} ± {se:?}");
+}
+
+/// Two speeds, one radius, shared offsets: every parameter is determined and recovered within
+/// three reported standard errors in at least 95 % of cases; ω within 0.1 % always.
+#[test]
+fn joint_fit_recovers_parameters_over_many_seeds() {
+    let mut checked = 0usize;
+    let mut outside = Vec::new();
+    let seeds = 50u64;
+    for seed in 0..seeds {
+        let unit = |k: u64| ((seed * 7919 + k * 104_729) % 1000) as f64 / 1000.0;
+        let radius = 0.03 + 0.12 * unit(1);
+        let tilt = 0.5 + 7.5 * unit(2);
+        let direction = if seed % 2 == 0 {
+            Direction::Cw
+        } else {
+            Direction::Ccw
+        };
+        let sensor = SensorProfile {
+            bias_g: [
+                0.02 * (unit(3) - 0.5),
+                0.02 * (unit(4) - 0.5),
+                0.02 * (unit(5) - 0.5),
+            ],
+            ..SensorProfile::ideal()
+        };
+        let recordings: Vec<_> = [100.0 / 3.0, 45.0]
+            .iter()
+            .enumerate()
+            .map(|(k, &rpm)| {
+                let table = TurntableSetup {
+                    radius_m: radius,
+                    rpm,
+                    tilt_deg: tilt,
+                    tilt_azimuth_deg: 360.0 * unit(6 + k as u64),
+                    beta_deg: 40.0 * (unit(8) - 0.5),
+                    direction,
+                    speed_error_pct: 2.0 * (unit(9 + k as u64) - 0.5),
+                    wow_pct: 0.0,
+                    flutter_pct: 0.0,
+                    duration_s: 30.0,
+                    ..TurntableSetup::default()
+                };
+                simulate(&sensor, &table, seed * 2 + k as u64).unwrap()
+            })
+            .collect();
+        let refs: Vec<_> = recordings.iter().map(|s| &s.recording).collect();
+        let fit = fit_turntable(&refs, &options(), &mut |_, _| {}).unwrap();
+        assert!(fit.undetermined.is_empty(), "seed {seed}: {:?}", fit.undetermined);
+        let truth_m = recordings[0].truth.mounting;
+        let mut expect = vec![
+            ("radius".to_string(), radius),
+            ("beta".to_string(), truth_m.beta_rad),
+            ("offset_x".to_string(), truth_m.offset_mps2[0]),
+            ("offset_y".to_string(), truth_m.offset_mps2[1]),
+            ("offset_z".to_string(), truth_m.offset_mps2[2]),
+        ];
+        for (k, sim) in recordings.iter().enumerate() {
+            let s = sim.truth.session;
+            expect.push((format!("omega[{}]", k + 1), s.omega_radps));
+            expect.push((format!("tilt[{}]", k + 1), s.tilt_rad));
+            expect.push((format!("phase[{}]", k + 1), s.phase_rad));
+            let (w, _) = value(&fit, &format!("omega[{}]", k + 1));
+            assert!(
+                (w / s.omega_radps - 1.0).abs() < 1e-3,
+                "seed {seed}: ω {w} vs {}",
+                s.omega_radps
+            );
+            assert_eq!(fit.recordings[k].session.direction, direction, "seed {seed}");
+        }
+        for (name, truth) in expect {
+            let (v, se) = value(&fit, &name);
+            let se = se.unwrap();
+            let mut diff = v - truth;
+            if name.starts_with("beta") || name.starts_with("phase") {
+                diff = (diff + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI)
+                    - std::f64::consts::PI;
+            }
+            checked += 1;
+            if diff.abs() > 3.0 * se {
+                outside.push(format!("seed {seed} {name}: {v} vs {truth} (se {se})"));
+            }
+        }
+    }
+    let share = outside.len() as f64 / checked as f64;
+    assert!(
+        share <= 0.05,
+        "{} of {checked} outside 3 SE:\n{}",
+        outside.len(),
+        outside.join("\n")
+    );
+}
