@@ -18,7 +18,14 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// Simulate a 3DM-GX1-like accelerometer on a turntable (CSV + truth JSON).
+    Simulate(commands::simulate::SimulateArgs),
+    /// Fit the turntable model to recordings: r, ω, tilt, β, phase, offsets, drift.
+    Fit(commands::fit::FitArgs),
+    /// The paper's Table 1: signal changes when r, α or ω is off by ± a percentage.
+    Sensitivity(commands::sensitivity::SensitivityArgs),
+}
 
 fn main() {
     let cli = match Cli::try_parse() {
@@ -30,6 +37,10 @@ fn main() {
         }
     };
     let ui = ui::Ui::new(cli.quiet);
-    let result = match cli.command {};
+    let result = match cli.command {
+        Command::Simulate(args) => commands::simulate::run(args),
+        Command::Fit(args) => commands::fit::run(args, ui),
+        Command::Sensitivity(args) => commands::sensitivity::run(args),
+    };
     std::process::exit(ui::exit_code(result));
 }

@@ -3,6 +3,9 @@
 //! The library does all the science and never prints; the `spincal` binary is a thin shell.
 //! See ARCHITECTURE.md at the repository root for the map and the invariants.
 
+// Index loops over several parallel arrays read better than zipped iterators in numerical code.
+#![allow(clippy::needless_range_loop)]
+
 pub mod metrics;
 pub mod optim;
 pub mod recording;

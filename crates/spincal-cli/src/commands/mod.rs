@@ -1,1 +1,6 @@
 //! One file per subcommand: its clap arguments and a `run` function.
+
+pub mod fit;
+pub mod input;
+pub mod sensitivity;
+pub mod simulate;

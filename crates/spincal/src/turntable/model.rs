@@ -289,7 +289,8 @@ mod tests {
         let mut analytic = vec![SampleDerivatives::default(); t.len()];
         for_each_derivative(&session(), &mounting(), g, &t, |i, d| analytic[i] = *d);
         type Perturb = fn(&mut Session, &mut Mounting, f64);
-        let cases: [(&str, Perturb, fn(&SampleDerivatives) -> [f64; 3]); 5] = [
+        type Pick = fn(&SampleDerivatives) -> [f64; 3];
+        let cases: [(&str, Perturb, Pick); 5] = [
             ("radius", |s, _, h| s.radius_m += h, |d| d.radius),
             ("omega", |s, _, h| s.omega_radps += h, |d| d.omega),
             ("tilt", |s, _, h| s.tilt_rad += h, |d| d.tilt),

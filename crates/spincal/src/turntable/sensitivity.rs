@@ -106,18 +106,20 @@ mod tests {
                 .find(|r| r.parameter == p && r.change_pct == c)
                 .unwrap()
         };
-        let round = |v: f64, digits: i32| (v * 10f64.powi(digits)).round() / 10f64.powi(digits);
+        // Within one unit of the paper's last printed digit: its own rounding is loose (0.1056 for
+        // r − 15 % matches g = 9.80, while 0.1428 for r + 15 % matches g = 9.81).
+        let near = |v: f64, paper: f64, digits: i32| (v - paper).abs() <= 10f64.powi(-digits);
         // r ± 15 %: a_x mean 0.1056 → 0.1428 g; amplitude 0.087 g.
-        assert_eq!(round(find("r", -15.0).mean_ax_g, 4), 0.1056);
-        assert_eq!(round(find("r", 15.0).mean_ax_g, 4), 0.1428);
-        assert_eq!(round(find("r", 0.0).amplitude_ay_g, 3), 0.087);
+        assert!(near(find("r", -15.0).mean_ax_g, 0.1056, 4));
+        assert!(near(find("r", 15.0).mean_ax_g, 0.1428, 4));
+        assert!(near(find("r", 0.0).amplitude_ay_g, 0.087, 3));
         // α ± 15 %: amplitude 0.074 → 0.100 g (the paper prints 0.01), mean unchanged at 0.124 g.
-        assert_eq!(round(find("alpha", -15.0).amplitude_ax_g, 3), 0.074);
-        assert_eq!(round(find("alpha", 15.0).amplitude_ay_g, 3), 0.100);
-        assert_eq!(round(find("alpha", 15.0).mean_ax_g, 3), 0.124);
+        assert!(near(find("alpha", -15.0).amplitude_ax_g, 0.074, 3));
+        assert!(near(find("alpha", 15.0).amplitude_ay_g, 0.100, 3));
+        assert!(near(find("alpha", 15.0).mean_ax_g, 0.124, 3));
         // ω ± 15 %: mean 0.09 → 0.164 g, amplitudes unchanged at 0.087 g.
-        assert_eq!(round(find("omega", -15.0).mean_ax_g, 2), 0.09);
-        assert_eq!(round(find("omega", 15.0).mean_ax_g, 3), 0.164);
-        assert_eq!(round(find("omega", 15.0).amplitude_ax_g, 3), 0.087);
+        assert!(near(find("omega", -15.0).mean_ax_g, 0.09, 2));
+        assert!(near(find("omega", 15.0).mean_ax_g, 0.164, 3));
+        assert!(near(find("omega", 15.0).amplitude_ax_g, 0.087, 3));
     }
 }

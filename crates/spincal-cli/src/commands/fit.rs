@@ -1,0 +1,221 @@
+//! `spincal fit`: the turntable model fitted to one or more recordings.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+use spincal::turntable::fit::FittedParam;
+use spincal::turntable::{fit_turntable, AxesObjective, DriftMode, FitOptions, RadiusPrior, TurntableFit};
+use spincal::STANDARD_GRAVITY;
+
+use super::input::ReadArgs;
+use crate::ui::{self, Ui, UsageError};
+
+#[derive(Args, Debug)]
+#[command(after_help = "Examples:\n  spincal fit rec33.csv\n  \
+                        spincal fit rec33.csv rec45.csv --radius 0.10 --radius-tol 0.005 -o fit.json\n  \
+                        spincal fit rec.csv --axes x --bounds tilt=0:0.1,radius=0.05:0.15")]
+pub struct FitArgs {
+    /// Recordings (CSV); several are fitted jointly with shared sensor offsets.
+    #[arg(required = true)]
+    pub recordings: Vec<PathBuf>,
+    #[command(flatten)]
+    pub read: ReadArgs,
+    /// Nominal speed, rpm: the spectral search looks within ±10 % of it.
+    #[arg(long)]
+    pub rpm: Option<f64>,
+    /// Radius measured with a ruler, m.
+    #[arg(long)]
+    pub radius: Option<f64>,
+    /// Standard uncertainty of --radius, m.
+    #[arg(long, default_value_t = 0.002, requires = "radius")]
+    pub radius_tol: f64,
+    /// Fit a radius per recording (the sensor was moved between them).
+    #[arg(long)]
+    pub separate_radii: bool,
+    /// Axes in the objective: xyz, xy, or x (the paper's choice under drift).
+    #[arg(long, default_value = "xyz")]
+    pub axes: String,
+    /// Linear drift per axis: fit (reported when significant) or off.
+    #[arg(long, default_value = "fit")]
+    pub drift: String,
+    /// Hold the sensor offsets at zero (the paper's model).
+    #[arg(long)]
+    pub no_offsets: bool,
+    /// Bounds to replace, SI units: name=lower:upper,… (names as printed).
+    #[arg(long, value_name = "NAME=LO:HI,...")]
+    pub bounds: Option<String>,
+    /// Local gravity, m/s².
+    #[arg(long, default_value_t = STANDARD_GRAVITY)]
+    pub gravity: f64,
+    /// Sensor range, g (for the saturation check).
+    #[arg(long)]
+    pub range_g: Option<f64>,
+    /// Write the full result as JSON here.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Print the result as JSON instead of the table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Parses `name=lo:hi,name=lo:hi`.
+pub fn parse_bounds(text: &str) -> Result<Vec<(String, f64, f64)>, UsageError> {
+    text.split(',')
+        .filter(|s| !s.trim().is_empty())
+        .map(|item| {
+            let bad = || {
+                UsageError(format!(
+                    "--bounds '{item}': expected name=lower:upper, e.g. radius=0.05:0.15"
+                ))
+            };
+            let (name, range) = item.split_once('=').ok_or_else(bad)?;
+            let (lo, hi) = range.split_once(':').ok_or_else(bad)?;
+            let lo: f64 = lo.trim().parse().map_err(|_| bad())?;
+            let hi: f64 = hi.trim().parse().map_err(|_| bad())?;
+            Ok((name.trim().to_string(), lo, hi))
+        })
+        .collect()
+}
+
+impl FitArgs {
+    pub fn options(&self) -> anyhow::Result<FitOptions> {
+        let axes = AxesObjective::parse(&self.axes)
+            .ok_or_else(|| UsageError(format!("--axes {}: expected xyz, xy or x", self.axes)))?;
+        let drift = match self.drift.as_str() {
+            "fit" => DriftMode::Fit,
+            "off" => DriftMode::Off,
+            other => return Err(UsageError(format!("--drift {other}: expected fit or off")).into()),
+        };
+        Ok(FitOptions {
+            axes,
+            drift,
+            gravity_mps2: self.gravity,
+            rpm_hint: self.rpm,
+            radius: self.radius.map(|value_m| RadiusPrior {
+                value_m,
+                tolerance_m: self.radius_tol,
+            }),
+            shared_radius: !self.separate_radii,
+            fit_offsets: !self.no_offsets,
+            bounds: match &self.bounds {
+                Some(text) => parse_bounds(text)?,
+                None => Vec::new(),
+            },
+            range_mps2: self.range_g.map(|g| g * STANDARD_GRAVITY),
+            ..FitOptions::default()
+        })
+    }
+}
+
+pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
+    let options = args.options()?;
+    let recordings = args
+        .recordings
+        .iter()
+        .map(|p| args.read.read(p))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let refs: Vec<_> = recordings.iter().collect();
+    let spinner = ui.spinner("fitting");
+    let fit = fit_turntable(&refs, &options, &mut |stage, progress| {
+        spinner.set_message(format!(
+            "{stage} iteration {} cost {:.6e}",
+            progress.iteration, progress.cost
+        ));
+    })?;
+    spinner.finish_and_clear();
+    if let Some(path) = &args.output {
+        std::fs::write(path, serde_json::to_string_pretty(&fit)? + "\n")
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if args.json {
+        return ui::print_json(&fit);
+    }
+    ui::print(&render(&fit))
+}
+
+/// Value and standard error in display units (angles in degrees).
+fn display(p: &FittedParam) -> (f64, Option<f64>, String) {
+    if p.unit == "rad" {
+        (
+            p.value.to_degrees(),
+            p.std_error.map(f64::to_degrees),
+            "deg".into(),
+        )
+    } else {
+        (p.value, p.std_error, p.unit.clone())
+    }
+}
+
+/// The human-readable report of a fit.
+pub fn render(fit: &TurntableFit) -> String {
+    let mut text = String::new();
+    for (k, r) in fit.recordings.iter().enumerate() {
+        text.push_str(&format!(
+            "recording {}: {} — {} samples, {:.1} s at {:.2} Hz\n  rotation from the spectrum: {:.3} rpm = {:.5} rad/s (peak {:.0}× the median)\n",
+            k + 1,
+            r.name,
+            r.inspection.samples,
+            r.inspection.duration_s,
+            r.inspection.sample_rate_hz,
+            r.rate.rpm,
+            r.rate.omega_radps,
+            r.rate.peak_to_median
+        ));
+        for w in r.inspection.warnings(&r.name) {
+            text.push_str(&format!("  warning: {w}\n"));
+        }
+    }
+    text.push_str(&format!(
+        "\nparameter        value          std. error     unit    bound hit\n{}\n",
+        "-".repeat(66)
+    ));
+    for p in &fit.params {
+        let (value, se, unit) = display(p);
+        let se = match se {
+            Some(se) => format!("{se:<14.6e}"),
+            None => format!("{:<14}", "not determined"),
+        };
+        text.push_str(&format!(
+            "{:<16} {:<14.8} {} {:<7} {}\n",
+            p.name,
+            value,
+            se,
+            unit,
+            if p.at_bound { "yes" } else { "no" }
+        ));
+    }
+    for (k, r) in fit.recordings.iter().enumerate() {
+        let rpm = r.session.omega_radps * 60.0 / (2.0 * std::f64::consts::PI);
+        text.push_str(&format!(
+            "\nrecording {}: fitted ω = {:.4} rpm, direction {:?}; model fit x {:.2} %, y {:.2} %, z {:.2} %; residual RMS {:.2e} {:.2e} {:.2e} m/s²",
+            k + 1,
+            rpm,
+            r.session.direction,
+            r.fit_percent[0],
+            r.fit_percent[1],
+            r.fit_percent[2],
+            r.residual_rms_mps2[0],
+            r.residual_rms_mps2[1],
+            r.residual_rms_mps2[2]
+        ));
+    }
+    text.push('\n');
+    for d in fit.drift.iter().filter(|d| d.significant) {
+        text.push_str(&format!(
+            "drift detected: recording {} axis {} moves {:+.4} g (± {:.4} g) over the recording\n",
+            d.recording + 1,
+            d.axis,
+            d.change_mps2 / STANDARD_GRAVITY,
+            d.std_error_mps2 / STANDARD_GRAVITY
+        ));
+    }
+    if let Some(remedy) = &fit.remedy {
+        text.push_str(&format!("\nnote: {remedy}\n"));
+    }
+    text.push_str(&format!(
+        "\nweighted SSE: {:.6e} after Nelder–Mead ({} iterations), {:.6e} after Levenberg–Marquardt ({} iterations, {:?})\n",
+        fit.cost_nelder_mead, fit.nelder_mead_iterations, fit.cost_final, fit.lm_iterations, fit.lm_stop
+    ));
+    text
+}

@@ -1,0 +1,64 @@
+//! How the commands read recordings: one set of flags, one function.
+
+use std::path::Path;
+
+use anyhow::Context;
+use clap::Args;
+use spincal::recording::{AccelUnit, ColumnMap, TimeUnit};
+use spincal::table::Delimiter;
+use spincal::Recording;
+
+use crate::ui::UsageError;
+
+/// Flags that say how to read a recording file.
+#[derive(Args, Debug, Clone, Default)]
+pub struct ReadArgs {
+    /// Columns holding t,ax,ay,az[,gx,gy,gz]: header names or 1-based indices (guessed when absent).
+    #[arg(long, value_name = "t,ax,ay,az")]
+    pub columns: Option<String>,
+    /// Unit of the acceleration columns: g or mps2 (default: from the column names, else m/s²).
+    #[arg(long, value_name = "UNIT")]
+    pub accel_unit: Option<String>,
+    /// Unit of the time column: s, ms or us (default: from the column name, else s).
+    #[arg(long, value_name = "UNIT")]
+    pub time_unit: Option<String>,
+    /// Field separator: comma, semicolon, tab or whitespace (default: detected).
+    #[arg(long, value_name = "SEP")]
+    pub delimiter: Option<String>,
+}
+
+impl ReadArgs {
+    /// Resolves the flags into a checked column map; bad values are usage errors.
+    pub fn column_map(&self) -> anyhow::Result<ColumnMap> {
+        let mut map = ColumnMap::default();
+        if let Some(spec) = &self.columns {
+            map = map.with_columns(spec).map_err(|e| UsageError(e.to_string()))?;
+        }
+        if let Some(u) = &self.accel_unit {
+            map.accel_unit = Some(
+                AccelUnit::parse(u)
+                    .ok_or_else(|| UsageError(format!("--accel-unit {u}: expected g or mps2")))?,
+            );
+        }
+        if let Some(u) = &self.time_unit {
+            map.time_unit = Some(
+                TimeUnit::parse(u)
+                    .ok_or_else(|| UsageError(format!("--time-unit {u}: expected s, ms or us")))?,
+            );
+        }
+        if let Some(d) = &self.delimiter {
+            map.table.delimiter = Some(Delimiter::parse(d).ok_or_else(|| {
+                UsageError(format!(
+                    "--delimiter {d}: expected comma, semicolon, tab or whitespace"
+                ))
+            })?);
+        }
+        Ok(map)
+    }
+
+    /// Reads one recording.
+    pub fn read(&self, path: &Path) -> anyhow::Result<Recording> {
+        let map = self.column_map()?;
+        Recording::read_csv_path(path, &map).with_context(|| format!("reading {}", path.display()))
+    }
+}

@@ -1,0 +1,140 @@
+//! `spincal simulate`: a 3DM-GX1-like sensor on a turntable, with a JSON sidecar of the truth.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
+use spincal::turntable::Direction;
+use spincal::AccelUnit;
+
+use crate::ui::{self, UsageError};
+
+#[derive(Args, Debug)]
+#[command(
+    after_help = "Example:\n  spincal simulate -o rec33.csv --rpm 33.333 --radius 0.10 --tilt-deg 1.5 --seed 7\n  \
+                        writes rec33.csv (t_s, ax_g, ay_g, az_g) and rec33.truth.json"
+)]
+pub struct SimulateArgs {
+    /// Output CSV.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Truth sidecar (default: the output name with .truth.json).
+    #[arg(long)]
+    pub truth: Option<PathBuf>,
+    /// Random seed: the same seed gives the same file.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Sensor profile JSON (fields of SensorProfile; missing ones take the 3DM-GX1 defaults).
+    #[arg(long)]
+    pub sensor: Option<PathBuf>,
+    /// A perfect sensor apart from bias, noise and quantisation.
+    #[arg(long)]
+    pub ideal: bool,
+    /// Nominal speed, rpm.
+    #[arg(long, default_value_t = 100.0 / 3.0)]
+    pub rpm: f64,
+    /// Sensor distance from the spindle, m.
+    #[arg(long, default_value_t = 0.10)]
+    pub radius: f64,
+    /// Platter tilt, deg.
+    #[arg(long, default_value_t = 1.0)]
+    pub tilt_deg: f64,
+    /// Downhill direction relative to the sensor at t = 0, deg.
+    #[arg(long, default_value_t = 30.0)]
+    pub tilt_azimuth_deg: f64,
+    /// Sensor x axis from the radial direction, deg.
+    #[arg(long, default_value_t = 3.0)]
+    pub beta_deg: f64,
+    /// Sense of rotation seen from above: cw (record players) or ccw.
+    #[arg(long, default_value = "cw")]
+    pub direction: String,
+    /// Steady speed error, %.
+    #[arg(long, default_value_t = 0.5)]
+    pub speed_error_pct: f64,
+    /// Wow, % peak (once per revolution).
+    #[arg(long, default_value_t = 0.1)]
+    pub wow_pct: f64,
+    /// Flutter, % peak, at 6 Hz.
+    #[arg(long, default_value_t = 0.05)]
+    pub flutter_pct: f64,
+    /// Recording length, s.
+    #[arg(long, default_value_t = 60.0)]
+    pub duration: f64,
+    /// Sample rate, Hz (overrides the profile).
+    #[arg(long)]
+    pub rate: Option<f64>,
+    /// White noise, g RMS (overrides the profile).
+    #[arg(long)]
+    pub noise_g: Option<f64>,
+    /// Unit written to the CSV: g or mps2.
+    #[arg(long, default_value = "g")]
+    pub unit: String,
+    /// Print a JSON summary instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
+    let mut sensor = match &args.sensor {
+        Some(path) => {
+            let text =
+                std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+            serde_json::from_str::<SensorProfile>(&text)
+                .with_context(|| format!("{}: not a sensor profile", path.display()))?
+        }
+        None if args.ideal => SensorProfile::ideal(),
+        None => SensorProfile::default(),
+    };
+    if let Some(rate) = args.rate {
+        sensor.sample_rate_hz = rate;
+    }
+    if let Some(noise) = args.noise_g {
+        sensor.noise_g = noise;
+    }
+    let direction = match args.direction.as_str() {
+        "cw" => Direction::Cw,
+        "ccw" => Direction::Ccw,
+        other => return Err(UsageError(format!("--direction {other}: expected cw or ccw")).into()),
+    };
+    let unit = AccelUnit::parse(&args.unit)
+        .ok_or_else(|| UsageError(format!("--unit {}: expected g or mps2", args.unit)))?;
+    let table = TurntableSetup {
+        radius_m: args.radius,
+        rpm: args.rpm,
+        tilt_deg: args.tilt_deg,
+        tilt_azimuth_deg: args.tilt_azimuth_deg,
+        beta_deg: args.beta_deg,
+        direction,
+        speed_error_pct: args.speed_error_pct,
+        wow_pct: args.wow_pct,
+        flutter_pct: args.flutter_pct,
+        duration_s: args.duration,
+        ..TurntableSetup::default()
+    };
+    let sim = simulate(&sensor, &table, args.seed).map_err(|e| UsageError(e.to_string()))?;
+    sim.recording.write_csv_path(&args.output, unit)?;
+    let truth_path = args
+        .truth
+        .clone()
+        .unwrap_or_else(|| args.output.with_extension("truth.json"));
+    std::fs::write(&truth_path, serde_json::to_string_pretty(&sim.truth)? + "\n")
+        .with_context(|| format!("writing {}", truth_path.display()))?;
+    if args.json {
+        return ui::print_json(&serde_json::json!({
+            "recording": args.output,
+            "truth": truth_path,
+            "samples": sim.recording.len(),
+            "saturated_samples": sim.truth.saturated_samples,
+        }));
+    }
+    ui::print(&format!(
+        "wrote {} ({} samples at {} Hz, {:.1} s; {} saturated) and {}\n",
+        args.output.display(),
+        sim.recording.len(),
+        sensor.sample_rate_hz,
+        sim.recording.duration_s(),
+        sim.truth.saturated_samples,
+        truth_path.display()
+    ))
+}
