@@ -20,7 +20,7 @@ use crate::optim::{
 };
 use crate::recording::{Recording, STANDARD_GRAVITY};
 use crate::spectrum::{estimate_rotation_rate, RateEstimate, RateSearch, SpectrumError};
-use crate::turntable::model::{evaluate, for_each_derivative, Direction, Mounting, Session};
+use crate::turntable::model::{evaluate, for_each_derivative, for_each_sample, Direction, Mounting, Session};
 
 /// Which axes enter the objective.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -287,10 +287,24 @@ impl Problem<'_> {
         self.recordings[k].len() * self.axes.len()
     }
 
+    /// Σ residual², computed on the fly (Nelder–Mead calls this thousands of times).
     fn cost(&self, p: &[f64]) -> f64 {
-        let mut r = vec![0.0; self.n_residuals()];
-        self.residuals(p, &mut r);
-        r.iter().map(|v| v * v).sum()
+        let (mounting, sessions) = self.unpack(p);
+        let mut total = 0.0;
+        for (k, rec) in self.recordings.iter().enumerate() {
+            let w = self.weights[k];
+            let a = &rec.accel_mps2;
+            for_each_sample(&sessions[k], &mounting, self.gravity, &rec.time_s, |i, m| {
+                for &axis in self.axes {
+                    let e = w[axis] * (m[axis] - a[axis][i]);
+                    total += e * e;
+                }
+            });
+        }
+        if let Some((index, prior)) = self.prior {
+            total += ((p[index] - prior.value_m) / prior.tolerance_m).powi(2);
+        }
+        total
     }
 }
 

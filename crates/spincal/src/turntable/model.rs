@@ -82,16 +82,25 @@ pub struct SampleDerivatives {
 /// On a uniform time grid the rotation is advanced by complex multiplication in blocks that are
 /// re-anchored exactly, which is ~20× cheaper than a sine and cosine per sample and accurate to
 /// ~1e-14; any other grid uses exact sin/cos per sample.
-pub fn evaluate(
+pub fn evaluate(session: &Session, mounting: &Mounting, gravity: f64, time_s: &[f64], out: &mut [Vec<f64>; 3]) {
+    for axis in out.iter_mut() {
+        axis.resize(time_s.len(), 0.0);
+    }
+    for_each_sample(session, mounting, gravity, time_s, |i, a| {
+        out[0][i] = a[0];
+        out[1][i] = a[1];
+        out[2][i] = a[2];
+    });
+}
+
+/// Calls `f(i, [a_x, a_y, a_z])` with the model at every sample, in order, without allocating.
+pub fn for_each_sample(
     session: &Session,
     mounting: &Mounting,
     gravity: f64,
     time_s: &[f64],
-    out: &mut [Vec<f64>; 3],
+    mut f: impl FnMut(usize, [f64; 3]),
 ) {
-    for axis in out.iter_mut() {
-        axis.resize(time_s.len(), 0.0);
-    }
     let (t0, t_mid) = time_origin(time_s);
     let s = session.direction.sign();
     let w = session.omega_radps;
@@ -107,9 +116,14 @@ pub fn evaluate(
     let offset = session.phase_rad - mounting.beta_rad;
     for_each_rotation(time_s, t0, w, offset, |i, sin_u, cos_u| {
         let dt = time_s[i] - t_mid;
-        out[0][i] = mean[0] + amplitude * sin_u + d[0] * dt;
-        out[1][i] = mean[1] + s * amplitude * cos_u + d[1] * dt;
-        out[2][i] = mean[2] + d[2] * dt;
+        f(
+            i,
+            [
+                mean[0] + amplitude * sin_u + d[0] * dt,
+                mean[1] + s * amplitude * cos_u + d[1] * dt,
+                mean[2] + d[2] * dt,
+            ],
+        );
     });
 }
 
