@@ -19,6 +19,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Simulate the default record-player session and calibrate it (the README's main command).
+    Demo(commands::demo::DemoArgs),
     /// Simulate a 3DM-GX1-like accelerometer on a turntable (CSV + truth JSON).
     Simulate(commands::simulate::SimulateArgs),
     /// Fit the turntable model to recordings: r, ω, tilt, β, phase, offsets, drift.
@@ -38,6 +40,7 @@ fn main() {
     };
     let ui = ui::Ui::new(cli.quiet);
     let result = match cli.command {
+        Command::Demo(args) => commands::demo::run(args, ui),
         Command::Simulate(args) => commands::simulate::run(args),
         Command::Fit(args) => commands::fit::run(args, ui),
         Command::Sensitivity(args) => commands::sensitivity::run(args),

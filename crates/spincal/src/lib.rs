@@ -6,6 +6,11 @@
 // Index loops over several parallel arrays read better than zipped iterators in numerical code.
 #![allow(clippy::needless_range_loop)]
 
+// The README's library example runs as a doc test.
+#[doc = include_str!("../../../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;
+
 pub mod metrics;
 pub mod optim;
 pub mod recording;

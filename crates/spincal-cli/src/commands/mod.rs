@@ -1,5 +1,6 @@
 //! One file per subcommand: its clap arguments and a `run` function.
 
+pub mod demo;
 pub mod fit;
 pub mod input;
 pub mod sensitivity;
