@@ -18,7 +18,13 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// Draw a printable stroboscopic disc (SVG, true size) to check a turntable's speed under mains light.
+    #[command(
+        after_help = "Example:\n  spincal strobe --rpm 33.333 --rpm 45 --mains 50 --diameter-mm 120 -o disc.svg"
+    )]
+    Strobe(commands::strobe::Args),
+}
 
 fn main() {
     let cli = match Cli::try_parse() {
@@ -29,7 +35,9 @@ fn main() {
             std::process::exit(code);
         }
     };
-    let ui = ui::Ui::new(cli.quiet);
-    let result = match cli.command {};
+    let _ui = ui::Ui::new(cli.quiet);
+    let result = match cli.command {
+        Command::Strobe(args) => commands::strobe::run(args),
+    };
     std::process::exit(ui::exit_code(result));
 }

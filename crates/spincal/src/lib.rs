@@ -5,7 +5,9 @@
 
 pub mod metrics;
 pub mod optim;
+pub mod plot;
 pub mod recording;
+pub mod strobe;
 pub mod table;
 
 pub use recording::{AccelUnit, ColumnMap, Recording, RecordingError, STANDARD_GRAVITY};

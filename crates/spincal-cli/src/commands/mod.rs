@@ -1,1 +1,3 @@
 //! One file per subcommand: its clap arguments and a `run` function.
+
+pub mod strobe;
