@@ -230,7 +230,7 @@ impl StrobeDisc {
             s,
             r##"<circle cx="0" cy="0" r="{r}" fill="#fff" stroke="#000" stroke-width="0.3"/>"##
         );
-        for (k, ring) in self.rings.iter().enumerate() {
+        for ring in &self.rings {
             let _ = writeln!(
                 s,
                 r##"<g class="ring" data-rpm="{}" data-bars="{}" fill="#000">"##,
@@ -252,13 +252,6 @@ impl StrobeDisc {
                 );
             }
             s.push_str("</g>\n");
-            // Ring number just inside the ring, at the top, to match the legend in the middle.
-            let _ = writeln!(
-                s,
-                r#"<text x="0" y="{:.3}" font-family="sans-serif" font-size="2.6" text-anchor="middle">{}</text>"#,
-                -(ring.inner_radius_mm - 3.2),
-                k + 1
-            );
         }
         // Spindle hole with a cross to centre the punch.
         let h = SPINDLE_DIAMETER_MM / 2.0;
@@ -270,7 +263,14 @@ impl StrobeDisc {
         );
         let mut lines = vec![format!("{} Hz mains", fmt_num(self.mains_hz))];
         for (k, ring) in self.rings.iter().enumerate() {
-            let mut line = format!("{}: {} rpm, {} bars", k + 1, fmt_rpm(ring.rpm), ring.bars);
+            let n = self.rings.len();
+            let place = match k {
+                _ if n == 1 => String::new(),
+                0 => "outer: ".to_string(),
+                k if k + 1 == n => "inner: ".to_string(),
+                k => format!("ring {}: ", k + 1),
+            };
+            let mut line = format!("{place}{} rpm, {} bars", fmt_rpm(ring.rpm), ring.bars);
             if !ring.exact {
                 let _ = write!(
                     line,
@@ -380,8 +380,8 @@ mod tests {
         assert_eq!(svg.matches("<g class=\"ring\"").count(), 2);
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
         assert!(svg.contains(r#"width="122mm""#), "{}", &svg[..200]);
-        assert!(svg.contains("33\u{2153} rpm, 180 bars"));
-        assert!(svg.contains("45 rpm, 133 bars (still at 45.113"));
+        assert!(svg.contains("outer: 33\u{2153} rpm, 180 bars"));
+        assert!(svg.contains("inner: 45 rpm, 133 bars (still at 45.113"));
         assert!(svg.contains("50 Hz mains"));
         // Rings do not overlap and stay on the disc, outside the text area.
         let (a, b) = (&disc.rings[0], &disc.rings[1]);
