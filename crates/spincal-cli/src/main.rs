@@ -27,6 +27,11 @@ enum Command {
     Fit(commands::fit::FitArgs),
     /// The paper's Table 1: signal changes when r, α or ω is off by ± a percentage.
     Sensitivity(commands::sensitivity::SensitivityArgs),
+    /// Draw a printable stroboscopic disc (SVG, true size) to check a turntable's speed under mains light.
+    #[command(
+        after_help = "Example:\n  spincal strobe --rpm 33.333 --rpm 45 --mains 50 --diameter-mm 120 -o disc.svg"
+    )]
+    Strobe(commands::strobe::Args),
 }
 
 fn main() {
@@ -44,6 +49,7 @@ fn main() {
         Command::Simulate(args) => commands::simulate::run(args),
         Command::Fit(args) => commands::fit::run(args, ui),
         Command::Sensitivity(args) => commands::sensitivity::run(args),
+        Command::Strobe(args) => commands::strobe::run(args),
     };
     std::process::exit(ui::exit_code(result));
 }

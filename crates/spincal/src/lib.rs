@@ -13,7 +13,9 @@ pub struct ReadmeDoctests;
 
 pub mod metrics;
 pub mod optim;
+pub mod plot;
 pub mod recording;
+pub mod strobe;
 pub mod table;
 
 pub use recording::{AccelUnit, ColumnMap, Recording, RecordingError, STANDARD_GRAVITY};

@@ -45,7 +45,10 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
         let sim = simulate(&SensorProfile::default(), &table, args.seed + k as u64)?;
         let path = args.out.join(&name);
         sim.recording.write_csv_path(&path, AccelUnit::G)?;
-        std::fs::write(path.with_extension("truth.json"), serde_json::to_string_pretty(&sim.truth)? + "\n")?;
+        std::fs::write(
+            path.with_extension("truth.json"),
+            serde_json::to_string_pretty(&sim.truth)? + "\n",
+        )?;
         let mut recording = sim.recording;
         recording.source.name = path.display().to_string();
         recordings.push(recording);
@@ -59,7 +62,9 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
         ..FitOptions::default()
     };
     let spinner = ui.spinner("fitting");
-    let fit = fit_turntable(&refs, &options, &mut |stage, p| spinner.set_message(format!("{stage} {}", p.iteration)))?;
+    let fit = fit_turntable(&refs, &options, &mut |stage, p| {
+        spinner.set_message(format!("{stage} {}", p.iteration))
+    })?;
     spinner.finish_and_clear();
     let fit_path = args.out.join("turntable_fit.json");
     std::fs::write(&fit_path, serde_json::to_string_pretty(&fit)? + "\n")?;

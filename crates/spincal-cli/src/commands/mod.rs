@@ -5,3 +5,4 @@ pub mod fit;
 pub mod input;
 pub mod sensitivity;
 pub mod simulate;
+pub mod strobe;

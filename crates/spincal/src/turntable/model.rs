@@ -82,7 +82,13 @@ pub struct SampleDerivatives {
 /// On a uniform time grid the rotation is advanced by complex multiplication in blocks that are
 /// re-anchored exactly, which is ~20× cheaper than a sine and cosine per sample and accurate to
 /// ~1e-14; any other grid uses exact sin/cos per sample.
-pub fn evaluate(session: &Session, mounting: &Mounting, gravity: f64, time_s: &[f64], out: &mut [Vec<f64>; 3]) {
+pub fn evaluate(
+    session: &Session,
+    mounting: &Mounting,
+    gravity: f64,
+    time_s: &[f64],
+    out: &mut [Vec<f64>; 3],
+) {
     for axis in out.iter_mut() {
         axis.resize(time_s.len(), 0.0);
     }
