@@ -6,6 +6,7 @@
 pub mod metrics;
 pub mod optim;
 pub mod recording;
+pub mod sysid;
 pub mod table;
 
 pub use recording::{AccelUnit, ColumnMap, Recording, RecordingError, STANDARD_GRAVITY};
