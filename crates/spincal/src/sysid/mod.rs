@@ -9,10 +9,19 @@
 //! Signals: `u` is one slice per input, `y` the output, all of one length, sampled uniformly.
 
 pub mod arx;
+pub mod compare;
+pub mod hw;
+pub mod narx;
 pub mod pem;
 pub mod poly;
 
 pub use arx::{ArxFit, ArxParams};
+pub use compare::{
+    fit_and_score, score, FitScore, FittedModel, ModelKind, ModelSpec, PredictionKind, ScoredFit, Scores,
+    SysidModel,
+};
+pub use hw::{HwFit, HwModel, HwParams, PiecewiseLinear};
+pub use narx::{NarxFit, NarxModel, NarxParams};
 pub use pem::{PemFit, PemParams};
 pub use poly::{filter, PolyModel, SimInit};
 
