@@ -18,7 +18,10 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// Fit a system-identification model (ARX, OE, ARMAX, BJ, NARX, HW) to an input/output table.
+    Sysid(commands::sysid::SysidArgs),
+}
 
 fn main() {
     let cli = match Cli::try_parse() {
@@ -30,6 +33,8 @@ fn main() {
         }
     };
     let ui = ui::Ui::new(cli.quiet);
-    let result = match cli.command {};
+    let result = match cli.command {
+        Command::Sysid(args) => commands::sysid::run(args, ui),
+    };
     std::process::exit(ui::exit_code(result));
 }

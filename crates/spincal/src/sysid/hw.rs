@@ -1,13 +1,15 @@
 //! Hammerstein–Wiener [nb nf nk] (MATLAB's `nlhw` with `pwlinear` on both sides):
 //!
-//!     s = f(u),   x = B/F · s,   ŷ = g(x)
+//! ```text
+//! s = f(u),   x = B/F · s,   ŷ = g(x)
+//! ```
 //!
 //! f and g are piecewise-linear with a fixed number of breakpoints (default 10) at fixed positions,
 //! evenly spaced over the training range of their input (MATLAB also moves the breakpoints; here
 //! only the values are free), extended linearly outside. Fitted by Levenberg–Marquardt on the
 //! simulation error, started from an OE fit with identity f and a least-squares g. Unstable F is
 //! rejected during the search. Single input. The model has no noise model, so its one-step
-//! prediction equals its simulation; simulation always starts from rest (zero state).
+//! prediction equals its simulation (from rest).
 
 use faer::MatMut;
 use serde::{Deserialize, Serialize};
@@ -77,6 +79,34 @@ impl PiecewiseLinear {
         self.v[j] * (1.0 - s) + self.v[j + 1] * s
     }
 
+    /// An x with eval(x) = y: the solution on the segment (extensions included) closest to the
+    /// middle breakpoint; the nearest end when y is out of reach.
+    pub fn inverse(&self, y: f64) -> f64 {
+        let k = self.x.len();
+        let mid = 0.5 * (self.x[0] + self.x[k - 1]);
+        let mut best: Option<f64> = None;
+        for j in 0..k - 1 {
+            let (v0, v1) = (self.v[j], self.v[j + 1]);
+            if v1 == v0 {
+                continue;
+            }
+            let s = (y - v0) / (v1 - v0);
+            // Inner segments only within [0, 1]; the end segments extend outwards.
+            let ok = (s >= 0.0 || j == 0) && (s <= 1.0 || j == k - 2);
+            if ok {
+                let x = self.x[j] + s * (self.x[j + 1] - self.x[j]);
+                let closer = match best {
+                    None => true,
+                    Some(b) => (x - mid).abs() < (b - mid).abs(),
+                };
+                if closer {
+                    best = Some(x);
+                }
+            }
+        }
+        best.unwrap_or(mid)
+    }
+
     fn slope(&self, x: f64) -> f64 {
         let (j, _) = self.locate(x);
         (self.v[j + 1] - self.v[j]) / (self.x[j + 1] - self.x[j])
@@ -122,15 +152,15 @@ impl HwModel {
         filter(&self.b, &self.f, &s)
     }
 
-    /// Simulation from rest; with `SimInit::Measured` the first n samples are the measured ones
-    /// (the state is not estimated from them: the block structure has no cheap inverse).
+    /// Simulation. With `SimInit::Measured` the first n outputs are the measured ones and the linear
+    /// block's past outputs are set to g⁻¹(y) there (the branch of g nearest the breakpoints'
+    /// middle when g is not monotone), so the simulation continues from the measured state.
     pub fn simulate(&self, u: &[&[f64]], init: SimInit<'_>) -> Result<Vec<f64>, SysidError> {
         let n = Self::single(u)?;
-        let mut out: Vec<f64> = self
-            .linear_output(u[0])
-            .iter()
-            .map(|&x| self.output.eval(x))
-            .collect();
+        let s: Vec<f64> = u[0].iter().map(|&v| self.input.eval(v)).collect();
+        let mut x = vec![0.0; n];
+        let mut out = vec![0.0; n];
+        let n0 = init.samples();
         if let SimInit::Measured { y, n: k } = init {
             if y.len() < k || k > n {
                 return Err(SysidError::TooFewSamples {
@@ -138,7 +168,21 @@ impl HwModel {
                     available: y.len().min(n),
                 });
             }
-            out[..k].copy_from_slice(&y[..k]);
+            for t in 0..k {
+                x[t] = self.output.inverse(y[t]);
+                out[t] = y[t];
+            }
+        }
+        for t in n0..n {
+            let mut acc = 0.0;
+            for (j, bj) in self.b.iter().enumerate().take(t + 1) {
+                acc += bj * s[t - j];
+            }
+            for (j, fj) in self.f.iter().enumerate().skip(1).take(t) {
+                acc -= fj * x[t - j];
+            }
+            x[t] = acc;
+            out[t] = self.output.eval(acc);
         }
         Ok(out)
     }

@@ -1,7 +1,9 @@
 //! Nonlinear ARX [na nb nk] (MATLAB's `nlarx` with a `sigmoidnet`): regressors
 //! x(t) = [y(t−1) … y(t−na), u(t−nk) … u(t−nk−nb+1)] and
 //!
-//!     ŷ(t) = lᵀx + l₀ + Σⱼ αⱼ σ(wⱼᵀ z + βⱼ),   σ(s) = 1/(1 + e⁻ˢ),   z = (x − mean)/std
+//! ```text
+//! ŷ(t) = lᵀx + l₀ + Σⱼ αⱼ σ(wⱼᵀ z + βⱼ),   σ(s) = 1/(1 + e⁻ˢ),   z = (x − mean)/std
+//! ```
 //!
 //! fitted by Levenberg–Marquardt on the one-step prediction error, started from the ARX
 //! solution for the linear term and seeded random weights for the units. Single input.

@@ -1,6 +1,8 @@
 //! Prediction-error method for the general idpoly model, used for OE, ARMAX and Box–Jenkins:
 //!
-//!     A y = Σ Bᵢ/Fᵢ uᵢ + C/D e,   e(t) = D/C · (A y − Σ Bᵢ/Fᵢ uᵢ)
+//! ```text
+//! A y = Σ Bᵢ/Fᵢ uᵢ + C/D e,   e(t) = D/C · (A y − Σ Bᵢ/Fᵢ uᵢ)
+//! ```
 //!
 //! Initialisation (as MATLAB's `pem` does in spirit): ARX, then instrumental variables for B/F,
 //! then Hannan–Rissanen for the noise model C/D, every monic polynomial whose roots must be inside
@@ -333,13 +335,13 @@ impl LeastSquares for PemProblem<'_> {
             }
         }
         // ∂e/∂fᵢₖ = D/(C Fᵢ) · wᵢ(t−k), wᵢ = Bᵢ/Fᵢ uᵢ
-        for i in 0..self.u.len() {
-            if self.layout.nf[i] == 0 {
+        for ((&nf, fi), wi) in self.layout.nf.iter().zip(&m.f).zip(&w) {
+            if nf == 0 {
                 continue;
             }
-            let cf = poly_mul(&m.c, &m.f[i]);
-            let wf = filter(&m.d, &cf, &w[i]);
-            for k in 1..=self.layout.nf[i] {
+            let cf = poly_mul(&m.c, fi);
+            let wf = filter(&m.d, &cf, wi);
+            for k in 1..=nf {
                 put(col, &wf, k, 1.0);
                 col += 1;
             }

@@ -1,6 +1,8 @@
 //! Polynomial input–output models in MATLAB's idpoly convention:
 //!
-//!     A(q) y(t) = Σᵢ Bᵢ(q)/Fᵢ(q) uᵢ(t − 0) + C(q)/D(q) e(t)
+//! ```text
+//! A(q) y(t) = Σᵢ Bᵢ(q)/Fᵢ(q) uᵢ(t − 0) + C(q)/D(q) e(t)
+//! ```
 //!
 //! with q⁻¹ the backward shift. A, C, D, Fᵢ are monic (leading 1). Bᵢ carries the input delay as
 //! nkᵢ leading zeros, so `b[i][k]` multiplies uᵢ(t − k).
