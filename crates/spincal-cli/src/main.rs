@@ -32,6 +32,8 @@ enum Command {
         after_help = "Example:\n  spincal strobe --rpm 33.333 --rpm 45 --mains 50 --diameter-mm 120 -o disc.svg"
     )]
     Strobe(commands::strobe::Args),
+    /// Fit a system-identification model (ARX, OE, ARMAX, BJ, NARX, HW) to an input/output table.
+    Sysid(commands::sysid::SysidArgs),
 }
 
 fn main() {
@@ -50,6 +52,7 @@ fn main() {
         Command::Fit(args) => commands::fit::run(args, ui),
         Command::Sensitivity(args) => commands::sensitivity::run(args),
         Command::Strobe(args) => commands::strobe::run(args),
+        Command::Sysid(args) => commands::sysid::run(args, ui),
     };
     std::process::exit(ui::exit_code(result));
 }

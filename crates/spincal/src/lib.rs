@@ -11,15 +11,16 @@
 #[cfg(doctest)]
 pub struct ReadmeDoctests;
 
+pub mod checks;
 pub mod metrics;
 pub mod optim;
 pub mod plot;
 pub mod recording;
-pub mod strobe;
-pub mod table;
-
-pub use recording::{AccelUnit, ColumnMap, Recording, RecordingError, STANDARD_GRAVITY};
-pub mod checks;
 pub mod simulate;
 pub mod spectrum;
+pub mod strobe;
+pub mod sysid;
+pub mod table;
 pub mod turntable;
+
+pub use recording::{AccelUnit, ColumnMap, Recording, RecordingError, STANDARD_GRAVITY};

@@ -6,3 +6,4 @@ pub mod input;
 pub mod sensitivity;
 pub mod simulate;
 pub mod strobe;
+pub mod sysid;

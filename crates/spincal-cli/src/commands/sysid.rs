@@ -1,0 +1,185 @@
+//! `spincal sysid`: fit one system-identification model to any input/output table.
+
+use std::ops::Range;
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+use spincal::sysid::{fit_and_score, FitScore, ModelKind, ModelSpec, ScoredFit, SysidModel};
+use spincal::table::{Table, TableOptions};
+
+use crate::ui::{self, Ui, UsageError};
+
+#[derive(Args)]
+#[command(after_help = "Examples:\n  \
+    spincal sysid arx --orders 6,8,1 --data Silverbox_SNLS80mV.csv --input V1 --output V2 \\\n      \
+    --train 40650..127400 --test 0..40575 --init-samples 50\n  \
+    spincal sysid bj --orders 4,4,4,4,1 --data io.csv --input 1 --output 2 --train ..2000 --json\n\n\
+Ranges are 0-based sample indices, end excluded (START..END, ..END or START..).\n\
+Fit % is MATLAB's normalised RMSE fit; every number says whether it is a simulation (from the\n\
+first --init-samples measured outputs) or a one-step-ahead prediction.")]
+pub struct SysidArgs {
+    /// Model: arx, oe, armax, bj, narx, hw.
+    model: String,
+    /// Orders in MATLAB's order: arx/narx [na nb nk], oe/hw [nb nf nk], armax [na nb nc nk],
+    /// bj [nb nc nd nf nk]. Default: the paper's.
+    #[arg(long, value_delimiter = ',', num_args = 1..)]
+    orders: Option<Vec<usize>>,
+    /// Delimited numeric table.
+    #[arg(long)]
+    data: PathBuf,
+    /// Input column (header name or 1-based index).
+    #[arg(long)]
+    input: String,
+    /// Output column (header name or 1-based index).
+    #[arg(long)]
+    output: String,
+    /// Training samples (default: all).
+    #[arg(long)]
+    train: Option<String>,
+    /// Test samples (default: none).
+    #[arg(long)]
+    test: Option<String>,
+    /// Measured outputs that start each simulation (excluded from the scores).
+    #[arg(long, default_value_t = 5)]
+    init_samples: usize,
+    /// Sigmoid units (narx) or breakpoints (hw).
+    #[arg(long, default_value_t = 10)]
+    size: usize,
+    /// Iteration limit of the iterative fits.
+    #[arg(long, default_value_t = 100)]
+    max_iterations: usize,
+    /// Seed of NARX's initial weights.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Print the result (model included) as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_range(text: &str, n: usize) -> Result<Range<usize>, UsageError> {
+    let bad = || {
+        UsageError(format!(
+            "'{text}' is not a range START..END (0-based, end excluded)"
+        ))
+    };
+    let (a, b) = text.split_once("..").ok_or_else(bad)?;
+    let start = if a.trim().is_empty() {
+        0
+    } else {
+        a.trim().parse().map_err(|_| bad())?
+    };
+    let end = if b.trim().is_empty() {
+        n
+    } else {
+        b.trim().parse().map_err(|_| bad())?
+    };
+    if start >= end || end > n {
+        return Err(UsageError(format!(
+            "range {start}..{end} is empty or beyond the {n} samples"
+        )));
+    }
+    Ok(start..end)
+}
+
+pub fn run(args: SysidArgs, ui: Ui) -> anyhow::Result<()> {
+    let kind: ModelKind = args.model.parse().map_err(|e| UsageError(format!("{e}")))?;
+    let orders = args
+        .orders
+        .clone()
+        .unwrap_or_else(|| kind.default_orders().to_vec());
+    let spec = ModelSpec {
+        size: args.size,
+        max_iterations: args.max_iterations,
+        seed: args.seed,
+        ..ModelSpec::new(kind, &orders).map_err(|e| UsageError(format!("{e}")))?
+    };
+    let reading = ui.spinner("reading");
+    let table = Table::read_path(&args.data, &TableOptions::default())?;
+    reading.finish_and_clear();
+    let column = |key: &str| {
+        table.column_index(key).ok_or_else(|| {
+            UsageError(format!(
+                "{}: no column '{key}' (header: {:?})",
+                table.file, table.header
+            ))
+        })
+    };
+    let (ci, co) = (column(&args.input)?, column(&args.output)?);
+    let (u, y) = (&table.columns[ci], &table.columns[co]);
+    let n = y.len();
+    let train = match &args.train {
+        Some(t) => parse_range(t, n)?,
+        None => 0..n,
+    };
+    let test = args.test.as_deref().map(|t| parse_range(t, n)).transpose()?;
+    let bar = ui.progress(spec.max_iterations as u64, spec.kind.name());
+    let row = fit_and_score(
+        &spec,
+        &[u],
+        y,
+        train.clone(),
+        test.clone(),
+        args.init_samples,
+        &mut |p| bar.set_position(p.iteration as u64),
+    )
+    .with_context(|| format!("fitting {}", spec.structure()))?;
+    bar.finish_and_clear();
+    if args.json {
+        return ui::print_json(&row);
+    }
+    ui::print(&report(&row, &train, test.as_ref()))
+}
+
+fn report(row: &ScoredFit, train: &Range<usize>, test: Option<&Range<usize>>) -> String {
+    let mut s = format!("{}\n", row.structure);
+    match &row.fitted.model {
+        SysidModel::Poly(m) => {
+            let fmt = |v: &[f64]| v.iter().map(|x| format!("{x:.6}")).collect::<Vec<_>>().join(" ");
+            for (name, p) in [("A", &m.a), ("C", &m.c), ("D", &m.d)] {
+                if p.len() > 1 {
+                    s += &format!("  {name} = [{}]\n", fmt(p));
+                }
+            }
+            s += &format!("  B = [{}]\n", fmt(&m.b[0]));
+            if m.f[0].len() > 1 {
+                s += &format!("  F = [{}]\n", fmt(&m.f[0]));
+            }
+        }
+        SysidModel::Narx(m) => {
+            s += &format!(
+                "  linear term = {:?}, offset {:.6}, {} sigmoid units\n",
+                m.linear,
+                m.offset,
+                m.units.len()
+            )
+        }
+        SysidModel::Hw(m) => {
+            s += &format!(
+                "  B = {:?}\n  F = {:?}\n  (pwlinear maps: see --json)\n",
+                m.b, m.f
+            )
+        }
+    }
+    s += &format!(
+        "loss {:.6e} after {} iterations, fitted in {:.3} s\n",
+        row.fitted.loss, row.fitted.iterations, row.seconds
+    );
+    let line = |part: &str, r: &Range<usize>, f: &FitScore| {
+        format!(
+            "{part:<6} {:>7}..{:<7} {:<20} fit {:>8.3} %   RMSE {:.6e}\n",
+            r.start,
+            r.end,
+            f.kind.label(),
+            f.fit_percent,
+            f.rmse
+        )
+    };
+    s += &line("train", train, &row.train.simulation);
+    s += &line("train", train, &row.train.one_step);
+    if let (Some(r), Some(t)) = (test, &row.test) {
+        s += &line("test", r, &t.simulation);
+        s += &line("test", r, &t.one_step);
+    }
+    s
+}
