@@ -3,6 +3,9 @@
 //! The library does all the science and never prints; the `spincal` binary is a thin shell.
 //! See ARCHITECTURE.md at the repository root for the map and the invariants.
 
+pub mod ann;
+pub mod corrector;
+pub mod linear;
 pub mod metrics;
 pub mod optim;
 pub mod recording;

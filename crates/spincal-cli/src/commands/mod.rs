@@ -1,1 +1,5 @@
 //! One file per subcommand: its clap arguments and a `run` function.
+
+pub mod correct;
+pub mod sweep;
+pub mod train;

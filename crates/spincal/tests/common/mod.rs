@@ -1,6 +1,8 @@
 //! Support shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod synthetic;
+
 use std::path::PathBuf;
 
 /// Path of a file under `../shared/data` (or `$SPINCAL_SHARED_DATA`), or `None` with a printed
@@ -13,7 +15,10 @@ pub fn shared_data(relative: &str) -> Option<PathBuf> {
     if path.exists() {
         Some(path)
     } else {
-        eprintln!("skipped: {} is absent (set SPINCAL_SHARED_DATA to the shared data folder)", path.display());
+        eprintln!(
+            "skipped: {} is absent (set SPINCAL_SHARED_DATA to the shared data folder)",
+            path.display()
+        );
         None
     }
 }
