@@ -34,6 +34,28 @@ enum Command {
     Strobe(commands::strobe::Args),
     /// Fit a system-identification model (ARX, OE, ARMAX, BJ, NARX, HW) to an input/output table.
     Sysid(commands::sysid::SysidArgs),
+    /// Train a corrector (network or linear) of measured against reference acceleration.
+    #[command(after_help = "Examples:
+  spincal train --data rec.csv --reference ref.csv --hidden 10,6 -o ann.json
+  spincal train --data rec.csv --reference ref.csv --axes x --delays 2 --restarts 20 --seed 7 -o x.json
+  spincal train --data rec.csv --reference ref.csv --kind linear -o linear.json --json")]
+    Train(commands::train::TrainArgs),
+    /// Train a grid of network architectures and tabulate their fit (the paper's Fig. 12).
+    #[command(after_help = "Examples:
+  spincal sweep --data rec.csv --reference ref.csv -o sweep        # writes sweep.csv, sweep.json
+  spincal sweep --data rec.csv --reference ref.csv --grid '1-15' --restarts 5 --threads 2")]
+    Sweep(commands::sweep::SweepArgs),
+    /// Apply a saved corrector to a recording, streaming, row by row.
+    #[command(
+        after_help = "Every input row comes out with its original columns, the corrected axes added and a
+`valid` column (0 for the first rows without full delay history). A row that cannot be read stops
+the command with its line number and reason, and a partial output file is removed.
+
+Examples:
+  spincal correct --model ann.json new.csv -o new-corrected.csv
+  cat new.csv | spincal correct --model linear.json - > out.csv"
+    )]
+    Correct(commands::correct::CorrectArgs),
 }
 
 fn main() {
@@ -53,6 +75,9 @@ fn main() {
         Command::Sensitivity(args) => commands::sensitivity::run(args),
         Command::Strobe(args) => commands::strobe::run(args),
         Command::Sysid(args) => commands::sysid::run(args, ui),
+        Command::Train(args) => commands::train::run(args, ui),
+        Command::Sweep(args) => commands::sweep::run(args, ui),
+        Command::Correct(args) => commands::correct::run(args, ui),
     };
     std::process::exit(ui::exit_code(result));
 }

@@ -11,7 +11,10 @@
 #[cfg(doctest)]
 pub struct ReadmeDoctests;
 
+pub mod ann;
 pub mod checks;
+pub mod corrector;
+pub mod linear;
 pub mod metrics;
 pub mod optim;
 pub mod plot;

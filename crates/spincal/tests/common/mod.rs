@@ -1,6 +1,8 @@
 //! Support shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod synthetic;
+
 use std::path::PathBuf;
 
 /// Path of a file under `../shared/data` (or `$SPINCAL_SHARED_DATA`), or `None` with a printed

@@ -1,0 +1,239 @@
+//! `spincal train`: fits one corrector (network or linear) of measured against reference data.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use serde::Serialize;
+use spincal::ann::{AnnProblem, DivisionMode, LmSettings, Part, PartFits};
+use spincal::corrector::{Axis, CorrectorFile, CorrectorModel};
+use spincal::linear::LinearModel;
+use spincal::{ColumnMap, Recording};
+
+use crate::ui::{self, Ui, UsageError};
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Kind {
+    /// Feed-forward network trained by Levenberg–Marquardt.
+    Ann,
+    /// Offset plus square matrix by least squares.
+    Linear,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum DivisionArg {
+    /// 60 % training, then 20 % validation, then 20 % test.
+    Contiguous,
+    /// Blocks of --block-len samples dealt 3:1:1 to training, validation, test.
+    Interleaved,
+}
+
+/// Data, division and network options shared by `train` and `sweep`.
+#[derive(Args)]
+pub struct DataArgs {
+    /// Measured recording (CSV: t,ax,ay,az[,gx,gy,gz]).
+    #[arg(long, value_name = "REC.csv")]
+    pub data: PathBuf,
+    /// Reference acceleration for the same samples (CSV: t,ax,ay,az).
+    #[arg(long, value_name = "REF.csv")]
+    pub reference: PathBuf,
+    /// Axes to correct, e.g. x or x,y (one axis: SISO; several: MIMO). Default x,y for the
+    /// network, x,y,z for the linear corrector.
+    #[arg(long)]
+    pub axes: Option<String>,
+    /// Previous samples of each axis given to the network besides the current one.
+    #[arg(long, default_value_t = 0)]
+    pub delays: usize,
+    /// How to split samples 60/20/20 into training, validation and test.
+    #[arg(long, value_enum, default_value = "contiguous")]
+    pub division: DivisionArg,
+    /// Block length in samples for --division interleaved.
+    #[arg(long, default_value_t = 500)]
+    pub block_len: usize,
+    /// Training runs per architecture from different initial weights; the best on validation is kept.
+    #[arg(long, default_value_t = 10)]
+    pub restarts: usize,
+    /// Base seed of the initial weights (each restart derives its own).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Upper limit on LM epochs per run.
+    #[arg(long, default_value_t = 1000)]
+    pub max_epochs: usize,
+}
+
+impl DataArgs {
+    pub fn axes(&self, default: &str) -> anyhow::Result<Vec<Axis>> {
+        let text = self.axes.as_deref().unwrap_or(default);
+        Axis::parse_list(text).ok_or_else(|| {
+            UsageError(format!("--axes {text}: expected axes from x, y, z such as x,y")).into()
+        })
+    }
+
+    pub fn division(&self) -> DivisionMode {
+        match self.division {
+            DivisionArg::Contiguous => DivisionMode::Contiguous,
+            DivisionArg::Interleaved => DivisionMode::Interleaved {
+                block_len: self.block_len,
+            },
+        }
+    }
+
+    pub fn lm(&self) -> LmSettings {
+        LmSettings {
+            max_epochs: self.max_epochs,
+            ..LmSettings::default()
+        }
+    }
+
+    pub fn read(&self) -> anyhow::Result<(Recording, Recording)> {
+        let map = ColumnMap::default();
+        let measured = Recording::read_csv_path(&self.data, &map)?;
+        let reference = Recording::read_csv_path(&self.reference, &map)?;
+        Ok((measured, reference))
+    }
+}
+
+#[derive(Args)]
+pub struct TrainArgs {
+    #[command(flatten)]
+    pub data: DataArgs,
+    /// Corrector kind.
+    #[arg(long, value_enum, default_value = "ann")]
+    pub kind: Kind,
+    /// Hidden layer sizes, e.g. 10,6 (up to three layers), or `none` for a purely linear network.
+    #[arg(long, default_value = "10,6")]
+    pub hidden: String,
+    /// Where to save the corrector (JSON).
+    #[arg(short, long, value_name = "MODEL.json")]
+    pub output: Option<PathBuf>,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Parses `10,6` or `none`.
+pub fn parse_hidden(text: &str) -> anyhow::Result<Vec<usize>> {
+    if text.trim().eq_ignore_ascii_case("none") {
+        return Ok(Vec::new());
+    }
+    text.split(',')
+        .map(|s| s.trim().parse::<usize>())
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|_| UsageError(format!("--hidden {text}: expected sizes such as 10,6 or `none`")).into())
+}
+
+#[derive(Serialize)]
+struct Summary<'a> {
+    kind: &'a str,
+    axes: Vec<Axis>,
+    hidden: Option<Vec<usize>>,
+    delays: usize,
+    epochs: Option<usize>,
+    stop: Option<String>,
+    fits: &'a PartFits,
+    uncorrected: &'a PartFits,
+    model_file: Option<String>,
+}
+
+pub fn run(args: TrainArgs, ui: Ui) -> anyhow::Result<()> {
+    let (measured, reference) = args.data.read()?;
+    let division = args.data.division();
+    let model = match args.kind {
+        Kind::Ann => {
+            let axes = args.data.axes("x,y")?;
+            let hidden = parse_hidden(&args.hidden)?;
+            let problem = AnnProblem::new(&measured, &reference, &axes, args.data.delays, division)?;
+            let spinner = ui.spinner(&format!("training {} restarts", args.data.restarts));
+            let model = problem.train(&hidden, args.data.restarts, args.data.seed, &args.data.lm())?;
+            spinner.finish_and_clear();
+            CorrectorModel::Ann(Box::new(model))
+        }
+        Kind::Linear => {
+            if args.data.delays != 0 {
+                return Err(UsageError("--delays applies to --kind ann only".into()).into());
+            }
+            let axes = args.data.axes("x,y,z")?;
+            CorrectorModel::Linear(Box::new(LinearModel::fit(
+                &measured, &reference, &axes, division,
+            )?))
+        }
+    };
+    let file = CorrectorFile::new(model);
+    if let Some(path) = &args.output {
+        file.write_path(path)?;
+    }
+    let (hidden, delays, epochs, stop, fits, uncorrected, axes) = match &file.corrector {
+        CorrectorModel::Ann(m) => {
+            let t = m
+                .training
+                .as_ref()
+                .context("a freshly trained model has its summary")?;
+            (
+                Some(m.network.hidden.clone()),
+                m.delays,
+                Some(t.report.epochs),
+                Some(format!("{:?}", t.report.stop)),
+                &t.fits,
+                &t.uncorrected,
+                m.axes.clone(),
+            )
+        }
+        CorrectorModel::Linear(m) => {
+            let t = m
+                .training
+                .as_ref()
+                .context("a freshly fitted model has its summary")?;
+            (None, 0, None, None, &t.fits, &t.uncorrected, m.axes.clone())
+        }
+        _ => anyhow::bail!("unexpected corrector kind"),
+    };
+    let summary = Summary {
+        kind: file.corrector.kind(),
+        axes,
+        hidden,
+        delays,
+        epochs,
+        stop,
+        fits,
+        uncorrected,
+        model_file: args.output.as_ref().map(|p| p.display().to_string()),
+    };
+    if args.json {
+        return ui::print_json(&summary);
+    }
+    ui::print(&render(&summary))
+}
+
+fn render(s: &Summary) -> String {
+    let mut out = format!("corrector: {}", s.kind);
+    if let Some(h) = &s.hidden {
+        out += &format!(" [{}], delays {}", spincal::ann::architecture_label(h), s.delays);
+    }
+    out += "\n";
+    if let (Some(e), Some(stop)) = (s.epochs, &s.stop) {
+        out += &format!("epochs: {e} (stop: {stop})\n");
+    }
+    out += "fit %        corrected                 uncorrected\n";
+    for (part, name) in [
+        (Part::Train, "train"),
+        (Part::Validation, "validation"),
+        (Part::Test, "test"),
+    ] {
+        let join = |v: &[f64]| {
+            v.iter()
+                .zip(&s.axes)
+                .map(|(f, a)| format!("{a} {f:6.2}"))
+                .collect::<Vec<_>>()
+                .join("  ")
+        };
+        out += &format!(
+            "{name:<12} {:<25} {}\n",
+            join(s.fits.get(part)),
+            join(s.uncorrected.get(part))
+        );
+    }
+    if let Some(f) = &s.model_file {
+        out += &format!("saved: {f}\n");
+    }
+    out
+}

@@ -1,0 +1,148 @@
+//! Rust side of bench/ann: seconds per LM epoch, the epoch's FLOP count, faer's DGEMM rate, and
+//! the data export for the pyrenn peer check.
+//!
+//! `cargo run --release -p spincal --example ann_epoch -- time [N…]` prints one JSON object per N.
+//! `cargo run --release -p spincal --example ann_epoch -- dgemm` prints faer's single-thread rate.
+//! `cargo run --release -p spincal --example ann_epoch -- export N HIDDEN SEED OUT.json` writes the
+//! scaled training data and the initial weights of restart 0.
+
+#[path = "../tests/common/synthetic.rs"]
+mod synthetic;
+
+use std::time::Instant;
+
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, Par};
+use spincal::ann::{AnnProblem, DivisionMode, Layout, LmSettings, LmWorkspace};
+use spincal::corrector::Axis;
+
+const XY: [Axis; 2] = [Axis::X, Axis::Y];
+
+/// The whole data set is the training set: 100 % of N samples, as the benchmark asks for N
+/// training samples.
+fn problem(n: usize) -> AnnProblem {
+    // 60 % goes to training: generate N / 0.6 samples so the training part has N.
+    let total = (n as f64 / 0.6).ceil() as usize + 1;
+    let (measured, reference) = synthetic::turntable_pair(total, 42);
+    let mut p = AnnProblem::new(&measured, &reference, &XY, 0, DivisionMode::Contiguous).expect("valid data");
+    p.train.inputs.truncate(n * p.train.n_inputs);
+    p.train.targets.truncate(n * p.train.n_outputs);
+    p
+}
+
+/// FLOPs of one LM epoch with one accepted step, counting multiply and add separately.
+fn epoch_flops(layout: &Layout, n: usize) -> (f64, f64) {
+    let p = layout.n_params() as f64;
+    let rows = (n * layout.outputs()) as f64;
+    let forward: f64 = layout
+        .sizes
+        .windows(2)
+        .map(|w| 2.0 * (w[0] * w[1]) as f64)
+        .sum::<f64>()
+        * n as f64;
+    let syrk = rows * p * (p + 1.0); // lower triangle of JᵀJ
+    let gemv = 2.0 * rows * p; // Jᵀe
+                               // Backprop per output row: one pass down the hidden layers (≈ forward's multiply-adds).
+    let backprop = forward * layout.outputs() as f64;
+    let cholesky = p * p * p / 3.0 + 2.0 * p * p;
+    let trial = forward;
+    (syrk, forward + syrk + gemv + backprop + cholesky + trial)
+}
+
+fn time_epochs(n: usize, block_samples: usize) -> f64 {
+    let p = problem(n);
+    let layout = p.layout(&[10, 6]).expect("valid layout");
+    let weights = p.initial_weights(&layout, 1, 0);
+    let mut ws = LmWorkspace::new(&layout, block_samples);
+    let settings = LmSettings {
+        max_epochs: 1,
+        max_validation_failures: usize::MAX,
+        min_relative_decrease: 0.0,
+        block_samples,
+        ..LmSettings::default()
+    };
+    let empty = spincal::ann::Dataset::default();
+    // One epoch = normal equations + damped solve + trial evaluation (+ the initial error).
+    let mut best = f64::INFINITY;
+    let repeats = if n > 10_000 { 5 } else { 20 };
+    for _ in 0..repeats {
+        let mut w = weights.clone();
+        let started = Instant::now();
+        let report = ws.train(&mut w, &p.train, &empty, &settings);
+        let seconds = started.elapsed().as_secs_f64();
+        assert_eq!(report.epochs, 1, "one accepted step from Nguyen–Widrow weights");
+        best = best.min(seconds);
+    }
+    best
+}
+
+fn dgemm_gflops() -> f64 {
+    let n = 2000;
+    let a = Mat::<f64>::from_fn(n, n, |i, j| ((i * 7 + j * 13) % 17) as f64 / 17.0);
+    let b = Mat::<f64>::from_fn(n, n, |i, j| ((i * 5 + j * 3) % 11) as f64 / 11.0);
+    let mut c = Mat::<f64>::zeros(n, n);
+    let mut best = f64::INFINITY;
+    for _ in 0..3 {
+        let started = Instant::now();
+        matmul(c.as_mut(), Accum::Replace, a.as_ref(), b.as_ref(), 1.0, Par::Seq);
+        best = best.min(started.elapsed().as_secs_f64());
+    }
+    2.0 * (n * n * n) as f64 / best / 1e9
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.first().map(String::as_str) {
+        Some("time") => {
+            let sizes: Vec<usize> = if args.len() > 1 {
+                args[1..]
+                    .iter()
+                    .map(|s| s.parse().expect("sample count"))
+                    .collect()
+            } else {
+                vec![3000, 30000]
+            };
+            for n in sizes {
+                let layout = Layout::new(2, &[10, 6], 2);
+                let (syrk, total) = epoch_flops(&layout, n);
+                let mut blocks = Vec::new();
+                for block in [64, 256, 1024, n] {
+                    blocks.push(format!("\"{block}\": {:.6e}", time_epochs(n, block)));
+                }
+                let seconds = time_epochs(n, LmSettings::default().block_samples);
+                println!(
+                    "{{\"n\": {n}, \"params\": {}, \"seconds_per_epoch\": {seconds:.6e}, \"flops\": {total:.6e}, \"syrk_flops\": {syrk:.6e}, \"seconds_by_block_samples\": {{{}}}}}",
+                    layout.n_params(),
+                    blocks.join(", ")
+                );
+            }
+        }
+        Some("dgemm") => println!("{{\"faer_dgemm_gflops\": {:.3}}}", dgemm_gflops()),
+        Some("export") if args.len() == 5 => {
+            let n: usize = args[1].parse().expect("sample count");
+            let hidden: Vec<usize> = args[2]
+                .split(',')
+                .map(|s| s.parse().expect("layer size"))
+                .collect();
+            let seed: u64 = args[3].parse().expect("seed");
+            let p = problem(n);
+            let layout = p.layout(&hidden).expect("valid layout");
+            let weights = p.initial_weights(&layout, seed, 0);
+            let json = serde_json::json!({
+                "generator": {"function": "tests/common/synthetic.rs turntable_pair", "seed": 42, "axes": ["x", "y"]},
+                "n": n,
+                "sizes": layout.sizes,
+                "seed": seed,
+                "weights_layout": "per layer: weight matrix row-major (unit x input), then biases",
+                "initial_weights": weights,
+                "inputs": p.train.inputs,
+                "targets": p.train.targets,
+            });
+            std::fs::write(&args[4], serde_json::to_string(&json).expect("json")).expect("write export");
+        }
+        _ => {
+            eprintln!("usage: ann_epoch time [N…] | dgemm | export N HIDDEN SEED OUT.json");
+            std::process::exit(2);
+        }
+    }
+}

@@ -1,0 +1,386 @@
+//! Levenberg–Marquardt training with MATLAB `trainlm`'s rules.
+//!
+//! Each epoch forms the normal equations at the current weights from Jacobian rows computed by
+//! backpropagation, a block of samples at a time: JᵀJ grows by a symmetric rank-k update of each
+//! block (faer, lower triangle only) and Jᵀe by a matrix–vector product, so J is never stored
+//! whole. Then (JᵀJ + μI)·Δ = Jᵀe is solved by Cholesky, retrying with μ×10 until the training
+//! error falls. All buffers live in [`LmWorkspace`]: an epoch allocates nothing.
+//!
+//! Convention: J is the derivative of the network outputs (scaled to [−1, 1]) with respect to the
+//! weights and e = target − output, over every training sample and output. By default
+//! ([`JtjConvention::Sum`]) JᵀJ and Jᵀe are plain sums, as in the original `trainlm` (Hagan &
+//! Menhaj 1994) and pyrenn; [`JtjConvention::Mean`] divides both by the number of error elements,
+//! as recent MATLAB versions do, which is the same as multiplying μ by that number.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::{factor, solve};
+use faer::linalg::matmul::matmul;
+use faer::linalg::matmul::triangular::{self, BlockStructure};
+use faer::{Accum, Mat, MatMut, MatRef, Par};
+use serde::{Deserialize, Serialize};
+
+use super::data::Dataset;
+use super::network::Layout;
+
+/// Whether JᵀJ and Jᵀe are sums or means over the error elements (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JtjConvention {
+    Sum,
+    Mean,
+}
+
+/// Training settings; the defaults are trainlm's and the paper's.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LmSettings {
+    pub mu_initial: f64,
+    pub mu_decrease: f64,
+    pub mu_increase: f64,
+    pub mu_max: f64,
+    /// Stop when the gradient of the training sum of squared errors, 2‖Jᵀe‖, is below this.
+    pub min_gradient: f64,
+    /// Stop when an epoch lowers the training error by less than this fraction (1 ppm).
+    pub min_relative_decrease: f64,
+    /// Stop when the validation error has not improved for this many epochs.
+    pub max_validation_failures: usize,
+    pub max_epochs: usize,
+    pub convention: JtjConvention,
+    /// Samples per Jacobian block.
+    pub block_samples: usize,
+}
+
+impl Default for LmSettings {
+    fn default() -> Self {
+        LmSettings {
+            mu_initial: 1e-3,
+            mu_decrease: 0.1,
+            mu_increase: 10.0,
+            mu_max: 1e10,
+            min_gradient: 1e-7,
+            min_relative_decrease: 1e-6,
+            max_validation_failures: 15,
+            max_epochs: 1000,
+            convention: JtjConvention::Sum,
+            block_samples: 256,
+        }
+    }
+}
+
+/// Why training ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// The training error fell by less than `min_relative_decrease` in an epoch.
+    MinRelativeDecrease,
+    /// The validation error did not improve for `max_validation_failures` epochs.
+    ValidationStop,
+    MaxEpochs,
+    /// μ exceeded `mu_max`: no step lowered the training error.
+    MuMax,
+    MinGradient,
+    /// The training error reached zero.
+    PerfectFit,
+}
+
+/// What happened during one training run. MSEs are over the scaled outputs ([−1, 1]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainingReport {
+    /// Epochs with an accepted step.
+    pub epochs: usize,
+    pub stop: StopReason,
+    /// The epoch whose weights were kept (lowest validation MSE; 0 = the initial weights).
+    pub best_epoch: usize,
+    /// Training MSE after each epoch, starting with the initial weights.
+    pub train_mse: Vec<f64>,
+    /// Validation MSE after each epoch (NaN when there is no validation data).
+    pub validation_mse: Vec<f64>,
+    pub final_mu: f64,
+}
+
+impl TrainingReport {
+    pub fn best_train_mse(&self) -> f64 {
+        self.train_mse[self.best_epoch]
+    }
+
+    pub fn best_validation_mse(&self) -> f64 {
+        self.validation_mse[self.best_epoch]
+    }
+}
+
+/// Every buffer an LM run needs, sized for one network shape and block length.
+pub struct LmWorkspace {
+    layout: Layout,
+    block_samples: usize,
+    /// Jᵀ of one block: `n_params` × (block samples × outputs), column-major.
+    jacobian_t: Vec<f64>,
+    errors: Vec<f64>,
+    activations: Vec<f64>,
+    delta: Vec<f64>,
+    jtj: Mat<f64>,
+    jte: Mat<f64>,
+    factor: Mat<f64>,
+    step: Mat<f64>,
+    trial: Vec<f64>,
+    best: Vec<f64>,
+    scratch: MemBuffer,
+}
+
+impl LmWorkspace {
+    pub fn new(layout: &Layout, block_samples: usize) -> LmWorkspace {
+        let n_p = layout.n_params();
+        let block_samples = block_samples.max(1);
+        let rows = block_samples * layout.outputs();
+        let req = factor::cholesky_in_place_scratch::<f64>(n_p, Par::Seq, Default::default())
+            .or(solve::solve_in_place_scratch::<f64>(n_p, 1, Par::Seq));
+        LmWorkspace {
+            layout: layout.clone(),
+            block_samples,
+            jacobian_t: vec![0.0; n_p * rows],
+            errors: vec![0.0; rows],
+            activations: vec![0.0; layout.n_activations()],
+            delta: vec![0.0; layout.n_delta()],
+            jtj: Mat::zeros(n_p, n_p),
+            jte: Mat::zeros(n_p, 1),
+            factor: Mat::zeros(n_p, n_p),
+            step: Mat::zeros(n_p, 1),
+            trial: vec![0.0; n_p],
+            best: vec![0.0; n_p],
+            scratch: MemBuffer::new(req),
+        }
+    }
+
+    /// Forms JᵀJ (lower triangle) and Jᵀe at `weights` over `data`; returns the sum of squared
+    /// errors.
+    pub fn normal_equations(&mut self, weights: &[f64], data: &Dataset) -> f64 {
+        let layout = &self.layout;
+        let (n_p, n_in, n_out) = (layout.n_params(), layout.inputs(), layout.outputs());
+        let out_at = layout.n_activations() - n_out;
+        self.jtj.fill(0.0);
+        self.jte.fill(0.0);
+        let mut sse = 0.0;
+        let n = data.len();
+        let mut start = 0;
+        while start < n {
+            let count = self.block_samples.min(n - start);
+            for s in 0..count {
+                let row = start + s;
+                layout.forward(
+                    weights,
+                    &data.inputs[row * n_in..(row + 1) * n_in],
+                    &mut self.activations,
+                );
+                for k in 0..n_out {
+                    let e = data.targets[row * n_out + k] - self.activations[out_at + k];
+                    self.errors[s * n_out + k] = e;
+                    sse += e * e;
+                }
+                let columns = &mut self.jacobian_t[s * n_out * n_p..(s + 1) * n_out * n_p];
+                layout.output_gradients(weights, &self.activations, columns, &mut self.delta);
+            }
+            let cols = count * n_out;
+            let jt = MatRef::from_column_major_slice(&self.jacobian_t[..n_p * cols], n_p, cols);
+            let e = MatRef::from_column_major_slice(&self.errors[..cols], cols, 1);
+            triangular::matmul(
+                self.jtj.as_mut(),
+                BlockStructure::TriangularLower,
+                Accum::Add,
+                jt,
+                BlockStructure::Rectangular,
+                jt.transpose(),
+                BlockStructure::Rectangular,
+                1.0,
+                Par::Seq,
+            );
+            matmul(self.jte.as_mut(), Accum::Add, jt, e, 1.0, Par::Seq);
+            start += count;
+        }
+        sse
+    }
+
+    /// JᵀJ's lower triangle and Jᵀe from the last [`LmWorkspace::normal_equations`].
+    pub fn jtj(&self) -> MatRef<'_, f64> {
+        self.jtj.as_ref()
+    }
+
+    pub fn jte(&self) -> MatRef<'_, f64> {
+        self.jte.as_ref()
+    }
+
+    /// Solves (JᵀJ + μI)·step = Jᵀe into `self.step`; false when the matrix is not positive
+    /// definite at this μ.
+    fn solve_damped(&mut self, mu: f64) -> bool {
+        let n_p = self.layout.n_params();
+        for j in 0..n_p {
+            for i in j..n_p {
+                self.factor[(i, j)] = self.jtj[(i, j)];
+            }
+            self.factor[(j, j)] += mu;
+        }
+        let stack = MemStack::new(&mut self.scratch);
+        let factored = factor::cholesky_in_place(
+            self.factor.as_mut(),
+            Default::default(),
+            Par::Seq,
+            stack,
+            Default::default(),
+        );
+        if factored.is_err() {
+            return false;
+        }
+        self.step.copy_from(&self.jte);
+        solve::solve_in_place(self.factor.as_ref(), self.step.as_mut(), Par::Seq, stack);
+        (0..n_p).all(|i| self.step[(i, 0)].is_finite())
+    }
+
+    /// Trains from `weights` and leaves there the weights of the best validation epoch (or the
+    /// last epoch when `validation` is empty).
+    pub fn train(
+        &mut self,
+        weights: &mut [f64],
+        train: &Dataset,
+        validation: &Dataset,
+        settings: &LmSettings,
+    ) -> TrainingReport {
+        let n_p = self.layout.n_params();
+        assert_eq!(weights.len(), n_p, "weights do not fit the workspace's network");
+        let elements = (train.len() * train.n_outputs).max(1) as f64;
+        let mu_scale = match settings.convention {
+            JtjConvention::Sum => 1.0,
+            JtjConvention::Mean => elements,
+        };
+        let mut train_mse = Vec::with_capacity(settings.max_epochs + 1);
+        let mut validation_mse = Vec::with_capacity(settings.max_epochs + 1);
+        let has_validation = !validation.is_empty();
+        let mut mu = settings.mu_initial;
+
+        let mut sse = self.normal_equations(weights, train);
+        train_mse.push(sse / elements);
+        let mut best_validation = self.mse(weights, validation);
+        validation_mse.push(best_validation);
+        self.best.copy_from_slice(weights);
+        let mut best_epoch = 0;
+        let mut failures = 0;
+        let mut epoch = 0;
+        let stop = loop {
+            if sse == 0.0 {
+                break StopReason::PerfectFit;
+            }
+            if epoch >= settings.max_epochs {
+                break StopReason::MaxEpochs;
+            }
+            let gradient = 2.0 * self.jte.norm_l2();
+            if gradient < settings.min_gradient {
+                break StopReason::MinGradient;
+            }
+            // trainlm: damp harder until a step lowers the training error.
+            let mut accepted = None;
+            while mu <= settings.mu_max {
+                if self.solve_damped(mu * mu_scale) {
+                    for (i, (t, w)) in self.trial.iter_mut().zip(weights.iter()).enumerate() {
+                        *t = w + self.step[(i, 0)];
+                    }
+                    let trial_sse = sse_of(&self.layout, &self.trial, train, &mut self.activations);
+                    if trial_sse < sse {
+                        mu *= settings.mu_decrease;
+                        accepted = Some(trial_sse);
+                        break;
+                    }
+                }
+                mu *= settings.mu_increase;
+            }
+            let Some(new_sse) = accepted else {
+                break StopReason::MuMax;
+            };
+            weights.copy_from_slice(&self.trial);
+            epoch += 1;
+            let relative_decrease = (sse - new_sse) / sse;
+            train_mse.push(new_sse / elements);
+            let validation_now = self.mse(weights, validation);
+            validation_mse.push(validation_now);
+            if !has_validation || validation_now < best_validation {
+                best_validation = validation_now;
+                best_epoch = epoch;
+                self.best.copy_from_slice(weights);
+                failures = 0;
+            } else {
+                failures += 1;
+            }
+            if relative_decrease < settings.min_relative_decrease {
+                break StopReason::MinRelativeDecrease;
+            }
+            if has_validation && failures >= settings.max_validation_failures {
+                break StopReason::ValidationStop;
+            }
+            // Checked here too so that the last epoch does not form unused normal equations.
+            if epoch >= settings.max_epochs {
+                break StopReason::MaxEpochs;
+            }
+            sse = self.normal_equations(weights, train);
+        };
+        weights.copy_from_slice(&self.best);
+        TrainingReport {
+            epochs: epoch,
+            stop,
+            best_epoch,
+            train_mse,
+            validation_mse,
+            final_mu: mu,
+        }
+    }
+
+    /// Mean squared error over all samples and outputs (NaN for no data).
+    pub fn mse(&mut self, weights: &[f64], data: &Dataset) -> f64 {
+        if data.is_empty() {
+            return f64::NAN;
+        }
+        sse_of(&self.layout, weights, data, &mut self.activations) / (data.len() * data.n_outputs) as f64
+    }
+
+    /// Where the best weights of the last run are kept (for callers that reuse buffers).
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+}
+
+/// Sum of squared errors of the network over `data`.
+fn sse_of(layout: &Layout, weights: &[f64], data: &Dataset, activations: &mut [f64]) -> f64 {
+    let (n_in, n_out) = (layout.inputs(), layout.outputs());
+    let out_at = layout.n_activations() - n_out;
+    let mut sse = 0.0;
+    for row in 0..data.len() {
+        layout.forward(weights, &data.inputs[row * n_in..(row + 1) * n_in], activations);
+        for k in 0..n_out {
+            let e = data.targets[row * n_out + k] - activations[out_at + k];
+            sse += e * e;
+        }
+    }
+    sse
+}
+
+/// The whole Jacobian of the outputs over `data` (rows: sample-major, then output), for tests
+/// and peer checks; training never stores it.
+pub fn full_jacobian(layout: &Layout, weights: &[f64], data: &Dataset) -> Mat<f64> {
+    let (n_p, n_in, n_out) = (layout.n_params(), layout.inputs(), layout.outputs());
+    let mut activations = vec![0.0; layout.n_activations()];
+    let mut delta = vec![0.0; layout.n_delta()];
+    let mut columns = vec![0.0; n_out * n_p];
+    let mut jacobian = Mat::zeros(data.len() * n_out, n_p);
+    for row in 0..data.len() {
+        layout.forward(
+            weights,
+            &data.inputs[row * n_in..(row + 1) * n_in],
+            &mut activations,
+        );
+        layout.output_gradients(weights, &activations, &mut columns, &mut delta);
+        write_rows(jacobian.as_mut(), row * n_out, &columns, n_p);
+    }
+    jacobian
+}
+
+fn write_rows(mut jacobian: MatMut<'_, f64>, first_row: usize, columns: &[f64], n_p: usize) {
+    for (k, column) in columns.chunks_exact(n_p).enumerate() {
+        for (p, v) in column.iter().enumerate() {
+            jacobian[(first_row + k, p)] = *v;
+        }
+    }
+}

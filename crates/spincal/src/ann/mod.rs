@@ -1,0 +1,496 @@
+//! The neural-network corrector (SPEC §3, first bullet): a feed-forward network trained with
+//! Levenberg–Marquardt on a 60/20/20 division, with restarts and architecture sweeps.
+//!
+//! [`AnnProblem`] holds the scaled, divided data once; [`AnnProblem::train`] trains one
+//! architecture with restarts and returns an [`AnnModel`] (a [`crate::corrector::Corrector`]);
+//! [`sweep`] trains a grid of architectures in parallel.
+
+pub mod data;
+pub mod lm;
+pub mod network;
+mod sweep;
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+pub use data::{Dataset, Division, DivisionMode, Part, Scaling};
+pub use lm::{JtjConvention, LmSettings, LmWorkspace, StopReason, TrainingReport};
+pub use network::{Layout, Network, MAX_HIDDEN_LAYERS};
+pub use sweep::{architecture_label, default_grid, sweep, SweepProgress, SweepRow, SweepSettings};
+
+use crate::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
+use crate::metrics::fit_percent;
+use crate::recording::Recording;
+
+/// What can be wrong with a network training request.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum AnnError {
+    #[error("no axes chosen: pick one or more of x, y, z")]
+    NoAxes,
+    #[error("axis {0} is listed twice")]
+    RepeatedAxis(Axis),
+    #[error("the measured recording has {measured} samples and the reference {reference}: they must be the same samples")]
+    LengthMismatch { measured: usize, reference: usize },
+    #[error("sample {index}: measured time {measured} s differs from reference time {reference} s")]
+    TimeMismatch {
+        index: usize,
+        measured: f64,
+        reference: f64,
+    },
+    #[error("{samples} samples with {delays} delays leave too few for a 60/20/20 division (need at least {needed})")]
+    TooFewSamples {
+        samples: usize,
+        delays: usize,
+        needed: usize,
+    },
+    #[error("{0} hidden layers asked for; at most {MAX_HIDDEN_LAYERS} are supported")]
+    TooManyHiddenLayers(usize),
+    #[error("hidden layer {layer} has no units")]
+    EmptyLayer { layer: usize },
+    #[error("restarts must be at least 1")]
+    NoRestarts,
+}
+
+/// Smallest usable sample count: each part needs a few samples.
+const MIN_SAMPLES: usize = 10;
+
+/// Fit % (SPEC §4, original units) of each axis on each part.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PartFits {
+    pub train: Vec<f64>,
+    pub validation: Vec<f64>,
+    pub test: Vec<f64>,
+}
+
+impl PartFits {
+    pub fn get(&self, part: Part) -> &[f64] {
+        match part {
+            Part::Train => &self.train,
+            Part::Validation => &self.validation,
+            Part::Test => &self.test,
+        }
+    }
+
+    /// Mean over axes of one part's fit %.
+    pub fn mean(&self, part: Part) -> f64 {
+        let v = self.get(part);
+        v.iter().sum::<f64>() / v.len() as f64
+    }
+}
+
+/// Measured and reference data of the chosen axes, divided and scaled, ready for training.
+#[derive(Debug, Clone)]
+pub struct AnnProblem {
+    pub axes: Vec<Axis>,
+    pub delays: usize,
+    pub division: Division,
+    pub input_scaling: Scaling,
+    pub output_scaling: Scaling,
+    pub train: Dataset,
+    pub validation: Dataset,
+    pub test: Dataset,
+    /// Chosen axes, original units (m/s²).
+    measured: Vec<Vec<f64>>,
+    reference: Vec<Vec<f64>>,
+}
+
+impl AnnProblem {
+    /// Pairs `measured` with `reference` sample by sample for the chosen axes. Scaling comes from
+    /// the training part only, so the test part influences nothing.
+    pub fn new(
+        measured: &Recording,
+        reference: &Recording,
+        axes: &[Axis],
+        delays: usize,
+        mode: DivisionMode,
+    ) -> Result<AnnProblem, AnnError> {
+        check_axes(axes)?;
+        check_pairing(measured, reference)?;
+        let n = measured.len();
+        let needed = delays + MIN_SAMPLES;
+        if n < needed {
+            return Err(AnnError::TooFewSamples {
+                samples: n,
+                delays,
+                needed,
+            });
+        }
+        let pick = |r: &Recording| -> Vec<Vec<f64>> {
+            axes.iter().map(|a| r.accel_mps2[a.index()].clone()).collect()
+        };
+        let measured = pick(measured);
+        let reference = pick(reference);
+        let division = Division::new(n, delays, mode);
+        let m: Vec<&[f64]> = measured.iter().map(Vec::as_slice).collect();
+        let r: Vec<&[f64]> = reference.iter().map(Vec::as_slice).collect();
+        let input_scaling = Scaling::fit(&m, &division.train);
+        let output_scaling = Scaling::fit(&r, &division.train);
+        let build = |rows| Dataset::build(&m, &r, delays, &input_scaling, &output_scaling, rows);
+        let train = build(&division.train);
+        let validation = build(&division.validation);
+        let test = build(&division.test);
+        Ok(AnnProblem {
+            axes: axes.to_vec(),
+            delays,
+            division,
+            input_scaling,
+            output_scaling,
+            train,
+            validation,
+            test,
+            measured,
+            reference,
+        })
+    }
+
+    /// The network shape for `hidden` on this problem.
+    pub fn layout(&self, hidden: &[usize]) -> Result<Layout, AnnError> {
+        if hidden.len() > MAX_HIDDEN_LAYERS {
+            return Err(AnnError::TooManyHiddenLayers(hidden.len()));
+        }
+        if let Some(layer) = hidden.iter().position(|&h| h == 0) {
+            return Err(AnnError::EmptyLayer { layer: layer + 1 });
+        }
+        Ok(Layout::new(self.train.n_inputs, hidden, self.train.n_outputs))
+    }
+
+    /// Nguyen–Widrow initial weights of restart `restart` (seeded by [`restart_seed`]).
+    pub fn initial_weights(&self, layout: &Layout, base_seed: u64, restart: usize) -> Vec<f64> {
+        let mut rng = ChaCha8Rng::seed_from_u64(restart_seed(base_seed, restart));
+        layout.nguyen_widrow(&mut rng)
+    }
+
+    /// One LM run from the given restart's initial weights.
+    pub fn train_once(
+        &self,
+        layout: &Layout,
+        base_seed: u64,
+        restart: usize,
+        settings: &LmSettings,
+    ) -> (Vec<f64>, TrainingReport) {
+        let mut weights = self.initial_weights(layout, base_seed, restart);
+        let mut workspace = LmWorkspace::new(layout, settings.block_samples);
+        let report = workspace.train(&mut weights, &self.train, &self.validation, settings);
+        (weights, report)
+    }
+
+    /// Trains `restarts` times from seeds derived from `base_seed` and keeps the run with the
+    /// lowest validation MSE (earliest restart on ties). Restarts run in parallel on rayon's
+    /// current pool; the result does not depend on the number of threads.
+    pub fn train(
+        &self,
+        hidden: &[usize],
+        restarts: usize,
+        base_seed: u64,
+        settings: &LmSettings,
+    ) -> Result<AnnModel, AnnError> {
+        if restarts == 0 {
+            return Err(AnnError::NoRestarts);
+        }
+        let layout = self.layout(hidden)?;
+        let runs: Vec<(Vec<f64>, TrainingReport)> = (0..restarts)
+            .into_par_iter()
+            .map(|r| self.train_once(&layout, base_seed, r, settings))
+            .collect();
+        let best = best_run(runs.iter().map(|(_, report)| report));
+        let (weights, report) = runs.into_iter().nth(best).expect("best is an index of runs");
+        Ok(self.model(hidden, weights, report, restarts, best, base_seed, settings))
+    }
+
+    /// Wraps trained weights into a saveable model with its training summary.
+    #[allow(clippy::too_many_arguments)]
+    pub fn model(
+        &self,
+        hidden: &[usize],
+        weights: Vec<f64>,
+        report: TrainingReport,
+        restarts: usize,
+        best_restart: usize,
+        base_seed: u64,
+        settings: &LmSettings,
+    ) -> AnnModel {
+        let network = Network {
+            inputs: self.train.n_inputs,
+            hidden: hidden.to_vec(),
+            outputs: self.train.n_outputs,
+            weights,
+        };
+        let mut model = AnnModel {
+            axes: self.axes.clone(),
+            delays: self.delays,
+            input_scaling: self.input_scaling.clone(),
+            output_scaling: self.output_scaling.clone(),
+            network,
+            training: None,
+        };
+        let fits = self.fits(&model);
+        model.training = Some(AnnTrainingSummary {
+            base_seed,
+            restarts,
+            best_restart,
+            settings: settings.clone(),
+            report,
+            fits,
+            uncorrected: self.uncorrected_fits(),
+            division: self.division.clone(),
+        });
+        model
+    }
+
+    /// Fit % of a model on each part, per axis, in original units.
+    pub fn fits(&self, model: &AnnModel) -> PartFits {
+        let layout = model.network.layout();
+        let fit_part = |part: Part, data: &Dataset| -> Vec<f64> {
+            let predicted = model.predict_scaled(&layout, data);
+            self.part_fit(part, |c, k| {
+                model.output_scaling.reverse(c, predicted[k * data.n_outputs + c])
+            })
+        };
+        PartFits {
+            train: fit_part(Part::Train, &self.train),
+            validation: fit_part(Part::Validation, &self.validation),
+            test: fit_part(Part::Test, &self.test),
+        }
+    }
+
+    /// Fit % of the measured signal itself against the reference (what correction must beat).
+    pub fn uncorrected_fits(&self) -> PartFits {
+        let samples = |part: Part| -> Vec<usize> {
+            self.division
+                .ranges(part)
+                .iter()
+                .flat_map(|r| r.clone())
+                .collect()
+        };
+        let fit = |part: Part| -> Vec<f64> {
+            let idx = samples(part);
+            (0..self.axes.len())
+                .map(|c| {
+                    let y: Vec<f64> = idx.iter().map(|&i| self.reference[c][i]).collect();
+                    let m: Vec<f64> = idx.iter().map(|&i| self.measured[c][i]).collect();
+                    fit_percent(&y, &m)
+                })
+                .collect()
+        };
+        PartFits {
+            train: fit(Part::Train),
+            validation: fit(Part::Validation),
+            test: fit(Part::Test),
+        }
+    }
+
+    /// Fit % per axis of estimates `estimate(axis, k)` for the k-th sample of `part`.
+    fn part_fit(&self, part: Part, estimate: impl Fn(usize, usize) -> f64) -> Vec<f64> {
+        let idx: Vec<usize> = self
+            .division
+            .ranges(part)
+            .iter()
+            .flat_map(|r| r.clone())
+            .collect();
+        (0..self.axes.len())
+            .map(|c| {
+                let y: Vec<f64> = idx.iter().map(|&i| self.reference[c][i]).collect();
+                let e: Vec<f64> = (0..idx.len()).map(|k| estimate(c, k)).collect();
+                fit_percent(&y, &e)
+            })
+            .collect()
+    }
+}
+
+/// Index of the run with the lowest validation MSE (training MSE when there is no validation
+/// data); the earliest wins ties, so the choice never depends on scheduling.
+fn best_run<'a>(reports: impl Iterator<Item = &'a TrainingReport>) -> usize {
+    let mut best = (0, f64::INFINITY);
+    for (i, report) in reports.enumerate() {
+        let mut key = report.best_validation_mse();
+        if !key.is_finite() {
+            key = report.best_train_mse();
+        }
+        if key < best.1 {
+            best = (i, key);
+        }
+    }
+    best.0
+}
+
+/// The seed of restart `restart`: a SplitMix64 mix of the base seed and the restart index, so the
+/// same architecture and restart get the same start in `train` and in `sweep`.
+pub fn restart_seed(base_seed: u64, restart: usize) -> u64 {
+    fn mix(mut z: u64) -> u64 {
+        z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+    mix(base_seed ^ mix(restart as u64))
+}
+
+fn check_axes(axes: &[Axis]) -> Result<(), AnnError> {
+    if axes.is_empty() {
+        return Err(AnnError::NoAxes);
+    }
+    for (i, a) in axes.iter().enumerate() {
+        if axes[..i].contains(a) {
+            return Err(AnnError::RepeatedAxis(*a));
+        }
+    }
+    Ok(())
+}
+
+/// The two recordings must hold the same samples; times agree to 1 µs or 1e-6 relative.
+pub(crate) fn check_pairing(measured: &Recording, reference: &Recording) -> Result<(), AnnError> {
+    if measured.len() != reference.len() {
+        return Err(AnnError::LengthMismatch {
+            measured: measured.len(),
+            reference: reference.len(),
+        });
+    }
+    for (index, (&a, &b)) in measured.time_s.iter().zip(&reference.time_s).enumerate() {
+        if (a - b).abs() > 1e-6 * a.abs().max(1.0) {
+            return Err(AnnError::TimeMismatch {
+                index,
+                measured: a,
+                reference: b,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// How an [`AnnModel`] was trained.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AnnTrainingSummary {
+    pub base_seed: u64,
+    pub restarts: usize,
+    pub best_restart: usize,
+    pub settings: LmSettings,
+    /// The kept run's report, with per-epoch training and validation MSE.
+    pub report: TrainingReport,
+    pub fits: PartFits,
+    pub uncorrected: PartFits,
+    pub division: Division,
+}
+
+/// A trained network corrector: everything needed to apply it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AnnModel {
+    /// Axes read (in this order, each with its delays) and corrected.
+    pub axes: Vec<Axis>,
+    /// Previous samples of each axis used besides the current one.
+    pub delays: usize,
+    pub input_scaling: Scaling,
+    pub output_scaling: Scaling,
+    pub network: Network,
+    pub training: Option<AnnTrainingSummary>,
+}
+
+impl AnnModel {
+    /// Network outputs (scaled) for every row of `data`, row-major.
+    pub fn predict_scaled(&self, layout: &Layout, data: &Dataset) -> Vec<f64> {
+        let (n_in, n_out) = (layout.inputs(), layout.outputs());
+        let out_at = layout.n_activations() - n_out;
+        let mut activations = vec![0.0; layout.n_activations()];
+        let mut out = Vec::with_capacity(data.len() * n_out);
+        for row in 0..data.len() {
+            layout.forward(
+                &self.network.weights,
+                &data.inputs[row * n_in..(row + 1) * n_in],
+                &mut activations,
+            );
+            out.extend_from_slice(&activations[out_at..]);
+        }
+        out
+    }
+
+    /// Batch correction of a whole recording through the training-time data path: corrected
+    /// values of the chosen axes (original units) for samples `delays..`, per axis.
+    pub fn correct_batch(&self, recording: &Recording) -> Vec<Vec<f64>> {
+        let m: Vec<&[f64]> = self
+            .axes
+            .iter()
+            .map(|a| recording.accel_mps2[a.index()].as_slice())
+            .collect();
+        let n = recording.len();
+        if n <= self.delays {
+            return vec![Vec::new(); self.axes.len()];
+        }
+        let rows = self.delays..n;
+        let data = Dataset::build(
+            &m,
+            &m,
+            self.delays,
+            &self.input_scaling,
+            &self.input_scaling,
+            std::slice::from_ref(&rows),
+        );
+        let layout = self.network.layout();
+        let predicted = self.predict_scaled(&layout, &data);
+        (0..self.axes.len())
+            .map(|c| {
+                (0..data.len())
+                    .map(|k| self.output_scaling.reverse(c, predicted[k * data.n_outputs + c]))
+                    .collect()
+            })
+            .collect()
+    }
+}
+
+/// Streaming state of an [`AnnModel`]: the scaled delay history of each axis.
+struct AnnStream<'a> {
+    model: &'a AnnModel,
+    layout: Layout,
+    /// Network input row in the training layout: per axis, lag 0 … `delays`.
+    history: Vec<f64>,
+    activations: Vec<f64>,
+    seen: usize,
+}
+
+impl SampleCorrector for AnnStream<'_> {
+    fn correct_sample(&mut self, accel_mps2: [f64; 3]) -> CorrectedSample {
+        let model = self.model;
+        let lags = model.delays + 1;
+        for (c, axis) in model.axes.iter().enumerate() {
+            let row = &mut self.history[c * lags..(c + 1) * lags];
+            row.copy_within(0..lags - 1, 1);
+            row[0] = model.input_scaling.apply(c, accel_mps2[axis.index()]);
+        }
+        self.seen += 1;
+        let mut out = CorrectedSample {
+            accel_mps2,
+            valid: self.seen > model.delays,
+        };
+        if out.valid {
+            self.layout
+                .forward(&model.network.weights, &self.history, &mut self.activations);
+            let out_at = self.activations.len() - model.axes.len();
+            for (c, axis) in model.axes.iter().enumerate() {
+                out.accel_mps2[axis.index()] = model.output_scaling.reverse(c, self.activations[out_at + c]);
+            }
+        }
+        out
+    }
+}
+
+impl Corrector for AnnModel {
+    fn corrected_axes(&self) -> Vec<Axis> {
+        self.axes.clone()
+    }
+
+    fn warmup_samples(&self) -> usize {
+        self.delays
+    }
+
+    fn stream(&self) -> Box<dyn SampleCorrector + '_> {
+        let layout = self.network.layout();
+        Box::new(AnnStream {
+            model: self,
+            history: vec![0.0; layout.inputs()],
+            activations: vec![0.0; layout.n_activations()],
+            layout,
+            seen: 0,
+        })
+    }
+}

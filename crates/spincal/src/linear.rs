@@ -1,0 +1,143 @@
+//! The linear corrector (SPEC §3): per-axis offset plus a square matrix (scale and
+//! misalignment), fitted by least squares (QR) on the training part of the same 60/20/20
+//! division the network uses. The baseline every other corrector must beat.
+
+use faer::prelude::SolveLstsq;
+use faer::Mat;
+use serde::{Deserialize, Serialize};
+
+use crate::ann::{check_pairing, AnnError, Division, DivisionMode, Part, PartFits};
+use crate::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
+use crate::metrics::fit_percent;
+use crate::recording::Recording;
+
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LinearError {
+    /// The data does not pair up (shared checks with the network corrector).
+    #[error(transparent)]
+    Data(#[from] AnnError),
+    #[error("the least-squares solution is not finite: the measured axes are constant or collinear over the training part")]
+    Singular,
+}
+
+/// `corrected[axes[i]] = offset[i] + Σ_j matrix[i][j] · measured[axes[j]]`, sensor frame, m/s².
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LinearModel {
+    pub axes: Vec<Axis>,
+    pub offset_mps2: Vec<f64>,
+    /// Row i gives corrected axis i from the measured axes.
+    pub matrix: Vec<Vec<f64>>,
+    pub training: Option<LinearSummary>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LinearSummary {
+    pub fits: PartFits,
+    pub uncorrected: PartFits,
+    pub division: Division,
+}
+
+impl LinearModel {
+    /// Least squares of `reference` on `[1, measured]` over the training part.
+    pub fn fit(
+        measured: &Recording,
+        reference: &Recording,
+        axes: &[Axis],
+        mode: DivisionMode,
+    ) -> Result<LinearModel, LinearError> {
+        if axes.is_empty() {
+            return Err(AnnError::NoAxes.into());
+        }
+        check_pairing(measured, reference)?;
+        let division = Division::new(measured.len(), 0, mode);
+        let rows: Vec<usize> = division.train.iter().flat_map(|r| r.clone()).collect();
+        let k = axes.len();
+        let design = Mat::from_fn(rows.len(), k + 1, |r, c| {
+            if c == 0 {
+                1.0
+            } else {
+                measured.accel_mps2[axes[c - 1].index()][rows[r]]
+            }
+        });
+        let mut solution = Mat::from_fn(rows.len(), k, |r, c| {
+            reference.accel_mps2[axes[c].index()][rows[r]]
+        });
+        design.qr().solve_lstsq_in_place(&mut solution);
+        let offset_mps2: Vec<f64> = (0..k).map(|i| solution[(0, i)]).collect();
+        let matrix: Vec<Vec<f64>> = (0..k)
+            .map(|i| (0..k).map(|j| solution[(j + 1, i)]).collect())
+            .collect();
+        if offset_mps2
+            .iter()
+            .chain(matrix.iter().flatten())
+            .any(|v| !v.is_finite())
+        {
+            return Err(LinearError::Singular);
+        }
+        let mut model = LinearModel {
+            axes: axes.to_vec(),
+            offset_mps2,
+            matrix,
+            training: None,
+        };
+        let corrected = model.correct(measured);
+        let fits_of = |signal: &[Vec<f64>; 3]| -> PartFits {
+            let part = |p: Part| -> Vec<f64> {
+                let idx: Vec<usize> = division.ranges(p).iter().flat_map(|r| r.clone()).collect();
+                axes.iter()
+                    .map(|a| {
+                        let y: Vec<f64> = idx.iter().map(|&i| reference.accel_mps2[a.index()][i]).collect();
+                        let e: Vec<f64> = idx.iter().map(|&i| signal[a.index()][i]).collect();
+                        fit_percent(&y, &e)
+                    })
+                    .collect()
+            };
+            PartFits {
+                train: part(Part::Train),
+                validation: part(Part::Validation),
+                test: part(Part::Test),
+            }
+        };
+        model.training = Some(LinearSummary {
+            fits: fits_of(&corrected.accel_mps2),
+            uncorrected: fits_of(&measured.accel_mps2),
+            division,
+        });
+        Ok(model)
+    }
+}
+
+struct LinearStream<'a>(&'a LinearModel);
+
+impl SampleCorrector for LinearStream<'_> {
+    fn correct_sample(&mut self, accel_mps2: [f64; 3]) -> CorrectedSample {
+        let model = self.0;
+        let mut out = accel_mps2;
+        for (i, axis) in model.axes.iter().enumerate() {
+            let mut v = model.offset_mps2[i];
+            for (j, from) in model.axes.iter().enumerate() {
+                v += model.matrix[i][j] * accel_mps2[from.index()];
+            }
+            out[axis.index()] = v;
+        }
+        CorrectedSample {
+            accel_mps2: out,
+            valid: true,
+        }
+    }
+}
+
+impl Corrector for LinearModel {
+    fn corrected_axes(&self) -> Vec<Axis> {
+        self.axes.clone()
+    }
+
+    fn warmup_samples(&self) -> usize {
+        0
+    }
+
+    fn stream(&self) -> Box<dyn SampleCorrector + '_> {
+        Box::new(LinearStream(self))
+    }
+}

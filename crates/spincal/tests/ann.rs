@@ -1,0 +1,276 @@
+//! The network corrector end to end on synthetic turntable data.
+
+mod common;
+
+use common::synthetic::turntable_pair;
+use spincal::ann::lm::full_jacobian;
+use spincal::ann::{
+    sweep, AnnProblem, DivisionMode, LmSettings, LmWorkspace, Part, StopReason, SweepSettings,
+};
+use spincal::corrector::{Axis, Corrector, CorrectorFile, CorrectorModel};
+use spincal::linear::LinearModel;
+
+const XY: [Axis; 2] = [Axis::X, Axis::Y];
+
+#[test]
+fn jacobian_with_delays_matches_finite_differences() {
+    let (measured, reference) = turntable_pair(400, 1);
+    for (delays, hidden) in [(0usize, vec![5]), (3, vec![4, 3]), (2, vec![3, 2, 2])] {
+        let problem = AnnProblem::new(&measured, &reference, &XY, delays, DivisionMode::Contiguous).unwrap();
+        let layout = problem.layout(&hidden).unwrap();
+        let weights = problem.initial_weights(&layout, 11, 0);
+        let mut data = problem.train.clone();
+        data.inputs.truncate(30 * data.n_inputs);
+        data.targets.truncate(30 * data.n_outputs);
+        let jacobian = full_jacobian(&layout, &weights, &data);
+        let mut activations = vec![0.0; layout.n_activations()];
+        let out_at = layout.n_activations() - layout.outputs();
+        let outputs = |w: &[f64], row: usize, activations: &mut [f64]| -> Vec<f64> {
+            let n_in = layout.inputs();
+            layout.forward(w, &data.inputs[row * n_in..(row + 1) * n_in], activations);
+            activations[out_at..].to_vec()
+        };
+        let h = 1e-6;
+        for p in 0..layout.n_params() {
+            let (mut plus, mut minus) = (weights.clone(), weights.clone());
+            plus[p] += h;
+            minus[p] -= h;
+            for row in 0..data.len() {
+                let up = outputs(&plus, row, &mut activations);
+                let down = outputs(&minus, row, &mut activations);
+                for k in 0..layout.outputs() {
+                    let numeric = (up[k] - down[k]) / (2.0 * h);
+                    let analytic = jacobian[(row * layout.outputs() + k, p)];
+                    let scale = analytic.abs().max(numeric.abs()).max(1e-3);
+                    assert!(
+                        (numeric - analytic).abs() <= 1e-6 * scale,
+                        "delays {delays} hidden {hidden:?} param {p} row {row} output {k}: {analytic} vs {numeric}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn blocked_normal_equations_equal_the_full_jacobian_products() {
+    let (measured, reference) = turntable_pair(500, 2);
+    let problem = AnnProblem::new(&measured, &reference, &XY, 1, DivisionMode::Contiguous).unwrap();
+    let layout = problem.layout(&[6, 4]).unwrap();
+    let weights = problem.initial_weights(&layout, 3, 1);
+    // 37 does not divide the 299 training samples: the last block is partial.
+    let mut workspace = LmWorkspace::new(&layout, 37);
+    let sse = workspace.normal_equations(&weights, &problem.train);
+    let jacobian = full_jacobian(&layout, &weights, &problem.train);
+    let jtj = jacobian.transpose() * &jacobian;
+    let n_out = problem.train.n_outputs;
+    let mut expected_sse = 0.0;
+    let mut errors = vec![0.0; jacobian.nrows()];
+    let mut activations = vec![0.0; layout.n_activations()];
+    let out_at = layout.n_activations() - n_out;
+    for row in 0..problem.train.len() {
+        let n_in = layout.inputs();
+        layout.forward(
+            &weights,
+            &problem.train.inputs[row * n_in..(row + 1) * n_in],
+            &mut activations,
+        );
+        for k in 0..n_out {
+            let e = problem.train.targets[row * n_out + k] - activations[out_at + k];
+            errors[row * n_out + k] = e;
+            expected_sse += e * e;
+        }
+    }
+    assert!((sse - expected_sse).abs() <= 1e-10 * expected_sse);
+    for j in 0..layout.n_params() {
+        for i in j..layout.n_params() {
+            let got = workspace.jtj()[(i, j)];
+            assert!(
+                (got - jtj[(i, j)]).abs() <= 1e-9 * (1.0 + jtj[(i, j)].abs()),
+                "JᵀJ[{i},{j}]"
+            );
+        }
+        let jte: f64 = (0..jacobian.nrows()).map(|r| jacobian[(r, j)] * errors[r]).sum();
+        assert!(
+            (workspace.jte()[(j, 0)] - jte).abs() <= 1e-9 * (1.0 + jte.abs()),
+            "Jᵀe[{j}]"
+        );
+    }
+}
+
+#[test]
+fn training_lowers_the_error_every_epoch_and_keeps_the_best_validation_epoch() {
+    let (measured, reference) = turntable_pair(3000, 3);
+    let problem = AnnProblem::new(&measured, &reference, &XY, 0, DivisionMode::Contiguous).unwrap();
+    let layout = problem.layout(&[5]).unwrap();
+    let settings = LmSettings::default();
+    let (weights, report) = problem.train_once(&layout, 5, 0, &settings);
+    assert!(report.epochs > 3, "{report:?}");
+    assert_eq!(report.train_mse.len(), report.epochs + 1);
+    assert!(
+        report.train_mse.windows(2).all(|w| w[1] < w[0]),
+        "LM accepts only decreasing steps"
+    );
+    let best = report.validation_mse[report.best_epoch];
+    assert!(report.validation_mse.iter().all(|&v| v >= best));
+    let mut workspace = LmWorkspace::new(&layout, 64);
+    assert_eq!(
+        workspace.mse(&weights, &problem.validation),
+        best,
+        "kept weights are the best epoch's"
+    );
+    if report.stop == StopReason::ValidationStop {
+        assert_eq!(
+            report.epochs - report.best_epoch,
+            settings.max_validation_failures
+        );
+    }
+}
+
+#[test]
+fn weights_are_bit_identical_across_runs_and_thread_counts() {
+    let (measured, reference) = turntable_pair(1500, 4);
+    let problem = AnnProblem::new(
+        &measured,
+        &reference,
+        &XY,
+        1,
+        DivisionMode::Interleaved { block_len: 50 },
+    )
+    .unwrap();
+    let settings = SweepSettings {
+        grid: vec![vec![2], vec![4], vec![3, 2]],
+        restarts: 3,
+        base_seed: 99,
+        lm: LmSettings {
+            max_epochs: 30,
+            ..LmSettings::default()
+        },
+    };
+    let in_pool = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| sweep(&problem, &settings, &|_| {}).unwrap())
+    };
+    let one = in_pool(1);
+    let two = in_pool(2);
+    assert_eq!(one.len(), 3);
+    for (a, b) in one.iter().zip(&two) {
+        assert_eq!(
+            a.best_validation_mse.to_bits(),
+            b.best_validation_mse.to_bits(),
+            "{}",
+            a.architecture
+        );
+        assert_eq!(a.test_fit_percent.to_bits(), b.test_fit_percent.to_bits());
+        assert_eq!((a.epochs, a.best_restart), (b.epochs, b.best_restart));
+    }
+    // train() reproduces the sweep's pick for the same seed, bit for bit, run after run.
+    let first = problem.train(&[3, 2], 3, 99, &settings.lm).unwrap();
+    let again = problem.train(&[3, 2], 3, 99, &settings.lm).unwrap();
+    assert_eq!(first.network.weights, again.network.weights);
+    let summary = first.training.as_ref().unwrap();
+    assert_eq!(
+        summary.report.best_validation_mse().to_bits(),
+        one[2].best_validation_mse.to_bits()
+    );
+}
+
+#[test]
+fn network_beats_linear_beats_uncorrected_on_the_test_part() {
+    let (measured, reference) = turntable_pair(6000, 5);
+    let problem = AnnProblem::new(&measured, &reference, &XY, 0, DivisionMode::Contiguous).unwrap();
+    let ann = problem.train(&[8], 3, 1, &LmSettings::default()).unwrap();
+    let linear = LinearModel::fit(&measured, &reference, &XY, DivisionMode::Contiguous).unwrap();
+    let ann_fit = ann.training.as_ref().unwrap().fits.clone();
+    let linear_fit = linear.training.as_ref().unwrap().fits.clone();
+    let raw_fit = problem.uncorrected_fits();
+    eprintln!(
+        "test fit % (x, y): network {:?}, linear {:?}, uncorrected {:?}",
+        ann_fit.test, linear_fit.test, raw_fit.test
+    );
+    for c in 0..2 {
+        assert!(
+            ann_fit.test[c] > linear_fit.test[c] + 3.0,
+            "axis {c}: {ann_fit:?} vs {linear_fit:?}"
+        );
+        assert!(
+            linear_fit.test[c] > raw_fit.test[c] + 5.0,
+            "axis {c}: {linear_fit:?} vs {raw_fit:?}"
+        );
+    }
+    assert_eq!(linear.training.as_ref().unwrap().uncorrected, raw_fit);
+}
+
+#[test]
+fn saved_models_round_trip_and_apply_identically() {
+    let (measured, reference) = turntable_pair(1200, 6);
+    let problem = AnnProblem::new(&measured, &reference, &XY, 2, DivisionMode::Contiguous).unwrap();
+    let ann = problem.train(&[4], 1, 2, &LmSettings::default()).unwrap();
+    let linear = LinearModel::fit(&measured, &reference, &Axis::ALL, DivisionMode::Contiguous).unwrap();
+    for model in [
+        CorrectorModel::Ann(Box::new(ann)),
+        CorrectorModel::Linear(Box::new(linear)),
+    ] {
+        let file = CorrectorFile::new(model);
+        let text = file.to_json();
+        let back = CorrectorFile::from_json(&text, "model.json").unwrap();
+        assert!(back == file, "{} round trip is not exact", file.corrector.kind());
+        assert!(back.corrector.correct(&measured) == file.corrector.correct(&measured));
+        // The same file with another version is refused, naming the file and both versions.
+        let future = text.replacen("\"format_version\": 1", "\"format_version\": 2", 1);
+        let message = CorrectorFile::from_json(&future, "future.json")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("future.json")
+                && message.contains("format_version 2")
+                && message.contains("format_version 1"),
+            "{message}"
+        );
+    }
+}
+
+#[test]
+fn streaming_correction_matches_batch_application() {
+    let (measured, reference) = turntable_pair(1500, 7);
+    let problem = AnnProblem::new(&measured, &reference, &XY, 3, DivisionMode::Contiguous).unwrap();
+    let model = problem
+        .train(
+            &[5, 3],
+            1,
+            4,
+            &LmSettings {
+                max_epochs: 20,
+                ..LmSettings::default()
+            },
+        )
+        .unwrap();
+    let streamed = model.correct(&measured);
+    let batch = model.correct_batch(&measured);
+    assert!(streamed.valid[..3].iter().all(|v| !v));
+    assert!(streamed.valid[3..].iter().all(|&v| v));
+    for (c, axis) in XY.iter().enumerate() {
+        // Samples without full history are passed through unchanged.
+        assert_eq!(
+            &streamed.accel_mps2[axis.index()][..3],
+            &measured.accel_mps2[axis.index()][..3]
+        );
+        for (i, v) in batch[c].iter().enumerate() {
+            let s = streamed.accel_mps2[axis.index()][i + 3];
+            assert!(
+                (s - v).abs() <= 1e-12 * v.abs().max(1.0),
+                "axis {axis} sample {}: {s} vs {v}",
+                i + 3
+            );
+        }
+    }
+    assert_eq!(
+        streamed.accel_mps2[2], measured.accel_mps2[2],
+        "z is not corrected and passes through"
+    );
+    let fits = model.training.as_ref().unwrap().fits.clone();
+    assert!(fits.mean(Part::Test).is_finite());
+}
