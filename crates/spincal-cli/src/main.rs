@@ -21,6 +21,8 @@ struct Cli {
 enum Command {
     /// Simulate the default record-player session and calibrate it (the README's main command).
     Demo(commands::demo::DemoArgs),
+    /// The whole job: turntable fit, every corrector trained and compared, model + report written.
+    Calibrate(commands::calibrate::CalibrateArgs),
     /// Simulate a 3DM-GX1-like accelerometer on a turntable (CSV + truth JSON).
     Simulate(commands::simulate::SimulateArgs),
     /// Fit the turntable model to recordings: r, ω, tilt, β, phase, offsets, drift.
@@ -70,6 +72,7 @@ fn main() {
     let ui = ui::Ui::new(cli.quiet);
     let result = match cli.command {
         Command::Demo(args) => commands::demo::run(args, ui),
+        Command::Calibrate(args) => commands::calibrate::run(args, ui),
         Command::Simulate(args) => commands::simulate::run(args),
         Command::Fit(args) => commands::fit::run(args, ui),
         Command::Sensitivity(args) => commands::sensitivity::run(args),

@@ -18,7 +18,6 @@ impl Ui {
     }
 
     /// A progress bar on stderr for `total` steps, hidden when quiet or not a terminal.
-    #[allow(dead_code)] // first used by the long-running commands merged later
     pub fn progress(&self, total: u64, message: &str) -> ProgressBar {
         if !self.show_progress {
             return ProgressBar::hidden();

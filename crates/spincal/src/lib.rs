@@ -12,6 +12,7 @@
 pub struct ReadmeDoctests;
 
 pub mod ann;
+pub mod calibrate;
 pub mod checks;
 pub mod corrector;
 pub mod linear;
@@ -19,6 +20,7 @@ pub mod metrics;
 pub mod optim;
 pub mod plot;
 pub mod recording;
+pub mod report;
 pub mod simulate;
 pub mod spectrum;
 pub mod strobe;

@@ -34,9 +34,12 @@ pub struct RateEstimate {
     pub omega_radps: f64,
     /// Peak power over the median power in the search band (a detection margin).
     pub peak_to_median: f64,
-    /// One-sided summed x+y power spectrum: frequencies, Hz…
+    /// One-sided summed x+y power spectrum: frequencies, Hz… (kept in memory for plots, not
+    /// written to JSON)
+    #[serde(skip)]
     pub spectrum_hz: Vec<f64>,
     /// …and power (arbitrary units, window-normalised).
+    #[serde(skip)]
     pub spectrum_power: Vec<f64>,
 }
 

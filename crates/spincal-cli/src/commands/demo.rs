@@ -4,24 +4,30 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
+use spincal::calibrate::{CalibrateSettings, NetworkChoice};
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
-use spincal::turntable::{fit_turntable, FitOptions, RadiusPrior};
+use spincal::turntable::{FitOptions, RadiusPrior};
 use spincal::AccelUnit;
 
+use super::calibrate::{run_calibration, small_grid, summary};
 use crate::ui::{self, Ui};
 
 #[derive(Args, Debug)]
-#[command(after_help = "Example:\n  spincal demo --out spincal-demo")]
+#[command(after_help = "Example:\n  spincal demo --out spincal-demo && xdg-open spincal-demo/report.html")]
 pub struct DemoArgs {
     /// Folder for the simulated recordings and every result.
     #[arg(long, default_value = "spincal-demo")]
     pub out: PathBuf,
-    /// Seed of the simulated session.
+    /// Seed of the simulated session and of the training.
     #[arg(long, default_value_t = 2024)]
     pub seed: u64,
+    /// Print results.json instead of the summary.
+    #[arg(long)]
+    pub json: bool,
 }
 
-/// The default session: a 3DM-GX1-like sensor 10 cm out on a record player at 33⅓ and 45 rpm.
+/// The default session: a 3DM-GX1-like sensor 10 cm out on a record player at 33⅓ and 45 rpm,
+/// two minutes each.
 pub fn default_session() -> Vec<(String, TurntableSetup)> {
     [("rec33.csv", 100.0 / 3.0), ("rec45.csv", 45.0)]
         .into_iter()
@@ -50,24 +56,31 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
             serde_json::to_string_pretty(&sim.truth)? + "\n",
         )?;
         let mut recording = sim.recording;
-        recording.source.name = path.display().to_string();
+        recording.source.name = name;
         recordings.push(recording);
     }
-    let refs: Vec<_> = recordings.iter().collect();
-    let options = FitOptions {
-        radius: Some(RadiusPrior {
-            value_m: 0.10,
-            tolerance_m: 0.002,
-        }),
-        ..FitOptions::default()
+    let settings = CalibrateSettings {
+        fit: FitOptions {
+            radius: Some(RadiusPrior {
+                value_m: 0.10,
+                tolerance_m: 0.002,
+            }),
+            ..FitOptions::default()
+        },
+        network: NetworkChoice::Sweep {
+            grid: small_grid(),
+            restarts: 3,
+        },
+        seed: args.seed,
+        ..CalibrateSettings::default()
     };
-    let spinner = ui.spinner("fitting");
-    let fit = fit_turntable(&refs, &options, &mut |stage, p| {
-        spinner.set_message(format!("{stage} {}", p.iteration))
-    })?;
-    spinner.finish_and_clear();
-    let fit_path = args.out.join("turntable_fit.json");
-    std::fs::write(&fit_path, serde_json::to_string_pretty(&fit)? + "\n")?;
-    ui::print(&super::fit::render(&fit))?;
-    ui::print(&format!("\nresults in {}\n", args.out.display()))
+    let output = run_calibration(&recordings, &settings, &args.out, ui)?;
+    if args.json {
+        return ui::print_json(&output.result);
+    }
+    ui::print(&summary(&output, &args.out))?;
+    ui::print(&format!(
+        "open {}/report.html to read the whole story\n",
+        args.out.display()
+    ))
 }

@@ -1,5 +1,6 @@
 //! One file per subcommand: its clap arguments and a `run` function.
 
+pub mod calibrate;
 pub mod correct;
 pub mod demo;
 pub mod fit;

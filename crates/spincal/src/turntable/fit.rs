@@ -202,8 +202,9 @@ pub struct TurntableFit {
 }
 
 impl TurntableFit {
-    /// The reference acceleration (fitted model) at the samples of recording `k`, m/s².
-    pub fn reference(&self, k: usize, time_s: &[f64]) -> [Vec<f64>; 3] {
+    /// The fitted model at the samples of recording `k`, m/s², including the sensor's offsets and
+    /// drift: what the sensor should read (used for the model-against-measurement fit).
+    pub fn model(&self, k: usize, time_s: &[f64]) -> [Vec<f64>; 3] {
         let mut out = [Vec::new(), Vec::new(), Vec::new()];
         evaluate(
             &self.recordings[k].session,
@@ -212,6 +213,23 @@ impl TurntableFit {
             time_s,
             &mut out,
         );
+        out
+    }
+
+    /// The reference acceleration at the samples of recording `k`, m/s²: the turntable's physical
+    /// specific force alone. Offsets and drift are sensor errors, so they are left out; the
+    /// correctors learn to remove them.
+    pub fn reference(&self, k: usize, time_s: &[f64]) -> [Vec<f64>; 3] {
+        let session = Session {
+            drift_mps2_per_s: [0.0; 3],
+            ..self.recordings[k].session
+        };
+        let mounting = Mounting {
+            offset_mps2: [0.0; 3],
+            ..self.mounting
+        };
+        let mut out = [Vec::new(), Vec::new(), Vec::new()];
+        evaluate(&session, &mounting, self.gravity_mps2, time_s, &mut out);
         out
     }
 }

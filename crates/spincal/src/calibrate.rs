@@ -1,0 +1,615 @@
+//! The whole calibration (SPEC §1): recordings → rotation rate → turntable fit → reference →
+//! every corrector trained and compared → the best on validation chosen (never on test).
+//!
+//! Correctors are trained on the first recording with the 60/20/20 division; with two or more
+//! recordings each corrector trained on the first is also tested on the others (cross-condition,
+//! SPEC §6). System-identification models map one measured axis to its reference axis (SISO) and
+//! are scored by simulation from `init_samples` measured outputs and by one-step prediction; only
+//! simulation is available when correcting new data (no reference exists then), so selection uses
+//! simulation fit for them. Network and linear correctors are static maps: both kinds coincide.
+
+use std::ops::Range;
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use crate::ann::{
+    architecture_label, sweep, AnnError, AnnProblem, Division, DivisionMode, LmSettings, SweepRow,
+    SweepSettings,
+};
+use crate::corrector::{Axis, Corrector, CorrectorFile, CorrectorModel};
+use crate::linear::{LinearError, LinearModel};
+use crate::metrics::{fit_percent, rmse};
+use crate::recording::Recording;
+use crate::sysid::{fit_and_score, score, ModelKind, ModelSpec, SysidError};
+use crate::turntable::fit::{FitError, FitOptions, TurntableFit};
+use crate::turntable::fit_turntable;
+use crate::turntable::sensitivity::{sensitivity_table, SensitivityInput, SensitivityRow};
+
+/// Version of the `results.json` layout.
+pub const RESULTS_VERSION: u32 = 1;
+
+/// How the network is chosen.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(tag = "mode", rename_all = "snake_case")]
+pub enum NetworkChoice {
+    /// Train every architecture of the grid; keep the best on validation.
+    Sweep { grid: Vec<Vec<usize>>, restarts: usize },
+    /// One architecture.
+    Fixed { hidden: Vec<usize>, restarts: usize },
+}
+
+/// Every setting of a calibration.
+#[derive(Debug, Clone)]
+pub struct CalibrateSettings {
+    pub fit: FitOptions,
+    /// Axes to correct (MIMO network and linear map over them; one SISO model per axis for sysid).
+    pub axes: Vec<Axis>,
+    pub network: NetworkChoice,
+    /// Previous samples of each axis fed to the network.
+    pub delays: usize,
+    pub seed: u64,
+    pub lm: LmSettings,
+    pub division: DivisionMode,
+    pub sysid: Vec<ModelSpec>,
+    /// Measured outputs used to start sysid simulations.
+    pub init_samples: usize,
+}
+
+impl Default for CalibrateSettings {
+    fn default() -> Self {
+        let spec = |kind: ModelKind| {
+            ModelSpec::new(kind, kind.default_orders()).expect("default orders fit the kind")
+        };
+        CalibrateSettings {
+            fit: FitOptions::default(),
+            axes: vec![Axis::X, Axis::Y],
+            network: NetworkChoice::Fixed {
+                hidden: vec![10, 6],
+                restarts: 10,
+            },
+            delays: 0,
+            seed: 1,
+            lm: LmSettings::default(),
+            division: DivisionMode::Contiguous,
+            sysid: [ModelKind::Arx, ModelKind::Bj, ModelKind::Narx, ModelKind::Hw]
+                .into_iter()
+                .map(spec)
+                .collect(),
+            init_samples: 10,
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CalibrateError {
+    #[error(transparent)]
+    Fit(#[from] FitError),
+    #[error("network: {0}")]
+    Ann(#[from] AnnError),
+    #[error("linear corrector: {0}")]
+    Linear(#[from] LinearError),
+    #[error("{model}: {source}")]
+    Sysid {
+        model: String,
+        #[source]
+        source: SysidError,
+    },
+    #[error(
+        "system-identification models need the contiguous division (interleaved blocks break their dynamics)"
+    )]
+    SysidNeedsContiguous,
+}
+
+/// Fit % and RMSE of one prediction kind on one part, per corrected axis and their mean.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct PartScore {
+    pub fit_percent: Vec<f64>,
+    pub fit_percent_mean: f64,
+    pub rmse_mps2: Vec<f64>,
+    pub rmse_mps2_mean: f64,
+}
+
+impl PartScore {
+    fn new(fit: Vec<f64>, rmse: Vec<f64>) -> PartScore {
+        PartScore {
+            fit_percent_mean: fit.iter().sum::<f64>() / fit.len() as f64,
+            rmse_mps2_mean: rmse.iter().sum::<f64>() / rmse.len() as f64,
+            fit_percent: fit,
+            rmse_mps2: rmse,
+        }
+    }
+}
+
+/// One row of the comparison (the paper's Table 2, extended).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ComparisonRow {
+    pub model: String,
+    pub structure: String,
+    /// `static` (network, linear, uncorrected: simulation and one-step coincide) or `dynamic`.
+    pub kind: String,
+    pub train: PartScore,
+    pub validation: PartScore,
+    pub test: PartScore,
+    /// One-step-prediction scores (dynamic models only).
+    pub train_one_step: Option<PartScore>,
+    pub test_one_step: Option<PartScore>,
+    pub seconds: f64,
+    /// Whether this corrector can be saved and applied to new data by `spincal correct`.
+    pub savable: bool,
+    /// Why the model could not be fitted (its scores are then NaN).
+    pub failed: Option<String>,
+}
+
+/// A corrector trained on the first recording, applied to another one.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CrossRow {
+    pub model: String,
+    pub trained_on: String,
+    pub tested_on: String,
+    pub score: PartScore,
+}
+
+/// Where a recording stood, for the report.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RecordingSummary {
+    pub name: String,
+    pub samples: usize,
+    pub duration_s: f64,
+    pub sample_rate_hz: f64,
+    pub rpm_from_spectrum: f64,
+    pub omega_from_spectrum_radps: f64,
+    pub gaps: usize,
+    pub saturated_samples: usize,
+    pub warnings: Vec<String>,
+}
+
+/// Everything a calibration found: the single source of every number in the report.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CalibrationResult {
+    pub results_version: u32,
+    pub spincal_version: String,
+    pub seed: u64,
+    pub axes: Vec<Axis>,
+    pub recordings: Vec<RecordingSummary>,
+    pub turntable: TurntableFit,
+    pub sensitivity: Vec<SensitivityRow>,
+    pub division: Division,
+    pub network: NetworkChoice,
+    pub sweep: Vec<SweepRow>,
+    pub network_architecture: String,
+    pub comparison: Vec<ComparisonRow>,
+    pub cross_condition: Vec<CrossRow>,
+    /// The corrector saved (best validation fit % among savable correctors).
+    pub chosen: String,
+    /// The best on validation overall (may be a compare-only model).
+    pub best_overall: String,
+    pub seconds_total: f64,
+}
+
+/// Signals for the report's plots (not numbers shown as text).
+#[derive(Debug, Clone)]
+pub struct CalibrationOutput {
+    pub result: CalibrationResult,
+    pub saved: CorrectorFile,
+    /// Reference (the turntable's physical acceleration, without sensor offsets) per recording.
+    pub references: Vec<Recording>,
+    /// The fitted model including offsets and drift (what the sensor should read) per recording.
+    pub models: Vec<Recording>,
+    /// The chosen corrector applied to the first recording.
+    pub corrected: [Vec<f64>; 3],
+}
+
+/// A stage report for progress display.
+#[derive(Debug, Clone, Copy)]
+pub struct StageProgress<'a> {
+    pub stage: &'a str,
+    pub done: usize,
+    pub total: usize,
+}
+
+/// Runs the whole calibration. `observer` hears about every stage and step.
+pub fn calibrate(
+    recordings: &[Recording],
+    settings: &CalibrateSettings,
+    observer: &(dyn Fn(StageProgress) + Sync),
+) -> Result<CalibrationOutput, CalibrateError> {
+    let started = Instant::now();
+    let refs: Vec<&Recording> = recordings.iter().collect();
+    observer(StageProgress {
+        stage: "turntable fit",
+        done: 0,
+        total: 1,
+    });
+    let turntable = fit_turntable(&refs, &settings.fit, &mut |_, _| {})?;
+    let references: Vec<Recording> = recordings
+        .iter()
+        .enumerate()
+        .map(|(k, rec)| Recording {
+            time_s: rec.time_s.clone(),
+            accel_mps2: turntable.reference(k, &rec.time_s),
+            gyro_radps: None,
+            source: rec.source.clone(),
+        })
+        .collect();
+    let models: Vec<Recording> = recordings
+        .iter()
+        .enumerate()
+        .map(|(k, rec)| Recording {
+            time_s: rec.time_s.clone(),
+            accel_mps2: turntable.model(k, &rec.time_s),
+            gyro_radps: None,
+            source: rec.source.clone(),
+        })
+        .collect();
+    let (measured, reference) = (&recordings[0], &references[0]);
+    let problem = AnnProblem::new(
+        measured,
+        reference,
+        &settings.axes,
+        settings.delays,
+        settings.division,
+    )?;
+
+    // Network: sweep (optional), then the chosen architecture trained with restarts.
+    let (sweep_rows, hidden, restarts) = match &settings.network {
+        NetworkChoice::Sweep { grid, restarts } => {
+            let sweep_settings = SweepSettings {
+                grid: grid.clone(),
+                restarts: *restarts,
+                base_seed: settings.seed,
+                lm: settings.lm.clone(),
+            };
+            let rows = sweep(&problem, &sweep_settings, &|p| {
+                observer(StageProgress {
+                    stage: "network sweep",
+                    done: p.done,
+                    total: p.total,
+                })
+            })?;
+            let best = rows
+                .iter()
+                .min_by(|a, b| a.best_validation_mse.total_cmp(&b.best_validation_mse))
+                .map(|r| r.hidden.clone())
+                .unwrap_or_else(|| vec![10, 6]);
+            (rows, best, *restarts)
+        }
+        NetworkChoice::Fixed { hidden, restarts } => (Vec::new(), hidden.clone(), *restarts),
+    };
+    observer(StageProgress {
+        stage: "network",
+        done: 0,
+        total: 1,
+    });
+    let clock = Instant::now();
+    let network = problem.train(&hidden, restarts, settings.seed, &settings.lm)?;
+    let network_seconds = clock.elapsed().as_secs_f64();
+
+    observer(StageProgress {
+        stage: "linear",
+        done: 0,
+        total: 1,
+    });
+    let clock = Instant::now();
+    let linear = LinearModel::fit(measured, reference, &settings.axes, settings.division)?;
+    let linear_seconds = clock.elapsed().as_secs_f64();
+
+    let division = problem.division.clone();
+    let part_rows =
+        |ranges: &[Range<usize>]| -> Vec<usize> { ranges.iter().flat_map(|r| r.clone()).collect() };
+    let parts = [
+        part_rows(&division.train),
+        part_rows(&division.validation),
+        part_rows(&division.test),
+    ];
+    let axes_idx: Vec<usize> = settings.axes.iter().map(|a| a.index()).collect();
+    // Scores of a full-length estimate (per corrected axis) on the three parts.
+    let score_static = |estimate: &[Vec<f64>]| -> [PartScore; 3] {
+        let part = |rows: &[usize]| {
+            let mut fits = Vec::new();
+            let mut errors = Vec::new();
+            for (c, &a) in axes_idx.iter().enumerate() {
+                let y: Vec<f64> = rows.iter().map(|&i| reference.accel_mps2[a][i]).collect();
+                let e: Vec<f64> = rows.iter().map(|&i| estimate[c][i]).collect();
+                fits.push(fit_percent(&y, &e));
+                errors.push(rmse(&y, &e));
+            }
+            PartScore::new(fits, errors)
+        };
+        [part(&parts[0]), part(&parts[1]), part(&parts[2])]
+    };
+    let static_row = |model: &str, structure: String, estimate: &[Vec<f64>], seconds: f64, savable: bool| {
+        let [train, validation, test] = score_static(estimate);
+        ComparisonRow {
+            model: model.to_string(),
+            structure,
+            kind: "static".into(),
+            train,
+            validation,
+            test,
+            train_one_step: None,
+            test_one_step: None,
+            seconds,
+            savable,
+            failed: None,
+        }
+    };
+    let corrected_axes = |c: &dyn Corrector, rec: &Recording| -> Vec<Vec<f64>> {
+        let out = c.correct(rec);
+        axes_idx.iter().map(|&a| out.accel_mps2[a].clone()).collect()
+    };
+    let mut comparison = Vec::new();
+    let uncorrected: Vec<Vec<f64>> = axes_idx.iter().map(|&a| measured.accel_mps2[a].clone()).collect();
+    comparison.push(static_row(
+        "uncorrected",
+        "measured signal".into(),
+        &uncorrected,
+        0.0,
+        false,
+    ));
+    let network_label = format!(
+        "{}-input [{}] {}-output, {} delays, {} restarts",
+        settings.axes.len() * (settings.delays + 1),
+        architecture_label(&hidden),
+        settings.axes.len(),
+        settings.delays,
+        restarts
+    );
+    comparison.push(static_row(
+        "ANN",
+        network_label,
+        &corrected_axes(&network, measured),
+        network_seconds,
+        true,
+    ));
+    comparison.push(static_row(
+        "linear",
+        format!("offset + {0}×{0} matrix", settings.axes.len()),
+        &corrected_axes(&linear, measured),
+        linear_seconds,
+        true,
+    ));
+
+    // System identification, one SISO model per axis.
+    if !settings.sysid.is_empty() && !matches!(settings.division, DivisionMode::Contiguous) {
+        return Err(CalibrateError::SysidNeedsContiguous);
+    }
+    let mut sysid_models = Vec::new();
+    for (m, spec) in settings.sysid.iter().enumerate() {
+        observer(StageProgress {
+            stage: "system identification",
+            done: m,
+            total: settings.sysid.len(),
+        });
+        let name = spec.kind.name().to_string();
+        match fit_sysid_per_axis(
+            spec,
+            measured,
+            reference,
+            &axes_idx,
+            &division,
+            settings.init_samples,
+        ) {
+            Ok((row, fitted)) => {
+                comparison.push(row);
+                sysid_models.push((name, fitted));
+            }
+            // A model that cannot be fitted to this data is reported, not fatal.
+            Err(source) => {
+                let nan = || PartScore::new(vec![f64::NAN; axes_idx.len()], vec![f64::NAN; axes_idx.len()]);
+                comparison.push(ComparisonRow {
+                    model: name,
+                    structure: format!("{:?}", spec.orders),
+                    kind: "dynamic".into(),
+                    train: nan(),
+                    validation: nan(),
+                    test: nan(),
+                    train_one_step: None,
+                    test_one_step: None,
+                    seconds: 0.0,
+                    savable: false,
+                    failed: Some(source.to_string()),
+                });
+            }
+        }
+    }
+
+    // Selection on validation only.
+    let best_of = |rows: &mut dyn Iterator<Item = &ComparisonRow>| -> String {
+        rows.filter(|r| r.model != "uncorrected")
+            .filter(|r| r.validation.fit_percent_mean.is_finite())
+            .max_by(|a, b| {
+                a.validation
+                    .fit_percent_mean
+                    .total_cmp(&b.validation.fit_percent_mean)
+            })
+            .map(|r| r.model.clone())
+            .unwrap_or_default()
+    };
+    let best_overall = best_of(&mut comparison.iter());
+    let chosen = best_of(&mut comparison.iter().filter(|r| r.savable));
+    let saved_model = if chosen == "ANN" {
+        CorrectorModel::Ann(Box::new(network.clone()))
+    } else {
+        CorrectorModel::Linear(Box::new(linear.clone()))
+    };
+    let saved = CorrectorFile::new(saved_model);
+    let chosen_corrector: &dyn Corrector = if chosen == "ANN" { &network } else { &linear };
+    let corrected_all = chosen_corrector.correct(measured).accel_mps2;
+
+    // Cross-condition: trained on recording 1, tested on each other recording.
+    let mut cross_condition = Vec::new();
+    for (k, other) in recordings.iter().enumerate().skip(1) {
+        observer(StageProgress {
+            stage: "cross-condition",
+            done: k - 1,
+            total: recordings.len() - 1,
+        });
+        let other_ref = &references[k];
+        let whole = |estimate: &[Vec<f64>], from: usize| {
+            let mut fits = Vec::new();
+            let mut errors = Vec::new();
+            for (c, &a) in axes_idx.iter().enumerate() {
+                let y = &other_ref.accel_mps2[a][from..];
+                let e = &estimate[c][from..];
+                fits.push(fit_percent(y, e));
+                errors.push(rmse(y, e));
+            }
+            PartScore::new(fits, errors)
+        };
+        let row = |model: &str, score: PartScore| CrossRow {
+            model: model.to_string(),
+            trained_on: measured.source.name.clone(),
+            tested_on: other.source.name.clone(),
+            score,
+        };
+        let raw: Vec<Vec<f64>> = axes_idx.iter().map(|&a| other.accel_mps2[a].clone()).collect();
+        cross_condition.push(row("uncorrected", whole(&raw, settings.delays)));
+        cross_condition.push(row(
+            "ANN",
+            whole(&corrected_axes(&network, other), settings.delays),
+        ));
+        cross_condition.push(row(
+            "linear",
+            whole(&corrected_axes(&linear, other), settings.delays),
+        ));
+        for (name, models) in &sysid_models {
+            let mut estimate = Vec::new();
+            for (c, &a) in axes_idx.iter().enumerate() {
+                let sim = models[c]
+                    .simulate(
+                        &[&other.accel_mps2[a]],
+                        crate::sysid::SimInit::Measured {
+                            y: &other_ref.accel_mps2[a],
+                            n: settings.init_samples,
+                        },
+                    )
+                    .map_err(|source| CalibrateError::Sysid {
+                        model: name.clone(),
+                        source,
+                    })?;
+                estimate.push(sim);
+            }
+            cross_condition.push(row(
+                name,
+                whole(&estimate, settings.init_samples.max(settings.delays)),
+            ));
+        }
+    }
+
+    let first = &turntable.recordings[0];
+    let sensitivity = sensitivity_table(&SensitivityInput {
+        radius_m: first.session.radius_m,
+        tilt_rad: first.session.tilt_rad,
+        omega_radps: first.session.omega_radps,
+        beta_rad: turntable.mounting.beta_rad,
+        gravity_mps2: turntable.gravity_mps2,
+        vary: 0.15,
+    });
+    let summaries = recordings
+        .iter()
+        .zip(&turntable.recordings)
+        .map(|(rec, fit)| RecordingSummary {
+            name: rec.source.name.clone(),
+            samples: rec.len(),
+            duration_s: rec.duration_s(),
+            sample_rate_hz: fit.inspection.sample_rate_hz,
+            rpm_from_spectrum: fit.rate.rpm,
+            omega_from_spectrum_radps: fit.rate.omega_radps,
+            gaps: fit.inspection.gaps.len(),
+            saturated_samples: fit.inspection.saturation.iter().map(|s| s.samples).sum(),
+            warnings: fit.inspection.warnings(&rec.source.name),
+        })
+        .collect();
+    let result = CalibrationResult {
+        results_version: RESULTS_VERSION,
+        spincal_version: env!("CARGO_PKG_VERSION").to_string(),
+        seed: settings.seed,
+        axes: settings.axes.clone(),
+        recordings: summaries,
+        turntable,
+        sensitivity,
+        division,
+        network: settings.network.clone(),
+        sweep: sweep_rows,
+        network_architecture: architecture_label(&hidden),
+        comparison,
+        cross_condition,
+        chosen,
+        best_overall,
+        seconds_total: started.elapsed().as_secs_f64(),
+    };
+    Ok(CalibrationOutput {
+        result,
+        saved,
+        references,
+        models,
+        corrected: corrected_all,
+    })
+}
+
+/// Fits one SISO model per corrected axis on the training block and scores it (simulation and
+/// one-step) on the three blocks.
+fn fit_sysid_per_axis(
+    spec: &ModelSpec,
+    measured: &Recording,
+    reference: &Recording,
+    axes_idx: &[usize],
+    division: &Division,
+    init_samples: usize,
+) -> Result<(ComparisonRow, Vec<crate::sysid::SysidModel>), SysidError> {
+    let mut per_part: [Vec<(f64, f64, f64, f64)>; 3] = [Vec::new(), Vec::new(), Vec::new()];
+    let mut seconds = 0.0;
+    let mut structure = String::new();
+    let mut fitted = Vec::new();
+    let blocks = [&division.train[0], &division.validation[0], &division.test[0]];
+    for &a in axes_idx {
+        let u = measured.accel_mps2[a].as_slice();
+        let y = reference.accel_mps2[a].as_slice();
+        let scored = fit_and_score(spec, &[u], y, blocks[0].clone(), None, init_samples, &mut |_| {})?;
+        seconds += scored.seconds;
+        structure = scored.structure.clone();
+        for (p, range) in blocks.iter().enumerate() {
+            let range = (*range).clone();
+            let s = score(
+                &scored.fitted.model,
+                &[&u[range.clone()]],
+                &y[range],
+                init_samples,
+            )?;
+            per_part[p].push((
+                s.simulation.fit_percent,
+                s.simulation.rmse,
+                s.one_step.fit_percent,
+                s.one_step.rmse,
+            ));
+        }
+        fitted.push(scored.fitted.model);
+    }
+    let collect = |p: usize, one_step: bool| {
+        let fits = per_part[p]
+            .iter()
+            .map(|s| if one_step { s.2 } else { s.0 })
+            .collect();
+        let errors = per_part[p]
+            .iter()
+            .map(|s| if one_step { s.3 } else { s.1 })
+            .collect();
+        PartScore::new(fits, errors)
+    };
+    let row = ComparisonRow {
+        model: spec.kind.name().to_string(),
+        structure,
+        kind: "dynamic".into(),
+        train: collect(0, false),
+        validation: collect(1, false),
+        test: collect(2, false),
+        train_one_step: Some(collect(0, true)),
+        test_one_step: Some(collect(2, true)),
+        seconds,
+        savable: false,
+        failed: None,
+    };
+    Ok((row, fitted))
+}
