@@ -41,6 +41,11 @@ Examples:
   cat new.csv | spincal correct --model linear.json - > out.csv"
     )]
     Correct(commands::correct::CorrectArgs),
+    /// Draw a printable stroboscopic disc (SVG, true size) to check a turntable's speed under mains light.
+    #[command(
+        after_help = "Example:\n  spincal strobe --rpm 33.333 --rpm 45 --mains 50 --diameter-mm 120 -o disc.svg"
+    )]
+    Strobe(commands::strobe::Args),
 }
 
 fn main() {
@@ -57,6 +62,7 @@ fn main() {
         Command::Train(args) => commands::train::run(args, ui),
         Command::Sweep(args) => commands::sweep::run(args, ui),
         Command::Correct(args) => commands::correct::run(args, ui),
+        Command::Strobe(args) => commands::strobe::run(args),
     };
     std::process::exit(ui::exit_code(result));
 }

@@ -8,7 +8,9 @@ pub mod corrector;
 pub mod linear;
 pub mod metrics;
 pub mod optim;
+pub mod plot;
 pub mod recording;
+pub mod strobe;
 pub mod table;
 
 pub use recording::{AccelUnit, ColumnMap, Recording, RecordingError, STANDARD_GRAVITY};
