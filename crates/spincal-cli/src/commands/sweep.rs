@@ -172,7 +172,7 @@ fn heat_map(rows: &[SweepRow]) -> Option<HeatMap> {
     Some(
         HeatMap::new(
             "Validation fit % by hidden-layer sizes (best of restarts)",
-            "hidden layer 2 size",
+            "hidden layer 2 size (none: one hidden layer)",
             "hidden layer 1 size",
             col_labels,
             row_labels,
