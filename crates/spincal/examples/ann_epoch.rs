@@ -3,6 +3,7 @@
 //!
 //! `cargo run --release -p spincal --example ann_epoch -- time [N…]` prints one JSON object per N.
 //! `cargo run --release -p spincal --example ann_epoch -- dgemm` prints faer's single-thread rate.
+//! `… -- kernels` times the parts of an epoch; `… -- csv N PREFIX` writes a synthetic pair.
 //! `cargo run --release -p spincal --example ann_epoch -- export N HIDDEN SEED OUT.json` writes the
 //! scaled training data and the initial weights of restart 0.
 
@@ -49,6 +50,19 @@ fn epoch_flops(layout: &Layout, n: usize) -> (f64, f64) {
     (syrk, forward + syrk + gemv + backprop + cholesky + trial)
 }
 
+/// CPU time of this thread in seconds (from /proc/thread-self/schedstat, ns resolution), so that
+/// other processes on a shared machine do not inflate the numbers; wall time when unavailable.
+fn cpu_seconds() -> f64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().and_then(|v| v.parse::<f64>().ok()))
+        .map(|ns| ns * 1e-9)
+        .unwrap_or_else(|| {
+            static START: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
+            START.get_or_init(Instant::now).elapsed().as_secs_f64()
+        })
+}
+
 fn time_epochs(n: usize, block_samples: usize) -> f64 {
     let p = problem(n);
     let layout = p.layout(&[10, 6]).expect("valid layout");
@@ -67,9 +81,9 @@ fn time_epochs(n: usize, block_samples: usize) -> f64 {
     let repeats = if n > 10_000 { 5 } else { 20 };
     for _ in 0..repeats {
         let mut w = weights.clone();
-        let started = Instant::now();
+        let started = cpu_seconds();
         let report = ws.train(&mut w, &p.train, &empty, &settings);
-        let seconds = started.elapsed().as_secs_f64();
+        let seconds = cpu_seconds() - started;
         assert_eq!(report.epochs, 1, "one accepted step from Nguyen–Widrow weights");
         best = best.min(seconds);
     }
@@ -83,11 +97,75 @@ fn dgemm_gflops() -> f64 {
     let mut c = Mat::<f64>::zeros(n, n);
     let mut best = f64::INFINITY;
     for _ in 0..3 {
-        let started = Instant::now();
+        let started = cpu_seconds();
         matmul(c.as_mut(), Accum::Replace, a.as_ref(), b.as_ref(), 1.0, Par::Seq);
-        best = best.min(started.elapsed().as_secs_f64());
+        best = best.min(cpu_seconds() - started);
     }
     2.0 * (n * n * n) as f64 / best / 1e9
+}
+
+/// Rates of the epoch's parts on one 1024-sample block of the [10,6] network: Jacobian rows,
+/// the lower-triangular rank-k update, and a full JᵀJ product for comparison.
+fn kernels() {
+    use faer::linalg::matmul::triangular::{self, BlockStructure};
+    let p = problem(30000);
+    let layout = p.layout(&[10, 6]).expect("valid layout");
+    let weights = p.initial_weights(&layout, 1, 0);
+    let (n_p, cols) = (layout.n_params(), 1024 * layout.outputs());
+    let mut jt = vec![0.0; n_p * cols];
+    let mut act = vec![0.0; layout.n_activations()];
+    let mut delta = vec![0.0; layout.n_delta()];
+    let reps = 30;
+    let started = cpu_seconds();
+    for _ in 0..reps {
+        for s in 0..1024 {
+            layout.forward(&weights, &p.train.inputs[s * 2..s * 2 + 2], &mut act);
+            layout.output_gradients(
+                &weights,
+                &act,
+                &mut jt[s * 2 * n_p..(s + 1) * 2 * n_p],
+                &mut delta,
+            );
+        }
+    }
+    let fill = (cpu_seconds() - started) / reps as f64;
+    let started = cpu_seconds();
+    for _ in 0..reps {
+        for s in 0..1024 {
+            layout.forward(&weights, &p.train.inputs[s * 2..s * 2 + 2], &mut act);
+            std::hint::black_box(&act);
+        }
+    }
+    let forward = (cpu_seconds() - started) / reps as f64;
+    let j = faer::MatRef::from_column_major_slice(&jt, n_p, cols);
+    let mut out = Mat::<f64>::zeros(n_p, n_p);
+    let started = cpu_seconds();
+    for _ in 0..reps {
+        triangular::matmul(
+            out.as_mut(),
+            BlockStructure::TriangularLower,
+            Accum::Add,
+            j,
+            BlockStructure::Rectangular,
+            j.transpose(),
+            BlockStructure::Rectangular,
+            1.0,
+            Par::Seq,
+        );
+    }
+    let syrk = (cpu_seconds() - started) / reps as f64;
+    let started = cpu_seconds();
+    for _ in 0..reps {
+        matmul(out.as_mut(), Accum::Add, j, j.transpose(), 1.0, Par::Seq);
+    }
+    let gemm = (cpu_seconds() - started) / reps as f64;
+    let m = cols as f64;
+    let p = n_p as f64;
+    println!(
+        "{{\"block_samples\": 1024, \"jacobian_s\": {fill:.3e}, \"forward_s\": {forward:.3e}, \"syrk_s\": {syrk:.3e}, \"syrk_gflops\": {:.2}, \"gemm_s\": {gemm:.3e}, \"gemm_gflops\": {:.2}}}",
+        m * p * (p + 1.0) / syrk / 1e9,
+        2.0 * m * p * p / gemm / 1e9
+    );
 }
 
 fn main() {
@@ -116,6 +194,19 @@ fn main() {
                     blocks.join(", ")
                 );
             }
+        }
+        Some("kernels") => kernels(),
+        Some("csv") if args.len() == 3 => {
+            // Synthetic measured/reference pair for CLI runs (sweep timing).
+            let n: usize = args[1].parse().expect("sample count");
+            let (measured, reference) = synthetic::turntable_pair(n, 42);
+            let unit = spincal::AccelUnit::Mps2;
+            measured
+                .write_csv_path(format!("{}-measured.csv", args[2]).as_ref(), unit)
+                .expect("write");
+            reference
+                .write_csv_path(format!("{}-reference.csv", args[2]).as_ref(), unit)
+                .expect("write");
         }
         Some("dgemm") => println!("{{\"faer_dgemm_gflops\": {:.3}}}", dgemm_gflops()),
         Some("export") if args.len() == 5 => {

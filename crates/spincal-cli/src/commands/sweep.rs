@@ -8,6 +8,7 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 use spincal::ann::{sweep, AnnProblem, SweepProgress, SweepRow, SweepSettings};
+use spincal::plot::{Figure, HeatMap};
 
 use super::train::DataArgs;
 use crate::ui::{self, Ui, UsageError};
@@ -20,7 +21,7 @@ pub struct SweepArgs {
     /// product of its ranges. Default: one layer of 1–15, two layers of 1–15 × 1–10.
     #[arg(long, default_value = "1-15;1-15,1-10")]
     pub grid: String,
-    /// Output prefix: writes PREFIX.csv and PREFIX.json.
+    /// Output prefix: writes PREFIX.csv, PREFIX.json and the heat map PREFIX-heatmap.svg/.png.
     #[arg(short, long, default_value = "sweep")]
     pub output: PathBuf,
     /// Threads (default: all cores).
@@ -120,10 +121,66 @@ pub fn run(args: SweepArgs, ui: Ui) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot write", csv_path.display()))?;
     std::fs::write(&json_path, serde_json::to_string_pretty(&output)? + "\n")
         .with_context(|| format!("{}: cannot write", json_path.display()))?;
+    let mut heatmap_paths = Vec::new();
+    if let Some(map) = heat_map(&rows) {
+        let stem = args.output.display().to_string();
+        let svg_path = PathBuf::from(format!("{stem}-heatmap.svg"));
+        let png_path = PathBuf::from(format!("{stem}-heatmap.png"));
+        std::fs::write(&svg_path, map.to_svg()?)
+            .with_context(|| format!("{}: cannot write", svg_path.display()))?;
+        map.to_png(&png_path, 1200, 820)?;
+        heatmap_paths = vec![svg_path, png_path];
+    }
     if args.json {
         return ui::print_json(&output);
     }
-    ui::print(&summary(&output, &csv_path, &json_path))
+    let mut text = summary(&output, &csv_path, &json_path);
+    for p in &heatmap_paths {
+        let _ = writeln!(text, "wrote {}", p.display());
+    }
+    ui::print(&text)
+}
+
+/// Validation fit % over first × second hidden-layer sizes (the paper's Fig. 12), with one-layer
+/// networks in the first column; `None` when the grid has no one- or two-layer entries. Validation,
+/// not test: the picture is what one chooses an architecture from.
+fn heat_map(rows: &[SweepRow]) -> Option<HeatMap> {
+    let shallow: Vec<&SweepRow> = rows.iter().filter(|r| matches!(r.hidden.len(), 1 | 2)).collect();
+    if shallow.is_empty() {
+        return None;
+    }
+    let mut firsts: Vec<usize> = shallow.iter().map(|r| r.hidden[0]).collect();
+    firsts.sort_unstable();
+    firsts.dedup();
+    let mut seconds: Vec<usize> = shallow.iter().filter_map(|r| r.hidden.get(1).copied()).collect();
+    seconds.sort_unstable();
+    seconds.dedup();
+    // Column 0: a single hidden layer; then one column per second-layer size.
+    let cols = seconds.len() + 1;
+    let mut values = vec![f64::NAN; firsts.len() * cols];
+    for r in &shallow {
+        let row = firsts.binary_search(&r.hidden[0]).expect("collected above");
+        let col = match r.hidden.get(1) {
+            None => 0,
+            Some(s) => 1 + seconds.binary_search(s).expect("collected above"),
+        };
+        values[row * cols + col] = r.validation_fit_percent;
+    }
+    let mut col_labels = vec!["none".to_string()];
+    col_labels.extend(seconds.iter().map(usize::to_string));
+    let row_labels = firsts.iter().map(usize::to_string).collect();
+    Some(
+        HeatMap::new(
+            "Validation fit % by hidden-layer sizes (best of restarts)",
+            "hidden layer 2 size (none: one hidden layer)",
+            "hidden layer 1 size",
+            col_labels,
+            row_labels,
+            values,
+        )
+        .value_label("fit %")
+        .decimals(1),
+    )
 }
 
 fn table_csv(rows: &[SweepRow]) -> String {
@@ -184,5 +241,27 @@ mod tests {
         assert_eq!(grid, spincal::ann::default_grid());
         assert_eq!(parse_grid("10,6").unwrap(), vec![vec![10, 6]]);
         assert!(parse_grid("0-3").is_err());
+    }
+
+    #[test]
+    fn heat_map_places_one_and_two_layer_rows() {
+        let row = |hidden: Vec<usize>, fit: f64| SweepRow {
+            architecture: spincal::ann::architecture_label(&hidden),
+            hidden,
+            best_validation_mse: 0.1,
+            train_fit_percent: fit,
+            validation_fit_percent: fit,
+            test_fit_percent: fit,
+            epochs: 1,
+            best_restart: 0,
+            seconds: 0.0,
+        };
+        let map = heat_map(&[row(vec![2], 50.0), row(vec![3, 4], 70.0), row(vec![3], 60.0)]).unwrap();
+        assert_eq!(map.row_labels, vec!["2", "3"]);
+        assert_eq!(map.col_labels, vec!["none", "4"]);
+        assert_eq!(map.get(0, 0), 50.0);
+        assert!(map.get(0, 1).is_nan());
+        assert_eq!(map.get(1, 0), 60.0);
+        assert_eq!(map.get(1, 1), 70.0);
     }
 }

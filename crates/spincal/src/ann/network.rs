@@ -176,8 +176,8 @@ impl Layout {
     /// [−1, 1]: each tanh layer of S units and R inputs gets row-normalised uniform directions of
     /// magnitude 0.7·S^(1/R), biases spread evenly over [−magnitude, magnitude] with the sign of
     /// the row's first weight (0 for a single unit), all widened to tanh's active input range
-    /// [−2, 2]. The linear output layer has no finite active range, so, as `initnw` does, its
-    /// weights and biases are uniform in [−1, 1].
+    /// [−2, 2]. The linear output layer has no finite active range, where `initnw` falls back to
+    /// random values (our reading of it): its weights and biases are uniform in [−1, 1].
     pub fn nguyen_widrow<R: Rng>(&self, rng: &mut R) -> Vec<f64> {
         const ACTIVE_HALF_RANGE: f64 = 2.0;
         let mut weights = vec![0.0; self.n_params];

@@ -1,0 +1,239 @@
+"""LM epoch benchmark and pyrenn peer check for spincal's network trainer (see run.sh).
+Times are CPU time of the calling thread (time.thread_time), as on the Rust side, so other
+processes on a shared machine do not inflate them.
+
+Subcommands:
+  peer EXPORT.json EPOCHS FIXTURE.json   train pyrenn from spincal's initial weights, write fixture
+  epoch RUST_TIMES.json FAERGEMM.json    time pyrenn and numpy epochs, compare with spincal's
+"""
+import json
+import os
+import sys
+import time
+
+import numpy as np
+import pyrenn
+
+
+# ---------------------------------------------------------------- weights and data
+
+def to_pyrenn_weights(ours, sizes):
+    """spincal: per layer W row-major (unit x input) then b; pyrenn: W column-major then b."""
+    out, at = [], 0
+    for n_in, n_out in zip(sizes[:-1], sizes[1:]):
+        w = np.asarray(ours[at:at + n_in * n_out]).reshape(n_out, n_in)
+        at += n_in * n_out
+        out.extend(w.flatten("F"))
+        out.extend(ours[at:at + n_out])
+        at += n_out
+    return np.array(out)
+
+
+def unpack(ours, sizes):
+    layers, at = [], 0
+    for n_in, n_out in zip(sizes[:-1], sizes[1:]):
+        w = np.asarray(ours[at:at + n_in * n_out]).reshape(n_out, n_in)
+        at += n_in * n_out
+        b = np.asarray(ours[at:at + n_out])
+        at += n_out
+        layers.append((w, b))
+    return layers
+
+
+def load_export(path):
+    with open(path) as f:
+        e = json.load(f)
+    sizes = e["sizes"]
+    x = np.asarray(e["inputs"]).reshape(-1, sizes[0])
+    t = np.asarray(e["targets"]).reshape(-1, sizes[-1])
+    return e, sizes, x, t
+
+
+def pyrenn_net(sizes, ours_weights):
+    net = pyrenn.CreateNN(list(sizes))
+    net["w"] = to_pyrenn_weights(ours_weights, sizes)
+    net["w0"] = net["w"].copy()
+    return net
+
+
+def pyrenn_mse(net, x, t):
+    y = pyrenn.NNOut(x.T, net)
+    y = np.asarray(y).reshape(t.shape[1], -1)
+    return float(np.mean((t.T - y) ** 2))
+
+
+# ---------------------------------------------------------------- vectorised numpy epoch
+
+def forward(layers, x):
+    acts = [x]
+    a = x
+    for i, (w, b) in enumerate(layers):
+        z = a @ w.T + b
+        a = z if i == len(layers) - 1 else np.tanh(z)
+        acts.append(a)
+    return acts
+
+
+def jacobian(layers, acts):
+    """Rows sample-major then output, columns in spincal's weight layout (dy/dw)."""
+    n = acts[0].shape[0]
+    n_out = layers[-1][0].shape[0]
+    n_params = sum(w.size + b.size for w, b in layers)
+    j = np.zeros((n, n_out, n_params))
+    offsets, at = [], 0
+    for w, b in layers:
+        offsets.append(at)
+        at += w.size + b.size
+    last = len(layers) - 1
+    for k in range(n_out):
+        # Output layer: row k sees the last hidden activations.
+        w, b = layers[last]
+        n_in = w.shape[1]
+        at = offsets[last]
+        j[:, k, at + k * n_in:at + (k + 1) * n_in] = acts[last]
+        j[:, k, at + w.size + k] = 1.0
+        delta = np.broadcast_to(w[k], (n, n_in)) * (1.0 - acts[last] ** 2)
+        for l in range(last - 1, -1, -1):
+            w, b = layers[l]
+            at = offsets[l]
+            j[:, k, at:at + w.size] = (delta[:, :, None] * acts[l][:, None, :]).reshape(n, -1)
+            j[:, k, at + w.size:at + w.size + b.size] = delta
+            if l > 0:
+                delta = (delta @ w) * (1.0 - acts[l] ** 2)
+    return j.reshape(n * n_out, n_params)
+
+
+def numpy_epoch(flat, sizes, x, t, mu):
+    layers = unpack(flat, sizes)
+    acts = forward(layers, x)
+    e = (t - acts[-1]).reshape(-1)
+    sse = e @ e
+    j = jacobian(layers, acts)
+    jtj = j.T @ j
+    jte = j.T @ e
+    while True:
+        c = np.linalg.cholesky(jtj + mu * np.eye(len(flat)))
+        step = np.linalg.solve(c.T, np.linalg.solve(c, jte))
+        trial = flat + step
+        y = forward(unpack(trial, sizes), x)[-1]
+        new_sse = np.sum((t - y) ** 2)
+        if new_sse < sse:
+            return trial, new_sse, mu * 0.1
+        mu *= 10.0
+
+
+# ---------------------------------------------------------------- commands
+
+def peer(export_path, epochs, fixture_path):
+    e, sizes, x, t = load_export(export_path)
+    net = pyrenn_net(sizes, e["initial_weights"])
+    start_mse = pyrenn_mse(net, x, t)
+    started = time.thread_time()
+    # trainlm's rules: mu starts at 0.001 and moves by factors of 10.
+    net = pyrenn.train_LM(x.T, t.T, net, k_max=epochs, E_stop=0.0, dampfac=1e-3, dampconst=10.0)
+    seconds = time.thread_time() - started
+    final_mse = pyrenn_mse(net, x, t)
+    history = [float(v) / t.size for v in net["ErrorHistory"]]
+    fixture = {
+        "description": "pyrenn train_LM from spincal's Nguyen-Widrow weights on spincal's scaled training data; "
+        "written by bench/ann/run.sh (bench/ann/bench.py peer)",
+        "pyrenn_version": "0.1",
+        "numpy_version": np.__version__,
+        "epochs": epochs,
+        "mu_initial": 1e-3,
+        "mu_factor": 10.0,
+        "sizes": sizes,
+        "seed": e["seed"],
+        "initial_weights": e["initial_weights"],
+        "inputs": e["inputs"],
+        "targets": e["targets"],
+        "pyrenn_initial_mse": start_mse,
+        "pyrenn_final_mse": final_mse,
+        "pyrenn_mse_history": history,
+        "pyrenn_seconds": seconds,
+    }
+    with open(fixture_path, "w") as f:
+        json.dump(fixture, f)
+    print(json.dumps({"pyrenn_initial_mse": start_mse, "pyrenn_final_mse": final_mse, "epochs": epochs,
+                      "seconds": seconds}))
+
+
+def time_pyrenn_epoch(sizes, weights, x, t):
+    net = pyrenn_net(sizes, weights)
+    started = time.thread_time()
+    pyrenn.train_LM(x.T, t.T, net, k_max=1, E_stop=0.0, dampfac=1e-3, dampconst=10.0)
+    return time.thread_time() - started
+
+
+def time_numpy_epoch(sizes, weights, x, t, repeats):
+    flat = np.asarray(weights, dtype=float)
+    best = float("inf")
+    for _ in range(repeats):
+        started = time.thread_time()
+        numpy_epoch(flat, sizes, x, t, 1e-3)
+        best = min(best, time.thread_time() - started)
+    return best
+
+
+def numpy_dgemm_gflops():
+    n = 2000
+    rng = np.random.default_rng(1)
+    a, b = rng.random((n, n)), rng.random((n, n))
+    best = float("inf")
+    for _ in range(3):
+        started = time.thread_time()
+        a @ b
+        best = min(best, time.thread_time() - started)
+    return 2.0 * n ** 3 / best / 1e9
+
+
+def epoch(rust_times_path, faer_path, exports):
+    rust = {}
+    with open(rust_times_path) as f:
+        for line in f:
+            if line.strip():
+                r = json.loads(line)
+                rust[r["n"]] = r
+    with open(faer_path) as f:
+        faer_gflops = json.load(f)["faer_dgemm_gflops"]
+    numpy_gflops = numpy_dgemm_gflops()
+    peak = max(faer_gflops, numpy_gflops)
+    results = {"faer_dgemm_gflops": faer_gflops, "numpy_dgemm_gflops": numpy_gflops,
+               "blas_threads": os.environ.get("OPENBLAS_NUM_THREADS"), "sizes": []}
+    for path in exports:
+        e, sizes, x, t = load_export(path)
+        n = x.shape[0]
+        r = rust[n]
+        numpy_s = time_numpy_epoch(sizes, e["initial_weights"], x, t, 3 if n > 10000 else 10)
+        pyrenn_s = time_pyrenn_epoch(sizes, e["initial_weights"], x, t)
+        bound_s = r["flops"] / (peak * 1e9)
+        row = {
+            "n": n,
+            "params": r["params"],
+            "spincal_s": r["seconds_per_epoch"],
+            "numpy_s": numpy_s,
+            "pyrenn_s": pyrenn_s,
+            "pyrenn_over_spincal": pyrenn_s / r["seconds_per_epoch"],
+            "numpy_over_spincal": numpy_s / r["seconds_per_epoch"],
+            "flops": r["flops"],
+            "flop_bound_s": bound_s,
+            "spincal_over_bound": r["seconds_per_epoch"] / bound_s,
+            "spincal_s_by_block_samples": r["seconds_by_block_samples"],
+        }
+        results["sizes"].append(row)
+        print(f"N={n}: spincal {r['seconds_per_epoch']*1e3:.2f} ms, numpy {numpy_s*1e3:.1f} ms, "
+              f"pyrenn {pyrenn_s:.2f} s | pyrenn/spincal {row['pyrenn_over_spincal']:.0f}x, "
+              f"numpy/spincal {row['numpy_over_spincal']:.1f}x | FLOP bound {bound_s*1e3:.2f} ms "
+              f"(spincal at {row['spincal_over_bound']:.2f}x the bound)")
+    print(f"DGEMM 2000x2000 one thread: faer {faer_gflops:.2f} GFLOP/s, numpy {numpy_gflops:.2f} GFLOP/s")
+    print(json.dumps(results))
+
+
+if __name__ == "__main__":
+    cmd = sys.argv[1]
+    if cmd == "peer":
+        peer(sys.argv[2], int(sys.argv[3]), sys.argv[4])
+    elif cmd == "epoch":
+        epoch(sys.argv[2], sys.argv[3], sys.argv[4:])
+    else:
+        sys.exit(__doc__)

@@ -1,0 +1,128 @@
+//! `spincal train` / `correct` end to end through the real binary.
+
+use std::path::Path;
+
+use assert_cmd::Command;
+
+/// Measured (scaled, offset, squared) and reference sinusoids at 100 Hz, as CSV text.
+fn write_pair(dir: &Path, n: usize) -> (String, String) {
+    let mut measured = String::from("t,ax,ay,az\n");
+    let mut reference = String::from("t,ax,ay,az\n");
+    for i in 0..n {
+        let t = i as f64 / 100.0;
+        let w = 2.0 * std::f64::consts::PI * 0.55 * t;
+        let (x, y, z) = (
+            0.8 * w.sin() + 1.2,
+            0.8 * w.cos() + 0.4,
+            9.77 + 0.01 * (0.1 * t).sin(),
+        );
+        let mx = 1.02 * x + 0.05 * y + 0.1 + 0.05 * x * x;
+        let my = 0.98 * y - 0.03 * x - 0.2;
+        measured += &format!("{t},{mx},{my},{z}\n");
+        reference += &format!("{t},{x},{y},{z}\n");
+    }
+    let m = dir.join("measured.csv");
+    let r = dir.join("reference.csv");
+    std::fs::write(&m, measured).unwrap();
+    std::fs::write(&r, reference).unwrap();
+    (m.display().to_string(), r.display().to_string())
+}
+
+fn spincal() -> Command {
+    Command::cargo_bin("spincal").unwrap()
+}
+
+#[test]
+fn train_then_correct_streams_every_row_with_validity() {
+    let dir = tempfile::tempdir().unwrap();
+    let (m, r) = write_pair(dir.path(), 800);
+    let model = dir.path().join("ann.json");
+    let out = spincal()
+        .args([
+            "train",
+            "--data",
+            &m,
+            "--reference",
+            &r,
+            "--hidden",
+            "4",
+            "--delays",
+            "2",
+        ])
+        .args(["--restarts", "2", "--max-epochs", "50", "--json", "-o"])
+        .arg(&model)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(summary["kind"], "ann");
+    assert!(
+        summary["fits"]["test"][0].as_f64().unwrap() > summary["uncorrected"]["test"][0].as_f64().unwrap()
+    );
+
+    let corrected = dir.path().join("corrected.csv");
+    spincal()
+        .args(["correct", "--model"])
+        .arg(&model)
+        .arg(&m)
+        .arg("-o")
+        .arg(&corrected)
+        .assert()
+        .success();
+    let text = std::fs::read_to_string(&corrected).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "t,ax,ay,az,ax_corrected,ay_corrected,valid");
+    assert_eq!(lines.len(), 801, "every input row comes out");
+    let valid: Vec<&str> = lines[1..].iter().map(|l| l.rsplit(',').next().unwrap()).collect();
+    assert_eq!(&valid[..3], &["0", "0", "1"]);
+    assert!(valid[2..].iter().all(|v| *v == "1"));
+}
+
+#[test]
+fn correct_refuses_a_bad_row_by_line_and_leaves_no_partial_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let (m, r) = write_pair(dir.path(), 300);
+    let model = dir.path().join("linear.json");
+    spincal()
+        .args(["train", "--kind", "linear", "--data", &m, "--reference", &r, "-o"])
+        .arg(&model)
+        .assert()
+        .success();
+    let mut text = std::fs::read_to_string(&m).unwrap();
+    text = text.replacen("\n0.5,", "\n0.5,oops,", 1);
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(&bad, text).unwrap();
+    let out_path = dir.path().join("out.csv");
+    let out = spincal()
+        .args(["correct", "--model"])
+        .arg(&model)
+        .arg(&bad)
+        .arg("-o")
+        .arg(&out_path)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("bad.csv:52"), "{stderr}");
+    assert!(!out_path.exists(), "partial output removed");
+
+    // A model file from another format version is refused by name.
+    let future = std::fs::read_to_string(&model).unwrap().replacen(
+        "\"format_version\": 1",
+        "\"format_version\": 9",
+        1,
+    );
+    let future_path = dir.path().join("future.json");
+    std::fs::write(&future_path, future).unwrap();
+    let out = spincal()
+        .args(["correct", "--model"])
+        .arg(&future_path)
+        .arg(&m)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("future.json") && stderr.contains("format_version 9"),
+        "{stderr}"
+    );
+}
