@@ -75,12 +75,15 @@ def pysib_bj(u, y, nb, nc, nd, nf, nk):
 def sippy_bj(u, y, nb, nc, nd, nf, nk):
     from sippy_unipi.io_opt import GEN_id
 
-    # GEN_id(id_method, y, u, na, nb, nc, nd, nf, theta, max_iterations, stab_marg, stab_cons):
-    # stability of F, C, D enforced (stab_cons=True), as spincal does; without it SIPPY returned
-    # an unstable F at the true orders on this data.
-    num, den, numh, denh, _, _ = GEN_id("BJ", np.asarray(y), np.asarray(u), 0, nb, nc, nd, nf, nk, 200, 1.0, True)
+    # GEN_id(id_method, y, u, na, nb, nc, nd, nf, theta, max_iterations, stab_marg, stab_cons).
+    # SIPPY's delay `theta` is in addition to one sample: its regressor is
+    # u(k-theta-1) .. u(k-theta-nb) (functionset_OPT.opt_id), and its returned numerator is one
+    # coefficient shorter than the denominator (a tf in powers of z), i.e. B(q^-1) = [0, NUM...].
+    # So MATLAB/idpoly nk maps to theta = nk - 1, and B gets a leading zero. stab_cons=False
+    # (SIPPY's default): with True its IPOPT run diverged to an unstable model on this data.
+    num, den, numh, denh, _, _ = GEN_id("BJ", np.asarray(y), np.asarray(u), 0, nb, nc, nd, nf, nk - 1, 200, 1.0, False)
     return {
-        "B": np.atleast_1d(np.asarray(num, dtype=float)),
+        "B": np.concatenate([[0.0], np.atleast_1d(np.asarray(num, dtype=float))]),
         "F": np.atleast_1d(np.asarray(den, dtype=float)),
         "C": np.atleast_1d(np.asarray(numh, dtype=float)),
         "D": np.atleast_1d(np.asarray(denh, dtype=float)),

@@ -1,11 +1,13 @@
 //! ARX [na nb nk]: A(q) y = Σ Bᵢ(q) uᵢ + e, fitted by linear least squares through a QR
 //! factorisation of the regressor matrix (never the normal equations, which square its condition).
+//! The QR is streamed over row blocks of [Φ | y] (tsqr.rs), so Φ is never materialised.
 
 use faer::prelude::SolveLstsq;
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
 use super::poly::PolyModel;
+use super::tsqr::streaming_qr;
 use super::{check_data, SysidError};
 
 /// Orders of an ARX model; `nb` and `nk` have one entry per input.
@@ -70,9 +72,14 @@ impl ArxParams {
                 available: y.len(),
             });
         }
-        let (phi, target) = regressors(self, u, y, t0);
-        let theta = lstsq(&phi, &target)?;
-        let loss = residual_mse(&phi, &target, &theta);
+        // Streaming Householder QR of [Φ | y]: R's last column is Qᵀy, its last diagonal entry
+        // ±‖y − Φθ‖ (see tsqr.rs).
+        let m = y.len() - t0;
+        let tri = streaming_qr(m, n_par + 1, |r0, rows, block, ld| {
+            fill_regressor_block(self, u, y, t0 + r0, rows, block, ld)
+        });
+        let theta = tri.solve_last_column().ok_or_else(rank_deficient)?;
+        let loss = tri.at(n_par, n_par).powi(2) / m as f64;
         let mut b = Vec::new();
         let mut k = self.na;
         for (nb, nk) in self.nb.iter().zip(&self.nk) {
@@ -98,26 +105,60 @@ impl ArxParams {
     }
 }
 
+/// Writes rows `s..s + rows` of [Φ | y] column-major into `block` (column j at `j * ld`).
+/// Each column is a shifted copy of y or an input, so this is a few slice copies.
+fn fill_regressor_block(
+    p: &ArxParams,
+    u: &[&[f64]],
+    y: &[f64],
+    s: usize,
+    rows: usize,
+    block: &mut [f64],
+    ld: usize,
+) {
+    let mut cols = block.chunks_mut(ld);
+    for k in 0..p.na {
+        let dst = &mut cols.next().expect("block has a column per regressor")[..rows];
+        let src = &y[s - k - 1..s - k - 1 + rows];
+        dst.iter_mut().zip(src).for_each(|(d, v)| *d = -v);
+    }
+    for ((nb, nk), ui) in p.nb.iter().zip(&p.nk).zip(u) {
+        for j in 0..*nb {
+            let dst = &mut cols.next().expect("block has a column per regressor")[..rows];
+            dst.copy_from_slice(&ui[s - nk - j..s - nk - j + rows]);
+        }
+    }
+    cols.next().expect("block has a target column")[..rows].copy_from_slice(&y[s..s + rows]);
+}
+
 /// Regressor matrix and target for rows t0..N.
 pub(crate) fn regressors(p: &ArxParams, u: &[&[f64]], y: &[f64], t0: usize) -> (Mat<f64>, Vec<f64>) {
     let m = y.len() - t0;
     let n_par = p.na + p.nb.iter().sum::<usize>();
     let mut phi = Mat::<f64>::zeros(m, n_par);
+    let mut col = 0;
     for k in 0..p.na {
-        for r in 0..m {
-            phi[(r, k)] = -y[t0 + r - k - 1];
-        }
+        let src = &y[t0 - k - 1..t0 - k - 1 + m];
+        phi.col_as_slice_mut(col)
+            .iter_mut()
+            .zip(src)
+            .for_each(|(d, v)| *d = -v);
+        col += 1;
     }
-    let mut col = p.na;
     for ((nb, nk), ui) in p.nb.iter().zip(&p.nk).zip(u) {
         for j in 0..*nb {
-            for r in 0..m {
-                phi[(r, col)] = ui[t0 + r - nk - j];
-            }
+            phi.col_as_slice_mut(col)
+                .copy_from_slice(&ui[t0 - nk - j..t0 - nk - j + m]);
             col += 1;
         }
     }
     (phi, y[t0..].to_vec())
+}
+
+fn rank_deficient() -> SysidError {
+    SysidError::Numerical(
+        "the least-squares problem is rank deficient (constant or collinear regressors?)".into(),
+    )
 }
 
 /// Least-squares solution of Φθ ≈ target via Householder QR.
@@ -128,19 +169,8 @@ pub(crate) fn lstsq(phi: &Mat<f64>, target: &[f64]) -> Result<Vec<f64>, SysidErr
     if theta.iter().all(|v| v.is_finite()) {
         Ok(theta)
     } else {
-        Err(SysidError::Numerical(
-            "the least-squares problem is rank deficient (constant or collinear regressors?)".into(),
-        ))
+        Err(rank_deficient())
     }
-}
-
-pub(crate) fn residual_mse(phi: &Mat<f64>, target: &[f64], theta: &[f64]) -> f64 {
-    let mut sse = 0.0;
-    for (r, t) in target.iter().enumerate() {
-        let pred: f64 = theta.iter().enumerate().map(|(k, th)| phi[(r, k)] * th).sum();
-        sse += (t - pred) * (t - pred);
-    }
-    sse / target.len() as f64
 }
 
 #[cfg(test)]

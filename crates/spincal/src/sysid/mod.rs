@@ -14,6 +14,7 @@ pub mod hw;
 pub mod narx;
 pub mod pem;
 pub mod poly;
+mod tsqr;
 
 pub use arx::{ArxFit, ArxParams};
 pub use compare::{
