@@ -18,7 +18,23 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// Show what a recording holds: detected format, samples, rate, gaps, saturation, metadata.
+    #[command(
+        after_help = "Examples:\n  spincal inspect session.csv\n  spincal inspect imu.bin --format 3dm-gx1 --gx1-accel-gain 5000\n  spincal inspect data.csv --json"
+    )]
+    Inspect(commands::inspect::InspectArgs),
+    /// Calibrate bias, scale and misalignment from still poses (|a| = g).
+    #[command(
+        after_help = "Examples:\n  spincal static xsens_acc.mat --format whitespace --gravity 9.81744 -o cal.json\n  spincal static annotated_session.csv --model 6 --yaml kalibr.yaml\n  spincal static example_data_calibration.csv --model 12 --json"
+    )]
+    Static(commands::static_cal::StaticArgs),
+    /// Allan deviation of a still recording: noise density and bias instability per axis.
+    #[command(
+        after_help = "Examples:\n  spincal allan still.csv --curve allan.csv --profile sensor.json\n  spincal allan xsens_acc.mat --calibration cal.json --still --json"
+    )]
+    Allan(commands::allan::AllanArgs),
+}
 
 fn main() {
     let cli = match Cli::try_parse() {
@@ -30,6 +46,10 @@ fn main() {
         }
     };
     let ui = ui::Ui::new(cli.quiet);
-    let result = match cli.command {};
+    let result = match &cli.command {
+        Command::Inspect(args) => commands::inspect::run(args, &ui),
+        Command::Static(args) => commands::static_cal::run(args, &ui),
+        Command::Allan(args) => commands::allan::run(args, &ui),
+    };
     std::process::exit(ui::exit_code(result));
 }

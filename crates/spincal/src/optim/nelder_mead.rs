@@ -331,7 +331,7 @@ mod tests {
 
     #[test]
     fn stays_in_the_box_and_finds_the_constrained_minimum() {
-        let mut cost = |x: &[f64]| (x[0] - 3.0).powi(2) + (x[1] + 1.0).powi(2) + (x[2] - 0.5).powi(2);
+        let cost = |x: &[f64]| (x[0] - 3.0).powi(2) + (x[1] + 1.0).powi(2) + (x[2] - 0.5).powi(2);
         let b = bounds(vec![0.0, 0.0, 0.5], vec![2.0, f64::INFINITY, 0.5]);
         let mut inside = true;
         let mut wrapped = |x: &[f64]| {
