@@ -76,6 +76,27 @@ impl StillInterval {
     }
 }
 
+/// Still intervals from section labels: every contiguous run of at least two samples whose label
+/// `is_still` accepts (imucal: every section but the `*_rot` turns).
+pub fn labelled_intervals(
+    time_s: &[f64],
+    accel: &[Vec<f64>; 3],
+    labels: &[String],
+    is_still: impl Fn(&str) -> bool,
+) -> Vec<StillInterval> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    for i in 1..=labels.len() {
+        if i == labels.len() || labels[i] != labels[start] {
+            if is_still(&labels[start]) && i - start >= 2 {
+                out.push(StillInterval::from_samples(time_s, accel, start, i));
+            }
+            start = i;
+        }
+    }
+    out
+}
+
 /// Detector output.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct StaticDetection {
@@ -230,6 +251,22 @@ mod tests {
             assert!((a - ea).abs() < 0.7 && (b - eb).abs() < 0.7, "{spans:?}");
         }
         assert!((d.intervals[1].mean[0] - 9.8).abs() < 0.01);
+    }
+
+    #[test]
+    fn labelled_runs_become_intervals() {
+        let t: Vec<f64> = (0..7).map(|i| i as f64).collect();
+        let a = [
+            vec![1.0; 7],
+            vec![0.0; 7],
+            vec![2.0, 2.0, 5.0, 5.0, 5.0, 7.0, 7.0],
+        ];
+        let labels: Vec<String> = ["p", "p", "rot", "rot", "rot", "a", "a"]
+            .map(String::from)
+            .to_vec();
+        let iv = labelled_intervals(&t, &a, &labels, |l| !l.contains("rot"));
+        assert_eq!(iv.len(), 2);
+        assert_eq!((iv[1].start, iv[1].end, iv[1].mean[2]), (5, 7, 7.0));
     }
 
     #[test]

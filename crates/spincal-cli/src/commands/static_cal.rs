@@ -6,7 +6,7 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 use spincal::static_cal::{fit_static, pose_means, spread_about, StaticFit, StaticFitOptions, StaticModel};
-use spincal::static_detect::{detect_static, StaticOptions, StillInterval};
+use spincal::static_detect::{detect_static, labelled_intervals, StaticOptions, StillInterval};
 
 use super::{format_line, InputArgs};
 use crate::ui::{self, UsageError};
@@ -58,21 +58,6 @@ struct Report<'a> {
     fit: &'a StaticFit,
 }
 
-/// Still sections of a labelled file: every contiguous run whose label does not name a rotation.
-fn labelled_intervals(time_s: &[f64], accel: &[Vec<f64>; 3], labels: &[String]) -> Vec<StillInterval> {
-    let mut out = Vec::new();
-    let mut start = 0;
-    for i in 1..=labels.len() {
-        if i == labels.len() || labels[i] != labels[start] {
-            if !labels[start].contains("rot") && i - start >= 2 {
-                out.push(StillInterval::from_samples(time_s, accel, start, i));
-            }
-            start = i;
-        }
-    }
-    out
-}
-
 pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     let model = StaticModel::from_n_params(args.model)
         .ok_or_else(|| UsageError(format!("--model must be 6, 9 or 12, got {}", args.model)))?;
@@ -80,7 +65,7 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     let rec = &loaded.recording;
     let (intervals, from) = match (&loaded.labels, args.detect) {
         (Some(labels), false) => (
-            labelled_intervals(&rec.time_s, &rec.accel_mps2, labels),
+            labelled_intervals(&rec.time_s, &rec.accel_mps2, labels, |l| !l.contains("rot")),
             "section labels (all but *rot*)",
         ),
         _ => {

@@ -13,7 +13,10 @@ pub fn shared_data(relative: &str) -> Option<PathBuf> {
     if path.exists() {
         Some(path)
     } else {
-        eprintln!("skipped: {} is absent (set SPINCAL_SHARED_DATA to the shared data folder)", path.display());
+        eprintln!(
+            "skipped: {} is absent (set SPINCAL_SHARED_DATA to the shared data folder)",
+            path.display()
+        );
         None
     }
 }
