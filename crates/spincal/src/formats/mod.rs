@@ -452,11 +452,18 @@ fn read_mpu6050(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loade
 fn read_phyphox(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
     let text = String::from_utf8_lossy(bytes);
     let data_line = text.lines().nth(1).unwrap_or("");
+    // phyphox writes tab or semicolon only together with a decimal comma, so those win over ','.
     let delimiter = options
         .columns
         .table
         .delimiter
-        .unwrap_or_else(|| Delimiter::detect(data_line));
+        .unwrap_or(if data_line.contains('\t') {
+            Delimiter::Tab
+        } else if data_line.contains(';') {
+            Delimiter::Semicolon
+        } else {
+            Delimiter::Comma
+        });
     let decimal_comma = delimiter != Delimiter::Comma && data_line.contains(',');
     let converted;
     let input: &[u8] = if decimal_comma {
@@ -517,6 +524,18 @@ mod tests {
         assert_eq!(l.format, Format::Phyphox);
         assert_eq!(l.recording.accel_mps2[0], [0.15, 1.0]);
         assert_eq!(l.recording.time_s, [0.0, 0.01]);
+
+        let l = read(
+            b"\"Time (s)\"\t\"Linear Acceleration x (m/s^2)\"\t\"Linear Acceleration y (m/s^2)\"\t\"Linear Acceleration z (m/s^2)\"\n0,5\t1,25\t0\t-2\n0,75\t1\t0\t-2,5\n",
+        );
+        assert_eq!(l.format, Format::Phyphox);
+        assert_eq!(l.recording.accel_mps2[2], [-2.0, -2.5]);
+        assert_eq!(l.recording.time_s, [0.5, 0.75]);
+        assert!(
+            l.notes.iter().any(|n| n.contains("gravity removed")),
+            "{:?}",
+            l.notes
+        );
 
         let l = read(b"t_s,ax_g,ay_g,az_g\n0,0,0,1\n0.1,0,0,1\n");
         assert_eq!(l.format, Format::Csv);
