@@ -184,22 +184,35 @@ fn mpu6050_calibration_beats_the_authors_parameters() {
         .intervals;
     assert_eq!(intervals.len(), 10, "the authors list 10 still intervals");
     let g = 9.81;
-    let options = StaticFitOptions {
-        model: StaticModel::Misalignment,
-        gravity_mps2: g,
-        input_unit: "counts".into(),
-    };
-    let fit = fit_static(&pose_means(&intervals), &options).unwrap();
-    let ours = |raw: [f64; 3]| fit.calibration.apply(&raw);
-    let (pose_ours, pose_auth) = (
-        pose_spread(&intervals, g, ours),
-        pose_spread(&intervals, g, authors),
-    );
-    let (all_ours, all_auth) = (
-        sample_spread(&loaded, &intervals, g, ours),
-        sample_spread(&loaded, &intervals, g, authors),
-    );
-    eprintln!("mpu6050: pose-mean RMS |a|−g ours {pose_ours:.5} vs authors {pose_auth:.5}; per-sample ours {all_ours:.5} vs authors {all_auth:.5} m/s²");
-    assert!(pose_ours < pose_auth);
-    assert!(all_ours <= all_auth * 1.001);
+    // 10 poses: the 6-parameter model is well over-determined; the 9-parameter one has 1 residual
+    // degree of freedom (its α_yz is poorly determined on these poses), so both are checked.
+    for model in [StaticModel::BiasScale, StaticModel::Misalignment] {
+        let options = StaticFitOptions {
+            model,
+            gravity_mps2: g,
+            input_unit: "counts".into(),
+        };
+        let fit = fit_static(&pose_means(&intervals), &options).unwrap();
+        let ours = |raw: [f64; 3]| fit.calibration.apply(&raw);
+        let (pose_ours, pose_auth) = (
+            pose_spread(&intervals, g, ours),
+            pose_spread(&intervals, g, authors),
+        );
+        let (all_ours, all_auth) = (
+            sample_spread(&loaded, &intervals, g, ours),
+            sample_spread(&loaded, &intervals, g, authors),
+        );
+        eprintln!("mpu6050 {model:?}: pose-mean RMS |a|−g ours {pose_ours:.5} vs authors {pose_auth:.5}; per-sample ours {all_ours:.5} vs authors {all_auth:.5} m/s²; param std {:?}", fit.param_std);
+        for i in 0..3 {
+            let rel = fit.calibration.scale[i] / p[3 + i] - 1.0;
+            eprintln!(
+                "mpu6050 {model:?}: axis {i} scale {:+.3} % vs authors, bias {:.1} vs {:.1} counts",
+                100.0 * rel,
+                fit.calibration.bias[i],
+                -p[6 + i]
+            );
+        }
+        assert!(pose_ours < pose_auth);
+        assert!(all_ours <= all_auth);
+    }
 }

@@ -137,6 +137,12 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     if model == StaticModel::Nonlinear {
         s += &format!("nonlinearity [1/(m/s²)]: {:?}\n", c.nonlinearity);
     }
+    if fit.param_std.is_empty() {
+        s += "parameter uncertainty: none (as many poses as parameters: the fit is exact, not checked)\n";
+    } else {
+        let std: Vec<String> = fit.param_std.iter().map(|v| format!("{v:.3e}")).collect();
+        s += &format!("1-σ uncertainties [b, s, α, q]: [{}]\n", std.join(", "));
+    }
     if let Some(b) = rms_before {
         s += &format!("RMS of |a| − g over the poses before: {b:.6} m/s²\n");
     }
