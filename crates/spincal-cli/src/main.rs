@@ -31,9 +31,14 @@ enum Command {
     Static(commands::static_cal::StaticArgs),
     /// Allan deviation of a still recording: noise density and bias instability per axis.
     #[command(
-        after_help = "Examples:\n  spincal allan still.csv --curve allan.csv --profile sensor.json\n  spincal allan xsens_acc.mat --calibration cal.json --still --json"
+        after_help = "Examples:\n  spincal allan still.csv --plot allan.svg --curve allan.csv --profile sensor.json\n  spincal allan xsens_acc.mat --calibration cal.json --still --json"
     )]
     Allan(commands::allan::AllanArgs),
+    /// Draw a printable stroboscopic disc (SVG, true size) to check a turntable's speed under mains light.
+    #[command(
+        after_help = "Example:\n  spincal strobe --rpm 33.333 --rpm 45 --mains 50 --diameter-mm 120 -o disc.svg"
+    )]
+    Strobe(commands::strobe::Args),
 }
 
 fn main() {
@@ -46,10 +51,11 @@ fn main() {
         }
     };
     let ui = ui::Ui::new(cli.quiet);
-    let result = match &cli.command {
-        Command::Inspect(args) => commands::inspect::run(args, &ui),
-        Command::Static(args) => commands::static_cal::run(args, &ui),
-        Command::Allan(args) => commands::allan::run(args, &ui),
+    let result = match cli.command {
+        Command::Inspect(args) => commands::inspect::run(&args, &ui),
+        Command::Static(args) => commands::static_cal::run(&args, &ui),
+        Command::Allan(args) => commands::allan::run(&args, &ui),
+        Command::Strobe(args) => commands::strobe::run(args),
     };
     std::process::exit(ui::exit_code(result));
 }

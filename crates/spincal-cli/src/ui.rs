@@ -18,6 +18,7 @@ impl Ui {
     }
 
     /// A progress bar on stderr for `total` steps, hidden when quiet or not a terminal.
+    #[allow(dead_code)] // for the long-running subcommands; the first ones (strobe) need none
     pub fn progress(&self, total: u64, message: &str) -> ProgressBar {
         if !self.show_progress {
             return ProgressBar::hidden();
@@ -33,6 +34,7 @@ impl Ui {
     }
 
     /// A spinner for work of unknown length.
+    #[allow(dead_code)] // for the long-running subcommands
     pub fn spinner(&self, message: &str) -> ProgressBar {
         if !self.show_progress {
             return ProgressBar::hidden();

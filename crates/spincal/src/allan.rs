@@ -57,9 +57,10 @@ pub enum AllanError {
     },
 }
 
-/// Cluster sizes m, about `per_decade` per decade, from 1 to (N−1)/2.
+/// Cluster sizes m, about `per_decade` per decade, from 1 to N/10: beyond that fewer than ten
+/// independent clusters remain and σ(τ) is too uncertain to read a floor from.
 pub fn cluster_sizes(n: usize, per_decade: usize) -> Vec<usize> {
-    let max = (n.saturating_sub(1)) / 2;
+    let max = n / 10;
     let mut out: Vec<usize> = Vec::new();
     let mut k = 0.0;
     loop {
@@ -102,14 +103,20 @@ pub fn overlapping_adev(y: &[f64], dt_s: f64, ms: &[usize]) -> Vec<f64> {
         .collect()
 }
 
+/// Fewest samples for a curve of at least three points (m = 1, 2, 3 ≤ N/10).
+pub const MIN_SAMPLES: usize = 30;
+
 /// Allan deviation of three axes (sensor frame, any unit) sampled every `dt_s`.
 pub fn allan_deviation(axes: &[Vec<f64>; 3], dt_s: f64, per_decade: usize) -> Result<AllanCurve, AllanError> {
     if !(dt_s.is_finite() && dt_s > 0.0) {
         return Err(AllanError::BadInterval(dt_s));
     }
     let n = axes.iter().map(Vec::len).min().unwrap_or(0);
-    if n < 9 {
-        return Err(AllanError::TooShort { found: n, needed: 9 });
+    if n < MIN_SAMPLES {
+        return Err(AllanError::TooShort {
+            found: n,
+            needed: MIN_SAMPLES,
+        });
     }
     let ms = cluster_sizes(n, per_decade.max(1));
     Ok(AllanCurve {
@@ -181,6 +188,36 @@ impl SensorProfile {
     }
 }
 
+/// The log-log figure of the three curves with the fitted −½ lines (noise density read-off).
+pub fn allan_figure(curve: &AllanCurve, params: &NoiseParams, title: &str) -> crate::plot::LinePlot {
+    use crate::plot::{LinePlot, LineStyle, Rgb, Series};
+    let mut plot = LinePlot::new(title, "τ (s)", "Allan deviation σ(τ) (m/s²)")
+        .log_x()
+        .log_y();
+    for a in 0..3 {
+        let axis = ["x", "y", "z"][a];
+        let color = Rgb::palette(a);
+        plot = plot.series(Series::new(axis, curve.tau_s.clone(), curve.adev[a].clone()).color(color));
+        // N/√τ, the white-noise asymptote whose value at τ = 1 s is the noise density.
+        let fit: Vec<f64> = curve
+            .tau_s
+            .iter()
+            .map(|t| params.noise_density[a] / t.sqrt())
+            .collect();
+        plot = plot.series(
+            Series::new(
+                format!("{axis}: N = {:.2e} m/s²/√Hz", params.noise_density[a]),
+                curve.tau_s.clone(),
+                fit,
+            )
+            .color(color)
+            .style(LineStyle::Dashed)
+            .width(1),
+        );
+    }
+    plot
+}
+
 /// Writes the curve as CSV: `tau_s,adev_x,adev_y,adev_z`.
 pub fn write_curve_csv<W: std::io::Write>(curve: &AllanCurve, mut out: W) -> std::io::Result<()> {
     writeln!(out, "tau_s,adev_x,adev_y,adev_z")?;
@@ -228,6 +265,23 @@ mod tests {
     }
 
     #[test]
+    fn figure_draws_as_svg() {
+        use crate::plot::Figure;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
+        let d = Normal::new(0.0, 0.01).unwrap();
+        let axes: [Vec<f64>; 3] = std::array::from_fn(|_| (0..2000).map(|_| d.sample(&mut rng)).collect());
+        let curve = allan_deviation(&axes, 0.01, 10).unwrap();
+        let svg = allan_figure(&curve, &noise_params(&curve), "test")
+            .to_svg()
+            .unwrap();
+        assert!(
+            svg.starts_with("<svg") && svg.contains("m/s²/√Hz"),
+            "{}",
+            &svg[..200.min(svg.len())]
+        );
+    }
+
+    #[test]
     fn a_bias_step_shows_as_bias_instability_floor() {
         // Bias random walk makes the curve rise after its minimum; the minimum is found, not the end.
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
@@ -248,7 +302,10 @@ mod tests {
         assert!(p.bias_instability_tau_s[0] < *curve.tau_s.last().unwrap());
         assert!(matches!(
             allan_deviation(&[vec![1.0; 3], vec![1.0; 3], vec![1.0; 3]], 0.01, 10),
-            Err(AllanError::TooShort { found: 3, .. })
+            Err(AllanError::TooShort {
+                found: 3,
+                needed: MIN_SAMPLES
+            })
         ));
     }
 }

@@ -8,9 +8,11 @@ pub mod formats;
 pub mod inspect;
 pub mod metrics;
 pub mod optim;
+pub mod plot;
 pub mod recording;
 pub mod static_cal;
 pub mod static_detect;
+pub mod strobe;
 pub mod table;
 
 pub use recording::{AccelUnit, ColumnMap, Recording, RecordingError, STANDARD_GRAVITY};

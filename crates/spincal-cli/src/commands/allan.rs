@@ -6,8 +6,9 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 use spincal::allan::{
-    allan_deviation, noise_params, write_curve_csv, AllanCurve, NoiseParams, SensorProfile,
+    allan_deviation, allan_figure, noise_params, write_curve_csv, AllanCurve, NoiseParams, SensorProfile,
 };
+use spincal::plot::Figure;
 use spincal::static_cal::StaticCalibration;
 use spincal::static_detect::{detect_static, StaticOptions};
 
@@ -24,6 +25,9 @@ pub struct AllanArgs {
     /// Use only the longest still interval (found as `spincal static` does) instead of the whole file.
     #[arg(long)]
     pub still: bool,
+    /// Draw the log-log curve: SVG at this path and a PNG beside it (same name, .png).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
     /// Write the curve as CSV (tau_s, adev_x, adev_y, adev_z).
     #[arg(long)]
     pub curve: Option<PathBuf>,
@@ -89,6 +93,17 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         let file = std::fs::File::create(path).with_context(|| format!("writing {}", path.display()))?;
         write_curve_csv(&curve, std::io::BufWriter::new(file))
             .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = &args.plot {
+        let figure = allan_figure(
+            &curve,
+            &params,
+            &format!("Allan deviation: {}", args.input.rec.display()),
+        );
+        let svg = figure.to_svg().context("drawing the Allan plot")?;
+        std::fs::write(path, svg).with_context(|| format!("writing {}", path.display()))?;
+        let png = path.with_extension("png");
+        figure.to_png(&png, 1000, 700).context("drawing the Allan plot")?;
     }
     if let Some(path) = &args.profile {
         SensorProfile::new(&params, 1.0 / dt, &args.input.rec.display().to_string()).write(path)?;

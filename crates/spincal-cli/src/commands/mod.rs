@@ -3,6 +3,7 @@
 pub mod allan;
 pub mod inspect;
 pub mod static_cal;
+pub mod strobe;
 
 use std::path::PathBuf;
 
