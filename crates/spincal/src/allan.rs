@@ -28,6 +28,9 @@ pub struct NoiseParams {
     pub bias_instability: [f64; 3],
     /// τ at the curve minimum, s.
     pub bias_instability_tau_s: [f64; 3],
+    /// Whether the curve turns up again after its minimum; when false the minimum is the last point
+    /// and the bias instability is only an upper bound (the recording is too short).
+    pub floor_reached: [bool; 3],
     /// Points used for the −½ fit per axis (0: fell back to the point of slope nearest −½).
     pub white_points: [usize; 3],
 }
@@ -131,6 +134,7 @@ pub fn noise_params(curve: &AllanCurve) -> NoiseParams {
         noise_density: [0.0; 3],
         bias_instability: [0.0; 3],
         bias_instability_tau_s: [0.0; 3],
+        floor_reached: [false; 3],
         white_points: [0; 3],
     };
     let lt: Vec<f64> = curve.tau_s.iter().map(|t| t.log10()).collect();
@@ -143,6 +147,7 @@ pub fn noise_params(curve: &AllanCurve) -> NoiseParams {
             .expect("curve is never empty");
         p.bias_instability[a] = smin / 0.664;
         p.bias_instability_tau_s[a] = curve.tau_s[kmin];
+        p.floor_reached[a] = kmin + 1 < ad.len();
         // Local slopes between neighbours, left of the minimum (white noise dominates at short τ).
         let la: Vec<f64> = ad.iter().map(|s| s.log10()).collect();
         let slope = |k: usize| (la[k + 1] - la[k]) / (lt[k + 1] - lt[k]);
@@ -300,6 +305,7 @@ mod tests {
         let last = *curve.adev[0].last().unwrap();
         assert!(p.bias_instability[0] * 0.664 < last);
         assert!(p.bias_instability_tau_s[0] < *curve.tau_s.last().unwrap());
+        assert!(p.floor_reached[0]);
         assert!(matches!(
             allan_deviation(&[vec![1.0; 3], vec![1.0; 3], vec![1.0; 3]], 0.01, 10),
             Err(AllanError::TooShort {

@@ -128,13 +128,17 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     );
     for a in 0..3 {
         s += &format!(
-            "{}: noise density {:.4e} m/s²/√Hz ({} points of slope −½), bias instability {:.4e} m/s² at τ = {:.3} s\n",
+            "{}: noise density {:.4e} m/s²/√Hz ({} points of slope −½), bias instability {}{:.4e} m/s² at τ = {:.3} s\n",
             ["x", "y", "z"][a],
             params.noise_density[a],
             params.white_points[a],
+            if params.floor_reached[a] { "" } else { "≤ " },
             params.bias_instability[a],
             params.bias_instability_tau_s[a]
         );
+    }
+    if params.floor_reached.iter().any(|r| !r) {
+        s += "≤: no flat part within τ ≤ T/10; a longer still recording is needed for the floor\n";
     }
     ui::print(&s)
 }
