@@ -29,6 +29,21 @@ enum Command {
     Fit(commands::fit::FitArgs),
     /// The paper's Table 1: signal changes when r, α or ω is off by ± a percentage.
     Sensitivity(commands::sensitivity::SensitivityArgs),
+    /// Show what a recording holds: detected format, samples, rate, gaps, saturation, metadata.
+    #[command(
+        after_help = "Examples:\n  spincal inspect session.csv\n  spincal inspect imu.bin --format 3dm-gx1 --gx1-accel-gain 5000\n  spincal inspect data.csv --json"
+    )]
+    Inspect(commands::inspect::InspectArgs),
+    /// Calibrate bias, scale and misalignment from still poses (|a| = g).
+    #[command(
+        after_help = "Examples:\n  spincal static xsens_acc.mat --format whitespace --gravity 9.81744 -o cal.json\n  spincal static annotated_session.csv --model 6 --yaml kalibr.yaml\n  spincal static example_data_calibration.csv --model 12 --json"
+    )]
+    Static(commands::static_cal::StaticArgs),
+    /// Allan deviation of a still recording: noise density and bias instability per axis.
+    #[command(
+        after_help = "Examples:\n  spincal allan still.csv --plot allan.svg --curve allan.csv --profile sensor.json\n  spincal allan xsens_acc.mat --calibration cal.json --still --json"
+    )]
+    Allan(commands::allan::AllanArgs),
     /// Draw a printable stroboscopic disc (SVG, true size) to check a turntable's speed under mains light.
     #[command(
         after_help = "Example:\n  spincal strobe --rpm 33.333 --rpm 45 --mains 50 --diameter-mm 120 -o disc.svg"
@@ -76,6 +91,9 @@ fn main() {
         Command::Simulate(args) => commands::simulate::run(args),
         Command::Fit(args) => commands::fit::run(args, ui),
         Command::Sensitivity(args) => commands::sensitivity::run(args),
+        Command::Inspect(args) => commands::inspect::run(&args, &ui),
+        Command::Static(args) => commands::static_cal::run(&args, &ui),
+        Command::Allan(args) => commands::allan::run(&args, &ui),
         Command::Strobe(args) => commands::strobe::run(args),
         Command::Sysid(args) => commands::sysid::run(args, ui),
         Command::Train(args) => commands::train::run(args, ui),

@@ -11,10 +11,13 @@
 #[cfg(doctest)]
 pub struct ReadmeDoctests;
 
+pub mod allan;
 pub mod ann;
 pub mod calibrate;
 pub mod checks;
 pub mod corrector;
+pub mod formats;
+pub mod inspect;
 pub mod linear;
 pub mod metrics;
 pub mod optim;
@@ -23,6 +26,8 @@ pub mod recording;
 pub mod report;
 pub mod simulate;
 pub mod spectrum;
+pub mod static_cal;
+pub mod static_detect;
 pub mod strobe;
 pub mod sysid;
 pub mod table;

@@ -1,0 +1,144 @@
+//! `spincal allan`: Allan deviation, noise density and bias instability of a still recording.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+use serde::Serialize;
+use spincal::allan::{
+    allan_deviation, allan_figure, noise_params, write_curve_csv, AllanCurve, NoiseParams, SensorProfile,
+};
+use spincal::plot::Figure;
+use spincal::static_cal::StaticCalibration;
+use spincal::static_detect::{detect_static, StaticOptions};
+
+use super::{format_line, InputArgs};
+use crate::ui::{self, UsageError};
+
+#[derive(Args, Debug)]
+pub struct AllanArgs {
+    #[command(flatten)]
+    pub input: InputArgs,
+    /// Apply this static calibration (from `spincal static -o`) to raw readings first.
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+    /// Use only the longest still interval (found as `spincal static` does) instead of the whole file.
+    #[arg(long)]
+    pub still: bool,
+    /// Draw the log-log curve: SVG at this path and a PNG beside it (same name, .png).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Write the curve as CSV (tau_s, adev_x, adev_y, adev_z).
+    #[arg(long)]
+    pub curve: Option<PathBuf>,
+    /// Write a simulator sensor profile (JSON).
+    #[arg(long)]
+    pub profile: Option<PathBuf>,
+    /// Points per decade of τ.
+    #[arg(long, default_value_t = 10)]
+    pub per_decade: usize,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Serialize)]
+struct Report<'a> {
+    file: String,
+    samples_used: usize,
+    span_s: [f64; 2],
+    params: &'a NoiseParams,
+    curve: &'a AllanCurve,
+}
+
+pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
+    let loaded = args.input.load(ui)?;
+    let rec = &loaded.recording;
+    let accel = match &args.calibration {
+        Some(path) => {
+            let text =
+                std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+            let cal: StaticCalibration = serde_json::from_str(&text)
+                .with_context(|| format!("{}: not a static calibration", path.display()))?;
+            cal.apply_axes(&rec.accel_mps2)
+        }
+        None if loaded.raw_counts => {
+            return Err(UsageError(format!(
+                "{}: the values are raw counts; pass --accel-scale or --calibration cal.json",
+                args.input.rec.display()
+            ))
+            .into())
+        }
+        None => rec.accel_mps2.clone(),
+    };
+    let (start, end) = if args.still {
+        let d = detect_static(&rec.time_s, &accel, &StaticOptions::default())
+            .context("detecting still intervals")?;
+        let longest = d
+            .intervals
+            .iter()
+            .max_by_key(|i| i.len())
+            .ok_or_else(|| anyhow::anyhow!("no still interval found"))?;
+        (longest.start, longest.end)
+    } else {
+        (0, rec.len())
+    };
+    let part: [Vec<f64>; 3] = std::array::from_fn(|a| accel[a][start..end].to_vec());
+    let dt = 1.0 / rec.sample_rate_hz();
+    let bar = ui.progress(1, "allan");
+    let curve = allan_deviation(&part, dt, args.per_decade)?;
+    bar.finish_and_clear();
+    let params = noise_params(&curve);
+    if let Some(path) = &args.curve {
+        let file = std::fs::File::create(path).with_context(|| format!("writing {}", path.display()))?;
+        write_curve_csv(&curve, std::io::BufWriter::new(file))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = &args.plot {
+        let figure = allan_figure(
+            &curve,
+            &params,
+            &format!("Allan deviation: {}", args.input.rec.display()),
+        );
+        let svg = figure.to_svg().context("drawing the Allan plot")?;
+        std::fs::write(path, svg).with_context(|| format!("writing {}", path.display()))?;
+        let png = path.with_extension("png");
+        figure.to_png(&png, 1000, 700).context("drawing the Allan plot")?;
+    }
+    if let Some(path) = &args.profile {
+        SensorProfile::new(&params, 1.0 / dt, &args.input.rec.display().to_string()).write(path)?;
+    }
+    let span_s = [rec.time_s[start], rec.time_s[end - 1]];
+    if args.json {
+        return ui::print_json(&Report {
+            file: args.input.rec.display().to_string(),
+            samples_used: end - start,
+            span_s,
+            params: &params,
+            curve: &curve,
+        });
+    }
+    let mut s = format!("{}\n{}\n", args.input.rec.display(), format_line(&loaded));
+    s += &format!(
+        "samples used: {} ({:.3} – {:.3} s), τ₀ = {:.6} s\n",
+        end - start,
+        span_s[0],
+        span_s[1],
+        dt
+    );
+    for a in 0..3 {
+        s += &format!(
+            "{}: noise density {:.4e} m/s²/√Hz ({} points of slope −½), bias instability {}{:.4e} m/s² at τ = {:.3} s\n",
+            ["x", "y", "z"][a],
+            params.noise_density[a],
+            params.white_points[a],
+            if params.floor_reached[a] { "" } else { "≤ " },
+            params.bias_instability[a],
+            params.bias_instability_tau_s[a]
+        );
+    }
+    if params.floor_reached.iter().any(|r| !r) {
+        s += "≤: no flat part within τ ≤ T/10; a longer still recording is needed for the floor\n";
+    }
+    ui::print(&s)
+}

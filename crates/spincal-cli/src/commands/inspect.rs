@@ -1,0 +1,102 @@
+//! `spincal inspect`: what is in a recording.
+
+use clap::Args;
+use serde::Serialize;
+
+use super::{format_line, InputArgs};
+use crate::ui;
+
+#[derive(Args, Debug)]
+pub struct InspectArgs {
+    #[command(flatten)]
+    pub input: InputArgs,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Serialize)]
+struct Report<'a> {
+    file: String,
+    loaded: &'a spincal::formats::Loaded,
+    metadata: &'a [String],
+    inspection: spincal::inspect::Inspection,
+}
+
+pub fn run(args: &InspectArgs, ui: &ui::Ui) -> anyhow::Result<()> {
+    let loaded = args.input.load(ui)?;
+    let rec = &loaded.recording;
+    let inspection = spincal::inspect::inspect(rec);
+    if args.json {
+        return ui::print_json(&Report {
+            file: args.input.rec.display().to_string(),
+            loaded: &loaded,
+            metadata: &rec.source.metadata,
+            inspection,
+        });
+    }
+    let unit = if loaded.raw_counts { "counts" } else { "m/s²" };
+    let mut s = String::new();
+    s += &format!("{}\n", args.input.rec.display());
+    s += &format!("{}\n", format_line(&loaded));
+    s += &format!(
+        "samples: {}   duration: {:.3} s   sample rate: {:.4} Hz   gyro: {}\n",
+        inspection.samples,
+        inspection.duration_s,
+        inspection.sample_rate_hz,
+        if inspection.has_gyro { "yes" } else { "no" }
+    );
+    s += &format!("columns: {}\n", rec.source.columns.join(", "));
+    for a in 0..3 {
+        s += &format!(
+            "accel {}: {} .. {} {unit}\n",
+            ["x", "y", "z"][a],
+            inspection.accel_min[a],
+            inspection.accel_max[a]
+        );
+    }
+    s += &format!("gaps (> 1.5 intervals): {}\n", inspection.gap_count);
+    for g in &inspection.gaps {
+        s += &format!(
+            "  at sample {} (t = {:.4} s): {:.4} s\n",
+            g.index, g.t_s, g.length_s
+        );
+    }
+    if inspection.saturation.is_empty() {
+        s += "saturation: none (no axis repeats its extreme value 3 or more times)\n";
+    }
+    for sat in &inspection.saturation {
+        s += &format!(
+            "possible saturation: {} = {} in {} samples\n",
+            sat.axis, sat.value, sat.samples
+        );
+    }
+    for m in &rec.source.metadata {
+        s += &format!("metadata: {m}\n");
+    }
+    if let Some(labels) = &loaded.labels {
+        let mut sections: Vec<(String, usize)> = Vec::new();
+        for l in labels {
+            match sections.last_mut() {
+                Some((name, n)) if name == l => *n += 1,
+                _ => sections.push((l.clone(), 1)),
+            }
+        }
+        let list: Vec<String> = sections.iter().map(|(l, n)| format!("{l} ({n})")).collect();
+        s += &format!("sections: {}\n", list.join(", "));
+    }
+    if let Some(g) = &loaded.gx1 {
+        s += &format!(
+            "3DM-GX1: {} packets 0x03, {} packets 0x02, kept 0x{:02x}; AccelGainScale {} ({}); {} repeated timer values\n",
+            g.inst_packets, g.stab_packets, g.command, g.accel_gain_scale, g.gain_source, g.repeated_ticks
+        );
+        s += &format!("damaged stretches: {}\n", g.faults.len());
+        for f in g.faults.iter().take(20) {
+            s += &format!("  {f}\n");
+        }
+    }
+    for n in &loaded.notes {
+        s += &format!("note: {n}\n");
+    }
+    ui::print(&s)
+}

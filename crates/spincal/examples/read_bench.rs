@@ -1,0 +1,74 @@
+//! Reading-speed benchmark for bench/io/run.sh.
+//!
+//! `read_bench gen DIR ROWS` writes DIR/bench.csv (t,ax,ay,az,gx,gy,gz) and DIR/bench.gx1 (the same
+//! samples as a 3DM-GX1 0x03 stream); `read_bench read DIR REPEATS` times spincal's CSV reader and
+//! GX1 decoder (best of REPEATS, file read included) and prints `name seconds megabytes samples`.
+
+use std::path::Path;
+use std::time::Instant;
+
+use rand::{Rng, SeedableRng};
+use spincal::formats::gx1::{decode, encode, Gx1EncodeOptions, Gx1Options};
+use spincal::formats::{read_path, Format, ReadOptions};
+use spincal::recording::{AccelUnit, Recording, Source};
+
+fn generate(dir: &Path, rows: usize) {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+    let time_s: Vec<f64> = (0..rows).map(|i| i as f64 * 0.01).collect();
+    let mut axis = |k: f64| -> Vec<f64> { (0..rows).map(|_| k + rng.gen_range(-2.0..2.0)).collect() };
+    let rec = Recording {
+        accel_mps2: [axis(0.0), axis(0.0), axis(9.8)],
+        gyro_radps: Some([axis(0.0), axis(0.0), axis(0.0)]),
+        time_s,
+        source: Source::default(),
+    };
+    std::fs::create_dir_all(dir).expect("create bench dir");
+    rec.write_csv_path(&dir.join("bench.csv"), AccelUnit::Mps2)
+        .expect("write csv");
+    let bytes = encode(&rec, &Gx1EncodeOptions::default()).expect("encode");
+    std::fs::write(dir.join("bench.gx1"), bytes).expect("write gx1");
+}
+
+fn best_of<T>(repeats: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut best = f64::INFINITY;
+    let mut out = None;
+    for _ in 0..repeats.max(1) {
+        let start = Instant::now();
+        let v = f();
+        best = best.min(start.elapsed().as_secs_f64());
+        out = Some(v);
+    }
+    (best, out.expect("at least one repeat"))
+}
+
+fn read(dir: &Path, repeats: usize) {
+    let csv = dir.join("bench.csv");
+    let mb = std::fs::metadata(&csv).expect("csv exists").len() as f64 / 1e6;
+    let options = ReadOptions {
+        format: Some(Format::Csv),
+        ..Default::default()
+    };
+    let (secs, loaded) = best_of(repeats, || read_path(&csv, &options).expect("read csv"));
+    println!("spincal-csv {secs:.6} {mb:.3} {}", loaded.recording.len());
+
+    let gx1 = dir.join("bench.gx1");
+    let (secs, (rec, _)) = best_of(repeats, || {
+        let bytes = std::fs::read(&gx1).expect("read gx1");
+        decode(&bytes, "bench.gx1", &Gx1Options::default()).expect("decode")
+    });
+    let mb = std::fs::metadata(&gx1).expect("gx1 exists").len() as f64 / 1e6;
+    println!("spincal-gx1 {secs:.6} {mb:.3} {}", rec.len());
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let usage = "usage: read_bench gen DIR ROWS | read_bench read DIR REPEATS";
+    match (args.get(1).map(String::as_str), args.get(2), args.get(3)) {
+        (Some("gen"), Some(dir), Some(n)) => generate(Path::new(dir), n.parse().expect(usage)),
+        (Some("read"), Some(dir), Some(r)) => read(Path::new(dir), r.parse().expect(usage)),
+        _ => {
+            eprintln!("{usage}");
+            std::process::exit(2);
+        }
+    }
+}

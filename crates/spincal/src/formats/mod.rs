@@ -1,0 +1,575 @@
+//! Readers for the formats IMU users log, chosen by [`Format`] or detected from the first bytes.
+//!
+//! Every reader returns a [`Loaded`]: the [`Recording`] plus what the reader learned (format and why
+//! it was chosen, whether the accelerometer values are still raw counts, section labels, 3DM-GX1
+//! stream faults). Raw-count formats keep counts in `accel_mps2` unless a scale is given
+//! ([`ReadOptions::accel_scale`]); [`Loaded::raw_counts`] says which.
+
+// Axis loops index several parallel per-axis arrays at once; iterators would obscure that.
+#![allow(clippy::needless_range_loop)]
+
+pub mod gx1;
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use crate::recording::{ColumnMap, Recording, RecordingError, Source};
+use crate::table::{read_labelled, Delimiter, Table, TableError, TableOptions};
+
+pub use gx1::{Gx1EncodeOptions, Gx1Error, Gx1Fault, Gx1Options, Gx1Report};
+
+/// The file formats spincal reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Format {
+    /// Delimited text with a header naming time and acceleration columns (spincal's own files).
+    Csv,
+    /// imu_tk's whitespace-separated `t ax ay az` rows, no header.
+    Whitespace,
+    /// imucal's CSV with a text `part` column labelling sections, raw counts, a `samples` index.
+    Imucal,
+    /// MPU-6050 logger CSV: metadata lines (`Fs,100`), header `ax,ay,az,gx,gy,gz`, int16 counts.
+    Mpu6050,
+    /// phyphox's CSV export (`"Time (s)","Acceleration x (m/s^2)"`, …), any separator, decimal comma.
+    Phyphox,
+    /// Microstrain 3DM-GX1 binary serial stream.
+    Gx1,
+}
+
+impl Format {
+    pub const ALL: [Format; 6] = [
+        Format::Csv,
+        Format::Whitespace,
+        Format::Imucal,
+        Format::Mpu6050,
+        Format::Phyphox,
+        Format::Gx1,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Csv => "csv",
+            Format::Whitespace => "whitespace",
+            Format::Imucal => "imucal",
+            Format::Mpu6050 => "mpu6050",
+            Format::Phyphox => "phyphox",
+            Format::Gx1 => "3dm-gx1",
+        }
+    }
+
+    /// Parses a format name (`csv`, `whitespace`/`imu-tk`, `imucal`, `mpu6050`, `phyphox`, `3dm-gx1`/`gx1`).
+    pub fn parse(text: &str) -> Option<Format> {
+        match text.to_ascii_lowercase().as_str() {
+            "imu-tk" | "imu_tk" | "imutk" => Some(Format::Whitespace),
+            "gx1" | "3dmgx1" => Some(Format::Gx1),
+            "mpu-6050" => Some(Format::Mpu6050),
+            t => Format::ALL.into_iter().find(|f| f.name() == t),
+        }
+    }
+}
+
+impl std::fmt::Display for Format {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A detected format and the evidence for it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Detection {
+    pub format: Format,
+    pub reason: String,
+}
+
+/// How much of a file [`detect`] looks at.
+pub const DETECT_BYTES: usize = 8192;
+
+/// Guesses the format from the first bytes of a file (at most [`DETECT_BYTES`] are used).
+pub fn detect(head: &[u8]) -> Detection {
+    let head = &head[..head.len().min(DETECT_BYTES)];
+    let found = |format, reason: &str| Detection {
+        format,
+        reason: reason.to_string(),
+    };
+    // Text files have no NUL and no control bytes other than tab/CR/LF; the GX1 stream is full of them.
+    let binary = head
+        .iter()
+        .filter(|&&b| b == 0 || (b < 0x20 && !matches!(b, b'\t' | b'\r' | b'\n')))
+        .count();
+    if binary > 0 {
+        let (packets, _) = gx1::scan(head);
+        return found(
+            Format::Gx1,
+            &format!(
+                "binary data ({binary} control bytes in the first {} bytes, {} valid 3DM-GX1 packets)",
+                head.len(),
+                packets.len()
+            ),
+        );
+    }
+    let text = String::from_utf8_lossy(head);
+    let lines: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#') && !l.starts_with('%'))
+        .collect();
+    let first = lines.first().copied().unwrap_or("");
+    let lower: Vec<String> = lines.iter().take(20).map(|l| l.to_ascii_lowercase()).collect();
+    if lower
+        .iter()
+        .any(|l| l.contains("(m/s^2)") || l.contains("\"time (s)\""))
+    {
+        return found(Format::Phyphox, "header names like \"Time (s)\" and \"(m/s^2)\"");
+    }
+    let first_fields: Vec<String> = lower
+        .first()
+        .map(|l| {
+            l.split([',', ';', '\t'])
+                .map(|f| f.trim().trim_matches('"').to_string())
+                .collect()
+        })
+        .unwrap_or_default();
+    if first_fields.iter().any(|f| f == "part") {
+        return found(Format::Imucal, "header has a `part` label column");
+    }
+    if first_fields.first().is_some_and(|f| f == "fs") {
+        return found(Format::Mpu6050, "metadata line `Fs,<rate>` before the header");
+    }
+    let numeric = |l: &str| {
+        let f: Vec<&str> = l.split_whitespace().collect();
+        !f.is_empty() && f.iter().all(|x| x.parse::<f64>().is_ok())
+    };
+    if numeric(first) && !first.contains([',', ';']) && first.split_whitespace().count() == 4 {
+        return found(
+            Format::Whitespace,
+            "headerless whitespace-separated rows of 4 numbers (t ax ay az)",
+        );
+    }
+    found(Format::Csv, "delimited text (no more specific format recognised)")
+}
+
+/// How to read a file.
+#[derive(Debug, Clone, Default)]
+pub struct ReadOptions {
+    /// Format; detected when `None`.
+    pub format: Option<Format>,
+    /// Column choice and units for `csv` (and separators for every text format).
+    pub columns: ColumnMap,
+    /// m/s² per count (or per file unit): a = (value − offset) · scale. Turns raw counts into SI.
+    pub accel_scale: Option<f64>,
+    /// Per-axis offset subtracted before scaling, in file units.
+    pub accel_offset: Option<[f64; 3]>,
+    /// Sample rate for formats without a time column (overrides `Fs` metadata; imucal: 204.8 Hz).
+    pub sample_rate_hz: Option<f64>,
+    pub gx1: Gx1Options,
+}
+
+/// A recording and what its reader learned.
+#[derive(Debug, Clone, Serialize)]
+pub struct Loaded {
+    #[serde(skip)]
+    pub recording: Recording,
+    pub format: Format,
+    /// Present when the format was detected rather than given.
+    pub detection: Option<Detection>,
+    /// `accel_mps2` holds raw counts (no scale was given for a raw-count format).
+    pub raw_counts: bool,
+    /// Per-sample section labels (imucal's `part`).
+    #[serde(skip)]
+    pub labels: Option<Vec<String>>,
+    /// Decoder statistics for the 3DM-GX1 stream.
+    pub gx1: Option<Gx1Report>,
+    /// Things the user should know (synthesised time, dropped gyro counts, linear acceleration …).
+    pub notes: Vec<String>,
+}
+
+/// Everything that can go wrong reading a file in any format.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum FormatError {
+    #[error("{file}: cannot read: {source}")]
+    Io {
+        file: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Table(#[from] TableError),
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
+    #[error(transparent)]
+    Gx1(#[from] Gx1Error),
+    #[error("{file}: no sample rate: the file has no time column and no `Fs,<Hz>` line; pass --sample-rate")]
+    NoSampleRate { file: String },
+    #[error("{file}:{line}: sample rate '{text}' is not a positive number")]
+    BadSampleRate { file: String, line: usize, text: String },
+    #[error("{file}: no column '{name}' (columns: {available})")]
+    MissingColumn {
+        file: String,
+        name: String,
+        available: String,
+    },
+    #[error("{file}:{line}: the `{column}` index {value} repeats or is not a whole number")]
+    BadIndex {
+        file: String,
+        line: usize,
+        column: String,
+        value: f64,
+    },
+    #[error("accel scale must be finite and non-zero, got {0}")]
+    BadScale(f64),
+}
+
+/// Reads a file in the given or detected format.
+pub fn read_path(path: &Path, options: &ReadOptions) -> Result<Loaded, FormatError> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| FormatError::Io {
+        file: file.clone(),
+        source,
+    })?;
+    read_bytes(&bytes, &file, options)
+}
+
+/// Reads an in-memory file; `file` names it in errors.
+pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
+    let detection = match options.format {
+        Some(_) => None,
+        None => Some(detect(bytes)),
+    };
+    let format = options
+        .format
+        .or(detection.as_ref().map(|d| d.format))
+        .unwrap_or(Format::Csv);
+    let mut loaded = match format {
+        Format::Csv => {
+            let recording = Recording::read_csv(bytes, file, &options.columns)?;
+            Loaded::new(recording, format, false)
+        }
+        Format::Whitespace => read_whitespace(bytes, file, options)?,
+        Format::Imucal => read_imucal(bytes, file, options)?,
+        Format::Mpu6050 => read_mpu6050(bytes, file, options)?,
+        Format::Phyphox => read_phyphox(bytes, file, options)?,
+        Format::Gx1 => {
+            let (recording, report) = gx1::decode(bytes, file, &options.gx1)?;
+            let mut l = Loaded::new(recording, format, false);
+            if !report.faults.is_empty() {
+                l.notes.push(format!(
+                    "{} damaged stretches skipped, first at byte {}",
+                    report.faults.len(),
+                    report.faults[0].offset
+                ));
+            }
+            l.gx1 = Some(report);
+            l
+        }
+    };
+    loaded.detection = detection;
+    loaded.recording.source.format = format.name().into();
+    apply_scale(&mut loaded, options)?;
+    Ok(loaded)
+}
+
+impl Loaded {
+    fn new(recording: Recording, format: Format, raw_counts: bool) -> Loaded {
+        Loaded {
+            recording,
+            format,
+            detection: None,
+            raw_counts,
+            labels: None,
+            gx1: None,
+            notes: Vec::new(),
+        }
+    }
+}
+
+fn apply_scale(loaded: &mut Loaded, options: &ReadOptions) -> Result<(), FormatError> {
+    if options.accel_scale.is_none() && options.accel_offset.is_none() {
+        return Ok(());
+    }
+    let scale = options.accel_scale.unwrap_or(1.0);
+    if !scale.is_finite() || scale == 0.0 {
+        return Err(FormatError::BadScale(scale));
+    }
+    let offset = options.accel_offset.unwrap_or([0.0; 3]);
+    for (axis, b) in loaded.recording.accel_mps2.iter_mut().zip(offset) {
+        axis.iter_mut().for_each(|v| *v = (*v - b) * scale);
+    }
+    if options.accel_scale.is_some() {
+        loaded.raw_counts = false;
+    }
+    loaded
+        .notes
+        .push(format!("accel = (value − {offset:?}) × {scale} applied"));
+    Ok(())
+}
+
+fn table_options(options: &ReadOptions, default: Option<Delimiter>) -> TableOptions {
+    let mut table = options.columns.table.clone();
+    table.delimiter = table.delimiter.or(default);
+    table
+}
+
+/// imu_tk: `t ax ay az`, no header. Values above 200 in magnitude are taken to be raw counts.
+fn read_whitespace(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
+    let table = Table::read(bytes, file, &table_options(options, Some(Delimiter::Whitespace)))?;
+    let mut map = options.columns.clone();
+    if map.columns.is_none() && table.header.is_empty() && table.n_columns() != 4 {
+        map.columns = Some(vec!["1".into(), "2".into(), "3".into(), "4".into()]);
+    }
+    let recording = Recording::from_table(&table, &map)?;
+    // Why a threshold: 200 m/s² (20 g) is beyond most MEMS ranges, counts are in the thousands.
+    let raw = median_abs(&recording.accel_mps2) > 200.0;
+    let mut l = Loaded::new(recording, Format::Whitespace, raw);
+    if raw {
+        l.notes
+            .push("values look like raw counts (|a| ≫ 20 g): pass --accel-scale to convert".into());
+    }
+    Ok(l)
+}
+
+fn median_abs(axes: &[Vec<f64>; 3]) -> f64 {
+    let mut norms: Vec<f64> = (0..axes[0].len())
+        .map(|i| (axes[0][i].powi(2) + axes[1][i].powi(2) + axes[2][i].powi(2)).sqrt())
+        .collect();
+    if norms.is_empty() {
+        return 0.0;
+    }
+    let mid = norms.len() / 2;
+    *norms.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// imucal's sample rate for its example session (not stated in the file).
+pub const IMUCAL_SAMPLE_RATE_HZ: f64 = 204.8;
+
+fn column(table: &Table, names: &[&str]) -> Result<usize, FormatError> {
+    names
+        .iter()
+        .find_map(|n| table.column_index(n))
+        .ok_or_else(|| FormatError::MissingColumn {
+            file: table.file.clone(),
+            name: names[0].to_string(),
+            available: table.header.join(", "),
+        })
+}
+
+/// imucal: rows grouped by `part`; the `samples` index restores time order.
+fn read_imucal(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
+    let lt = read_labelled(bytes, file, &table_options(options, None), "part")?;
+    let table = &lt.table;
+    let idx = column(table, &["samples", "sample"])?;
+    let acc = [
+        column(table, &["acc_x"])?,
+        column(table, &["acc_y"])?,
+        column(table, &["acc_z"])?,
+    ];
+    let fs = options.sample_rate_hz.unwrap_or(IMUCAL_SAMPLE_RATE_HZ);
+    let samples = &table.columns[idx];
+    let mut order: Vec<usize> = (0..table.n_rows()).collect();
+    order.sort_by(|&a, &b| samples[a].total_cmp(&samples[b]));
+    for w in order.windows(2) {
+        let (a, b) = (samples[w[0]], samples[w[1]]);
+        if a == b || a.fract() != 0.0 {
+            return Err(FormatError::BadIndex {
+                file: file.into(),
+                line: table.lines[w[1]],
+                column: table.header[idx].clone(),
+                value: b,
+            });
+        }
+    }
+    let recording = Recording {
+        time_s: order.iter().map(|&i| samples[i] / fs).collect(),
+        accel_mps2: acc.map(|c| order.iter().map(|&i| table.columns[c][i]).collect()),
+        gyro_radps: None,
+        source: Source {
+            name: file.into(),
+            format: "imucal".into(),
+            columns: ["samples", "acc_x", "acc_y", "acc_z"].map(String::from).to_vec(),
+            metadata: table.metadata.iter().map(|(_, s)| s.clone()).collect(),
+            lines: order.iter().map(|&i| table.lines[i]).collect(),
+        },
+    };
+    let mut l = Loaded::new(recording, Format::Imucal, true);
+    l.labels = Some(order.iter().map(|&i| lt.labels[i].clone()).collect());
+    l.notes.push(format!(
+        "time = samples / {fs} Hz; rows sorted by `samples`; gyro counts not converted (no scale)"
+    ));
+    Ok(l)
+}
+
+/// MPU-6050 logger: `Fs,<Hz>` metadata, no time column: time = i / Fs.
+fn read_mpu6050(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
+    let table = Table::read(bytes, file, &table_options(options, None))?;
+    let mut fs = None;
+    for (line, text) in &table.metadata {
+        let mut parts = text.splitn(2, [',', ';', '\t']);
+        if parts.next().is_some_and(|k| k.trim().eq_ignore_ascii_case("fs")) {
+            let v = parts.next().unwrap_or("").trim();
+            match v.parse::<f64>() {
+                Ok(x) if x.is_finite() && x > 0.0 => fs = Some(x),
+                _ => {
+                    return Err(FormatError::BadSampleRate {
+                        file: file.into(),
+                        line: *line,
+                        text: v.into(),
+                    })
+                }
+            }
+        }
+    }
+    let fs = options
+        .sample_rate_hz
+        .or(fs)
+        .ok_or_else(|| FormatError::NoSampleRate { file: file.into() })?;
+    let acc = [
+        column(&table, &["ax", "acc_x", "accx"])?,
+        column(&table, &["ay", "acc_y", "accy"])?,
+        column(&table, &["az", "acc_z", "accz"])?,
+    ];
+    let n = table.n_rows();
+    let recording = Recording {
+        time_s: (0..n).map(|i| i as f64 / fs).collect(),
+        accel_mps2: acc.map(|c| table.columns[c].clone()),
+        gyro_radps: None,
+        source: Source {
+            name: file.into(),
+            format: "mpu6050".into(),
+            columns: acc.iter().map(|&c| table.header[c].clone()).collect(),
+            metadata: table.metadata.iter().map(|(_, s)| s.clone()).collect(),
+            lines: table.lines.clone(),
+        },
+    };
+    let mut l = Loaded::new(recording, Format::Mpu6050, true);
+    l.notes.push(format!(
+        "time synthesised from Fs = {fs} Hz; gyro counts not converted (no scale)"
+    ));
+    Ok(l)
+}
+
+/// phyphox export: quoted unit-bearing headers; the semicolon and tab variants may use a decimal comma.
+fn read_phyphox(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
+    let text = String::from_utf8_lossy(bytes);
+    let data_line = text.lines().nth(1).unwrap_or("");
+    // phyphox writes tab or semicolon only together with a decimal comma, so those win over ','.
+    let delimiter = options
+        .columns
+        .table
+        .delimiter
+        .unwrap_or(if data_line.contains('\t') {
+            Delimiter::Tab
+        } else if data_line.contains(';') {
+            Delimiter::Semicolon
+        } else {
+            Delimiter::Comma
+        });
+    let decimal_comma = delimiter != Delimiter::Comma && data_line.contains(',');
+    let converted;
+    let input: &[u8] = if decimal_comma {
+        // Why a blanket replace: in these variants a comma can only be a decimal separator.
+        converted = text.replace(',', ".");
+        converted.as_bytes()
+    } else {
+        bytes
+    };
+    let mut map = options.columns.clone();
+    map.table.delimiter = Some(delimiter);
+    let recording = Recording::read_csv(input, file, &map)?;
+    let mut l = Loaded::new(recording, Format::Phyphox, false);
+    if decimal_comma {
+        l.notes.push("decimal comma converted".into());
+    }
+    if l.recording
+        .source
+        .columns
+        .iter()
+        .any(|c| c.to_ascii_lowercase().starts_with("linear acceleration"))
+    {
+        l.notes
+            .push("phyphox 'Linear Acceleration' has gravity removed: static calibration needs 'Acceleration with g'".into());
+    }
+    Ok(l)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn read(text: &[u8]) -> Loaded {
+        read_bytes(text, "f", &ReadOptions::default()).unwrap()
+    }
+
+    #[test]
+    fn detects_and_reads_every_text_format() {
+        let l = read(b"part,samples,acc_x,acc_y,acc_z,gyr_x\nz_p,1,0,0,2048,1\nx_p,0,2048,0,0,1\n");
+        assert_eq!(l.format, Format::Imucal);
+        assert!(l.raw_counts);
+        assert_eq!(l.labels.unwrap(), ["x_p", "z_p"]);
+        assert_eq!(l.recording.accel_mps2[0], [2048.0, 0.0]);
+        assert!((l.recording.time_s[1] - 1.0 / 204.8).abs() < 1e-15);
+
+        let l = read(b"Fs,50\nLogging Type,0\nax,ay,az,gx,gy,gz\n1,2,3,4,5,6\n7,8,9,1,2,3\n");
+        assert_eq!(l.format, Format::Mpu6050);
+        assert_eq!(l.recording.time_s, [0.0, 0.02]);
+        assert_eq!(l.recording.accel_mps2[2], [3.0, 9.0]);
+
+        let l = read(b"  1.0  33000 33100 36000\n  1.01  33001 33101 36001\n");
+        assert_eq!(l.format, Format::Whitespace);
+        assert!(l.raw_counts);
+
+        let l = read(
+            b"\"Time (s)\";\"Acceleration x (m/s^2)\";\"Acceleration y (m/s^2)\";\"Acceleration z (m/s^2)\";\"Absolute acceleration (m/s^2)\"\n0,0E0;1,5E-1;0;9,81;9,8\n1,0E-2;1;0;9,8;9,8\n",
+        );
+        assert_eq!(l.format, Format::Phyphox);
+        assert_eq!(l.recording.accel_mps2[0], [0.15, 1.0]);
+        assert_eq!(l.recording.time_s, [0.0, 0.01]);
+
+        let l = read(
+            b"\"Time (s)\"\t\"Linear Acceleration x (m/s^2)\"\t\"Linear Acceleration y (m/s^2)\"\t\"Linear Acceleration z (m/s^2)\"\n0,5\t1,25\t0\t-2\n0,75\t1\t0\t-2,5\n",
+        );
+        assert_eq!(l.format, Format::Phyphox);
+        assert_eq!(l.recording.accel_mps2[2], [-2.0, -2.5]);
+        assert_eq!(l.recording.time_s, [0.5, 0.75]);
+        assert!(
+            l.notes.iter().any(|n| n.contains("gravity removed")),
+            "{:?}",
+            l.notes
+        );
+
+        let l = read(b"t_s,ax_g,ay_g,az_g\n0,0,0,1\n0.1,0,0,1\n");
+        assert_eq!(l.format, Format::Csv);
+    }
+
+    #[test]
+    fn scale_and_offset_convert_counts() {
+        let options = ReadOptions {
+            accel_scale: Some(0.5),
+            accel_offset: Some([10.0, 0.0, 0.0]),
+            ..Default::default()
+        };
+        let l = read_bytes(b"0 30 2 4\n1 10 4 6\n", "w", &options).unwrap();
+        assert!(!l.raw_counts);
+        assert_eq!(l.recording.accel_mps2[0], [10.0, 0.0]);
+    }
+
+    #[test]
+    fn errors_are_located() {
+        let e = read_bytes(b"Fs,abc\nax,ay,az\n1,2,3\n", "m.csv", &ReadOptions::default()).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "m.csv:1: sample rate 'abc' is not a positive number"
+        );
+        let e = read_bytes(
+            b"part,samples,acc_x,acc_y,acc_z\nx,0,1,2,3\ny,0,1,2,3\n",
+            "i.csv",
+            &ReadOptions::default(),
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("i.csv:3: the `samples` index 0 repeats"),
+            "{e}"
+        );
+    }
+}
