@@ -123,8 +123,9 @@ fn run(browser: &Path, profile: &Path, action: &[String], url: &str) -> (String,
         .args(action)
         .arg(url)
         .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
+        // Files, not pipes: a large --dump-dom would fill a pipe nobody reads while we wait.
+        .stdout(std::fs::File::create(profile.join("stdout.txt")).expect("stdout file"))
+        .stderr(std::fs::File::create(profile.join("stderr.txt")).expect("stderr file"))
         .spawn()
         .expect("chromium starts");
     let deadline = Instant::now() + Duration::from_secs(60);
@@ -135,11 +136,10 @@ fn run(browser: &Path, profile: &Path, action: &[String], url: &str) -> (String,
         }
         std::thread::sleep(Duration::from_millis(50));
     }
-    let out = child.wait_with_output().expect("chromium output");
-    (
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    let read = |name: &str| {
+        String::from_utf8_lossy(&std::fs::read(profile.join(name)).unwrap_or_default()).into_owned()
+    };
+    (read("stdout.txt"), read("stderr.txt"))
 }
 
 /// Console errors in Chromium's stderr log: `CONSOLE` lines at error level or with "Uncaught".

@@ -1,0 +1,169 @@
+//! `spincal demo` end to end: the files, the numbers in results.json, the report in a real browser,
+//! and every number shown in the report equal to the one in results.json.
+
+mod support;
+
+use std::path::Path;
+
+use assert_cmd::Command;
+use serde_json::Value;
+
+fn run_demo(dir: &Path) -> Value {
+    let out = Command::cargo_bin("spincal")
+        .unwrap()
+        .args(["demo", "--quiet", "--out"])
+        .arg(dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert!(stdout.contains("report.html"), "{stdout}");
+    serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap()
+}
+
+fn param(results: &Value, name: &str) -> (f64, f64) {
+    let p = results["turntable"]["params"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == name)
+        .unwrap_or_else(|| panic!("no parameter {name}"));
+    (
+        p["value"].as_f64().unwrap(),
+        p["std_error"].as_f64().unwrap_or(f64::NAN),
+    )
+}
+
+fn row<'a>(results: &'a Value, table: &str, model: &str) -> &'a Value {
+    results[table]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["model"] == model)
+        .unwrap()
+}
+
+/// One demo run serves all checks (it is the expensive part).
+#[test]
+fn demo_writes_model_results_and_a_report_that_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let results = run_demo(d);
+    for file in [
+        "model.json",
+        "results.json",
+        "report.html",
+        "rec33.csv",
+        "rec45.csv",
+        "rec33.truth.json",
+    ] {
+        assert!(d.join(file).exists(), "{file} missing");
+    }
+
+    // Turntable parameters recovered: ω against the simulator's truth, the radius against 10 cm.
+    for (k, name) in ["rec33", "rec45"].iter().enumerate() {
+        let truth: Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join(format!("{name}.truth.json"))).unwrap())
+                .unwrap();
+        let true_omega = truth["session"]["omega_radps"].as_f64().unwrap();
+        let (omega, _) = param(&results, &format!("omega[{}]", k + 1));
+        assert!(
+            (omega / true_omega - 1.0).abs() < 1e-3,
+            "{name}: ω {omega} vs {true_omega}"
+        );
+    }
+    let (radius, _) = param(&results, "radius");
+    assert!((radius - 0.10).abs() < 0.003, "radius {radius}");
+    assert!(results["turntable"]["undetermined"]
+        .as_array()
+        .unwrap()
+        .is_empty());
+
+    // Correction helps, and the network beats the linear corrector on the test part.
+    let test_fit = |model: &str| {
+        row(&results, "comparison", model)["test"]["fit_percent_mean"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(
+        test_fit("ANN") > test_fit("linear"),
+        "ANN {} vs linear {}",
+        test_fit("ANN"),
+        test_fit("linear")
+    );
+    assert!(test_fit("linear") > test_fit("uncorrected"));
+    // The choice is made on validation, never on test.
+    let chosen = results["chosen"].as_str().unwrap();
+    let validation = |model: &str| {
+        row(&results, "comparison", model)["validation"]["fit_percent_mean"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(["ANN", "linear"]
+        .iter()
+        .all(|m| validation(chosen) >= validation(m)));
+    // The cross-condition check ran on the 45 rpm recording for every corrector.
+    let cross = results["cross_condition"].as_array().unwrap();
+    assert!(cross
+        .iter()
+        .any(|c| c["model"] == "ANN" && c["tested_on"] == "rec45.csv"));
+    assert!(cross.iter().any(|c| c["model"] == "linear"));
+
+    // The saved model applies to new data through `spincal correct`.
+    let corrected = d.join("corrected.csv");
+    Command::cargo_bin("spincal")
+        .unwrap()
+        .args(["correct", "--model"])
+        .arg(d.join("model.json"))
+        .arg(d.join("rec45.csv"))
+        .arg("-o")
+        .arg(&corrected)
+        .assert()
+        .success();
+    let rows = std::fs::read_to_string(&corrected).unwrap().lines().count();
+    let input_rows = std::fs::read_to_string(d.join("rec45.csv"))
+        .unwrap()
+        .lines()
+        .count();
+    assert_eq!(rows, input_rows, "every input row comes out");
+
+    // Every number shown in the report is the one in results.json.
+    let html = std::fs::read_to_string(d.join("report.html")).unwrap();
+    let mut checked = 0;
+    for piece in html.split("data-json=\"").skip(1) {
+        let (pointer, rest) = piece.split_once('"').unwrap();
+        let digits: usize = rest
+            .split("data-digits=\"")
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        let shown = rest.split_once('>').unwrap().1.split('<').next().unwrap();
+        let value = results
+            .pointer(pointer)
+            .unwrap_or_else(|| panic!("{pointer} not in results.json"));
+        let expected = match value.as_f64() {
+            Some(v) if v.is_finite() => format!("{v:.digits$}"),
+            _ => "—".to_string(),
+        };
+        assert_eq!(shown, expected, "{pointer}");
+        checked += 1;
+    }
+    assert!(checked > 100, "only {checked} numbers are tied to results.json");
+
+    // The report renders in a real browser with every plot drawn.
+    if support::chromium().is_none() {
+        return;
+    }
+    let screenshots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("report-screenshot");
+    std::fs::create_dir_all(&screenshots).unwrap();
+    let page = support::render(&d.join("report.html"), &screenshots).unwrap();
+    eprintln!("report screenshot: {}", page.screenshot.display());
+    assert!(page.console_errors.is_empty(), "{:?}", page.console_errors);
+    assert_eq!(page.empty_svgs(), 0);
+    assert!(page.svg_count() >= 10, "{} plots", page.svg_count());
+    assert!(std::fs::metadata(&page.screenshot).unwrap().len() > 50_000);
+}
