@@ -54,10 +54,22 @@ impl TriFactor {
     /// Solves R[..p, ..p] θ = R[..p, p] (p = n − 1) by back substitution: the least-squares
     /// solution when the last column of the factored matrix was the target. `None` when R is
     /// singular (a zero or non-finite solution component).
+    ///
+    /// A regressor whose pivot is below 1e-10 of the largest lies (numerically) in the span of the
+    /// earlier ones: its coefficient is set to zero, which leaves the residual unchanged (a basic
+    /// least-squares solution, as MATLAB's backslash gives for rank-deficient ARX problems).
     pub fn solve_last_column(&self) -> Option<Vec<f64>> {
         let p = self.n - 1;
+        let largest = (0..p).map(|i| self.at(i, i).abs()).fold(0.0, f64::max);
+        if largest == 0.0 {
+            return None;
+        }
         let mut theta: Vec<f64> = (0..p).map(|i| self.at(i, p)).collect();
         for i in (0..p).rev() {
+            if self.at(i, i).abs() <= 1e-10 * largest {
+                theta[i] = 0.0;
+                continue;
+            }
             let mut s = theta[i];
             for (k, th) in theta.iter().enumerate().skip(i + 1) {
                 s -= self.at(i, k) * th;
