@@ -6,6 +6,7 @@ use anyhow::Context;
 use clap::Args;
 use spincal::recording::{AccelUnit, ColumnMap, TimeUnit};
 use spincal::table::Delimiter;
+use spincal::formats::{read_path, Format, ReadOptions};
 use spincal::Recording;
 
 use crate::ui::UsageError;
@@ -25,6 +26,9 @@ pub struct ReadArgs {
     /// Field separator: comma, semicolon, tab or whitespace (default: detected).
     #[arg(long, value_name = "SEP")]
     pub delimiter: Option<String>,
+    /// File format: csv, whitespace (imu_tk), imucal, mpu6050, phyphox, 3dm-gx1; detected when absent.
+    #[arg(long, value_name = "FORMAT")]
+    pub format: Option<String>,
 }
 
 impl ReadArgs {
@@ -56,9 +60,30 @@ impl ReadArgs {
         Ok(map)
     }
 
-    /// Reads one recording.
+    /// Reads one recording in any supported format (detected unless `--format` is given).
     pub fn read(&self, path: &Path) -> anyhow::Result<Recording> {
-        let map = self.column_map()?;
-        Recording::read_csv_path(path, &map).with_context(|| format!("reading {}", path.display()))
+        let format = match &self.format {
+            Some(name) => Some(Format::parse(name).ok_or_else(|| {
+                UsageError(format!(
+                    "--format {name}: expected csv, whitespace, imucal, mpu6050, phyphox or 3dm-gx1"
+                ))
+            })?),
+            None => None,
+        };
+        let options = ReadOptions {
+            format,
+            columns: self.column_map()?,
+            ..ReadOptions::default()
+        };
+        let loaded = read_path(path, &options).with_context(|| format!("reading {}", path.display()))?;
+        if loaded.raw_counts {
+            return Err(UsageError(format!(
+                "{}: the {} file holds raw counts; spincal needs m/s² or g here (use `spincal static` to calibrate the counts first)",
+                path.display(),
+                loaded.format.name()
+            ))
+            .into());
+        }
+        Ok(loaded.recording)
     }
 }
