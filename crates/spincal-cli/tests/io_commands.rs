@@ -62,7 +62,9 @@ fn static_recovers_offsets_and_writes_json_and_yaml() {
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["format"]["format"], "whitespace");
     assert_eq!(report["intervals"].as_array().unwrap().len(), 14);
-    let c: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&cal).unwrap()).unwrap();
+    let file: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&cal).unwrap()).unwrap();
+    assert_eq!(file["corrector"]["kind"], "static");
+    let c = &file["corrector"];
     for (i, off) in [33123.0, 33276.0, 32360.0].iter().enumerate() {
         assert!((c["bias"][i].as_f64().unwrap() - off).abs() < 1.0, "{c}");
     }
@@ -70,6 +72,18 @@ fn static_recovers_offsets_and_writes_json_and_yaml() {
     assert!(std::fs::read_to_string(&yaml)
         .unwrap()
         .contains("  accelerometers:\n    M: [["));
+    // The calibration is a corrector file like any other: `spincal correct` applies it.
+    let corrected = dir.path().join("corrected.csv");
+    let out = spincal()
+        .args(["correct", "--model"])
+        .arg(&cal)
+        .arg(&rec)
+        .arg("-o")
+        .arg(&corrected)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read_to_string(&corrected).unwrap().lines().count() > 1);
 }
 
 #[test]

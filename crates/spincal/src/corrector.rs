@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::ann::AnnModel;
 use crate::linear::LinearModel;
 use crate::recording::Recording;
+use crate::static_cal::StaticCalibration;
 
 /// The corrector file format this build writes and reads.
 pub const FORMAT_VERSION: u32 = 1;
@@ -122,6 +123,8 @@ pub trait Corrector {
 pub enum CorrectorModel {
     Ann(Box<AnnModel>),
     Linear(Box<LinearModel>),
+    /// Offsets, scale and misalignment from still poses (`spincal static`).
+    Static(Box<StaticCalibration>),
 }
 
 impl CorrectorModel {
@@ -129,6 +132,7 @@ impl CorrectorModel {
         match self {
             CorrectorModel::Ann(m) => m.as_ref(),
             CorrectorModel::Linear(m) => m.as_ref(),
+            CorrectorModel::Static(m) => m.as_ref(),
         }
     }
 
@@ -137,6 +141,7 @@ impl CorrectorModel {
         match self {
             CorrectorModel::Ann(_) => "ann",
             CorrectorModel::Linear(_) => "linear",
+            CorrectorModel::Static(_) => "static",
         }
     }
 }
@@ -271,5 +276,31 @@ mod tests {
             message.contains(&format!("format_version {FORMAT_VERSION}")),
             "{message}"
         );
+    }
+}
+
+/// A static calibration is a memoryless map of all three axes.
+impl Corrector for StaticCalibration {
+    fn corrected_axes(&self) -> Vec<Axis> {
+        Axis::ALL.to_vec()
+    }
+
+    fn warmup_samples(&self) -> usize {
+        0
+    }
+
+    fn stream(&self) -> Box<dyn SampleCorrector + '_> {
+        Box::new(StaticStream(self))
+    }
+}
+
+struct StaticStream<'a>(&'a StaticCalibration);
+
+impl SampleCorrector for StaticStream<'_> {
+    fn correct_sample(&mut self, accel_mps2: [f64; 3]) -> CorrectedSample {
+        CorrectedSample {
+            accel_mps2: self.0.apply(&accel_mps2),
+            valid: true,
+        }
     }
 }

@@ -9,7 +9,6 @@ use spincal::allan::{
     allan_deviation, allan_figure, noise_params, write_curve_csv, AllanCurve, NoiseParams, SensorProfile,
 };
 use spincal::plot::Figure;
-use spincal::static_cal::StaticCalibration;
 use spincal::static_detect::{detect_static, StaticOptions};
 
 use super::{format_line, InputArgs};
@@ -56,10 +55,15 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     let rec = &loaded.recording;
     let accel = match &args.calibration {
         Some(path) => {
-            let text =
-                std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            let cal: StaticCalibration = serde_json::from_str(&text)
-                .with_context(|| format!("{}: not a static calibration", path.display()))?;
+            let file = spincal::corrector::CorrectorFile::read_path(path)?;
+            let spincal::corrector::CorrectorModel::Static(cal) = &file.corrector else {
+                return Err(UsageError(format!(
+                    "{}: a {} corrector, not a static calibration (from `spincal static -o`)",
+                    path.display(),
+                    file.corrector.kind()
+                ))
+                .into());
+            };
             cal.apply_axes(&rec.accel_mps2)
         }
         None if loaded.raw_counts => {

@@ -4,9 +4,9 @@ use std::path::Path;
 
 use anyhow::Context;
 use clap::Args;
+use spincal::formats::{read_path, Format, ReadOptions};
 use spincal::recording::{AccelUnit, ColumnMap, TimeUnit};
 use spincal::table::Delimiter;
-use spincal::formats::{read_path, Format, ReadOptions};
 use spincal::Recording;
 
 use crate::ui::UsageError;

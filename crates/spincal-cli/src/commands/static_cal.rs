@@ -98,8 +98,11 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         spread_about(&norms, args.gravity)
     });
     if let Some(path) = &args.output {
-        let text = serde_json::to_string_pretty(&fit.calibration)? + "\n";
-        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+        // The same versioned corrector file as every other corrector: `spincal correct` applies it.
+        let file = spincal::corrector::CorrectorFile::new(spincal::corrector::CorrectorModel::Static(
+            Box::new(fit.calibration.clone()),
+        ));
+        file.write_path(path)?;
     }
     if let Some(path) = &args.yaml {
         let yaml = fit.calibration.to_kalibr_yaml(rec.sample_rate_hz(), None);
