@@ -254,31 +254,6 @@ impl CorrectorFile {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn axis_lists_parse() {
-        assert_eq!(Axis::parse_list("x,y"), Some(vec![Axis::X, Axis::Y]));
-        assert_eq!(Axis::parse_list("xyz"), Some(Axis::ALL.to_vec()));
-        assert_eq!(Axis::parse_list("x,w"), None);
-    }
-
-    #[test]
-    fn other_format_version_is_refused_by_name() {
-        let text = r#"{"format_version": 7, "corrector": {"kind": "future"}}"#;
-        let err = CorrectorFile::from_json(text, "old.json").unwrap_err();
-        let message = err.to_string();
-        assert!(message.contains("old.json"), "{message}");
-        assert!(message.contains("format_version 7"), "{message}");
-        assert!(
-            message.contains(&format!("format_version {FORMAT_VERSION}")),
-            "{message}"
-        );
-    }
-}
-
 /// A static calibration is a memoryless map of all three axes.
 impl Corrector for StaticCalibration {
     fn corrected_axes(&self) -> Vec<Axis> {
@@ -302,5 +277,30 @@ impl SampleCorrector for StaticStream<'_> {
             accel_mps2: self.0.apply(&accel_mps2),
             valid: true,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axis_lists_parse() {
+        assert_eq!(Axis::parse_list("x,y"), Some(vec![Axis::X, Axis::Y]));
+        assert_eq!(Axis::parse_list("xyz"), Some(Axis::ALL.to_vec()));
+        assert_eq!(Axis::parse_list("x,w"), None);
+    }
+
+    #[test]
+    fn other_format_version_is_refused_by_name() {
+        let text = r#"{"format_version": 7, "corrector": {"kind": "future"}}"#;
+        let err = CorrectorFile::from_json(text, "old.json").unwrap_err();
+        let message = err.to_string();
+        assert!(message.contains("old.json"), "{message}");
+        assert!(message.contains("format_version 7"), "{message}");
+        assert!(
+            message.contains(&format!("format_version {FORMAT_VERSION}")),
+            "{message}"
+        );
     }
 }
