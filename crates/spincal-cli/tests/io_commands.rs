@@ -159,12 +159,18 @@ fn allan_writes_curve_and_profile() {
         .assert()
         .success();
     let p: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&profile).unwrap()).unwrap();
-    // Uniform noise of width 0.02 has σ = 0.02/√12; density = σ/√fs.
-    let expected = 0.02 / 12f64.sqrt() / 10.0;
-    for a in 0..3 {
-        let n = p["noise_density_mps2_per_sqrt_hz"][a].as_f64().unwrap();
-        assert!((n / expected - 1.0).abs() < 0.1, "{n} vs {expected}");
-    }
+    // Uniform noise of width 0.02 m/s² has σ = 0.02/√12 per sample: the simulator profile's noise.
+    let expected = 0.02 / 12f64.sqrt() / 9.80665;
+    let n = p["noise_g"].as_f64().unwrap();
+    assert!((n / expected - 1.0).abs() < 0.1, "{n} vs {expected}");
+    // The simulator takes the profile as it is.
+    spincal()
+        .args(["simulate", "--duration", "10", "-o"])
+        .arg(dir.path().join("imitated.csv"))
+        .arg("--sensor")
+        .arg(&profile)
+        .assert()
+        .success();
     assert!(std::fs::read_to_string(&curve)
         .unwrap()
         .starts_with("tau_s,adev_x,adev_y,adev_z\n"));

@@ -35,16 +35,6 @@ pub struct NoiseParams {
     pub white_points: [usize; 3],
 }
 
-/// The simulator's sensor profile: what the lead's simulator reads.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct SensorProfile {
-    pub noise_density_mps2_per_sqrt_hz: [f64; 3],
-    pub bias_instability_mps2: [f64; 3],
-    pub sample_rate_hz: f64,
-    /// What the profile was measured from.
-    pub source: String,
-}
-
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum AllanError {
@@ -173,23 +163,19 @@ pub fn noise_params(curve: &AllanCurve) -> NoiseParams {
     p
 }
 
-impl SensorProfile {
-    pub fn new(params: &NoiseParams, sample_rate_hz: f64, source: &str) -> SensorProfile {
-        SensorProfile {
-            noise_density_mps2_per_sqrt_hz: params.noise_density,
-            bias_instability_mps2: params.bias_instability,
-            sample_rate_hz,
-            source: source.into(),
-        }
-    }
-
-    /// Writes the profile as pretty JSON.
-    pub fn write(&self, path: &std::path::Path) -> Result<(), AllanError> {
-        let text = serde_json::to_string_pretty(self).expect("profile serialises") + "\n";
-        std::fs::write(path, text).map_err(|source| AllanError::Write {
-            file: path.display().to_string(),
-            source,
-        })
+/// A simulator sensor profile that imitates the measured noise: the 3DM-GX1 defaults with the white
+/// noise, the bias drift and the sample rate replaced. White noise of density N gives a per-sample
+/// standard deviation N·√fs (σ(τ) = N/√τ at τ = 1/fs); the simulator's bounded drift process gets a
+/// standard deviation equal to the bias instability (its bound is three of them). The simulator has one
+/// noise level for all axes: the mean over the axes is used.
+pub fn simulator_profile(params: &NoiseParams, sample_rate_hz: f64) -> crate::simulate::SensorProfile {
+    let g = crate::recording::STANDARD_GRAVITY;
+    let mean = |v: &[f64; 3]| (v[0] + v[1] + v[2]) / 3.0;
+    crate::simulate::SensorProfile {
+        noise_g: mean(&params.noise_density) * sample_rate_hz.sqrt() / g,
+        bias_drift_g: 3.0 * mean(&params.bias_instability) / g,
+        sample_rate_hz,
+        ..crate::simulate::SensorProfile::default()
     }
 }
 

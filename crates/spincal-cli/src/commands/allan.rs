@@ -6,7 +6,7 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 use spincal::allan::{
-    allan_deviation, allan_figure, noise_params, write_curve_csv, AllanCurve, NoiseParams, SensorProfile,
+    allan_deviation, allan_figure, noise_params, simulator_profile, write_curve_csv, AllanCurve, NoiseParams,
 };
 use spincal::plot::Figure;
 use spincal::static_detect::{detect_static, StaticOptions};
@@ -110,7 +110,9 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         figure.to_png(&png, 1000, 700).context("drawing the Allan plot")?;
     }
     if let Some(path) = &args.profile {
-        SensorProfile::new(&params, 1.0 / dt, &args.input.rec.display().to_string()).write(path)?;
+        let profile = simulator_profile(&params, 1.0 / dt);
+        std::fs::write(path, serde_json::to_string_pretty(&profile)? + "\n")
+            .with_context(|| format!("writing {}", path.display()))?;
     }
     let span_s = [rec.time_s[start], rec.time_s[end - 1]];
     if args.json {
