@@ -23,6 +23,8 @@ enum Command {
     Demo(commands::demo::DemoArgs),
     /// The whole job: turntable fit, every corrector trained and compared, model + report written.
     Calibrate(commands::calibrate::CalibrateArgs),
+    /// Every corrector on turntable recordings, as the paper's Table 2 (text, CSV, JSON).
+    Compare(commands::compare::CompareArgs),
     /// Simulate a 3DM-GX1-like accelerometer on a turntable (CSV + truth JSON).
     Simulate(commands::simulate::SimulateArgs),
     /// Fit the turntable model to recordings: r, ω, tilt, β, phase, offsets, drift.
@@ -88,6 +90,7 @@ fn main() {
     let result = match cli.command {
         Command::Demo(args) => commands::demo::run(args, ui),
         Command::Calibrate(args) => commands::calibrate::run(args, ui),
+        Command::Compare(args) => commands::compare::run(args, ui),
         Command::Simulate(args) => commands::simulate::run(args),
         Command::Fit(args) => commands::fit::run(args, ui),
         Command::Sensitivity(args) => commands::sensitivity::run(args),

@@ -252,3 +252,79 @@ fn a_closed_pipe_is_not_an_error() {
     };
     assert_eq!(String::from_utf8_lossy(&status.stdout).trim(), "0");
 }
+
+#[test]
+fn compare_prints_table_2_and_writes_csv_and_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = simulated(
+        dir.path(),
+        "a.csv",
+        &["--rpm", "33.333", "--seed", "5", "--duration", "40"],
+    );
+    let b = simulated(
+        dir.path(),
+        "b.csv",
+        &["--rpm", "45", "--seed", "6", "--duration", "40"],
+    );
+    let csv = dir.path().join("table.csv");
+    let common = [
+        "--radius",
+        "0.1",
+        "--sweep",
+        "none",
+        "--hidden",
+        "4",
+        "--restarts",
+        "1",
+        "--arx",
+        "4,4,1",
+    ];
+    let out = spincal()
+        .arg("compare")
+        .arg(&a)
+        .arg(&b)
+        .args(common)
+        .arg("--csv")
+        .arg(&csv)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    for model in ["uncorrected", "ANN", "linear", "ARX", "BJ", "NARX", "HW"] {
+        assert!(
+            text.lines().any(|l| l.starts_with(model)),
+            "{model} missing:\n{text}"
+        );
+    }
+    assert!(text.contains("ARX [na nb nk] = [4 4 1]"), "{text}");
+    assert!(text.contains("cross-condition"), "{text}");
+    let table = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(table.lines().count(), 8, "{table}");
+    assert!(table.starts_with("model,structure,kind,train_fit_sim"));
+    let out = spincal()
+        .arg("compare")
+        .arg(&a)
+        .args(common)
+        .arg("--json")
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = json["comparison"].as_array().unwrap();
+    assert_eq!(rows.len(), 7);
+    let bj = rows.iter().find(|r| r["model"] == "BJ").unwrap();
+    assert!(
+        bj["train_one_step"].is_object(),
+        "dynamic models carry one-step scores: {bj}"
+    );
+    assert_eq!(
+        spincal()
+            .arg("compare")
+            .arg(&a)
+            .args(["--bj", "4,4"])
+            .output()
+            .unwrap()
+            .status
+            .code(),
+        Some(2)
+    );
+}

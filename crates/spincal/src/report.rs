@@ -333,7 +333,9 @@ pub fn render_report(output: &CalibrationOutput, recordings: &[Recording]) -> Re
             "Each cell: the best of the restarts, chosen on validation.",
         )?);
         html.push_str(&format!(
-            "<p>{} architectures were trained; the best on validation is [{}].</p>\n",
+            "<p>{} architectures were trained; the best on validation is [{}]. The paper's full grid \
+             (one layer of 1–15 units, two layers of 1–15 × 1–10) is 165 architectures: \
+             <code>spincal calibrate --sweep full</code>; smaller grids (as the demo's) say so here by their count.</p>\n",
             r.sweep.len(),
             escape(&r.network_architecture)
         ));

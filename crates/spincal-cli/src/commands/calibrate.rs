@@ -8,6 +8,7 @@ use spincal::ann::default_grid;
 use spincal::calibrate::{calibrate, CalibrateSettings, CalibrationOutput, NetworkChoice};
 use spincal::corrector::Axis;
 use spincal::report::render_report;
+use spincal::sysid::{ModelKind, ModelSpec};
 use spincal::Recording;
 
 use super::fit::FitArgs;
@@ -45,6 +46,18 @@ pub struct CalibrateArgs {
     /// Seed of every random choice (initial weights, NARX start).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// ARX orders na,nb,nk.
+    #[arg(long, default_value = "6,8,1")]
+    pub arx: String,
+    /// Box–Jenkins orders nb,nc,nd,nf,nk.
+    #[arg(long, default_value = "4,4,4,4,1")]
+    pub bj: String,
+    /// Nonlinear ARX orders na,nb,nk.
+    #[arg(long, default_value = "2,2,1")]
+    pub narx: String,
+    /// Hammerstein–Wiener orders nb,nf,nk.
+    #[arg(long, default_value = "2,3,1")]
+    pub hw: String,
 }
 
 /// The small grid used by `demo` and by default: one layer 1–8, two layers 2–8 × 2–6 (even).
@@ -84,12 +97,25 @@ impl CalibrateArgs {
         };
         let axes = Axis::parse_list(&self.correct_axes)
             .ok_or_else(|| UsageError(format!("--correct-axes {}: expected e.g. x,y", self.correct_axes)))?;
+        let spec = |kind: ModelKind, text: &str, flag: &str| -> anyhow::Result<ModelSpec> {
+            let orders = parse_sizes(text)
+                .map_err(|_| UsageError(format!("--{flag} {text}: expected orders like 6,8,1")))?;
+            let mut spec = ModelSpec::new(kind, &orders).map_err(|e| UsageError(format!("--{flag}: {e}")))?;
+            spec.seed = self.seed;
+            Ok(spec)
+        };
         Ok(CalibrateSettings {
             fit: self.fit.options()?,
             axes,
             network,
             delays: self.delays,
             seed: self.seed,
+            sysid: vec![
+                spec(ModelKind::Arx, &self.arx, "arx")?,
+                spec(ModelKind::Bj, &self.bj, "bj")?,
+                spec(ModelKind::Narx, &self.narx, "narx")?,
+                spec(ModelKind::Hw, &self.hw, "hw")?,
+            ],
             ..CalibrateSettings::default()
         })
     }

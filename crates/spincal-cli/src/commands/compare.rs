@@ -1,0 +1,136 @@
+//! `spincal compare`: every corrector on a turntable recording, as the paper's Table 2.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+use spincal::calibrate::{calibrate, CalibrationResult, ComparisonRow, PartScore};
+
+use super::calibrate::CalibrateArgs;
+use crate::ui::{self, Ui};
+
+#[derive(Args, Debug)]
+#[command(
+    after_help = "Examples:\n  spincal compare rec33.csv rec45.csv --radius 0.10 --sweep none --hidden 10,6\n  \
+                        spincal compare rec.csv --arx 4,4,1 --bj 2,2,2,2,1 --csv table.csv"
+)]
+pub struct CompareArgs {
+    #[command(flatten)]
+    pub calibrate: CalibrateArgs,
+    /// Also write the table as CSV here.
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
+}
+
+fn fit_or_dash(score: Option<&PartScore>) -> String {
+    match score {
+        Some(s) if s.fit_percent_mean.is_finite() => format!("{:.2}", s.fit_percent_mean),
+        _ => "—".into(),
+    }
+}
+
+/// The table as CSV: one row per model, simulation and one-step columns, test RMSE, seconds.
+pub fn table_csv(rows: &[ComparisonRow]) -> String {
+    let mut text = String::from(
+        "model,structure,kind,train_fit_sim,validation_fit_sim,test_fit_sim,train_fit_one_step,test_fit_one_step,test_rmse_mps2,seconds,failed\n",
+    );
+    for r in rows {
+        let one = |s: &Option<PartScore>| {
+            s.as_ref()
+                .map(|s| s.fit_percent_mean.to_string())
+                .unwrap_or_default()
+        };
+        text.push_str(&format!(
+            "{},\"{}\",{},{},{},{},{},{},{},{},\"{}\"\n",
+            r.model,
+            r.structure.replace('"', "'"),
+            r.kind,
+            r.train.fit_percent_mean,
+            r.validation.fit_percent_mean,
+            r.test.fit_percent_mean,
+            one(&r.train_one_step),
+            one(&r.test_one_step),
+            r.test.rmse_mps2_mean,
+            r.seconds,
+            r.failed.clone().unwrap_or_default().replace('"', "'")
+        ));
+    }
+    text
+}
+
+/// The table for people.
+pub fn table_text(result: &CalibrationResult) -> String {
+    let mut text = format!(
+        "{:<12} {:<34} {:>9} {:>9} {:>9} {:>10} {:>10} {:>11} {:>8}\n",
+        "model",
+        "structure",
+        "train sim",
+        "valid sim",
+        "test sim",
+        "train 1-st",
+        "test 1-st",
+        "test RMSE",
+        "seconds"
+    );
+    for r in &result.comparison {
+        let mut structure = r.structure.clone();
+        structure.truncate(34);
+        text.push_str(&format!(
+            "{:<12} {:<34} {:>9} {:>9} {:>9} {:>10} {:>10} {:>11.5} {:>8.2}\n",
+            r.model,
+            structure,
+            fit_or_dash(Some(&r.train)),
+            fit_or_dash(Some(&r.validation)),
+            fit_or_dash(Some(&r.test)),
+            fit_or_dash(r.train_one_step.as_ref()),
+            fit_or_dash(r.test_one_step.as_ref()),
+            r.test.rmse_mps2_mean,
+            r.seconds
+        ));
+        if let Some(why) = &r.failed {
+            text.push_str(&format!("{:<12} not fitted: {why}\n", ""));
+        }
+    }
+    text.push_str(
+        "\nfit % = 100 (1 − ‖y − ŷ‖/‖y − ȳ‖), mean over the corrected axes; sim = simulation (infinite horizon), \
+         1-st = one-step prediction (dynamic models only; static maps have one kind).\n",
+    );
+    if !result.cross_condition.is_empty() {
+        text.push_str("\ncross-condition, trained on recording 1:\n");
+        for c in &result.cross_condition {
+            text.push_str(&format!(
+                "{:<12} {:>9.2} %  on {}\n",
+                c.model, c.score.fit_percent_mean, c.tested_on
+            ));
+        }
+    }
+    text
+}
+
+pub fn run(args: CompareArgs, ui: Ui) -> anyhow::Result<()> {
+    let settings = args.calibrate.settings()?;
+    let fit = &args.calibrate.fit;
+    let recordings = fit
+        .recordings
+        .iter()
+        .map(|p| fit.read.read(p))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let bar = ui.progress(1, "comparing");
+    let output = calibrate(&recordings, &settings, &|p| {
+        bar.set_message(p.stage.to_string());
+        bar.set_length(p.total.max(1) as u64);
+        bar.set_position(p.done as u64);
+    })?;
+    bar.finish_and_clear();
+    if let Some(path) = &args.csv {
+        std::fs::write(path, table_csv(&output.result.comparison))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if fit.json {
+        return ui::print_json(&serde_json::json!({
+            "comparison": output.result.comparison,
+            "cross_condition": output.result.cross_condition,
+        }));
+    }
+    ui::print(&table_text(&output.result))
+}
