@@ -121,6 +121,23 @@ impl CalibrateArgs {
     }
 }
 
+/// Runs the library's calibration with a progress bar that names each stage.
+pub fn calibrate_with_progress(
+    recordings: &[Recording],
+    settings: &CalibrateSettings,
+    ui: Ui,
+    label: &str,
+) -> anyhow::Result<CalibrationOutput> {
+    let bar = ui.progress(1, label);
+    let output = calibrate(recordings, settings, &|p| {
+        bar.set_message(p.stage.to_string());
+        bar.set_length(p.total.max(1) as u64);
+        bar.set_position(p.done as u64);
+    })?;
+    bar.finish_and_clear();
+    Ok(output)
+}
+
 /// Runs a calibration with progress bars and writes the three output files.
 pub fn run_calibration(
     recordings: &[Recording],
@@ -129,13 +146,7 @@ pub fn run_calibration(
     ui: Ui,
 ) -> anyhow::Result<CalibrationOutput> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let bar = ui.progress(1, "calibrating");
-    let output = calibrate(recordings, settings, &|p| {
-        bar.set_message(p.stage.to_string());
-        bar.set_length(p.total.max(1) as u64);
-        bar.set_position(p.done as u64);
-    })?;
-    bar.finish_and_clear();
+    let output = calibrate_with_progress(recordings, settings, ui, "calibrating")?;
     output.saved.write_path(&out.join("model.json"))?;
     let results = serde_json::to_string_pretty(&output.result)? + "\n";
     std::fs::write(out.join("results.json"), results).context("writing results.json")?;

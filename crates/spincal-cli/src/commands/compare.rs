@@ -4,9 +4,9 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
-use spincal::calibrate::{calibrate, CalibrationResult, ComparisonRow, PartScore};
+use spincal::calibrate::{CalibrationResult, ComparisonRow, PartScore};
 
-use super::calibrate::CalibrateArgs;
+use super::calibrate::{calibrate_with_progress, CalibrateArgs};
 use crate::ui::{self, Ui};
 
 #[derive(Args, Debug)]
@@ -115,13 +115,7 @@ pub fn run(args: CompareArgs, ui: Ui) -> anyhow::Result<()> {
         .iter()
         .map(|p| fit.read.read(p))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let bar = ui.progress(1, "comparing");
-    let output = calibrate(&recordings, &settings, &|p| {
-        bar.set_message(p.stage.to_string());
-        bar.set_length(p.total.max(1) as u64);
-        bar.set_position(p.done as u64);
-    })?;
-    bar.finish_and_clear();
+    let output = calibrate_with_progress(&recordings, &settings, ui, "comparing")?;
     if let Some(path) = &args.csv {
         std::fs::write(path, table_csv(&output.result.comparison))
             .with_context(|| format!("writing {}", path.display()))?;
