@@ -1,7 +1,8 @@
 //! Levenberg–Marquardt training with MATLAB `trainlm`'s rules.
 //!
 //! Each epoch forms the normal equations at the current weights from Jacobian rows computed by
-//! backpropagation, a block of samples at a time: JᵀJ grows by a symmetric rank-k update of each
+//! backpropagation, a block of samples at a time (forward and backward passes a layer at a time
+//! over the whole block, with a vectorised tanh): JᵀJ grows by a symmetric rank-k update of each
 //! block (faer, lower triangle only) and Jᵀe by a matrix–vector product, so J is never stored
 //! whole. Then (JᵀJ + μI)·Δ = Jᵀe is solved by Cholesky, retrying with μ×10 until the training
 //! error falls. All buffers live in [`LmWorkspace`]: an epoch allocates nothing.
@@ -111,8 +112,8 @@ impl TrainingReport {
 pub struct LmWorkspace {
     layout: Layout,
     block_samples: usize,
-    /// Jᵀ of one block: `n_params` × (block samples × outputs), column-major.
-    jacobian_t: Vec<f64>,
+    /// J of one block: (outputs × block samples) × `n_params`, column-major, output-major rows.
+    jacobian: Vec<f64>,
     errors: Vec<f64>,
     activations: Vec<f64>,
     delta: Vec<f64>,
@@ -135,10 +136,10 @@ impl LmWorkspace {
         LmWorkspace {
             layout: layout.clone(),
             block_samples,
-            jacobian_t: vec![0.0; n_p * rows],
+            jacobian: vec![0.0; n_p * rows],
             errors: vec![0.0; rows],
-            activations: vec![0.0; layout.n_activations()],
-            delta: vec![0.0; layout.n_delta()],
+            activations: vec![0.0; layout.n_activations() * block_samples],
+            delta: vec![0.0; layout.n_delta_block(block_samples)],
             jtj: Mat::zeros(n_p, n_p),
             jte: Mat::zeros(n_p, 1),
             factor: Mat::zeros(n_p, n_p),
@@ -155,30 +156,38 @@ impl LmWorkspace {
         let layout = &self.layout;
         let (n_p, n_in, n_out) = (layout.n_params(), layout.inputs(), layout.outputs());
         let out_at = layout.n_activations() - n_out;
+        let block = self.block_samples;
         self.jtj.fill(0.0);
         self.jte.fill(0.0);
         let mut sse = 0.0;
         let n = data.len();
         let mut start = 0;
         while start < n {
-            let count = self.block_samples.min(n - start);
+            let count = block.min(n - start);
+            layout.forward_block(
+                weights,
+                &data.inputs[start * n_in..(start + count) * n_in],
+                count,
+                &mut self.activations,
+            );
+            let outputs = &self.activations[out_at * count..(out_at + n_out) * count];
             for s in 0..count {
                 let row = start + s;
-                layout.forward(
-                    weights,
-                    &data.inputs[row * n_in..(row + 1) * n_in],
-                    &mut self.activations,
-                );
                 for k in 0..n_out {
-                    let e = data.targets[row * n_out + k] - self.activations[out_at + k];
-                    self.errors[s * n_out + k] = e;
+                    let e = data.targets[row * n_out + k] - outputs[k * count + s];
+                    self.errors[k * count + s] = e;
                     sse += e * e;
                 }
-                let columns = &mut self.jacobian_t[s * n_out * n_p..(s + 1) * n_out * n_p];
-                layout.output_gradients(weights, &self.activations, columns, &mut self.delta);
             }
             let cols = count * n_out;
-            let jt = MatRef::from_column_major_slice(&self.jacobian_t[..n_p * cols], n_p, cols);
+            layout.jacobian_block(
+                weights,
+                &self.activations,
+                count,
+                &mut self.jacobian,
+                &mut self.delta,
+            );
+            let jt = MatRef::from_column_major_slice(&self.jacobian[..n_p * cols], cols, n_p).transpose();
             let e = MatRef::from_column_major_slice(&self.errors[..cols], cols, 1);
             triangular::matmul(
                 self.jtj.as_mut(),
@@ -279,7 +288,13 @@ impl LmWorkspace {
                     for (i, (t, w)) in self.trial.iter_mut().zip(weights.iter()).enumerate() {
                         *t = w + self.step[(i, 0)];
                     }
-                    let trial_sse = sse_of(&self.layout, &self.trial, train, &mut self.activations);
+                    let trial_sse = sse_of(
+                        &self.layout,
+                        &self.trial,
+                        train,
+                        &mut self.activations,
+                        self.block_samples,
+                    );
                     if trial_sse < sse {
                         mu *= settings.mu_decrease;
                         accepted = Some(trial_sse);
@@ -333,7 +348,13 @@ impl LmWorkspace {
         if data.is_empty() {
             return f64::NAN;
         }
-        sse_of(&self.layout, weights, data, &mut self.activations) / (data.len() * data.n_outputs) as f64
+        sse_of(
+            &self.layout,
+            weights,
+            data,
+            &mut self.activations,
+            self.block_samples,
+        ) / (data.len() * data.n_outputs) as f64
     }
 
     /// Where the best weights of the last run are kept (for callers that reuse buffers).
@@ -342,17 +363,31 @@ impl LmWorkspace {
     }
 }
 
-/// Sum of squared errors of the network over `data`.
-fn sse_of(layout: &Layout, weights: &[f64], data: &Dataset, activations: &mut [f64]) -> f64 {
+/// Sum of squared errors of the network over `data`, `block` samples at a time (`activations`
+/// holds `n_activations() × block` values); the same sum, bit for bit, as per-sample
+/// [`Layout::forward`] calls.
+fn sse_of(layout: &Layout, weights: &[f64], data: &Dataset, activations: &mut [f64], block: usize) -> f64 {
     let (n_in, n_out) = (layout.inputs(), layout.outputs());
     let out_at = layout.n_activations() - n_out;
     let mut sse = 0.0;
-    for row in 0..data.len() {
-        layout.forward(weights, &data.inputs[row * n_in..(row + 1) * n_in], activations);
-        for k in 0..n_out {
-            let e = data.targets[row * n_out + k] - activations[out_at + k];
-            sse += e * e;
+    let n = data.len();
+    let mut start = 0;
+    while start < n {
+        let count = block.min(n - start);
+        layout.forward_block(
+            weights,
+            &data.inputs[start * n_in..(start + count) * n_in],
+            count,
+            activations,
+        );
+        let outputs = &activations[out_at * count..(out_at + n_out) * count];
+        for s in 0..count {
+            for k in 0..n_out {
+                let e = data.targets[(start + s) * n_out + k] - outputs[k * count + s];
+                sse += e * e;
+            }
         }
+        start += count;
     }
     sse
 }
