@@ -161,17 +161,9 @@ impl HwModel {
         let mut x = vec![0.0; n];
         let mut out = vec![0.0; n];
         let n0 = init.samples();
-        if let SimInit::Measured { y, n: k } = init {
-            if y.len() < k || k > n {
-                return Err(SysidError::TooFewSamples {
-                    needed: k,
-                    available: y.len().min(n),
-                });
-            }
-            for t in 0..k {
-                x[t] = self.output.inverse(y[t]);
-                out[t] = y[t];
-            }
+        for (t, &y) in init.measured(n)?.iter().enumerate() {
+            x[t] = self.output.inverse(y);
+            out[t] = y;
         }
         for t in n0..n {
             let mut acc = 0.0;

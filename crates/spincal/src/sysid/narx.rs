@@ -148,15 +148,8 @@ impl NarxModel {
         let n = u.len();
         let mut out = vec![0.0; n];
         let n0 = init.samples();
-        if let SimInit::Measured { y, n: k } = init {
-            if y.len() < k || k > n {
-                return Err(SysidError::TooFewSamples {
-                    needed: k,
-                    available: y.len().min(n),
-                });
-            }
-            out[..k].copy_from_slice(&y[..k]);
-        }
+        let start = init.measured(n)?;
+        out[..start.len()].copy_from_slice(start);
         let mut x = vec![0.0; self.n_regressors()];
         for t in n0..n {
             self.regressor(&out, u, t, &mut x);

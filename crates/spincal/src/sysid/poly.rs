@@ -146,12 +146,25 @@ pub enum SimInit<'a> {
     Measured { y: &'a [f64], n: usize },
 }
 
-impl SimInit<'_> {
+impl<'a> SimInit<'a> {
     /// How many leading samples are copied from the measurement (excluded from scoring).
     pub fn samples(&self) -> usize {
         match self {
             SimInit::Zero => 0,
             SimInit::Measured { n, .. } => *n,
+        }
+    }
+
+    /// The measured outputs that start a simulation of `len` samples, checked to cover `n` of them
+    /// (empty for [`SimInit::Zero`]).
+    pub fn measured(&self, len: usize) -> Result<&'a [f64], SysidError> {
+        match *self {
+            SimInit::Zero => Ok(&[]),
+            SimInit::Measured { y, n } if y.len() < n || n > len => Err(SysidError::TooFewSamples {
+                needed: n,
+                available: y.len().min(len),
+            }),
+            SimInit::Measured { y, n } => Ok(&y[..n]),
         }
     }
 }
@@ -260,18 +273,9 @@ impl PolyModel {
         self.check_inputs(u, n)?;
         let (nums, den) = self.transfer();
         let n0 = init.samples();
-        if let SimInit::Measured { y, n: k } = init {
-            if y.len() < k || k > n {
-                return Err(SysidError::TooFewSamples {
-                    needed: k,
-                    available: y.len().min(n),
-                });
-            }
-        }
+        let start = init.measured(n)?;
         let mut out = vec![0.0; n];
-        if let SimInit::Measured { y, n: k } = init {
-            out[..k].copy_from_slice(&y[..k]);
-        }
+        out[..start.len()].copy_from_slice(start);
         for t in n0..n {
             let mut acc = 0.0;
             for (num, ui) in nums.iter().zip(u) {
