@@ -59,7 +59,7 @@ def cost(p):
 
 t_start = time.perf_counter()
 nm = minimize(cost, start, method="Nelder-Mead", bounds=list(zip(lower, upper)),
-              options={"maxiter": 200 * len(start), "maxfev": 400 * len(start), "xatol": 1e-7, "fatol": 1e-9 * cost(start)})
+              options={"maxiter": 200 * len(start), "maxfev": 400 * len(start), "xatol": 1e-4, "fatol": 1e-9 * cost(start)})
 ls = least_squares(residuals, np.clip(nm.x, lower, upper), bounds=(lower, upper), method="trf",
                    ftol=1e-15, xtol=1e-15, gtol=1e-15, max_nfev=2000)
 scipy_s = time.perf_counter() - t_start

@@ -100,8 +100,9 @@ impl Default for FitOptions {
             fit_offsets: true,
             bounds: Vec::new(),
             range_mps2: None,
+            // fminsearch's TolX; the Levenberg–Marquardt polish takes it from there.
             nelder_mead: NelderMeadOptions {
-                tol_x: 1e-7,
+                tol_x: 1e-4,
                 tol_f: 0.0,
                 max_iterations_per_param: 200,
             },
@@ -310,13 +311,25 @@ impl Problem<'_> {
         let (mounting, sessions) = self.unpack(p);
         let mut total = 0.0;
         for (k, rec) in self.recordings.iter().enumerate() {
-            let w = self.weights[k];
-            let a = &rec.accel_mps2;
-            for_each_sample(&sessions[k], &mounting, self.gravity, &rec.time_s, |i, m| {
-                for &axis in self.axes {
-                    let e = w[axis] * (m[axis] - a[axis][i]);
-                    total += e * e;
+            // Unused axes get weight zero, so the per-sample work has no branches or axis loop.
+            let w = [0, 1, 2].map(|a| {
+                if self.axes.contains(&a) {
+                    self.weights[k][a]
+                } else {
+                    0.0
                 }
+            });
+            let n = rec.len();
+            let (x, y, z) = (
+                &rec.accel_mps2[0][..n],
+                &rec.accel_mps2[1][..n],
+                &rec.accel_mps2[2][..n],
+            );
+            for_each_sample(&sessions[k], &mounting, self.gravity, &rec.time_s, |i, m| {
+                let ex = w[0] * (m[0] - x[i]);
+                let ey = w[1] * (m[1] - y[i]);
+                let ez = w[2] * (m[2] - z[i]);
+                total += ex * ex + ey * ey + ez * ez;
             });
         }
         if let Some((index, prior)) = self.prior {
