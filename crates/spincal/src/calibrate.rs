@@ -223,26 +223,8 @@ pub fn calibrate(
         total: 1,
     });
     let turntable = fit_turntable(&refs, &settings.fit, &mut |_, _| {})?;
-    let references: Vec<Recording> = recordings
-        .iter()
-        .enumerate()
-        .map(|(k, rec)| Recording {
-            time_s: rec.time_s.clone(),
-            accel_mps2: turntable.reference(k, &rec.time_s),
-            gyro_radps: None,
-            source: rec.source.clone(),
-        })
-        .collect();
-    let models: Vec<Recording> = recordings
-        .iter()
-        .enumerate()
-        .map(|(k, rec)| Recording {
-            time_s: rec.time_s.clone(),
-            accel_mps2: turntable.model(k, &rec.time_s),
-            gyro_radps: None,
-            source: rec.source.clone(),
-        })
-        .collect();
+    let references = with_signal(recordings, |k, t| turntable.reference(k, t));
+    let models = with_signal(recordings, |k, t| turntable.model(k, t));
     let (measured, reference) = (&recordings[0], &references[0]);
     let problem = AnnProblem::new(
         measured,
@@ -547,6 +529,20 @@ pub fn calibrate(
         models,
         corrected: corrected_all,
     })
+}
+
+/// Each recording's twin holding another signal (of recording k at times t) at the same samples.
+fn with_signal(recordings: &[Recording], signal: impl Fn(usize, &[f64]) -> [Vec<f64>; 3]) -> Vec<Recording> {
+    recordings
+        .iter()
+        .enumerate()
+        .map(|(k, rec)| Recording {
+            time_s: rec.time_s.clone(),
+            accel_mps2: signal(k, &rec.time_s),
+            gyro_radps: None,
+            source: rec.source.clone(),
+        })
+        .collect()
 }
 
 /// Fits one SISO model per corrected axis on the training block and scores it (simulation and

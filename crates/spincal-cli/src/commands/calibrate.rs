@@ -167,15 +167,7 @@ pub fn summary(output: &CalibrationOutput, out: &Path) -> String {
             row.model, row.train.fit_percent_mean, row.validation.fit_percent_mean, row.test.fit_percent_mean
         ));
     }
-    if !r.cross_condition.is_empty() {
-        text.push_str("\ncross-condition (trained on recording 1):\n");
-        for c in &r.cross_condition {
-            text.push_str(&format!(
-                "{:<12} {:>8.2} %  on {}\n",
-                c.model, c.score.fit_percent_mean, c.tested_on
-            ));
-        }
-    }
+    text.push_str(&super::compare::cross_condition_text(&r.cross_condition));
     let dir = out.display();
     text.push_str(&format!(
         "\nchosen: {} (best on validation among savable correctors; best overall: {})\n\

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
-use spincal::calibrate::{CalibrationResult, ComparisonRow, PartScore};
+use spincal::calibrate::{CalibrationResult, ComparisonRow, CrossRow, PartScore};
 
 use super::calibrate::{calibrate_with_progress, CalibrateArgs};
 use crate::ui::{self, Ui};
@@ -58,6 +58,21 @@ pub fn table_csv(rows: &[ComparisonRow]) -> String {
     text
 }
 
+/// The cross-condition rows for people (empty when there was one recording).
+pub fn cross_condition_text(rows: &[CrossRow]) -> String {
+    let mut text = String::new();
+    if !rows.is_empty() {
+        text.push_str("\ncross-condition (trained on recording 1):\n");
+        for c in rows {
+            text.push_str(&format!(
+                "{:<12} {:>9.2} %  on {}\n",
+                c.model, c.score.fit_percent_mean, c.tested_on
+            ));
+        }
+    }
+    text
+}
+
 /// The table for people.
 pub fn table_text(result: &CalibrationResult) -> String {
     let mut text = format!(
@@ -95,15 +110,7 @@ pub fn table_text(result: &CalibrationResult) -> String {
         "\nfit % = 100 (1 − ‖y − ŷ‖/‖y − ȳ‖), mean over the corrected axes; sim = simulation (infinite horizon), \
          1-st = one-step prediction (dynamic models only; static maps have one kind).\n",
     );
-    if !result.cross_condition.is_empty() {
-        text.push_str("\ncross-condition, trained on recording 1:\n");
-        for c in &result.cross_condition {
-            text.push_str(&format!(
-                "{:<12} {:>9.2} %  on {}\n",
-                c.model, c.score.fit_percent_mean, c.tested_on
-            ));
-        }
-    }
+    text.push_str(&cross_condition_text(&result.cross_condition));
     text
 }
 

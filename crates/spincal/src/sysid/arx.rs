@@ -39,14 +39,7 @@ impl ArxParams {
 
     /// First sample index at which every lagged regressor exists.
     pub fn first_row(&self) -> usize {
-        let nb_max = self
-            .nb
-            .iter()
-            .zip(&self.nk)
-            .map(|(nb, nk)| (nb + nk).saturating_sub(1))
-            .max()
-            .unwrap_or(0);
-        self.na.max(nb_max)
+        super::first_complete_row(self.na, &self.nb, &self.nk)
     }
 
     /// Least-squares fit on rows `first_row()..N`. Regressor order: −y(t−1..na), then per input

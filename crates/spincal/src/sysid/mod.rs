@@ -49,6 +49,17 @@ pub enum SysidError {
 }
 
 /// Checks that every input has y's length and that all values are finite.
+/// First sample index at which y(t−1..na) and every input's u(t−nk..t−nk−nb+1) exist.
+pub(crate) fn first_complete_row(na: usize, nb: &[usize], nk: &[usize]) -> usize {
+    let b = nb
+        .iter()
+        .zip(nk)
+        .map(|(nb, nk)| (nb + nk).saturating_sub(1))
+        .max()
+        .unwrap_or(0);
+    na.max(b)
+}
+
 pub(crate) fn check_data(u: &[&[f64]], y: &[f64]) -> Result<(), SysidError> {
     for (i, ui) in u.iter().enumerate() {
         if ui.len() != y.len() {

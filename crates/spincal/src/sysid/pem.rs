@@ -183,14 +183,7 @@ impl Layout {
 
     /// First residual used: where A y and the B regressors are fully inside the data.
     fn first_row(&self) -> usize {
-        let b = self
-            .nb
-            .iter()
-            .zip(&self.nk)
-            .map(|(nb, nk)| (nb + nk).saturating_sub(1))
-            .max()
-            .unwrap_or(0);
-        self.na.max(b)
+        super::first_complete_row(self.na, &self.nb, &self.nk)
     }
 
     fn unpack(&self, p: &[f64]) -> PolyModel {
