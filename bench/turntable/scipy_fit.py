@@ -57,12 +57,16 @@ def cost(p):
     return e @ e
 
 
-t_start = time.perf_counter()
-nm = minimize(cost, start, method="Nelder-Mead", bounds=list(zip(lower, upper)),
-              options={"maxiter": 200 * len(start), "maxfev": 400 * len(start), "xatol": 1e-4, "fatol": 1e-9 * cost(start)})
-ls = least_squares(residuals, np.clip(nm.x, lower, upper), bounds=(lower, upper), method="trf",
-                   ftol=1e-15, xtol=1e-15, gtol=1e-15, max_nfev=2000)
-scipy_s = time.perf_counter() - t_start
+# Best of three identical fits, as for spincal: the machine's load moves single timings.
+scipy_s = float("inf")
+for _ in range(3):
+    t_start = time.perf_counter()
+    nm = minimize(cost, start, method="Nelder-Mead", bounds=list(zip(lower, upper)),
+                  options={"maxiter": 200 * len(start), "maxfev": 400 * len(start), "xatol": 1e-4,
+                           "fatol": 1e-9 * cost(start)})
+    ls = least_squares(residuals, np.clip(nm.x, lower, upper), bounds=(lower, upper), method="trf",
+                       ftol=1e-15, xtol=1e-15, gtol=1e-15, max_nfev=2000)
+    scipy_s = min(scipy_s, time.perf_counter() - t_start)
 
 ours = np.array([p["value"] for p in fit["params"]])
 theirs = ls.x.copy()
@@ -77,6 +81,6 @@ for n, a, b, d, e in zip(names, ours, theirs, rel, se):
 print(f"weighted SSE: spincal {fit['cost_final']:.10e}, scipy {2 * ls.cost:.10e}")
 print(f"scipy: Nelder-Mead {nm.nit} iterations / {nm.nfev} evaluations, least_squares {ls.nfev} evaluations")
 print(f"largest relative parameter difference: {rel.max():.2e} (goal 1e-6)")
-print(f"time: spincal {spincal_seconds:.3f} s (whole process: read, spectrum, NM, LM, errors), "
+print(f"time (best of 3 each): spincal {spincal_seconds:.3f} s (whole process: read, spectrum, NM, LM, errors), "
       f"scipy {scipy_s:.3f} s (fit only; reading took {read_s:.3f} s more)")
 print(f"ratio scipy / spincal: {scipy_s / spincal_seconds:.1f}x (goal 20x)")

@@ -20,6 +20,7 @@ use crate::optim::{
 };
 use crate::recording::{Recording, STANDARD_GRAVITY};
 use crate::spectrum::{estimate_rotation_rate, RateEstimate, RateSearch, SpectrumError};
+use crate::turntable::moments::CostMoments;
 use crate::turntable::model::{evaluate, for_each_derivative, for_each_sample, Direction, Mounting, Session};
 
 /// Which axes enter the objective.
@@ -267,6 +268,8 @@ struct Problem<'a> {
     gravity: f64,
     prior: Option<(usize, RadiusPrior)>,
     n_recordings: usize,
+    /// Per recording, the cost's moments when ω's bounds are narrow enough for them to pay off.
+    moments: Vec<Option<CostMoments>>,
 }
 
 impl Problem<'_> {
@@ -306,7 +309,8 @@ impl Problem<'_> {
         self.recordings[k].len() * self.axes.len()
     }
 
-    /// Σ residual², computed on the fly (Nelder–Mead calls this thousands of times).
+    /// Σ residual² (Nelder–Mead calls this thousands of times): from the moments when ω is within
+    /// their range, else summed over the samples.
     fn cost(&self, p: &[f64]) -> f64 {
         let (mounting, sessions) = self.unpack(p);
         let mut total = 0.0;
@@ -319,6 +323,12 @@ impl Problem<'_> {
                     0.0
                 }
             });
+            if let Some(moments) = self.moments[k].as_ref() {
+                if moments.covers(sessions[k].omega_radps) {
+                    total += moments.cost(&sessions[k], &mounting, self.gravity, w);
+                    continue;
+                }
+            }
             let n = rec.len();
             let (x, y, z) = (
                 &rec.accel_mps2[0][..n],
@@ -367,52 +377,55 @@ impl LeastSquares for Problem<'_> {
         }
     }
 
-    fn jacobian(&self, p: &[f64], mut out: MatMut<'_, f64>) {
+    fn jacobian(&self, p: &[f64], out: MatMut<'_, f64>) {
         let (mounting, sessions) = self.unpack(p);
-        for j in 0..out.ncols() {
-            for i in 0..out.nrows() {
-                out[(i, j)] = 0.0;
-            }
-        }
+        // The LM workspace's Jacobian is column-major: fill each parameter's column as a slice.
+        let mut columns: Vec<&mut [f64]> = out
+            .col_iter_mut()
+            .map(|col| {
+                let col = col.try_as_col_major_mut().expect("LM allocates a column-major Jacobian");
+                let slice = col.as_slice_mut();
+                slice.fill(0.0);
+                slice
+            })
+            .collect();
         let mut row0 = 0;
         for (k, rec) in self.recordings.iter().enumerate() {
             let n = rec.len();
             // Column of each role for this recording (None when not free).
             let column = |role: Role| self.defs.iter().position(|d| d.role == role);
             let radius_col = column(Role::Radius(Some(k))).or_else(|| column(Role::Radius(None)));
-            let cols = (
+            let role_cols = [
                 radius_col,
                 column(Role::Omega(k)),
                 column(Role::Tilt(k)),
                 column(Role::Phase(k)),
                 column(Role::Beta),
-            );
+            ];
             let offset_cols = [0, 1, 2].map(|a| column(Role::Offset(a)));
             let drift_cols = [0, 1, 2].map(|a| column(Role::Drift(k, a)));
             for_each_derivative(&sessions[k], &mounting, self.gravity, &rec.time_s, |i, d| {
                 for (slot, &a) in self.axes.iter().enumerate() {
                     let w = self.weights[k][a];
                     let row = row0 + slot * n + i;
-                    let pairs = [
-                        (cols.0, d.radius[a]),
-                        (cols.1, d.omega[a]),
-                        (cols.2, d.tilt[a]),
-                        (cols.3, d.phase[a]),
-                        (cols.4, d.beta[a]),
-                        (offset_cols[a], 1.0),
-                        (drift_cols[a], d.drift),
-                    ];
-                    for (col, value) in pairs {
-                        if let Some(c) = col {
-                            out[(row, c)] = w * value;
+                    let values = [d.radius[a], d.omega[a], d.tilt[a], d.phase[a], d.beta[a]];
+                    for (col, value) in role_cols.iter().zip(values) {
+                        if let Some(c) = *col {
+                            columns[c][row] = w * value;
                         }
+                    }
+                    if let Some(c) = offset_cols[a] {
+                        columns[c][row] = w;
+                    }
+                    if let Some(c) = drift_cols[a] {
+                        columns[c][row] = w * d.drift;
                     }
                 }
             });
             row0 += self.rows_of(k);
         }
         if let Some((index, prior)) = self.prior {
-            out[(row0, index)] = 1.0 / prior.tolerance_m;
+            columns[index][row0] = 1.0 / prior.tolerance_m;
         }
     }
 }
@@ -673,6 +686,13 @@ pub fn fit_turntable(
         gravity: g,
         prior,
         n_recordings: n,
+        moments: (0..n)
+            .map(|k| {
+                let omega = defs.iter().find(|d| d.role == Role::Omega(k))?;
+                let centre = 0.5 * (omega.lower + omega.upper);
+                CostMoments::new(recordings[k], centre, 0.5 * (omega.upper - omega.lower).abs())
+            })
+            .collect(),
         defs,
     };
     let start: Vec<f64> = problem.defs.iter().map(|d| d.start).collect();

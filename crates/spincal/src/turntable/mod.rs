@@ -2,6 +2,7 @@
 
 pub mod fit;
 pub mod model;
+pub mod moments;
 pub mod sensitivity;
 
 pub use fit::{fit_turntable, AxesObjective, DriftMode, FitError, FitOptions, RadiusPrior, TurntableFit};
