@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::ann::{
     architecture_label, sweep, AnnError, AnnProblem, Division, DivisionMode, LmSettings, SweepRow,
-    SweepSettings,
+    SweepSettings, SWEEP_HESSIAN_SAMPLES,
 };
 use crate::corrector::{Axis, Corrector, CorrectorFile, CorrectorModel};
 use crate::linear::{LinearError, LinearModel};
@@ -241,7 +241,11 @@ pub fn calibrate(
                 grid: grid.clone(),
                 restarts: *restarts,
                 base_seed: settings.seed,
-                lm: settings.lm.clone(),
+                // Screening: a subsampled JᵀJ; the chosen architecture is trained exactly below.
+                lm: LmSettings {
+                    hessian_samples: settings.lm.hessian_samples.or(Some(SWEEP_HESSIAN_SAMPLES)),
+                    ..settings.lm.clone()
+                },
             };
             let rows = sweep(&problem, &sweep_settings, &|p| {
                 observer(StageProgress {

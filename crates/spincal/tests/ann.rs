@@ -60,7 +60,7 @@ fn blocked_normal_equations_equal_the_full_jacobian_products() {
     let weights = problem.initial_weights(&layout, 3, 1);
     // 37 does not divide the 299 training samples: the last block is partial.
     let mut workspace = LmWorkspace::new(&layout, 37);
-    let sse = workspace.normal_equations(&weights, &problem.train);
+    let sse = workspace.normal_equations(&weights, &problem.train, None);
     let jacobian = full_jacobian(&layout, &weights, &problem.train);
     let jtj = jacobian.transpose() * &jacobian;
     let n_out = problem.train.n_outputs;
@@ -94,6 +94,71 @@ fn blocked_normal_equations_equal_the_full_jacobian_products() {
         assert!(
             (workspace.jte()[(j, 0)] - jte).abs() <= 1e-9 * (1.0 + jte.abs()),
             "Jᵀe[{j}]"
+        );
+    }
+}
+
+#[test]
+fn subsampled_normal_equations_scale_the_chosen_blocks_and_keep_the_full_gradient() {
+    let (measured, reference) = turntable_pair(500, 2);
+    let problem = AnnProblem::new(&measured, &reference, &XY, 1, DivisionMode::Contiguous).unwrap();
+    let layout = problem.layout(&[6, 4]).unwrap();
+    let weights = problem.initial_weights(&layout, 3, 1);
+    let mut full = LmWorkspace::new(&layout, 37);
+    let full_sse = full.normal_equations(&weights, &problem.train, None);
+    // 299 samples in 9 blocks of 37; about 80 samples asked for: 3 blocks, every third (0, 3, 6).
+    let mut sub = LmWorkspace::new(&layout, 37);
+    let sse = sub.normal_equations(&weights, &problem.train, Some(80));
+    assert_eq!(sse, full_sse, "the error always uses every sample");
+    let n_p = layout.n_params();
+    for j in 0..n_p {
+        assert_eq!(
+            sub.jte()[(j, 0)],
+            full.jte()[(j, 0)],
+            "Jᵀe always uses every sample"
+        );
+    }
+    let jacobian = full_jacobian(&layout, &weights, &problem.train);
+    let n_out = problem.train.n_outputs;
+    let chosen: Vec<usize> = [0..37, 111..148, 222..259].into_iter().flatten().collect();
+    let scale = 299.0 / chosen.len() as f64;
+    for j in 0..n_p {
+        for i in j..n_p {
+            let expected: f64 = chosen
+                .iter()
+                .flat_map(|&row| (0..n_out).map(move |k| row * n_out + k))
+                .map(|r| jacobian[(r, i)] * jacobian[(r, j)])
+                .sum::<f64>()
+                * scale;
+            let got = sub.jtj()[(i, j)];
+            assert!(
+                (got - expected).abs() <= 1e-9 * (1.0 + expected.abs()),
+                "JᵀJ[{i},{j}]: {got} vs {expected}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_subsampled_gauss_newton_matrix_trains_about_as_well() {
+    let (measured, reference) = turntable_pair(8000, 4);
+    let problem = AnnProblem::new(&measured, &reference, &XY, 0, DivisionMode::Contiguous).unwrap();
+    let layout = problem.layout(&[6]).unwrap();
+    let exact = LmSettings::default();
+    let screened = LmSettings {
+        hessian_samples: Some(1024),
+        ..LmSettings::default()
+    };
+    for restart in 0..3 {
+        let (_, full) = problem.train_once(&layout, 11, restart, &exact);
+        let (_, sub) = problem.train_once(&layout, 11, restart, &screened);
+        // Every accepted step lowers the full training error.
+        assert!(sub.train_mse.windows(2).all(|w| w[1] < w[0]), "{sub:?}");
+        assert!(
+            sub.best_validation_mse() <= 2.0 * full.best_validation_mse(),
+            "restart {restart}: subsampled {} vs exact {}",
+            sub.best_validation_mse(),
+            full.best_validation_mse()
         );
     }
 }

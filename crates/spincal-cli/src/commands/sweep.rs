@@ -27,6 +27,11 @@ pub struct SweepArgs {
     /// Threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Samples each epoch's JᵀJ is formed from (blocks spread over the training part; errors and
+    /// gradient use all of it); 0 = all. Screening with a subsampled JᵀJ keeps a full sweep on a
+    /// long recording to minutes; `spincal train` then trains the chosen network exactly.
+    #[arg(long, default_value_t = spincal::ann::SWEEP_HESSIAN_SAMPLES)]
+    pub hessian_samples: usize,
     /// Print the table as JSON on stdout.
     #[arg(long)]
     pub json: bool,
@@ -74,6 +79,8 @@ struct SweepOutput<'a> {
     delays: usize,
     restarts: usize,
     base_seed: u64,
+    /// Samples of each epoch's JᵀJ (null: all).
+    hessian_samples: Option<usize>,
     wall_seconds: f64,
     rows: &'a [SweepRow],
 }
@@ -93,7 +100,7 @@ pub fn run(args: SweepArgs, ui: Ui) -> anyhow::Result<()> {
         grid,
         restarts: args.data.restarts,
         base_seed: args.data.seed,
-        lm: args.data.lm(),
+        lm: args.data.lm(args.hessian_samples),
     };
     let bar = ui.progress((settings.grid.len() * settings.restarts) as u64, "sweep");
     let observer = |p: SweepProgress| bar.set_position(p.done as u64);
@@ -112,6 +119,7 @@ pub fn run(args: SweepArgs, ui: Ui) -> anyhow::Result<()> {
         delays: args.data.delays,
         restarts: settings.restarts,
         base_seed: settings.base_seed,
+        hessian_samples: settings.lm.hessian_samples,
         wall_seconds: started.elapsed().as_secs_f64(),
         rows: &rows,
     };

@@ -78,9 +78,11 @@ impl DataArgs {
         }
     }
 
-    pub fn lm(&self) -> LmSettings {
+    /// LM settings; `hessian_samples` 0 forms JᵀJ from every training sample.
+    pub fn lm(&self, hessian_samples: usize) -> LmSettings {
         LmSettings {
             max_epochs: self.max_epochs,
+            hessian_samples: (hessian_samples > 0).then_some(hessian_samples),
             ..LmSettings::default()
         }
     }
@@ -144,7 +146,7 @@ pub fn run(args: TrainArgs, ui: Ui) -> anyhow::Result<()> {
             let hidden = parse_hidden(&args.hidden)?;
             let problem = AnnProblem::new(&measured, &reference, &axes, args.data.delays, division)?;
             let spinner = ui.spinner(&format!("training {} restarts", args.data.restarts));
-            let model = problem.train(&hidden, args.data.restarts, args.data.seed, &args.data.lm())?;
+            let model = problem.train(&hidden, args.data.restarts, args.data.seed, &args.data.lm(0))?;
             spinner.finish_and_clear();
             CorrectorModel::Ann(Box::new(model))
         }

@@ -48,6 +48,12 @@ pub struct LmSettings {
     pub convention: JtjConvention,
     /// Samples per Jacobian block.
     pub block_samples: usize,
+    /// Form JᵀJ from about this many training samples per epoch (whole blocks spread evenly over
+    /// the training part, scaled to the full sum) instead of all; the errors, Jᵀe and the accepted
+    /// step still use every sample. `None` uses all. A subsampled Gauss–Newton matrix: each epoch
+    /// costs ~N/S times less when N ≫ S, and LM's step acceptance on the full error keeps training
+    /// monotone. The sweep screens architectures this way.
+    pub hessian_samples: Option<usize>,
 }
 
 impl Default for LmSettings {
@@ -63,6 +69,7 @@ impl Default for LmSettings {
             max_epochs: 1000,
             convention: JtjConvention::Sum,
             block_samples: 256,
+            hessian_samples: None,
         }
     }
 }
@@ -108,6 +115,24 @@ impl TrainingReport {
     }
 }
 
+/// Which blocks enter JᵀJ (every `stride`-th, starting with the first) and the factor that scales
+/// their sum to all `n` samples, for at most about `target` samples.
+fn hessian_subsample(n: usize, block: usize, target: Option<usize>) -> (usize, f64) {
+    let blocks = n.div_ceil(block.max(1));
+    let stride = match target {
+        Some(t) if t > 0 => blocks.div_ceil(t.div_ceil(block.max(1))).max(1),
+        _ => 1,
+    };
+    if stride == 1 {
+        return (1, 1.0);
+    }
+    let used: usize = (0..blocks)
+        .step_by(stride)
+        .map(|b| block.min(n - b * block))
+        .sum();
+    (stride, n as f64 / used as f64)
+}
+
 /// Every buffer an LM run needs, sized for one network shape and block length.
 pub struct LmWorkspace {
     layout: Layout,
@@ -151,8 +176,13 @@ impl LmWorkspace {
     }
 
     /// Forms JᵀJ (lower triangle) and Jᵀe at `weights` over `data`; returns the sum of squared
-    /// errors.
-    pub fn normal_equations(&mut self, weights: &[f64], data: &Dataset) -> f64 {
+    /// errors. `hessian_samples` as in [`LmSettings::hessian_samples`].
+    pub fn normal_equations(
+        &mut self,
+        weights: &[f64],
+        data: &Dataset,
+        hessian_samples: Option<usize>,
+    ) -> f64 {
         let layout = &self.layout;
         let (n_p, n_in, n_out) = (layout.n_params(), layout.inputs(), layout.outputs());
         let out_at = layout.n_activations() - n_out;
@@ -161,6 +191,7 @@ impl LmWorkspace {
         self.jte.fill(0.0);
         let mut sse = 0.0;
         let n = data.len();
+        let (stride, hessian_scale) = hessian_subsample(n, block, hessian_samples);
         let mut start = 0;
         while start < n {
             let count = block.min(n - start);
@@ -189,17 +220,19 @@ impl LmWorkspace {
             );
             let jt = MatRef::from_column_major_slice(&self.jacobian[..n_p * cols], cols, n_p).transpose();
             let e = MatRef::from_column_major_slice(&self.errors[..cols], cols, 1);
-            triangular::matmul(
-                self.jtj.as_mut(),
-                BlockStructure::TriangularLower,
-                Accum::Add,
-                jt,
-                BlockStructure::Rectangular,
-                jt.transpose(),
-                BlockStructure::Rectangular,
-                1.0,
-                Par::Seq,
-            );
+            if (start / block) % stride == 0 {
+                triangular::matmul(
+                    self.jtj.as_mut(),
+                    BlockStructure::TriangularLower,
+                    Accum::Add,
+                    jt,
+                    BlockStructure::Rectangular,
+                    jt.transpose(),
+                    BlockStructure::Rectangular,
+                    hessian_scale,
+                    Par::Seq,
+                );
+            }
             matmul(self.jte.as_mut(), Accum::Add, jt, e, 1.0, Par::Seq);
             start += count;
         }
@@ -262,7 +295,7 @@ impl LmWorkspace {
         let has_validation = !validation.is_empty();
         let mut mu = settings.mu_initial;
 
-        let mut sse = self.normal_equations(weights, train);
+        let mut sse = self.normal_equations(weights, train, settings.hessian_samples);
         train_mse.push(sse / elements);
         let mut best_validation = self.mse(weights, validation);
         validation_mse.push(best_validation);
@@ -330,7 +363,7 @@ impl LmWorkspace {
             if epoch >= settings.max_epochs {
                 break StopReason::MaxEpochs;
             }
-            sse = self.normal_equations(weights, train);
+            sse = self.normal_equations(weights, train, settings.hessian_samples);
         };
         weights.copy_from_slice(&self.best);
         TrainingReport {

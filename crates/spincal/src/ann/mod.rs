@@ -18,7 +18,9 @@ use serde::{Deserialize, Serialize};
 pub use data::{Dataset, Division, DivisionMode, Part, Scaling};
 pub use lm::{JtjConvention, LmSettings, LmWorkspace, StopReason, TrainingReport};
 pub use network::{Layout, Network, MAX_HIDDEN_LAYERS};
-pub use sweep::{architecture_label, default_grid, sweep, SweepProgress, SweepRow, SweepSettings};
+pub use sweep::{
+    architecture_label, default_grid, sweep, SweepProgress, SweepRow, SweepSettings, SWEEP_HESSIAN_SAMPLES,
+};
 
 use crate::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
 use crate::metrics::fit_percent;

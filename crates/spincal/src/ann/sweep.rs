@@ -20,6 +20,10 @@ pub fn default_grid() -> Vec<Vec<usize>> {
     grid
 }
 
+/// Samples of each epoch's JᵀJ when screening architectures ([`LmSettings::hessian_samples`]):
+/// 32 blocks of 256. Recordings up to ~13,000 samples (training part ≤ 8,192) are unaffected.
+pub const SWEEP_HESSIAN_SAMPLES: usize = 8192;
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SweepSettings {
     pub grid: Vec<Vec<usize>>,

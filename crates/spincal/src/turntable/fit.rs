@@ -20,8 +20,8 @@ use crate::optim::{
 };
 use crate::recording::{Recording, STANDARD_GRAVITY};
 use crate::spectrum::{estimate_rotation_rate, RateEstimate, RateSearch, SpectrumError};
-use crate::turntable::moments::CostMoments;
 use crate::turntable::model::{evaluate, for_each_derivative, for_each_sample, Direction, Mounting, Session};
+use crate::turntable::moments::CostMoments;
 
 /// Which axes enter the objective.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -383,7 +383,9 @@ impl LeastSquares for Problem<'_> {
         let mut columns: Vec<&mut [f64]> = out
             .col_iter_mut()
             .map(|col| {
-                let col = col.try_as_col_major_mut().expect("LM allocates a column-major Jacobian");
+                let col = col
+                    .try_as_col_major_mut()
+                    .expect("LM allocates a column-major Jacobian");
                 let slice = col.as_slice_mut();
                 slice.fill(0.0);
                 slice

@@ -305,7 +305,13 @@ mod tests {
         total
     }
 
-    fn noisy_recording(rng: &mut ChaCha8Rng, n: usize, jitter: bool, truth: &Session, mounting: &Mounting) -> Recording {
+    fn noisy_recording(
+        rng: &mut ChaCha8Rng,
+        n: usize,
+        jitter: bool,
+        truth: &Session,
+        mounting: &Mounting,
+    ) -> Recording {
         let mut time: Vec<f64> = (0..n).map(|i| 3.0 + i as f64 * 0.01).collect();
         if jitter {
             for t in time.iter_mut().skip(1) {
@@ -330,7 +336,11 @@ mod tests {
     fn moment_cost_equals_the_direct_sum() {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         for case in 0..40 {
-            let direction = if case % 2 == 0 { Direction::Cw } else { Direction::Ccw };
+            let direction = if case % 2 == 0 {
+                Direction::Cw
+            } else {
+                Direction::Ccw
+            };
             let truth = Session {
                 radius_m: rng.gen_range(0.03..0.15),
                 omega_radps: rng.gen_range(3.0..5.0),
