@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::ann::{
     architecture_label, sweep, AnnError, AnnProblem, Division, DivisionMode, LmSettings, SweepRow,
-    SweepSettings, SWEEP_HESSIAN_SAMPLES,
+    SweepSettings,
 };
 use crate::corrector::{Axis, Corrector, CorrectorFile, CorrectorModel};
 use crate::linear::{LinearError, LinearModel};
@@ -33,8 +33,14 @@ pub const RESULTS_VERSION: u32 = 1;
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(tag = "mode", rename_all = "snake_case")]
 pub enum NetworkChoice {
-    /// Train every architecture of the grid; keep the best on validation.
-    Sweep { grid: Vec<Vec<usize>>, restarts: usize },
+    /// Train every architecture of the grid; keep the best on validation. The sweep forms each
+    /// epoch's JᵀJ from `hessian_samples` training samples (`None`: all; see
+    /// [`LmSettings::hessian_samples`]); the chosen architecture is then trained exactly.
+    Sweep {
+        grid: Vec<Vec<usize>>,
+        restarts: usize,
+        hessian_samples: Option<usize>,
+    },
     /// One architecture.
     Fixed { hidden: Vec<usize>, restarts: usize },
 }
@@ -236,14 +242,17 @@ pub fn calibrate(
 
     // Network: sweep (optional), then the chosen architecture trained with restarts.
     let (sweep_rows, hidden, restarts) = match &settings.network {
-        NetworkChoice::Sweep { grid, restarts } => {
+        NetworkChoice::Sweep {
+            grid,
+            restarts,
+            hessian_samples,
+        } => {
             let sweep_settings = SweepSettings {
                 grid: grid.clone(),
                 restarts: *restarts,
                 base_seed: settings.seed,
-                // Screening: a subsampled JᵀJ; the chosen architecture is trained exactly below.
                 lm: LmSettings {
-                    hessian_samples: settings.lm.hessian_samples.or(Some(SWEEP_HESSIAN_SAMPLES)),
+                    hessian_samples: *hessian_samples,
                     ..settings.lm.clone()
                 },
             };

@@ -5,7 +5,7 @@
 //! JSON file: one source, no second computation. Plots draw the signals behind those numbers.
 
 use crate::ann::Part;
-use crate::calibrate::{CalibrationOutput, PartScore};
+use crate::calibrate::{CalibrationOutput, NetworkChoice, PartScore};
 use crate::plot::{Figure, HeatMap, LinePlot, PlotError, Rgb, Series};
 use crate::recording::{Recording, STANDARD_GRAVITY};
 
@@ -339,6 +339,21 @@ pub fn render_report(output: &CalibrationOutput, recordings: &[Recording]) -> Re
             r.sweep.len(),
             escape(&r.network_architecture)
         ));
+        let train = r.division.count(Part::Train);
+        if let NetworkChoice::Sweep {
+            hessian_samples: Some(samples),
+            ..
+        } = &r.network
+        {
+            if *samples < train {
+                html.push_str(&format!(
+                    "<p>To keep the sweep to minutes, each of its epochs formed JᵀJ from about {samples} of \
+                     the {train} training samples (whole blocks spread over the training part); errors, \
+                     gradients and the accepted steps used all of them, and the chosen architecture was \
+                     then trained with every sample.</p>\n"
+                ));
+            }
+        }
     }
 
     // 8. Comparison.

@@ -37,6 +37,10 @@ pub struct CalibrateArgs {
     /// Training runs per architecture from different initial weights.
     #[arg(long, default_value_t = 3)]
     pub restarts: usize,
+    /// Samples each sweep epoch's JᵀJ is formed from (errors and gradient use all); 0 = all. The
+    /// chosen architecture is then trained with every sample.
+    #[arg(long, default_value_t = spincal::ann::SWEEP_HESSIAN_SAMPLES)]
+    pub sweep_hessian_samples: usize,
     /// Axes to correct, e.g. x,y.
     #[arg(long, default_value = "x,y")]
     pub correct_axes: String,
@@ -88,10 +92,12 @@ impl CalibrateArgs {
             "small" => NetworkChoice::Sweep {
                 grid: small_grid(),
                 restarts: self.restarts,
+                hessian_samples: (self.sweep_hessian_samples > 0).then_some(self.sweep_hessian_samples),
             },
             "full" => NetworkChoice::Sweep {
                 grid: default_grid(),
                 restarts: self.restarts,
+                hessian_samples: (self.sweep_hessian_samples > 0).then_some(self.sweep_hessian_samples),
             },
             other => return Err(UsageError(format!("--sweep {other}: expected none, small or full")).into()),
         };

@@ -70,6 +70,7 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
         network: NetworkChoice::Sweep {
             grid: small_grid(),
             restarts: 3,
+            hessian_samples: Some(spincal::ann::SWEEP_HESSIAN_SAMPLES),
         },
         seed: args.seed,
         ..CalibrateSettings::default()
