@@ -2,9 +2,9 @@
 //!
 //! Each epoch forms the normal equations at the current weights from Jacobian rows computed by
 //! backpropagation, a block of samples at a time (forward and backward passes a layer at a time
-//! over the whole block, with a vectorised tanh): JᵀJ grows by a symmetric rank-k update of each
-//! block (faer, lower triangle only) and Jᵀe by a matrix–vector product, so J is never stored
-//! whole. Then (JᵀJ + μI)·Δ = Jᵀe is solved by Cholesky, retrying with μ×10 until the training
+//! over the whole block, with a vectorised tanh): JᵀJ and Jᵀe grow by a rank-k update of each
+//! block ([`gram`], lower triangle only, skipping the columns that are zero for an output), so J
+//! is never stored whole. Then (JᵀJ + μI)·Δ = Jᵀe is solved by Cholesky, retrying with μ×10 until the training
 //! error falls. All buffers live in [`LmWorkspace`]: an epoch allocates nothing.
 //!
 //! Convention: J is the derivative of the network outputs (scaled to [−1, 1]) with respect to the
@@ -15,12 +15,12 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::{factor, solve};
-use faer::linalg::matmul::matmul;
-use faer::linalg::matmul::triangular::{self, BlockStructure};
-use faer::{Accum, Mat, MatMut, MatRef, Par};
+use faer::{Mat, MatMut, MatRef, Par};
+use pulp::{Arch, Simd, WithSimd};
 use serde::{Deserialize, Serialize};
 
 use super::data::Dataset;
+use super::gram;
 use super::network::Layout;
 
 /// Whether JᵀJ and Jᵀe are sums or means over the error elements (see the module docs).
@@ -112,9 +112,13 @@ impl TrainingReport {
 pub struct LmWorkspace {
     layout: Layout,
     block_samples: usize,
-    /// J of one block: (outputs × block samples) × `n_params`, column-major, output-major rows.
+    /// J of one block: (outputs × block samples) × `n_params`, column-major, output-major rows,
+    /// then one more column: the errors e in the same row order.
     jacobian: Vec<f64>,
-    errors: Vec<f64>,
+    /// Per output: the columns its rows can be non-zero in (the error column last), and the lower
+    /// triangle of [J e]ᵀ[J e] over those columns, accumulated over the blocks.
+    gram_columns: Vec<Vec<usize>>,
+    gram: Vec<Vec<f64>>,
     activations: Vec<f64>,
     delta: Vec<f64>,
     jtj: Mat<f64>,
@@ -133,11 +137,22 @@ impl LmWorkspace {
         let rows = block_samples * layout.outputs();
         let req = factor::cholesky_in_place_scratch::<f64>(n_p, Par::Seq, Default::default())
             .or(solve::solve_in_place_scratch::<f64>(n_p, 1, Par::Seq));
+        let gram_columns: Vec<Vec<usize>> = (0..layout.outputs())
+            .map(|k| {
+                let mut columns = layout.output_params(k);
+                columns.push(n_p);
+                columns
+            })
+            .collect();
         LmWorkspace {
             layout: layout.clone(),
             block_samples,
-            jacobian: vec![0.0; n_p * rows],
-            errors: vec![0.0; rows],
+            jacobian: vec![0.0; (n_p + 1) * rows],
+            gram: gram_columns
+                .iter()
+                .map(|c| vec![0.0; c.len() * c.len()])
+                .collect(),
+            gram_columns,
             activations: vec![0.0; layout.n_activations() * block_samples],
             delta: vec![0.0; layout.n_delta_block(block_samples)],
             jtj: Mat::zeros(n_p, n_p),
@@ -153,17 +168,47 @@ impl LmWorkspace {
     /// Forms JᵀJ (lower triangle) and Jᵀe at `weights` over `data`; returns the sum of squared
     /// errors.
     pub fn normal_equations(&mut self, weights: &[f64], data: &Dataset) -> f64 {
+        for g in &mut self.gram {
+            g.fill(0.0);
+        }
+        let sse = gram::dispatch(Blocks {
+            workspace: self,
+            weights,
+            data,
+        });
+        // Each output's rows only reach its own output-layer columns: add the per-output Gram
+        // matrices into JᵀJ and Jᵀe (the error column's row) in output order.
+        self.jtj.fill(0.0);
+        self.jte.fill(0.0);
+        for (columns, gram) in self.gram_columns.iter().zip(&self.gram) {
+            let d = columns.len();
+            for i in 0..d {
+                for j in 0..=i {
+                    let v = gram[i * d + j];
+                    if i + 1 < d {
+                        self.jtj[(columns[i], columns[j])] += v;
+                    } else if j + 1 < d {
+                        self.jte[(columns[j], 0)] += v;
+                    }
+                }
+            }
+        }
+        sse
+    }
+
+    /// The block loop of [`LmWorkspace::normal_equations`], inlined into [`Blocks`].
+    #[inline(always)]
+    fn accumulate_blocks<F: gram::Fma4>(&mut self, lanes: F, weights: &[f64], data: &Dataset) -> f64 {
         let layout = &self.layout;
         let (n_p, n_in, n_out) = (layout.n_params(), layout.inputs(), layout.outputs());
         let out_at = layout.n_activations() - n_out;
         let block = self.block_samples;
-        self.jtj.fill(0.0);
-        self.jte.fill(0.0);
         let mut sse = 0.0;
         let n = data.len();
         let mut start = 0;
         while start < n {
             let count = block.min(n - start);
+            let rows = count * n_out;
             layout.forward_block(
                 weights,
                 &data.inputs[start * n_in..(start + count) * n_in],
@@ -171,36 +216,19 @@ impl LmWorkspace {
                 &mut self.activations,
             );
             let outputs = &self.activations[out_at * count..(out_at + n_out) * count];
+            let (jacobian, errors) = self.jacobian.split_at_mut(n_p * rows);
             for s in 0..count {
                 let row = start + s;
                 for k in 0..n_out {
                     let e = data.targets[row * n_out + k] - outputs[k * count + s];
-                    self.errors[k * count + s] = e;
+                    errors[k * count + s] = e;
                     sse += e * e;
                 }
             }
-            let cols = count * n_out;
-            layout.jacobian_block(
-                weights,
-                &self.activations,
-                count,
-                &mut self.jacobian,
-                &mut self.delta,
-            );
-            let jt = MatRef::from_column_major_slice(&self.jacobian[..n_p * cols], cols, n_p).transpose();
-            let e = MatRef::from_column_major_slice(&self.errors[..cols], cols, 1);
-            triangular::matmul(
-                self.jtj.as_mut(),
-                BlockStructure::TriangularLower,
-                Accum::Add,
-                jt,
-                BlockStructure::Rectangular,
-                jt.transpose(),
-                BlockStructure::Rectangular,
-                1.0,
-                Par::Seq,
-            );
-            matmul(self.jte.as_mut(), Accum::Add, jt, e, 1.0, Par::Seq);
+            layout.jacobian_block(weights, &self.activations, count, jacobian, &mut self.delta);
+            for (k, (columns, gram)) in self.gram_columns.iter().zip(&mut self.gram).enumerate() {
+                gram::add_lower(lanes, &self.jacobian, columns, rows, k * count, count, gram);
+            }
             start += count;
         }
         sse
@@ -367,6 +395,58 @@ impl LmWorkspace {
 /// holds `n_activations() × block` values); the same sum, bit for bit, as per-sample
 /// [`Layout::forward`] calls.
 fn sse_of(layout: &Layout, weights: &[f64], data: &Dataset, activations: &mut [f64], block: usize) -> f64 {
+    Arch::new().dispatch(TrialError {
+        layout,
+        weights,
+        data,
+        activations,
+        block,
+    })
+}
+
+/// [`LmWorkspace::accumulate_blocks`] as an operation for [`gram::dispatch`]. (A closure would not
+/// be inlined into the dispatched function, which would then run without the vector extension.)
+struct Blocks<'a> {
+    workspace: &'a mut LmWorkspace,
+    weights: &'a [f64],
+    data: &'a Dataset,
+}
+
+impl gram::Fma4Op for Blocks<'_> {
+    type Output = f64;
+
+    #[inline(always)]
+    fn run<F: gram::Fma4>(self, lanes: F) -> f64 {
+        self.workspace.accumulate_blocks(lanes, self.weights, self.data)
+    }
+}
+
+/// [`sse_of_blocks`] as a `pulp` operation.
+struct TrialError<'a> {
+    layout: &'a Layout,
+    weights: &'a [f64],
+    data: &'a Dataset,
+    activations: &'a mut [f64],
+    block: usize,
+}
+
+impl WithSimd for TrialError<'_> {
+    type Output = f64;
+
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, _simd: S) -> f64 {
+        sse_of_blocks(self.layout, self.weights, self.data, self.activations, self.block)
+    }
+}
+
+#[inline(always)]
+fn sse_of_blocks(
+    layout: &Layout,
+    weights: &[f64],
+    data: &Dataset,
+    activations: &mut [f64],
+    block: usize,
+) -> f64 {
     let (n_in, n_out) = (layout.inputs(), layout.outputs());
     let out_at = layout.n_activations() - n_out;
     let mut sse = 0.0;

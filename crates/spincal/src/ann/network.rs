@@ -56,6 +56,7 @@ pub fn tanh(x: f64) -> f64 {
 }
 
 /// [`tanh`] of every element, in place (vectorised).
+#[inline(always)]
 pub fn tanh_in_place(values: &mut [f64]) {
     for v in values {
         *v = tanh(*v);
@@ -219,6 +220,18 @@ impl Layout {
         }
     }
 
+    /// The parameters that output `k` depends on, ascending: every hidden layer's, then output
+    /// `k`'s own row and bias (its derivative by any other output-layer parameter is zero).
+    pub fn output_params(&self, k: usize) -> Vec<usize> {
+        let last = self.n_layers();
+        let n_in = self.sizes[last - 1];
+        let (w_at, b_at) = self.layer_offsets(last);
+        let mut params: Vec<usize> = (0..w_at).collect();
+        params.extend(w_at + k * n_in..w_at + (k + 1) * n_in);
+        params.push(b_at + k);
+        params
+    }
+
     /// Start of every layer's values in the activation buffer (layer 0 = the inputs).
     fn activation_starts(&self) -> [usize; MAX_HIDDEN_LAYERS + 3] {
         let mut starts = [0usize; MAX_HIDDEN_LAYERS + 3];
@@ -233,6 +246,8 @@ impl Layout {
     /// `n_activations() × count`) receives every unit's values over the block, unit after unit:
     /// unit `a`'s value for sample `s` is at `a·count + s`, so the outputs are the last
     /// `outputs() × count` values. Bit for bit the same values as [`Layout::forward`].
+    /// Inlined so that callers can compile it for the machine's vector extension.
+    #[inline(always)]
     pub fn forward_block(&self, weights: &[f64], inputs: &[f64], count: usize, activations: &mut [f64]) {
         let n0 = self.sizes[0];
         for (s, input) in inputs[..count * n0].chunks_exact(n0).enumerate() {
@@ -267,7 +282,8 @@ impl Layout {
     /// [`Layout::forward_block`], written as J (not Jᵀ), column-major: `outputs() × count` rows,
     /// output-major (row `k·count + s` is output `k` of sample `s`), one column of that length per
     /// parameter. `delta` is scratch of [`Layout::n_delta_block`]`(count)`. The same values, bit
-    /// for bit, as the per-sample routine.
+    /// for bit, as the per-sample routine. Inlined like [`Layout::forward_block`].
+    #[inline(always)]
     pub fn jacobian_block(
         &self,
         weights: &[f64],
