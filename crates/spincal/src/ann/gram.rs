@@ -19,6 +19,14 @@ pub(crate) trait Fma4: Copy {
     fn load(self, x: [f64; 4]) -> Self::V;
     fn mul_add(self, a: Self::V, b: Self::V, c: Self::V) -> Self::V;
     fn lanes(self, v: Self::V) -> [f64; 4];
+    /// (l0 + l1) + (l2 + l3) of each of four vectors.
+    #[inline(always)]
+    fn sums(self, v: [Self::V; 4]) -> [f64; 4] {
+        v.map(|v| {
+            let l = self.lanes(v);
+            (l[0] + l[1]) + (l[2] + l[3])
+        })
+    }
 }
 
 /// Lanes as plain `f64`s (any machine).
@@ -62,6 +70,18 @@ impl Fma4 for pulp::x86::V3 {
     fn lanes(self, v: pulp::f64x4) -> [f64; 4] {
         pulp::cast(v)
     }
+
+    #[inline(always)]
+    fn sums(self, v: [pulp::f64x4; 4]) -> [f64; 4] {
+        use std::arch::x86_64::__m256d;
+        let v: [__m256d; 4] = v.map(pulp::cast);
+        // [a0+a1, b0+b1, a2+a3, b2+b3] and the same for c, d; then the halves added.
+        let ab = self.avx._mm256_hadd_pd(v[0], v[1]);
+        let cd = self.avx._mm256_hadd_pd(v[2], v[3]);
+        let low = self.avx._mm256_permute2f128_pd::<0x20>(ab, cd);
+        let high = self.avx._mm256_permute2f128_pd::<0x31>(ab, cd);
+        pulp::cast(self.avx._mm256_add_pd(low, high))
+    }
 }
 
 /// An operation generic over the lanes, for [`dispatch`].
@@ -90,9 +110,12 @@ pub(crate) fn dispatch<Op: Fma4Op>(op: Op) -> Op::Output {
     op.run(Portable)
 }
 
-/// Tile of the product: MR columns of A (rows of AᵀA) by NR columns (its columns).
+/// Tile of the product: MR columns of A (rows of AᵀA) by NR columns (its columns); each MR
+/// columns are read once for two such tiles (JB = 2·NR columns of AᵀA), so that streaming them
+/// from L2 takes half the bandwidth.
 const MR: usize = 3;
 const NR: usize = 4;
+const JB: usize = 2 * NR;
 
 /// Adds the lower triangle of AᵀA to `gram` (d×d, row-major, d = `cols.len()`; only entries with
 /// j ≤ i are touched), where column q of A is `data[cols[q] * stride + first..][..len]`.
@@ -110,35 +133,48 @@ pub(crate) fn add_lower<F: Fma4>(
     assert!(gram.len() >= d * d);
     let col = |q: usize| &data[cols[q] * stride + first..][..len];
     let mut j0 = 0;
-    while j0 < d {
-        if j0 + NR <= d {
-            // Columns j0..j0+NR against every column from j0 on (the first tile straddles the
-            // diagonal; its upper entries are dropped).
-            let b: [&[f64]; NR] = from_fn(|j| col(j0 + j));
-            let mut i0 = j0;
-            while i0 + MR <= d {
-                let tile = dot_tile::<F, MR, NR>(f, from_fn(|i| col(i0 + i)), b, len);
-                add_tile(gram, d, i0, j0, tile);
+    while j0 + NR <= d {
+        let panels = if j0 + JB <= d { 2 } else { 1 };
+        let b: [[&[f64]; NR]; 2] = from_fn(|p| from_fn(|j| col((j0 + p * NR + j).min(d - 1))));
+        // Rows from j0 on (the first tiles straddle the diagonal; their upper entries are dropped).
+        let mut i0 = j0;
+        while i0 < d {
+            if i0 + MR <= d {
+                let a: [&[f64]; MR] = from_fn(|i| col(i0 + i));
+                for (p, b) in b.iter().enumerate().take(panels) {
+                    let jp = j0 + p * NR;
+                    if i0 + MR > jp {
+                        add_tile(gram, d, i0, jp, dot_tile::<F, MR, NR>(f, a, *b, len));
+                    }
+                }
                 i0 += MR;
-            }
-            for i in i0..d {
-                add_tile(gram, d, i, j0, dot_tile::<F, 1, NR>(f, [col(i)], b, len));
-            }
-            j0 += NR;
-        } else {
-            for j in j0..d {
-                let b = [col(j)];
-                let mut i0 = j;
-                while i0 + MR <= d {
-                    let tile = dot_tile::<F, MR, 1>(f, from_fn(|i| col(i0 + i)), b, len);
-                    add_tile(gram, d, i0, j, tile);
-                    i0 += MR;
+            } else {
+                for (p, b) in b.iter().enumerate().take(panels) {
+                    let jp = j0 + p * NR;
+                    if i0 + 1 > jp {
+                        add_tile(gram, d, i0, jp, dot_tile::<F, 1, NR>(f, [col(i0)], *b, len));
+                    }
                 }
-                for i in i0..d {
-                    add_tile(gram, d, i, j, dot_tile::<F, 1, 1>(f, [col(i)], b, len));
-                }
+                i0 += 1;
             }
-            j0 = d;
+        }
+        j0 += panels * NR;
+    }
+    for j in j0..d {
+        let b = [col(j)];
+        let mut i0 = j;
+        while i0 + MR <= d {
+            add_tile(
+                gram,
+                d,
+                i0,
+                j,
+                dot_tile::<F, MR, 1>(f, from_fn(|i| col(i0 + i)), b, len),
+            );
+            i0 += MR;
+        }
+        for i in i0..d {
+            add_tile(gram, d, i, j, dot_tile::<F, 1, 1>(f, [col(i)], b, len));
         }
     }
 }
@@ -153,10 +189,9 @@ fn add_tile<const M: usize, const N: usize>(
 ) {
     for (i, row) in tile.iter().enumerate() {
         let at = (i0 + i) * d + j0;
-        for (j, v) in row.iter().enumerate() {
-            if j0 + j <= i0 + i {
-                gram[at + j] += v;
-            }
+        let lower = (i0 + i + 1).saturating_sub(j0).min(N);
+        for (g, v) in gram[at..at + lower].iter_mut().zip(row) {
+            *g += v;
         }
     }
 }
@@ -190,10 +225,15 @@ fn dot_tile<F: Fma4, const M: usize, const N: usize>(
         step(a.map(|s| tail(&s[..len])), b.map(|s| tail(&s[..len])));
     }
     from_fn(|i| {
-        from_fn(|j| {
-            let s = f.lanes(acc[i][j]);
-            (s[0] + s[1]) + (s[2] + s[3])
-        })
+        if N == 4 {
+            let s = f.sums(from_fn(|j| acc[i][j % N]));
+            from_fn(|j| s[j])
+        } else {
+            from_fn(|j| {
+                let s = f.lanes(acc[i][j]);
+                (s[0] + s[1]) + (s[2] + s[3])
+            })
+        }
     })
 }
 

@@ -113,8 +113,12 @@ pub struct LmWorkspace {
     layout: Layout,
     block_samples: usize,
     /// J of one block: (outputs × block samples) × `n_params`, column-major, output-major rows,
-    /// then one more column: the errors e in the same row order.
+    /// then one more column: the errors e in the same row order. Starts at `jacobian_at` (32-byte
+    /// aligned, for whole-vector loads); columns are `stride` apart, a multiple of 4 values but
+    /// not of 512 (4 KiB), so that a tile's columns do not share L1 cache sets.
     jacobian: Vec<f64>,
+    jacobian_at: usize,
+    stride: usize,
     /// Per output: the columns its rows can be non-zero in (the error column last), and the lower
     /// triangle of [J e]ᵀ[J e] over those columns, accumulated over the blocks.
     gram_columns: Vec<Vec<usize>>,
@@ -144,10 +148,15 @@ impl LmWorkspace {
                 columns
             })
             .collect();
+        let stride = rows.next_multiple_of(4) + if rows.next_multiple_of(4) % 512 == 0 { 4 } else { 0 };
+        let jacobian = vec![0.0; (n_p + 1) * stride + 3];
+        let jacobian_at = (32 - jacobian.as_ptr() as usize % 32) % 32 / 8;
         LmWorkspace {
             layout: layout.clone(),
             block_samples,
-            jacobian: vec![0.0; (n_p + 1) * rows],
+            jacobian,
+            jacobian_at,
+            stride,
             gram: gram_columns
                 .iter()
                 .map(|c| vec![0.0; c.len() * c.len()])
@@ -208,7 +217,7 @@ impl LmWorkspace {
         let mut start = 0;
         while start < n {
             let count = block.min(n - start);
-            let rows = count * n_out;
+            let stride = self.stride;
             layout.forward_block(
                 weights,
                 &data.inputs[start * n_in..(start + count) * n_in],
@@ -216,7 +225,8 @@ impl LmWorkspace {
                 &mut self.activations,
             );
             let outputs = &self.activations[out_at * count..(out_at + n_out) * count];
-            let (jacobian, errors) = self.jacobian.split_at_mut(n_p * rows);
+            let block_jacobian = &mut self.jacobian[self.jacobian_at..][..(n_p + 1) * stride];
+            let (jacobian, errors) = block_jacobian.split_at_mut(n_p * stride);
             for s in 0..count {
                 let row = start + s;
                 for k in 0..n_out {
@@ -225,9 +235,17 @@ impl LmWorkspace {
                     sse += e * e;
                 }
             }
-            layout.jacobian_block(weights, &self.activations, count, jacobian, &mut self.delta);
+            layout.jacobian_block_strided(
+                weights,
+                &self.activations,
+                count,
+                stride,
+                jacobian,
+                &mut self.delta,
+            );
+            let block_jacobian = &self.jacobian[self.jacobian_at..];
             for (k, (columns, gram)) in self.gram_columns.iter().zip(&mut self.gram).enumerate() {
-                gram::add_lower(lanes, &self.jacobian, columns, rows, k * count, count, gram);
+                gram::add_lower(lanes, block_jacobian, columns, stride, k * count, count, gram);
             }
             start += count;
         }

@@ -293,6 +293,21 @@ impl Layout {
         delta: &mut [f64],
     ) {
         let rows = self.outputs() * count;
+        self.jacobian_block_strided(weights, activations, count, rows, jacobian, delta);
+    }
+
+    /// [`Layout::jacobian_block`] with column `p` starting at `p·stride` (≥ `outputs() × count`).
+    #[inline(always)]
+    pub(crate) fn jacobian_block_strided(
+        &self,
+        weights: &[f64],
+        activations: &[f64],
+        count: usize,
+        stride: usize,
+        jacobian: &mut [f64],
+        delta: &mut [f64],
+    ) {
+        debug_assert!(stride >= self.outputs() * count);
         let last = self.n_layers();
         let widest = *self.sizes.iter().max().expect("non-empty");
         let (delta_here, delta_below) = delta.split_at_mut(widest * count);
@@ -300,7 +315,7 @@ impl Layout {
         let layer_values = |l: usize, n: usize| &activations[starts[l] * count..(starts[l] + n) * count];
         for k in 0..self.outputs() {
             let r0 = k * count;
-            let column = |p: usize| p * rows + r0..p * rows + r0 + count;
+            let column = |p: usize| p * stride + r0..p * stride + r0 + count;
             let n_in = self.sizes[last - 1];
             let (w_at, b_at) = self.layer_offsets(last);
             let a_in = layer_values(last - 1, n_in);
