@@ -334,12 +334,14 @@ impl LmWorkspace {
                     for (i, (t, w)) in self.trial.iter_mut().zip(weights.iter()).enumerate() {
                         *t = w + self.step[(i, 0)];
                     }
+                    // A rejected step's error is not used: stop summing once it reaches `sse`.
                     let trial_sse = sse_of(
                         &self.layout,
                         &self.trial,
                         train,
                         &mut self.activations,
                         self.block_samples,
+                        sse,
                     );
                     if trial_sse < sse {
                         mu *= settings.mu_decrease;
@@ -400,6 +402,7 @@ impl LmWorkspace {
             data,
             &mut self.activations,
             self.block_samples,
+            f64::INFINITY,
         ) / (data.len() * data.n_outputs) as f64
     }
 
@@ -411,14 +414,23 @@ impl LmWorkspace {
 
 /// Sum of squared errors of the network over `data`, `block` samples at a time (`activations`
 /// holds `n_activations() × block` values); the same sum, bit for bit, as per-sample
-/// [`Layout::forward`] calls.
-fn sse_of(layout: &Layout, weights: &[f64], data: &Dataset, activations: &mut [f64], block: usize) -> f64 {
+/// [`Layout::forward`] calls. Stops after the block where the sum reaches `limit` (the sum only
+/// grows), returning that partial sum.
+fn sse_of(
+    layout: &Layout,
+    weights: &[f64],
+    data: &Dataset,
+    activations: &mut [f64],
+    block: usize,
+    limit: f64,
+) -> f64 {
     Arch::new().dispatch(TrialError {
         layout,
         weights,
         data,
         activations,
         block,
+        limit,
     })
 }
 
@@ -446,6 +458,7 @@ struct TrialError<'a> {
     data: &'a Dataset,
     activations: &'a mut [f64],
     block: usize,
+    limit: f64,
 }
 
 impl WithSimd for TrialError<'_> {
@@ -453,7 +466,14 @@ impl WithSimd for TrialError<'_> {
 
     #[inline(always)]
     fn with_simd<S: Simd>(self, _simd: S) -> f64 {
-        sse_of_blocks(self.layout, self.weights, self.data, self.activations, self.block)
+        sse_of_blocks(
+            self.layout,
+            self.weights,
+            self.data,
+            self.activations,
+            self.block,
+            self.limit,
+        )
     }
 }
 
@@ -464,6 +484,7 @@ fn sse_of_blocks(
     data: &Dataset,
     activations: &mut [f64],
     block: usize,
+    limit: f64,
 ) -> f64 {
     let (n_in, n_out) = (layout.inputs(), layout.outputs());
     let out_at = layout.n_activations() - n_out;
@@ -486,6 +507,9 @@ fn sse_of_blocks(
             }
         }
         start += count;
+        if sse >= limit {
+            break;
+        }
     }
     sse
 }

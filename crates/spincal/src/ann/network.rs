@@ -42,7 +42,7 @@ pub fn tanh(x: f64) -> f64 {
     let r = (y - k * LN2_HI) - k * LN2_LO;
     let mut p = C[11];
     for c in C[..11].iter().rev() {
-        p = p * r + c;
+        p = p.mul_add(r, *c);
     }
     let expm1_r = r + r * r * p;
     let scale = f64::from_bits((k_int.wrapping_add(1023) as u64) << 52);
