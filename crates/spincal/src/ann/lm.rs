@@ -148,7 +148,8 @@ impl LmWorkspace {
                 columns
             })
             .collect();
-        let stride = rows.next_multiple_of(4) + if rows.next_multiple_of(4) % 512 == 0 { 4 } else { 0 };
+        let stride = rows.next_multiple_of(4);
+        let stride = stride + if stride.is_multiple_of(512) { 4 } else { 0 };
         let jacobian = vec![0.0; (n_p + 1) * stride + 3];
         let jacobian_at = (32 - jacobian.as_ptr() as usize % 32) % 32 / 8;
         LmWorkspace {
