@@ -7,8 +7,9 @@ cd "$(dirname "$0")/../.."
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 out=bench/out/ann
 mkdir -p "$out" crates/spincal/tests/fixtures/ann
-if [ ! -x bench/.venv/bin/python ]; then
-    python3 -m venv bench/.venv
+# The venv is shared with the turntable bench: install what this bench needs when it is missing.
+if ! bench/.venv/bin/python -c "import numpy, pyrenn" 2>/dev/null; then
+    [ -x bench/.venv/bin/python ] || python3 -m venv bench/.venv
     bench/.venv/bin/pip install -q numpy pyrenn
 fi
 py=bench/.venv/bin/python

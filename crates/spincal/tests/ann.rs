@@ -112,10 +112,11 @@ fn subsampled_normal_equations_scale_the_chosen_blocks_and_keep_the_full_gradien
     assert_eq!(sse, full_sse, "the error always uses every sample");
     let n_p = layout.n_params();
     for j in 0..n_p {
-        assert_eq!(
-            sub.jte()[(j, 0)],
-            full.jte()[(j, 0)],
-            "Jᵀe always uses every sample"
+        let (got, all) = (sub.jte()[(j, 0)], full.jte()[(j, 0)]);
+        // Same terms, summed in another order for the blocks outside JᵀJ.
+        assert!(
+            (got - all).abs() <= 1e-12 * (1.0 + all.abs()),
+            "Jᵀe[{j}] uses every sample: {got} vs {all}"
         );
     }
     let jacobian = full_jacobian(&layout, &weights, &problem.train);
