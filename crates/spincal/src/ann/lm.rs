@@ -293,7 +293,7 @@ impl LmWorkspace {
                 &mut self.delta,
             );
             let block_jacobian = &self.jacobian[self.jacobian_at..];
-            let in_hessian = (start / block) % hessian_stride == 0;
+            let in_hessian = (start / block).is_multiple_of(hessian_stride);
             for (k, ((columns, gram), gradient)) in self
                 .gram_columns
                 .iter()

@@ -96,7 +96,7 @@ impl CostMoments {
     pub fn new(recording: &Recording, omega_centre: f64, omega_half_width: f64) -> Option<CostMoments> {
         let time = &recording.time_s;
         let n = time.len();
-        if n < 2 || !(omega_half_width >= 0.0) || !omega_centre.is_finite() {
+        if n < 2 || omega_half_width.is_nan() || omega_half_width < 0.0 || !omega_centre.is_finite() {
             return None;
         }
         let (t0, t_mid) = time_origin(time);
