@@ -12,6 +12,7 @@ use spincal::sysid::{ModelKind, ModelSpec};
 use spincal::Recording;
 
 use super::fit::FitArgs;
+use super::train::all_if_zero;
 use crate::ui::{self, Ui, UsageError};
 
 #[derive(Args, Debug)]
@@ -92,12 +93,12 @@ impl CalibrateArgs {
             "small" => NetworkChoice::Sweep {
                 grid: small_grid(),
                 restarts: self.restarts,
-                hessian_samples: (self.sweep_hessian_samples > 0).then_some(self.sweep_hessian_samples),
+                hessian_samples: all_if_zero(self.sweep_hessian_samples),
             },
             "full" => NetworkChoice::Sweep {
                 grid: default_grid(),
                 restarts: self.restarts,
-                hessian_samples: (self.sweep_hessian_samples > 0).then_some(self.sweep_hessian_samples),
+                hessian_samples: all_if_zero(self.sweep_hessian_samples),
             },
             other => return Err(UsageError(format!("--sweep {other}: expected none, small or full")).into()),
         };

@@ -82,7 +82,7 @@ impl DataArgs {
     pub fn lm(&self, hessian_samples: usize) -> LmSettings {
         LmSettings {
             max_epochs: self.max_epochs,
-            hessian_samples: (hessian_samples > 0).then_some(hessian_samples),
+            hessian_samples: all_if_zero(hessian_samples),
             ..LmSettings::default()
         }
     }
@@ -111,6 +111,11 @@ pub struct TrainArgs {
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+/// A `--…hessian-samples` count: 0 means every sample (`None`).
+pub fn all_if_zero(samples: usize) -> Option<usize> {
+    (samples > 0).then_some(samples)
 }
 
 /// Parses `10,6` or `none`.

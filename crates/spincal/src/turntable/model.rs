@@ -99,6 +99,20 @@ pub fn evaluate(
     });
 }
 
+/// The model's constant level per axis (centripetal term, tilt's share of g and offsets, m/s²) and
+/// the amplitude g sin α of the oscillating gravity term.
+pub fn levels(session: &Session, mounting: &Mounting, gravity: f64) -> ([f64; 3], f64) {
+    let w = session.omega_radps;
+    let centripetal = w * w * session.radius_m;
+    let (sin_b, cos_b) = mounting.beta_rad.sin_cos();
+    let mean = [
+        centripetal * cos_b + mounting.offset_mps2[0],
+        centripetal * sin_b + mounting.offset_mps2[1],
+        gravity * session.tilt_rad.cos() + mounting.offset_mps2[2],
+    ];
+    (mean, gravity * session.tilt_rad.sin())
+}
+
 /// Calls `f(i, [a_x, a_y, a_z])` with the model at every sample, in order, without allocating.
 pub fn for_each_sample(
     session: &Session,
@@ -110,14 +124,7 @@ pub fn for_each_sample(
     let (t0, t_mid) = time_origin(time_s);
     let s = session.direction.sign();
     let w = session.omega_radps;
-    let centripetal = w * w * session.radius_m;
-    let (sin_b, cos_b) = mounting.beta_rad.sin_cos();
-    let amplitude = gravity * session.tilt_rad.sin();
-    let mean = [
-        centripetal * cos_b + mounting.offset_mps2[0],
-        centripetal * sin_b + mounting.offset_mps2[1],
-        gravity * session.tilt_rad.cos() + mounting.offset_mps2[2],
-    ];
+    let (mean, amplitude) = levels(session, mounting, gravity);
     let d = session.drift_mps2_per_s;
     let offset = session.phase_rad - mounting.beta_rad;
     for_each_rotation(time_s, t0, w, offset, |i, sin_u, cos_u| {

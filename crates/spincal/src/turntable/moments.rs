@@ -16,7 +16,7 @@
 //! own variance against the residual's (checked against the direct sum in the tests).
 
 use crate::recording::Recording;
-use crate::turntable::model::{time_origin, Direction, Mounting, Session};
+use crate::turntable::model::{levels, time_origin, Mounting, Session};
 
 /// Terms of the Taylor series in δ (k = 0 … TERMS − 1).
 const TERMS: usize = 22;
@@ -184,19 +184,8 @@ impl CostMoments {
         let rotated = z.map(|v| v.mul(turn));
         let double_turn = turn.mul(turn);
         let z_two = z[Z_TWO].mul(double_turn).re;
-        let s = match session.direction {
-            Direction::Ccw => 1.0,
-            Direction::Cw => -1.0,
-        };
-        let w = session.omega_radps;
-        let centripetal = w * w * session.radius_m;
-        let (sin_b, cos_b) = mounting.beta_rad.sin_cos();
-        let amplitude = gravity * session.tilt_rad.sin();
-        let means = [
-            centripetal * cos_b + mounting.offset_mps2[0],
-            centripetal * sin_b + mounting.offset_mps2[1],
-            gravity * session.tilt_rad.cos() + mounting.offset_mps2[2],
-        ];
+        let s = session.direction.sign();
+        let (means, amplitude) = levels(session, mounting, gravity);
         let drift = session.drift_mps2_per_s;
         let x = Oscillation {
             amplitude,
@@ -290,7 +279,7 @@ struct Oscillation {
 mod tests {
     use super::*;
     use crate::recording::{Recording, Source};
-    use crate::turntable::model::for_each_sample;
+    use crate::turntable::model::{for_each_sample, Direction};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
