@@ -26,7 +26,7 @@ cargo test --release -p spincal --test ann_peer -- --nocapture
 
 echo "== seconds per LM epoch, 2-input [10,6] 2-output network"
 $ex dgemm > "$out/faer_dgemm.json"
-$ex kernels | tee "$out/kernels.json"
+$ex parts | tee "$out/parts.json"
 $ex time 3000 30000 > "$out/spincal_epoch.json"
 $ex export 3000 10,6 1 "$out/export_3000.json"
 $ex export 30000 10,6 1 "$out/export_30000.json"

@@ -3,7 +3,7 @@
 //!
 //! `cargo run --release -p spincal --example ann_epoch -- time [N…]` prints one JSON object per N.
 //! `cargo run --release -p spincal --example ann_epoch -- dgemm` prints faer's single-thread rate.
-//! `… -- kernels` times the parts of an epoch; `… -- csv N PREFIX` writes a synthetic pair.
+//! `… -- parts` times the parts of an epoch as the trainer runs them; `… -- csv N PREFIX` writes a synthetic pair.
 //! `cargo run --release -p spincal --example ann_epoch -- export N HIDDEN SEED OUT.json` writes the
 //! scaled training data and the initial weights of restart 0.
 
@@ -107,60 +107,35 @@ fn dgemm_gflops() -> f64 {
     2.0 * (n * n * n) as f64 / best / 1e9
 }
 
-/// Rates of the epoch's parts on one 1024-sample block of the [10,6] network: Jacobian rows,
-/// the lower-triangular rank-k update, and a full JᵀJ product for comparison.
-fn kernels() {
-    use faer::linalg::matmul::triangular::{self, BlockStructure};
-    let p = problem(30000);
+/// The epoch's parts as the trainer runs them (dispatched, default block size), N samples:
+/// forming the normal equations (forward + backprop + JᵀJ/Jᵀe kernel) and one full trial error
+/// (forward only). The rest of an epoch is the damped Cholesky solves and the rejected trials.
+fn parts(n: usize) {
+    let p = problem(n);
     let layout = p.layout(&[10, 6]).expect("valid layout");
     let weights = p.initial_weights(&layout, 1, 0);
-    let (n_p, cols) = (layout.n_params(), 1024 * layout.outputs());
-    // J of the block, column-major (rows: output-major), as the trainer forms it.
-    let mut jm = vec![0.0; n_p * cols];
-    let mut act = vec![0.0; layout.n_activations() * 1024];
-    let mut delta = vec![0.0; layout.n_delta_block(1024)];
-    let inputs = &p.train.inputs[..1024 * 2];
-    let reps = 30;
-    let started = cpu_seconds();
-    for _ in 0..reps {
-        layout.forward_block(&weights, inputs, 1024, &mut act);
-        layout.jacobian_block(&weights, &act, 1024, &mut jm, &mut delta);
-    }
-    let fill = (cpu_seconds() - started) / reps as f64;
-    let started = cpu_seconds();
-    for _ in 0..reps {
-        layout.forward_block(&weights, inputs, 1024, &mut act);
-        std::hint::black_box(&act);
-    }
-    let forward = (cpu_seconds() - started) / reps as f64;
-    let j = faer::MatRef::from_column_major_slice(&jm, cols, n_p).transpose();
-    let mut out = Mat::<f64>::zeros(n_p, n_p);
-    let started = cpu_seconds();
-    for _ in 0..reps {
-        triangular::matmul(
-            out.as_mut(),
-            BlockStructure::TriangularLower,
-            Accum::Add,
-            j,
-            BlockStructure::Rectangular,
-            j.transpose(),
-            BlockStructure::Rectangular,
-            1.0,
-            Par::Seq,
-        );
-    }
-    let syrk = (cpu_seconds() - started) / reps as f64;
-    let started = cpu_seconds();
-    for _ in 0..reps {
-        matmul(out.as_mut(), Accum::Add, j, j.transpose(), 1.0, Par::Seq);
-    }
-    let gemm = (cpu_seconds() - started) / reps as f64;
-    let m = cols as f64;
-    let p = n_p as f64;
+    let mut ws = LmWorkspace::new(&layout, LmSettings::default().block_samples);
+    let repeats = (300_000 / n.max(1)).clamp(5, 1000);
+    let time = |f: &mut dyn FnMut()| {
+        let mut best = f64::INFINITY;
+        for _ in 0..3 {
+            let started = cpu_seconds();
+            for _ in 0..repeats {
+                f();
+            }
+            best = best.min((cpu_seconds() - started) / repeats as f64);
+        }
+        best
+    };
+    let normal = time(&mut || {
+        std::hint::black_box(ws.normal_equations(&weights, &p.train, None));
+    });
+    let forward = time(&mut || {
+        std::hint::black_box(ws.mse(&weights, &p.train));
+    });
+    let (syrk, _) = epoch_flops(&layout, n);
     println!(
-        "{{\"block_samples\": 1024, \"jacobian_s\": {fill:.3e}, \"forward_s\": {forward:.3e}, \"syrk_s\": {syrk:.3e}, \"syrk_gflops\": {:.2}, \"gemm_s\": {gemm:.3e}, \"gemm_gflops\": {:.2}}}",
-        m * p * (p + 1.0) / syrk / 1e9,
-        2.0 * m * p * p / gemm / 1e9
+        "{{\"n\": {n}, \"normal_equations_s\": {normal:.3e}, \"trial_error_s\": {forward:.3e}, \"syrk_flops\": {syrk:.3e}}}"
     );
 }
 
@@ -191,7 +166,11 @@ fn main() {
                 );
             }
         }
-        Some("kernels") => kernels(),
+        Some("parts") => {
+            for n in [3000, 30000] {
+                parts(n);
+            }
+        }
         Some("csv") if args.len() == 3 => {
             // Synthetic measured/reference pair for CLI runs (sweep timing).
             let n: usize = args[1].parse().expect("sample count");
@@ -228,7 +207,9 @@ fn main() {
             std::fs::write(&args[4], serde_json::to_string(&json).expect("json")).expect("write export");
         }
         _ => {
-            eprintln!("usage: ann_epoch time [N…] | dgemm | export N HIDDEN SEED OUT.json");
+            eprintln!(
+                "usage: ann_epoch time [N…] | parts | dgemm | csv N PREFIX | export N HIDDEN SEED OUT.json"
+            );
             std::process::exit(2);
         }
     }

@@ -40,13 +40,16 @@ pub fn tanh(x: f64) -> f64 {
     let k = shifted - ROUNDER;
     let k_int = (shifted.to_bits() as i64).wrapping_sub(ROUNDER.to_bits() as i64);
     let r = (y - k * LN2_HI) - k * LN2_LO;
-    let mut p = C[11];
-    // Plain multiply-add, not `mul_add`: outside an AVX2 context `mul_add` is a libm call, which
-    // made the per-sample prediction pass 4× slower for a 4 % faster epoch.
-    for c in C[..11].iter().rev() {
-        p = p * r + *c;
-    }
-    let expm1_r = r + r * r * p;
+    // Estrin's scheme: a dependency chain of 7 operations instead of Horner's 22, so that the
+    // vectorised loop is limited by throughput, not latency. Plain multiply-add, not `mul_add`:
+    // outside an AVX2 context `mul_add` is a libm call (4× slower per-sample prediction).
+    let r2 = r * r;
+    let r4 = r2 * r2;
+    let pair = |i: usize| C[i] + C[i + 1] * r;
+    let low = (pair(0) + pair(2) * r2) + (pair(4) + pair(6) * r2) * r4;
+    let high = pair(8) + pair(10) * r2;
+    let p = low + high * (r4 * r4);
+    let expm1_r = r + r2 * p;
     let scale = f64::from_bits((k_int.wrapping_add(1023) as u64) << 52);
     let u = scale * expm1_r + (scale - 1.0);
     let t = (-u / (2.0 + u)).copysign(x);
