@@ -115,13 +115,15 @@ fn parts(n: usize) {
     let layout = p.layout(&[10, 6]).expect("valid layout");
     let weights = p.initial_weights(&layout, 1, 0);
     let mut ws = LmWorkspace::new(&layout, LmSettings::default().block_samples);
-    let repeats = (300_000 / n.max(1)).clamp(5, 1000);
+    // At least 0.4 s per round: the thread's CPU time advances in 4 ms ticks.
     let time = |f: &mut dyn FnMut()| {
         let mut best = f64::INFINITY;
         for _ in 0..3 {
             let started = cpu_seconds();
-            for _ in 0..repeats {
+            let mut repeats = 0;
+            while cpu_seconds() - started < 0.4 {
                 f();
+                repeats += 1;
             }
             best = best.min((cpu_seconds() - started) / repeats as f64);
         }

@@ -179,6 +179,51 @@ pub(crate) fn add_lower<F: Fma4>(
     }
 }
 
+/// [`add_lower`] in a function of its own, run by [`dispatch`]: the kernel's code generation
+/// then does not depend on what its caller inlines around it (forward and backward passes).
+#[inline(never)]
+pub(crate) fn add_lower_dispatched(
+    data: &[f64],
+    cols: &[usize],
+    stride: usize,
+    first: usize,
+    len: usize,
+    gram: &mut [f64],
+) {
+    struct AddLower<'a> {
+        data: &'a [f64],
+        cols: &'a [usize],
+        stride: usize,
+        first: usize,
+        len: usize,
+        gram: &'a mut [f64],
+    }
+    impl Fma4Op for AddLower<'_> {
+        type Output = ();
+
+        #[inline(always)]
+        fn run<F: Fma4>(self, f: F) {
+            add_lower(
+                f,
+                self.data,
+                self.cols,
+                self.stride,
+                self.first,
+                self.len,
+                self.gram,
+            );
+        }
+    }
+    dispatch(AddLower {
+        data,
+        cols,
+        stride,
+        first,
+        len,
+        gram,
+    });
+}
+
 #[inline(always)]
 fn add_tile<const M: usize, const N: usize>(
     gram: &mut [f64],
@@ -241,15 +286,6 @@ fn dot_tile<F: Fma4, const M: usize, const N: usize>(
 mod tests {
     use super::*;
 
-    struct Add<'a>(&'a [f64], &'a [usize], usize, usize, &'a mut [f64]);
-
-    impl Fma4Op for Add<'_> {
-        type Output = ();
-        fn run<F: Fma4>(self, f: F) {
-            add_lower(f, self.0, self.1, self.2, 2, self.3, self.4);
-        }
-    }
-
     #[test]
     fn lower_triangle_of_the_gram_matrix() {
         // Odd sizes: partial tiles in both directions and a row tail.
@@ -264,7 +300,7 @@ mod tests {
             let mut gram = vec![0.5; d * d];
             add_lower(Portable, &data, &cols, stride, 2, len, &mut gram);
             let mut fast = vec![0.5; d * d];
-            dispatch(Add(&data, &cols, stride, len, &mut fast));
+            add_lower_dispatched(&data, &cols, stride, 2, len, &mut fast);
             assert_eq!(fast, gram, "dispatched and portable lanes differ");
             for i in 0..d {
                 for j in 0..d {

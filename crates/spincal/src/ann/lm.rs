@@ -220,7 +220,7 @@ impl LmWorkspace {
         }
         let (hessian_stride, hessian_scale) =
             hessian_subsample(data.len(), self.block_samples, hessian_samples);
-        let sse = gram::dispatch(Blocks {
+        let sse = Arch::new().dispatch(Blocks {
             workspace: self,
             weights,
             data,
@@ -250,13 +250,7 @@ impl LmWorkspace {
     /// The block loop of [`LmWorkspace::normal_equations`], inlined into [`Blocks`]: every
     /// `hessian_stride`-th block adds to the Gram matrices, the others only to Jᵀe.
     #[inline(always)]
-    fn accumulate_blocks<F: gram::Fma4>(
-        &mut self,
-        lanes: F,
-        weights: &[f64],
-        data: &Dataset,
-        hessian_stride: usize,
-    ) -> f64 {
+    fn accumulate_blocks(&mut self, weights: &[f64], data: &Dataset, hessian_stride: usize) -> f64 {
         let layout = &self.layout;
         let (n_p, n_in, n_out) = (layout.n_params(), layout.inputs(), layout.outputs());
         let out_at = layout.n_activations() - n_out;
@@ -303,7 +297,7 @@ impl LmWorkspace {
             {
                 let first = k * count;
                 if in_hessian {
-                    gram::add_lower(lanes, block_jacobian, columns, stride, first, count, gram);
+                    gram::add_lower_dispatched(block_jacobian, columns, stride, first, count, gram);
                 } else {
                     let (params, error) = columns.split_at(columns.len() - 1);
                     let e = &block_jacobian[error[0] * stride + first..][..count];
@@ -500,8 +494,8 @@ fn sse_of(
     })
 }
 
-/// [`LmWorkspace::accumulate_blocks`] as an operation for [`gram::dispatch`]. (A closure would not
-/// be inlined into the dispatched function, which would then run without the vector extension.)
+/// [`LmWorkspace::accumulate_blocks`] as a `pulp` operation. (A closure would not be inlined into
+/// the dispatched function, which would then run without the vector extension.)
 struct Blocks<'a> {
     workspace: &'a mut LmWorkspace,
     weights: &'a [f64],
@@ -509,13 +503,13 @@ struct Blocks<'a> {
     hessian_stride: usize,
 }
 
-impl gram::Fma4Op for Blocks<'_> {
+impl WithSimd for Blocks<'_> {
     type Output = f64;
 
     #[inline(always)]
-    fn run<F: gram::Fma4>(self, lanes: F) -> f64 {
+    fn with_simd<S: Simd>(self, _simd: S) -> f64 {
         self.workspace
-            .accumulate_blocks(lanes, self.weights, self.data, self.hessian_stride)
+            .accumulate_blocks(self.weights, self.data, self.hessian_stride)
     }
 }
 

@@ -35,7 +35,10 @@ pub fn tanh(x: f64) -> f64 {
         2.087_675_698_786_81e-9,
         1.605_904_383_682_161_3e-10,
     ];
-    let y = -2.0 * x.abs().min(20.0);
+    // Clamped so that a NaN passes through (`f64::min` would turn it into 20): every step
+    // below then yields NaN without a select, which LLVM would make a slow masked store.
+    let magnitude = x.abs();
+    let y = -2.0 * if magnitude > 20.0 { 20.0 } else { magnitude };
     let shifted = y * std::f64::consts::LOG2_E + ROUNDER;
     let k = shifted - ROUNDER;
     let k_int = (shifted.to_bits() as i64).wrapping_sub(ROUNDER.to_bits() as i64);
@@ -52,12 +55,7 @@ pub fn tanh(x: f64) -> f64 {
     let expm1_r = r + r2 * p;
     let scale = f64::from_bits((k_int.wrapping_add(1023) as u64) << 52);
     let u = scale * expm1_r + (scale - 1.0);
-    let t = (-u / (2.0 + u)).copysign(x);
-    if x.is_nan() {
-        x
-    } else {
-        t
-    }
+    (-u / (2.0 + u)).copysign(x)
 }
 
 /// [`tanh`] of every element, in place (vectorised).
