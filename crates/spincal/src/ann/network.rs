@@ -4,18 +4,43 @@
 //! (one row per unit, one column per input) followed by its biases. The same layout is used for
 //! the columns of the Jacobian.
 
+use std::array::from_fn;
+
 use rand::Rng;
 use serde::{Deserialize, Serialize};
+
+/// Samples per register-held chunk of the block forward pass.
+const FORWARD_CHUNK: usize = 16;
 
 /// Largest supported number of hidden layers.
 pub const MAX_HIDDEN_LAYERS: usize = 3;
 
-/// Hyperbolic tangent, written so that LLVM vectorises it over a slice (no libm call, no
-/// branches): tanh(|x|) = −u/(2 + u) with u = expm1(−2|x|), the expm1 by range reduction to
-/// |r| ≤ ln2/2 and a degree-13 Taylor polynomial, so it is accurate near 0 as well. Within a few
-/// ulps of `f64::tanh` (see the tests); ±1 for |x| ≥ 20, NaN for NaN.
+/// Hyperbolic tangent, written so that LLVM vectorises it (no libm call, no branches):
+/// tanh(|x|) = −u/(2 + u) with u = expm1(−2|x|), the expm1 by range reduction to |r| ≤ ln2/2
+/// and a degree-13 Taylor polynomial, so it is accurate near 0 as well. Within a few ulps of
+/// `f64::tanh` (see the tests); ±1 for |x| ≥ 20, NaN for NaN.
 #[inline(always)]
 pub fn tanh(x: f64) -> f64 {
+    tanh_lanes([x])[0]
+}
+
+/// [`tanh`] of every element, in place (vectorised).
+#[inline(always)]
+pub fn tanh_in_place(values: &mut [f64]) {
+    let (chunks, rest) = values.as_chunks_mut::<8>();
+    for chunk in chunks {
+        *chunk = tanh_lanes(*chunk);
+    }
+    for v in rest {
+        *v = tanh(*v);
+    }
+}
+
+/// [`tanh`] of N values, one step of the computation for all of them before the next: two
+/// vectors' dependency chains then run interleaved (~30 % faster than a loop over single
+/// values, which waits on each chain). Every lane does the same operations as the scalar call.
+#[inline(always)]
+fn tanh_lanes<const N: usize>(x: [f64; N]) -> [f64; N] {
     // ln 2 split as in fdlibm: the high part has trailing zero bits, so k·LN2_HI is exact.
     const LN2_HI: f64 = f64::from_bits(0x3fe6_2e42_fee0_0000);
     const LN2_LO: f64 = f64::from_bits(0x3dea_39ef_3579_3c76);
@@ -37,33 +62,30 @@ pub fn tanh(x: f64) -> f64 {
     ];
     // Clamped so that a NaN passes through (`f64::min` would turn it into 20): every step
     // below then yields NaN without a select, which LLVM would make a slow masked store.
-    let magnitude = x.abs();
-    let y = -2.0 * if magnitude > 20.0 { 20.0 } else { magnitude };
-    let shifted = y * std::f64::consts::LOG2_E + ROUNDER;
-    let k = shifted - ROUNDER;
-    let k_int = (shifted.to_bits() as i64).wrapping_sub(ROUNDER.to_bits() as i64);
-    let r = (y - k * LN2_HI) - k * LN2_LO;
-    // Estrin's scheme: a dependency chain of 7 operations instead of Horner's 22, so that the
-    // vectorised loop is limited by throughput, not latency. Plain multiply-add, not `mul_add`:
-    // outside an AVX2 context `mul_add` is a libm call (4× slower per-sample prediction).
-    let r2 = r * r;
-    let r4 = r2 * r2;
-    let pair = |i: usize| C[i] + C[i + 1] * r;
-    let low = (pair(0) + pair(2) * r2) + (pair(4) + pair(6) * r2) * r4;
-    let high = pair(8) + pair(10) * r2;
-    let p = low + high * (r4 * r4);
-    let expm1_r = r + r2 * p;
-    let scale = f64::from_bits((k_int.wrapping_add(1023) as u64) << 52);
-    let u = scale * expm1_r + (scale - 1.0);
-    (-u / (2.0 + u)).copysign(x)
-}
-
-/// [`tanh`] of every element, in place (vectorised).
-#[inline(always)]
-pub fn tanh_in_place(values: &mut [f64]) {
-    for v in values {
-        *v = tanh(*v);
-    }
+    let y: [f64; N] = from_fn(|i| {
+        let magnitude = x[i].abs();
+        -2.0 * if magnitude > 20.0 { 20.0 } else { magnitude }
+    });
+    let shifted: [f64; N] = from_fn(|i| y[i] * std::f64::consts::LOG2_E + ROUNDER);
+    let k: [f64; N] = from_fn(|i| shifted[i] - ROUNDER);
+    let r: [f64; N] = from_fn(|i| (y[i] - k[i] * LN2_HI) - k[i] * LN2_LO);
+    // Estrin's scheme: a dependency chain of 7 operations instead of Horner's 22. Plain
+    // multiply-add, not `mul_add`: outside an AVX2 context `mul_add` is a libm call (4× slower
+    // per-sample prediction).
+    let r2: [f64; N] = from_fn(|i| r[i] * r[i]);
+    let r4: [f64; N] = from_fn(|i| r2[i] * r2[i]);
+    let pair = |j: usize| -> [f64; N] { from_fn(|i| C[j] + C[j + 1] * r[i]) };
+    let (p0, p2, p4, p6, p8, p10) = (pair(0), pair(2), pair(4), pair(6), pair(8), pair(10));
+    let low: [f64; N] = from_fn(|i| (p0[i] + p2[i] * r2[i]) + (p4[i] + p6[i] * r2[i]) * r4[i]);
+    let high: [f64; N] = from_fn(|i| p8[i] + p10[i] * r2[i]);
+    let p: [f64; N] = from_fn(|i| low[i] + high[i] * (r4[i] * r4[i]));
+    let expm1_r: [f64; N] = from_fn(|i| r[i] + r2[i] * p[i]);
+    let scale: [f64; N] = from_fn(|i| {
+        let k_int = (shifted[i].to_bits() as i64).wrapping_sub(ROUNDER.to_bits() as i64);
+        f64::from_bits((k_int.wrapping_add(1023) as u64) << 52)
+    });
+    let u: [f64; N] = from_fn(|i| scale[i] * expm1_r[i] + (scale[i] - 1.0));
+    from_fn(|i| (-u[i] / (2.0 + u[i])).copysign(x[i]))
 }
 
 /// Layer sizes from inputs to outputs, and where each layer's parameters start.
@@ -266,16 +288,39 @@ impl Layout {
             let (done, rest) = activations.split_at_mut(starts[l] * count);
             let a_in = &done[starts[l - 1] * count..];
             let a_out = &mut rest[..n_out * count];
+            let hidden = l != last;
             for (i, z) in a_out.chunks_exact_mut(count).enumerate() {
-                z.fill(weights[b_at + i]);
+                let bias = weights[b_at + i];
                 let row = &weights[w_at + i * n_in..w_at + (i + 1) * n_in];
-                for (w, a) in row.iter().zip(a_in.chunks_exact(count)) {
-                    for (z, a) in z.iter_mut().zip(a) {
-                        *z += w * a;
+                // FORWARD_CHUNK samples at a time in registers through every input, then one store
+                // (a pass per input would load and store z every time). The tanh is a separate
+                // pass: fused here it spilled registers and was slower.
+                let whole = count - count % FORWARD_CHUNK;
+                for (c, z) in z[..whole]
+                    .as_chunks_mut::<FORWARD_CHUNK>()
+                    .0
+                    .iter_mut()
+                    .enumerate()
+                {
+                    let at = c * FORWARD_CHUNK;
+                    let mut sum = [bias; FORWARD_CHUNK];
+                    for (w, a) in row.iter().zip(a_in.chunks_exact(count)) {
+                        let a = &a[at..at + FORWARD_CHUNK];
+                        for (sum, a) in sum.iter_mut().zip(a) {
+                            *sum += w * a;
+                        }
                     }
+                    *z = sum;
+                }
+                for (s, z) in z.iter_mut().enumerate().skip(whole) {
+                    let mut sum = bias;
+                    for (w, a) in row.iter().zip(a_in.chunks_exact(count)) {
+                        sum += w * a[s];
+                    }
+                    *z = sum;
                 }
             }
-            if l != last {
+            if hidden {
                 tanh_in_place(a_out);
             }
         }
