@@ -46,8 +46,8 @@ pub struct LmSettings {
     pub max_validation_failures: usize,
     pub max_epochs: usize,
     pub convention: JtjConvention,
-    /// Samples per Jacobian block (192 by default: a block's J, ~0.3 MB at 110 weights and two
-    /// outputs, stays in L2; measured 4 % faster than 256).
+    /// Samples per Jacobian block (256 by default: one output's J of a block, ~0.23 MB at 110
+    /// weights, stays in L2; 192 and 384 measured 1–3 % slower).
     pub block_samples: usize,
     /// Form JᵀJ from about this many training samples per epoch (whole blocks spread evenly over
     /// the training part, scaled to the full sum) instead of all; the errors, Jᵀe and the accepted
@@ -69,7 +69,7 @@ impl Default for LmSettings {
             max_validation_failures: 15,
             max_epochs: 1000,
             convention: JtjConvention::Sum,
-            block_samples: 192,
+            block_samples: 256,
             hessian_samples: None,
         }
     }
@@ -138,8 +138,8 @@ fn hessian_subsample(n: usize, block: usize, target: Option<usize>) -> (usize, f
 pub struct LmWorkspace {
     layout: Layout,
     block_samples: usize,
-    /// J of one block: (outputs × block samples) × `n_params`, column-major, output-major rows,
-    /// then one more column: the errors e in the same row order. Starts at `jacobian_at` (32-byte
+    /// One output's rows of J for one block: block samples × `n_params`, column-major, then one
+    /// more column: that output's errors e. Starts at `jacobian_at` (32-byte
     /// aligned, for whole-vector loads); columns are `stride` apart, a multiple of 4 values but
     /// not of 512 (4 KiB), so that a tile's columns do not share L1 cache sets.
     jacobian: Vec<f64>,
@@ -152,6 +152,8 @@ pub struct LmWorkspace {
     /// Per output: Jᵀe over the blocks left out of a subsampled JᵀJ (parameter columns only).
     gradient: Vec<Vec<f64>>,
     activations: Vec<f64>,
+    /// The errors of one block, output after output.
+    errors: Vec<f64>,
     delta: Vec<f64>,
     jtj: Mat<f64>,
     jte: Mat<f64>,
@@ -166,7 +168,6 @@ impl LmWorkspace {
     pub fn new(layout: &Layout, block_samples: usize) -> LmWorkspace {
         let n_p = layout.n_params();
         let block_samples = block_samples.max(1);
-        let rows = block_samples * layout.outputs();
         let req = factor::cholesky_in_place_scratch::<f64>(n_p, Par::Seq, Default::default())
             .or(solve::solve_in_place_scratch::<f64>(n_p, 1, Par::Seq));
         let gram_columns: Vec<Vec<usize>> = (0..layout.outputs())
@@ -176,7 +177,7 @@ impl LmWorkspace {
                 columns
             })
             .collect();
-        let stride = rows.next_multiple_of(4);
+        let stride = block_samples.next_multiple_of(4);
         let stride = stride + if stride.is_multiple_of(512) { 4 } else { 0 };
         let jacobian = vec![0.0; (n_p + 1) * stride + 3];
         let jacobian_at = (32 - jacobian.as_ptr() as usize % 32) % 32 / 8;
@@ -193,6 +194,7 @@ impl LmWorkspace {
             gradient: gram_columns.iter().map(|c| vec![0.0; c.len() - 1]).collect(),
             gram_columns,
             activations: vec![0.0; layout.n_activations() * block_samples],
+            errors: vec![0.0; layout.outputs() * block_samples],
             delta: vec![0.0; layout.n_delta_block(block_samples)],
             jtj: Mat::zeros(n_p, n_p),
             jte: Mat::zeros(n_p, 1),
@@ -268,26 +270,17 @@ impl LmWorkspace {
                 &mut self.activations,
             );
             let outputs = &self.activations[out_at * count..(out_at + n_out) * count];
-            let block_jacobian = &mut self.jacobian[self.jacobian_at..][..(n_p + 1) * stride];
-            let (jacobian, errors) = block_jacobian.split_at_mut(n_p * stride);
             for s in 0..count {
                 let row = start + s;
                 for k in 0..n_out {
                     let e = data.targets[row * n_out + k] - outputs[k * count + s];
-                    errors[k * count + s] = e;
+                    self.errors[k * count + s] = e;
                     sse += e * e;
                 }
             }
-            layout.jacobian_block_strided(
-                weights,
-                &self.activations,
-                count,
-                stride,
-                jacobian,
-                &mut self.delta,
-            );
-            let block_jacobian = &self.jacobian[self.jacobian_at..];
             let in_hessian = (start / block).is_multiple_of(hessian_stride);
+            // One output at a time: its rows of J (and its errors as the last column) are
+            // formed and at once reduced, while they are still in cache.
             for (k, ((columns, gram), gradient)) in self
                 .gram_columns
                 .iter()
@@ -295,14 +288,27 @@ impl LmWorkspace {
                 .zip(&mut self.gradient)
                 .enumerate()
             {
-                let first = k * count;
+                let block_jacobian = &mut self.jacobian[self.jacobian_at..][..(n_p + 1) * stride];
+                let (jacobian, error_column) = block_jacobian.split_at_mut(n_p * stride);
+                error_column[..count].copy_from_slice(&self.errors[k * count..(k + 1) * count]);
+                layout.jacobian_block_output(
+                    weights,
+                    &self.activations,
+                    count,
+                    k,
+                    stride,
+                    0,
+                    jacobian,
+                    &mut self.delta,
+                );
+                let block_jacobian = &self.jacobian[self.jacobian_at..];
                 if in_hessian {
-                    gram::add_lower_dispatched(block_jacobian, columns, stride, first, count, gram);
+                    gram::add_lower_dispatched(block_jacobian, columns, stride, 0, count, gram);
                 } else {
                     let (params, error) = columns.split_at(columns.len() - 1);
-                    let e = &block_jacobian[error[0] * stride + first..][..count];
+                    let e = &block_jacobian[error[0] * stride..][..count];
                     for (g, &c) in gradient.iter_mut().zip(params) {
-                        let column = &block_jacobian[c * stride + first..][..count];
+                        let column = &block_jacobian[c * stride..][..count];
                         *g += column.iter().zip(e).map(|(j, e)| j * e).sum::<f64>();
                     }
                 }

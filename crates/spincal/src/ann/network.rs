@@ -341,88 +341,95 @@ impl Layout {
         delta: &mut [f64],
     ) {
         let rows = self.outputs() * count;
-        self.jacobian_block_strided(weights, activations, count, rows, jacobian, delta);
+        let n_in = self.sizes[self.n_layers() - 1];
+        let (w_at, b_at) = self.layer_offsets(self.n_layers());
+        for k in 0..self.outputs() {
+            // Output k does not depend on the other outputs' rows and biases.
+            for unit in (0..self.outputs()).filter(|&unit| unit != k) {
+                let params = (w_at + unit * n_in..w_at + (unit + 1) * n_in).chain([b_at + unit]);
+                for p in params {
+                    jacobian[p * rows + k * count..][..count].fill(0.0);
+                }
+            }
+            self.jacobian_block_output(weights, activations, count, k, rows, k * count, jacobian, delta);
+        }
     }
 
-    /// [`Layout::jacobian_block`] with column `p` starting at `p·stride` (≥ `outputs() × count`).
+    /// Output `k`'s rows of [`Layout::jacobian_block`]: column `p` of them at
+    /// `p·stride + first_row ..` (`count` values), except the columns of the other outputs'
+    /// weights and biases, which are zero and left untouched.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    pub(crate) fn jacobian_block_strided(
+    pub(crate) fn jacobian_block_output(
         &self,
         weights: &[f64],
         activations: &[f64],
         count: usize,
+        k: usize,
         stride: usize,
+        first_row: usize,
         jacobian: &mut [f64],
         delta: &mut [f64],
     ) {
-        debug_assert!(stride >= self.outputs() * count);
+        debug_assert!(stride >= first_row + count);
         let last = self.n_layers();
         let widest = *self.sizes.iter().max().expect("non-empty");
         let (delta_here, delta_below) = delta.split_at_mut(widest * count);
         let starts = self.activation_starts();
         let layer_values = |l: usize, n: usize| &activations[starts[l] * count..(starts[l] + n) * count];
-        for k in 0..self.outputs() {
-            let r0 = k * count;
-            let column = |p: usize| p * stride + r0..p * stride + r0 + count;
-            let n_in = self.sizes[last - 1];
-            let (w_at, b_at) = self.layer_offsets(last);
-            let a_in = layer_values(last - 1, n_in);
-            for unit in 0..self.outputs() {
+        let r0 = first_row;
+        let column = |p: usize| p * stride + r0..p * stride + r0 + count;
+        let n_in = self.sizes[last - 1];
+        let (w_at, b_at) = self.layer_offsets(last);
+        let a_in = layer_values(last - 1, n_in);
+        for (j, a) in a_in.chunks_exact(count).enumerate() {
+            jacobian[column(w_at + k * n_in + j)].copy_from_slice(a);
+        }
+        jacobian[column(b_at + k)].fill(1.0);
+        if last == 1 {
+            return;
+        }
+        let row_k = &weights[w_at + k * n_in..w_at + (k + 1) * n_in];
+        for ((d, a), w) in delta_here
+            .chunks_exact_mut(count)
+            .zip(a_in.chunks_exact(count))
+            .zip(row_k)
+        {
+            for (d, a) in d.iter_mut().zip(a) {
+                *d = w * (1.0 - a * a);
+            }
+        }
+        for l in (1..last).rev() {
+            let (n_in, n_out) = (self.sizes[l - 1], self.sizes[l]);
+            let (w_at, b_at) = self.layer_offsets(l);
+            let a_in = layer_values(l - 1, n_in);
+            for (i, d) in delta_here[..n_out * count].chunks_exact(count).enumerate() {
                 for (j, a) in a_in.chunks_exact(count).enumerate() {
-                    let col = &mut jacobian[column(w_at + unit * n_in + j)];
-                    if unit == k {
-                        col.copy_from_slice(a);
-                    } else {
-                        col.fill(0.0);
+                    let col = &mut jacobian[column(w_at + i * n_in + j)];
+                    for ((g, d), a) in col.iter_mut().zip(d).zip(a) {
+                        *g = d * a;
                     }
                 }
-                jacobian[column(b_at + unit)].fill(if unit == k { 1.0 } else { 0.0 });
+                jacobian[column(b_at + i)].copy_from_slice(d);
             }
-            if last == 1 {
-                continue;
-            }
-            let row_k = &weights[w_at + k * n_in..w_at + (k + 1) * n_in];
-            for ((d, a), w) in delta_here
-                .chunks_exact_mut(count)
-                .zip(a_in.chunks_exact(count))
-                .zip(row_k)
-            {
-                for (d, a) in d.iter_mut().zip(a) {
-                    *d = w * (1.0 - a * a);
-                }
-            }
-            for l in (1..last).rev() {
-                let (n_in, n_out) = (self.sizes[l - 1], self.sizes[l]);
-                let (w_at, b_at) = self.layer_offsets(l);
-                let a_in = layer_values(l - 1, n_in);
+            if l > 1 {
+                let below = &mut delta_below[..n_in * count];
+                below.fill(0.0);
                 for (i, d) in delta_here[..n_out * count].chunks_exact(count).enumerate() {
-                    for (j, a) in a_in.chunks_exact(count).enumerate() {
-                        let col = &mut jacobian[column(w_at + i * n_in + j)];
-                        for ((g, d), a) in col.iter_mut().zip(d).zip(a) {
-                            *g = d * a;
+                    let row = &weights[w_at + i * n_in..w_at + (i + 1) * n_in];
+                    for (s, w) in below.chunks_exact_mut(count).zip(row) {
+                        for (s, d) in s.iter_mut().zip(d) {
+                            *s += d * w;
                         }
                     }
-                    jacobian[column(b_at + i)].copy_from_slice(d);
                 }
-                if l > 1 {
-                    let below = &mut delta_below[..n_in * count];
-                    below.fill(0.0);
-                    for (i, d) in delta_here[..n_out * count].chunks_exact(count).enumerate() {
-                        let row = &weights[w_at + i * n_in..w_at + (i + 1) * n_in];
-                        for (s, w) in below.chunks_exact_mut(count).zip(row) {
-                            for (s, d) in s.iter_mut().zip(d) {
-                                *s += d * w;
-                            }
-                        }
-                    }
-                    for ((d, s), a) in delta_here
-                        .chunks_exact_mut(count)
-                        .zip(below.chunks_exact(count))
-                        .zip(a_in.chunks_exact(count))
-                    {
-                        for ((d, s), a) in d.iter_mut().zip(s).zip(a) {
-                            *d = s * (1.0 - a * a);
-                        }
+                for ((d, s), a) in delta_here
+                    .chunks_exact_mut(count)
+                    .zip(below.chunks_exact(count))
+                    .zip(a_in.chunks_exact(count))
+                {
+                    for ((d, s), a) in d.iter_mut().zip(s).zip(a) {
+                        *d = s * (1.0 - a * a);
                     }
                 }
             }
