@@ -61,14 +61,20 @@ fn train_then_correct_streams_every_row_with_validity() {
     );
 
     let corrected = dir.path().join("corrected.csv");
-    spincal()
+    let out = spincal()
         .args(["correct", "--model"])
         .arg(&model)
         .arg(&m)
         .arg("-o")
         .arg(&corrected)
-        .assert()
-        .success();
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !stderr.contains("warning"),
+        "the training recording is in range: {stderr}"
+    );
     let text = std::fs::read_to_string(&corrected).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines[0], "t,ax,ay,az,ax_corrected,ay_corrected,valid");
@@ -76,6 +82,34 @@ fn train_then_correct_streams_every_row_with_validity() {
     let valid: Vec<&str> = lines[1..].iter().map(|l| l.rsplit(',').next().unwrap()).collect();
     assert_eq!(&valid[..3], &["0", "0", "1"]);
     assert!(valid[2..].iter().all(|v| *v == "1"));
+
+    // Three times the x acceleration (another turntable speed, say): still every row out, and a
+    // warning that counts the rows the network extrapolates and names the first.
+    let mut louder = String::from("t,ax,ay,az\n");
+    for row in std::fs::read_to_string(&m).unwrap().lines().skip(1) {
+        let v: Vec<f64> = row.split(',').map(|x| x.parse().unwrap()).collect();
+        louder += &format!("{},{},{},{}\n", v[0], 3.0 * v[1], v[2], v[3]);
+    }
+    let loud = dir.path().join("loud.csv");
+    std::fs::write(&loud, louder).unwrap();
+    let out = spincal()
+        .args(["correct", "--model"])
+        .arg(&model)
+        .arg(&loud)
+        .arg("-o")
+        .arg(&corrected)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("warning: ")
+            && stderr.contains("loud.csv: ")
+            && stderr.contains("of 800 rows")
+            && stderr.contains("first at line 2"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read_to_string(&corrected).unwrap().lines().count(), 801);
 }
 
 #[test]

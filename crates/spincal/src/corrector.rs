@@ -72,6 +72,10 @@ impl fmt::Display for Axis {
 pub struct CorrectedSample {
     pub accel_mps2: [f64; 3],
     pub valid: bool,
+    /// An input lay beyond the range the corrector was trained on, by more than
+    /// [`crate::ann::EXTRAPOLATION_MARGIN`] of that range (networks only: a tanh network's output
+    /// there is an extrapolation; linear and static corrections hold everywhere).
+    pub outside_training_range: bool,
 }
 
 /// Streaming application with per-stream state (delay history).
@@ -85,6 +89,8 @@ pub trait SampleCorrector {
 pub struct Corrected {
     pub accel_mps2: [Vec<f64>; 3],
     pub valid: Vec<bool>,
+    /// How many samples were flagged [`CorrectedSample::outside_training_range`].
+    pub outside_training_range: usize,
 }
 
 /// Anything that corrects accelerometer samples.
@@ -103,6 +109,7 @@ pub trait Corrector {
         let mut out = Corrected {
             accel_mps2: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
             valid: vec![false; n],
+            outside_training_range: 0,
         };
         for i in 0..n {
             let a = &recording.accel_mps2;
@@ -111,6 +118,7 @@ pub trait Corrector {
                 out.accel_mps2[c][i] = sample.accel_mps2[c];
             }
             out.valid[i] = sample.valid;
+            out.outside_training_range += usize::from(sample.outside_training_range);
         }
         out
     }
@@ -276,6 +284,7 @@ impl SampleCorrector for StaticStream<'_> {
         CorrectedSample {
             accel_mps2: self.0.apply(&accel_mps2),
             valid: true,
+            outside_training_range: false,
         }
     }
 }

@@ -124,6 +124,7 @@ impl SampleCorrector for LinearStream<'_> {
         CorrectedSample {
             accel_mps2: out,
             valid: true,
+            outside_training_range: false,
         }
     }
 }

@@ -339,4 +339,26 @@ fn streaming_correction_matches_batch_application() {
     );
     let fits = model.training.as_ref().unwrap().fits.clone();
     assert!(fits.mean(Part::Test).is_finite());
+
+    // Inputs within the training range are not flagged; a recording with twice the y swing is,
+    // on the samples that leave the range by more than the margin, and is still corrected.
+    assert_eq!(streamed.outside_training_range, 0);
+    let mut louder = measured.clone();
+    let mean = louder.accel_mps2[1].iter().sum::<f64>() / louder.len() as f64;
+    for v in &mut louder.accel_mps2[1] {
+        *v = mean + 2.0 * (*v - mean);
+    }
+    let (low, high) = (model.input_scaling.min[1], model.input_scaling.max[1]);
+    let margin = spincal::ann::EXTRAPOLATION_MARGIN * (high - low);
+    let expected = louder.accel_mps2[1]
+        .iter()
+        .filter(|&&v| v < low - margin || v > high + margin)
+        .count();
+    let corrected = model.correct(&louder);
+    assert!(
+        expected > louder.len() / 10,
+        "the test signal leaves the range: {expected}"
+    );
+    assert_eq!(corrected.outside_training_range, expected);
+    assert!(corrected.accel_mps2[1].iter().all(|v| v.is_finite()));
 }

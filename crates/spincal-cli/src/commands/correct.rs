@@ -4,7 +4,9 @@
 //! axis (in the input's acceleration unit) and `valid` (0 for the first rows that lack a full
 //! delay history: their corrected values are the measured ones). A row that cannot be read, or
 //! whose time does not increase, stops the command with its line number and the reason; a partial
-//! output file is then removed, so an output file is always complete.
+//! output file is then removed, so an output file is always complete. Rows whose input lies well
+//! outside a network's training range are corrected as well, and counted in a warning on standard
+//! error (the network extrapolates there).
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, BufWriter, Write};
@@ -94,7 +96,8 @@ pub fn run(args: CorrectArgs, _ui: Ui) -> anyhow::Result<()> {
             result
         }
         None => stream(&model, reader, &name, BufWriter::new(std::io::stdout().lock())),
-    };
+    }
+    .map(|summary| summary.warn(&name));
     match result {
         Err(e) if is_broken_pipe(&e) => Ok(()),
         other => other,
@@ -111,12 +114,35 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
         .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
 }
 
+/// What a finished stream saw, beyond the rows it wrote.
+struct StreamSummary {
+    rows: usize,
+    /// Rows flagged as outside the training range, and the line of the first.
+    outside_training_range: usize,
+    first_outside_line: Option<usize>,
+}
+
+impl StreamSummary {
+    fn warn(&self, name: &str) {
+        if let Some(line) = self.first_outside_line {
+            eprintln!(
+                "warning: {name}: {} of {} rows ({:.1} %) have an input more than {:.0} % of the training \
+                 range outside it (first at line {line}); the network extrapolates there",
+                self.outside_training_range,
+                self.rows,
+                100.0 * self.outside_training_range as f64 / self.rows.max(1) as f64,
+                100.0 * spincal::ann::EXTRAPOLATION_MARGIN,
+            );
+        }
+    }
+}
+
 fn stream(
     model: &CorrectorFile,
     reader: Box<dyn BufRead>,
     name: &str,
     mut out: impl Write,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<StreamSummary> {
     let mut rows = RowReader::new(reader, name, &TableOptions::default())?;
     let width = rows.width();
     let header: Vec<String> = if rows.header.is_empty() {
@@ -141,6 +167,11 @@ fn stream(
     let mut values = Vec::with_capacity(width);
     let mut previous_time: Option<f64> = None;
     let from_mps2 = 1.0 / columns.accel_to_mps2;
+    let mut summary = StreamSummary {
+        rows: 0,
+        outside_training_range: 0,
+        first_outside_line: None,
+    };
     while let Some(line_no) = rows.next_row(&mut values)? {
         let t = values[columns.time] * columns.time_to_s;
         if let Some(p) = previous_time {
@@ -153,6 +184,11 @@ fn stream(
         previous_time = Some(t);
         let accel = columns.accel.map(|c| values[c] * columns.accel_to_mps2);
         let sample = state.correct_sample(accel);
+        summary.rows += 1;
+        if sample.outside_training_range {
+            summary.outside_training_range += 1;
+            summary.first_outside_line.get_or_insert(line_no);
+        }
         for (c, v) in values.iter().enumerate() {
             if c > 0 {
                 write!(out, "{delimiter}")?;
@@ -165,5 +201,5 @@ fn stream(
         writeln!(out, "{delimiter}{}", u8::from(sample.valid))?;
     }
     out.flush()?;
-    Ok(())
+    Ok(summary)
 }

@@ -60,6 +60,10 @@ pub enum AnnError {
 /// Smallest usable sample count: each part needs a few samples.
 const MIN_SAMPLES: usize = 10;
 
+/// How far beyond its training range (as a fraction of that range) an input may go before a
+/// corrected sample is flagged as an extrapolation ([`CorrectedSample::outside_training_range`]).
+pub const EXTRAPOLATION_MARGIN: f64 = 0.1;
+
 /// Fit % (SPEC §4, original units) of each axis on each part.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PartFits {
@@ -455,15 +459,19 @@ impl SampleCorrector for AnnStream<'_> {
     fn correct_sample(&mut self, accel_mps2: [f64; 3]) -> CorrectedSample {
         let model = self.model;
         let lags = model.delays + 1;
+        let mut outside = false;
         for (c, axis) in model.axes.iter().enumerate() {
             let row = &mut self.history[c * lags..(c + 1) * lags];
             row.copy_within(0..lags - 1, 1);
             row[0] = model.input_scaling.apply(c, accel_mps2[axis.index()]);
+            // The training range maps to [−1, 1], a width of 2.
+            outside |= row[0].abs() > 1.0 + 2.0 * EXTRAPOLATION_MARGIN;
         }
         self.seen += 1;
         let mut out = CorrectedSample {
             accel_mps2,
             valid: self.seen > model.delays,
+            outside_training_range: outside,
         };
         if out.valid {
             self.layout
