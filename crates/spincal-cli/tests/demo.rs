@@ -108,6 +108,17 @@ fn demo_writes_model_results_and_a_report_that_renders() {
         .iter()
         .any(|c| c["model"] == "ANN" && c["tested_on"] == "rec45.csv"));
     assert!(cross.iter().any(|c| c["model"] == "linear"));
+    // At 45 rpm the centripetal level moves the inputs out of what the network saw at 33⅓ rpm;
+    // the row says so, and only the network's row carries the share.
+    let ann = cross.iter().find(|c| c["model"] == "ANN").unwrap();
+    assert!(
+        ann["outside_training_range_percent"].as_f64().unwrap() > 50.0,
+        "{ann}"
+    );
+    assert!(cross
+        .iter()
+        .filter(|c| c["model"] != "ANN")
+        .all(|c| c.get("outside_training_range_percent").is_none()));
 
     // The saved model applies to new data through `spincal correct`.
     let corrected = d.join("corrected.csv");

@@ -155,6 +155,10 @@ pub struct CrossRow {
     pub trained_on: String,
     pub tested_on: String,
     pub score: PartScore,
+    /// Networks only: the share of samples whose input lay more than
+    /// [`crate::ann::EXTRAPOLATION_MARGIN`] of the training range outside it (%).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub outside_training_range_percent: Option<f64>,
 }
 
 /// Where a recording stood, for the report.
@@ -458,13 +462,21 @@ pub fn calibrate(
             trained_on: measured.source.name.clone(),
             tested_on: other.source.name.clone(),
             score,
+            outside_training_range_percent: None,
         };
         let raw: Vec<Vec<f64>> = axes_idx.iter().map(|&a| other.accel_mps2[a].clone()).collect();
         cross_condition.push(row("uncorrected", whole(&raw, settings.delays)));
-        cross_condition.push(row(
-            "ANN",
-            whole(&corrected_axes(&network, other), settings.delays),
-        ));
+        let by_network = network.correct(other);
+        let network_axes: Vec<Vec<f64>> = axes_idx
+            .iter()
+            .map(|&a| by_network.accel_mps2[a].clone())
+            .collect();
+        cross_condition.push(CrossRow {
+            outside_training_range_percent: Some(
+                100.0 * by_network.outside_training_range as f64 / other.len().max(1) as f64,
+            ),
+            ..row("ANN", whole(&network_axes, settings.delays))
+        });
         cross_condition.push(row(
             "linear",
             whole(&corrected_axes(&linear, other), settings.delays),

@@ -391,10 +391,18 @@ pub fn render_report(output: &CalibrationOutput, recordings: &[Recording]) -> Re
     }
     html.push_str("</table>\n<p>The paper (MATLAB, its own recording): ARX 51.81 / 48.29, BJ 66.66 / 60.18, NARX 61.09 / 54.70, HW 67.17 / 59.66 (training / test), ANN about 67.</p>\n");
     if !r.cross_condition.is_empty() {
-        html.push_str("<h3>Cross-condition: trained on recording 1, tested on another speed or radius</h3>\n<p>A corrector that only learned to emit one sine fails here; a single-recording split cannot show that.</p>\n<table><tr><th>model</th><th>tested on</th><th>fit (%)</th></tr>\n");
+        html.push_str("<h3>Cross-condition: trained on recording 1, tested on another speed or radius</h3>\n<p>A corrector that only learned to emit one sine fails here; a single-recording split cannot show that.</p>\n<table><tr><th>model</th><th>tested on</th><th>fit (%)</th><th>samples outside the network's training range (%)</th></tr>\n");
         for (i, c) in r.cross_condition.iter().enumerate() {
+            let outside = match c.outside_training_range_percent {
+                Some(p) => num(
+                    &format!("/cross_condition/{i}/outside_training_range_percent"),
+                    p,
+                    1,
+                ),
+                None => "—".to_string(),
+            };
             html.push_str(&format!(
-                "<tr><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{outside}</td></tr>\n",
                 escape(&c.model),
                 escape(&c.tested_on),
                 num(

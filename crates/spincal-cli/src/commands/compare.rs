@@ -65,9 +65,15 @@ pub fn cross_condition_text(rows: &[CrossRow]) -> String {
         text.push_str("\ncross-condition (trained on recording 1):\n");
         for c in rows {
             text.push_str(&format!(
-                "{:<12} {:>9.2} %  on {}\n",
+                "{:<12} {:>9.2} %  on {}",
                 c.model, c.score.fit_percent_mean, c.tested_on
             ));
+            if let Some(outside) = c.outside_training_range_percent.filter(|p| *p > 0.0) {
+                text.push_str(&format!(
+                    "  ({outside:.1} % of samples outside the training range)"
+                ));
+            }
+            text.push('\n');
         }
     }
     text
