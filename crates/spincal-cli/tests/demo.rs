@@ -102,6 +102,16 @@ fn demo_writes_model_results_and_a_report_that_renders() {
     assert!(["ANN", "linear"]
         .iter()
         .all(|m| validation(chosen) >= validation(m)));
+    // ARX on a pure-sine reference reproduces it without its input: the row says so, and such a
+    // row is not "best overall" however high its fit.
+    let arx = row(&results, "comparison", "ARX");
+    assert!(
+        arx["warnings"].as_array().is_some_and(|w| !w.is_empty()
+            && w.iter().all(|m| m.as_str().unwrap().contains("held constant"))),
+        "{arx}"
+    );
+    let best = row(&results, "comparison", results["best_overall"].as_str().unwrap());
+    assert!(best.get("warnings").is_none(), "{best}");
     // The cross-condition check ran on the 45 rpm recording for every corrector.
     let cross = results["cross_condition"].as_array().unwrap();
     assert!(cross

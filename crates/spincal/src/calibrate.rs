@@ -21,7 +21,7 @@ use crate::corrector::{Axis, Corrector, CorrectorFile, CorrectorModel};
 use crate::linear::{LinearError, LinearModel};
 use crate::metrics::{fit_percent, rmse};
 use crate::recording::Recording;
-use crate::sysid::{fit_and_score, score, ModelKind, ModelSpec, SysidError};
+use crate::sysid::{fit_and_score, score, ModelKind, ModelSpec, Scores, SysidError, SysidModel};
 use crate::turntable::fit::{FitError, FitOptions, TurntableFit};
 use crate::turntable::fit_turntable;
 use crate::turntable::sensitivity::{sensitivity_table, SensitivityInput, SensitivityRow};
@@ -146,6 +146,11 @@ pub struct ComparisonRow {
     pub savable: bool,
     /// Why the model could not be fitted (its scores are then NaN).
     pub failed: Option<String>,
+    /// Why the scores should not be taken at face value: a simulation that diverges, or a model
+    /// that fits the validation part above 50 % with its input held constant (it generates the
+    /// turntable's sine instead of correcting the sensor). Such rows are not "best overall".
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 /// A corrector trained on the first recording, applied to another one.
@@ -193,7 +198,7 @@ pub struct CalibrationResult {
     pub cross_condition: Vec<CrossRow>,
     /// The corrector saved (best validation fit % among savable correctors).
     pub chosen: String,
-    /// The best on validation overall (may be a compare-only model).
+    /// The best on validation overall (may be a compare-only model), among rows without warnings.
     pub best_overall: String,
     pub seconds_total: f64,
 }
@@ -332,6 +337,7 @@ pub fn calibrate(
             seconds,
             savable,
             failed: None,
+            warnings: Vec::new(),
         }
     };
     let corrected_axes = |c: &dyn Corrector, rec: &Recording| -> Vec<Vec<f64>> {
@@ -409,6 +415,7 @@ pub fn calibrate(
                     seconds: 0.0,
                     savable: false,
                     failed: Some(source.to_string()),
+                    warnings: Vec::new(),
                 });
             }
         }
@@ -426,7 +433,7 @@ pub fn calibrate(
             .map(|r| r.model.clone())
             .unwrap_or_default()
     };
-    let best_overall = best_of(&mut comparison.iter());
+    let best_overall = best_of(&mut comparison.iter().filter(|r| r.warnings.is_empty()));
     let chosen = best_of(&mut comparison.iter().filter(|r| r.savable));
     let saved_model = if chosen == "ANN" {
         CorrectorModel::Ann(Box::new(network.clone()))
@@ -579,11 +586,12 @@ fn fit_sysid_per_axis(
     axes_idx: &[usize],
     division: &Division,
     init_samples: usize,
-) -> Result<(ComparisonRow, Vec<crate::sysid::SysidModel>), SysidError> {
+) -> Result<(ComparisonRow, Vec<SysidModel>), SysidError> {
     let mut per_part: [Vec<(f64, f64, f64, f64)>; 3] = [Vec::new(), Vec::new(), Vec::new()];
     let mut seconds = 0.0;
     let mut structure = String::new();
     let mut fitted = Vec::new();
+    let mut warnings = Vec::new();
     let blocks = [&division.train[0], &division.validation[0], &division.test[0]];
     for &a in axes_idx {
         let u = measured.accel_mps2[a].as_slice();
@@ -591,12 +599,13 @@ fn fit_sysid_per_axis(
         let scored = fit_and_score(spec, &[u], y, blocks[0].clone(), None, init_samples, &mut |_| {})?;
         seconds += scored.seconds;
         structure = scored.structure.clone();
-        for (p, range) in blocks.iter().enumerate() {
+        let mut parts = Vec::new();
+        for (p, (range, part)) in blocks.iter().zip(["training", "validation", "test"]).enumerate() {
             let range = (*range).clone();
             let s = score(
                 &scored.fitted.model,
                 &[&u[range.clone()]],
-                &y[range],
+                &y[range.clone()],
                 init_samples,
             )?;
             per_part[p].push((
@@ -605,7 +614,16 @@ fn fit_sysid_per_axis(
                 s.one_step.fit_percent,
                 s.one_step.rmse,
             ));
+            parts.push((part, range, s));
         }
+        warnings.extend(sysid_warnings(
+            &scored.fitted.model,
+            a,
+            u,
+            y,
+            &parts,
+            init_samples,
+        )?);
         fitted.push(scored.fitted.model);
     }
     let collect = |p: usize, one_step: bool| {
@@ -631,6 +649,105 @@ fn fit_sysid_per_axis(
         seconds,
         savable: false,
         failed: None,
+        warnings,
     };
     Ok((row, fitted))
+}
+
+/// Above this error RMS, in units of the reference's spread, a simulation has diverged.
+const DIVERGED_SPREAD_RATIO: f64 = 10.0;
+/// A model that reaches this validation fit (%) with its input held constant explains most of
+/// the reference without the sensor: it generates the signal instead of correcting it.
+const INPUT_FREE_FIT_PERCENT: f64 = 50.0;
+
+/// The warnings of [`ComparisonRow::warnings`] for one axis's fitted dynamic model.
+fn sysid_warnings(
+    model: &SysidModel,
+    axis: usize,
+    u: &[f64],
+    y: &[f64],
+    parts: &[(&str, Range<usize>, Scores)],
+    init_samples: usize,
+) -> Result<Vec<String>, SysidError> {
+    let axis_name = ["x", "y", "z"][axis];
+    let mut warnings = Vec::new();
+    for (part, range, scores) in parts {
+        let y = &y[range.clone()];
+        let mean = y.iter().sum::<f64>() / y.len() as f64;
+        let spread = (y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / y.len() as f64).sqrt();
+        let error = scores.simulation.rmse;
+        if !error.is_finite() || error > DIVERGED_SPREAD_RATIO * spread {
+            warnings.push(format!(
+                "the {axis_name} simulation diverges on the {part} part (error RMS {error:.3e} m/s², {:.0}× \
+                 the reference's spread)",
+                error / spread
+            ));
+        }
+    }
+    if let Some((_, range, scores)) = parts.iter().find(|(part, _, _)| *part == "validation") {
+        let u = &u[range.clone()];
+        let held = vec![u.iter().sum::<f64>() / u.len() as f64; u.len()];
+        let without_input = score(model, &[&held], &y[range.clone()], init_samples)?;
+        let (with, without) = (
+            scores.simulation.fit_percent,
+            without_input.simulation.fit_percent,
+        );
+        if without >= INPUT_FREE_FIT_PERCENT {
+            warnings.push(format!(
+                "on {axis_name} it reaches {without:.1} % on the validation part with its input held \
+                 constant ({with:.1} % with it): it generates the turntable's sine rather than \
+                 correcting the sensor"
+            ));
+        }
+    }
+    Ok(warnings)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sysid::PolyModel;
+
+    /// An ARX model y(t) = −a₁y(t−1) − a₂y(t−2) + b₁u(t−1), scored on one "validation" part.
+    fn warnings_for(a: Vec<f64>, b1: f64, u: &[f64], y: &[f64]) -> Vec<String> {
+        let model = SysidModel::Poly(PolyModel {
+            a,
+            b: vec![vec![0.0, b1]],
+            c: vec![1.0],
+            d: vec![1.0],
+            f: vec![vec![1.0]],
+            nk: vec![1],
+        });
+        let range = 0..y.len();
+        let scores = score(&model, &[u], y, 2).unwrap();
+        sysid_warnings(&model, 0, u, y, &[("validation", range, scores)], 2).unwrap()
+    }
+
+    #[test]
+    fn sysid_rows_warn_of_divergence_and_of_ignoring_the_input() {
+        let w = 2.0 * std::f64::consts::PI * 0.55 / 100.0;
+        let y: Vec<f64> = (0..3000).map(|t| (w * t as f64).sin()).collect();
+        // The measured input is the reference a sample early, plus a small ripple.
+        let u: Vec<f64> = (0..3000)
+            .map(|t| (w * (t + 1) as f64).sin() + 0.01 * (0.37 * t as f64).sin())
+            .collect();
+
+        // A pure oscillator at the turntable's rate: exact without any input.
+        let oscillator = warnings_for(vec![1.0, -2.0 * w.cos(), 1.0], 0.0, &u, &y);
+        assert_eq!(oscillator.len(), 1, "{oscillator:?}");
+        assert!(oscillator[0].contains("held constant"), "{oscillator:?}");
+
+        // A pole at 1.02: the simulation runs away.
+        let unstable = warnings_for(vec![1.0, -1.02], 0.1, &u, &y);
+        assert!(
+            unstable
+                .iter()
+                .any(|m| m.contains("diverges on the validation part")),
+            "{unstable:?}"
+        );
+
+        // y(t) = u(t−1): uses its input, stays bounded, no warning.
+        let follower = warnings_for(vec![1.0], 1.0, &u, &y);
+        assert!(follower.is_empty(), "{follower:?}");
+    }
 }

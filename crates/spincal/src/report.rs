@@ -74,7 +74,7 @@ pub fn render_report(output: &CalibrationOutput, recordings: &[Recording]) -> Re
     html.push_str("<h1>spincal calibration report</h1>\n");
     html.push_str(&format!(
         "<p>spincal {} · seed {} · corrected axes {} · total time {} s. Chosen corrector: <b>{}</b> \
-         (best validation fit among correctors that can be saved); best on validation overall: <b>{}</b>.</p>\n",
+         (best validation fit among correctors that can be saved); best on validation among all models without warnings (section 8): <b>{}</b>.</p>\n",
         escape(&r.spincal_version),
         num("/seed", r.seed as f64, 0),
         escape(&r.axes.iter().map(|a| a.name()).collect::<Vec<_>>().join(", ")),
@@ -378,7 +378,13 @@ pub fn render_report(output: &CalibrationOutput, recordings: &[Recording]) -> Re
             escape(&row.model),
             match &row.failed {
                 Some(why) => format!("{} — not fitted: {}", escape(&row.structure), escape(why)),
-                None => escape(&row.structure),
+                None =>
+                    escape(&row.structure)
+                        + &row
+                            .warnings
+                            .iter()
+                            .map(|w| format!("<br><b>warning:</b> {}", escape(w)))
+                            .collect::<String>(),
             },
             score_cells(&format!("{b}/train"), &row.train),
             score_cells(&format!("{b}/validation"), &row.validation),

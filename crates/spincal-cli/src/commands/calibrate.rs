@@ -173,11 +173,12 @@ pub fn summary(output: &CalibrationOutput, out: &Path) -> String {
             "{:<12} {:>11.2} {:>17.2} {:>11.2}\n",
             row.model, row.train.fit_percent_mean, row.validation.fit_percent_mean, row.test.fit_percent_mean
         ));
+        text.push_str(&super::compare::row_notes(row));
     }
     text.push_str(&super::compare::cross_condition_text(&r.cross_condition));
     let dir = out.display();
     text.push_str(&format!(
-        "\nchosen: {} (best on validation among savable correctors; best overall: {})\n\
+        "\nchosen: {} (best on validation among savable correctors; best overall without warnings: {})\n\
          wrote {dir}/model.json, {dir}/results.json, {dir}/report.html\n",
         r.chosen, r.best_overall,
     ));

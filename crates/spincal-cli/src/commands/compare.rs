@@ -58,6 +58,18 @@ pub fn table_csv(rows: &[ComparisonRow]) -> String {
     text
 }
 
+/// Why a comparison row failed, and its warnings, as indented lines under the row.
+pub fn row_notes(row: &ComparisonRow) -> String {
+    let mut text = String::new();
+    if let Some(why) = &row.failed {
+        text.push_str(&format!("{:<12} not fitted: {why}\n", ""));
+    }
+    for warning in &row.warnings {
+        text.push_str(&format!("{:<12} warning: {warning}\n", ""));
+    }
+    text
+}
+
 /// The cross-condition rows for people (empty when there was one recording).
 pub fn cross_condition_text(rows: &[CrossRow]) -> String {
     let mut text = String::new();
@@ -108,9 +120,7 @@ pub fn table_text(result: &CalibrationResult) -> String {
             r.test.rmse_mps2_mean,
             r.seconds
         ));
-        if let Some(why) = &r.failed {
-            text.push_str(&format!("{:<12} not fitted: {why}\n", ""));
-        }
+        text.push_str(&row_notes(r));
     }
     text.push_str(
         "\nfit % = 100 (1 − ‖y − ŷ‖/‖y − ȳ‖), mean over the corrected axes; sim = simulation (infinite horizon), \
