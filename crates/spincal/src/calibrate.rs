@@ -678,7 +678,7 @@ fn sysid_warnings(
         let error = scores.simulation.rmse;
         if !error.is_finite() || error > DIVERGED_SPREAD_RATIO * spread {
             warnings.push(format!(
-                "the {axis_name} simulation diverges on the {part} part (error RMS {error:.3e} m/s², {:.0}× \
+                "the {axis_name} simulation diverges on the {part} part (error RMS {error:.3} m/s², {:.0}× \
                  the reference's spread)",
                 error / spread
             ));
