@@ -32,6 +32,20 @@ fn spincal() -> Command {
     Command::cargo_bin("spincal").unwrap()
 }
 
+/// `spincal correct --model MODEL INPUT -o OUTPUT`, which must succeed; returns its standard error.
+fn correct_ok(model: &Path, input: &Path, output: &Path) -> String {
+    let out = spincal()
+        .args(["correct", "--model"])
+        .arg(model)
+        .arg(input)
+        .arg("-o")
+        .arg(output)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 #[test]
 fn train_then_correct_streams_every_row_with_validity() {
     let dir = tempfile::tempdir().unwrap();
@@ -61,16 +75,7 @@ fn train_then_correct_streams_every_row_with_validity() {
     );
 
     let corrected = dir.path().join("corrected.csv");
-    let out = spincal()
-        .args(["correct", "--model"])
-        .arg(&model)
-        .arg(&m)
-        .arg("-o")
-        .arg(&corrected)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = correct_ok(&model, Path::new(&m), &corrected);
     assert!(
         !stderr.contains("warning"),
         "the training recording is in range: {stderr}"
@@ -92,16 +97,7 @@ fn train_then_correct_streams_every_row_with_validity() {
     }
     let loud = dir.path().join("loud.csv");
     std::fs::write(&loud, louder).unwrap();
-    let out = spincal()
-        .args(["correct", "--model"])
-        .arg(&model)
-        .arg(&loud)
-        .arg("-o")
-        .arg(&corrected)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = correct_ok(&model, &loud, &corrected);
     assert!(
         stderr.contains("warning: ")
             && stderr.contains("loud.csv: ")
