@@ -17,7 +17,7 @@ use crate::ann::{
     architecture_label, sweep, AnnError, AnnProblem, Division, DivisionMode, LmSettings, SweepRow,
     SweepSettings,
 };
-use crate::corrector::{Axis, Corrector, CorrectorFile, CorrectorModel};
+use crate::corrector::{Axis, Corrected, Corrector, CorrectorFile, CorrectorModel};
 use crate::linear::{LinearError, LinearModel};
 use crate::metrics::{fit_percent, rmse};
 use crate::recording::Recording;
@@ -340,10 +340,9 @@ pub fn calibrate(
             warnings: Vec::new(),
         }
     };
-    let corrected_axes = |c: &dyn Corrector, rec: &Recording| -> Vec<Vec<f64>> {
-        let out = c.correct(rec);
-        axes_idx.iter().map(|&a| out.accel_mps2[a].clone()).collect()
-    };
+    let axes_of =
+        |out: &Corrected| -> Vec<Vec<f64>> { axes_idx.iter().map(|&a| out.accel_mps2[a].clone()).collect() };
+    let corrected_axes = |c: &dyn Corrector, rec: &Recording| axes_of(&c.correct(rec));
     let mut comparison = Vec::new();
     let uncorrected: Vec<Vec<f64>> = axes_idx.iter().map(|&a| measured.accel_mps2[a].clone()).collect();
     comparison.push(static_row(
@@ -474,15 +473,11 @@ pub fn calibrate(
         let raw: Vec<Vec<f64>> = axes_idx.iter().map(|&a| other.accel_mps2[a].clone()).collect();
         cross_condition.push(row("uncorrected", whole(&raw, settings.delays)));
         let by_network = network.correct(other);
-        let network_axes: Vec<Vec<f64>> = axes_idx
-            .iter()
-            .map(|&a| by_network.accel_mps2[a].clone())
-            .collect();
         cross_condition.push(CrossRow {
             outside_training_range_percent: Some(
                 100.0 * by_network.outside_training_range as f64 / other.len().max(1) as f64,
             ),
-            ..row("ANN", whole(&network_axes, settings.delays))
+            ..row("ANN", whole(&axes_of(&by_network), settings.delays))
         });
         cross_condition.push(row(
             "linear",
@@ -669,7 +664,7 @@ fn sysid_warnings(
     parts: &[(&str, Range<usize>, Scores)],
     init_samples: usize,
 ) -> Result<Vec<String>, SysidError> {
-    let axis_name = ["x", "y", "z"][axis];
+    let axis_name = Axis::ALL[axis].name();
     let mut warnings = Vec::new();
     for (part, range, scores) in parts {
         let y = &y[range.clone()];

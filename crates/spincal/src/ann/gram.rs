@@ -90,8 +90,8 @@ pub(crate) trait Fma4Op {
     fn run<F: Fma4>(self, lanes: F) -> Self::Output;
 }
 
-/// Runs `op` compiled for AVX2+FMA when the CPU has them (everything `op` inlines, the forward
-/// and backward passes included, is then vectorised 4 wide), else with [`Portable`] lanes.
+/// Runs `op` compiled for AVX2+FMA when the CPU has them (everything `op` inlines is then
+/// vectorised 4 wide), else with [`Portable`] lanes.
 #[inline]
 pub(crate) fn dispatch<Op: Fma4Op>(op: Op) -> Op::Output {
     #[cfg(target_arch = "x86_64")]
@@ -119,109 +119,86 @@ const JB: usize = 2 * NR;
 
 /// Adds the lower triangle of AᵀA to `gram` (d×d, row-major, d = `cols.len()`; only entries with
 /// j ≤ i are touched), where column q of A is `data[cols[q] * stride + first..][..len]`.
-#[inline(always)]
-pub(crate) fn add_lower<F: Fma4>(
-    f: F,
-    data: &[f64],
-    cols: &[usize],
-    stride: usize,
-    first: usize,
-    len: usize,
-    gram: &mut [f64],
-) {
-    let d = cols.len();
-    assert!(gram.len() >= d * d);
-    let col = |q: usize| &data[cols[q] * stride + first..][..len];
-    let mut j0 = 0;
-    while j0 + NR <= d {
-        let panels = if j0 + JB <= d { 2 } else { 1 };
-        let b: [[&[f64]; NR]; 2] = from_fn(|p| from_fn(|j| col((j0 + p * NR + j).min(d - 1))));
-        // Rows from j0 on (the first tiles straddle the diagonal; their upper entries are dropped).
-        let mut i0 = j0;
-        while i0 < d {
-            if i0 + MR <= d {
-                let a: [&[f64]; MR] = from_fn(|i| col(i0 + i));
-                for (p, b) in b.iter().enumerate().take(panels) {
-                    let jp = j0 + p * NR;
-                    if i0 + MR > jp {
-                        add_tile(gram, d, i0, jp, dot_tile::<F, MR, NR>(f, a, *b, len));
-                    }
-                }
-                i0 += MR;
-            } else {
-                for (p, b) in b.iter().enumerate().take(panels) {
-                    let jp = j0 + p * NR;
-                    if i0 + 1 > jp {
-                        add_tile(gram, d, i0, jp, dot_tile::<F, 1, NR>(f, [col(i0)], *b, len));
-                    }
-                }
-                i0 += 1;
-            }
-        }
-        j0 += panels * NR;
-    }
-    for j in j0..d {
-        let b = [col(j)];
-        let mut i0 = j;
-        while i0 + MR <= d {
-            add_tile(
-                gram,
-                d,
-                i0,
-                j,
-                dot_tile::<F, MR, 1>(f, from_fn(|i| col(i0 + i)), b, len),
-            );
-            i0 += MR;
-        }
-        for i in i0..d {
-            add_tile(gram, d, i, j, dot_tile::<F, 1, 1>(f, [col(i)], b, len));
-        }
+pub(crate) struct AddLower<'a> {
+    pub data: &'a [f64],
+    pub cols: &'a [usize],
+    pub stride: usize,
+    pub first: usize,
+    pub len: usize,
+    pub gram: &'a mut [f64],
+}
+
+impl AddLower<'_> {
+    /// Runs by [`dispatch`] in a function of its own: the kernel's code generation then does not
+    /// depend on what its caller inlines around it (forward and backward passes).
+    #[inline(never)]
+    pub(crate) fn dispatched(self) {
+        dispatch(self)
     }
 }
 
-/// [`add_lower`] in a function of its own, run by [`dispatch`]: the kernel's code generation
-/// then does not depend on what its caller inlines around it (forward and backward passes).
-#[inline(never)]
-pub(crate) fn add_lower_dispatched(
-    data: &[f64],
-    cols: &[usize],
-    stride: usize,
-    first: usize,
-    len: usize,
-    gram: &mut [f64],
-) {
-    struct AddLower<'a> {
-        data: &'a [f64],
-        cols: &'a [usize],
-        stride: usize,
-        first: usize,
-        len: usize,
-        gram: &'a mut [f64],
-    }
-    impl Fma4Op for AddLower<'_> {
-        type Output = ();
+impl Fma4Op for AddLower<'_> {
+    type Output = ();
 
-        #[inline(always)]
-        fn run<F: Fma4>(self, f: F) {
-            add_lower(
-                f,
-                self.data,
-                self.cols,
-                self.stride,
-                self.first,
-                self.len,
-                self.gram,
-            );
+    #[inline(always)]
+    fn run<F: Fma4>(self, f: F) {
+        let AddLower {
+            data,
+            cols,
+            stride,
+            first,
+            len,
+            gram,
+        } = self;
+        let d = cols.len();
+        assert!(gram.len() >= d * d);
+        let col = |q: usize| &data[cols[q] * stride + first..][..len];
+        let mut j0 = 0;
+        while j0 + NR <= d {
+            let panels = if j0 + JB <= d { 2 } else { 1 };
+            let b: [[&[f64]; NR]; 2] = from_fn(|p| from_fn(|j| col((j0 + p * NR + j).min(d - 1))));
+            // Rows from j0 on (the first tiles straddle the diagonal; their upper entries are dropped).
+            let mut i0 = j0;
+            while i0 < d {
+                if i0 + MR <= d {
+                    let a: [&[f64]; MR] = from_fn(|i| col(i0 + i));
+                    for (p, b) in b.iter().enumerate().take(panels) {
+                        let jp = j0 + p * NR;
+                        if i0 + MR > jp {
+                            add_tile(gram, d, i0, jp, dot_tile::<F, MR, NR>(f, a, *b, len));
+                        }
+                    }
+                    i0 += MR;
+                } else {
+                    for (p, b) in b.iter().enumerate().take(panels) {
+                        let jp = j0 + p * NR;
+                        if i0 + 1 > jp {
+                            add_tile(gram, d, i0, jp, dot_tile::<F, 1, NR>(f, [col(i0)], *b, len));
+                        }
+                    }
+                    i0 += 1;
+                }
+            }
+            j0 += panels * NR;
+        }
+        for j in j0..d {
+            let b = [col(j)];
+            let mut i0 = j;
+            while i0 + MR <= d {
+                add_tile(
+                    gram,
+                    d,
+                    i0,
+                    j,
+                    dot_tile::<F, MR, 1>(f, from_fn(|i| col(i0 + i)), b, len),
+                );
+                i0 += MR;
+            }
+            for i in i0..d {
+                add_tile(gram, d, i, j, dot_tile::<F, 1, 1>(f, [col(i)], b, len));
+            }
         }
     }
-    dispatch(AddLower {
-        data,
-        cols,
-        stride,
-        first,
-        len,
-        gram,
-    });
 }
 
 #[inline(always)]
@@ -298,9 +275,17 @@ mod tests {
             let cols: Vec<usize> = (0..n_cols + 1).filter(|&c| c != 1).collect();
             let d = cols.len();
             let mut gram = vec![0.5; d * d];
-            add_lower(Portable, &data, &cols, stride, 2, len, &mut gram);
+            let add = |gram| AddLower {
+                data: &data,
+                cols: &cols,
+                stride,
+                first: 2,
+                len,
+                gram,
+            };
+            add(&mut gram).run(Portable);
             let mut fast = vec![0.5; d * d];
-            add_lower_dispatched(&data, &cols, stride, 2, len, &mut fast);
+            add(&mut fast).dispatched();
             assert_eq!(fast, gram, "dispatched and portable lanes differ");
             for i in 0..d {
                 for j in 0..d {

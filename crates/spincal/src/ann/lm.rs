@@ -260,9 +260,9 @@ impl LmWorkspace {
         let mut sse = 0.0;
         let n = data.len();
         let mut start = 0;
+        let stride = self.stride;
         while start < n {
             let count = block.min(n - start);
-            let stride = self.stride;
             layout.forward_block(
                 weights,
                 &data.inputs[start * n_in..(start + count) * n_in],
@@ -270,14 +270,8 @@ impl LmWorkspace {
                 &mut self.activations,
             );
             let outputs = &self.activations[out_at * count..(out_at + n_out) * count];
-            for s in 0..count {
-                let row = start + s;
-                for k in 0..n_out {
-                    let e = data.targets[row * n_out + k] - outputs[k * count + s];
-                    self.errors[k * count + s] = e;
-                    sse += e * e;
-                }
-            }
+            let errors = &mut self.errors;
+            add_block_errors(data, outputs, start, count, &mut sse, |at, e| errors[at] = e);
             let in_hessian = (start / block).is_multiple_of(hessian_stride);
             // One output at a time: its rows of J (and its errors as the last column) are
             // formed and at once reduced, while they are still in cache.
@@ -303,7 +297,15 @@ impl LmWorkspace {
                 );
                 let block_jacobian = &self.jacobian[self.jacobian_at..];
                 if in_hessian {
-                    gram::add_lower_dispatched(block_jacobian, columns, stride, 0, count, gram);
+                    gram::AddLower {
+                        data: block_jacobian,
+                        cols: columns,
+                        stride,
+                        first: 0,
+                        len: count,
+                        gram,
+                    }
+                    .dispatched();
                 } else {
                     let (params, error) = columns.split_at(columns.len() - 1);
                     let e = &block_jacobian[error[0] * stride..][..count];
@@ -519,7 +521,7 @@ impl WithSimd for Blocks<'_> {
     }
 }
 
-/// [`sse_of_blocks`] as a `pulp` operation.
+/// [`sse_of`] as a `pulp` operation.
 struct TrialError<'a> {
     layout: &'a Layout,
     weights: &'a [f64],
@@ -534,52 +536,59 @@ impl WithSimd for TrialError<'_> {
 
     #[inline(always)]
     fn with_simd<S: Simd>(self, _simd: S) -> f64 {
-        sse_of_blocks(
-            self.layout,
-            self.weights,
-            self.data,
-            self.activations,
-            self.block,
-            self.limit,
-        )
+        let TrialError {
+            layout,
+            weights,
+            data,
+            activations,
+            block,
+            limit,
+        } = self;
+        let (n_in, n_out) = (layout.inputs(), layout.outputs());
+        let out_at = layout.n_activations() - n_out;
+        let mut sse = 0.0;
+        let n = data.len();
+        let mut start = 0;
+        while start < n {
+            let count = block.min(n - start);
+            layout.forward_block(
+                weights,
+                &data.inputs[start * n_in..(start + count) * n_in],
+                count,
+                activations,
+            );
+            let outputs = &activations[out_at * count..(out_at + n_out) * count];
+            add_block_errors(data, outputs, start, count, &mut sse, |_, _| {});
+            start += count;
+            if sse >= limit {
+                break;
+            }
+        }
+        sse
     }
 }
 
+/// Adds the squared errors of the block of `count` samples from `start` to `sse`, sample after
+/// sample and output after output (the order every error sum here uses), and hands each error to
+/// `record` with its place `k·count + s` in an output-major block.
 #[inline(always)]
-fn sse_of_blocks(
-    layout: &Layout,
-    weights: &[f64],
+fn add_block_errors(
     data: &Dataset,
-    activations: &mut [f64],
-    block: usize,
-    limit: f64,
-) -> f64 {
-    let (n_in, n_out) = (layout.inputs(), layout.outputs());
-    let out_at = layout.n_activations() - n_out;
-    let mut sse = 0.0;
-    let n = data.len();
-    let mut start = 0;
-    while start < n {
-        let count = block.min(n - start);
-        layout.forward_block(
-            weights,
-            &data.inputs[start * n_in..(start + count) * n_in],
-            count,
-            activations,
-        );
-        let outputs = &activations[out_at * count..(out_at + n_out) * count];
-        for s in 0..count {
-            for k in 0..n_out {
-                let e = data.targets[(start + s) * n_out + k] - outputs[k * count + s];
-                sse += e * e;
-            }
-        }
-        start += count;
-        if sse >= limit {
-            break;
+    outputs: &[f64],
+    start: usize,
+    count: usize,
+    sse: &mut f64,
+    mut record: impl FnMut(usize, f64),
+) {
+    let n_out = outputs.len() / count;
+    let targets = &data.targets[start * n_out..(start + count) * n_out];
+    for s in 0..count {
+        for k in 0..n_out {
+            let e = targets[s * n_out + k] - outputs[k * count + s];
+            record(k * count + s, e);
+            *sse += e * e;
         }
     }
-    sse
 }
 
 /// The whole Jacobian of the outputs over `data` (rows: sample-major, then output), for tests

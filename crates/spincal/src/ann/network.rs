@@ -377,8 +377,7 @@ impl Layout {
         let (delta_here, delta_below) = delta.split_at_mut(widest * count);
         let starts = self.activation_starts();
         let layer_values = |l: usize, n: usize| &activations[starts[l] * count..(starts[l] + n) * count];
-        let r0 = first_row;
-        let column = |p: usize| p * stride + r0..p * stride + r0 + count;
+        let column = |p: usize| p * stride + first_row..p * stride + first_row + count;
         let n_in = self.sizes[last - 1];
         let (w_at, b_at) = self.layer_offsets(last);
         let a_in = layer_values(last - 1, n_in);
