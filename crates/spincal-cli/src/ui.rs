@@ -3,6 +3,7 @@
 use std::io::{IsTerminal, Write};
 
 use indicatif::{ProgressBar, ProgressStyle};
+use spincal::progress::Progress;
 
 /// What every command gets: whether progress may be drawn.
 #[derive(Clone, Copy)]
@@ -42,6 +43,15 @@ impl Ui {
         bar.enable_steady_tick(std::time::Duration::from_millis(120));
         bar
     }
+}
+
+/// Shows the library's progress on a bar: the stage as its message, done of total.
+pub fn show(bar: &ProgressBar, p: Progress) {
+    bar.set_message(p.stage.to_string());
+    if let Some(total) = p.total {
+        bar.set_length(total.max(1) as u64);
+    }
+    bar.set_position(p.done as u64);
 }
 
 /// Writes `text` to stdout; a closed pipe ends the program quietly with success.

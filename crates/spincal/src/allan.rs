@@ -169,7 +169,7 @@ pub fn noise_params(curve: &AllanCurve) -> NoiseParams {
 /// standard deviation equal to the bias instability (its bound is three of them). The simulator has one
 /// noise level for all axes: the mean over the axes is used.
 pub fn simulator_profile(params: &NoiseParams, sample_rate_hz: f64) -> crate::simulate::SensorProfile {
-    let g = crate::recording::STANDARD_GRAVITY;
+    let g = crate::input::recording::STANDARD_GRAVITY;
     let mean = |v: &[f64; 3]| (v[0] + v[1] + v[2]) / 3.0;
     crate::simulate::SensorProfile {
         noise_g: mean(&params.noise_density) * sample_rate_hz.sqrt() / g,
@@ -180,8 +180,9 @@ pub fn simulator_profile(params: &NoiseParams, sample_rate_hz: f64) -> crate::si
 }
 
 /// The log-log figure of the three curves with the fitted −½ lines (noise density read-off).
-pub fn allan_figure(curve: &AllanCurve, params: &NoiseParams, title: &str) -> crate::plot::LinePlot {
-    use crate::plot::{LinePlot, LineStyle, Rgb, Series};
+#[cfg(feature = "plot")]
+pub fn allan_figure(curve: &AllanCurve, params: &NoiseParams, title: &str) -> crate::report::plot::LinePlot {
+    use crate::report::plot::{LinePlot, LineStyle, Rgb, Series};
     let mut plot = LinePlot::new(title, "τ (s)", "Allan deviation σ(τ) (m/s²)")
         .log_x()
         .log_y();
@@ -257,7 +258,7 @@ mod tests {
 
     #[test]
     fn figure_draws_as_svg() {
-        use crate::plot::Figure;
+        use crate::report::plot::Figure;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
         let d = Normal::new(0.0, 0.01).unwrap();
         let axes: [Vec<f64>; 3] = std::array::from_fn(|_| (0..2000).map(|_| d.sample(&mut rng)).collect());

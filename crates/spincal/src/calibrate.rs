@@ -13,14 +13,16 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::ann::{
+use crate::correctors::ann::{
     architecture_label, sweep, AnnError, AnnProblem, Division, DivisionMode, LmSettings, SweepRow,
     SweepSettings,
 };
-use crate::corrector::{Axis, Corrected, Corrector, CorrectorFile, CorrectorModel};
-use crate::linear::{LinearError, LinearModel};
+use crate::correctors::corrector::{Axis, Corrected, Corrector};
+use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
+use crate::correctors::linear::{LinearError, LinearModel};
 use crate::metrics::{fit_percent, rmse};
-use crate::recording::Recording;
+use crate::progress::{Observer, Progress};
+use crate::input::recording::Recording;
 use crate::sysid::{fit_and_score, score, ModelKind, ModelSpec, Scores, SysidError, SysidModel};
 use crate::turntable::fit::{FitError, FitOptions, TurntableFit};
 use crate::turntable::fit_turntable;
@@ -161,7 +163,7 @@ pub struct CrossRow {
     pub tested_on: String,
     pub score: PartScore,
     /// Networks only: the share of samples whose input lay more than
-    /// [`crate::ann::EXTRAPOLATION_MARGIN`] of the training range outside it (%).
+    /// [`crate::correctors::ann::EXTRAPOLATION_MARGIN`] of the training range outside it (%).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub outside_training_range_percent: Option<f64>,
 }
@@ -216,28 +218,16 @@ pub struct CalibrationOutput {
     pub corrected: [Vec<f64>; 3],
 }
 
-/// A stage report for progress display.
-#[derive(Debug, Clone, Copy)]
-pub struct StageProgress<'a> {
-    pub stage: &'a str,
-    pub done: usize,
-    pub total: usize,
-}
-
 /// Runs the whole calibration. `observer` hears about every stage and step.
 pub fn calibrate(
     recordings: &[Recording],
     settings: &CalibrateSettings,
-    observer: &(dyn Fn(StageProgress) + Sync),
+    observer: &Observer,
 ) -> Result<CalibrationOutput, CalibrateError> {
     let started = Instant::now();
     let refs: Vec<&Recording> = recordings.iter().collect();
-    observer(StageProgress {
-        stage: "turntable fit",
-        done: 0,
-        total: 1,
-    });
-    let turntable = fit_turntable(&refs, &settings.fit, &mut |_, _| {})?;
+    observer(Progress::step("turntable fit", 0, Some(1)));
+    let turntable = fit_turntable(&refs, &settings.fit, observer)?;
     let references = with_signal(recordings, |k, t| turntable.reference(k, t));
     let models = with_signal(recordings, |k, t| turntable.model(k, t));
     let (measured, reference) = (&recordings[0], &references[0]);
@@ -265,13 +255,7 @@ pub fn calibrate(
                     ..settings.lm.clone()
                 },
             };
-            let rows = sweep(&problem, &sweep_settings, &|p| {
-                observer(StageProgress {
-                    stage: "network sweep",
-                    done: p.done,
-                    total: p.total,
-                })
-            })?;
+            let rows = sweep(&problem, &sweep_settings, observer)?;
             let best = rows
                 .iter()
                 .min_by(|a, b| a.best_validation_mse.total_cmp(&b.best_validation_mse))
@@ -281,20 +265,12 @@ pub fn calibrate(
         }
         NetworkChoice::Fixed { hidden, restarts } => (Vec::new(), hidden.clone(), *restarts),
     };
-    observer(StageProgress {
-        stage: "network",
-        done: 0,
-        total: 1,
-    });
+    observer(Progress::step("network", 0, Some(1)));
     let clock = Instant::now();
     let network = problem.train(&hidden, restarts, settings.seed, &settings.lm)?;
     let network_seconds = clock.elapsed().as_secs_f64();
 
-    observer(StageProgress {
-        stage: "linear",
-        done: 0,
-        total: 1,
-    });
+    observer(Progress::step("linear", 0, Some(1)));
     let clock = Instant::now();
     let linear = LinearModel::fit(measured, reference, &settings.axes, settings.division)?;
     let linear_seconds = clock.elapsed().as_secs_f64();
@@ -381,11 +357,7 @@ pub fn calibrate(
     }
     let mut sysid_models = Vec::new();
     for (m, spec) in settings.sysid.iter().enumerate() {
-        observer(StageProgress {
-            stage: "system identification",
-            done: m,
-            total: settings.sysid.len(),
-        });
+        observer(Progress::step("system identification", m, Some(settings.sysid.len())));
         let name = spec.kind.name().to_string();
         match fit_sysid_per_axis(
             spec,
@@ -446,11 +418,7 @@ pub fn calibrate(
     // Cross-condition: trained on recording 1, tested on each other recording.
     let mut cross_condition = Vec::new();
     for (k, other) in recordings.iter().enumerate().skip(1) {
-        observer(StageProgress {
-            stage: "cross-condition",
-            done: k - 1,
-            total: recordings.len() - 1,
-        });
+        observer(Progress::step("cross-condition", k - 1, Some(recordings.len() - 1)));
         let other_ref = &references[k];
         let whole = |estimate: &[Vec<f64>], from: usize| {
             let mut fits = Vec::new();
@@ -591,7 +559,7 @@ fn fit_sysid_per_axis(
     for &a in axes_idx {
         let u = measured.accel_mps2[a].as_slice();
         let y = reference.accel_mps2[a].as_slice();
-        let scored = fit_and_score(spec, &[u], y, blocks[0].clone(), None, init_samples, &mut |_| {})?;
+        let scored = fit_and_score(spec, &[u], y, blocks[0].clone(), None, init_samples, &crate::progress::silent)?;
         seconds += scored.seconds;
         structure = scored.structure.clone();
         let mut parts = Vec::new();

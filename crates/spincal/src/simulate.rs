@@ -11,7 +11,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::recording::{Recording, Source, STANDARD_GRAVITY};
+use crate::input::recording::{Recording, Source, STANDARD_GRAVITY};
 use crate::turntable::model::{Direction, Mounting, Session};
 
 const G: f64 = STANDARD_GRAVITY;

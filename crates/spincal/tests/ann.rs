@@ -7,7 +7,8 @@ use spincal::ann::lm::full_jacobian;
 use spincal::ann::{
     sweep, AnnProblem, DivisionMode, LmSettings, LmWorkspace, Part, StopReason, SweepSettings,
 };
-use spincal::corrector::{Axis, Corrector, CorrectorFile, CorrectorModel};
+use spincal::corrector::{Axis, Corrector};
+use spincal::{CorrectorFile, CorrectorModel};
 use spincal::linear::LinearModel;
 
 const XY: [Axis; 2] = [Axis::X, Axis::Y];

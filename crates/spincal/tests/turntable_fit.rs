@@ -41,7 +41,7 @@ fn rotation_rate_from_a_minute_at_33_rpm_is_within_0_05_rpm() {
 #[test]
 fn single_recording_fit_reports_what_is_not_determined() {
     let sim = simulate(&SensorProfile::ideal(), &TurntableSetup::default(), 11).unwrap();
-    let fit = fit_turntable(&[&sim.recording], &options(), &mut |_, _| {}).unwrap();
+    let fit = fit_turntable(&[&sim.recording], &options(), &spincal::progress::silent).unwrap();
     for name in ["radius", "beta", "offset_x", "offset_y", "phase"] {
         assert!(
             fit.undetermined.contains(&name.to_string()),
@@ -83,7 +83,7 @@ fn paper_model_without_offsets_determines_everything_from_one_recording() {
         fit_offsets: false,
         ..options()
     };
-    let fit = fit_turntable(&[&sim.recording], &opts, &mut |_, _| {}).unwrap();
+    let fit = fit_turntable(&[&sim.recording], &opts, &spincal::progress::silent).unwrap();
     assert!(fit.undetermined.is_empty(), "{:?}", fit.undetermined);
     let (r, se) = value(&fit, "radius");
     assert!((r - 0.10).abs() < 3.0 * se.unwrap() + 1e-9, "{r} ± {se:?}");
@@ -134,7 +134,7 @@ fn joint_fit_recovers_parameters_over_many_seeds() {
             })
             .collect();
         let refs: Vec<_> = recordings.iter().map(|s| &s.recording).collect();
-        let fit = fit_turntable(&refs, &options(), &mut |_, _| {}).unwrap();
+        let fit = fit_turntable(&refs, &options(), &spincal::progress::silent).unwrap();
         assert!(fit.undetermined.is_empty(), "seed {seed}: {:?}", fit.undetermined);
         let truth_m = recordings[0].truth.mounting;
         let mut expect = vec![

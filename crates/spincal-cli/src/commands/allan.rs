@@ -55,8 +55,8 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     let rec = &loaded.recording;
     let accel = match &args.calibration {
         Some(path) => {
-            let file = spincal::corrector::CorrectorFile::read_path(path)?;
-            let spincal::corrector::CorrectorModel::Static(cal) = &file.corrector else {
+            let file = spincal::CorrectorFile::read_path(path)?;
+            let spincal::CorrectorModel::Static(cal) = &file.corrector else {
                 return Err(UsageError(format!(
                     "{}: a {} corrector, not a static calibration (from `spincal static -o`)",
                     path.display(),

@@ -136,11 +136,7 @@ pub fn calibrate_with_progress(
     label: &str,
 ) -> anyhow::Result<CalibrationOutput> {
     let bar = ui.progress(1, label);
-    let output = calibrate(recordings, settings, &|p| {
-        bar.set_message(p.stage.to_string());
-        bar.set_length(p.total.max(1) as u64);
-        bar.set_position(p.done as u64);
-    })?;
+    let output = calibrate(recordings, settings, &|p| crate::ui::show(&bar, p))?;
     bar.finish_and_clear();
     Ok(output)
 }

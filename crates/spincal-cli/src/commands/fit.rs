@@ -117,10 +117,12 @@ pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
         .collect::<anyhow::Result<Vec<_>>>()?;
     let refs: Vec<_> = recordings.iter().collect();
     let spinner = ui.spinner("fitting");
-    let fit = fit_turntable(&refs, &options, &mut |stage, progress| {
+    let fit = fit_turntable(&refs, &options, &|p| {
         spinner.set_message(format!(
-            "{stage} iteration {} cost {:.6e}",
-            progress.iteration, progress.cost
+            "{}: iteration {}, cost {:.6e}",
+            p.stage,
+            p.done,
+            p.cost.unwrap_or(f64::NAN)
         ));
     })?;
     spinner.finish_and_clear();

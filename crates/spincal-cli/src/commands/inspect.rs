@@ -26,7 +26,7 @@ struct Report<'a> {
 pub fn run(args: &InspectArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     let loaded = args.input.load(ui)?;
     let rec = &loaded.recording;
-    let inspection = spincal::inspect::inspect(rec);
+    let inspection = spincal::inspect::inspect(rec, None);
     if args.json {
         return ui::print_json(&Report {
             file: args.input.rec.display().to_string(),
@@ -51,25 +51,31 @@ pub fn run(args: &InspectArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         s += &format!(
             "accel {}: {} .. {} {unit}\n",
             ["x", "y", "z"][a],
-            inspection.accel_min[a],
-            inspection.accel_max[a]
+            inspection.accel_min_mps2[a],
+            inspection.accel_max_mps2[a]
         );
     }
-    s += &format!("gaps (> 1.5 intervals): {}\n", inspection.gap_count);
+    s += &format!("gaps (> 1.5 median intervals): {}\n", inspection.gap_count);
     for g in &inspection.gaps {
         s += &format!(
-            "  at sample {} (t = {:.4} s): {:.4} s\n",
-            g.index, g.t_s, g.length_s
+            "  line {} (sample {}, after t = {:.4} s): {:.4} s\n",
+            g.line, g.index, g.start_s, g.length_s
         );
     }
     if inspection.saturation.is_empty() {
-        s += "saturation: none (no axis repeats its extreme value 3 or more times)\n";
+        s += "saturation: none (no axis holds its extreme value for 3 or more successive samples)\n";
     }
     for sat in &inspection.saturation {
         s += &format!(
-            "possible saturation: {} = {} in {} samples\n",
-            sat.axis, sat.value, sat.samples
+            "possible saturation: a{} at {:.4} g in {} samples, the first at line {}\n",
+            sat.axis,
+            sat.limit_mps2 / spincal::STANDARD_GRAVITY,
+            sat.samples,
+            sat.first_line
         );
+    }
+    for axis in &inspection.constant_axes {
+        s += &format!("constant: a{axis} never changes (a dead or disconnected channel?)\n");
     }
     for m in &rec.source.metadata {
         s += &format!("metadata: {m}\n");

@@ -99,7 +99,7 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     });
     if let Some(path) = &args.output {
         // The same versioned corrector file as every other corrector: `spincal correct` applies it.
-        let file = spincal::corrector::CorrectorFile::new(spincal::corrector::CorrectorModel::Static(
+        let file = spincal::CorrectorFile::new(spincal::CorrectorModel::Static(
             Box::new(fit.calibration.clone()),
         ));
         file.write_path(path)?;

@@ -7,7 +7,8 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
-use spincal::ann::{sweep, AnnProblem, SweepProgress, SweepRow, SweepSettings};
+use spincal::ann::{sweep, AnnProblem, SweepRow, SweepSettings};
+use spincal::progress::Progress;
 use spincal::plot::{Figure, HeatMap};
 
 use super::train::DataArgs;
@@ -103,7 +104,7 @@ pub fn run(args: SweepArgs, ui: Ui) -> anyhow::Result<()> {
         lm: args.data.lm(args.hessian_samples),
     };
     let bar = ui.progress((settings.grid.len() * settings.restarts) as u64, "sweep");
-    let observer = |p: SweepProgress| bar.set_position(p.done as u64);
+    let observer = |p: Progress| ui::show(&bar, p);
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = args.threads {
         pool = pool.num_threads(n);

@@ -121,7 +121,7 @@ pub fn run(args: SysidArgs, ui: Ui) -> anyhow::Result<()> {
         train.clone(),
         test.clone(),
         args.init_samples,
-        &mut |p| bar.set_position(p.iteration as u64),
+        &|p| bar.set_position(p.done as u64),
     )
     .with_context(|| format!("fitting {}", spec.structure()))?;
     bar.finish_and_clear();

@@ -6,7 +6,8 @@ use anyhow::Context;
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 use spincal::ann::{AnnProblem, DivisionMode, LmSettings, Part, PartFits};
-use spincal::corrector::{Axis, CorrectorFile, CorrectorModel};
+use spincal::corrector::Axis;
+use spincal::{CorrectorFile, CorrectorModel};
 use spincal::linear::LinearModel;
 use spincal::{ColumnMap, Recording};
 

@@ -7,7 +7,7 @@ use faer::linalg::matmul::matmul;
 use faer::prelude::Solve;
 use faer::{Accum, Mat, Par, Side};
 
-use super::{LeastSquares, Progress};
+use super::{LeastSquares, Observer, Progress};
 
 /// Stopping and damping settings.
 #[derive(Debug, Clone)]
@@ -68,7 +68,7 @@ pub fn levenberg_marquardt(
     problem: &dyn LeastSquares,
     p0: &[f64],
     options: &LmOptions,
-    observer: &mut dyn FnMut(Progress),
+    observer: &Observer,
 ) -> LmReport {
     let n = problem.n_params();
     let m = problem.n_residuals();
@@ -163,8 +163,10 @@ pub fn levenberg_marquardt(
             nu = 2.0;
             need_jacobian = true;
             observer(Progress {
-                iteration: iterations,
-                cost: sse,
+                stage: "Levenberg–Marquardt",
+                done: iterations,
+                total: Some(options.max_iterations),
+                cost: Some(sse),
             });
             if relative < options.cost_tolerance {
                 stop = LmStop::CostTolerance;
@@ -259,7 +261,7 @@ mod tests {
 
     #[test]
     fn solves_rosenbrock_from_the_classic_start() {
-        let report = levenberg_marquardt(&Rosenbrock, &[-1.2, 1.0], &LmOptions::default(), &mut |_| {});
+        let report = levenberg_marquardt(&Rosenbrock, &[-1.2, 1.0], &LmOptions::default(), &crate::progress::silent);
         assert!((report.params[0] - 1.0).abs() < 1e-10, "{:?}", report);
         assert!((report.params[1] - 1.0).abs() < 1e-10);
         assert!(report.sse < 1e-20);
@@ -272,7 +274,7 @@ mod tests {
             upper: Some(vec![0.5, 2.0]),
             ..LmOptions::default()
         };
-        let report = levenberg_marquardt(&Rosenbrock, &[-1.2, 1.0], &options, &mut |_| {});
+        let report = levenberg_marquardt(&Rosenbrock, &[-1.2, 1.0], &options, &crate::progress::silent);
         assert!(report.params[0] <= 0.5);
         // Constrained minimum sits on the bound x = 0.5, y = 0.25.
         assert!((report.params[0] - 0.5).abs() < 1e-8, "{:?}", report.params);

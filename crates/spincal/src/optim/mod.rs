@@ -21,10 +21,5 @@ pub trait LeastSquares {
     fn jacobian(&self, p: &[f64], out: MatMut<'_, f64>);
 }
 
-/// One observer call per iteration of any solver.
-#[derive(Debug, Clone, Copy)]
-pub struct Progress {
-    pub iteration: usize,
-    /// Current objective (sum of squared residuals for least squares).
-    pub cost: f64,
-}
+/// Solvers report each iteration through the crate's one progress shape.
+pub use crate::progress::{Observer, Progress};

@@ -2,7 +2,7 @@
 //! simplex) run on unconstrained variables that fminsearchbnd's transform maps into the box:
 //! both bounds x = lo + (hi − lo)(sin z + 1)/2, one bound x = lo + z² or hi − z², equal bounds fixed.
 
-use super::Progress;
+use super::{Observer, Progress};
 
 /// Per-parameter box; `f64::NEG_INFINITY` / `f64::INFINITY` for a missing side.
 #[derive(Debug, Clone)]
@@ -133,7 +133,7 @@ pub fn nelder_mead_bounded(
     x0: &[f64],
     bounds: &Bounds,
     options: &NelderMeadOptions,
-    observer: &mut dyn FnMut(Progress),
+    observer: &Observer,
 ) -> Result<NelderMeadReport, BoundsError> {
     bounds.validate()?;
     if x0.len() != bounds.names.len() {
@@ -193,7 +193,7 @@ fn simplex(
     f: &mut dyn FnMut(&[f64]) -> f64,
     z0: &[f64],
     options: &NelderMeadOptions,
-    observer: &mut dyn FnMut(Progress),
+    observer: &Observer,
 ) -> (Vec<f64>, f64, usize, bool) {
     let n = z0.len();
     if n == 0 {
@@ -288,8 +288,10 @@ fn simplex(
             }
         }
         observer(Progress {
-            iteration: iterations,
-            cost: values.iter().copied().fold(f64::INFINITY, f64::min),
+            stage: "Nelder–Mead",
+            done: iterations,
+            total: Some(max_iterations),
+            cost: Some(values.iter().copied().fold(f64::INFINITY, f64::min)),
         });
     }
     order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
@@ -319,7 +321,7 @@ mod tests {
             &[-1.2, 1.0],
             &b,
             &NelderMeadOptions::default(),
-            &mut |_| {},
+            &crate::progress::silent,
         )
         .unwrap();
         assert!(
@@ -343,7 +345,7 @@ mod tests {
             tol_f: 1e-12,
             ..Default::default()
         };
-        let r = nelder_mead_bounded(&mut wrapped, &[1.0, 1.0, 0.5], &b, &options, &mut |_| {}).unwrap();
+        let r = nelder_mead_bounded(&mut wrapped, &[1.0, 1.0, 0.5], &b, &options, &crate::progress::silent).unwrap();
         assert!(inside);
         assert!((r.params[0] - 2.0).abs() < 1e-6, "{r:?}");
         assert!(r.params[1].abs() < 1e-3, "{r:?}");
@@ -362,7 +364,7 @@ mod tests {
             &[0.15],
             &b,
             &NelderMeadOptions::default(),
-            &mut |_| {},
+            &crate::progress::silent,
         )
         .unwrap_err();
         assert_eq!(

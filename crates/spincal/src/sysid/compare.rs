@@ -11,7 +11,7 @@ use super::narx::{NarxModel, NarxParams};
 use super::poly::{PolyModel, SimInit};
 use super::{ArxParams, PemParams, SysidError};
 use crate::metrics::{fit_percent, rmse};
-use crate::optim::Progress;
+use crate::optim::Observer;
 
 /// The model families.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -136,11 +136,11 @@ impl ModelSpec {
         &self,
         u: &[&[f64]],
         y: &[f64],
-        observer: &mut dyn FnMut(Progress),
+        observer: &Observer,
     ) -> Result<FittedModel, SysidError> {
         let o = &self.orders;
         let max_iterations = self.max_iterations;
-        let pem = |mut p: PemParams, observer: &mut dyn FnMut(Progress)| -> Result<FittedModel, SysidError> {
+        let pem = |mut p: PemParams, observer: &Observer| -> Result<FittedModel, SysidError> {
             p.max_iterations = max_iterations;
             let fit = p.fit(u, y, observer)?;
             Ok(FittedModel {
@@ -309,7 +309,7 @@ pub fn fit_and_score(
     train: Range<usize>,
     test: Option<Range<usize>>,
     init_samples: usize,
-    observer: &mut dyn FnMut(Progress),
+    observer: &Observer,
 ) -> Result<ScoredFit, SysidError> {
     for r in std::iter::once(&train).chain(test.as_ref()) {
         if r.start >= r.end || r.end > y.len() {

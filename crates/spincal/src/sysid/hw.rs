@@ -18,7 +18,7 @@ use super::arx::lstsq;
 use super::pem::PemParams;
 use super::poly::{filter, is_stable, SimInit};
 use super::{check_data, SysidError};
-use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop, Progress};
+use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop, Observer};
 
 /// Orders and settings of a Hammerstein–Wiener fit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -191,7 +191,7 @@ impl HwParams {
         &self,
         u: &[&[f64]],
         y: &[f64],
-        observer: &mut dyn FnMut(Progress),
+        observer: &Observer,
     ) -> Result<HwFit, SysidError> {
         HwModel::single(u)?;
         check_data(u, y)?;
@@ -210,7 +210,7 @@ impl HwParams {
             max_iterations: 30,
             ..PemParams::oe(self.nb, self.nf, self.nk)
         }
-        .fit(u, y, &mut |_| {})?;
+        .fit(u, y, &crate::progress::silent)?;
         let input = PiecewiseLinear::even(umin, umax, k, |x| x);
         let mut model = HwModel {
             input,
@@ -378,7 +378,7 @@ mod tests {
         let u: Vec<f64> = (0..n).map(|_| StandardNormal.sample(&mut rng)).collect();
         let x = filter(&[0.0, 0.6, 0.3], &[1.0, -0.5], &u);
         let y: Vec<f64> = x.iter().map(|&v| (0.8 * v).tanh()).collect();
-        let fit = HwParams::new(2, 1, 1).fit(&[&u], &y, &mut |_| {}).unwrap();
+        let fit = HwParams::new(2, 1, 1).fit(&[&u], &y, &crate::progress::silent).unwrap();
         let sim = fit.model.simulate(&[&u], SimInit::Zero).unwrap();
         let fit_pc = crate::metrics::fit_percent(&y, &sim);
         // The OE start alone is limited by the saturation; the PWL output map must lift it.

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use super::arx::lstsq;
 use super::poly::SimInit;
 use super::{check_data, SysidError};
-use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop, Progress};
+use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop, Observer};
 
 /// Orders and training settings of a nonlinear ARX model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -193,7 +193,7 @@ impl NarxParams {
         &self,
         u: &[&[f64]],
         y: &[f64],
-        observer: &mut dyn FnMut(Progress),
+        observer: &Observer,
     ) -> Result<NarxFit, SysidError> {
         let u = NarxModel::check(u)?;
         check_data(&[u], y)?;
@@ -343,7 +343,7 @@ mod tests {
             max_iterations: 200,
             ..NarxParams::new(1, 1, 1)
         };
-        let fit = params.fit(&[&u], &y, &mut |_| {}).unwrap();
+        let fit = params.fit(&[&u], &y, &crate::progress::silent).unwrap();
         let pred = fit.model.predict(&[&u], &y).unwrap();
         let fit_pc = crate::metrics::fit_percent(&y[1..], &pred[1..]);
         assert!(fit_pc > 99.0, "one-step fit {fit_pc}");

@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 use super::arx::{regressors, ArxParams};
 use super::poly::{filter, is_stable, poly_mul, stabilize, PolyModel, SimInit};
 use super::{check_data, SysidError};
-use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop, Progress};
+use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop, Observer};
 
 /// Orders and solver limits of a prediction-error fit. `nb`, `nf`, `nk` have one entry per input.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -118,7 +118,7 @@ impl PemParams {
         &self,
         u: &[&[f64]],
         y: &[f64],
-        observer: &mut dyn FnMut(Progress),
+        observer: &Observer,
     ) -> Result<PemFit, SysidError> {
         self.validate(u.len())?;
         check_data(u, y)?;

@@ -12,14 +12,14 @@
 use faer::{Mat, MatMut, Side};
 use serde::{Deserialize, Serialize};
 
-use crate::checks::{inspect, Inspection};
+use crate::input::inspect::{inspect, Inspection};
 use crate::metrics::fit_percent;
 use crate::optim::{
     levenberg_marquardt, nelder_mead_bounded, Bounds, BoundsError, LeastSquares, LmOptions, LmStop,
-    NelderMeadOptions, Progress,
+    NelderMeadOptions, Observer,
 };
-use crate::recording::{Recording, STANDARD_GRAVITY};
-use crate::spectrum::{estimate_rotation_rate, RateEstimate, RateSearch, SpectrumError};
+use crate::input::recording::{Recording, STANDARD_GRAVITY};
+use crate::turntable::spectrum::{estimate_rotation_rate, RateEstimate, RateSearch, SpectrumError};
 use crate::turntable::model::{evaluate, for_each_derivative, for_each_sample, Direction, Mounting, Session};
 use crate::turntable::moments::CostMoments;
 
@@ -494,7 +494,7 @@ fn wrap_angle(x: f64) -> f64 {
 pub fn fit_turntable(
     recordings: &[&Recording],
     options: &FitOptions,
-    observer: &mut dyn FnMut(&str, Progress),
+    observer: &Observer,
 ) -> Result<TurntableFit, FitError> {
     if recordings.is_empty() {
         return Err(FitError::NoRecordings);
@@ -713,15 +713,15 @@ pub fn fit_turntable(
         &start,
         &bounds,
         &nm_options,
-        &mut |pr| observer("nelder-mead", pr),
+        &|pr| observer(pr.in_stage("turntable fit: Nelder–Mead")),
     )?;
     let lm_options = LmOptions {
         lower: Some(bounds.lower.clone()),
         upper: Some(bounds.upper.clone()),
         ..options.lm.clone()
     };
-    let lm = levenberg_marquardt(&problem, &nm.params, &lm_options, &mut |pr| {
-        observer("levenberg-marquardt", pr)
+    let lm = levenberg_marquardt(&problem, &nm.params, &lm_options, &|pr| {
+        observer(pr.in_stage("turntable fit: Levenberg–Marquardt"))
     });
     if lm.params.iter().any(|v| !v.is_finite()) {
         return Err(FitError::NotFinite {

@@ -4,6 +4,7 @@ pub mod fit;
 pub mod model;
 pub mod moments;
 pub mod sensitivity;
+pub mod spectrum;
 
 pub use fit::{fit_turntable, AxesObjective, DriftMode, FitError, FitOptions, RadiusPrior, TurntableFit};
 pub use model::{Direction, Mounting, Session};

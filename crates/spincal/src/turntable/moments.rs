@@ -15,7 +15,7 @@
 //! The data are centred per axis first, so the expansion cancels no more digits than the data's
 //! own variance against the residual's (checked against the direct sum in the tests).
 
-use crate::recording::Recording;
+use crate::input::recording::Recording;
 use crate::turntable::model::{levels, time_origin, Mounting, Session};
 
 /// Terms of the Taylor series in δ (k = 0 … TERMS − 1).
@@ -278,7 +278,7 @@ struct Oscillation {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::recording::{Recording, Source};
+    use crate::input::recording::{Recording, Source};
     use crate::turntable::model::{for_each_sample, Direction};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;

@@ -20,7 +20,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::recording::{Recording, Source, STANDARD_GRAVITY};
+use crate::input::recording::{Recording, Source, STANDARD_GRAVITY};
 
 /// One timer tick, s.
 pub const TICK_S: f64 = 0.0065536;

@@ -18,8 +18,9 @@
 use faer::MatMut;
 use serde::{Deserialize, Serialize};
 
+use crate::correctors::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
 use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop};
-use crate::static_detect::StillInterval;
+use crate::correctors::static_detect::StillInterval;
 
 /// Which parameters are estimated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -337,10 +338,10 @@ pub fn fit_static(means: &[[f64; 3]], options: &StaticFitOptions) -> Result<Stat
         model: StaticModel::BiasScale,
         ..problem
     };
-    let report = levenberg_marquardt(&first, &p0, &lm, &mut |_| {});
+    let report = levenberg_marquardt(&first, &p0, &lm, &crate::progress::silent);
     p0 = report.params;
     p0.resize(needed, 0.0);
-    let report = levenberg_marquardt(&problem, &p0, &lm, &mut |_| {});
+    let report = levenberg_marquardt(&problem, &p0, &lm, &crate::progress::silent);
     if report.params.iter().any(|x| !x.is_finite()) {
         return Err(StaticCalError::Diverged);
     }
@@ -388,6 +389,33 @@ pub fn spread_about(values: &[f64], reference: f64) -> f64 {
 /// Pose means of still intervals.
 pub fn pose_means(intervals: &[StillInterval]) -> Vec<[f64; 3]> {
     intervals.iter().map(|i| i.mean).collect()
+}
+
+/// A static calibration is a memoryless map of all three axes.
+impl Corrector for StaticCalibration {
+    fn corrected_axes(&self) -> Vec<Axis> {
+        Axis::ALL.to_vec()
+    }
+
+    fn warmup_samples(&self) -> usize {
+        0
+    }
+
+    fn stream(&self) -> Box<dyn SampleCorrector + '_> {
+        Box::new(StaticStream(self))
+    }
+}
+
+struct StaticStream<'a>(&'a StaticCalibration);
+
+impl SampleCorrector for StaticStream<'_> {
+    fn correct_sample(&mut self, accel_mps2: [f64; 3]) -> CorrectedSample {
+        CorrectedSample {
+            accel_mps2: self.0.apply(&accel_mps2),
+            valid: true,
+            outside_training_range: false,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -6,17 +6,17 @@ use faer::prelude::SolveLstsq;
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
-use crate::ann::{check_pairing, AnnError, Division, DivisionMode, Part, PartFits};
-use crate::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
+use crate::correctors::division::{check_axes, check_pairing, Division, DivisionMode, Part, PartFits, PairingError};
+use crate::correctors::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
 use crate::metrics::fit_percent;
-use crate::recording::Recording;
+use crate::input::recording::Recording;
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum LinearError {
-    /// The data does not pair up (shared checks with the network corrector).
+    /// The axes or the data do not pair up (the checks every corrector shares).
     #[error(transparent)]
-    Data(#[from] AnnError),
+    Pairing(#[from] PairingError),
     #[error("the least-squares solution is not finite: the measured axes are constant or collinear over the training part")]
     Singular,
 }
@@ -46,9 +46,7 @@ impl LinearModel {
         axes: &[Axis],
         mode: DivisionMode,
     ) -> Result<LinearModel, LinearError> {
-        if axes.is_empty() {
-            return Err(AnnError::NoAxes.into());
-        }
+        check_axes(axes)?;
         check_pairing(measured, reference)?;
         let division = Division::new(measured.len(), 0, mode);
         let rows: Vec<usize> = division.train.iter().flat_map(|r| r.clone()).collect();

@@ -2,7 +2,7 @@
 //! Levenberg–Marquardt on a 60/20/20 division, with restarts and architecture sweeps.
 //!
 //! [`AnnProblem`] holds the scaled, divided data once; [`AnnProblem::train`] trains one
-//! architecture with restarts and returns an [`AnnModel`] (a [`crate::corrector::Corrector`]);
+//! architecture with restarts and returns an [`AnnModel`] (a [`crate::correctors::corrector::Corrector`]);
 //! [`sweep`] trains a grid of architectures in parallel.
 
 pub mod data;
@@ -16,33 +16,26 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-pub use data::{Dataset, Division, DivisionMode, Part, Scaling};
+pub use data::{Dataset, Scaling};
 pub use lm::{JtjConvention, LmSettings, LmWorkspace, StopReason, TrainingReport};
 pub use network::{Layout, Network, MAX_HIDDEN_LAYERS};
 pub use sweep::{
-    architecture_label, default_grid, sweep, SweepProgress, SweepRow, SweepSettings, SWEEP_HESSIAN_SAMPLES,
+    architecture_label, default_grid, sweep, SweepRow, SweepSettings, SWEEP_HESSIAN_SAMPLES,
 };
 
-use crate::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
+pub use crate::correctors::division::{Division, DivisionMode, Part, PartFits};
+use crate::correctors::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
+use crate::correctors::division::{check_axes, check_pairing, PairingError};
 use crate::metrics::fit_percent;
-use crate::recording::Recording;
+use crate::input::recording::Recording;
 
 /// What can be wrong with a network training request.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum AnnError {
-    #[error("no axes chosen: pick one or more of x, y, z")]
-    NoAxes,
-    #[error("axis {0} is listed twice")]
-    RepeatedAxis(Axis),
-    #[error("the measured recording has {measured} samples and the reference {reference}: they must be the same samples")]
-    LengthMismatch { measured: usize, reference: usize },
-    #[error("sample {index}: measured time {measured} s differs from reference time {reference} s")]
-    TimeMismatch {
-        index: usize,
-        measured: f64,
-        reference: f64,
-    },
+    /// The axes or the two recordings do not pair up (shared with every corrector).
+    #[error(transparent)]
+    Pairing(#[from] PairingError),
     #[error("{samples} samples with {delays} delays leave too few for a 60/20/20 division (need at least {needed})")]
     TooFewSamples {
         samples: usize,
@@ -63,30 +56,6 @@ const MIN_SAMPLES: usize = 10;
 /// How far beyond its training range (as a fraction of that range) an input may go before a
 /// corrected sample is flagged as an extrapolation ([`CorrectedSample::outside_training_range`]).
 pub const EXTRAPOLATION_MARGIN: f64 = 0.1;
-
-/// Fit % (SPEC §4, original units) of each axis on each part.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PartFits {
-    pub train: Vec<f64>,
-    pub validation: Vec<f64>,
-    pub test: Vec<f64>,
-}
-
-impl PartFits {
-    pub fn get(&self, part: Part) -> &[f64] {
-        match part {
-            Part::Train => &self.train,
-            Part::Validation => &self.validation,
-            Part::Test => &self.test,
-        }
-    }
-
-    /// Mean over axes of one part's fit %.
-    pub fn mean(&self, part: Part) -> f64 {
-        let v = self.get(part);
-        v.iter().sum::<f64>() / v.len() as f64
-    }
-}
 
 /// Measured and reference data of the chosen axes, divided and scaled, ready for training.
 #[derive(Debug, Clone)]
@@ -333,38 +302,6 @@ pub fn restart_seed(base_seed: u64, restart: usize) -> u64 {
         z ^ (z >> 31)
     }
     mix(base_seed ^ mix(restart as u64))
-}
-
-fn check_axes(axes: &[Axis]) -> Result<(), AnnError> {
-    if axes.is_empty() {
-        return Err(AnnError::NoAxes);
-    }
-    for (i, a) in axes.iter().enumerate() {
-        if axes[..i].contains(a) {
-            return Err(AnnError::RepeatedAxis(*a));
-        }
-    }
-    Ok(())
-}
-
-/// The two recordings must hold the same samples; times agree to 1 µs or 1e-6 relative.
-pub(crate) fn check_pairing(measured: &Recording, reference: &Recording) -> Result<(), AnnError> {
-    if measured.len() != reference.len() {
-        return Err(AnnError::LengthMismatch {
-            measured: measured.len(),
-            reference: reference.len(),
-        });
-    }
-    for (index, (&a, &b)) in measured.time_s.iter().zip(&reference.time_s).enumerate() {
-        if (a - b).abs() > 1e-6 * a.abs().max(1.0) {
-            return Err(AnnError::TimeMismatch {
-                index,
-                measured: a,
-                reference: b,
-            });
-        }
-    }
-    Ok(())
 }
 
 /// How an [`AnnModel`] was trained.

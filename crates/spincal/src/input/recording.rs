@@ -9,7 +9,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::table::{find_column, Location, Table, TableError, TableOptions};
+use crate::input::table::{find_column, Location, Table, TableError, TableOptions};
 
 /// Standard gravity, m/s² (the default local g).
 pub const STANDARD_GRAVITY: f64 = 9.80665;

@@ -7,7 +7,7 @@
 use realfft::RealFftPlanner;
 use serde::{Deserialize, Serialize};
 
-use crate::recording::{median_interval, Recording};
+use crate::input::recording::{median_interval, Recording};
 
 /// Where to look for the rotation line.
 #[derive(Debug, Clone, Copy)]

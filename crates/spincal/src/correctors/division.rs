@@ -1,61 +1,62 @@
-//! Scaling (MATLAB's mapminmax), tapped-delay input rows, and the 60/20/20 data division.
+//! What every corrector shares before training: the axes and the two recordings paired sample
+//! by sample, and the 60/20/20 division of the samples into training, validation and test parts.
 
 use std::ops::Range;
 
 use serde::{Deserialize, Serialize};
 
-/// Per-channel linear map of `[min, max]` onto [−1, 1] (MATLAB's `mapminmax`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Scaling {
-    pub min: Vec<f64>,
-    pub max: Vec<f64>,
+use crate::correctors::corrector::Axis;
+use crate::input::recording::Recording;
+
+/// Why measured and reference data cannot be used together.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PairingError {
+    #[error("no axes chosen: pick one or more of x, y, z")]
+    NoAxes,
+    #[error("axis {0} is listed twice")]
+    RepeatedAxis(Axis),
+    #[error("the measured recording has {measured} samples and the reference {reference}: they must be the same samples")]
+    LengthMismatch { measured: usize, reference: usize },
+    #[error("sample {index}: measured time {measured} s differs from reference time {reference} s")]
+    TimeMismatch {
+        index: usize,
+        measured: f64,
+        reference: f64,
+    },
 }
 
-impl Scaling {
-    /// The range of each channel over the samples in `rows`.
-    pub fn fit(channels: &[&[f64]], rows: &[Range<usize>]) -> Scaling {
-        let mut min = vec![f64::INFINITY; channels.len()];
-        let mut max = vec![f64::NEG_INFINITY; channels.len()];
-        for (c, channel) in channels.iter().enumerate() {
-            for range in rows {
-                for &v in &channel[range.clone()] {
-                    min[c] = min[c].min(v);
-                    max[c] = max[c].max(v);
-                }
-            }
-        }
-        Scaling { min, max }
+/// At least one axis, none twice.
+pub fn check_axes(axes: &[Axis]) -> Result<(), PairingError> {
+    if axes.is_empty() {
+        return Err(PairingError::NoAxes);
     }
-
-    /// Gain and offset of channel `c`: `scaled = gain · x + offset`. A constant channel maps to 0
-    /// (its gain would be infinite).
-    #[inline]
-    fn gain_offset(&self, c: usize) -> (f64, f64) {
-        let span = self.max[c] - self.min[c];
-        if span > 0.0 {
-            let gain = 2.0 / span;
-            (gain, -1.0 - gain * self.min[c])
-        } else {
-            (0.0, 0.0)
+    for (i, a) in axes.iter().enumerate() {
+        if axes[..i].contains(a) {
+            return Err(PairingError::RepeatedAxis(*a));
         }
     }
+    Ok(())
+}
 
-    #[inline]
-    pub fn apply(&self, c: usize, x: f64) -> f64 {
-        let (gain, offset) = self.gain_offset(c);
-        gain * x + offset
+/// The two recordings must hold the same samples; times agree to 1 µs or 1e-6 relative.
+pub fn check_pairing(measured: &Recording, reference: &Recording) -> Result<(), PairingError> {
+    if measured.len() != reference.len() {
+        return Err(PairingError::LengthMismatch {
+            measured: measured.len(),
+            reference: reference.len(),
+        });
     }
-
-    /// The inverse map; a constant channel comes back as its constant.
-    #[inline]
-    pub fn reverse(&self, c: usize, scaled: f64) -> f64 {
-        let span = self.max[c] - self.min[c];
-        if span > 0.0 {
-            self.min[c] + (scaled + 1.0) * span / 2.0
-        } else {
-            self.min[c]
+    for (index, (&a, &b)) in measured.time_s.iter().zip(&reference.time_s).enumerate() {
+        if (a - b).abs() > 1e-6 * a.abs().max(1.0) {
+            return Err(PairingError::TimeMismatch {
+                index,
+                measured: a,
+                reference: b,
+            });
         }
     }
+    Ok(())
 }
 
 /// How the samples are split into training, validation and test parts.
@@ -158,59 +159,27 @@ impl Division {
     }
 }
 
-/// Network inputs and targets for a set of samples, scaled, row-major.
-#[derive(Debug, Clone, Default)]
-pub struct Dataset {
-    pub n_inputs: usize,
-    pub n_outputs: usize,
-    /// `len() × n_inputs` values.
-    pub inputs: Vec<f64>,
-    /// `len() × n_outputs` values.
-    pub targets: Vec<f64>,
+/// Fit % (SPEC §4, original units) of each axis on each part.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PartFits {
+    pub train: Vec<f64>,
+    pub validation: Vec<f64>,
+    pub test: Vec<f64>,
 }
 
-impl Dataset {
-    pub fn len(&self) -> usize {
-        self.targets.len().checked_div(self.n_outputs).unwrap_or(0)
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// Builds the tapped-delay rows for the samples in `rows`. Input row layout: for each measured
-    /// channel in order, its value at the sample, then at the sample before, … `delays` back.
-    /// Every index in `rows` must be at least `delays`.
-    pub fn build(
-        measured: &[&[f64]],
-        reference: &[&[f64]],
-        delays: usize,
-        input_scaling: &Scaling,
-        output_scaling: &Scaling,
-        rows: &[Range<usize>],
-    ) -> Dataset {
-        let n_rows: usize = rows.iter().map(|r| r.len()).sum();
-        let n_inputs = measured.len() * (delays + 1);
-        let mut data = Dataset {
-            n_inputs,
-            n_outputs: reference.len(),
-            inputs: Vec::with_capacity(n_rows * n_inputs),
-            targets: Vec::with_capacity(n_rows * reference.len()),
-        };
-        for range in rows {
-            for i in range.clone() {
-                debug_assert!(i >= delays, "sample {i} has no full delay history");
-                for (c, channel) in measured.iter().enumerate() {
-                    for lag in 0..=delays {
-                        data.inputs.push(input_scaling.apply(c, channel[i - lag]));
-                    }
-                }
-                for (c, channel) in reference.iter().enumerate() {
-                    data.targets.push(output_scaling.apply(c, channel[i]));
-                }
-            }
+impl PartFits {
+    pub fn get(&self, part: Part) -> &[f64] {
+        match part {
+            Part::Train => &self.train,
+            Part::Validation => &self.validation,
+            Part::Test => &self.test,
         }
-        data
+    }
+
+    /// Mean over axes of one part's fit %.
+    pub fn mean(&self, part: Part) -> f64 {
+        let v = self.get(part);
+        v.iter().sum::<f64>() / v.len() as f64
     }
 }
 
@@ -241,29 +210,5 @@ mod tests {
         assert_eq!(contiguous.train, vec![0..600]);
         assert_eq!(contiguous.validation, vec![600..800]);
         assert_eq!(contiguous.test, vec![800..1000]);
-    }
-
-    #[test]
-    fn scaling_maps_range_onto_unit_interval_and_back() {
-        let x = [2.0, 4.0, 3.0];
-        let all = 0..3;
-        let s = Scaling::fit(&[&x], std::slice::from_ref(&all));
-        assert_eq!(s.apply(0, 2.0), -1.0);
-        assert_eq!(s.apply(0, 4.0), 1.0);
-        assert!((s.reverse(0, s.apply(0, 3.3)) - 3.3).abs() < 1e-15);
-    }
-
-    #[test]
-    fn delay_rows_hold_current_then_past_samples() {
-        let x = [0.0, 1.0, 2.0, 3.0];
-        let y = [10.0, 11.0, 12.0, 13.0];
-        let unit = Scaling {
-            min: vec![-1.0],
-            max: vec![1.0],
-        };
-        let rows = 2..4;
-        let d = Dataset::build(&[&x], &[&y], 2, &unit, &unit, std::slice::from_ref(&rows));
-        assert_eq!(d.inputs, vec![2.0, 1.0, 0.0, 3.0, 2.0, 1.0]);
-        assert_eq!(d.targets, vec![12.0, 13.0]);
     }
 }

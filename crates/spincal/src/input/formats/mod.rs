@@ -14,8 +14,8 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::recording::{ColumnMap, Recording, RecordingError, Source};
-use crate::table::{read_labelled, Delimiter, Table, TableError, TableOptions};
+use crate::input::recording::{ColumnMap, Recording, RecordingError, Source};
+use crate::input::table::{read_labelled, Delimiter, Table, TableError, TableOptions};
 
 pub use gx1::{Gx1EncodeOptions, Gx1Error, Gx1Fault, Gx1Options, Gx1Report};
 

@@ -7,6 +7,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::{best_run, AnnError, AnnProblem, LmSettings, Part, TrainingReport};
+use crate::progress::{Observer, Progress};
 
 /// The paper's grid: one hidden layer of 1–15 units, then two layers of 1–15 × 1–10 units
 /// (165 architectures).
@@ -50,20 +51,13 @@ pub struct SweepRow {
     pub seconds: f64,
 }
 
-/// Progress of a sweep: runs finished of all runs.
-#[derive(Debug, Clone, Copy)]
-pub struct SweepProgress {
-    pub done: usize,
-    pub total: usize,
-}
-
 /// Trains every architecture of the grid `restarts` times on rayon's current thread pool (faer
 /// runs sequentially inside each run). Results, including which restart is kept, do not depend
 /// on the number of threads: every run has its own seed and is reduced in grid order.
 pub fn sweep(
     problem: &AnnProblem,
     settings: &SweepSettings,
-    observer: &(dyn Fn(SweepProgress) + Sync),
+    observer: &Observer,
 ) -> Result<Vec<SweepRow>, AnnError> {
     if settings.restarts == 0 {
         return Err(AnnError::NoRestarts);
@@ -88,10 +82,7 @@ pub fn sweep(
                 problem.train_once(&layouts[arch], settings.base_seed, restart, &settings.lm);
             let seconds = started.elapsed().as_secs_f64();
             let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
-            observer(SweepProgress {
-                done: finished,
-                total,
-            });
+            observer(Progress::step("network sweep", finished, Some(total)));
             (job, weights, report, seconds)
         })
         .collect();

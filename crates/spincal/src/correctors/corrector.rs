@@ -1,0 +1,126 @@
+//! What every corrector is: a map from measured to corrected acceleration, sample by sample
+//! ([`Corrector::stream`]), keeping whatever delay history it needs. The kinds live beside this
+//! module; the saved file that holds any of them is [`crate::correctors::model_file`].
+
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+use crate::input::recording::Recording;
+
+/// An accelerometer axis in the sensor frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+impl Axis {
+    pub const ALL: [Axis; 3] = [Axis::X, Axis::Y, Axis::Z];
+
+    /// 0 for x, 1 for y, 2 for z.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    pub fn name(self) -> &'static str {
+        ["x", "y", "z"][self.index()]
+    }
+
+    pub fn parse(text: &str) -> Option<Axis> {
+        match text.trim().to_ascii_lowercase().as_str() {
+            "x" => Some(Axis::X),
+            "y" => Some(Axis::Y),
+            "z" => Some(Axis::Z),
+            _ => None,
+        }
+    }
+
+    /// Parses a list such as `x,y` (or `xy`).
+    pub fn parse_list(text: &str) -> Option<Vec<Axis>> {
+        let parts: Vec<&str> = if text.contains(',') {
+            text.split(',').collect()
+        } else {
+            text.trim().split_inclusive(|_| true).collect()
+        };
+        parts.into_iter().map(Axis::parse).collect()
+    }
+}
+
+impl fmt::Display for Axis {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// One corrected sample: all three axes (uncorrected axes pass through) and whether the corrector
+/// had its full history. An invalid sample carries the measured values unchanged.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CorrectedSample {
+    pub accel_mps2: [f64; 3],
+    pub valid: bool,
+    /// An input lay beyond the range the corrector was trained on, by more than
+    /// [`crate::correctors::ann::EXTRAPOLATION_MARGIN`] of that range (networks only: a tanh network's output
+    /// there is an extrapolation; linear and static corrections hold everywhere).
+    pub outside_training_range: bool,
+}
+
+/// Streaming application with per-stream state (delay history).
+pub trait SampleCorrector {
+    /// Corrects one sample (sensor frame, m/s²); samples must arrive in time order.
+    fn correct_sample(&mut self, accel_mps2: [f64; 3]) -> CorrectedSample;
+}
+
+/// A whole recording after correction.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Corrected {
+    pub accel_mps2: [Vec<f64>; 3],
+    pub valid: Vec<bool>,
+    /// How many samples were flagged [`CorrectedSample::outside_training_range`].
+    pub outside_training_range: usize,
+}
+
+/// Anything that corrects accelerometer samples.
+pub trait Corrector {
+    /// The axes it changes; the others pass through.
+    fn corrected_axes(&self) -> Vec<Axis>;
+    /// Samples at the start that lack a full history (marked invalid, never dropped).
+    fn warmup_samples(&self) -> usize;
+    /// A fresh streaming state.
+    fn stream(&self) -> Box<dyn SampleCorrector + '_>;
+
+    /// Corrects a whole recording by streaming it.
+    fn correct(&self, recording: &Recording) -> Corrected {
+        let mut stream = self.stream();
+        let n = recording.len();
+        let mut out = Corrected {
+            accel_mps2: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+            valid: vec![false; n],
+            outside_training_range: 0,
+        };
+        for i in 0..n {
+            let a = &recording.accel_mps2;
+            let sample = stream.correct_sample([a[0][i], a[1][i], a[2][i]]);
+            for c in 0..3 {
+                out.accel_mps2[c][i] = sample.accel_mps2[c];
+            }
+            out.valid[i] = sample.valid;
+            out.outside_training_range += usize::from(sample.outside_training_range);
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axis_lists_parse() {
+        assert_eq!(Axis::parse_list("x,y"), Some(vec![Axis::X, Axis::Y]));
+        assert_eq!(Axis::parse_list("xyz"), Some(Axis::ALL.to_vec()));
+        assert_eq!(Axis::parse_list("x,w"), None);
+    }
+}

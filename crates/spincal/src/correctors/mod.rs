@@ -1,0 +1,13 @@
+//! Correctors: what they share (the [`corrector::Corrector`] trait, pairing and the 60/20/20
+//! division), the kinds (network, linear, static), and the saved file that holds any of them.
+//!
+//! Imports only go downward: `corrector` and `division` import no kind; the kinds import them;
+//! `model_file` imports the kinds.
+
+pub mod ann;
+pub mod corrector;
+pub mod division;
+pub mod linear;
+pub mod model_file;
+pub mod static_cal;
+pub mod static_detect;

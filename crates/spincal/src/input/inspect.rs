@@ -1,0 +1,246 @@
+//! What is in a recording before anything is fitted: rate, gaps, saturation, constant axes.
+//!
+//! One module and one set of rules serve both `spincal inspect` and the fit's warnings, so the
+//! two never disagree about the same file.
+
+use serde::{Deserialize, Serialize};
+
+use crate::input::recording::{median_interval, Recording, STANDARD_GRAVITY};
+
+/// A sample interval longer than this many median intervals is a gap.
+pub const GAP_FACTOR: f64 = 1.5;
+
+/// Least number of successive samples at exactly an axis's extreme for it to count as a rail
+/// (a clipped sensor repeats its rail value).
+pub const RAIL_SAMPLES: usize = 3;
+
+/// With a known range, a sample at or beyond this share of it is saturated.
+pub const RANGE_SHARE: f64 = 0.999;
+
+/// Gaps listed individually; the rest are only counted.
+const LISTED_GAPS: usize = 20;
+
+/// A gap: a sample interval longer than [`GAP_FACTOR`] times the median.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Gap {
+    /// 1-based source line (or sample number) of the sample after the gap.
+    pub line: usize,
+    /// Index of the sample after the gap.
+    pub index: usize,
+    /// Time of the sample before the gap, s.
+    pub start_s: f64,
+    pub length_s: f64,
+}
+
+/// Samples at the sensor's range limit on one axis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Saturation {
+    pub axis: char,
+    pub samples: usize,
+    /// Line (or sample number) of the first saturated sample.
+    pub first_line: usize,
+    /// The limit that was hit, m/s² (the rail value's magnitude when no range was given).
+    pub limit_mps2: f64,
+}
+
+/// What [`inspect`] found.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Inspection {
+    pub samples: usize,
+    pub duration_s: f64,
+    pub sample_rate_hz: f64,
+    /// The first gaps (at most 20); [`Inspection::gap_count`] counts them all.
+    pub gaps: Vec<Gap>,
+    pub gap_count: usize,
+    pub saturation: Vec<Saturation>,
+    /// Axes whose every sample has the same value (a dead or disconnected channel).
+    pub constant_axes: Vec<char>,
+    pub accel_min_mps2: [f64; 3],
+    pub accel_max_mps2: [f64; 3],
+    pub has_gyro: bool,
+}
+
+impl Inspection {
+    /// Total samples found saturated, over all axes.
+    pub fn saturated_samples(&self) -> usize {
+        self.saturation.iter().map(|s| s.samples).sum()
+    }
+
+    /// One line per finding, for people.
+    pub fn warnings(&self, file: &str) -> Vec<String> {
+        let mut out = Vec::new();
+        if let Some(first) = self.gaps.first() {
+            let longest = self.gaps.iter().map(|g| g.length_s).fold(0.0, f64::max);
+            out.push(format!(
+                "{file}:{}: {} gap(s) in time, the first of {:.4} s at t = {:.4} s, the longest listed {:.4} s",
+                first.line, self.gap_count, first.length_s, first.start_s, longest
+            ));
+        }
+        for s in &self.saturation {
+            out.push(format!(
+                "{file}:{}: {} sample(s) of a{} at the range limit {:.4} g (saturated)",
+                s.first_line,
+                s.samples,
+                s.axis,
+                s.limit_mps2 / STANDARD_GRAVITY
+            ));
+        }
+        for axis in &self.constant_axes {
+            out.push(format!("{file}: a{axis} is constant (a dead or disconnected channel?)"));
+        }
+        out
+    }
+}
+
+/// Finds gaps, saturated samples and constant axes.
+///
+/// With `range_mps2` given, a sample at or beyond [`RANGE_SHARE`] of it is saturated; without,
+/// an axis is saturated where [`RAIL_SAMPLES`] or more successive samples sit exactly at its
+/// extreme value (a flat top). A constant axis is reported as constant, not as saturated.
+pub fn inspect(recording: &Recording, range_mps2: Option<f64>) -> Inspection {
+    let dt = median_interval(&recording.time_s);
+    let mut gaps = Vec::new();
+    let mut gap_count = 0;
+    for (i, w) in recording.time_s.windows(2).enumerate() {
+        let length_s = w[1] - w[0];
+        if length_s > GAP_FACTOR * dt {
+            gap_count += 1;
+            if gaps.len() < LISTED_GAPS {
+                gaps.push(Gap {
+                    line: recording.location(i + 1).line,
+                    index: i + 1,
+                    start_s: w[0],
+                    length_s,
+                });
+            }
+        }
+    }
+    let mut saturation = Vec::new();
+    let mut constant_axes = Vec::new();
+    let mut accel_min_mps2 = [f64::NAN; 3];
+    let mut accel_max_mps2 = [f64::NAN; 3];
+    for (k, axis) in recording.accel_mps2.iter().enumerate() {
+        let name = ['x', 'y', 'z'][k];
+        if axis.is_empty() {
+            continue;
+        }
+        let (min, max) = extremes(axis);
+        accel_min_mps2[k] = min;
+        accel_max_mps2[k] = max;
+        if min == max {
+            constant_axes.push(name);
+            continue;
+        }
+        let hits: Vec<(usize, f64)> = match range_mps2 {
+            Some(range) => axis
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| v.abs() >= RANGE_SHARE * range)
+                .map(|(i, v)| (i, v.abs()))
+                .collect(),
+            None => flat_tops(axis, min, max),
+        };
+        if let Some(&(first, limit)) = hits.first() {
+            saturation.push(Saturation {
+                axis: name,
+                samples: hits.len(),
+                first_line: recording.location(first).line,
+                limit_mps2: range_mps2.unwrap_or(limit),
+            });
+        }
+    }
+    Inspection {
+        samples: recording.len(),
+        duration_s: recording.duration_s(),
+        sample_rate_hz: 1.0 / dt,
+        gaps,
+        gap_count,
+        saturation,
+        constant_axes,
+        accel_min_mps2,
+        accel_max_mps2,
+        has_gyro: recording.gyro_radps.is_some(),
+    }
+}
+
+/// The least and greatest value, ignoring NaN.
+fn extremes(axis: &[f64]) -> (f64, f64) {
+    let min = axis.iter().copied().fold(f64::INFINITY, f64::min);
+    let max = axis.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    (min, max)
+}
+
+/// Samples inside runs of ≥ [`RAIL_SAMPLES`] equal values at the axis maximum or minimum.
+fn flat_tops(axis: &[f64], min: f64, max: f64) -> Vec<(usize, f64)> {
+    let mut hits = Vec::new();
+    let mut i = 0;
+    while i < axis.len() {
+        let v = axis[i];
+        let mut j = i + 1;
+        while j < axis.len() && axis[j] == v {
+            j += 1;
+        }
+        if (v == max || v == min) && j - i >= RAIL_SAMPLES {
+            hits.extend((i..j).map(|k| (k, v.abs())));
+        }
+        i = j;
+    }
+    hits
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::recording::{ColumnMap, Source};
+
+    fn read(text: &str) -> Recording {
+        Recording::read_csv(text.as_bytes(), "rec.csv", &ColumnMap::default()).unwrap()
+    }
+
+    #[test]
+    fn reports_gaps_with_their_line_and_index() {
+        let r = read("t,ax,ay,az\n0,0,0,1\n0.01,0,1,1\n0.02,0,0,1\n0.05,1,0,1\n0.06,0,0,2\n");
+        let found = inspect(&r, None);
+        assert_eq!(found.gap_count, 1);
+        assert_eq!(found.gaps[0].index, 3);
+        assert_eq!(
+            found.warnings("rec.csv"),
+            ["rec.csv:5: 1 gap(s) in time, the first of 0.0300 s at t = 0.0200 s, the longest listed 0.0300 s"]
+        );
+        assert!((found.sample_rate_hz - 100.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn reports_saturation_by_range_and_by_flat_top() {
+        let g = STANDARD_GRAVITY;
+        let text = "t,ax_g,ay_g,az_g\n0,0.1,0,1\n0.01,5,0.1,1\n0.02,5,0,1\n0.03,5,0,1\n0.04,0.2,0,1.1\n";
+        let r = read(text);
+        let by_range = inspect(&r, Some(5.0 * g));
+        assert_eq!(
+            by_range.warnings("rec.csv"),
+            ["rec.csv:3: 3 sample(s) of ax at the range limit 5.0000 g (saturated)"]
+        );
+        let by_shape = inspect(&r, None);
+        // ax rails at 5 g for three samples; ay sits at its minimum 0 for three samples too.
+        assert_eq!(by_shape.saturation.len(), 2, "{by_shape:?}");
+        assert_eq!((by_shape.saturation[0].axis, by_shape.saturation[0].samples), ('x', 3));
+        assert_eq!(by_shape.saturation[1].axis, 'y');
+        assert_eq!(by_shape.saturated_samples(), 6);
+    }
+
+    #[test]
+    fn a_constant_axis_is_constant_not_saturated_and_named() {
+        let r = Recording {
+            time_s: vec![0.0, 0.01, 0.02, 0.03],
+            accel_mps2: [vec![1.0, 2.0, 3.0, 4.0], vec![0.0; 4], vec![9.8; 4]],
+            gyro_radps: None,
+            source: Source::default(),
+        };
+        let found = inspect(&r, None);
+        assert!(found.saturation.is_empty(), "{found:?}");
+        assert_eq!(found.constant_axes, ['y', 'z']);
+        assert_eq!(found.accel_min_mps2[2], 9.8);
+        assert!(found.warnings("f")[0].contains("ay is constant"));
+        assert!(found.warnings("f")[1].contains("az is constant"));
+    }
+}
