@@ -32,7 +32,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut best = f64::INFINITY;
     let mut scores = None;
     for _ in 0..3 {
-        let row = fit_and_score(&spec, &[u], y, 0..n / 2, Some(n / 2..n), 0, &spincal::progress::silent)?;
+        let row = fit_and_score(
+            &spec,
+            &[u],
+            y,
+            0..n / 2,
+            Some(n / 2..n),
+            0,
+            &spincal::progress::silent,
+        )?;
         best = best.min(row.seconds);
         scores = row.test;
     }

@@ -18,11 +18,11 @@ use crate::correctors::ann::{
     SweepSettings,
 };
 use crate::correctors::corrector::{Axis, Corrected, Corrector};
-use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::correctors::linear::{LinearError, LinearModel};
+use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
+use crate::input::recording::Recording;
 use crate::metrics::{fit_percent, rmse};
 use crate::progress::{Observer, Progress};
-use crate::input::recording::Recording;
 use crate::sysid::{fit_and_score, score, ModelKind, ModelSpec, Scores, SysidError, SysidModel};
 use crate::turntable::fit::{FitError, FitOptions, TurntableFit};
 use crate::turntable::fit_turntable;
@@ -357,7 +357,11 @@ pub fn calibrate(
     }
     let mut sysid_models = Vec::new();
     for (m, spec) in settings.sysid.iter().enumerate() {
-        observer(Progress::step("system identification", m, Some(settings.sysid.len())));
+        observer(Progress::step(
+            "system identification",
+            m,
+            Some(settings.sysid.len()),
+        ));
         let name = spec.kind.name().to_string();
         match fit_sysid_per_axis(
             spec,
@@ -418,7 +422,11 @@ pub fn calibrate(
     // Cross-condition: trained on recording 1, tested on each other recording.
     let mut cross_condition = Vec::new();
     for (k, other) in recordings.iter().enumerate().skip(1) {
-        observer(Progress::step("cross-condition", k - 1, Some(recordings.len() - 1)));
+        observer(Progress::step(
+            "cross-condition",
+            k - 1,
+            Some(recordings.len() - 1),
+        ));
         let other_ref = &references[k];
         let whole = |estimate: &[Vec<f64>], from: usize| {
             let mut fits = Vec::new();
@@ -559,7 +567,15 @@ fn fit_sysid_per_axis(
     for &a in axes_idx {
         let u = measured.accel_mps2[a].as_slice();
         let y = reference.accel_mps2[a].as_slice();
-        let scored = fit_and_score(spec, &[u], y, blocks[0].clone(), None, init_samples, &crate::progress::silent)?;
+        let scored = fit_and_score(
+            spec,
+            &[u],
+            y,
+            blocks[0].clone(),
+            None,
+            init_samples,
+            &crate::progress::silent,
+        )?;
         seconds += scored.seconds;
         structure = scored.structure.clone();
         let mut parts = Vec::new();

@@ -14,22 +14,22 @@ pub struct ReadmeDoctests;
 // Modules in pipeline order: input, turntable, correctors, system identification, the whole
 // calibration, report. Imports only point to modules above or beside, never back (tested in
 // tests/architecture.rs).
+pub mod allan;
+pub mod calibrate;
+pub mod correctors;
 pub mod input;
 pub mod metrics;
 pub mod optim;
 pub mod progress;
-pub mod turntable;
-pub mod simulate;
-pub mod correctors;
-pub mod sysid;
-pub mod allan;
-pub mod calibrate;
 #[cfg(feature = "plot")]
 pub mod report;
+pub mod simulate;
+pub mod sysid;
+pub mod turntable;
 
 // Paths of earlier releases, kept working (CHANGELOG.md lists the moves).
-pub use correctors::{ann, corrector, linear, static_cal, static_detect};
 pub use correctors::model_file::{CorrectorFile, CorrectorModel};
+pub use correctors::{ann, corrector, linear, static_cal, static_detect};
 pub use input::{formats, inspect, recording, table};
 #[cfg(feature = "plot")]
 pub use report::{plot, strobe};

@@ -8,8 +8,8 @@ use spincal::ann::{
     sweep, AnnProblem, DivisionMode, LmSettings, LmWorkspace, Part, StopReason, SweepSettings,
 };
 use spincal::corrector::{Axis, Corrector};
-use spincal::{CorrectorFile, CorrectorModel};
 use spincal::linear::LinearModel;
+use spincal::{CorrectorFile, CorrectorModel};
 
 const XY: [Axis; 2] = [Axis::X, Axis::Y];
 

@@ -193,7 +193,16 @@ fn bj_agrees_with_the_peers() {
     for case in fx["cases"].as_array().unwrap() {
         let orders = usizes(&case["orders"]);
         let spec = ModelSpec::new(ModelKind::Bj, &orders).unwrap();
-        let row = fit_and_score(&spec, &[u], y, 0..2000, Some(2000..4000), 0, &spincal::progress::silent).unwrap();
+        let row = fit_and_score(
+            &spec,
+            &[u],
+            y,
+            0..2000,
+            Some(2000..4000),
+            0,
+            &spincal::progress::silent,
+        )
+        .unwrap();
         let test = row.test.unwrap();
         let ours = [test.simulation.fit_percent, test.one_step.fit_percent];
         let peer = |name: &str| -> Option<[f64; 2]> {
@@ -234,7 +243,16 @@ fn silverbox_arx_matches_numpy_and_narx_beats_it() {
     let Some((u, y)) = silverbox() else { return };
     let fx = json("silverbox_arx.json");
     let spec = ModelSpec::new(ModelKind::Arx, &[6, 8, 1]).unwrap();
-    let arx = fit_and_score(&spec, &[&u], &y, 40650..127400, Some(0..40575), 50, &spincal::progress::silent).unwrap();
+    let arx = fit_and_score(
+        &spec,
+        &[&u],
+        &y,
+        40650..127400,
+        Some(0..40575),
+        50,
+        &spincal::progress::silent,
+    )
+    .unwrap();
     let SysidModel::Poly(m) = &arx.fitted.model else {
         panic!("ARX is polynomial")
     };
@@ -254,7 +272,16 @@ fn silverbox_arx_matches_numpy_and_narx_beats_it() {
         max_iterations: 60,
         ..ModelSpec::new(ModelKind::Narx, &[2, 2, 1]).unwrap()
     };
-    let narx = fit_and_score(&spec, &[&u], &y, 40650..60650, Some(0..40575), 50, &spincal::progress::silent).unwrap();
+    let narx = fit_and_score(
+        &spec,
+        &[&u],
+        &y,
+        40650..60650,
+        Some(0..40575),
+        50,
+        &spincal::progress::silent,
+    )
+    .unwrap();
     let narx_rmse = narx.test.unwrap().simulation.rmse;
     assert!(
         narx_rmse < 0.5 * rmse,
@@ -290,7 +317,16 @@ fn cascaded_tanks_models_are_scored_by_the_protocol() {
         (ModelKind::Hw, vec![2, 2, 1]),
     ] {
         let spec = ModelSpec::new(kind, &orders).unwrap();
-        let row = fit_and_score(&spec, &[&u], &y, 0..n, Some(n..2 * n), 5, &spincal::progress::silent).unwrap();
+        let row = fit_and_score(
+            &spec,
+            &[&u],
+            &y,
+            0..n,
+            Some(n..2 * n),
+            5,
+            &spincal::progress::silent,
+        )
+        .unwrap();
         let test = row.test.unwrap();
         assert!(test.simulation.rmse.is_finite() && test.one_step.rmse.is_finite());
         if kind == ModelKind::Arx {

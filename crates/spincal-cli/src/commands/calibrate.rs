@@ -169,9 +169,9 @@ pub fn summary(output: &CalibrationOutput, out: &Path) -> String {
             "{:<12} {:>11.2} {:>17.2} {:>11.2}\n",
             row.model, row.train.fit_percent_mean, row.validation.fit_percent_mean, row.test.fit_percent_mean
         ));
-        text.push_str(&super::compare::row_notes(row));
+        text.push_str(&super::tables::row_notes(row));
     }
-    text.push_str(&super::compare::cross_condition_text(&r.cross_condition));
+    text.push_str(&super::tables::cross_condition_text(&r.cross_condition));
     let dir = out.display();
     text.push_str(&format!(
         "\nchosen: {} (best on validation among savable correctors; best overall without warnings: {})\n\

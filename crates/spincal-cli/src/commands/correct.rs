@@ -15,8 +15,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 use spincal::corrector::Corrector;
-use spincal::CorrectorFile;
 use spincal::table::{display_name, RowReader, Table, TableOptions};
+use spincal::CorrectorFile;
 use spincal::{ColumnMap, Recording};
 
 use crate::ui::Ui;

@@ -14,6 +14,7 @@ pub mod static_cal;
 pub mod strobe;
 pub mod sweep;
 pub mod sysid;
+pub mod tables;
 pub mod train;
 
 use std::path::PathBuf;

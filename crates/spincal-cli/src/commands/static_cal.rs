@@ -99,9 +99,8 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     });
     if let Some(path) = &args.output {
         // The same versioned corrector file as every other corrector: `spincal correct` applies it.
-        let file = spincal::CorrectorFile::new(spincal::CorrectorModel::Static(
-            Box::new(fit.calibration.clone()),
-        ));
+        let file =
+            spincal::CorrectorFile::new(spincal::CorrectorModel::Static(Box::new(fit.calibration.clone())));
         file.write_path(path)?;
     }
     if let Some(path) = &args.yaml {

@@ -8,8 +8,8 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 use spincal::ann::{sweep, AnnProblem, SweepRow, SweepSettings};
-use spincal::progress::Progress;
 use spincal::plot::{Figure, HeatMap};
+use spincal::progress::Progress;
 
 use super::train::DataArgs;
 use crate::ui::{self, Ui, UsageError};

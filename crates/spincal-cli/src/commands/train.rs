@@ -7,9 +7,9 @@ use clap::{Args, ValueEnum};
 use serde::Serialize;
 use spincal::ann::{AnnProblem, DivisionMode, LmSettings, Part, PartFits};
 use spincal::corrector::Axis;
-use spincal::{CorrectorFile, CorrectorModel};
 use spincal::linear::LinearModel;
 use spincal::{ColumnMap, Recording};
+use spincal::{CorrectorFile, CorrectorModel};
 
 use crate::ui::{self, Ui, UsageError};
 

@@ -6,10 +6,12 @@ use faer::prelude::SolveLstsq;
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
-use crate::correctors::division::{check_axes, check_pairing, Division, DivisionMode, Part, PartFits, PairingError};
 use crate::correctors::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
-use crate::metrics::fit_percent;
+use crate::correctors::division::{
+    check_axes, check_pairing, Division, DivisionMode, PairingError, Part, PartFits,
+};
 use crate::input::recording::Recording;
+use crate::metrics::fit_percent;
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]

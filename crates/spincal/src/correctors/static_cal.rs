@@ -19,8 +19,8 @@ use faer::MatMut;
 use serde::{Deserialize, Serialize};
 
 use crate::correctors::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
-use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop};
 use crate::correctors::static_detect::StillInterval;
+use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop};
 
 /// Which parameters are estimated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -86,7 +86,9 @@ impl Inspection {
             ));
         }
         for axis in &self.constant_axes {
-            out.push(format!("{file}: a{axis} is constant (a dead or disconnected channel?)"));
+            out.push(format!(
+                "{file}: a{axis} is constant (a dead or disconnected channel?)"
+            ));
         }
         out
     }
@@ -199,7 +201,7 @@ mod tests {
 
     #[test]
     fn reports_gaps_with_their_line_and_index() {
-        let r = read("t,ax,ay,az\n0,0,0,1\n0.01,0,1,1\n0.02,0,0,1\n0.05,1,0,1\n0.06,0,0,2\n");
+        let r = read("t,ax,ay,az\n0,0.1,0.5,1\n0.01,0.2,0.4,1.1\n0.02,0.3,0.3,1.2\n0.05,0.4,0.2,1.3\n0.06,0.5,0.1,1.4\n");
         let found = inspect(&r, None);
         assert_eq!(found.gap_count, 1);
         assert_eq!(found.gaps[0].index, 3);
@@ -213,7 +215,8 @@ mod tests {
     #[test]
     fn reports_saturation_by_range_and_by_flat_top() {
         let g = STANDARD_GRAVITY;
-        let text = "t,ax_g,ay_g,az_g\n0,0.1,0,1\n0.01,5,0.1,1\n0.02,5,0,1\n0.03,5,0,1\n0.04,0.2,0,1.1\n";
+        let text =
+            "t,ax_g,ay_g,az_g\n0,0.1,0,1\n0.01,5,0.1,1.01\n0.02,5,0,0.99\n0.03,5,0,1.02\n0.04,0.2,0,1.1\n";
         let r = read(text);
         let by_range = inspect(&r, Some(5.0 * g));
         assert_eq!(
@@ -223,7 +226,10 @@ mod tests {
         let by_shape = inspect(&r, None);
         // ax rails at 5 g for three samples; ay sits at its minimum 0 for three samples too.
         assert_eq!(by_shape.saturation.len(), 2, "{by_shape:?}");
-        assert_eq!((by_shape.saturation[0].axis, by_shape.saturation[0].samples), ('x', 3));
+        assert_eq!(
+            (by_shape.saturation[0].axis, by_shape.saturation[0].samples),
+            ('x', 3)
+        );
         assert_eq!(by_shape.saturation[1].axis, 'y');
         assert_eq!(by_shape.saturated_samples(), 6);
     }

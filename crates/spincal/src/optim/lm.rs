@@ -261,7 +261,12 @@ mod tests {
 
     #[test]
     fn solves_rosenbrock_from_the_classic_start() {
-        let report = levenberg_marquardt(&Rosenbrock, &[-1.2, 1.0], &LmOptions::default(), &crate::progress::silent);
+        let report = levenberg_marquardt(
+            &Rosenbrock,
+            &[-1.2, 1.0],
+            &LmOptions::default(),
+            &crate::progress::silent,
+        );
         assert!((report.params[0] - 1.0).abs() < 1e-10, "{:?}", report);
         assert!((report.params[1] - 1.0).abs() < 1e-10);
         assert!(report.sse < 1e-20);

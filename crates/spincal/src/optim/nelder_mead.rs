@@ -345,7 +345,14 @@ mod tests {
             tol_f: 1e-12,
             ..Default::default()
         };
-        let r = nelder_mead_bounded(&mut wrapped, &[1.0, 1.0, 0.5], &b, &options, &crate::progress::silent).unwrap();
+        let r = nelder_mead_bounded(
+            &mut wrapped,
+            &[1.0, 1.0, 0.5],
+            &b,
+            &options,
+            &crate::progress::silent,
+        )
+        .unwrap();
         assert!(inside);
         assert!((r.params[0] - 2.0).abs() < 1e-6, "{r:?}");
         assert!(r.params[1].abs() < 1e-3, "{r:?}");

@@ -4,10 +4,10 @@
 //! as `<span data-json="/json/pointer" data-digits="d">`, so a test can check each against the
 //! JSON file: one source, no second computation. Plots draw the signals behind those numbers.
 
-use crate::correctors::ann::Part;
 use crate::calibrate::{CalibrationOutput, NetworkChoice, PartScore};
-use crate::report::plot::{Figure, HeatMap, LinePlot, PlotError, Rgb, Series};
+use crate::correctors::ann::Part;
 use crate::input::recording::{Recording, STANDARD_GRAVITY};
+use crate::report::plot::{Figure, HeatMap, LinePlot, PlotError, Rgb, Series};
 
 /// A number tied to its place in results.json.
 fn num(pointer: &str, value: f64, digits: usize) -> String {

@@ -132,12 +132,7 @@ impl ModelSpec {
     }
 
     /// Fits the model on (u, y).
-    pub fn fit(
-        &self,
-        u: &[&[f64]],
-        y: &[f64],
-        observer: &Observer,
-    ) -> Result<FittedModel, SysidError> {
+    pub fn fit(&self, u: &[&[f64]], y: &[f64], observer: &Observer) -> Result<FittedModel, SysidError> {
         let o = &self.orders;
         let max_iterations = self.max_iterations;
         let pem = |mut p: PemParams, observer: &Observer| -> Result<FittedModel, SysidError> {

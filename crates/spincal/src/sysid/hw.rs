@@ -187,12 +187,7 @@ impl HwModel {
 }
 
 impl HwParams {
-    pub fn fit(
-        &self,
-        u: &[&[f64]],
-        y: &[f64],
-        observer: &Observer,
-    ) -> Result<HwFit, SysidError> {
+    pub fn fit(&self, u: &[&[f64]], y: &[f64], observer: &Observer) -> Result<HwFit, SysidError> {
         HwModel::single(u)?;
         check_data(u, y)?;
         if self.breakpoints < 2 || self.nb == 0 {
@@ -378,7 +373,9 @@ mod tests {
         let u: Vec<f64> = (0..n).map(|_| StandardNormal.sample(&mut rng)).collect();
         let x = filter(&[0.0, 0.6, 0.3], &[1.0, -0.5], &u);
         let y: Vec<f64> = x.iter().map(|&v| (0.8 * v).tanh()).collect();
-        let fit = HwParams::new(2, 1, 1).fit(&[&u], &y, &crate::progress::silent).unwrap();
+        let fit = HwParams::new(2, 1, 1)
+            .fit(&[&u], &y, &crate::progress::silent)
+            .unwrap();
         let sim = fit.model.simulate(&[&u], SimInit::Zero).unwrap();
         let fit_pc = crate::metrics::fit_percent(&y, &sim);
         // The OE start alone is limited by the saturation; the PWL output map must lift it.

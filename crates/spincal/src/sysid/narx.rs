@@ -189,12 +189,7 @@ impl NarxModel {
 
 impl NarxParams {
     /// Fits on a single input `u[0]` and output `y`.
-    pub fn fit(
-        &self,
-        u: &[&[f64]],
-        y: &[f64],
-        observer: &Observer,
-    ) -> Result<NarxFit, SysidError> {
+    pub fn fit(&self, u: &[&[f64]], y: &[f64], observer: &Observer) -> Result<NarxFit, SysidError> {
         let u = NarxModel::check(u)?;
         check_data(&[u], y)?;
         if self.na + self.nb == 0 {

@@ -114,12 +114,7 @@ impl PemParams {
     }
 
     /// Fits the model to inputs `u` (one slice per input) and output `y`.
-    pub fn fit(
-        &self,
-        u: &[&[f64]],
-        y: &[f64],
-        observer: &Observer,
-    ) -> Result<PemFit, SysidError> {
+    pub fn fit(&self, u: &[&[f64]], y: &[f64], observer: &Observer) -> Result<PemFit, SysidError> {
         self.validate(u.len())?;
         check_data(u, y)?;
         let layout = self.layout();

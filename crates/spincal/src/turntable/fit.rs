@@ -13,15 +13,15 @@ use faer::{Mat, MatMut, Side};
 use serde::{Deserialize, Serialize};
 
 use crate::input::inspect::{inspect, Inspection};
+use crate::input::recording::{Recording, STANDARD_GRAVITY};
 use crate::metrics::fit_percent;
 use crate::optim::{
     levenberg_marquardt, nelder_mead_bounded, Bounds, BoundsError, LeastSquares, LmOptions, LmStop,
     NelderMeadOptions, Observer,
 };
-use crate::input::recording::{Recording, STANDARD_GRAVITY};
-use crate::turntable::spectrum::{estimate_rotation_rate, RateEstimate, RateSearch, SpectrumError};
 use crate::turntable::model::{evaluate, for_each_derivative, for_each_sample, Direction, Mounting, Session};
 use crate::turntable::moments::CostMoments;
+use crate::turntable::spectrum::{estimate_rotation_rate, RateEstimate, RateSearch, SpectrumError};
 
 /// Which axes enter the objective.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -708,13 +708,9 @@ pub fn fit_turntable(
         },
         ..options.nelder_mead.clone()
     };
-    let nm = nelder_mead_bounded(
-        &mut |p| problem.cost(p),
-        &start,
-        &bounds,
-        &nm_options,
-        &|pr| observer(pr.in_stage("turntable fit: Nelder–Mead")),
-    )?;
+    let nm = nelder_mead_bounded(&mut |p| problem.cost(p), &start, &bounds, &nm_options, &|pr| {
+        observer(pr.in_stage("turntable fit: Nelder–Mead"))
+    })?;
     let lm_options = LmOptions {
         lower: Some(bounds.lower.clone()),
         upper: Some(bounds.upper.clone()),

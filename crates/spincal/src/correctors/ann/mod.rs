@@ -19,15 +19,13 @@ use serde::{Deserialize, Serialize};
 pub use data::{Dataset, Scaling};
 pub use lm::{JtjConvention, LmSettings, LmWorkspace, StopReason, TrainingReport};
 pub use network::{Layout, Network, MAX_HIDDEN_LAYERS};
-pub use sweep::{
-    architecture_label, default_grid, sweep, SweepRow, SweepSettings, SWEEP_HESSIAN_SAMPLES,
-};
+pub use sweep::{architecture_label, default_grid, sweep, SweepRow, SweepSettings, SWEEP_HESSIAN_SAMPLES};
 
-pub use crate::correctors::division::{Division, DivisionMode, Part, PartFits};
 use crate::correctors::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
 use crate::correctors::division::{check_axes, check_pairing, PairingError};
-use crate::metrics::fit_percent;
+pub use crate::correctors::division::{Division, DivisionMode, Part, PartFits};
 use crate::input::recording::Recording;
+use crate::metrics::fit_percent;
 
 /// What can be wrong with a network training request.
 #[derive(Debug, thiserror::Error)]

@@ -1,0 +1,195 @@
+//! The import graph of both crates has no cycles.
+//!
+//! Every `crate::…` and `super::…` path in a source file is resolved to the module it names; a
+//! module is its file (`a/b.rs` or `a/b/mod.rs` is `a::b`). Modules are then grouped two levels
+//! deep (`correctors::ann::lm` counts as `correctors::ann`), and the graph between groups must be
+//! acyclic, as must the graph between the top-level modules. A module using its own parent (or
+//! the parent re-exporting its child) is containment, not an import between groups.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// `src/a/b/mod.rs` → `["a", "b"]`; `src/a/b.rs` → `["a", "b"]`; `src/lib.rs` → `[]`.
+fn module_of(src: &Path, file: &Path) -> Vec<String> {
+    let rel = file.strip_prefix(src).unwrap();
+    let mut parts: Vec<String> = rel.iter().map(|p| p.to_string_lossy().into_owned()).collect();
+    let last = parts.pop().unwrap();
+    let stem = last.trim_end_matches(".rs");
+    if !matches!(stem, "mod" | "lib" | "main") {
+        parts.push(stem.to_string());
+    }
+    parts
+}
+
+/// Paths named in the text: `crate::a::b` and `super::c` (each `super` climbs one level).
+fn referenced_paths(text: &str, module: &[String]) -> Vec<Vec<String>> {
+    let mut found = Vec::new();
+    let code: String = text
+        .lines()
+        .filter(|l| {
+            let t = l.trim_start();
+            !t.starts_with("//")
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let bytes = code.as_bytes();
+    for start in ["crate::", "super::"] {
+        let mut from = 0;
+        while let Some(at) = code[from..].find(start) {
+            let at = from + at;
+            from = at + start.len();
+            let preceded_by_ident = at > 0
+                && (bytes[at - 1].is_ascii_alphanumeric() || bytes[at - 1] == b'_' || bytes[at - 1] == b':');
+            if preceded_by_ident {
+                continue;
+            }
+            let mut base: Vec<String> = if start == "crate::" {
+                Vec::new()
+            } else {
+                module[..module.len().saturating_sub(1)].to_vec()
+            };
+            let rest: String = code[from..]
+                .chars()
+                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_' || *c == ':')
+                .collect();
+            for segment in rest.split("::").filter(|s| !s.is_empty()) {
+                if segment == "super" {
+                    base.pop();
+                } else {
+                    base.push(segment.to_string());
+                }
+            }
+            found.push(base);
+        }
+    }
+    found
+}
+
+fn group(module: &[String], depth: usize) -> Vec<String> {
+    module[..module.len().min(depth)].to_vec()
+}
+
+fn is_prefix(a: &[String], b: &[String]) -> bool {
+    a.len() <= b.len() && b[..a.len()] == *a
+}
+
+/// A cycle in `edges`, if any (depth-first search).
+fn find_cycle(edges: &BTreeMap<Vec<String>, BTreeSet<Vec<String>>>) -> Option<Vec<Vec<String>>> {
+    fn visit(
+        node: &Vec<String>,
+        edges: &BTreeMap<Vec<String>, BTreeSet<Vec<String>>>,
+        state: &mut BTreeMap<Vec<String>, u8>,
+        stack: &mut Vec<Vec<String>>,
+    ) -> Option<Vec<Vec<String>>> {
+        state.insert(node.clone(), 1);
+        stack.push(node.clone());
+        for next in edges.get(node).into_iter().flatten() {
+            match state.get(next).copied().unwrap_or(0) {
+                1 => {
+                    let at = stack.iter().position(|n| n == next).unwrap();
+                    let mut cycle = stack[at..].to_vec();
+                    cycle.push(next.clone());
+                    return Some(cycle);
+                }
+                0 => {
+                    if let Some(c) = visit(next, edges, state, stack) {
+                        return Some(c);
+                    }
+                }
+                _ => {}
+            }
+        }
+        stack.pop();
+        state.insert(node.clone(), 2);
+        None
+    }
+    let mut state = BTreeMap::new();
+    for node in edges.keys() {
+        if state.get(node).copied().unwrap_or(0) == 0 {
+            if let Some(c) = visit(node, edges, &mut state, &mut Vec::new()) {
+                return Some(c);
+            }
+        }
+    }
+    None
+}
+
+fn check_crate(src: &Path) -> usize {
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    let modules: BTreeSet<Vec<String>> = files.iter().map(|f| module_of(src, f)).collect();
+    let mut edge_count = 0;
+    for depth in [1, 2] {
+        let mut edges: BTreeMap<Vec<String>, BTreeSet<Vec<String>>> = BTreeMap::new();
+        for file in &files {
+            let from = module_of(src, file);
+            let text = std::fs::read_to_string(file).unwrap();
+            for path in referenced_paths(&text, &from) {
+                // The longest module the path names (the rest are items inside it).
+                let Some(to) = (0..=path.len())
+                    .rev()
+                    .map(|n| path[..n].to_vec())
+                    .find(|p| modules.contains(p))
+                else {
+                    continue;
+                };
+                let (a, b) = (group(&from, depth), group(&to, depth));
+                if a.is_empty() || b.is_empty() || is_prefix(&a, &b) || is_prefix(&b, &a) {
+                    continue;
+                }
+                edges.entry(a).or_default().insert(b);
+            }
+        }
+        edge_count += edges.values().map(BTreeSet::len).sum::<usize>();
+        if let Some(cycle) = find_cycle(&edges) {
+            let names: Vec<String> = cycle.iter().map(|m| m.join("::")).collect();
+            panic!("{}: import cycle: {}", src.display(), names.join(" → "));
+        }
+    }
+    edge_count
+}
+
+#[test]
+fn library_imports_have_no_cycles() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let edges = check_crate(&src);
+    // The check saw the real graph (calibrate alone imports half the crate).
+    assert!(
+        edges > 40,
+        "only {edges} edges found: is the scanner reading the sources?"
+    );
+}
+
+#[test]
+fn cli_imports_have_no_cycles() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../spincal-cli/src");
+    let edges = check_crate(&src);
+    assert!(edges > 10, "only {edges} edges found");
+}
+
+#[test]
+fn the_scanner_finds_a_cycle_when_there_is_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path();
+    std::fs::write(src.join("lib.rs"), "pub mod a;\npub mod b;\n").unwrap();
+    std::fs::write(src.join("a.rs"), "use crate::b::B;\npub struct A;\n").unwrap();
+    std::fs::write(
+        src.join("b.rs"),
+        "pub struct B;\nfn f() -> crate::a::A { crate::a::A }\n",
+    )
+    .unwrap();
+    let caught = std::panic::catch_unwind(|| check_crate(src)).unwrap_err();
+    let message = caught.downcast_ref::<String>().unwrap();
+    assert!(message.contains("import cycle: a → b → a"), "{message}");
+}
