@@ -38,7 +38,7 @@ enum Command {
     Inspect(commands::inspect::InspectArgs),
     /// Calibrate bias, scale and misalignment from still poses (|a| = g).
     #[command(
-        after_help = "Examples:\n  spincal static xsens_acc.mat --format whitespace --gravity 9.81744 -o cal.json\n  spincal static annotated_session.csv --model 6 --yaml kalibr.yaml\n  spincal static example_data_calibration.csv --model 12 --json"
+        after_help = "Examples:\n  spincal static xsens_acc.mat --format whitespace --gravity 9.81744 -o cal.json\n  spincal static annotated_session.csv --model 6 --yaml kalibr.yaml\n  spincal static example_data_calibration.csv --model 6 --json"
     )]
     Static(commands::static_cal::StaticArgs),
     /// Allan deviation of a still recording: noise density and bias instability per axis.
@@ -56,7 +56,7 @@ enum Command {
     /// Train a corrector (network or linear) of measured against reference acceleration.
     #[command(after_help = "Examples:
   spincal train --data rec.csv --reference ref.csv --hidden 10,6 -o ann.json
-  spincal train --data rec.csv --reference ref.csv --axes x --delays 2 --restarts 20 --seed 7 -o x.json
+  spincal train --data rec.csv --reference ref.csv --correct-axes x --delays 2 --restarts 20 --seed 7 -o x.json
   spincal train --data rec.csv --reference ref.csv --kind linear -o linear.json --json")]
     Train(commands::train::TrainArgs),
     /// Train a grid of network architectures and tabulate their fit (the paper's Fig. 12).

@@ -4,37 +4,38 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
-use spincal::ann::default_grid;
+use spincal::ann::{default_grid, small_grid};
 use spincal::calibrate::{calibrate, CalibrateSettings, CalibrationOutput, NetworkChoice};
 use spincal::corrector::Axis;
 use spincal::report::render_report;
 use spincal::sysid::{ModelKind, ModelSpec};
 use spincal::Recording;
 
-use super::fit::FitArgs;
-use super::train::all_if_zero;
+use super::fit::TurntableArgs;
+use super::train::{all_if_zero, parse_hidden};
+use super::values::SweepArg;
 use crate::ui::{self, Ui, UsageError};
 
 #[derive(Args, Debug)]
 #[command(
     after_help = "Examples:\n  spincal calibrate rec33.csv rec45.csv --radius 0.10 --radius-tol 0.002 --out cal\n  \
-                        spincal calibrate rec.csv --sweep full --restarts 10 --out cal   # the paper's full grid\n  \
-                        spincal calibrate rec.csv --hidden 10,6 --axes x,y --out cal"
+                        spincal calibrate rec.csv --sweep full --out cal   # the paper's grid (the paper: --restarts 10)\n  \
+                        spincal calibrate rec.csv --hidden 10,6 --correct-axes x,y --out cal"
 )]
 pub struct CalibrateArgs {
     /// The turntable fit's options (recordings, columns, rpm, radius, bounds, axes of the objective…).
     #[command(flatten)]
-    pub fit: FitArgs,
+    pub fit: TurntableArgs,
     /// Output folder: model.json, results.json, report.html.
     #[arg(long, default_value = "spincal-calibration")]
     pub out: PathBuf,
-    /// Network architecture search: none (use --hidden), small (1–8 units, one and two layers) or full
-    /// (1–15 and 1–15 × 1–10, the paper's grid).
-    #[arg(long, default_value = "small")]
-    pub sweep: String,
-    /// Hidden layers when --sweep none, e.g. 10,6.
-    #[arg(long, default_value = "10,6")]
-    pub hidden: String,
+    /// Network architecture search (default: small; none when --hidden is given).
+    #[arg(long, value_enum)]
+    pub sweep: Option<SweepArg>,
+    /// Hidden layers of the one architecture to train, e.g. 10,6 (implies --sweep none; default
+    /// with --sweep none: 10,6).
+    #[arg(long, value_name = "SIZES")]
+    pub hidden: Option<String>,
     /// Training runs per architecture from different initial weights.
     #[arg(long, default_value_t = 3)]
     pub restarts: usize,
@@ -65,48 +66,38 @@ pub struct CalibrateArgs {
     pub hw: String,
 }
 
-/// The small grid used by `demo` and by default: one layer 1–8, two layers 2–8 × 2–6 (even).
-pub fn small_grid() -> Vec<Vec<usize>> {
-    let mut grid: Vec<Vec<usize>> = (1..=8).map(|n| vec![n]).collect();
-    for first in (2..=8).step_by(2) {
-        for second in (2..=6).step_by(2) {
-            grid.push(vec![first, second]);
-        }
-    }
-    grid
-}
-
-fn parse_sizes(text: &str) -> Result<Vec<usize>, UsageError> {
+fn parse_orders(text: &str, flag: &str) -> Result<Vec<usize>, UsageError> {
     text.split(',')
         .map(|s| s.trim().parse::<usize>())
         .collect::<Result<Vec<_>, _>>()
-        .map_err(|_| UsageError(format!("--hidden {text}: expected sizes like 10,6")))
+        .map_err(|_| UsageError(format!("--{flag} {text}: expected orders like 6,8,1")))
 }
 
 impl CalibrateArgs {
     pub fn settings(&self) -> anyhow::Result<CalibrateSettings> {
-        let network = match self.sweep.as_str() {
-            "none" => NetworkChoice::Fixed {
-                hidden: parse_sizes(&self.hidden)?,
+        let sweep_over = |grid| NetworkChoice::Sweep {
+            grid,
+            restarts: self.restarts,
+            hessian_samples: all_if_zero(self.sweep_hessian_samples),
+        };
+        let network = match (self.sweep, &self.hidden) {
+            (Some(SweepArg::Small | SweepArg::Full), Some(_)) => {
+                return Err(UsageError(
+                    "--hidden fixes the architecture, so it cannot be combined with --sweep small or full; drop one of them".into(),
+                )
+                .into())
+            }
+            (Some(SweepArg::Small), None) | (None, None) => sweep_over(small_grid()),
+            (None | Some(SweepArg::None), hidden) => NetworkChoice::Fixed {
+                hidden: parse_hidden(hidden.as_deref().unwrap_or("10,6"))?,
                 restarts: self.restarts,
             },
-            "small" => NetworkChoice::Sweep {
-                grid: small_grid(),
-                restarts: self.restarts,
-                hessian_samples: all_if_zero(self.sweep_hessian_samples),
-            },
-            "full" => NetworkChoice::Sweep {
-                grid: default_grid(),
-                restarts: self.restarts,
-                hessian_samples: all_if_zero(self.sweep_hessian_samples),
-            },
-            other => return Err(UsageError(format!("--sweep {other}: expected none, small or full")).into()),
+            (Some(SweepArg::Full), None) => sweep_over(default_grid()),
         };
         let axes = Axis::parse_list(&self.correct_axes)
             .ok_or_else(|| UsageError(format!("--correct-axes {}: expected e.g. x,y", self.correct_axes)))?;
         let spec = |kind: ModelKind, text: &str, flag: &str| -> anyhow::Result<ModelSpec> {
-            let orders = parse_sizes(text)
-                .map_err(|_| UsageError(format!("--{flag} {text}: expected orders like 6,8,1")))?;
+            let orders = parse_orders(text, flag)?;
             let mut spec = ModelSpec::new(kind, &orders).map_err(|e| UsageError(format!("--{flag}: {e}")))?;
             spec.seed = self.seed;
             Ok(spec)

@@ -13,13 +13,15 @@ use std::io::{BufRead, BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use clap::Args;
+use clap::{Args, ValueEnum};
 use spincal::corrector::Corrector;
-use spincal::table::{display_name, RowReader, Table, TableOptions};
+use spincal::table::{display_name, RowReader, Table};
 use spincal::CorrectorFile;
 use spincal::{ColumnMap, Recording};
 
-use crate::ui::Ui;
+use super::input::ReadArgs;
+use super::values::FormatArg;
+use crate::ui::{Ui, UsageError};
 
 #[derive(Args)]
 pub struct CorrectArgs {
@@ -32,6 +34,45 @@ pub struct CorrectArgs {
     /// Output CSV (standard output when absent).
     #[arg(short, long, value_name = "OUT.csv")]
     pub output: Option<PathBuf>,
+    /// How to read the input (the same flags as every command; delimited text only, since rows
+    /// are streamed).
+    #[command(flatten)]
+    pub read: ReadArgs,
+}
+
+impl CorrectArgs {
+    /// The column map for the streamed rows; flags that only whole-file readers use are refused.
+    fn column_map(&self) -> anyhow::Result<ColumnMap> {
+        let r = &self.read;
+        if let Some(format) = r
+            .format
+            .filter(|f| !matches!(f, FormatArg::Csv | FormatArg::Whitespace))
+        {
+            return Err(UsageError(format!(
+                "--format {}: correct streams delimited text (csv or whitespace); this format is read whole by the other commands",
+                format.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default()
+            ))
+            .into());
+        }
+        let whole_file_only = [
+            ("--accel-scale", r.accel_scale.is_some()),
+            ("--accel-offset", r.accel_offset.is_some()),
+            ("--sample-rate", r.sample_rate.is_some()),
+            ("--gx1-accel-gain", r.gx1_accel_gain.is_some()),
+            ("--gx1-gyro-gain", r.gx1_gyro_gain.is_some()),
+        ];
+        if let Some((flag, _)) = whole_file_only.iter().find(|(_, given)| *given) {
+            return Err(UsageError(format!(
+                "{flag} is not supported by correct: it streams rows of time and acceleration in g or m/s²"
+            ))
+            .into());
+        }
+        let mut map = r.column_map()?;
+        if r.format == Some(FormatArg::Whitespace) && map.table.delimiter.is_none() {
+            map.table.delimiter = Some(spincal::table::Delimiter::Whitespace);
+        }
+        Ok(map)
+    }
 }
 
 /// Where the time and acceleration columns are, and their units, from a header.
@@ -45,7 +86,7 @@ struct Columns {
 
 /// Resolves columns with the same rules as whole-file reading, by reading a one-row table of
 /// ones: the recording's column names give the indices, its values the unit factors.
-fn resolve_columns(header: &[String], width: usize, file: &str) -> anyhow::Result<Columns> {
+fn resolve_columns(header: &[String], width: usize, file: &str, map: &ColumnMap) -> anyhow::Result<Columns> {
     let probe = Table {
         file: file.to_string(),
         delimiter: spincal::table::Delimiter::Comma,
@@ -54,7 +95,7 @@ fn resolve_columns(header: &[String], width: usize, file: &str) -> anyhow::Resul
         columns: vec![vec![1.0]; width],
         lines: vec![1],
     };
-    let recording = Recording::from_table(&probe, &ColumnMap::default())?;
+    let recording = Recording::from_table(&probe, map)?;
     let index = |name: &str| -> anyhow::Result<usize> {
         header
             .iter()
@@ -76,6 +117,7 @@ fn resolve_columns(header: &[String], width: usize, file: &str) -> anyhow::Resul
 }
 
 pub fn run(args: CorrectArgs, _ui: Ui) -> anyhow::Result<()> {
+    let map = args.column_map()?;
     let model = CorrectorFile::read_path(&args.model)?;
     let (reader, name): (Box<dyn BufRead>, String) = if args.input.as_os_str() == "-" {
         (
@@ -90,13 +132,19 @@ pub fn run(args: CorrectArgs, _ui: Ui) -> anyhow::Result<()> {
     let result = match &args.output {
         Some(path) => {
             let file = File::create(path).with_context(|| format!("{}: cannot create", path.display()))?;
-            let result = stream(&model, reader, &name, BufWriter::new(file));
+            let result = stream(&model, reader, &name, &map, BufWriter::new(file));
             if result.is_err() {
                 remove_partial(path);
             }
             result
         }
-        None => stream(&model, reader, &name, BufWriter::new(std::io::stdout().lock())),
+        None => stream(
+            &model,
+            reader,
+            &name,
+            &map,
+            BufWriter::new(std::io::stdout().lock()),
+        ),
     }
     .map(|summary| summary.warn(&name));
     match result {
@@ -142,16 +190,17 @@ fn stream(
     model: &CorrectorFile,
     reader: Box<dyn BufRead>,
     name: &str,
+    map: &ColumnMap,
     mut out: impl Write,
 ) -> anyhow::Result<StreamSummary> {
-    let mut rows = RowReader::new(reader, name, &TableOptions::default())?;
+    let mut rows = RowReader::new(reader, name, &map.table)?;
     let width = rows.width();
     let header: Vec<String> = if rows.header.is_empty() {
         (1..=width).map(|c| format!("column{c}")).collect()
     } else {
         rows.header.clone()
     };
-    let columns = resolve_columns(&rows.header, width, name)?;
+    let columns = resolve_columns(&rows.header, width, name, map)?;
     let corrector = &model.corrector;
     let axes = corrector.corrected_axes();
     let delimiter = rows.delimiter.as_char();

@@ -9,8 +9,9 @@ use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
 use spincal::turntable::{FitOptions, RadiusPrior};
 use spincal::AccelUnit;
 
-use super::calibrate::{run_calibration, small_grid, summary};
+use super::calibrate::{run_calibration, summary};
 use crate::ui::{self, Ui};
+use spincal::ann::small_grid;
 
 #[derive(Args, Debug)]
 #[command(after_help = "Example:\n  spincal demo --out spincal-demo && xdg-open spincal-demo/report.html")]

@@ -5,17 +5,16 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use spincal::turntable::fit::FittedParam;
-use spincal::turntable::{fit_turntable, AxesObjective, DriftMode, FitOptions, RadiusPrior, TurntableFit};
+use spincal::turntable::{fit_turntable, FitOptions, RadiusPrior, TurntableFit};
 use spincal::STANDARD_GRAVITY;
 
 use super::input::ReadArgs;
+use super::values::{DriftArg, ObjectiveAxesArg};
 use crate::ui::{self, Ui, UsageError};
 
+/// The turntable fit's inputs and options: shared by `fit`, `calibrate` and `compare`.
 #[derive(Args, Debug)]
-#[command(after_help = "Examples:\n  spincal fit rec33.csv\n  \
-                        spincal fit rec33.csv rec45.csv --radius 0.10 --radius-tol 0.005 -o fit.json\n  \
-                        spincal fit rec.csv --axes x --bounds tilt=0:0.1,radius=0.05:0.15")]
-pub struct FitArgs {
+pub struct TurntableArgs {
     /// Recordings (CSV); several are fitted jointly with shared sensor offsets.
     #[arg(required = true)]
     pub recordings: Vec<PathBuf>,
@@ -33,12 +32,13 @@ pub struct FitArgs {
     /// Fit a radius per recording (the sensor was moved between them).
     #[arg(long)]
     pub separate_radii: bool,
-    /// Axes in the objective: xyz, xy, or x (the paper's choice under drift).
-    #[arg(long, default_value = "xyz")]
-    pub axes: String,
-    /// Linear drift per axis: fit (reported when significant) or off.
-    #[arg(long, default_value = "fit")]
-    pub drift: String,
+    /// Axes in the fit's objective (the paper uses x alone under drift). Not the axes a
+    /// corrector corrects (`--correct-axes`).
+    #[arg(long, value_enum, default_value = "xyz", alias = "axes")]
+    pub objective_axes: ObjectiveAxesArg,
+    /// Linear drift per axis.
+    #[arg(long, value_enum, default_value = "fit")]
+    pub drift: DriftArg,
     /// Hold the sensor offsets at zero (the paper's model).
     #[arg(long)]
     pub no_offsets: bool,
@@ -51,12 +51,26 @@ pub struct FitArgs {
     /// Sensor range, g (for the saturation check).
     #[arg(long)]
     pub range_g: Option<f64>,
+    /// Print the result as JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args, Debug)]
+#[command(after_help = "Examples:\n  spincal fit rec33.csv\n  \
+                        spincal fit rec33.csv rec45.csv --radius 0.10 --radius-tol 0.005 -o fit.json\n  \
+                        spincal fit rec.csv --radius 0.10 --reference-csv ref.csv   # then: spincal train --data rec.csv --reference ref.csv\n  \
+                        spincal fit rec.csv --objective-axes x --bounds tilt=0:0.1,radius=0.05:0.15")]
+pub struct FitArgs {
+    #[command(flatten)]
+    pub turntable: TurntableArgs,
     /// Write the full result as JSON here.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
-    /// Print the result as JSON instead of the table.
-    #[arg(long)]
-    pub json: bool,
+    /// Write the fitted reference acceleration (the turntable's physics, no sensor errors) as CSV
+    /// (t_s,ax_g,ay_g,az_g), one file per recording in order: the input of `train` and `sweep`.
+    #[arg(long, value_name = "REF.csv", num_args = 1..)]
+    pub reference_csv: Vec<PathBuf>,
 }
 
 /// Parses `name=lo:hi,name=lo:hi`.
@@ -78,18 +92,11 @@ pub fn parse_bounds(text: &str) -> Result<Vec<(String, f64, f64)>, UsageError> {
         .collect()
 }
 
-impl FitArgs {
+impl TurntableArgs {
     pub fn options(&self) -> anyhow::Result<FitOptions> {
-        let axes = AxesObjective::parse(&self.axes)
-            .ok_or_else(|| UsageError(format!("--axes {}: expected xyz, xy or x", self.axes)))?;
-        let drift = match self.drift.as_str() {
-            "fit" => DriftMode::Fit,
-            "off" => DriftMode::Off,
-            other => return Err(UsageError(format!("--drift {other}: expected fit or off")).into()),
-        };
         Ok(FitOptions {
-            axes,
-            drift,
+            axes: self.objective_axes.into(),
+            drift: self.drift.into(),
             gravity_mps2: self.gravity,
             rpm_hint: self.rpm,
             radius: self.radius.map(|value_m| RadiusPrior {
@@ -109,11 +116,20 @@ impl FitArgs {
 }
 
 pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
-    let options = args.options()?;
+    let options = args.turntable.options()?;
+    if !args.reference_csv.is_empty() && args.reference_csv.len() != args.turntable.recordings.len() {
+        return Err(UsageError(format!(
+            "--reference-csv names {} file(s) for {} recording(s): give one per recording, in order",
+            args.reference_csv.len(),
+            args.turntable.recordings.len()
+        ))
+        .into());
+    }
     let recordings = args
+        .turntable
         .recordings
         .iter()
-        .map(|p| args.read.read(p))
+        .map(|p| args.turntable.read.read(p))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let refs: Vec<_> = recordings.iter().collect();
     let spinner = ui.spinner("fitting");
@@ -126,11 +142,23 @@ pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
         ));
     })?;
     spinner.finish_and_clear();
+    for (k, path) in args.reference_csv.iter().enumerate() {
+        let rec = &recordings[k];
+        let reference = spincal::Recording {
+            time_s: rec.time_s.clone(),
+            accel_mps2: fit.reference(k, &rec.time_s),
+            gyro_radps: None,
+            source: spincal::recording::Source::default(),
+        };
+        reference
+            .write_csv_path(path, spincal::AccelUnit::G)
+            .with_context(|| format!("writing the reference of {}", rec.source.name))?;
+    }
     if let Some(path) = &args.output {
         std::fs::write(path, serde_json::to_string_pretty(&fit)? + "\n")
             .with_context(|| format!("writing {}", path.display()))?;
     }
-    if args.json {
+    if args.turntable.json {
         return ui::print_json(&fit);
     }
     ui::print(&render(&fit))
@@ -190,10 +218,10 @@ pub fn render(fit: &TurntableFit) -> String {
     for (k, r) in fit.recordings.iter().enumerate() {
         let rpm = r.session.omega_radps * 60.0 / (2.0 * std::f64::consts::PI);
         text.push_str(&format!(
-            "\nrecording {}: fitted ω = {:.4} rpm, direction {:?}; model fit x {:.2} %, y {:.2} %, z {:.2} %; residual RMS {:.2e} {:.2e} {:.2e} m/s²",
+            "\nrecording {}: fitted ω = {:.4} rpm, {}; model fit x {:.2} %, y {:.2} %, z {:.2} %; residual RMS {:.2e} {:.2e} {:.2e} m/s²",
             k + 1,
             rpm,
-            r.session.direction,
+            r.session.direction.describe(),
             r.fit_percent[0],
             r.fit_percent[1],
             r.fit_percent[2],
@@ -216,8 +244,8 @@ pub fn render(fit: &TurntableFit) -> String {
         text.push_str(&format!("\nnote: {remedy}\n"));
     }
     text.push_str(&format!(
-        "\nweighted SSE: {:.6e} after Nelder–Mead ({} iterations), {:.6e} after Levenberg–Marquardt ({} iterations, {:?})\n",
-        fit.cost_nelder_mead, fit.nelder_mead_iterations, fit.cost_final, fit.lm_iterations, fit.lm_stop
+        "\nweighted SSE: {:.6e} after Nelder–Mead ({} iterations), {:.6e} after Levenberg–Marquardt ({} iterations, {})\n",
+        fit.cost_nelder_mead, fit.nelder_mead_iterations, fit.cost_final, fit.lm_iterations, fit.lm_stop.describe()
     ));
     text
 }

@@ -1,34 +1,63 @@
-//! How the commands read recordings: one set of flags, one function.
+//! How every command reads recordings: one set of flags ([`ReadArgs`]), resolved once into the
+//! library's [`ReadOptions`].
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
-use spincal::formats::{read_path, Format, ReadOptions};
-use spincal::recording::{AccelUnit, ColumnMap, TimeUnit};
-use spincal::table::Delimiter;
+use spincal::formats::{self, Loaded, ReadOptions};
+use spincal::recording::ColumnMap;
 use spincal::Recording;
 
-use crate::ui::UsageError;
+use super::values::{AccelUnitArg, DelimiterArg, FormatArg, TimeUnitArg};
+use crate::ui::{Ui, UsageError};
 
-/// Flags that say how to read a recording file.
+/// Flags that say how to read a recording file; shared by every command that reads one.
 #[derive(Args, Debug, Clone, Default)]
 pub struct ReadArgs {
+    /// File format; detected when absent.
+    #[arg(long, value_enum, value_name = "FORMAT")]
+    pub format: Option<FormatArg>,
     /// Columns holding t,ax,ay,az[,gx,gy,gz]: header names or 1-based indices (guessed when absent).
     #[arg(long, value_name = "t,ax,ay,az")]
     pub columns: Option<String>,
-    /// Unit of the acceleration columns: g or mps2 (default: from the column names, else m/s²).
-    #[arg(long, value_name = "UNIT")]
-    pub accel_unit: Option<String>,
-    /// Unit of the time column: s, ms or us (default: from the column name, else s).
-    #[arg(long, value_name = "UNIT")]
-    pub time_unit: Option<String>,
-    /// Field separator: comma, semicolon, tab or whitespace (default: detected).
-    #[arg(long, value_name = "SEP")]
-    pub delimiter: Option<String>,
-    /// File format: csv, whitespace (imu_tk), imucal, mpu6050, phyphox, 3dm-gx1; detected when absent.
-    #[arg(long, value_name = "FORMAT")]
-    pub format: Option<String>,
+    /// Unit of the acceleration columns (default: from the column names, else m/s²).
+    #[arg(long, value_enum, value_name = "UNIT")]
+    pub accel_unit: Option<AccelUnitArg>,
+    /// Unit of the time column (default: from the column name, else s).
+    #[arg(long, value_enum, value_name = "UNIT")]
+    pub time_unit: Option<TimeUnitArg>,
+    /// Field separator (default: detected).
+    #[arg(long, value_enum, value_name = "SEP")]
+    pub delimiter: Option<DelimiterArg>,
+    /// Multiply (value − offset) by this to get m/s² (turns raw counts into SI).
+    #[arg(long, value_name = "M/S²_PER_UNIT")]
+    pub accel_scale: Option<f64>,
+    /// Per-axis offset `x,y,z` subtracted before --accel-scale (file units).
+    #[arg(long, value_parser = parse_triple, allow_hyphen_values = true, value_name = "X,Y,Z")]
+    pub accel_offset: Option<[f64; 3]>,
+    /// Sample rate, Hz, for files without a time column (MPU-6050 without `Fs`, imucal).
+    #[arg(long, value_name = "HZ")]
+    pub sample_rate: Option<f64>,
+    /// 3DM-GX1 AccelGainScale (EEPROM 230); default: the EEPROM reply captured in the stream.
+    #[arg(long)]
+    pub gx1_accel_gain: Option<u16>,
+    /// 3DM-GX1 GyroGainScale (EEPROM 130); angular rate is decoded only when given.
+    #[arg(long)]
+    pub gx1_gyro_gain: Option<u16>,
+}
+
+/// Parses `x,y,z` into three numbers.
+pub fn parse_triple(text: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|s| {
+            s.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("'{s}' is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    <[f64; 3]>::try_from(v).map_err(|v| format!("expected 3 comma-separated numbers, got {}", v.len()))
 }
 
 impl ReadArgs {
@@ -38,52 +67,89 @@ impl ReadArgs {
         if let Some(spec) = &self.columns {
             map = map.with_columns(spec).map_err(|e| UsageError(e.to_string()))?;
         }
-        if let Some(u) = &self.accel_unit {
-            map.accel_unit = Some(
-                AccelUnit::parse(u)
-                    .ok_or_else(|| UsageError(format!("--accel-unit {u}: expected g or mps2")))?,
-            );
-        }
-        if let Some(u) = &self.time_unit {
-            map.time_unit = Some(
-                TimeUnit::parse(u)
-                    .ok_or_else(|| UsageError(format!("--time-unit {u}: expected s, ms or us")))?,
-            );
-        }
-        if let Some(d) = &self.delimiter {
-            map.table.delimiter = Some(Delimiter::parse(d).ok_or_else(|| {
-                UsageError(format!(
-                    "--delimiter {d}: expected comma, semicolon, tab or whitespace"
-                ))
-            })?);
-        }
+        map.accel_unit = self.accel_unit.map(Into::into);
+        map.time_unit = self.time_unit.map(Into::into);
+        map.table.delimiter = self.delimiter.map(Into::into);
         Ok(map)
     }
 
-    /// Reads one recording in any supported format (detected unless `--format` is given).
-    pub fn read(&self, path: &Path) -> anyhow::Result<Recording> {
-        let format = match &self.format {
-            Some(name) => Some(Format::parse(name).ok_or_else(|| {
-                UsageError(format!(
-                    "--format {name}: expected csv, whitespace, imucal, mpu6050, phyphox or 3dm-gx1"
+    /// The library's read options.
+    pub fn options(&self) -> anyhow::Result<ReadOptions> {
+        if let Some(rate) = self.sample_rate {
+            if !(rate.is_finite() && rate > 0.0) {
+                return Err(
+                    UsageError(format!("--sample-rate {rate}: expected a positive rate in Hz")).into(),
+                );
+            }
+        }
+        if let Some(scale) = self.accel_scale {
+            if !(scale.is_finite() && scale != 0.0) {
+                return Err(UsageError(format!(
+                    "--accel-scale {scale}: expected a finite, non-zero factor"
                 ))
-            })?),
-            None => None,
-        };
-        let options = ReadOptions {
-            format,
+                .into());
+            }
+        }
+        Ok(ReadOptions {
+            format: self.format.map(Into::into),
             columns: self.column_map()?,
-            ..ReadOptions::default()
-        };
-        let loaded = read_path(path, &options).with_context(|| format!("reading {}", path.display()))?;
+            accel_scale: self.accel_scale,
+            accel_offset: self.accel_offset,
+            sample_rate_hz: self.sample_rate,
+            gx1: formats::Gx1Options {
+                accel_gain_scale: self.gx1_accel_gain,
+                gyro_gain_scale: self.gx1_gyro_gain,
+                command: None,
+            },
+        })
+    }
+
+    /// Reads a file in any supported format, raw counts allowed.
+    pub fn load(&self, path: &Path, ui: &Ui) -> anyhow::Result<Loaded> {
+        let options = self.options()?;
+        let spinner = ui.spinner("reading");
+        let loaded =
+            formats::read_path(path, &options).with_context(|| format!("reading {}", path.display()));
+        spinner.finish_and_clear();
+        loaded
+    }
+
+    /// Reads one recording in SI units; a file of raw counts without a scale is refused.
+    pub fn read(&self, path: &Path) -> anyhow::Result<Recording> {
+        let loaded = formats::read_path(path, &self.options()?)
+            .with_context(|| format!("reading {}", path.display()))?;
         if loaded.raw_counts {
             return Err(UsageError(format!(
-                "{}: the {} file holds raw counts; spincal needs m/s² or g here (use `spincal static` to calibrate the counts first)",
+                "{}: the {} file holds raw counts; spincal needs m/s² or g here (pass --accel-scale, or use `spincal static` to calibrate the counts first)",
                 path.display(),
                 loaded.format.name()
             ))
             .into());
         }
         Ok(loaded.recording)
+    }
+}
+
+/// One recording to read, with the reading flags.
+#[derive(Args, Debug)]
+pub struct InputArgs {
+    /// Recording to read (CSV, whitespace text, imucal, MPU-6050 logger, phyphox, 3DM-GX1 binary).
+    pub rec: PathBuf,
+    #[command(flatten)]
+    pub read: ReadArgs,
+}
+
+impl InputArgs {
+    /// Reads the recording (raw counts allowed).
+    pub fn load(&self, ui: &Ui) -> anyhow::Result<Loaded> {
+        self.read.load(&self.rec, ui)
+    }
+}
+
+/// One line saying which reader was used and why.
+pub fn format_line(loaded: &Loaded) -> String {
+    match &loaded.detection {
+        Some(d) => format!("format: {} (detected: {})", loaded.format, d.reason),
+        None => format!("format: {} (given)", loaded.format),
     }
 }

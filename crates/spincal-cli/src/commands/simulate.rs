@@ -8,6 +8,7 @@ use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
 use spincal::turntable::Direction;
 use spincal::AccelUnit;
 
+use super::values::{AccelUnitArg, DirectionArg};
 use crate::ui::{self, UsageError};
 
 #[derive(Args, Debug)]
@@ -47,8 +48,8 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 3.0)]
     pub beta_deg: f64,
     /// Sense of rotation seen from above: cw (record players) or ccw.
-    #[arg(long, default_value = "cw")]
-    pub direction: String,
+    #[arg(long, value_enum, default_value = "cw")]
+    pub direction: DirectionArg,
     /// Steady speed error, %.
     #[arg(long, default_value_t = 0.5)]
     pub speed_error_pct: f64,
@@ -68,8 +69,8 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub noise_g: Option<f64>,
     /// Unit written to the CSV: g or mps2.
-    #[arg(long, default_value = "g")]
-    pub unit: String,
+    #[arg(long, value_enum, default_value = "g")]
+    pub unit: AccelUnitArg,
     /// Print a JSON summary instead of text.
     #[arg(long)]
     pub json: bool,
@@ -92,13 +93,8 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     if let Some(noise) = args.noise_g {
         sensor.noise_g = noise;
     }
-    let direction = match args.direction.as_str() {
-        "cw" => Direction::Cw,
-        "ccw" => Direction::Ccw,
-        other => return Err(UsageError(format!("--direction {other}: expected cw or ccw")).into()),
-    };
-    let unit = AccelUnit::parse(&args.unit)
-        .ok_or_else(|| UsageError(format!("--unit {}: expected g or mps2", args.unit)))?;
+    let direction: Direction = args.direction.into();
+    let unit: AccelUnit = args.unit.into();
     let table = TurntableSetup {
         radius_m: args.radius,
         rpm: args.rpm,

@@ -129,10 +129,7 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
             norm
         );
     }
-    s += &format!(
-        "model: {:?} ({} parameters), g = {} m/s²\n",
-        c.model, args.model, args.gravity
-    );
+    s += &format!("model: {}, g = {} m/s²\n", c.model.describe(), args.gravity);
     s += &format!("bias [{}]: {:?}\n", c.input_unit, c.bias);
     s += &format!("scale [m/s² per {}]: {:?}\n", c.input_unit, c.scale);
     s += &format!("misalignment [α_yz, α_zy, α_zx]: {:?}\n", c.misalignment);
@@ -149,8 +146,10 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         s += &format!("RMS of |a| − g over the poses before: {b:.6} m/s²\n");
     }
     s += &format!(
-        "RMS of |a| − g over the poses after: {:.6} m/s² ({} iterations, {:?})\n",
-        fit.rms_mps2, fit.iterations, fit.stop
+        "RMS of |a| − g over the poses after: {:.6} m/s² ({} iterations, {})\n",
+        fit.rms_mps2,
+        fit.iterations,
+        fit.stop.describe()
     );
     ui::print(&s)
 }

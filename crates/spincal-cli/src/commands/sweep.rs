@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
-use spincal::ann::{sweep, AnnProblem, SweepRow, SweepSettings};
+use spincal::ann::{parse_grid, sweep, AnnProblem, SweepRow, SweepSettings};
 use spincal::plot::{Figure, HeatMap};
 use spincal::progress::Progress;
 
@@ -38,40 +38,6 @@ pub struct SweepArgs {
     pub json: bool,
 }
 
-/// Expands `1-15;1-15,1-10` into hidden-layer lists.
-pub fn parse_grid(text: &str) -> anyhow::Result<Vec<Vec<usize>>> {
-    let bad = || UsageError(format!("--grid {text}: expected entries such as 1-15;1-15,1-10"));
-    let mut grid = Vec::new();
-    for entry in text.split(';').filter(|e| !e.trim().is_empty()) {
-        let mut layers: Vec<Vec<usize>> = vec![Vec::new()];
-        for range in entry.split(',') {
-            let (lo, hi) = match range.trim().split_once('-') {
-                Some((a, b)) => (a.trim().parse::<usize>(), b.trim().parse::<usize>()),
-                None => (range.trim().parse::<usize>(), range.trim().parse::<usize>()),
-            };
-            let (lo, hi) = (lo.map_err(|_| bad())?, hi.map_err(|_| bad())?);
-            if lo == 0 || hi < lo {
-                return Err(bad().into());
-            }
-            layers = layers
-                .into_iter()
-                .flat_map(|prefix| {
-                    (lo..=hi).map(move |n| {
-                        let mut p = prefix.clone();
-                        p.push(n);
-                        p
-                    })
-                })
-                .collect();
-        }
-        grid.extend(layers);
-    }
-    if grid.is_empty() {
-        return Err(bad().into());
-    }
-    Ok(grid)
-}
-
 #[derive(Serialize)]
 struct SweepOutput<'a> {
     data: String,
@@ -87,7 +53,7 @@ struct SweepOutput<'a> {
 }
 
 pub fn run(args: SweepArgs, ui: Ui) -> anyhow::Result<()> {
-    let grid = parse_grid(&args.grid)?;
+    let grid = parse_grid(&args.grid).map_err(|e| UsageError(format!("--grid {e}")))?;
     let axes = args.data.axes("x,y")?;
     let (measured, reference) = args.data.read()?;
     let problem = AnnProblem::new(
@@ -242,15 +208,6 @@ fn summary(output: &SweepOutput, csv: &std::path::Path, json: &std::path::Path) 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn default_grid_is_the_papers() {
-        let grid = parse_grid("1-15;1-15,1-10").unwrap();
-        assert_eq!(grid.len(), 165);
-        assert_eq!(grid, spincal::ann::default_grid());
-        assert_eq!(parse_grid("10,6").unwrap(), vec![vec![10, 6]]);
-        assert!(parse_grid("0-3").is_err());
-    }
 
     #[test]
     fn heat_map_places_one_and_two_layer_rows() {

@@ -8,6 +8,7 @@ use clap::Args;
 use spincal::sysid::{fit_and_score, FitScore, ModelKind, ModelSpec, ScoredFit, SysidModel};
 use spincal::table::{Table, TableOptions};
 
+use super::values::DelimiterArg;
 use crate::ui::{self, Ui, UsageError};
 
 #[derive(Args)]
@@ -28,6 +29,9 @@ pub struct SysidArgs {
     /// Delimited numeric table.
     #[arg(long)]
     data: PathBuf,
+    /// Field separator of --data (default: detected).
+    #[arg(long, value_enum, value_name = "SEP")]
+    delimiter: Option<DelimiterArg>,
     /// Input column (header name or 1-based index).
     #[arg(long)]
     input: String,
@@ -95,7 +99,11 @@ pub fn run(args: SysidArgs, ui: Ui) -> anyhow::Result<()> {
         ..ModelSpec::new(kind, &orders).map_err(|e| UsageError(format!("{e}")))?
     };
     let reading = ui.spinner("reading");
-    let table = Table::read_path(&args.data, &TableOptions::default())?;
+    let options = TableOptions {
+        delimiter: args.delimiter.map(Into::into),
+        ..TableOptions::default()
+    };
+    let table = Table::read_path(&args.data, &options)?;
     reading.finish_and_clear();
     let column = |key: &str| {
         table.column_index(key).ok_or_else(|| {

@@ -8,9 +8,10 @@ use serde::Serialize;
 use spincal::ann::{AnnProblem, DivisionMode, LmSettings, Part, PartFits};
 use spincal::corrector::Axis;
 use spincal::linear::LinearModel;
-use spincal::{ColumnMap, Recording};
+use spincal::Recording;
 use spincal::{CorrectorFile, CorrectorModel};
 
+use super::input::ReadArgs;
 use crate::ui::{self, Ui, UsageError};
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -32,16 +33,20 @@ pub enum DivisionArg {
 /// Data, division and network options shared by `train` and `sweep`.
 #[derive(Args)]
 pub struct DataArgs {
-    /// Measured recording (CSV: t,ax,ay,az[,gx,gy,gz]).
-    #[arg(long, value_name = "REC.csv")]
+    /// Measured recording, in any format spincal reads (see the reading flags).
+    #[arg(long, value_name = "REC")]
     pub data: PathBuf,
-    /// Reference acceleration for the same samples (CSV: t,ax,ay,az).
+    /// Reference acceleration for the same samples: `spincal fit REC --reference-csv REF.csv`
+    /// writes it (t_s,ax_g,ay_g,az_g).
     #[arg(long, value_name = "REF.csv")]
     pub reference: PathBuf,
+    /// How to read --data.
+    #[command(flatten)]
+    pub read: ReadArgs,
     /// Axes to correct, e.g. x or x,y (one axis: SISO; several: MIMO). Default x,y for the
     /// network, x,y,z for the linear corrector.
-    #[arg(long)]
-    pub axes: Option<String>,
+    #[arg(long, value_name = "AXES")]
+    pub correct_axes: Option<String>,
     /// Previous samples of each axis given to the network besides the current one.
     #[arg(long, default_value_t = 0)]
     pub delays: usize,
@@ -64,9 +69,12 @@ pub struct DataArgs {
 
 impl DataArgs {
     pub fn axes(&self, default: &str) -> anyhow::Result<Vec<Axis>> {
-        let text = self.axes.as_deref().unwrap_or(default);
+        let text = self.correct_axes.as_deref().unwrap_or(default);
         Axis::parse_list(text).ok_or_else(|| {
-            UsageError(format!("--axes {text}: expected axes from x, y, z such as x,y")).into()
+            UsageError(format!(
+                "--correct-axes {text}: expected axes from x, y, z such as x,y"
+            ))
+            .into()
         })
     }
 
@@ -89,9 +97,8 @@ impl DataArgs {
     }
 
     pub fn read(&self) -> anyhow::Result<(Recording, Recording)> {
-        let map = ColumnMap::default();
-        let measured = Recording::read_csv_path(&self.data, &map)?;
-        let reference = Recording::read_csv_path(&self.reference, &map)?;
+        let measured = self.read.read(&self.data)?;
+        let reference = ReadArgs::default().read(&self.reference)?;
         Ok((measured, reference))
     }
 }
@@ -119,15 +126,9 @@ pub fn all_if_zero(samples: usize) -> Option<usize> {
     (samples > 0).then_some(samples)
 }
 
-/// Parses `10,6` or `none`.
+/// Parses `--hidden` (`10,6` or `none`).
 pub fn parse_hidden(text: &str) -> anyhow::Result<Vec<usize>> {
-    if text.trim().eq_ignore_ascii_case("none") {
-        return Ok(Vec::new());
-    }
-    text.split(',')
-        .map(|s| s.trim().parse::<usize>())
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|_| UsageError(format!("--hidden {text}: expected sizes such as 10,6 or `none`")).into())
+    spincal::ann::parse_hidden_sizes(text).map_err(|e| UsageError(format!("--hidden {e}")).into())
 }
 
 #[derive(Serialize)]
@@ -180,7 +181,7 @@ pub fn run(args: TrainArgs, ui: Ui) -> anyhow::Result<()> {
                 Some(m.network.hidden.clone()),
                 m.delays,
                 Some(t.report.epochs),
-                Some(format!("{:?}", t.report.stop)),
+                Some(t.report.stop.describe().to_string()),
                 &t.fits,
                 &t.uncorrected,
                 m.axes.clone(),

@@ -35,6 +35,17 @@ pub enum StaticModel {
 }
 
 impl StaticModel {
+    /// The model in words, with its parameter count.
+    pub fn describe(self) -> &'static str {
+        match self {
+            StaticModel::BiasScale => "bias and scale (6 parameters)",
+            StaticModel::Misalignment => "bias, scale and misalignment (9 parameters)",
+            StaticModel::Nonlinear => "bias, scale, misalignment and quadratic nonlinearity (12 parameters)",
+        }
+    }
+}
+
+impl StaticModel {
     pub fn n_params(self) -> usize {
         match self {
             StaticModel::BiasScale => 6,
@@ -206,7 +217,7 @@ pub struct StaticFit {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum StaticCalError {
-    #[error("the {model:?} model has {needed} parameters but only {found} still poses were found; use more poses or a smaller model (--model 6)")]
+    #[error("the model of {} needs at least as many still poses as parameters, but only {found} were found; record more poses or use a smaller model (--model 6)", model.describe())]
     TooFewPoses {
         model: StaticModel,
         needed: usize,

@@ -51,6 +51,19 @@ pub enum LmStop {
     NoProgress,
 }
 
+impl LmStop {
+    /// Why the solver stopped, for people.
+    pub fn describe(self) -> &'static str {
+        match self {
+            LmStop::CostTolerance => "converged: the cost stopped falling",
+            LmStop::StepTolerance => "converged: the steps became negligible",
+            LmStop::GradientTolerance => "converged: the gradient vanished",
+            LmStop::MaxIterations => "stopped at the iteration limit",
+            LmStop::NoProgress => "converged: no step lowers the cost (a minimum to machine precision)",
+        }
+    }
+}
+
 /// Result of a Levenberg–Marquardt run.
 #[derive(Debug, Clone)]
 pub struct LmReport {

@@ -14,6 +14,16 @@
 
 use serde::{Deserialize, Serialize};
 
+impl Direction {
+    /// The sense of rotation seen from above, in words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Direction::Ccw => "counter-clockwise",
+            Direction::Cw => "clockwise",
+        }
+    }
+}
+
 /// Sense of rotation, which flips the sign of the gravity term on y.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -91,6 +91,20 @@ pub enum StopReason {
     PerfectFit,
 }
 
+impl StopReason {
+    /// Why training stopped, for people.
+    pub fn describe(self) -> &'static str {
+        match self {
+            StopReason::MinRelativeDecrease => "the training error stopped falling",
+            StopReason::ValidationStop => "early stop: the validation error stopped improving",
+            StopReason::MaxEpochs => "the epoch limit",
+            StopReason::MuMax => "the damping limit: no step lowers the training error",
+            StopReason::MinGradient => "the gradient vanished",
+            StopReason::PerfectFit => "a perfect fit",
+        }
+    }
+}
+
 /// What happened during one training run. MSEs are over the scaled outputs ([−1, 1]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrainingReport {

@@ -19,7 +19,10 @@ use serde::{Deserialize, Serialize};
 pub use data::{Dataset, Scaling};
 pub use lm::{JtjConvention, LmSettings, LmWorkspace, StopReason, TrainingReport};
 pub use network::{Layout, Network, MAX_HIDDEN_LAYERS};
-pub use sweep::{architecture_label, default_grid, sweep, SweepRow, SweepSettings, SWEEP_HESSIAN_SAMPLES};
+pub use sweep::{
+    architecture_label, default_grid, parse_grid, parse_hidden_sizes, small_grid, sweep, SizesError,
+    SweepRow, SweepSettings, SWEEP_HESSIAN_SAMPLES,
+};
 
 use crate::correctors::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
 use crate::correctors::division::{check_axes, check_pairing, PairingError};

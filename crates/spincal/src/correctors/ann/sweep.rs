@@ -21,6 +21,73 @@ pub fn default_grid() -> Vec<Vec<usize>> {
     grid
 }
 
+/// The small grid used by `spincal demo` and by default: one layer of 1–8 units, two layers of
+/// 2–8 × 2–6 (even sizes).
+pub fn small_grid() -> Vec<Vec<usize>> {
+    let mut grid: Vec<Vec<usize>> = (1..=8).map(|n| vec![n]).collect();
+    for first in (2..=8).step_by(2) {
+        for second in (2..=6).step_by(2) {
+            grid.push(vec![first, second]);
+        }
+    }
+    grid
+}
+
+/// A hidden-layer or grid text that cannot be read.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SizesError {
+    #[error("'{0}': expected hidden-layer sizes such as 10,6 (or `none` for no hidden layer)")]
+    Hidden(String),
+    #[error("'{0}': expected grid entries such as 1-15;1-15,1-10 (`;` between entries, `,` between layers, sizes from 1)")]
+    Grid(String),
+}
+
+/// Parses hidden-layer sizes `10,6`, or `none` for a network without hidden layers.
+pub fn parse_hidden_sizes(text: &str) -> Result<Vec<usize>, SizesError> {
+    if text.trim().eq_ignore_ascii_case("none") {
+        return Ok(Vec::new());
+    }
+    text.split(',')
+        .map(|s| s.trim().parse::<usize>().ok().filter(|&n| n > 0))
+        .collect::<Option<Vec<_>>>()
+        .ok_or_else(|| SizesError::Hidden(text.to_string()))
+}
+
+/// Expands a grid such as `1-15;1-15,1-10`: `;`-separated entries, each the product of its
+/// `,`-separated size ranges (`1-15,1-10` is every two-layer network of 1–15 × 1–10 units).
+pub fn parse_grid(text: &str) -> Result<Vec<Vec<usize>>, SizesError> {
+    let bad = || SizesError::Grid(text.to_string());
+    let mut grid = Vec::new();
+    for entry in text.split(';').filter(|e| !e.trim().is_empty()) {
+        let mut layers: Vec<Vec<usize>> = vec![Vec::new()];
+        for range in entry.split(',') {
+            let (lo, hi) = match range.trim().split_once('-') {
+                Some((a, b)) => (a.trim().parse::<usize>(), b.trim().parse::<usize>()),
+                None => (range.trim().parse::<usize>(), range.trim().parse::<usize>()),
+            };
+            let (lo, hi) = (lo.map_err(|_| bad())?, hi.map_err(|_| bad())?);
+            if lo == 0 || hi < lo {
+                return Err(bad());
+            }
+            layers = layers
+                .into_iter()
+                .flat_map(|prefix| {
+                    (lo..=hi).map(move |n| {
+                        let mut p = prefix.clone();
+                        p.push(n);
+                        p
+                    })
+                })
+                .collect();
+        }
+        grid.extend(layers);
+    }
+    if grid.is_empty() {
+        return Err(bad());
+    }
+    Ok(grid)
+}
+
 /// Samples of each epoch's JᵀJ when screening architectures ([`LmSettings::hessian_samples`]):
 /// 32 blocks of 256. Recordings up to ~13,000 samples (training part ≤ 8,192) are unaffected.
 pub const SWEEP_HESSIAN_SAMPLES: usize = 8192;
@@ -124,4 +191,23 @@ pub fn architecture_label(hidden: &[usize]) -> String {
         return "none".into();
     }
     hidden.iter().map(usize::to_string).collect::<Vec<_>>().join("-")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_grid_is_the_papers_and_parses_from_text() {
+        let grid = parse_grid("1-15;1-15,1-10").unwrap();
+        assert_eq!(grid.len(), 165);
+        assert_eq!(grid, default_grid());
+        assert_eq!(parse_grid("10,6").unwrap(), vec![vec![10, 6]]);
+        assert!(parse_grid("0-3").is_err());
+        assert_eq!(small_grid().len(), 20);
+        assert_eq!(parse_hidden_sizes("10, 6"), Ok(vec![10, 6]));
+        assert_eq!(parse_hidden_sizes("none"), Ok(vec![]));
+        assert!(parse_hidden_sizes("10,0").is_err());
+        assert!(parse_hidden_sizes("ten").is_err());
+    }
 }

@@ -1,0 +1,128 @@
+//! Every closed set of flag values, as clap `ValueEnum`s mapped onto the library's types. The
+//! library stays free of clap; each mirror converts with `From`.
+
+use clap::ValueEnum;
+use spincal::formats::Format;
+use spincal::recording::{AccelUnit, TimeUnit};
+use spincal::table::Delimiter;
+use spincal::turntable::{AxesObjective, Direction, DriftMode};
+
+/// Maps a mirror enum onto the library's, variant for variant.
+macro_rules! mirror {
+    ($arg:ident => $lib:ty { $($variant:ident => $target:expr),+ $(,)? }) => {
+        impl From<$arg> for $lib {
+            fn from(value: $arg) -> $lib {
+                match value {
+                    $($arg::$variant => $target),+
+                }
+            }
+        }
+    };
+}
+
+/// File formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FormatArg {
+    /// Delimited text with a header naming time and acceleration columns.
+    Csv,
+    /// imu_tk's whitespace-separated `t ax ay az` rows.
+    #[value(alias = "imu-tk")]
+    Whitespace,
+    /// imucal's labelled CSV (raw counts).
+    Imucal,
+    /// MPU-6050 logger CSV (int16 counts).
+    Mpu6050,
+    /// phyphox's CSV export.
+    Phyphox,
+    /// Microstrain 3DM-GX1 binary stream.
+    #[value(name = "3dm-gx1", alias = "gx1")]
+    Gx1,
+}
+mirror!(FormatArg => Format {
+    Csv => Format::Csv,
+    Whitespace => Format::Whitespace,
+    Imucal => Format::Imucal,
+    Mpu6050 => Format::Mpu6050,
+    Phyphox => Format::Phyphox,
+    Gx1 => Format::Gx1,
+});
+
+/// Units of acceleration in a file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum AccelUnitArg {
+    /// Multiples of standard gravity, 9.80665 m/s².
+    G,
+    /// m/s².
+    Mps2,
+}
+mirror!(AccelUnitArg => AccelUnit { G => AccelUnit::G, Mps2 => AccelUnit::Mps2 });
+
+/// Units of time in a file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum TimeUnitArg {
+    S,
+    Ms,
+    Us,
+}
+mirror!(TimeUnitArg => TimeUnit { S => TimeUnit::S, Ms => TimeUnit::Ms, Us => TimeUnit::Us });
+
+/// Field separators.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DelimiterArg {
+    Comma,
+    Semicolon,
+    Tab,
+    /// One or more spaces or tabs.
+    Whitespace,
+}
+mirror!(DelimiterArg => Delimiter {
+    Comma => Delimiter::Comma,
+    Semicolon => Delimiter::Semicolon,
+    Tab => Delimiter::Tab,
+    Whitespace => Delimiter::Whitespace,
+});
+
+/// Axes in the turntable fit's objective (not the axes a corrector corrects).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ObjectiveAxesArg {
+    Xyz,
+    Xy,
+    /// The paper's choice when y drifts.
+    X,
+}
+mirror!(ObjectiveAxesArg => AxesObjective {
+    Xyz => AxesObjective::Xyz,
+    Xy => AxesObjective::Xy,
+    X => AxesObjective::X,
+});
+
+/// Linear drift per axis in the turntable fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DriftArg {
+    /// Fit drift terms and report them where significant.
+    Fit,
+    /// No drift terms.
+    Off,
+}
+mirror!(DriftArg => DriftMode { Fit => DriftMode::Fit, Off => DriftMode::Off });
+
+/// Sense of rotation seen from above.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DirectionArg {
+    /// Clockwise, as record players turn.
+    Cw,
+    /// Counter-clockwise.
+    Ccw,
+}
+mirror!(DirectionArg => Direction { Cw => Direction::Cw, Ccw => Direction::Ccw });
+
+/// The network architecture search of a calibration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SweepArg {
+    /// No search: train the architecture given by --hidden.
+    None,
+    /// One layer of 1–8 units; two layers of 2–8 × 2–6 (even).
+    Small,
+    /// The paper's grid: 1–15, and 1–15 × 1–10.
+    Full,
+}
