@@ -16,8 +16,8 @@ use crate::input::inspect::{inspect, Inspection};
 use crate::input::recording::{Recording, STANDARD_GRAVITY};
 use crate::metrics::fit_percent;
 use crate::optim::{
-    levenberg_marquardt, nelder_mead_bounded, Bounds, BoundsError, LeastSquares, LmOptions, LmStop,
-    NelderMeadOptions, Observer,
+    levenberg_marquardt, nelder_mead_bounded, Bounds, BoundsError, LeastSquares, LmOptions, LmReport, LmStop,
+    NelderMeadOptions, NelderMeadReport, Observer,
 };
 use crate::turntable::model::{evaluate, for_each_derivative, for_each_sample, Direction, Mounting, Session};
 use crate::turntable::moments::CostMoments;
@@ -490,12 +490,63 @@ fn wrap_angle(x: f64) -> f64 {
     y
 }
 
-/// Fits the turntable model to the recordings jointly.
+/// Fits the turntable model to the recordings jointly: a first look at each recording (rate,
+/// sinusoid start, inspection), the parameter table, bounded Nelder–Mead on the moment cost, the
+/// Levenberg–Marquardt polish on the exact residuals, then standard errors, identifiability, drift
+/// findings and per-recording fits.
 pub fn fit_turntable(
     recordings: &[&Recording],
     options: &FitOptions,
     observer: &Observer,
 ) -> Result<TurntableFit, FitError> {
+    check_request(recordings, options)?;
+    let looks = recordings
+        .iter()
+        .map(|rec| first_look(rec, options))
+        .collect::<Result<Vec<_>, _>>()?;
+    let defs = parameter_table(recordings, options, &looks)?;
+    let bounds = Bounds {
+        names: defs.iter().map(|d| d.name.clone()).collect(),
+        lower: defs.iter().map(|d| d.lower).collect(),
+        upper: defs.iter().map(|d| d.upper).collect(),
+    };
+    bounds.validate()?;
+    let problem = build_problem(recordings, options, &looks, defs);
+    let start: Vec<f64> = problem.defs.iter().map(|d| d.start).collect();
+    let (nm, lm) = solve(&problem, &start, &bounds, options, observer)?;
+    let estimates = estimates(&problem, &bounds, &lm);
+    let undetermined: Vec<String> = estimates
+        .params
+        .iter()
+        .filter(|p| !p.determined)
+        .map(|p| p.name.clone())
+        .collect();
+    let remedy = remedy_for(&undetermined, recordings.len(), options);
+    let (mounting, sessions) = problem.unpack(&estimates.values);
+    let drift = drift_findings(&problem, &estimates);
+    let recording_fits = recording_fits(&problem, &looks, &sessions, &mounting);
+    Ok(TurntableFit {
+        gravity_mps2: options.gravity_mps2,
+        axes: options.axes,
+        mounting,
+        recordings: recording_fits,
+        params: estimates.params,
+        correlation: estimates.correlation,
+        undetermined,
+        remedy,
+        drift,
+        cost_nelder_mead: nm.cost,
+        cost_final: lm.sse,
+        nelder_mead_iterations: nm.iterations,
+        lm_iterations: lm.iterations,
+        lm_stop: lm.stop,
+        noise_mps2: looks.iter().map(|l| l.start.noise).collect(),
+        start,
+    })
+}
+
+/// At least one recording and a radius prior that makes sense.
+fn check_request(recordings: &[&Recording], options: &FitOptions) -> Result<(), FitError> {
     if recordings.is_empty() {
         return Err(FitError::NoRecordings);
     }
@@ -507,7 +558,20 @@ pub fn fit_turntable(
             });
         }
     }
-    let g = options.gravity_mps2;
+    Ok(())
+}
+
+/// What one recording shows before any fit.
+struct FirstLook {
+    rate: RateEstimate,
+    start: SinusoidFit,
+    inspection: Inspection,
+    direction: Direction,
+}
+
+/// The rotation rate from the spectrum (at least three turns are needed), a sinusoid fit at that
+/// rate for the starting values, the inspection, and the sense of rotation.
+fn first_look(rec: &Recording, options: &FitOptions) -> Result<FirstLook, FitError> {
     let search = match options.rpm_hint {
         Some(rpm) => RateSearch {
             min_rpm: 0.9 * rpm,
@@ -515,150 +579,37 @@ pub fn fit_turntable(
         },
         None => RateSearch::default(),
     };
-    let axes = options.axes.axes();
-    let mut rates = Vec::new();
-    let mut starts = Vec::new();
-    let mut inspections = Vec::new();
-    for rec in recordings {
-        let rate = estimate_rotation_rate(rec, search)?;
-        let rotations = rec.duration_s() * rate.frequency_hz;
-        if rotations < 3.0 {
-            return Err(FitError::TooFewRotations {
-                file: rec.source.name.clone(),
-                rotations,
-                rpm: rate.rpm,
-                duration_s: rec.duration_s(),
-            });
-        }
-        starts.push(sinusoid_fit(rec, rate.omega_radps));
-        inspections.push(inspect(rec, options.range_mps2));
-        rates.push(rate);
+    let rate = estimate_rotation_rate(rec, search)?;
+    let rotations = rec.duration_s() * rate.frequency_hz;
+    if rotations < 3.0 {
+        return Err(FitError::TooFewRotations {
+            file: rec.source.name.clone(),
+            rotations,
+            rpm: rate.rpm,
+            duration_s: rec.duration_s(),
+        });
     }
-
+    let start = sinusoid_fit(rec, rate.omega_radps);
     // Sense of rotation: y leads x by a quarter turn for s = +1 (see the model's equations).
-    let directions: Vec<Direction> = starts
-        .iter()
-        .map(|s| Direction::from_sign(s.cos[1] * s.sin[0] - s.sin[1] * s.cos[0]))
-        .collect();
+    let direction = Direction::from_sign(start.cos[1] * start.sin[0] - start.sin[1] * start.cos[0]);
+    Ok(FirstLook {
+        rate,
+        start,
+        inspection: inspect(rec, options.range_mps2),
+        direction,
+    })
+}
 
-    let n = recordings.len();
-    let pi = std::f64::consts::PI;
-    let mut defs = Vec::new();
-    let suffix = |k: usize| {
-        if n > 1 {
-            format!("[{}]", k + 1)
-        } else {
-            String::new()
-        }
-    };
-    // Mean levels give ω²r cos β + b_x and ω²r sin β + b_y; start with zero offsets.
-    let s0 = &starts[0];
-    let beta0 = s0.mean[1].atan2(s0.mean[0]);
-    let radius_start = |k: usize| -> f64 {
-        options.radius.map(|p| p.value_m).unwrap_or_else(|| {
-            let s = &starts[k];
-            (s.mean[0].hypot(s.mean[1]) / rates[k].omega_radps.powi(2)).clamp(0.002, 0.49)
-        })
-    };
-    let (radius_lo, radius_hi) = match options.radius {
-        Some(p) => (
-            (p.value_m - 10.0 * p.tolerance_m).max(0.0),
-            p.value_m + 10.0 * p.tolerance_m,
-        ),
-        None => (0.0, 0.5),
-    };
-    let axis_used = |a: usize| axes.contains(&a);
-    let uses_y = axis_used(1);
-    defs.push(ParamDef {
-        name: "beta".into(),
-        unit: "rad",
-        role: Role::Beta,
-        lower: -2.0 * pi,
-        upper: 2.0 * pi,
-        start: beta0,
-    });
-    if options.fit_offsets {
-        for a in 0..3 {
-            if axis_used(a) {
-                defs.push(ParamDef {
-                    name: format!("offset_{}", ['x', 'y', 'z'][a]),
-                    unit: "m/s²",
-                    role: Role::Offset(a),
-                    lower: -0.5 * g,
-                    upper: 0.5 * g,
-                    start: 0.0,
-                });
-            }
-        }
-    }
-    if options.shared_radius {
-        defs.push(ParamDef {
-            name: "radius".into(),
-            unit: "m",
-            role: Role::Radius(None),
-            lower: radius_lo,
-            upper: radius_hi,
-            start: radius_start(0),
-        });
-    }
-    for k in 0..n {
-        let s = &starts[k];
-        let w = rates[k].omega_radps;
-        if !options.shared_radius {
-            defs.push(ParamDef {
-                name: format!("radius{}", suffix(k)),
-                unit: "m",
-                role: Role::Radius(Some(k)),
-                lower: radius_lo,
-                upper: radius_hi,
-                start: radius_start(k),
-            });
-        }
-        defs.push(ParamDef {
-            name: format!("omega{}", suffix(k)),
-            unit: "rad/s",
-            role: Role::Omega(k),
-            lower: 0.97 * w,
-            upper: 1.03 * w,
-            start: w,
-        });
-        // Amplitude A = g sin α; x = A sin(u): sin-coefficient A cos(φ−β), cos-coefficient A sin(φ−β).
-        let amplitude = if uses_y {
-            0.5 * (s.sin[0].hypot(s.cos[0]) + s.sin[1].hypot(s.cos[1]))
-        } else {
-            s.sin[0].hypot(s.cos[0])
-        };
-        defs.push(ParamDef {
-            name: format!("tilt{}", suffix(k)),
-            unit: "rad",
-            role: Role::Tilt(k),
-            lower: 0.0,
-            upper: 30f64.to_radians(),
-            start: (amplitude / g).clamp(0.0, 0.49).asin(),
-        });
-        defs.push(ParamDef {
-            name: format!("phase{}", suffix(k)),
-            unit: "rad",
-            role: Role::Phase(k),
-            lower: -2.0 * pi,
-            upper: 2.0 * pi,
-            start: wrap_angle(s.cos[0].atan2(s.sin[0]) + beta0),
-        });
-        if options.drift == DriftMode::Fit {
-            let span = recordings[k].duration_s();
-            for a in 0..3 {
-                if axis_used(a) {
-                    defs.push(ParamDef {
-                        name: format!("drift_{}{}", ['x', 'y', 'z'][a], suffix(k)),
-                        unit: "m/s³",
-                        role: Role::Drift(k, a),
-                        lower: -0.2 * g / span,
-                        upper: 0.2 * g / span,
-                        start: 0.0,
-                    });
-                }
-            }
-        }
+/// Every free parameter with its unit, bounds and starting value: shared ones first (β, offsets,
+/// a shared radius), then each recording's; the user's `--bounds` replace the defaults.
+fn parameter_table(
+    recordings: &[&Recording],
+    options: &FitOptions,
+    looks: &[FirstLook],
+) -> Result<Vec<ParamDef>, FitError> {
+    let mut defs = shared_parameters(options, looks);
+    for k in 0..recordings.len() {
+        defs.extend(recording_parameters(k, recordings, options, looks));
     }
     for (name, lower, upper) in &options.bounds {
         let Some(def) = defs.iter_mut().find(|d| &d.name == name) else {
@@ -669,23 +620,164 @@ pub fn fit_turntable(
         def.upper = *upper;
         def.start = def.start.clamp(lower.min(*upper), upper.max(*lower));
     }
-    let bounds = Bounds {
-        names: defs.iter().map(|d| d.name.clone()).collect(),
-        lower: defs.iter().map(|d| d.lower).collect(),
-        upper: defs.iter().map(|d| d.upper).collect(),
+    Ok(defs)
+}
+
+/// The radius's bounds: ±10 tolerances around a measured radius, else 0–0.5 m.
+fn radius_bounds(options: &FitOptions) -> (f64, f64) {
+    match options.radius {
+        Some(p) => (
+            (p.value_m - 10.0 * p.tolerance_m).max(0.0),
+            p.value_m + 10.0 * p.tolerance_m,
+        ),
+        None => (0.0, 0.5),
+    }
+}
+
+/// The measured radius, else the one the mean levels imply (ω²r from the x and y means).
+fn radius_start(options: &FitOptions, look: &FirstLook) -> f64 {
+    options.radius.map(|p| p.value_m).unwrap_or_else(|| {
+        let s = &look.start;
+        (s.mean[0].hypot(s.mean[1]) / look.rate.omega_radps.powi(2)).clamp(0.002, 0.49)
+    })
+}
+
+/// β, the sensor offsets and (when shared) the radius.
+fn shared_parameters(options: &FitOptions, looks: &[FirstLook]) -> Vec<ParamDef> {
+    let g = options.gravity_mps2;
+    let pi = std::f64::consts::PI;
+    // Mean levels give ω²r cos β + b_x and ω²r sin β + b_y; start with zero offsets.
+    let s0 = &looks[0].start;
+    let mut defs = vec![ParamDef {
+        name: "beta".into(),
+        unit: "rad",
+        role: Role::Beta,
+        lower: -2.0 * pi,
+        upper: 2.0 * pi,
+        start: s0.mean[1].atan2(s0.mean[0]),
+    }];
+    if options.fit_offsets {
+        for &a in options.axes.axes() {
+            defs.push(ParamDef {
+                name: format!("offset_{}", ['x', 'y', 'z'][a]),
+                unit: "m/s²",
+                role: Role::Offset(a),
+                lower: -0.5 * g,
+                upper: 0.5 * g,
+                start: 0.0,
+            });
+        }
+    }
+    if options.shared_radius {
+        let (lower, upper) = radius_bounds(options);
+        defs.push(ParamDef {
+            name: "radius".into(),
+            unit: "m",
+            role: Role::Radius(None),
+            lower,
+            upper,
+            start: radius_start(options, &looks[0]),
+        });
+    }
+    defs
+}
+
+/// Recording `k`'s own parameters: its radius (when not shared), ω, tilt, phase and drift.
+fn recording_parameters(
+    k: usize,
+    recordings: &[&Recording],
+    options: &FitOptions,
+    looks: &[FirstLook],
+) -> Vec<ParamDef> {
+    let g = options.gravity_mps2;
+    let pi = std::f64::consts::PI;
+    let suffix = if recordings.len() > 1 {
+        format!("[{}]", k + 1)
+    } else {
+        String::new()
     };
-    bounds.validate()?;
+    let (s, w) = (&looks[k].start, looks[k].rate.omega_radps);
+    let s0 = &looks[0].start;
+    let beta0 = s0.mean[1].atan2(s0.mean[0]);
+    let axes = options.axes.axes();
+    let mut defs = Vec::new();
+    if !options.shared_radius {
+        let (lower, upper) = radius_bounds(options);
+        defs.push(ParamDef {
+            name: format!("radius{suffix}"),
+            unit: "m",
+            role: Role::Radius(Some(k)),
+            lower,
+            upper,
+            start: radius_start(options, &looks[k]),
+        });
+    }
+    defs.push(ParamDef {
+        name: format!("omega{suffix}"),
+        unit: "rad/s",
+        role: Role::Omega(k),
+        lower: 0.97 * w,
+        upper: 1.03 * w,
+        start: w,
+    });
+    // Amplitude A = g sin α; x = A sin(u): sin-coefficient A cos(φ−β), cos-coefficient A sin(φ−β).
+    let amplitude = if axes.contains(&1) {
+        0.5 * (s.sin[0].hypot(s.cos[0]) + s.sin[1].hypot(s.cos[1]))
+    } else {
+        s.sin[0].hypot(s.cos[0])
+    };
+    defs.push(ParamDef {
+        name: format!("tilt{suffix}"),
+        unit: "rad",
+        role: Role::Tilt(k),
+        lower: 0.0,
+        upper: 30f64.to_radians(),
+        start: (amplitude / g).clamp(0.0, 0.49).asin(),
+    });
+    defs.push(ParamDef {
+        name: format!("phase{suffix}"),
+        unit: "rad",
+        role: Role::Phase(k),
+        lower: -2.0 * pi,
+        upper: 2.0 * pi,
+        start: wrap_angle(s.cos[0].atan2(s.sin[0]) + beta0),
+    });
+    if options.drift == DriftMode::Fit {
+        let span = recordings[k].duration_s();
+        for &a in axes {
+            defs.push(ParamDef {
+                name: format!("drift_{}{suffix}", ['x', 'y', 'z'][a]),
+                unit: "m/s³",
+                role: Role::Drift(k, a),
+                lower: -0.2 * g / span,
+                upper: 0.2 * g / span,
+                start: 0.0,
+            });
+        }
+    }
+    defs
+}
+
+/// The least-squares problem: residuals weighted by each recording's noise, the radius prior,
+/// and the per-block moments that make Nelder–Mead's cost O(blocks).
+fn build_problem<'a>(
+    recordings: &'a [&'a Recording],
+    options: &FitOptions,
+    looks: &[FirstLook],
+    defs: Vec<ParamDef>,
+) -> Problem<'a> {
     let prior = options.radius.and_then(|p| {
         defs.iter()
             .position(|d| matches!(d.role, Role::Radius(_)))
             .map(|i| (i, p))
     });
-    let problem = Problem {
+    let n = recordings.len();
+    Problem {
         recordings,
-        directions: directions.clone(),
-        axes,
-        weights: starts.iter().map(|s| s.noise.map(|v| 1.0 / v)).collect(),
-        gravity: g,
+        directions: looks.iter().map(|l| l.direction).collect(),
+        axes: options.axes.axes(),
+        weights: looks.iter().map(|l| l.start.noise.map(|v| 1.0 / v)).collect(),
+        gravity: options.gravity_mps2,
         prior,
         n_recordings: n,
         moments: (0..n)
@@ -696,19 +788,26 @@ pub fn fit_turntable(
             })
             .collect(),
         defs,
-    };
-    let start: Vec<f64> = problem.defs.iter().map(|d| d.start).collect();
+    }
+}
 
-    let start_cost = problem.cost(&start);
+/// Bounded Nelder–Mead from the start, then the Levenberg–Marquardt polish.
+fn solve(
+    problem: &Problem,
+    start: &[f64],
+    bounds: &Bounds,
+    options: &FitOptions,
+    observer: &Observer,
+) -> Result<(NelderMeadReport, LmReport), FitError> {
     let nm_options = NelderMeadOptions {
         tol_f: if options.nelder_mead.tol_f > 0.0 {
             options.nelder_mead.tol_f
         } else {
-            1e-9 * start_cost
+            1e-9 * problem.cost(start)
         },
         ..options.nelder_mead.clone()
     };
-    let nm = nelder_mead_bounded(&mut |p| problem.cost(p), &start, &bounds, &nm_options, &|pr| {
+    let nm = nelder_mead_bounded(&mut |p| problem.cost(p), start, bounds, &nm_options, &|pr| {
         observer(pr.in_stage("turntable fit: Nelder–Mead"))
     })?;
     let lm_options = LmOptions {
@@ -716,15 +815,27 @@ pub fn fit_turntable(
         upper: Some(bounds.upper.clone()),
         ..options.lm.clone()
     };
-    let lm = levenberg_marquardt(&problem, &nm.params, &lm_options, &|pr| {
+    let lm = levenberg_marquardt(problem, &nm.params, &lm_options, &|pr| {
         observer(pr.in_stage("turntable fit: Levenberg–Marquardt"))
     });
     if lm.params.iter().any(|v| !v.is_finite()) {
         return Err(FitError::NotFinite {
-            file: recordings[0].source.name.clone(),
+            file: problem.recordings[0].source.name.clone(),
         });
     }
+    Ok((nm, lm))
+}
 
+/// The fitted values (angles wrapped) with standard errors and correlations.
+struct Estimates {
+    values: Vec<f64>,
+    params: Vec<FittedParam>,
+    correlation: Vec<Vec<f64>>,
+}
+
+/// Standard errors from σ²(JᵀJ)⁺; parameters in null directions of the scaled JᵀJ are reported as
+/// not determined, with no standard error and NaN correlations.
+fn estimates(problem: &Problem, bounds: &Bounds, lm: &LmReport) -> Estimates {
     let dof = (problem.n_residuals() as f64 - problem.n_params() as f64).max(1.0);
     let (covariance, null_params) = covariance(&lm.jtj, lm.sse / dof);
     let mut params = Vec::new();
@@ -759,64 +870,54 @@ pub fn fit_turntable(
                 .collect()
         })
         .collect();
-    let undetermined: Vec<String> = params
-        .iter()
-        .filter(|p| !p.determined)
-        .map(|p| p.name.clone())
-        .collect();
-    let remedy = remedy_for(&undetermined, n, options);
-    let (mounting, sessions) = problem.unpack(&values);
+    Estimates {
+        values,
+        params,
+        correlation,
+    }
+}
 
+/// Each drift term as a change over its recording; significant beyond 5 standard errors and 1 mg.
+fn drift_findings(problem: &Problem, estimates: &Estimates) -> Vec<DriftFinding> {
     let mut drift = Vec::new();
     for (i, def) in problem.defs.iter().enumerate() {
         if let Role::Drift(k, a) = def.role {
-            let span = recordings[k].duration_s();
-            let se = params[i].std_error.unwrap_or(f64::NAN) * span;
-            let change = values[i] * span;
+            let span = problem.recordings[k].duration_s();
+            let se = estimates.params[i].std_error.unwrap_or(f64::NAN) * span;
+            let change = estimates.values[i] * span;
             drift.push(DriftFinding {
                 recording: k,
                 axis: ['x', 'y', 'z'][a],
                 change_mps2: change,
                 std_error_mps2: se,
-                // Significant: beyond 5 standard errors and above 1 mg over the recording.
                 significant: change.abs() > 5.0 * se && change.abs() > 1e-3 * STANDARD_GRAVITY,
             });
         }
     }
+    drift
+}
 
-    let mut recording_fits = Vec::new();
-    for (k, rec) in recordings.iter().enumerate() {
+/// The fitted model against each recording: fit % and residual RMS per axis.
+fn recording_fits(
+    problem: &Problem,
+    looks: &[FirstLook],
+    sessions: &[Session],
+    mounting: &Mounting,
+) -> Vec<RecordingFit> {
+    let mut fits = Vec::new();
+    for (k, rec) in problem.recordings.iter().enumerate() {
         let mut model = [Vec::new(), Vec::new(), Vec::new()];
-        evaluate(&sessions[k], &mounting, g, &rec.time_s, &mut model);
-        let fit = [0, 1, 2].map(|a| fit_percent(&rec.accel_mps2[a], &model[a]));
-        let rms = [0, 1, 2].map(|a| crate::metrics::rmse(&rec.accel_mps2[a], &model[a]));
-        recording_fits.push(RecordingFit {
+        evaluate(&sessions[k], mounting, problem.gravity, &rec.time_s, &mut model);
+        fits.push(RecordingFit {
             name: rec.source.name.clone(),
-            rate: rates[k].clone(),
-            inspection: inspections[k].clone(),
+            rate: looks[k].rate.clone(),
+            inspection: looks[k].inspection.clone(),
             session: sessions[k],
-            fit_percent: fit,
-            residual_rms_mps2: rms,
+            fit_percent: [0, 1, 2].map(|a| fit_percent(&rec.accel_mps2[a], &model[a])),
+            residual_rms_mps2: [0, 1, 2].map(|a| crate::metrics::rmse(&rec.accel_mps2[a], &model[a])),
         });
     }
-    Ok(TurntableFit {
-        gravity_mps2: g,
-        axes: options.axes,
-        mounting,
-        recordings: recording_fits,
-        params,
-        correlation,
-        undetermined,
-        remedy,
-        drift,
-        cost_nelder_mead: nm.cost,
-        cost_final: lm.sse,
-        nelder_mead_iterations: nm.iterations,
-        lm_iterations: lm.iterations,
-        lm_stop: lm.stop,
-        noise_mps2: starts.iter().map(|s| s.noise).collect(),
-        start,
-    })
+    fits
 }
 
 /// Scaled pseudo-inverse covariance σ²(JᵀJ)⁺ and the parameters caught in null directions.
