@@ -217,7 +217,7 @@ pub struct StaticFit {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum StaticCalError {
-    #[error("the model of {} needs at least as many still poses as parameters, but only {found} were found; record more poses or use a smaller model (--model 6)", model.describe())]
+    #[error("the model of {} needs {needed} still poses or more, but only {found} still poses were found; record more poses or use a smaller model (--model 6)", model.describe())]
     TooFewPoses {
         model: StaticModel,
         needed: usize,
