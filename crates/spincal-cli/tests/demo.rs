@@ -148,25 +148,29 @@ fn demo_writes_model_results_and_a_report_that_renders() {
         .count();
     assert_eq!(rows, input_rows, "every input row comes out");
 
-    // Every number shown in the report is the one in results.json.
+    // Every number shown in the report is the one in results.json (times data-scale where the
+    // page shows it in other units, e.g. degrees for an angle stored in rad).
     let html = std::fs::read_to_string(d.join("report.html")).unwrap();
     let mut checked = 0;
+    let mut scaled = 0;
     for piece in html.split("data-json=\"").skip(1) {
         let (pointer, rest) = piece.split_once('"').unwrap();
-        let digits: usize = rest
-            .split("data-digits=\"")
-            .nth(1)
-            .unwrap()
-            .split('"')
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap();
-        let shown = rest.split_once('>').unwrap().1.split('<').next().unwrap();
+        let (tag, after) = rest.split_once('>').unwrap();
+        let attribute = |name: &str| {
+            tag.split(&format!("{name}=\"")[..])
+                .nth(1)
+                .map(|v| v.split('"').next().unwrap())
+        };
+        let digits: usize = attribute("data-digits").unwrap().parse().unwrap();
+        let scale: f64 = attribute("data-scale").map_or(1.0, |s| {
+            scaled += 1;
+            s.parse().unwrap()
+        });
+        let shown = after.split('<').next().unwrap();
         let value = results
             .pointer(pointer)
             .unwrap_or_else(|| panic!("{pointer} not in results.json"));
-        let expected = match value.as_f64() {
+        let expected = match value.as_f64().map(|v| v * scale) {
             Some(v) if v.is_finite() => format!("{v:.digits$}"),
             _ => "—".to_string(),
         };
@@ -174,6 +178,27 @@ fn demo_writes_model_results_and_a_report_that_renders() {
         checked += 1;
     }
     assert!(checked > 100, "only {checked} numbers are tied to results.json");
+    assert!(scaled > 0, "no converted number (data-scale) was checked");
+    // Angles in degrees and drift in g, as `spincal fit` prints them; no Rust enum names.
+    let tilt_row = html
+        .split("<td>tilt[1]</td>")
+        .nth(1)
+        .unwrap()
+        .split("</tr>")
+        .next()
+        .unwrap();
+    assert!(tilt_row.contains("<td>deg</td>"), "{tilt_row}");
+    let drift_row = html
+        .split("<td>drift_x[1]</td>")
+        .nth(1)
+        .unwrap()
+        .split("</tr>")
+        .next()
+        .unwrap();
+    assert!(drift_row.contains("g over the recording"), "{drift_row}");
+    for debug_name in ["Cw<", "Ccw<", "NoProgress", "Contiguous", "Some(", "None<"] {
+        assert!(!html.contains(debug_name), "{debug_name} reached the report");
+    }
 
     // The report renders in a real browser with every plot drawn.
     if support::chromium().is_none() {
