@@ -165,16 +165,37 @@ pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
 }
 
 /// Value and standard error in display units (angles in degrees).
-fn display(p: &FittedParam) -> (f64, Option<f64>, String) {
+/// A parameter in the units the report uses too: angles in degrees, drift as the change in g over
+/// its recording, everything else in SI.
+fn display(p: &FittedParam, fit: &TurntableFit) -> (f64, Option<f64>, String) {
     if p.unit == "rad" {
-        (
+        return (
             p.value.to_degrees(),
             p.std_error.map(f64::to_degrees),
             "deg".into(),
-        )
-    } else {
-        (p.value, p.std_error, p.unit.clone())
+        );
     }
+    if p.name.starts_with("drift_") {
+        // `drift_x` (one recording) or `drift_x[k]` (1-based).
+        let k = p
+            .name
+            .split_once('[')
+            .and_then(|(_, rest)| rest.trim_end_matches(']').parse::<usize>().ok())
+            .map_or(0, |k| k - 1);
+        if let Some(r) = fit.recordings.get(k) {
+            let factor = r.inspection.duration_s / STANDARD_GRAVITY;
+            return (
+                p.value * factor,
+                p.std_error.map(|se| se * factor),
+                "g/rec".into(),
+            );
+        }
+    }
+    (p.value, p.std_error, p.unit.clone())
+}
+
+fn text_note_units(text: &mut String) {
+    text.push_str("(angles in degrees; drift as the change in g over its recording, g/rec; SI otherwise)\n");
 }
 
 /// The human-readable report of a fit.
@@ -200,8 +221,9 @@ pub fn render(fit: &TurntableFit) -> String {
         "\nparameter        value          std. error     unit    bound hit\n{}\n",
         "-".repeat(66)
     ));
+    text_note_units(&mut text);
     for p in &fit.params {
-        let (value, se, unit) = display(p);
+        let (value, se, unit) = display(p, fit);
         let se = match se {
             Some(se) => format!("{se:<14.6e}"),
             None => format!("{:<14}", "not determined"),

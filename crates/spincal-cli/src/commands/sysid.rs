@@ -101,7 +101,6 @@ pub fn run(args: SysidArgs, ui: Ui) -> anyhow::Result<()> {
     let reading = ui.spinner("reading");
     let options = TableOptions {
         delimiter: args.delimiter.map(Into::into),
-        ..TableOptions::default()
     };
     let table = Table::read_path(&args.data, &options)?;
     reading.finish_and_clear();
