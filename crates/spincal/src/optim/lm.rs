@@ -112,14 +112,7 @@ pub fn levenberg_marquardt(
     while iterations < options.max_iterations {
         if need_jacobian {
             problem.jacobian(&p, jac.as_mut());
-            matmul(
-                jtj.as_mut(),
-                Accum::Replace,
-                jac.transpose(),
-                jac.as_ref(),
-                1.0,
-                Par::Seq,
-            );
+            gram(&jac, &mut jtj);
             for (k, gk) in g.iter_mut().enumerate() {
                 *gk = (0..m).map(|i| jac[(i, k)] * r[i]).sum();
             }
@@ -199,14 +192,7 @@ pub fn levenberg_marquardt(
         }
     }
     problem.jacobian(&p, jac.as_mut());
-    matmul(
-        jtj.as_mut(),
-        Accum::Replace,
-        jac.transpose(),
-        jac.as_ref(),
-        1.0,
-        Par::Seq,
-    );
+    gram(&jac, &mut jtj);
     LmReport {
         params: p,
         sse,
@@ -298,4 +284,16 @@ mod tests {
         assert!((report.params[0] - 0.5).abs() < 1e-8, "{:?}", report.params);
         assert!((report.params[1] - 0.25).abs() < 1e-6, "{:?}", report.params);
     }
+}
+
+/// JᵀJ, sequentially (so the result does not depend on the thread count).
+fn gram(jac: &Mat<f64>, jtj: &mut Mat<f64>) {
+    matmul(
+        jtj.as_mut(),
+        Accum::Replace,
+        jac.transpose(),
+        jac.as_ref(),
+        1.0,
+        Par::Seq,
+    );
 }
