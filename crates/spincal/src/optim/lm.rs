@@ -232,6 +232,18 @@ fn sum_sq(r: &[f64]) -> f64 {
     r.iter().map(|v| v * v).sum()
 }
 
+/// JᵀJ, sequentially (so the result does not depend on the thread count).
+fn gram(jac: &Mat<f64>, jtj: &mut Mat<f64>) {
+    matmul(
+        jtj.as_mut(),
+        Accum::Replace,
+        jac.transpose(),
+        jac.as_ref(),
+        1.0,
+        Par::Seq,
+    );
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -284,16 +296,4 @@ mod tests {
         assert!((report.params[0] - 0.5).abs() < 1e-8, "{:?}", report.params);
         assert!((report.params[1] - 0.25).abs() < 1e-6, "{:?}", report.params);
     }
-}
-
-/// JᵀJ, sequentially (so the result does not depend on the thread count).
-fn gram(jac: &Mat<f64>, jtj: &mut Mat<f64>) {
-    matmul(
-        jtj.as_mut(),
-        Accum::Replace,
-        jac.transpose(),
-        jac.as_ref(),
-        1.0,
-        Par::Seq,
-    );
 }
