@@ -66,9 +66,11 @@ enum Command {
     Sweep(commands::sweep::SweepArgs),
     /// Apply a saved corrector to a recording, streaming, row by row.
     #[command(
-        after_help = "Every input row comes out with its original columns, the corrected axes added and a
-`valid` column (0 for the first rows without full delay history). A row that cannot be read stops
-the command with its line number and reason, and a partial output file is removed.
+        after_help = "Every input row comes out, in place, with its original columns, the corrected axes added, a
+`valid` column (0 for the first rows without full delay history) and a `status` column: ok,
+extrapolated (outside a network's training range) or `refused: line N: reason` for a row that
+cannot be read or whose time does not increase (its corrected columns are empty). Exit code 3 says
+rows were refused. The output is written to a temporary file and renamed when complete.
 
 Examples:
   spincal correct --model ann.json new.csv -o new-corrected.csv

@@ -77,6 +77,10 @@ pub fn exit_code(result: anyhow::Result<()>) -> i32 {
                 eprintln!("error: {e}");
                 return 2;
             }
+            if e.downcast_ref::<RowsRefused>().is_some() {
+                eprintln!("error: {e}");
+                return 3;
+            }
             eprintln!("error: {e}");
             for cause in e.chain().skip(1) {
                 eprintln!("  caused by: {cause}");
@@ -90,3 +94,8 @@ pub fn exit_code(result: anyhow::Result<()>) -> i32 {
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct UsageError(pub String);
+
+/// The command finished and wrote every row, but refused some rows: exit code 3.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct RowsRefused(pub String);

@@ -82,9 +82,10 @@ fn train_then_correct_streams_every_row_with_validity() {
     );
     let text = std::fs::read_to_string(&corrected).unwrap();
     let lines: Vec<&str> = text.lines().collect();
-    assert_eq!(lines[0], "t,ax,ay,az,ax_corrected,ay_corrected,valid");
+    assert_eq!(lines[0], "t,ax,ay,az,ax_corrected,ay_corrected,valid,status");
     assert_eq!(lines.len(), 801, "every input row comes out");
-    let valid: Vec<&str> = lines[1..].iter().map(|l| l.rsplit(',').next().unwrap()).collect();
+    assert!(lines[1..].iter().all(|l| l.ends_with(",ok")));
+    let valid: Vec<&str> = lines[1..].iter().map(|l| l.rsplit(',').nth(1).unwrap()).collect();
     assert_eq!(&valid[..3], &["0", "0", "1"]);
     assert!(valid[2..].iter().all(|v| *v == "1"));
 
@@ -109,7 +110,7 @@ fn train_then_correct_streams_every_row_with_validity() {
 }
 
 #[test]
-fn correct_refuses_a_bad_row_by_line_and_leaves_no_partial_file() {
+fn correct_writes_a_bad_row_in_place_with_its_reason_and_exits_3() {
     let dir = tempfile::tempdir().unwrap();
     let (m, r) = write_pair(dir.path(), 300);
     let model = dir.path().join("linear.json");
@@ -131,10 +132,27 @@ fn correct_refuses_a_bad_row_by_line_and_leaves_no_partial_file() {
         .arg(&out_path)
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(3));
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.contains("bad.csv:52"), "{stderr}");
-    assert!(!out_path.exists(), "partial output removed");
+    assert!(
+        stderr.contains("1 of 300 rows refused") && stderr.contains("bad.csv:52"),
+        "{stderr}"
+    );
+    let written = std::fs::read_to_string(&out_path).unwrap();
+    let lines: Vec<&str> = written.lines().collect();
+    assert_eq!(lines.len(), 301, "every input row comes out");
+    assert!(lines[0].ends_with(",valid,status"), "{}", lines[0]);
+    let refused: Vec<&&str> = lines.iter().filter(|l| l.contains("refused: line 52")).collect();
+    assert_eq!(refused.len(), 1, "{written}");
+    assert!(
+        refused[0].starts_with("0.5,oops,"),
+        "the row comes out in place: {}",
+        refused[0]
+    );
+    assert_eq!(lines.iter().filter(|l| l.ends_with(",1,ok")).count(), 299);
+    // A refused row breaks no later row: the one after it is corrected.
+    let at = lines.iter().position(|l| l.contains("refused")).unwrap();
+    assert!(lines[at + 1].ends_with(",ok"), "{}", lines[at + 1]);
 
     // A model file from another format version is refused by name.
     let future = std::fs::read_to_string(&model).unwrap().replacen(

@@ -20,6 +20,7 @@ pub mod correctors;
 pub mod input;
 pub mod metrics;
 pub mod optim;
+pub mod output;
 pub mod progress;
 #[cfg(feature = "plot")]
 pub mod report;

@@ -51,6 +51,15 @@ struct Report<'a> {
 }
 
 pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
+    let png = args.plot.as_ref().map(|p| p.with_extension("png"));
+    let outputs: Vec<&std::path::Path> = [&args.plot, &png, &args.curve, &args.profile]
+        .into_iter()
+        .flatten()
+        .map(|p| p.as_path())
+        .collect();
+    let mut inputs = vec![args.input.rec.as_path()];
+    inputs.extend(args.calibration.as_deref());
+    super::check_outputs(&inputs, &outputs)?;
     let loaded = args.input.load(ui)?;
     let rec = &loaded.recording;
     let accel = match &args.calibration {
@@ -94,9 +103,7 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let params = noise_params(&curve);
     if let Some(path) = &args.curve {
-        let file = std::fs::File::create(path).with_context(|| format!("writing {}", path.display()))?;
-        write_curve_csv(&curve, std::io::BufWriter::new(file))
-            .with_context(|| format!("writing {}", path.display()))?;
+        spincal::output::write_file(path, |out| write_curve_csv(&curve, out))?;
     }
     if let Some(path) = &args.plot {
         let figure = allan_figure(
@@ -105,14 +112,13 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
             &format!("Allan deviation: {}", args.input.rec.display()),
         );
         let svg = figure.to_svg().context("drawing the Allan plot")?;
-        std::fs::write(path, svg).with_context(|| format!("writing {}", path.display()))?;
+        super::write_text(path, &svg)?;
         let png = path.with_extension("png");
         figure.to_png(&png, 1000, 700).context("drawing the Allan plot")?;
     }
     if let Some(path) = &args.profile {
         let profile = simulator_profile(&params, 1.0 / dt);
-        std::fs::write(path, serde_json::to_string_pretty(&profile)? + "\n")
-            .with_context(|| format!("writing {}", path.display()))?;
+        super::write_text(path, &(serde_json::to_string_pretty(&profile)? + "\n"))?;
     }
     let span_s = [rec.time_s[start], rec.time_s[end - 1]];
     if args.json {

@@ -143,9 +143,9 @@ pub fn run_calibration(
     let output = calibrate_with_progress(recordings, settings, ui, "calibrating")?;
     output.saved.write_path(&out.join("model.json"))?;
     let results = serde_json::to_string_pretty(&output.result)? + "\n";
-    std::fs::write(out.join("results.json"), results).context("writing results.json")?;
+    super::write_text(&out.join("results.json"), &results)?;
     let html = render_report(&output, recordings)?;
-    std::fs::write(out.join("report.html"), html).context("writing report.html")?;
+    super::write_text(&out.join("report.html"), &html)?;
     Ok(output)
 }
 
@@ -174,6 +174,9 @@ pub fn summary(output: &CalibrationOutput, out: &Path) -> String {
 
 pub fn run(args: CalibrateArgs, ui: Ui) -> anyhow::Result<()> {
     let settings = args.settings()?;
+    let inputs: Vec<&Path> = args.fit.recordings.iter().map(PathBuf::as_path).collect();
+    let outputs = ["model.json", "results.json", "report.html"].map(|name| args.out.join(name));
+    super::check_outputs(&inputs, &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>())?;
     let recordings = args
         .fit
         .recordings

@@ -2,7 +2,6 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use clap::Args;
 
 use super::calibrate::{calibrate_with_progress, CalibrateArgs};
@@ -23,6 +22,15 @@ pub struct CompareArgs {
 }
 
 pub fn run(args: CompareArgs, ui: Ui) -> anyhow::Result<()> {
+    let inputs: Vec<&std::path::Path> = args
+        .calibrate
+        .fit
+        .recordings
+        .iter()
+        .map(|p| p.as_path())
+        .collect();
+    let outputs: Vec<&std::path::Path> = args.csv.iter().map(|p| p.as_path()).collect();
+    super::check_outputs(&inputs, &outputs)?;
     let settings = args.calibrate.settings()?;
     let fit = &args.calibrate.fit;
     let recordings = fit
@@ -32,8 +40,7 @@ pub fn run(args: CompareArgs, ui: Ui) -> anyhow::Result<()> {
         .collect::<anyhow::Result<Vec<_>>>()?;
     let output = calibrate_with_progress(&recordings, &settings, ui, "comparing")?;
     if let Some(path) = &args.csv {
-        std::fs::write(path, table_csv(&output.result.comparison))
-            .with_context(|| format!("writing {}", path.display()))?;
+        super::write_text(path, &table_csv(&output.result.comparison))?;
     }
     if fit.json {
         return ui::print_json(&serde_json::json!({

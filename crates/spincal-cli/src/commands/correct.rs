@@ -1,27 +1,28 @@
 //! `spincal correct`: streams a recording through a saved corrector in constant memory.
 //!
-//! Every input data row comes out, with its original columns, one corrected column per corrected
-//! axis (in the input's acceleration unit) and `valid` (0 for the first rows that lack a full
-//! delay history: their corrected values are the measured ones). A row that cannot be read, or
-//! whose time does not increase, stops the command with its line number and the reason; a partial
-//! output file is then removed, so an output file is always complete. Rows whose input lies well
-//! outside a network's training range are corrected as well, and counted in a warning on standard
-//! error (the network extrapolates there).
+//! Every input data row comes out, in place, with its original columns, one corrected column per
+//! corrected axis (in the input's acceleration unit), `valid` (0 for the first rows that lack a full
+//! delay history, whose corrected values are the measured ones, and for refused rows) and `status`:
+//! `ok`, `extrapolated` (an input lies well outside a network's training range), or `refused:` with
+//! the line and the reason for a row that cannot be read or whose time does not increase; its
+//! corrected columns are empty. The summary on standard error names the first refused lines, and
+//! the exit code is 3 when rows were refused. The output file is written through a temporary file
+//! and renamed when complete; an output that is the input or the model is refused.
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use spincal::corrector::Corrector;
-use spincal::table::{display_name, RowReader, Table};
+use spincal::table::{display_name, Delimiter, Record, RowReader, Table};
 use spincal::CorrectorFile;
 use spincal::{ColumnMap, Recording};
 
 use super::input::ReadArgs;
 use super::values::FormatArg;
-use crate::ui::{Ui, UsageError};
+use crate::ui::{RowsRefused, Ui, UsageError};
 
 #[derive(Args)]
 pub struct CorrectArgs {
@@ -118,8 +119,10 @@ fn resolve_columns(header: &[String], width: usize, file: &str, map: &ColumnMap)
 
 pub fn run(args: CorrectArgs, _ui: Ui) -> anyhow::Result<()> {
     let map = args.column_map()?;
+    let outputs: Vec<&std::path::Path> = args.output.iter().map(PathBuf::as_path).collect();
+    super::check_outputs(&[&args.input, &args.model], &outputs)?;
     let model = CorrectorFile::read_path(&args.model)?;
-    let (reader, name): (Box<dyn BufRead>, String) = if args.input.as_os_str() == "-" {
+    let (reader, name): (Box<dyn BufRead>, String) = if spincal::output::is_stdio(&args.input) {
         (
             Box::new(BufReader::new(std::io::stdin().lock())),
             "<stdin>".to_string(),
@@ -130,32 +133,41 @@ pub fn run(args: CorrectArgs, _ui: Ui) -> anyhow::Result<()> {
         (Box::new(BufReader::new(file)), display_name(&args.input))
     };
     let result = match &args.output {
-        Some(path) => {
-            let file = File::create(path).with_context(|| format!("{}: cannot create", path.display()))?;
-            let result = stream(&model, reader, &name, &map, BufWriter::new(file));
-            if result.is_err() {
-                remove_partial(path);
+        Some(path) if !spincal::output::is_stdio(path) => {
+            // The stream's own error is kept apart so that it, not a generic write error, is shown.
+            let mut failure = None;
+            let mut summary = None;
+            let written =
+                spincal::output::write_file(path, |out| match stream(&model, reader, &name, &map, out) {
+                    Ok(s) => {
+                        summary = Some(s);
+                        Ok(())
+                    }
+                    Err(e) => {
+                        failure = Some(e);
+                        Err(std::io::Error::other("the stream failed"))
+                    }
+                });
+            match (failure, written, summary) {
+                (Some(e), _, _) => Err(e),
+                (None, Err(e), _) => Err(e.into()),
+                (None, Ok(()), Some(s)) => Ok(s),
+                (None, Ok(()), None) => unreachable!("a successful write ran the stream"),
             }
-            result
         }
-        None => stream(
+        _ => stream(
             &model,
             reader,
             &name,
             &map,
-            BufWriter::new(std::io::stdout().lock()),
+            &mut BufWriter::new(std::io::stdout().lock()),
         ),
-    }
-    .map(|summary| summary.warn(&name));
+    };
     match result {
+        Ok(summary) => summary.finish(&name),
         Err(e) if is_broken_pipe(&e) => Ok(()),
-        other => other,
+        Err(e) => Err(e),
     }
-}
-
-fn remove_partial(path: &Path) {
-    // Best effort: the error being reported matters more than a failed cleanup.
-    let _ = std::fs::remove_file(path);
 }
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {
@@ -163,16 +175,23 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
         .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
 }
 
+/// Refused rows listed by line in the summary.
+const LISTED_REFUSALS: usize = 5;
+
 /// What a finished stream saw, beyond the rows it wrote.
 struct StreamSummary {
     rows: usize,
     /// Rows flagged as outside the training range, and the line of the first.
     outside_training_range: usize,
     first_outside_line: Option<usize>,
+    refused: usize,
+    /// The first refused rows: line and reason.
+    first_refusals: Vec<String>,
 }
 
 impl StreamSummary {
-    fn warn(&self, name: &str) {
+    /// Warns about extrapolated rows; refused rows make the result an error (exit code 3).
+    fn finish(&self, name: &str) -> anyhow::Result<()> {
         if let Some(line) = self.first_outside_line {
             eprintln!(
                 "warning: {name}: {} of {} rows ({:.1} %) have an input more than {:.0} % of the training \
@@ -183,7 +202,45 @@ impl StreamSummary {
                 100.0 * spincal::ann::EXTRAPOLATION_MARGIN,
             );
         }
+        if self.refused > 0 {
+            return Err(RowsRefused(format!(
+                "{name}: {} of {} rows refused (written in place with status `refused` and empty corrected columns); the first: {}",
+                self.refused,
+                self.rows,
+                self.first_refusals.join("; ")
+            ))
+            .into());
+        }
+        Ok(())
     }
+}
+
+/// A field for the output: quoted when it holds the separator or a quote.
+fn field(text: &str, delimiter: char) -> String {
+    if text.contains(delimiter) || text.contains('"') || (delimiter == ' ' && text.contains('\t')) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
+/// The original fields of a refused line, as many as the table is wide (missing ones empty, extra
+/// ones kept together in the last).
+fn refused_fields(text: &str, delimiter: Delimiter, width: usize) -> Vec<String> {
+    let parts: Vec<&str> = match delimiter {
+        Delimiter::Whitespace => text.split_whitespace().collect(),
+        other => text.split(other.as_char()).collect(),
+    };
+    let mut fields: Vec<String> = parts
+        .iter()
+        .take(width.saturating_sub(1))
+        .map(|s| s.to_string())
+        .collect();
+    if parts.len() >= width && width > 0 {
+        fields.push(parts[width - 1..].join(&delimiter.as_char().to_string()));
+    }
+    fields.resize(width, String::new());
+    fields
 }
 
 fn stream(
@@ -191,7 +248,7 @@ fn stream(
     reader: Box<dyn BufRead>,
     name: &str,
     map: &ColumnMap,
-    mut out: impl Write,
+    out: &mut dyn Write,
 ) -> anyhow::Result<StreamSummary> {
     let mut rows = RowReader::new(reader, name, &map.table)?;
     let width = rows.width();
@@ -203,14 +260,24 @@ fn stream(
     let columns = resolve_columns(&rows.header, width, name, map)?;
     let corrector = &model.corrector;
     let axes = corrector.corrected_axes();
-    let delimiter = rows.delimiter.as_char();
-    let mut line = header.join(&delimiter.to_string());
+    let delimiter = rows.delimiter;
+    let sep = delimiter.as_char();
+    let mut line = header
+        .iter()
+        .map(|h| field(h, sep))
+        .collect::<Vec<_>>()
+        .join(&sep.to_string());
     for axis in &axes {
-        line.push(delimiter);
-        line.push_str(&format!("{}_corrected", header[columns.accel[axis.index()]]));
+        line.push(sep);
+        line.push_str(&field(
+            &format!("{}_corrected", header[columns.accel[axis.index()]]),
+            sep,
+        ));
     }
-    line.push(delimiter);
+    line.push(sep);
     line.push_str("valid");
+    line.push(sep);
+    line.push_str("status");
     writeln!(out, "{line}")?;
 
     let mut state = corrector.stream();
@@ -221,34 +288,71 @@ fn stream(
         rows: 0,
         outside_training_range: 0,
         first_outside_line: None,
+        refused: 0,
+        first_refusals: Vec::new(),
     };
-    while let Some(line_no) = rows.next_row(&mut values)? {
-        let t = values[columns.time] * columns.time_to_s;
-        if let Some(p) = previous_time {
-            if t <= p {
-                anyhow::bail!(
-                    "{name}:{line_no}: time {t} s does not increase (previous row {p} s); row refused"
-                );
+    let refuse = |summary: &mut StreamSummary, out: &mut dyn Write, fields: Vec<String>, reason: String| {
+        summary.refused += 1;
+        if summary.first_refusals.len() < LISTED_REFUSALS {
+            summary.first_refusals.push(reason.clone());
+        }
+        let mut row = fields
+            .iter()
+            .map(|f| field(f, sep))
+            .collect::<Vec<_>>()
+            .join(&sep.to_string());
+        for _ in &axes {
+            row.push(sep);
+        }
+        write!(
+            out,
+            "{row}{sep}0{sep}{}\n",
+            field(&format!("refused: {reason}"), sep)
+        )
+    };
+    while let Some(record) = rows.next_record(&mut values)? {
+        summary.rows += 1;
+        let line_no = match record {
+            Record::Parsed { line } => line,
+            Record::Refused { line, text, error } => {
+                refuse(
+                    &mut summary,
+                    out,
+                    refused_fields(&text, delimiter, width),
+                    format!("line {line}: {error}"),
+                )?;
+                continue;
             }
+        };
+        let t = values[columns.time] * columns.time_to_s;
+        if let Some(p) = previous_time.filter(|&p| t <= p) {
+            let fields = values.iter().map(f64::to_string).collect();
+            let reason = format!("line {line_no}: time {t} s does not increase (previous row {p} s)");
+            refuse(&mut summary, out, fields, reason)?;
+            continue;
         }
         previous_time = Some(t);
         let accel = columns.accel.map(|c| values[c] * columns.accel_to_mps2);
         let sample = state.correct_sample(accel);
-        summary.rows += 1;
         if sample.outside_training_range {
             summary.outside_training_range += 1;
             summary.first_outside_line.get_or_insert(line_no);
         }
         for (c, v) in values.iter().enumerate() {
             if c > 0 {
-                write!(out, "{delimiter}")?;
+                write!(out, "{sep}")?;
             }
             write!(out, "{v}")?;
         }
         for axis in &axes {
-            write!(out, "{delimiter}{}", sample.accel_mps2[axis.index()] * from_mps2)?;
+            write!(out, "{sep}{}", sample.accel_mps2[axis.index()] * from_mps2)?;
         }
-        writeln!(out, "{delimiter}{}", u8::from(sample.valid))?;
+        let status = if sample.outside_training_range {
+            "extrapolated"
+        } else {
+            "ok"
+        };
+        writeln!(out, "{sep}{}{sep}{status}", u8::from(sample.valid))?;
     }
     out.flush()?;
     Ok(summary)

@@ -52,9 +52,9 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
         let sim = simulate(&SensorProfile::default(), &table, args.seed + k as u64)?;
         let path = args.out.join(&name);
         sim.recording.write_csv_path(&path, AccelUnit::G)?;
-        std::fs::write(
-            path.with_extension("truth.json"),
-            serde_json::to_string_pretty(&sim.truth)? + "\n",
+        super::write_text(
+            &path.with_extension("truth.json"),
+            &(serde_json::to_string_pretty(&sim.truth)? + "\n"),
         )?;
         let mut recording = sim.recording;
         recording.source.name = name;

@@ -117,6 +117,14 @@ impl TurntableArgs {
 
 pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
     let options = args.turntable.options()?;
+    let inputs: Vec<&std::path::Path> = args.turntable.recordings.iter().map(PathBuf::as_path).collect();
+    let outputs: Vec<&std::path::Path> = args
+        .output
+        .iter()
+        .chain(&args.reference_csv)
+        .map(PathBuf::as_path)
+        .collect();
+    super::check_outputs(&inputs, &outputs)?;
     if !args.reference_csv.is_empty() && args.reference_csv.len() != args.turntable.recordings.len() {
         return Err(UsageError(format!(
             "--reference-csv names {} file(s) for {} recording(s): give one per recording, in order",
@@ -155,8 +163,7 @@ pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
             .with_context(|| format!("writing the reference of {}", rec.source.name))?;
     }
     if let Some(path) = &args.output {
-        std::fs::write(path, serde_json::to_string_pretty(&fit)? + "\n")
-            .with_context(|| format!("writing {}", path.display()))?;
+        super::write_text(path, &(serde_json::to_string_pretty(&fit)? + "\n"))?;
     }
     if args.turntable.json {
         return ui::print_json(&fit);

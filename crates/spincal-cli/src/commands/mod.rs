@@ -19,3 +19,16 @@ pub mod train;
 pub mod values;
 
 pub use input::{format_line, InputArgs};
+
+use std::path::Path;
+
+/// Refuses outputs that are also inputs (followed through links) or that name the same file, before
+/// any work starts: a usage error.
+pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> anyhow::Result<()> {
+    spincal::output::check_outputs(inputs, outputs).map_err(|e| crate::ui::UsageError(e.to_string()).into())
+}
+
+/// Writes text to a file through a temporary file renamed on success (see `spincal::output`).
+pub fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
+    Ok(spincal::output::write_bytes(path, text.as_bytes())?)
+}

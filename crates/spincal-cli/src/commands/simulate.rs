@@ -108,14 +108,15 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         duration_s: args.duration,
         ..TurntableSetup::default()
     };
-    let sim = simulate(&sensor, &table, args.seed).map_err(|e| UsageError(e.to_string()))?;
-    sim.recording.write_csv_path(&args.output, unit)?;
     let truth_path = args
         .truth
         .clone()
         .unwrap_or_else(|| args.output.with_extension("truth.json"));
-    std::fs::write(&truth_path, serde_json::to_string_pretty(&sim.truth)? + "\n")
-        .with_context(|| format!("writing {}", truth_path.display()))?;
+    let sensor_file: Vec<&std::path::Path> = args.sensor.iter().map(|p| p.as_path()).collect();
+    super::check_outputs(&sensor_file, &[&args.output, &truth_path])?;
+    let sim = simulate(&sensor, &table, args.seed).map_err(|e| UsageError(e.to_string()))?;
+    sim.recording.write_csv_path(&args.output, unit)?;
+    super::write_text(&truth_path, &(serde_json::to_string_pretty(&sim.truth)? + "\n"))?;
     if args.json {
         return ui::print_json(&serde_json::json!({
             "recording": args.output,

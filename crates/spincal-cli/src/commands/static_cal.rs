@@ -59,6 +59,13 @@ struct Report<'a> {
 }
 
 pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
+    let outputs: Vec<&std::path::Path> = args
+        .output
+        .iter()
+        .chain(&args.yaml)
+        .map(|p| p.as_path())
+        .collect();
+    super::check_outputs(&[&args.input.rec], &outputs)?;
     let model = StaticModel::from_n_params(args.model)
         .ok_or_else(|| UsageError(format!("--model must be 6, 9 or 12, got {}", args.model)))?;
     let loaded = args.input.load(ui)?;
@@ -105,7 +112,7 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     }
     if let Some(path) = &args.yaml {
         let yaml = fit.calibration.to_kalibr_yaml(rec.sample_rate_hz(), None);
-        std::fs::write(path, yaml).with_context(|| format!("writing {}", path.display()))?;
+        super::write_text(path, &yaml)?;
     }
     if args.json {
         return ui::print_json(&Report {

@@ -2,7 +2,6 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use spincal::strobe::{Rounding, StrobeDisc};
 
 use crate::ui::{self, UsageError};
@@ -74,8 +73,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             other => anyhow::Error::new(UsageError(other.to_string())),
         }
     })?;
-    std::fs::write(&args.output, disc.to_svg())
-        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    super::write_text(&args.output, &disc.to_svg())?;
     if args.json {
         return ui::print_json(&Report {
             output: args.output.display().to_string(),

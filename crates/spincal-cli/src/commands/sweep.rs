@@ -53,6 +53,17 @@ struct SweepOutput<'a> {
 }
 
 pub fn run(args: SweepArgs, ui: Ui) -> anyhow::Result<()> {
+    let stem = args.output.display().to_string();
+    let outputs = [
+        args.output.with_extension("csv"),
+        args.output.with_extension("json"),
+        PathBuf::from(format!("{stem}-heatmap.svg")),
+        PathBuf::from(format!("{stem}-heatmap.png")),
+    ];
+    super::check_outputs(
+        &[&args.data.data, &args.data.reference],
+        &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
+    )?;
     let grid = parse_grid(&args.grid).map_err(|e| UsageError(format!("--grid {e}")))?;
     let axes = args.data.axes("x,y")?;
     let (measured, reference) = args.data.read()?;
@@ -92,17 +103,14 @@ pub fn run(args: SweepArgs, ui: Ui) -> anyhow::Result<()> {
     };
     let csv_path = args.output.with_extension("csv");
     let json_path = args.output.with_extension("json");
-    std::fs::write(&csv_path, table_csv(&rows))
-        .with_context(|| format!("{}: cannot write", csv_path.display()))?;
-    std::fs::write(&json_path, serde_json::to_string_pretty(&output)? + "\n")
-        .with_context(|| format!("{}: cannot write", json_path.display()))?;
+    super::write_text(&csv_path, &table_csv(&rows))?;
+    super::write_text(&json_path, &(serde_json::to_string_pretty(&output)? + "\n"))?;
     let mut heatmap_paths = Vec::new();
     if let Some(map) = heat_map(&rows) {
         let stem = args.output.display().to_string();
         let svg_path = PathBuf::from(format!("{stem}-heatmap.svg"));
         let png_path = PathBuf::from(format!("{stem}-heatmap.png"));
-        std::fs::write(&svg_path, map.to_svg()?)
-            .with_context(|| format!("{}: cannot write", svg_path.display()))?;
+        super::write_text(&svg_path, &map.to_svg()?)?;
         map.to_png(&png_path, 1200, 820)?;
         heatmap_paths = vec![svg_path, png_path];
     }

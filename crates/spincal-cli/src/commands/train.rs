@@ -145,6 +145,8 @@ struct Summary<'a> {
 }
 
 pub fn run(args: TrainArgs, ui: Ui) -> anyhow::Result<()> {
+    let outputs: Vec<&std::path::Path> = args.output.iter().map(PathBuf::as_path).collect();
+    super::check_outputs(&[&args.data.data, &args.data.reference], &outputs)?;
     let (measured, reference) = args.data.read()?;
     let division = args.data.division();
     let model = match args.kind {

@@ -70,6 +70,9 @@ pub enum CorrectorError {
         #[source]
         source: std::io::Error,
     },
+    /// Writing the file failed (the previous file, if any, is kept).
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
     #[error("{file}: cannot write: {source}")]
     Write {
         file: String,
@@ -147,10 +150,8 @@ impl CorrectorFile {
     }
 
     pub fn write_path(&self, path: &Path) -> Result<(), CorrectorError> {
-        std::fs::write(path, self.to_json() + "\n").map_err(|source| CorrectorError::Write {
-            file: path.display().to_string(),
-            source,
-        })
+        crate::output::write_bytes(path, (self.to_json() + "\n").as_bytes())?;
+        Ok(())
     }
 }
 

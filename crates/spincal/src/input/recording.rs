@@ -153,6 +153,9 @@ pub enum RecordingError {
         found: usize,
         needed: usize,
     },
+    /// Writing an output file failed (the previous file, if any, is kept).
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
     #[error("{file}: cannot write: {source}")]
     Write {
         file: String,
@@ -378,13 +381,8 @@ impl Recording {
 
     /// Writes the recording to a file path (see [`Recording::write_csv`]).
     pub fn write_csv_path(&self, path: &Path, unit: AccelUnit) -> Result<(), RecordingError> {
-        let write_err = |source| RecordingError::Write {
-            file: path.display().to_string(),
-            source,
-        };
-        let file = std::fs::File::create(path).map_err(write_err)?;
-        self.write_csv(std::io::BufWriter::new(file), unit)
-            .map_err(write_err)
+        crate::output::write_file(path, |out| self.write_csv(out, unit))?;
+        Ok(())
     }
 }
 

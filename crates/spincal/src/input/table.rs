@@ -373,6 +373,19 @@ pub fn find_column(header: &[String], n_columns: usize, key: &str) -> Option<usi
     }
 }
 
+/// One data line from [`RowReader::next_record`].
+#[derive(Debug)]
+pub enum Record {
+    /// The values were read into the caller's buffer.
+    Parsed { line: usize },
+    /// The line could not be read as a row; its text and why.
+    Refused {
+        line: usize,
+        text: String,
+        error: TableError,
+    },
+}
+
 /// Streams the rows of a table one at a time, in constant memory.
 ///
 /// Construction reads ahead to the first data row to learn the separator, header and width.
@@ -488,6 +501,61 @@ impl<R: BufRead> RowReader<R> {
         }
     }
 
+    /// Reads the next data line, whether or not it parses: a line that cannot be read comes back
+    /// as [`Record::Refused`] with its text and the reason, and reading goes on. Only a failure
+    /// of the underlying reader is an error.
+    pub fn next_record(&mut self, values: &mut Vec<f64>) -> Result<Option<Record>, TableError> {
+        if let Some((line, first)) = self.pending.take() {
+            values.clear();
+            values.extend_from_slice(&first);
+            return Ok(Some(Record::Parsed { line }));
+        }
+        let mut bytes = Vec::new();
+        loop {
+            bytes.clear();
+            let read = self
+                .reader
+                .read_until(b'\n', &mut bytes)
+                .map_err(|source| TableError::Io {
+                    file: self.file.clone(),
+                    source,
+                })?;
+            if read == 0 {
+                return Ok(None);
+            }
+            self.line_no += 1;
+            let line = self.line_no;
+            let has_newline = bytes.ends_with(b"\n");
+            while matches!(bytes.last(), Some(b'\n' | b'\r')) {
+                bytes.pop();
+            }
+            let text = match std::str::from_utf8(&bytes) {
+                Ok(text) => text,
+                Err(_) => {
+                    return Ok(Some(Record::Refused {
+                        line,
+                        text: String::from_utf8_lossy(&bytes).into_owned(),
+                        error: TableError::NotText {
+                            file: self.file.clone(),
+                            line,
+                        },
+                    }))
+                }
+            };
+            if is_skippable(text) {
+                continue;
+            }
+            return Ok(Some(match self.parse_fields(text, line, values, has_newline) {
+                Ok(()) => Record::Parsed { line },
+                Err(error) => Record::Refused {
+                    line,
+                    text: text.to_string(),
+                    error,
+                },
+            }));
+        }
+    }
+
     /// Parses the fields of one data line with full error locations.
     fn parse_fields(
         &self,
@@ -560,7 +628,13 @@ fn read_line<R: BufRead>(
     buffer.clear();
     match reader.read_line(buffer) {
         Ok(0) => Ok(None),
-        Ok(_) => Ok(Some(buffer.ends_with('\n'))),
+        Ok(_) => {
+            // Spreadsheet exports start with a UTF-8 byte-order mark; it is not part of the text.
+            if line == 1 && buffer.starts_with('\u{feff}') {
+                buffer.drain(..'\u{feff}'.len_utf8());
+            }
+            Ok(Some(buffer.ends_with('\n')))
+        }
         Err(e) if e.kind() == std::io::ErrorKind::InvalidData => Err(TableError::NotText {
             file: file.to_string(),
             line,
