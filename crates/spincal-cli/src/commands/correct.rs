@@ -304,9 +304,9 @@ fn stream(
         for _ in &axes {
             row.push(sep);
         }
-        write!(
+        writeln!(
             out,
-            "{row}{sep}0{sep}{}\n",
+            "{row}{sep}0{sep}{}",
             field(&format!("refused: {reason}"), sep)
         )
     };
