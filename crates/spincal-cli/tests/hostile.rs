@@ -1,0 +1,330 @@
+//! Hostile input and hostile output paths: each case checks the exit code, the message, that no
+//! input file changed, and for `correct` that every input row comes out.
+
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+use proptest::prelude::*;
+
+fn spincal() -> Command {
+    Command::cargo_bin("spincal").unwrap()
+}
+
+/// A short simulated recording, its reference and a linear model trained on them.
+struct Setup {
+    _dir: tempfile::TempDir,
+    dir: PathBuf,
+    rec: PathBuf,
+    model: PathBuf,
+}
+
+fn setup() -> Setup {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().to_path_buf();
+    let rec = path.join("rec.csv");
+    let reference = path.join("ref.csv");
+    let model = path.join("linear.json");
+    spincal()
+        .args(["simulate", "--duration", "10", "--quiet", "-o"])
+        .arg(&rec)
+        .assert()
+        .success();
+    spincal()
+        .args(["fit", "--quiet"])
+        .arg(&rec)
+        .arg("--reference-csv")
+        .arg(&reference)
+        .assert()
+        .success();
+    spincal()
+        .args(["train", "--kind", "linear", "--quiet", "--data"])
+        .arg(&rec)
+        .arg("--reference")
+        .arg(&reference)
+        .arg("-o")
+        .arg(&model)
+        .assert()
+        .success();
+    Setup {
+        _dir: dir,
+        dir: path,
+        rec,
+        model,
+    }
+}
+
+fn contents(paths: &[&Path]) -> Vec<Vec<u8>> {
+    paths.iter().map(|p| std::fs::read(p).unwrap()).collect()
+}
+
+/// Runs spincal; returns exit code and stderr.
+fn run(args: &[&std::ffi::OsStr]) -> (i32, String) {
+    let out = spincal().args(args).output().unwrap();
+    (
+        out.status.code().expect("spincal ended by a signal"),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn os(s: &str) -> &std::ffi::OsStr {
+    std::ffi::OsStr::new(s)
+}
+
+#[test]
+fn an_output_that_is_an_input_or_the_model_is_refused_and_nothing_changes() {
+    let s = setup();
+    let before = contents(&[&s.rec, &s.model]);
+    let (code, err) = run(&[
+        os("correct"),
+        os("--model"),
+        s.model.as_os_str(),
+        s.rec.as_os_str(),
+        os("-o"),
+        s.rec.as_os_str(),
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("also an input"), "{err}");
+    // The same file reached by another spelling.
+    let other_spelling = s.dir.join(".").join("rec.csv");
+    let (code, err) = run(&[
+        os("correct"),
+        os("--model"),
+        s.model.as_os_str(),
+        s.rec.as_os_str(),
+        os("-o"),
+        other_spelling.as_os_str(),
+    ]);
+    assert_eq!(code, 2, "{err}");
+    // -o naming the model, with a bad input.
+    let bad = s.dir.join("bad.csv");
+    std::fs::write(&bad, "t,ax,ay,az\nnot numbers at all\n").unwrap();
+    let (code, err) = run(&[
+        os("correct"),
+        os("--model"),
+        s.model.as_os_str(),
+        bad.as_os_str(),
+        os("-o"),
+        s.model.as_os_str(),
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("linear.json"), "{err}");
+    assert_eq!(contents(&[&s.rec, &s.model]), before);
+}
+
+#[cfg(unix)]
+#[test]
+fn a_link_output_stays_a_link_and_a_device_is_never_removed() {
+    let s = setup();
+    let target = s.dir.join("target.csv");
+    let link = s.dir.join("link.csv");
+    std::fs::write(&target, "old contents").unwrap();
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let (code, err) = run(&[
+        os("correct"),
+        os("--model"),
+        s.model.as_os_str(),
+        s.rec.as_os_str(),
+        os("-o"),
+        link.as_os_str(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+    let rows = std::fs::read_to_string(&target).unwrap().lines().count();
+    assert_eq!(rows, std::fs::read_to_string(&s.rec).unwrap().lines().count());
+    // A bad input through the link: the target keeps its previous complete contents.
+    let written = std::fs::read(&target).unwrap();
+    let empty = s.dir.join("empty.csv");
+    std::fs::write(&empty, "").unwrap();
+    let (code, err) = run(&[
+        os("correct"),
+        os("--model"),
+        s.model.as_os_str(),
+        empty.as_os_str(),
+        os("-o"),
+        link.as_os_str(),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("empty.csv"), "{err}");
+    assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+    assert_eq!(std::fs::read(&target).unwrap(), written);
+    let leftovers: Vec<_> = std::fs::read_dir(&s.dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+    let full = Path::new("/dev/full");
+    if full.exists() {
+        let (code, err) = run(&[
+            os("correct"),
+            os("--model"),
+            s.model.as_os_str(),
+            s.rec.as_os_str(),
+            os("-o"),
+            full.as_os_str(),
+        ]);
+        assert_eq!(code, 1, "{err}");
+        assert!(full.exists(), "the device node is still there");
+    }
+}
+
+#[test]
+fn outputs_that_collide_with_inputs_or_each_other_are_refused_before_work() {
+    let s = setup();
+    let before = contents(&[&s.rec]);
+    // sweep -o rec writes rec.csv and rec.json: rec.csv is the input.
+    let stem = s.dir.join("rec");
+    let reference = s.dir.join("ref.csv");
+    let (code, err) = run(&[
+        os("sweep"),
+        os("--data"),
+        s.rec.as_os_str(),
+        os("--reference"),
+        reference.as_os_str(),
+        os("-o"),
+        stem.as_os_str(),
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("also an input"), "{err}");
+    // simulate -o s.csv --truth s.csv
+    let same = s.dir.join("s.csv");
+    let (code, err) = run(&[
+        os("simulate"),
+        os("-o"),
+        same.as_os_str(),
+        os("--truth"),
+        same.as_os_str(),
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("same file"), "{err}");
+    assert!(!same.exists());
+    // fit -o naming its own recording.
+    let (code, err) = run(&[os("fit"), s.rec.as_os_str(), os("-o"), s.rec.as_os_str()]);
+    assert_eq!(code, 2, "{err}");
+    assert_eq!(contents(&[&s.rec]), before);
+}
+
+#[test]
+fn a_byte_order_mark_is_not_part_of_the_header() {
+    let s = setup();
+    let text = std::fs::read_to_string(&s.rec).unwrap();
+    let bom = s.dir.join("bom.csv");
+    std::fs::write(&bom, format!("\u{feff}{text}")).unwrap();
+    spincal()
+        .args(["inspect", "--quiet"])
+        .arg(&bom)
+        .assert()
+        .success();
+    let out = s.dir.join("out.csv");
+    let (code, err) = run(&[
+        os("correct"),
+        os("--model"),
+        s.model.as_os_str(),
+        bom.as_os_str(),
+        os("-o"),
+        out.as_os_str(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(std::fs::read_to_string(&out).unwrap().starts_with("t_s,"));
+}
+
+/// Input rows as `correct` counts them: lines after the header that are not blank or comments
+/// (invalid text counts: it comes out refused).
+fn data_rows(bytes: &[u8]) -> usize {
+    bytes
+        .split(|&b| b == b'\n')
+        .skip(1)
+        .filter(|line| match std::str::from_utf8(line) {
+            Ok(text) => {
+                let t = text.trim_end_matches('\r').trim_start();
+                !(t.is_empty() || t.starts_with('#') || t.starts_with('%'))
+            }
+            Err(_) => true,
+        })
+        .count()
+}
+
+#[derive(Debug, Clone)]
+enum Damage {
+    Byte { at: usize, value: u8 },
+    DropRow(usize),
+    DuplicateRow(usize),
+    Truncate(usize),
+}
+
+fn damage_strategy() -> impl Strategy<Value = Vec<Damage>> {
+    let one = prop_oneof![
+        (0usize..20_000, any::<u8>()).prop_map(|(at, value)| Damage::Byte { at, value }),
+        (1usize..1000).prop_map(Damage::DropRow),
+        (1usize..1000).prop_map(Damage::DuplicateRow),
+        (100usize..40_000).prop_map(Damage::Truncate),
+    ];
+    prop::collection::vec(one, 1..6)
+}
+
+fn apply(mut bytes: Vec<u8>, damage: &[Damage]) -> Vec<u8> {
+    for d in damage {
+        match *d {
+            Damage::Byte { at, value } => {
+                // Bytes after the header only: a damaged header is a different (fatal) case.
+                let header = bytes.iter().position(|&b| b == b'\n').unwrap_or(0) + 1;
+                if bytes.len() > header {
+                    let i = header + at % (bytes.len() - header);
+                    bytes[i] = value;
+                }
+            }
+            Damage::DropRow(k) | Damage::DuplicateRow(k) => {
+                let mut lines: Vec<Vec<u8>> = bytes.split(|&b| b == b'\n').map(<[u8]>::to_vec).collect();
+                if lines.len() > 3 {
+                    let i = 2 + k % (lines.len() - 3);
+                    if matches!(d, Damage::DropRow(_)) {
+                        lines.remove(i);
+                    } else {
+                        let copy = lines[i].clone();
+                        lines.insert(i, copy);
+                    }
+                }
+                bytes = lines.join(&b'\n');
+            }
+            Damage::Truncate(n) => bytes.truncate(n.max(200).min(bytes.len())),
+        }
+    }
+    bytes
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, .. ProptestConfig::default() })]
+
+    /// Damaged at random (bytes, dropped or repeated rows, truncation), a recording still comes
+    /// out whole: as many output rows as input rows, never a panic, inputs untouched.
+    #[test]
+    fn correct_writes_every_row_of_a_damaged_recording(damage in damage_strategy()) {
+        let s = setup_once();
+        let original = std::fs::read(&s.rec).unwrap();
+        let damaged = apply(original, &damage);
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("damaged.csv");
+        std::fs::write(&input, &damaged).unwrap();
+        let out = dir.path().join("out.csv");
+        let (code, err) = run(&[os("correct"), os("--model"), s.model.as_os_str(), input.as_os_str(), os("-o"), out.as_os_str()]);
+        prop_assert!(matches!(code, 0 | 1 | 3), "exit {code}: {err}");
+        prop_assert_eq!(std::fs::read(&input).unwrap(), damaged.clone());
+        if code == 1 {
+            // Only a file whose first data row is damaged cannot be streamed; nothing is written.
+            prop_assert!(!out.exists(), "{}", err);
+            prop_assert!(err.contains("damaged.csv"), "{}", err);
+        } else {
+            let written = std::fs::read(&out).unwrap();
+            // Every output line after the header is a row (refused rows are never blank).
+            let out_rows = written.split(|&b| b == b'\n').filter(|l| !l.is_empty()).count() - 1;
+            prop_assert_eq!(out_rows, data_rows(&damaged), "{}", err);
+            prop_assert_eq!(code == 3, err.contains("refused"), "{}", err);
+        }
+    }
+}
+
+/// One setup shared by the property cases (training a model per case would dominate the test).
+fn setup_once() -> &'static Setup {
+    static SETUP: std::sync::OnceLock<Setup> = std::sync::OnceLock::new();
+    SETUP.get_or_init(setup)
+}
