@@ -328,3 +328,29 @@ fn setup_once() -> &'static Setup {
     static SETUP: std::sync::OnceLock<Setup> = std::sync::OnceLock::new();
     SETUP.get_or_init(setup)
 }
+
+#[test]
+fn number_flags_out_of_range_are_usage_errors_naming_the_flag() {
+    let s = setup_once();
+    let rec = s.rec.to_str().unwrap();
+    for (args, flag) in [
+        (vec!["fit", rec, "--radius", "-0.1"], "--radius"),
+        (vec!["fit", rec, "--rpm", "0"], "--rpm"),
+        (vec!["fit", rec, "--gravity", "nan"], "--gravity"),
+        (vec!["sensitivity", "--rpm", "0"], "--rpm"),
+        (
+            vec!["simulate", "-o", "never.csv", "--duration", "-5"],
+            "--duration",
+        ),
+        (vec!["inspect", rec, "--sample-rate", "inf"], "--sample-rate"),
+    ] {
+        let out = spincal().args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains(flag) && !err.contains("unexpected argument"),
+            "{args:?}: {err}"
+        );
+    }
+    assert!(!Path::new("never.csv").exists());
+}

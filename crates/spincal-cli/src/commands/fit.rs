@@ -21,13 +21,13 @@ pub struct TurntableArgs {
     #[command(flatten)]
     pub read: ReadArgs,
     /// Nominal speed, rpm: the spectral search looks within ±10 % of it.
-    #[arg(long)]
+    #[arg(long, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub rpm: Option<f64>,
     /// Radius measured with a ruler, m.
-    #[arg(long)]
+    #[arg(long, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub radius: Option<f64>,
     /// Standard uncertainty of --radius, m.
-    #[arg(long, default_value_t = 0.002, requires = "radius")]
+    #[arg(long, default_value_t = 0.002, requires = "radius", value_parser = super::values::positive, allow_negative_numbers = true)]
     pub radius_tol: f64,
     /// Fit a radius per recording (the sensor was moved between them).
     #[arg(long)]
@@ -46,10 +46,10 @@ pub struct TurntableArgs {
     #[arg(long, value_name = "NAME=LO:HI,...")]
     pub bounds: Option<String>,
     /// Local gravity, m/s².
-    #[arg(long, default_value_t = STANDARD_GRAVITY)]
+    #[arg(long, default_value_t = STANDARD_GRAVITY, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub gravity: f64,
     /// Sensor range, g (for the saturation check).
-    #[arg(long)]
+    #[arg(long, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub range_g: Option<f64>,
     /// Print the result as JSON instead of text.
     #[arg(long)]

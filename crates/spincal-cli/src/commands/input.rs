@@ -31,13 +31,13 @@ pub struct ReadArgs {
     #[arg(long, value_enum, value_name = "SEP")]
     pub delimiter: Option<DelimiterArg>,
     /// Multiply (value − offset) by this to get m/s² (turns raw counts into SI).
-    #[arg(long, value_name = "M/S²_PER_UNIT")]
+    #[arg(long, value_name = "M/S²_PER_UNIT", value_parser = super::values::finite, allow_negative_numbers = true)]
     pub accel_scale: Option<f64>,
     /// Per-axis offset `x,y,z` subtracted before --accel-scale (file units).
     #[arg(long, value_parser = parse_triple, allow_hyphen_values = true, value_name = "X,Y,Z")]
     pub accel_offset: Option<[f64; 3]>,
     /// Sample rate, Hz, for files without a time column (MPU-6050 without `Fs`, imucal).
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, value_name = "HZ", value_parser = super::values::positive, allow_negative_numbers = true)]
     pub sample_rate: Option<f64>,
     /// 3DM-GX1 AccelGainScale (EEPROM 230); default: the EEPROM reply captured in the stream.
     #[arg(long)]

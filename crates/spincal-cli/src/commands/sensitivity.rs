@@ -11,25 +11,25 @@ use crate::ui::{self, UsageError};
                         spincal sensitivity --radius 0.10 --tilt-deg 5 --omega 3.49 --gravity 9.81 --vary 15")]
 pub struct SensitivityArgs {
     /// Sensor distance from the spindle, m.
-    #[arg(long, default_value_t = 0.10)]
+    #[arg(long, default_value_t = 0.10, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub radius: f64,
     /// Platter tilt, deg.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, value_parser = super::values::finite, allow_negative_numbers = true)]
     pub tilt_deg: f64,
     /// Speed, rpm (ignored when --omega is given).
-    #[arg(long, default_value_t = 33.3)]
+    #[arg(long, default_value_t = 33.3, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub rpm: f64,
     /// Speed, rad/s.
-    #[arg(long)]
+    #[arg(long, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub omega: Option<f64>,
     /// Sensor x axis from the radial direction, deg.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = super::values::finite, allow_negative_numbers = true)]
     pub beta_deg: f64,
     /// Local gravity, m/s².
-    #[arg(long, default_value_t = STANDARD_GRAVITY)]
+    #[arg(long, default_value_t = STANDARD_GRAVITY, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub gravity: f64,
     /// Change applied to each parameter, ± %.
-    #[arg(long, default_value_t = 15.0)]
+    #[arg(long, default_value_t = 15.0, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub vary: f64,
     #[arg(long)]
     pub json: bool,

@@ -33,40 +33,40 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub ideal: bool,
     /// Nominal speed, rpm.
-    #[arg(long, default_value_t = 100.0 / 3.0)]
+    #[arg(long, default_value_t = 100.0 / 3.0, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub rpm: f64,
     /// Sensor distance from the spindle, m.
-    #[arg(long, default_value_t = 0.10)]
+    #[arg(long, default_value_t = 0.10, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub radius: f64,
     /// Platter tilt, deg.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = super::values::finite, allow_negative_numbers = true)]
     pub tilt_deg: f64,
     /// Downhill direction relative to the sensor at t = 0, deg.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, default_value_t = 30.0, value_parser = super::values::finite, allow_negative_numbers = true)]
     pub tilt_azimuth_deg: f64,
     /// Sensor x axis from the radial direction, deg.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, value_parser = super::values::finite, allow_negative_numbers = true)]
     pub beta_deg: f64,
     /// Sense of rotation seen from above: cw (record players) or ccw.
     #[arg(long, value_enum, default_value = "cw")]
     pub direction: DirectionArg,
     /// Steady speed error, %.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, value_parser = super::values::finite, allow_negative_numbers = true)]
     pub speed_error_pct: f64,
     /// Wow, % peak (once per revolution).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, value_parser = super::values::non_negative, allow_negative_numbers = true)]
     pub wow_pct: f64,
     /// Flutter, % peak, at 6 Hz.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, value_parser = super::values::non_negative, allow_negative_numbers = true)]
     pub flutter_pct: f64,
     /// Recording length, s.
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, default_value_t = 60.0, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub duration: f64,
     /// Sample rate, Hz (overrides the profile).
-    #[arg(long)]
+    #[arg(long, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub rate: Option<f64>,
     /// White noise, g RMS (overrides the profile).
-    #[arg(long)]
+    #[arg(long, value_parser = super::values::non_negative, allow_negative_numbers = true)]
     pub noise_g: Option<f64>,
     /// Unit written to the CSV: g or mps2.
     #[arg(long, value_enum, default_value = "g")]

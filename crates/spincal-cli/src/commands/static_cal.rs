@@ -16,7 +16,7 @@ pub struct StaticArgs {
     #[command(flatten)]
     pub input: InputArgs,
     /// Local gravity, m/s².
-    #[arg(long, default_value_t = spincal::STANDARD_GRAVITY)]
+    #[arg(long, default_value_t = spincal::STANDARD_GRAVITY, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub gravity: f64,
     /// Parameters: 6 (bias, scale), 9 (+ misalignment, imu_tk) or 12 (+ quadratic nonlinearity).
     #[arg(long, default_value_t = 9)]
@@ -34,16 +34,16 @@ pub struct StaticArgs {
     #[arg(long)]
     pub detect: bool,
     /// Initial still period that sets the noise level, s.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub init: f64,
     /// Still where the moving variance is below this many times the initial one.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub threshold_factor: f64,
     /// Moving-variance window, s.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub window: f64,
     /// Shortest still interval used, s.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub min_interval: f64,
 }
 

@@ -126,3 +126,53 @@ pub enum SweepArg {
     /// The paper's grid: 1–15, and 1–15 × 1–10.
     Full,
 }
+
+/// A finite number greater than zero (a rate, a length, a speed, gravity).
+pub fn positive(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        Ok(v) => Err(format!(
+            "{v} is not allowed here: expected a finite number greater than 0"
+        )),
+        Err(_) => Err(format!("'{text}' is not a number")),
+    }
+}
+
+/// A finite number, zero or more (a noise level, a percentage of error).
+pub fn non_negative(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        Ok(v) => Err(format!(
+            "{v} is not allowed here: expected a finite number, 0 or more"
+        )),
+        Err(_) => Err(format!("'{text}' is not a number")),
+    }
+}
+
+/// Any finite number (an angle, an offset).
+pub fn finite(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(v) => Err(format!("{v} is not allowed here: expected a finite number")),
+        Err(_) => Err(format!("'{text}' is not a number")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn number_flags_are_checked_for_range() {
+        assert_eq!(positive("0.1"), Ok(0.1));
+        assert!(positive("0").unwrap_err().contains("greater than 0"));
+        assert!(positive("-0.1").is_err());
+        assert!(positive("nan").unwrap_err().contains("finite"));
+        assert!(positive("inf").is_err());
+        assert!(positive("ten").unwrap_err().contains("not a number"));
+        assert_eq!(non_negative("0"), Ok(0.0));
+        assert!(non_negative("-1").is_err());
+        assert_eq!(finite("-3"), Ok(-3.0));
+        assert!(finite("NaN").is_err());
+    }
+}
