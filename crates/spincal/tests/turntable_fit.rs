@@ -179,3 +179,97 @@ fn joint_fit_recovers_parameters_over_many_seeds() {
         outside.join("\n")
     );
 }
+
+/// The true rotation rate of a simulation, rpm.
+fn true_rpm(sim: &spincal::simulate::Simulation) -> f64 {
+    sim.truth.session.omega_radps * 60.0 / (2.0 * std::f64::consts::PI)
+}
+
+fn fitted_rpm(fit: &TurntableFit) -> f64 {
+    fit.recordings[0].session.omega_radps * 60.0 / (2.0 * std::f64::consts::PI)
+}
+
+#[test]
+fn timestamps_quantised_to_the_gx1_clock_still_give_the_rate_to_0_1_percent() {
+    // The 3DM-GX1 stamps samples with a 6.5536 ms timer: at 116 Hz successive stamps step by one
+    // or two ticks, so the median step is 24 % off the true interval.
+    let tick = 6.5536e-3;
+    for seed in 0..3 {
+        let table = TurntableSetup {
+            rpm: 33.5,
+            duration_s: 60.0,
+            ..TurntableSetup::default()
+        };
+        let sensor = SensorProfile {
+            sample_rate_hz: 116.0,
+            ..SensorProfile::default()
+        };
+        let mut sim = simulate(&sensor, &table, seed).unwrap();
+        for t in &mut sim.recording.time_s {
+            *t = (*t / tick).floor() * tick;
+        }
+        let fit = fit_turntable(&[&sim.recording], &options(), &spincal::progress::silent).unwrap();
+        let error = fitted_rpm(&fit) / true_rpm(&sim) - 1.0;
+        assert!(
+            error.abs() < 1e-3,
+            "seed {seed}: {:.3} rpm vs {:.3}",
+            fitted_rpm(&fit),
+            true_rpm(&sim)
+        );
+        assert_eq!(
+            fit.recordings[0].inspection.gap_count, 0,
+            "ticks of 1 or 2 are not gaps"
+        );
+    }
+}
+
+#[test]
+fn saturated_samples_are_left_out_of_the_fit() {
+    for seed in 0..3 {
+        let table = TurntableSetup {
+            duration_s: 60.0,
+            ..TurntableSetup::default()
+        };
+        let mut sim = simulate(&SensorProfile::default(), &table, seed).unwrap();
+        // 200 samples clipped at a rail well above the signal (a knock during the recording).
+        let rail = 2.0 * spincal::STANDARD_GRAVITY;
+        for i in 3000..3200 {
+            sim.recording.accel_mps2[0][i] = rail;
+        }
+        let fit = fit_turntable(&[&sim.recording], &options(), &spincal::progress::silent).unwrap();
+        let error = fitted_rpm(&fit) / true_rpm(&sim) - 1.0;
+        assert!(
+            error.abs() < 1e-3,
+            "seed {seed}: {:.3} rpm vs {:.3}",
+            fitted_rpm(&fit),
+            true_rpm(&sim)
+        );
+        assert_eq!(fit.recordings[0].inspection.saturated_samples(), 200);
+    }
+}
+
+#[test]
+fn a_constant_or_still_signal_is_refused_with_a_reason() {
+    let table = TurntableSetup {
+        duration_s: 30.0,
+        ..TurntableSetup::default()
+    };
+    let sim = simulate(&SensorProfile::ideal(), &table, 1).unwrap();
+    let mut constant = sim.recording.clone();
+    constant.accel_mps2[1].iter_mut().for_each(|v| *v = 0.25);
+    let err = fit_turntable(&[&constant], &options(), &spincal::progress::silent).unwrap_err();
+    assert!(err.to_string().contains("ay is constant"), "{err}");
+    // Still: gravity plus white noise, no rotation at all.
+    let mut still = sim.recording.clone();
+    let mut state = 7u64;
+    for axis in &mut still.accel_mps2 {
+        for v in axis.iter_mut() {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            *v = ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.05;
+        }
+    }
+    let err = fit_turntable(&[&still], &options(), &spincal::progress::silent).unwrap_err();
+    assert!(err.to_string().contains("no rotation found"), "{err}");
+}

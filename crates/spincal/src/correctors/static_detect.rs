@@ -139,7 +139,7 @@ pub fn detect_static(
         }
     }
     let n = time_s.len();
-    let dt = crate::input::recording::median_interval(time_s);
+    let dt = crate::input::recording::sample_interval(time_s);
     let half = if dt.is_finite() && dt > 0.0 {
         ((options.window_s / dt / 2.0).round() as usize).max(1)
     } else {

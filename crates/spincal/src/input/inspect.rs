@@ -5,9 +5,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::input::recording::{median_interval, Recording, STANDARD_GRAVITY};
+use crate::input::recording::{sample_interval, time_quantum, Recording, STANDARD_GRAVITY};
 
-/// A sample interval longer than this many median intervals is a gap.
+/// A sample interval longer than this many sampling intervals is a gap (or, with a clock coarser
+/// than the rate, longer than one interval plus one tick).
 pub const GAP_FACTOR: f64 = 1.5;
 
 /// Least number of successive samples at exactly an axis's extreme for it to count as a rail
@@ -52,6 +53,12 @@ pub struct Inspection {
     /// The first gaps (at most 20); [`Inspection::gap_count`] counts them all.
     pub gaps: Vec<Gap>,
     pub gap_count: usize,
+    /// Samples whose timestamp repeats the previous one (coarse timestamps), and the first line.
+    pub repeated_times: usize,
+    pub first_repeated_line: Option<usize>,
+    /// Steps where time goes backwards (a reset or wrapped timer), and the first line.
+    pub backward_steps: usize,
+    pub first_backward_line: Option<usize>,
     pub saturation: Vec<Saturation>,
     /// Axes whose every sample has the same value (a dead or disconnected channel).
     pub constant_axes: Vec<char>,
@@ -85,6 +92,18 @@ impl Inspection {
                 s.limit_mps2 / STANDARD_GRAVITY
             ));
         }
+        if let Some(line) = self.first_repeated_line {
+            out.push(format!(
+                "{file}:{line}: {} sample(s) repeat the previous timestamp (coarse timestamps); the rate comes from all timestamps",
+                self.repeated_times
+            ));
+        }
+        if let Some(line) = self.first_backward_line {
+            out.push(format!(
+                "{file}:{line}: time goes backwards {} time(s) (a reset or wrapped timer?)",
+                self.backward_steps
+            ));
+        }
         for axis in &self.constant_axes {
             out.push(format!(
                 "{file}: a{axis} is constant (a dead or disconnected channel?)"
@@ -100,12 +119,27 @@ impl Inspection {
 /// an axis is saturated where [`RAIL_SAMPLES`] or more successive samples sit exactly at its
 /// extreme value (a flat top). A constant axis is reported as constant, not as saturated.
 pub fn inspect(recording: &Recording, range_mps2: Option<f64>) -> Inspection {
-    let dt = median_interval(&recording.time_s);
+    let dt = sample_interval(&recording.time_s);
+    let quantum = time_quantum(&recording.time_s);
+    let gap_threshold = if quantum < 0.9 * dt {
+        (GAP_FACTOR * dt).max(dt + quantum)
+    } else {
+        GAP_FACTOR * dt
+    };
     let mut gaps = Vec::new();
     let mut gap_count = 0;
+    let (mut repeated_times, mut first_repeated_line) = (0, None);
+    let (mut backward_steps, mut first_backward_line) = (0, None);
     for (i, w) in recording.time_s.windows(2).enumerate() {
         let length_s = w[1] - w[0];
-        if length_s > GAP_FACTOR * dt {
+        if length_s == 0.0 {
+            repeated_times += 1;
+            first_repeated_line.get_or_insert(recording.location(i + 1).line);
+        } else if length_s < 0.0 {
+            backward_steps += 1;
+            first_backward_line.get_or_insert(recording.location(i + 1).line);
+        }
+        if length_s > gap_threshold {
             gap_count += 1;
             if gaps.len() < LISTED_GAPS {
                 gaps.push(Gap {
@@ -157,12 +191,44 @@ pub fn inspect(recording: &Recording, range_mps2: Option<f64>) -> Inspection {
         sample_rate_hz: 1.0 / dt,
         gaps,
         gap_count,
+        repeated_times,
+        first_repeated_line,
+        backward_steps,
+        first_backward_line,
         saturation,
         constant_axes,
         accel_min_mps2,
         accel_max_mps2,
         has_gyro: recording.gyro_radps.is_some(),
     }
+}
+
+/// Which samples are saturated on any axis, by the same rule as [`inspect`]; the fit leaves them
+/// out (a clipped sample carries the rail, not the motion).
+pub fn saturated_mask(recording: &Recording, range_mps2: Option<f64>) -> Vec<bool> {
+    let mut mask = vec![false; recording.len()];
+    for axis in &recording.accel_mps2 {
+        if axis.is_empty() {
+            continue;
+        }
+        let (min, max) = extremes(axis);
+        if min == max {
+            continue;
+        }
+        match range_mps2 {
+            Some(range) => {
+                for (m, v) in mask.iter_mut().zip(axis) {
+                    *m |= v.abs() >= RANGE_SHARE * range;
+                }
+            }
+            None => {
+                for (i, _) in flat_tops(axis, min, max) {
+                    mask[i] = true;
+                }
+            }
+        }
+    }
+    mask
 }
 
 /// The least and greatest value, ignoring NaN.

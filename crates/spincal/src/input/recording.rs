@@ -266,7 +266,7 @@ impl Recording {
 
     /// Nominal sample rate, Hz: the inverse of the median sample interval.
     pub fn sample_rate_hz(&self) -> f64 {
-        1.0 / median_interval(&self.time_s)
+        1.0 / sample_interval(&self.time_s)
     }
 
     /// Reads a recording from a delimited text file.
@@ -352,6 +352,35 @@ impl Recording {
         }
     }
 
+    /// The samples where `keep` is true, with their source lines (gaps where samples were dropped).
+    pub fn select(&self, keep: &[bool]) -> Recording {
+        let pick =
+            |v: &[f64]| -> Vec<f64> { v.iter().zip(keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect() };
+        let lines = if self.source.lines.len() == self.len() {
+            self.source
+                .lines
+                .iter()
+                .zip(keep)
+                .filter(|(_, k)| **k)
+                .map(|(l, _)| *l)
+                .collect()
+        } else {
+            (0..self.len()).filter(|&i| keep[i]).map(|i| i + 1).collect()
+        };
+        Recording {
+            time_s: pick(&self.time_s),
+            accel_mps2: std::array::from_fn(|a| pick(&self.accel_mps2[a])),
+            gyro_radps: self
+                .gyro_radps
+                .as_ref()
+                .map(|g| std::array::from_fn(|a| pick(&g[a]))),
+            source: Source {
+                lines,
+                ..self.source.clone()
+            },
+        }
+    }
+
     /// Writes the recording as CSV with unit-bearing header names (`t_s,ax_mps2,…` or `ax_g`).
     pub fn write_csv<W: Write>(&self, mut out: W, unit: AccelUnit) -> std::io::Result<()> {
         let u = unit.suffix();
@@ -384,6 +413,44 @@ impl Recording {
         crate::output::write_file(path, |out| self.write_csv(out, unit))?;
         Ok(())
     }
+}
+
+/// The sampling interval from all the timestamps: the mean step over the stretches between gaps
+/// (a step over four times the typical positive step) and without backward steps. Unlike the
+/// median step it is right for quantised clocks, whose steps alternate between whole ticks (a
+/// 3DM-GX1 at 1 or 2 ticks of 6.5536 ms), and for coarse timestamps that repeat. NaN for fewer
+/// than two samples.
+pub fn sample_interval(t: &[f64]) -> f64 {
+    if t.len() < 2 {
+        return f64::NAN;
+    }
+    let mut positive: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
+    if positive.is_empty() {
+        return f64::NAN;
+    }
+    let mid = positive.len() / 2;
+    let typical = *positive.select_nth_unstable_by(mid, f64::total_cmp).1;
+    let (mut sum, mut count) = (0.0, 0usize);
+    for w in t.windows(2) {
+        let d = w[1] - w[0];
+        if d >= 0.0 && d <= 4.0 * typical {
+            sum += d;
+            count += 1;
+        }
+    }
+    if count == 0 || sum <= 0.0 {
+        typical
+    } else {
+        sum / count as f64
+    }
+}
+
+/// The least positive step: the timestamps' resolution when the clock is coarser than the rate.
+pub fn time_quantum(t: &[f64]) -> f64 {
+    t.windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| *d > 0.0)
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// Median of successive differences of `t` (NaN for fewer than two samples).

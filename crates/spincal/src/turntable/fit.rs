@@ -12,7 +12,9 @@
 use faer::{Mat, MatMut, Side};
 use serde::{Deserialize, Serialize};
 
-use crate::input::inspect::{inspect, Inspection};
+use std::borrow::Cow;
+
+use crate::input::inspect::{inspect, saturated_mask, Inspection};
 use crate::input::recording::{Recording, STANDARD_GRAVITY};
 use crate::metrics::fit_percent;
 use crate::optim::{
@@ -115,6 +117,14 @@ impl Default for FitOptions {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum FitError {
+    #[error("{file}: a{axis} is constant (a dead or disconnected channel): there is no rotation to fit on it; check the recording or leave the axis out of the objective (--objective-axes)")]
+    ConstantAxis { file: String, axis: char },
+    #[error("{file}: no rotation found: the strongest line in the search band ({rpm:.2} rpm) is only {peak_to_median:.1}× the spectrum's median (at least {MIN_PEAK_TO_MEDIAN} is needed); was the turntable turning?")]
+    NoRotation {
+        file: String,
+        peak_to_median: f64,
+        rpm: f64,
+    },
     #[error("no recordings to fit")]
     NoRecordings,
     #[error(transparent)]
@@ -490,6 +500,10 @@ fn wrap_angle(x: f64) -> f64 {
     y
 }
 
+/// A turntable's line stands far above the spectrum's median (hundreds of times in real
+/// recordings); below this the data hold no rotation.
+const MIN_PEAK_TO_MEDIAN: f64 = 8.0;
+
 /// Fits the turntable model to the recordings jointly: a first look at each recording (rate,
 /// sinusoid start, inspection), the parameter table, bounded Nelder–Mead on the moment cost, the
 /// Levenberg–Marquardt polish on the exact residuals, then standard errors, identifiability, drift
@@ -500,10 +514,25 @@ pub fn fit_turntable(
     observer: &Observer,
 ) -> Result<TurntableFit, FitError> {
     check_request(recordings, options)?;
+    // Saturated samples carry the rail, not the motion: they are reported, then left out.
+    let unsaturated: Vec<Cow<Recording>> = recordings
+        .iter()
+        .map(|rec| {
+            let saturated = saturated_mask(rec, options.range_mps2);
+            if saturated.iter().any(|s| *s) {
+                Cow::Owned(rec.select(&saturated.iter().map(|s| !s).collect::<Vec<_>>()))
+            } else {
+                Cow::Borrowed(*rec)
+            }
+        })
+        .collect();
     let looks = recordings
         .iter()
-        .map(|rec| first_look(rec, options))
+        .zip(&unsaturated)
+        .map(|(rec, clean)| first_look(clean, inspect(rec, options.range_mps2), options))
         .collect::<Result<Vec<_>, _>>()?;
+    let recordings: Vec<&Recording> = unsaturated.iter().map(|r| r.as_ref()).collect();
+    let recordings = recordings.as_slice();
     let defs = parameter_table(recordings, options, &looks)?;
     let bounds = Bounds {
         names: defs.iter().map(|d| d.name.clone()).collect(),
@@ -570,8 +599,19 @@ struct FirstLook {
 }
 
 /// The rotation rate from the spectrum (at least three turns are needed), a sinusoid fit at that
-/// rate for the starting values, the inspection, and the sense of rotation.
-fn first_look(rec: &Recording, options: &FitOptions) -> Result<FirstLook, FitError> {
+/// rate for the starting values, and the sense of rotation. A constant axis in the objective, or
+/// a spectrum without a clear peak, is refused: there is no rotation to fit.
+fn first_look(rec: &Recording, inspection: Inspection, options: &FitOptions) -> Result<FirstLook, FitError> {
+    if let Some(axis) = inspection
+        .constant_axes
+        .iter()
+        .find(|a| options.axes.axes().contains(&(**a as usize - 'x' as usize)))
+    {
+        return Err(FitError::ConstantAxis {
+            file: rec.source.name.clone(),
+            axis: *axis,
+        });
+    }
     let search = match options.rpm_hint {
         Some(rpm) => RateSearch {
             min_rpm: 0.9 * rpm,
@@ -580,6 +620,13 @@ fn first_look(rec: &Recording, options: &FitOptions) -> Result<FirstLook, FitErr
         None => RateSearch::default(),
     };
     let rate = estimate_rotation_rate(rec, search)?;
+    if !(rate.peak_to_median >= MIN_PEAK_TO_MEDIAN) {
+        return Err(FitError::NoRotation {
+            file: rec.source.name.clone(),
+            peak_to_median: rate.peak_to_median,
+            rpm: rate.rpm,
+        });
+    }
     let rotations = rec.duration_s() * rate.frequency_hz;
     if rotations < 3.0 {
         return Err(FitError::TooFewRotations {
@@ -595,7 +642,7 @@ fn first_look(rec: &Recording, options: &FitOptions) -> Result<FirstLook, FitErr
     Ok(FirstLook {
         rate,
         start,
-        inspection: inspect(rec, options.range_mps2),
+        inspection,
         direction,
     })
 }

@@ -7,7 +7,7 @@
 use realfft::RealFftPlanner;
 use serde::{Deserialize, Serialize};
 
-use crate::input::recording::{median_interval, Recording};
+use crate::input::recording::{sample_interval, Recording};
 
 /// Where to look for the rotation line.
 #[derive(Debug, Clone, Copy)]
@@ -70,7 +70,7 @@ pub fn estimate_rotation_rate(
             samples: n,
         });
     }
-    let dt = median_interval(&recording.time_s);
+    let dt = sample_interval(&recording.time_s);
     let rate_hz = 1.0 / dt;
     let window: Vec<f64> = (0..n)
         .map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / (n - 1) as f64).cos())
