@@ -415,34 +415,22 @@ impl Recording {
     }
 }
 
-/// The sampling interval from all the timestamps: the mean step over the stretches between gaps
-/// (a step over four times the typical positive step) and without backward steps. Unlike the
-/// median step it is right for quantised clocks, whose steps alternate between whole ticks (a
-/// 3DM-GX1 at 1 or 2 ticks of 6.5536 ms), and for coarse timestamps that repeat. NaN for fewer
-/// than two samples.
+/// The sampling interval from all the timestamps: the median of (t[i+k] − t[i]) / k over
+/// non-overlapping windows of k steps (k up to 64). Unlike the median step it is right for
+/// quantised clocks, whose steps alternate between whole ticks (a 3DM-GX1 at 1 or 2 ticks of
+/// 6.5536 ms), and for coarse timestamps that repeat; a gap or a backward step spoils only the one
+/// window it falls in. NaN for fewer than two samples.
 pub fn sample_interval(t: &[f64]) -> f64 {
     if t.len() < 2 {
         return f64::NAN;
     }
-    let mut positive: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
-    if positive.is_empty() {
-        return f64::NAN;
-    }
-    let mid = positive.len() / 2;
-    let typical = *positive.select_nth_unstable_by(mid, f64::total_cmp).1;
-    let (mut sum, mut count) = (0.0, 0usize);
-    for w in t.windows(2) {
-        let d = w[1] - w[0];
-        if d >= 0.0 && d <= 4.0 * typical {
-            sum += d;
-            count += 1;
-        }
-    }
-    if count == 0 || sum <= 0.0 {
-        typical
-    } else {
-        sum / count as f64
-    }
+    let steps = t.len() - 1;
+    let k = (steps / 8).clamp(1, 64);
+    let mut rates: Vec<f64> = (0..steps / k)
+        .map(|w| (t[(w + 1) * k] - t[w * k]) / k as f64)
+        .collect();
+    let mid = rates.len() / 2;
+    *rates.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
 /// The least positive step: the timestamps' resolution when the clock is coarser than the rate.

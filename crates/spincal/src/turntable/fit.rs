@@ -602,6 +602,14 @@ struct FirstLook {
 /// rate for the starting values, and the sense of rotation. A constant axis in the objective, or
 /// a spectrum without a clear peak, is refused: there is no rotation to fit.
 fn first_look(rec: &Recording, inspection: Inspection, options: &FitOptions) -> Result<FirstLook, FitError> {
+    let search = match options.rpm_hint {
+        Some(rpm) => RateSearch {
+            min_rpm: 0.9 * rpm,
+            max_rpm: 1.1 * rpm,
+        },
+        None => RateSearch::default(),
+    };
+    let rate = estimate_rotation_rate(rec, search)?;
     if let Some(axis) = inspection
         .constant_axes
         .iter()
@@ -612,21 +620,6 @@ fn first_look(rec: &Recording, inspection: Inspection, options: &FitOptions) -> 
             axis: *axis,
         });
     }
-    let search = match options.rpm_hint {
-        Some(rpm) => RateSearch {
-            min_rpm: 0.9 * rpm,
-            max_rpm: 1.1 * rpm,
-        },
-        None => RateSearch::default(),
-    };
-    let rate = estimate_rotation_rate(rec, search)?;
-    if !(rate.peak_to_median >= MIN_PEAK_TO_MEDIAN) {
-        return Err(FitError::NoRotation {
-            file: rec.source.name.clone(),
-            peak_to_median: rate.peak_to_median,
-            rpm: rate.rpm,
-        });
-    }
     let rotations = rec.duration_s() * rate.frequency_hz;
     if rotations < 3.0 {
         return Err(FitError::TooFewRotations {
@@ -634,6 +627,13 @@ fn first_look(rec: &Recording, inspection: Inspection, options: &FitOptions) -> 
             rotations,
             rpm: rate.rpm,
             duration_s: rec.duration_s(),
+        });
+    }
+    if rate.peak_to_median.is_nan() || rate.peak_to_median < MIN_PEAK_TO_MEDIAN {
+        return Err(FitError::NoRotation {
+            file: rec.source.name.clone(),
+            peak_to_median: rate.peak_to_median,
+            rpm: rate.rpm,
         });
     }
     let start = sinusoid_fit(rec, rate.omega_radps);
