@@ -55,6 +55,101 @@ impl fmt::Display for Axis {
     }
 }
 
+/// A corrector that contradicts its own structure (a damaged or hand-edited file, or a model
+/// built by hand): the field, as a path below the corrector object in the saved file
+/// (`network.weights`, `axes[1]`, `matrix[0][2]`), and what is wrong with it. Every kind checks
+/// everything its application relies on, so a model that passes never panics when applied.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{field}: {reason}")]
+pub struct ModelError {
+    pub field: String,
+    pub reason: String,
+}
+
+impl ModelError {
+    pub fn new(field: impl Into<String>, reason: impl Into<String>) -> ModelError {
+        ModelError {
+            field: field.into(),
+            reason: reason.into(),
+        }
+    }
+
+    /// The same error seen from the enclosing object: the field becomes `prefix.field` (or
+    /// `prefix[i]…` for an index).
+    pub fn within(mut self, prefix: &str) -> ModelError {
+        self.field = join_field(prefix, &self.field);
+        self
+    }
+}
+
+/// `prefix` and `field` joined as a path: `a` + `b` → `a.b`, `a` + `[1]` → `a[1]`.
+pub fn join_field(prefix: &str, field: &str) -> String {
+    if prefix.is_empty() {
+        field.to_string()
+    } else if field.is_empty() {
+        prefix.to_string()
+    } else if field.starts_with('[') {
+        format!("{prefix}{field}")
+    } else {
+        format!("{prefix}.{field}")
+    }
+}
+
+/// Every value finite; the error names the first that is not (`field[i]`).
+pub fn check_finite(field: &str, values: &[f64]) -> Result<(), ModelError> {
+    match values.iter().position(|v| !v.is_finite()) {
+        Some(i) => Err(ModelError::new(
+            format!("{field}[{i}]"),
+            format!("{} is not a finite number", values[i]),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// A list of `found` entries where `needed` are required; `why` completes "but … need N", e.g.
+/// `2 axes`.
+pub fn check_len(field: &str, found: usize, needed: usize, why: &str) -> Result<(), ModelError> {
+    if found == needed {
+        Ok(())
+    } else {
+        Err(ModelError::new(
+            field,
+            format!(
+                "{found} {}, but {why} need {needed}",
+                if found == 1 { "value" } else { "values" }
+            ),
+        ))
+    }
+}
+
+/// "1 axis", "2 axes": for messages.
+pub fn axes_phrase(n: usize) -> String {
+    if n == 1 {
+        "1 axis".into()
+    } else {
+        format!("{n} axes")
+    }
+}
+
+/// A model's corrected axes: at least one, none twice.
+pub fn check_model_axes(field: &str, axes: &[Axis]) -> Result<(), ModelError> {
+    if axes.is_empty() {
+        return Err(ModelError::new(
+            field,
+            "no axes: a corrector corrects one or more of x, y, z",
+        ));
+    }
+    for (i, a) in axes.iter().enumerate() {
+        if let Some(first) = axes[..i].iter().position(|b| b == a) {
+            return Err(ModelError::new(
+                format!("{field}[{i}]"),
+                format!("axis {a} is listed twice (also at [{first}])"),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// One corrected sample: all three axes (uncorrected axes pass through) and whether the corrector
 /// had its full history. An invalid sample carries the measured values unchanged.
 #[derive(Debug, Clone, Copy, PartialEq)]

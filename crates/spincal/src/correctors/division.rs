@@ -5,7 +5,7 @@ use std::ops::Range;
 
 use serde::{Deserialize, Serialize};
 
-use crate::correctors::corrector::Axis;
+use crate::correctors::corrector::{axes_phrase, check_len, Axis, ModelError};
 use crate::input::recording::Recording;
 
 /// Why measured and reference data cannot be used together.
@@ -134,6 +134,47 @@ impl Division {
         division
     }
 
+    /// A saved division that contradicts itself: `first_sample` as the corrector needs (its
+    /// delays), every range inside `first_sample..n_samples` and in order, so that
+    /// [`Division::mask`] and [`Division::count`] cannot fail. Fields relative to the division.
+    pub fn check(&self, first_sample: usize) -> Result<(), ModelError> {
+        if self.first_sample != first_sample {
+            return Err(ModelError::new(
+                "first_sample",
+                format!(
+                    "{}, but the corrector's delays make it {first_sample}",
+                    self.first_sample
+                ),
+            ));
+        }
+        if self.first_sample > self.n_samples {
+            return Err(ModelError::new(
+                "first_sample",
+                format!("{} is beyond n_samples {}", self.first_sample, self.n_samples),
+            ));
+        }
+        for (name, ranges) in [
+            ("train", &self.train),
+            ("validation", &self.validation),
+            ("test", &self.test),
+        ] {
+            let mut previous_end = self.first_sample;
+            for (i, r) in ranges.iter().enumerate() {
+                if r.start < previous_end || r.end < r.start || r.end > self.n_samples {
+                    return Err(ModelError::new(
+                        format!("{name}[{i}]"),
+                        format!(
+                            "samples {}..{} do not lie in order within {}..{} (n_samples)",
+                            r.start, r.end, self.first_sample, self.n_samples
+                        ),
+                    ));
+                }
+                previous_end = r.end;
+            }
+        }
+        Ok(())
+    }
+
     pub fn ranges(&self, part: Part) -> &[Range<usize>] {
         match part {
             Part::Train => &self.train,
@@ -174,6 +215,14 @@ impl PartFits {
             Part::Validation => &self.validation,
             Part::Test => &self.test,
         }
+    }
+
+    /// One fit per axis in every part (fields relative to the fits).
+    pub fn check(&self, n_axes: usize) -> Result<(), ModelError> {
+        let why = axes_phrase(n_axes);
+        check_len("train", self.train.len(), n_axes, &why)?;
+        check_len("validation", self.validation.len(), n_axes, &why)?;
+        check_len("test", self.test.len(), n_axes, &why)
     }
 
     /// Mean over axes of one part's fit %.

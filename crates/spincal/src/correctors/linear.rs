@@ -6,7 +6,10 @@ use faer::prelude::SolveLstsq;
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
-use crate::correctors::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
+use crate::correctors::corrector::{
+    axes_phrase, check_finite, check_len, check_model_axes, Axis, CorrectedSample, Corrector, ModelError,
+    SampleCorrector,
+};
 use crate::correctors::division::{
     check_axes, check_pairing, Division, DivisionMode, PairingError, Part, PartFits,
 };
@@ -41,6 +44,42 @@ pub struct LinearSummary {
 }
 
 impl LinearModel {
+    /// Checks the model against its own structure, everything that applying it relies on:
+    /// distinct axes, one finite offset per axis, a square finite matrix with one row and one
+    /// column per axis, and a training summary (if any) with one fit per axis and a division that
+    /// holds together. Fields are relative to the model (`matrix[1]`). A model that passes never
+    /// panics when applied.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        check_model_axes("axes", &self.axes)?;
+        let k = self.axes.len();
+        let why = axes_phrase(k);
+        check_len("offset_mps2", self.offset_mps2.len(), k, &why)?;
+        check_finite("offset_mps2", &self.offset_mps2)?;
+        if self.matrix.len() != k {
+            return Err(ModelError::new(
+                "matrix",
+                format!("{} rows, but {why} need a {k} × {k} matrix", self.matrix.len()),
+            ));
+        }
+        for (i, row) in self.matrix.iter().enumerate() {
+            let field = format!("matrix[{i}]");
+            check_len(&field, row.len(), k, &why)?;
+            check_finite(&field, row)?;
+        }
+        if let Some(training) = &self.training {
+            training.fits.check(k).map_err(|e| e.within("training.fits"))?;
+            training
+                .uncorrected
+                .check(k)
+                .map_err(|e| e.within("training.uncorrected"))?;
+            training
+                .division
+                .check(0)
+                .map_err(|e| e.within("training.division"))?;
+        }
+        Ok(())
+    }
+
     /// Least squares of `reference` on `[1, measured]` over the training part.
     pub fn fit(
         measured: &Recording,

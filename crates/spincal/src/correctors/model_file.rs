@@ -2,14 +2,20 @@
 //! `{"format_version": 1, "spincal_version": "…", "corrector": {"kind": "ann", …}}`.
 //!
 //! A new kind of corrector is one more variant of [`CorrectorModel`] and one more arm in its
-//! `Corrector` impl; the format version changes only when existing kinds change incompatibly.
+//! `Corrector` impl and in [`CorrectorModel::validate`] (both matches have no wildcard, so the
+//! compiler asks for them); the format version changes only when existing kinds change
+//! incompatibly.
+//!
+//! Reading a file checks it completely before anything uses it: the format version, the shape
+//! serde expects, then the model against its own structure ([`CorrectorModel::validate`]). Every
+//! refusal names the file and the field, as a path such as `corrector.network.weights[3]`.
 
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
 use crate::correctors::ann::AnnModel;
-use crate::correctors::corrector::{Axis, Corrector, SampleCorrector};
+use crate::correctors::corrector::{join_field, Axis, Corrector, ModelError, SampleCorrector};
 use crate::correctors::linear::LinearModel;
 use crate::correctors::static_cal::StaticCalibration;
 
@@ -33,6 +39,18 @@ impl CorrectorModel {
             CorrectorModel::Ann(m) => m.as_ref(),
             CorrectorModel::Linear(m) => m.as_ref(),
             CorrectorModel::Static(m) => m.as_ref(),
+        }
+    }
+
+    /// Checks the model against its own structure: everything applying it relies on (see each
+    /// kind's `validate`). Fields are relative to the corrector object (`network.weights`). A
+    /// model that passes never panics when applied.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        // No wildcard: a new kind does not compile until it says how it is checked.
+        match self {
+            CorrectorModel::Ann(m) => m.validate(),
+            CorrectorModel::Linear(m) => m.validate(),
+            CorrectorModel::Static(m) => m.validate(),
         }
     }
 
@@ -85,6 +103,14 @@ pub enum CorrectorError {
         #[source]
         source: serde_json::Error,
     },
+    /// A field that serde refused or that contradicts the model's own structure: `field` is its
+    /// path in the file (`corrector.network.weights`).
+    #[error("{file}: invalid corrector file: {field}: {reason}")]
+    Invalid {
+        file: String,
+        field: String,
+        reason: String,
+    },
     #[error("{file}: no format_version field; not a spincal corrector file")]
     MissingVersion { file: String },
     #[error("{file}: corrector file format_version {found}, but this spincal reads format_version {supported}; retrain the corrector or use a matching spincal")]
@@ -116,14 +142,41 @@ impl CorrectorFile {
         serde_json::to_string_pretty(self).expect("corrector models serialise")
     }
 
+    /// Checks the model against its own structure ([`CorrectorModel::validate`]); fields are
+    /// paths in the file (`corrector.network.weights`).
+    pub fn validate(&self) -> Result<(), ModelError> {
+        self.corrector.validate().map_err(|e| e.within("corrector"))
+    }
+
     /// Parses a file's text; `file` names it in errors. The version is checked before anything
-    /// else, so a file from another version is refused by version, not by a field error.
+    /// else, so a file from another version is refused by version, not by a field error. Then
+    /// serde reads the model and [`CorrectorFile::validate`] checks it: a file that loads can be
+    /// applied without panicking. Every refusal after the version names the field.
     pub fn from_json(text: &str, file: &str) -> Result<CorrectorFile, CorrectorError> {
         let parse = |source| CorrectorError::Parse {
             file: file.to_string(),
             source,
         };
-        let value: serde_json::Value = serde_json::from_str(text).map_err(parse)?;
+        let invalid = |field: String, reason: String| CorrectorError::Invalid {
+            file: file.to_string(),
+            field: if field.is_empty() {
+                "(top level)".into()
+            } else {
+                field
+            },
+            reason,
+        };
+        let value: serde_json::Value = match serde_json::from_str(text) {
+            Ok(value) => value,
+            // 1e999 and the like: well-formed JSON, but no finite f64. Say where.
+            Err(e) if message_of(&e) == "number out of range" => {
+                return Err(invalid(
+                    path_at(text, e.line(), e.column()),
+                    "number out of range: not a finite 64-bit float".into(),
+                ))
+            }
+            Err(e) => return Err(parse(e)),
+        };
         let found = value
             .get("format_version")
             .and_then(serde_json::Value::as_u64)
@@ -137,7 +190,16 @@ impl CorrectorFile {
                 supported: FORMAT_VERSION,
             });
         }
-        serde_json::from_value(value).map_err(parse)
+        let parsed = match CorrectorFile::deserialize(&value) {
+            Ok(parsed) => parsed,
+            Err(e) => {
+                let (field, reason) =
+                    locate_serde_error(&value).unwrap_or_else(|| (String::new(), message_of(&e)));
+                return Err(invalid(field, reason));
+            }
+        };
+        parsed.validate().map_err(|e| invalid(e.field, e.reason))?;
+        Ok(parsed)
     }
 
     pub fn read_path(path: &Path) -> Result<CorrectorFile, CorrectorError> {
@@ -155,9 +217,126 @@ impl CorrectorFile {
     }
 }
 
+/// A serde_json error's message without the ` at line L column C` that Display appends.
+fn message_of(e: &serde_json::Error) -> String {
+    let text = e.to_string();
+    let suffix = format!(" at line {} column {}", e.line(), e.column());
+    text.strip_suffix(&suffix).unwrap_or(&text).to_string()
+}
+
+/// Where and why serde refuses `value` (a file whose typed reading failed), as (field path,
+/// message). Reading from a `Value` gives no position, and the `kind`-tagged corrector is read
+/// from a buffered copy that loses it too, so the failing part is read again from pretty-printed
+/// text, the corrector by its own kind's type, and the error's position in that text is turned
+/// into a path. `None` when it cannot be told (the caller then reports serde's message alone).
+fn locate_serde_error(value: &serde_json::Value) -> Option<(String, String)> {
+    fn read_again<T: serde::de::DeserializeOwned>(
+        value: &serde_json::Value,
+        prefix: &str,
+    ) -> Option<(String, String)> {
+        let text = serde_json::to_string_pretty(value).ok()?;
+        let e = serde_json::from_str::<T>(&text).err()?;
+        let field = join_field(prefix, &path_at(&text, e.line(), e.column()));
+        Some((field, message_of(&e)))
+    }
+    let corrector = value.get("corrector");
+    let kind = corrector
+        .and_then(|c| c.get("kind"))
+        .and_then(serde_json::Value::as_str);
+    let by_kind = match (corrector, kind) {
+        (Some(c), Some("ann")) => read_again::<AnnModel>(c, "corrector"),
+        (Some(c), Some("linear")) => read_again::<LinearModel>(c, "corrector"),
+        (Some(c), Some("static")) => read_again::<StaticCalibration>(c, "corrector"),
+        _ => None,
+    };
+    by_kind.or_else(|| read_again::<CorrectorFile>(value, ""))
+}
+
+/// The path (`corrector.network.weights[3]`) of the value being read at `line`:`column` (as
+/// serde_json counts them: from 1, and bytes from the line's start) of `text`, which is
+/// well-formed JSON up to there. Keys stay current until the next comma, so a position just
+/// after a value, or after the closing brace of an object value, still names that value.
+fn path_at(text: &str, line: usize, column: usize) -> String {
+    enum Frame {
+        Object { key: Option<String>, expect_key: bool },
+        Array { index: usize },
+    }
+    let bytes = text.as_bytes();
+    let line_start = if line <= 1 {
+        0
+    } else {
+        bytes
+            .iter()
+            .enumerate()
+            .filter(|(_, &b)| b == b'\n')
+            .nth(line - 2)
+            .map_or(bytes.len(), |(i, _)| i + 1)
+    };
+    let end = (line_start + column).min(bytes.len());
+    let mut stack: Vec<Frame> = Vec::new();
+    let mut i = 0;
+    while i < end {
+        match bytes[i] {
+            b'"' => {
+                let start = i + 1;
+                let mut j = start;
+                while j < bytes.len() && bytes[j] != b'"' {
+                    j += if bytes[j] == b'\\' { 2 } else { 1 };
+                }
+                let j = j.min(bytes.len());
+                if let Some(Frame::Object { key, expect_key }) = stack.last_mut() {
+                    if *expect_key {
+                        *key = Some(String::from_utf8_lossy(&bytes[start..j]).into_owned());
+                        *expect_key = false;
+                    }
+                }
+                i = j + 1;
+                continue;
+            }
+            b'{' => stack.push(Frame::Object {
+                key: None,
+                expect_key: true,
+            }),
+            b'[' => stack.push(Frame::Array { index: 0 }),
+            b'}' | b']' => {
+                stack.pop();
+            }
+            b',' => match stack.last_mut() {
+                Some(Frame::Array { index }) => *index += 1,
+                Some(Frame::Object { key, expect_key }) => {
+                    *key = None;
+                    *expect_key = true;
+                }
+                None => {}
+            },
+            _ => {}
+        }
+        i += 1;
+    }
+    let mut path = String::new();
+    for frame in &stack {
+        match frame {
+            Frame::Object { key: Some(key), .. } => path = join_field(&path, key),
+            Frame::Object { key: None, .. } => {}
+            Frame::Array { index } => path.push_str(&format!("[{index}]")),
+        }
+    }
+    path
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn positions_become_paths() {
+        let text = "{\n  \"corrector\": {\n    \"axes\": [\"x\", \"w\"],\n    \"network\": {\"weights\": [1, 2, null]}\n  }\n}";
+        // Just after `"w"`, inside `null`, and just after the network object.
+        assert_eq!(path_at(text, 3, 21), "corrector.axes[1]");
+        assert_eq!(path_at(text, 4, 37), "corrector.network.weights[2]");
+        assert_eq!(path_at(text, 4, 40), "corrector.network");
+        assert_eq!(path_at(text, 6, 1), "");
+    }
 
     #[test]
     fn other_format_version_is_refused_by_name() {

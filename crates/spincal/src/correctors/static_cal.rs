@@ -18,7 +18,9 @@
 use faer::MatMut;
 use serde::{Deserialize, Serialize};
 
-use crate::correctors::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
+use crate::correctors::corrector::{
+    check_finite, Axis, CorrectedSample, Corrector, ModelError, SampleCorrector,
+};
 use crate::correctors::static_detect::StillInterval;
 use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop};
 
@@ -94,6 +96,55 @@ impl StaticCalibration {
             nonlinearity: [0.0; 3],
             gravity_mps2,
             input_unit: "m/s^2".into(),
+        }
+    }
+
+    /// Checks the calibration against its own structure: every parameter finite, no zero scale
+    /// (it would map an axis to a constant), a finite positive gravity, and no misalignment or
+    /// nonlinearity that its `model` does not estimate (they would be applied all the same).
+    /// Fields are relative to the calibration (`scale[2]`). The three-axis arrays have their
+    /// length by type.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        check_finite("bias", &self.bias)?;
+        check_finite("scale", &self.scale)?;
+        check_finite("misalignment", &self.misalignment)?;
+        check_finite("nonlinearity", &self.nonlinearity)?;
+        if let Some(i) = self.scale.iter().position(|&s| s == 0.0) {
+            return Err(ModelError::new(
+                format!("scale[{i}]"),
+                "0 maps every reading of the axis to 0",
+            ));
+        }
+        let g = self.gravity_mps2;
+        if !(g.is_finite() && g > 0.0) {
+            return Err(ModelError::new(
+                "gravity_mps2",
+                format!("{g}: gravity must be finite and positive"),
+            ));
+        }
+        let model = serde_json::to_value(self.model)
+            .ok()
+            .and_then(|v| v.as_str().map(str::to_string))
+            .unwrap_or_default();
+        let unused = |field: &str, values: &[f64; 3]| -> Result<(), ModelError> {
+            match values.iter().position(|&v| v != 0.0) {
+                Some(i) => Err(ModelError::new(
+                    format!("{field}[{i}]"),
+                    format!(
+                        "{}, but model {model} estimates no {field} (it must be 0)",
+                        values[i]
+                    ),
+                )),
+                None => Ok(()),
+            }
+        };
+        match self.model {
+            StaticModel::BiasScale => {
+                unused("misalignment", &self.misalignment)?;
+                unused("nonlinearity", &self.nonlinearity)
+            }
+            StaticModel::Misalignment => unused("nonlinearity", &self.nonlinearity),
+            StaticModel::Nonlinear => Ok(()),
         }
     }
 

@@ -4,6 +4,8 @@ use std::ops::Range;
 
 use serde::{Deserialize, Serialize};
 
+use crate::correctors::corrector::{axes_phrase, check_finite, check_len, ModelError};
+
 /// Per-channel linear map of `[min, max]` onto [−1, 1] (MATLAB's `mapminmax`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Scaling {
@@ -25,6 +27,32 @@ impl Scaling {
             }
         }
         Scaling { min, max }
+    }
+
+    /// A saved scaling of `n_channels` channels: one finite `min ≤ max` per channel, with a
+    /// finite span (else the map is not invertible in floating point). Fields relative to the
+    /// scaling.
+    pub fn check(&self, n_channels: usize) -> Result<(), ModelError> {
+        let why = axes_phrase(n_channels);
+        check_len("min", self.min.len(), n_channels, &why)?;
+        check_len("max", self.max.len(), n_channels, &why)?;
+        check_finite("min", &self.min)?;
+        check_finite("max", &self.max)?;
+        for (c, (lo, hi)) in self.min.iter().zip(&self.max).enumerate() {
+            if lo > hi {
+                return Err(ModelError::new(
+                    format!("min[{c}]"),
+                    format!("{lo} is above max[{c}] {hi}"),
+                ));
+            }
+            if !(hi - lo).is_finite() {
+                return Err(ModelError::new(
+                    format!("max[{c}]"),
+                    format!("the range {lo} … {hi} is wider than a 64-bit float holds"),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Gain and offset of channel `c`: `scaled = gain · x + offset`. A constant channel maps to 0

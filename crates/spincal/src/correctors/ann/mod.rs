@@ -24,7 +24,9 @@ pub use sweep::{
     SweepRow, SweepSettings, SWEEP_HESSIAN_SAMPLES,
 };
 
-use crate::correctors::corrector::{Axis, CorrectedSample, Corrector, SampleCorrector};
+use crate::correctors::corrector::{
+    axes_phrase, check_model_axes, Axis, CorrectedSample, Corrector, ModelError, SampleCorrector,
+};
 use crate::correctors::division::{check_axes, check_pairing, PairingError};
 pub use crate::correctors::division::{Division, DivisionMode, Part, PartFits};
 use crate::input::recording::Recording;
@@ -49,7 +51,16 @@ pub enum AnnError {
     EmptyLayer { layer: usize },
     #[error("restarts must be at least 1")]
     NoRestarts,
+    #[error("{0} delays asked for; at most {MAX_DELAYS} are supported")]
+    TooManyDelays(usize),
 }
+
+/// Largest number of delays a network may use, in training and in a saved file. Each delay adds
+/// one network input per axis, and Levenberg–Marquardt forms a matrix of (number of weights)²:
+/// at 1000 delays on three axes a single hidden unit already has over 3000 weights, and ten units
+/// would need a 7 GB matrix, so no trainable network comes near the limit. A file beyond it is
+/// damaged, and refusing it keeps the delay history of a stream small.
+pub const MAX_DELAYS: usize = 1000;
 
 /// Smallest usable sample count: each part needs a few samples.
 const MIN_SAMPLES: usize = 10;
@@ -86,6 +97,9 @@ impl AnnProblem {
     ) -> Result<AnnProblem, AnnError> {
         check_axes(axes)?;
         check_pairing(measured, reference)?;
+        if delays > MAX_DELAYS {
+            return Err(AnnError::TooManyDelays(delays));
+        }
         let n = measured.len();
         let needed = delays + MIN_SAMPLES;
         if n < needed {
@@ -319,6 +333,48 @@ pub struct AnnTrainingSummary {
     pub division: Division,
 }
 
+impl AnnTrainingSummary {
+    /// The summary agrees with a model of `n_axes` axes and `delays` delays: the kept restart
+    /// is one of the restarts, the kept epoch one of the report's, one fit per axis, and the
+    /// division starts after the delays. Fields relative to the summary.
+    fn check(&self, n_axes: usize, delays: usize) -> Result<(), ModelError> {
+        if self.best_restart >= self.restarts {
+            return Err(ModelError::new(
+                "best_restart",
+                format!(
+                    "{}, but there were {} restarts (counted from 0)",
+                    self.best_restart, self.restarts
+                ),
+            ));
+        }
+        let report = &self.report;
+        let epochs = report.train_mse.len();
+        if report.validation_mse.len() != epochs {
+            return Err(ModelError::new(
+                "report.validation_mse",
+                format!(
+                    "{} values, but report.train_mse has {epochs} (one per epoch each)",
+                    report.validation_mse.len()
+                ),
+            ));
+        }
+        if report.best_epoch >= epochs {
+            return Err(ModelError::new(
+                "report.best_epoch",
+                format!(
+                    "{}, but the report has {epochs} epochs (counted from 0)",
+                    report.best_epoch
+                ),
+            ));
+        }
+        self.fits.check(n_axes).map_err(|e| e.within("fits"))?;
+        self.uncorrected
+            .check(n_axes)
+            .map_err(|e| e.within("uncorrected"))?;
+        self.division.check(delays).map_err(|e| e.within("division"))
+    }
+}
+
 /// A trained network corrector: everything needed to apply it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AnnModel {
@@ -333,6 +389,58 @@ pub struct AnnModel {
 }
 
 impl AnnModel {
+    /// Checks the model against its own structure, everything that applying it relies on:
+    /// distinct axes, at most [`MAX_DELAYS`] delays, `network.inputs` = axes × (delays + 1) (the
+    /// tapped-delay row: per axis the sample and `delays` before it), `network.outputs` = axes,
+    /// the network itself ([`Network::check`]), one finite `min ≤ max` scaling per axis for the
+    /// inputs and outputs, and a training summary (if any) that agrees with the model. Fields
+    /// are relative to the model (`network.weights`). A model that passes never panics when
+    /// applied.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        check_model_axes("axes", &self.axes)?;
+        if self.delays > MAX_DELAYS {
+            return Err(ModelError::new(
+                "delays",
+                format!("{} is above the limit of {MAX_DELAYS}", self.delays),
+            ));
+        }
+        let n_axes = self.axes.len();
+        // Both factors are small now (at most 3 axes, MAX_DELAYS): no overflow.
+        let inputs = n_axes * (self.delays + 1);
+        if self.network.inputs != inputs {
+            return Err(ModelError::new(
+                "network.inputs",
+                format!(
+                    "{} inputs, but axes × (delays + 1) = {n_axes} × ({} + 1) = {inputs}",
+                    self.network.inputs, self.delays
+                ),
+            ));
+        }
+        if self.network.outputs != n_axes {
+            return Err(ModelError::new(
+                "network.outputs",
+                format!(
+                    "{}, but the model corrects {} and needs one output per axis",
+                    self.network.outputs,
+                    axes_phrase(n_axes)
+                ),
+            ));
+        }
+        self.network.check().map_err(|e| e.within("network"))?;
+        self.input_scaling
+            .check(n_axes)
+            .map_err(|e| e.within("input_scaling"))?;
+        self.output_scaling
+            .check(n_axes)
+            .map_err(|e| e.within("output_scaling"))?;
+        if let Some(training) = &self.training {
+            training
+                .check(n_axes, self.delays)
+                .map_err(|e| e.within("training"))?;
+        }
+        Ok(())
+    }
+
     /// Network outputs (scaled) for every row of `data`, row-major.
     pub fn predict_scaled(&self, layout: &Layout, data: &Dataset) -> Vec<f64> {
         let (n_in, n_out) = (layout.inputs(), layout.outputs());

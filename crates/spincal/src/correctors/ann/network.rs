@@ -9,6 +9,8 @@ use std::array::from_fn;
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
+use crate::correctors::corrector::{check_finite, ModelError};
+
 /// Samples per register-held chunk of the block forward pass.
 const FORWARD_CHUNK: usize = 16;
 
@@ -514,6 +516,74 @@ pub struct Network {
 impl Network {
     pub fn layout(&self) -> Layout {
         Layout::new(self.inputs, &self.hidden, self.outputs)
+    }
+
+    /// Layer sizes as `inputs-hidden…-outputs`, e.g. `2-10-6-2`.
+    pub fn label(&self) -> String {
+        std::iter::once(self.inputs)
+            .chain(self.hidden.iter().copied())
+            .chain([self.outputs])
+            .map(|n| n.to_string())
+            .collect::<Vec<_>>()
+            .join("-")
+    }
+
+    /// A saved network that its own layout can run: at least one input and output, at most
+    /// [`MAX_HIDDEN_LAYERS`] hidden layers of at least one unit, exactly as many weights as the
+    /// layout needs (counted without overflow), every weight finite. Fields relative to the
+    /// network. After this, [`Network::layout`] and [`Layout::forward`] cannot fail.
+    pub fn check(&self) -> Result<(), ModelError> {
+        if self.inputs == 0 {
+            return Err(ModelError::new("inputs", "0: a network needs at least one input"));
+        }
+        if self.outputs == 0 {
+            return Err(ModelError::new(
+                "outputs",
+                "0: a network needs at least one output",
+            ));
+        }
+        if self.hidden.len() > MAX_HIDDEN_LAYERS {
+            return Err(ModelError::new(
+                "hidden",
+                format!(
+                    "{} hidden layers; at most {MAX_HIDDEN_LAYERS} are supported",
+                    self.hidden.len()
+                ),
+            ));
+        }
+        if let Some(l) = self.hidden.iter().position(|&h| h == 0) {
+            return Err(ModelError::new(
+                format!("hidden[{l}]"),
+                "0 units: every hidden layer needs at least one",
+            ));
+        }
+        let sizes: Vec<usize> = std::iter::once(self.inputs)
+            .chain(self.hidden.iter().copied())
+            .chain([self.outputs])
+            .collect();
+        let n_params = sizes.windows(2).try_fold(0usize, |n, pair| {
+            pair[1]
+                .checked_mul(pair[0].checked_add(1)?)
+                .and_then(|layer| n.checked_add(layer))
+        });
+        let activations = sizes.iter().try_fold(0usize, |n, &s| n.checked_add(s));
+        let (Some(n_params), Some(_)) = (n_params, activations) else {
+            return Err(ModelError::new(
+                "hidden",
+                format!("the layout {} is too large to count", self.label()),
+            ));
+        };
+        if self.weights.len() != n_params {
+            return Err(ModelError::new(
+                "weights",
+                format!(
+                    "{} values, but the layout {} needs {n_params}",
+                    self.weights.len(),
+                    self.label()
+                ),
+            ));
+        }
+        check_finite("weights", &self.weights)
     }
 }
 
