@@ -69,7 +69,7 @@ enum Command {
         after_help = "Every input row comes out, in place, with its original columns, the corrected axes added, a
 `valid` column (0 for the first rows without full delay history) and a `status` column: ok,
 extrapolated (outside a network's training range) or `refused: line N: reason` for a row that
-cannot be read or whose time does not increase (its corrected columns are empty). Exit code 3 says
+cannot be read or whose time goes backwards (its corrected columns are empty). Exit code 3 says
 rows were refused. The output is written to a temporary file and renamed when complete.
 
 Examples:

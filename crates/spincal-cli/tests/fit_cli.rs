@@ -98,7 +98,7 @@ fn every_bad_input_gets_its_own_message() {
     assert!(fit_error(&f, &[])
         .contains("inf.csv:3, column 4 (az): the value is -inf; spincal needs finite numbers"));
     let f = write(d, "back.csv", "t,ax,ay,az\n0,0,0,1\n0.02,0,0,1\n0.01,0,0,1\n");
-    assert!(fit_error(&f, &[]).contains("back.csv:4: time goes backwards or repeats (0.02 s, then 0.01 s)"));
+    assert!(fit_error(&f, &[]).contains("back.csv:4: time goes backwards (0.02 s, then 0.01 s)"));
     let f = write(d, "empty.csv", "");
     assert!(fit_error(&f, &[]).contains("empty.csv: the file is empty"));
     let f = write(d, "cut.csv", "t,ax,ay,az\n0,0,0,1\n0.01,0,0");

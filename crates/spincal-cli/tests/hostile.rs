@@ -354,3 +354,55 @@ fn number_flags_out_of_range_are_usage_errors_naming_the_flag() {
     }
     assert!(!Path::new("never.csv").exists());
 }
+
+#[test]
+fn a_headerless_file_needs_its_unit_named_and_a_moving_file_has_no_allan_deviation() {
+    let s = setup_once();
+    let text = std::fs::read_to_string(&s.rec).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let bare = dir.path().join("bare.csv");
+    std::fs::write(&bare, text.split_once('\n').unwrap().1).unwrap();
+    let out = dir.path().join("out.csv");
+    let (code, err) = run(&[
+        os("correct"),
+        os("--model"),
+        s.model.as_os_str(),
+        bare.as_os_str(),
+        os("-o"),
+        out.as_os_str(),
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--accel-unit") && err.contains("bare.csv"), "{err}");
+    assert!(!out.exists());
+    let (code, err) = run(&[
+        os("correct"),
+        os("--model"),
+        s.model.as_os_str(),
+        bare.as_os_str(),
+        os("--accel-unit"),
+        os("g"),
+        os("-o"),
+        out.as_os_str(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    // A sensor swung through ±1 g: no noise profile of it.
+    let mut swinging = String::from("t_s,ax_g,ay_g,az_g\n");
+    for i in 0..6000 {
+        let t = i as f64 * 0.01;
+        let a = (std::f64::consts::PI * t).sin();
+        let wobble = 0.001 * ((i * 7919) % 13) as f64;
+        swinging += &format!("{t:.2},{a:.5},{wobble:.5},{:.5}\n", (1.0 - a * a).sqrt());
+    }
+    let moving = dir.path().join("moving.csv");
+    std::fs::write(&moving, swinging).unwrap();
+    let profile = dir.path().join("profile.json");
+    let (code, err) = run(&[
+        os("allan"),
+        moving.as_os_str(),
+        os("--profile"),
+        profile.as_os_str(),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("the sensor moves"), "{err}");
+    assert!(!profile.exists());
+}

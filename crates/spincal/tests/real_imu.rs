@@ -216,3 +216,35 @@ fn mpu6050_calibration_beats_the_authors_parameters() {
         assert!(all_ours <= all_auth);
     }
 }
+
+/// The RealSense T265 log stamps samples to 10 ms at about 200 Hz, so half the stamps repeat the
+/// previous one: every sample is read, the rate comes from all the stamps, and the repeats are
+/// reported with the first line.
+#[test]
+fn t265_log_with_repeated_timestamps_reads_whole_at_its_true_rate() {
+    let Some(loaded) = load("imu/realsense_t265/t265_acc.mat", Format::Whitespace) else {
+        return;
+    };
+    let rec = &loaded.recording;
+    let path = common::shared_data("imu/realsense_t265/t265_acc.mat").unwrap();
+    let lines = std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.trim().is_empty())
+        .count();
+    assert_eq!(rec.len(), lines);
+    let mean_rate = (rec.len() - 1) as f64 / rec.duration_s();
+    assert!(
+        (rec.sample_rate_hz() / mean_rate - 1.0).abs() < 0.01,
+        "{} Hz against {mean_rate} Hz from the span",
+        rec.sample_rate_hz()
+    );
+    let inspection = spincal::inspect::inspect(rec, None);
+    assert!(inspection.repeated_times > rec.len() / 3, "{inspection:?}");
+    assert_eq!(inspection.first_repeated_line, Some(3));
+    assert_eq!(inspection.backward_steps, 0);
+    assert_eq!(
+        inspection.gap_count, 0,
+        "10 ms steps at 5 ms are the clock's tick, not gaps"
+    );
+}

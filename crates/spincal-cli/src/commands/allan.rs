@@ -50,6 +50,36 @@ struct Report<'a> {
     curve: &'a AllanCurve,
 }
 
+/// A still sensor's spread is about its shortest-τ Allan deviation (white noise: equal; slow
+/// drift: a few times more). Far above it, the recording holds motion, and its Allan deviation
+/// would measure the motion, not the noise.
+const MOTION_FACTOR: f64 = 10.0;
+
+fn refuse_motion(
+    part: &[Vec<f64>; 3],
+    curve: &spincal::allan::AllanCurve,
+    file: &std::path::Path,
+) -> anyhow::Result<()> {
+    for (a, axis) in part.iter().enumerate() {
+        let n = axis.len().max(1) as f64;
+        let mean = axis.iter().sum::<f64>() / n;
+        let spread = (axis.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+        let Some(&shortest) = curve.adev[a].first() else {
+            continue;
+        };
+        if spread > MOTION_FACTOR * shortest {
+            anyhow::bail!(
+                "{}: the sensor moves: a{} spreads {:.3e} m/s², {:.0}× its shortest-τ Allan deviation (a still sensor stays within about {MOTION_FACTOR}×); an Allan deviation needs the sensor at rest: record it still, or pass --still to use the longest still interval",
+                file.display(),
+                ['x', 'y', 'z'][a],
+                spread,
+                spread / shortest
+            );
+        }
+    }
+    Ok(())
+}
+
 pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     let png = args.plot.as_ref().map(|p| p.with_extension("png"));
     let outputs: Vec<&std::path::Path> = [&args.plot, &png, &args.curve, &args.profile]
@@ -101,6 +131,9 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     let bar = ui.progress(1, "allan");
     let curve = allan_deviation(&part, dt, args.per_decade)?;
     bar.finish_and_clear();
+    if !args.still {
+        refuse_motion(&part, &curve, &args.input.rec)?;
+    }
     let params = noise_params(&curve);
     if let Some(path) = &args.curve {
         spincal::output::write_file(path, |out| write_curve_csv(&curve, out))?;

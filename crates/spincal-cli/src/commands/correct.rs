@@ -4,7 +4,7 @@
 //! corrected axis (in the input's acceleration unit), `valid` (0 for the first rows that lack a full
 //! delay history, whose corrected values are the measured ones, and for refused rows) and `status`:
 //! `ok`, `extrapolated` (an input lies well outside a network's training range), or `refused:` with
-//! the line and the reason for a row that cannot be read or whose time does not increase; its
+//! the line and the reason for a row that cannot be read or whose time goes backwards; its
 //! corrected columns are empty. The summary on standard error names the first refused lines, and
 //! the exit code is 3 when rows were refused. The output file is written through a temporary file
 //! and renamed when complete; an output that is the input or the model is refused.
@@ -257,6 +257,14 @@ fn stream(
     } else {
         rows.header.clone()
     };
+    // Networks and linear maps were trained in m/s²; a static calibration states its own unit.
+    let unit_matters = !matches!(model.corrector, spincal::CorrectorModel::Static(_));
+    if unit_matters && rows.header.is_empty() && map.accel_unit.is_none() {
+        return Err(UsageError(format!(
+            "{name}: no header line, so the acceleration unit cannot be known; pass --accel-unit g or --accel-unit mps2 (and --columns if the columns are not t,ax,ay,az)"
+        ))
+        .into());
+    }
     let columns = resolve_columns(&rows.header, width, name, map)?;
     let corrector = &model.corrector;
     let axes = corrector.corrected_axes();
@@ -325,9 +333,9 @@ fn stream(
             }
         };
         let t = values[columns.time] * columns.time_to_s;
-        if let Some(p) = previous_time.filter(|&p| t <= p) {
+        if let Some(p) = previous_time.filter(|&p| t < p) {
             let fields = values.iter().map(f64::to_string).collect();
-            let reason = format!("line {line_no}: time {t} s does not increase (previous row {p} s)");
+            let reason = format!("line {line_no}: time {t} s goes backwards (previous row {p} s)");
             refuse(&mut summary, out, fields, reason)?;
             continue;
         }

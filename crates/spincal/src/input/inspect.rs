@@ -121,7 +121,9 @@ impl Inspection {
 pub fn inspect(recording: &Recording, range_mps2: Option<f64>) -> Inspection {
     let dt = sample_interval(&recording.time_s);
     let quantum = time_quantum(&recording.time_s);
-    let gap_threshold = if quantum < 0.9 * dt {
+    // A clock whose tick differs from the interval (finer: a GX1's 1-or-2-tick steps; coarser: a
+    // T265's repeated 10 ms stamps at 5 ms) steps by up to one tick more than the interval.
+    let gap_threshold = if (quantum / dt - 1.0).abs() > 0.1 {
         (GAP_FACTOR * dt).max(dt + quantum)
     } else {
         GAP_FACTOR * dt

@@ -141,7 +141,7 @@ pub enum RecordingError {
     AmbiguousColumns { file: String, available: String },
     #[error("--columns needs 4 or 7 entries (t,ax,ay,az[,gx,gy,gz]), got {0}")]
     ColumnCount(usize),
-    #[error("{at}: time goes backwards or repeats ({previous} s, then {current} s)")]
+    #[error("{at}: time goes backwards ({previous} s, then {current} s)")]
     TimeNotIncreasing {
         at: Location,
         previous: f64,
@@ -331,7 +331,9 @@ impl Recording {
     pub fn check_time(&self) -> Result<(), RecordingError> {
         for i in 1..self.time_s.len() {
             let (previous, current) = (self.time_s[i - 1], self.time_s[i]);
-            if current <= previous {
+            // Equal stamps are kept: coarse clocks repeat them (a T265 log has 10 ms stamps at
+            // 62.5 Hz); the rate then comes from all timestamps and `inspect` reports the repeats.
+            if current < previous {
                 return Err(RecordingError::TimeNotIncreasing {
                     at: self.location(i),
                     previous,
@@ -555,7 +557,7 @@ mod tests {
         .unwrap_err();
         assert_eq!(
             e.to_string(),
-            "rec.csv:4: time goes backwards or repeats (0.02 s, then 0.01 s)"
+            "rec.csv:4: time goes backwards (0.02 s, then 0.01 s)"
         );
     }
 
