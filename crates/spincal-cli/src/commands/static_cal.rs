@@ -8,8 +8,9 @@ use serde::Serialize;
 use spincal::static_cal::{fit_static, pose_means, spread_about, StaticFit, StaticFitOptions, StaticModel};
 use spincal::static_detect::{detect_static, labelled_intervals, StaticOptions, StillInterval};
 
+use super::values::StaticModelArg;
 use super::{format_line, InputArgs};
-use crate::ui::{self, UsageError};
+use crate::ui;
 
 #[derive(Args, Debug)]
 pub struct StaticArgs {
@@ -19,8 +20,8 @@ pub struct StaticArgs {
     #[arg(long, default_value_t = spincal::STANDARD_GRAVITY, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub gravity: f64,
     /// Parameters: 6 (bias, scale), 9 (+ misalignment, imu_tk) or 12 (+ quadratic nonlinearity).
-    #[arg(long, default_value_t = 9)]
-    pub model: usize,
+    #[arg(long, value_enum, default_value = "9")]
+    pub model: StaticModelArg,
     /// Write the calibration as JSON.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -66,8 +67,7 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         .map(|p| p.as_path())
         .collect();
     super::check_outputs(&[&args.input.rec], &outputs)?;
-    let model = StaticModel::from_n_params(args.model)
-        .ok_or_else(|| UsageError(format!("--model must be 6, 9 or 12, got {}", args.model)))?;
+    let model: StaticModel = args.model.into();
     let loaded = args.input.load(ui)?;
     let rec = &loaded.recording;
     let (intervals, from) = match (&loaded.labels, args.detect) {

@@ -8,7 +8,7 @@ use clap::Args;
 use spincal::sysid::{fit_and_score, FitScore, ModelKind, ModelSpec, ScoredFit, SysidModel};
 use spincal::table::{Table, TableOptions};
 
-use super::values::DelimiterArg;
+use super::values::{DelimiterArg, SysidModelArg};
 use crate::ui::{self, Ui, UsageError};
 
 #[derive(Args)]
@@ -20,8 +20,9 @@ Ranges are 0-based sample indices, end excluded (START..END, ..END or START..).\
 Fit % is MATLAB's normalised RMSE fit; every number says whether it is a simulation (from the\n\
 first --init-samples measured outputs) or a one-step-ahead prediction.")]
 pub struct SysidArgs {
-    /// Model: arx, oe, armax, bj, narx, hw.
-    model: String,
+    /// Model structure.
+    #[arg(value_enum)]
+    model: SysidModelArg,
     /// Orders in MATLAB's order: arx/narx [na nb nk], oe/hw [nb nf nk], armax [na nb nc nk],
     /// bj [nb nc nd nf nk]. Default: the paper's.
     #[arg(long, value_delimiter = ',', num_args = 1..)]
@@ -87,7 +88,7 @@ fn parse_range(text: &str, n: usize) -> Result<Range<usize>, UsageError> {
 }
 
 pub fn run(args: SysidArgs, ui: Ui) -> anyhow::Result<()> {
-    let kind: ModelKind = args.model.parse().map_err(|e| UsageError(format!("{e}")))?;
+    let kind: ModelKind = args.model.into();
     let orders = args
         .orders
         .clone()

@@ -4,6 +4,8 @@
 use clap::ValueEnum;
 use spincal::formats::Format;
 use spincal::recording::{AccelUnit, TimeUnit};
+use spincal::static_cal::StaticModel;
+use spincal::sysid::ModelKind;
 use spincal::table::Delimiter;
 use spincal::turntable::{AxesObjective, Direction, DriftMode};
 
@@ -126,6 +128,50 @@ pub enum SweepArg {
     /// The paper's grid: 1–15, and 1–15 × 1–10.
     Full,
 }
+
+/// Static calibration models, by their number of parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum StaticModelArg {
+    /// Bias and scale per axis.
+    #[value(name = "6")]
+    BiasScale,
+    /// Bias, scale and misalignment (imu_tk's model).
+    #[value(name = "9")]
+    Misalignment,
+    /// Bias, scale, misalignment and a quadratic nonlinearity per axis.
+    #[value(name = "12")]
+    Nonlinear,
+}
+mirror!(StaticModelArg => StaticModel {
+    BiasScale => StaticModel::BiasScale,
+    Misalignment => StaticModel::Misalignment,
+    Nonlinear => StaticModel::Nonlinear,
+});
+
+/// System-identification model structures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SysidModelArg {
+    /// ARX [na nb nk], least squares.
+    Arx,
+    /// Output error [nb nf nk].
+    Oe,
+    /// ARMAX [na nb nc nk].
+    Armax,
+    /// Box–Jenkins [nb nc nd nf nk].
+    Bj,
+    /// Nonlinear ARX with sigmoid units [na nb nk].
+    Narx,
+    /// Hammerstein–Wiener [nb nf nk].
+    Hw,
+}
+mirror!(SysidModelArg => ModelKind {
+    Arx => ModelKind::Arx,
+    Oe => ModelKind::Oe,
+    Armax => ModelKind::Armax,
+    Bj => ModelKind::Bj,
+    Narx => ModelKind::Narx,
+    Hw => ModelKind::Hw,
+});
 
 /// A finite number greater than zero (a rate, a length, a speed, gravity).
 pub fn positive(text: &str) -> Result<f64, String> {
