@@ -129,6 +129,15 @@ pub enum Gx1Error {
         value: u16,
         source_desc: String,
     },
+    #[error("{file}: the stream holds EEPROM replies with different values ({values}); a reply does not say which address it answers, so AccelGainScale is ambiguous: pass it (EEPROM 230)")]
+    AmbiguousGain { file: String, values: String },
+    #[error("{file}: byte {offset}: the timer goes back {ticks} ticks ({seconds:.4} s) from the previous packet (a reset or a spliced capture); split the file there")]
+    TimerBackwards {
+        file: String,
+        offset: usize,
+        ticks: u16,
+        seconds: f64,
+    },
     #[error("3DM-GX1 command {0:#04x} is not a vectors command (0x02 or 0x03)")]
     BadCommand(u8),
     #[error("3DM-GX1 encoder: gain scale must be > 0")]
@@ -273,6 +282,24 @@ pub fn decode(bytes: &[u8], file: &str, options: &Gx1Options) -> Result<(Recordi
         None if report.inst_packets >= report.stab_packets => CMD_INST_VECTORS,
         None => CMD_STAB_VECTORS,
     };
+    let eeprom_replies: Vec<(usize, u16)> = packets
+        .iter()
+        .filter_map(|p| match p {
+            Gx1Packet::Eeprom { offset, value, .. } => Some((*offset, *value)),
+            Gx1Packet::Vectors(_) => None,
+        })
+        .collect();
+    if options.accel_gain_scale.is_none() && eeprom_replies.iter().any(|(_, v)| *v != eeprom_replies[0].1) {
+        let values: Vec<String> = eeprom_replies
+            .iter()
+            .take(6)
+            .map(|(offset, value)| format!("{value} at byte {offset}"))
+            .collect();
+        return Err(Gx1Error::AmbiguousGain {
+            file: file.into(),
+            values: values.join(", "),
+        });
+    }
     let (gain, gain_source) = match (options.accel_gain_scale, first_eeprom) {
         (Some(g), _) => (g, "given".to_string()),
         (None, Some((offset, value))) => (value, format!("EEPROM reply at byte {offset}")),
@@ -308,6 +335,16 @@ pub fn decode(bytes: &[u8], file: &str, options: &Gx1Options) -> Result<(Recordi
         if let Some(prev) = last {
             // Wrapping difference: the timer rolls over every 2¹⁶ ticks.
             let d = v.ticks.wrapping_sub(prev);
+            // A step of more than half the wrap is the timer going back, not 7 minutes passing.
+            if d > u16::MAX / 2 {
+                let back = prev.wrapping_sub(v.ticks);
+                return Err(Gx1Error::TimerBackwards {
+                    file: file.into(),
+                    offset: v.offset,
+                    ticks: back,
+                    seconds: back as f64 * TICK_S,
+                });
+            }
             if d == 0 {
                 report.repeated_ticks += 1;
             }
@@ -450,6 +487,63 @@ mod tests {
             gyro_radps: Some(gyro),
             source: Source::default(),
         }
+    }
+
+    #[test]
+    fn a_second_eeprom_reply_with_another_value_makes_the_gain_ambiguous() {
+        let mut bytes = encode(&recording(50), &Gx1EncodeOptions::default()).unwrap();
+        bytes.extend(encode_eeprom_reply(10000, 900));
+        let err = decode(&bytes, "two.bin", &Gx1Options::default()).unwrap_err();
+        let message = err.to_string();
+        assert!(
+            message.contains("two.bin") && message.contains("5000 at byte 0"),
+            "{message}"
+        );
+        assert!(message.contains("10000 at byte"), "{message}");
+        // Given, the gain is used, whatever the replies say.
+        let given = Gx1Options {
+            accel_gain_scale: Some(5000),
+            ..Gx1Options::default()
+        };
+        assert_eq!(decode(&bytes, "two.bin", &given).unwrap().0.len(), 50);
+        // The same value twice is no ambiguity.
+        let mut same = encode(&recording(50), &Gx1EncodeOptions::default()).unwrap();
+        same.extend(encode_eeprom_reply(5000, 900));
+        assert_eq!(
+            decode(&same, "same.bin", &Gx1Options::default())
+                .unwrap()
+                .1
+                .accel_gain_scale,
+            5000
+        );
+    }
+
+    #[test]
+    fn a_timer_step_backwards_is_an_error_at_its_byte() {
+        let mut bytes = encode_eeprom_reply(5000, 0);
+        for (k, ticks) in [100u16, 101, 102, 90, 91].into_iter().enumerate() {
+            bytes.extend(encode_vectors(
+                CMD_INST_VECTORS,
+                [0; 3],
+                [k as i16; 3],
+                [0; 3],
+                ticks,
+            ));
+        }
+        let err = decode(&bytes, "back.bin", &Gx1Options::default()).unwrap_err();
+        let offset = EEPROM_REPLY_LEN + 3 * VECTORS_LEN;
+        assert!(
+            err.to_string()
+                .contains(&format!("back.bin: byte {offset}: the timer goes back 12 ticks")),
+            "{err}"
+        );
+        // A wrap of the 16-bit timer is still time going on.
+        let mut wrapped = encode_eeprom_reply(5000, 0);
+        for ticks in [65534u16, 65535, 0, 1] {
+            wrapped.extend(encode_vectors(CMD_INST_VECTORS, [0; 3], [0; 3], [0; 3], ticks));
+        }
+        let (rec, _) = decode(&wrapped, "wrap.bin", &Gx1Options::default()).unwrap();
+        assert!((rec.time_s[3] - 3.0 * TICK_S).abs() < 1e-12);
     }
 
     #[test]
