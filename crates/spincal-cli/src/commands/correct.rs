@@ -59,6 +59,7 @@ impl CorrectArgs {
             ("--accel-scale", r.accel_scale.is_some()),
             ("--accel-offset", r.accel_offset.is_some()),
             ("--sample-rate", r.sample_rate.is_some()),
+            ("--retime", r.retime),
             ("--gx1-accel-gain", r.gx1_accel_gain.is_some()),
             ("--gx1-gyro-gain", r.gx1_gyro_gain.is_some()),
         ];

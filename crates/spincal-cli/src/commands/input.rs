@@ -39,6 +39,10 @@ pub struct ReadArgs {
     /// Sample rate, Hz, for files without a time column (MPU-6050 without `Fs`, imucal).
     #[arg(long, value_name = "HZ", value_parser = super::values::positive, allow_negative_numbers = true)]
     pub sample_rate: Option<f64>,
+    /// Replace the timestamps by evenly spaced ones at the rate all of them give (coarse, repeated
+    /// or jittered stamps).
+    #[arg(long)]
+    pub retime: bool,
     /// 3DM-GX1 AccelGainScale (EEPROM 230); default: the EEPROM reply captured in the stream.
     #[arg(long)]
     pub gx1_accel_gain: Option<u16>,
@@ -101,6 +105,7 @@ impl ReadArgs {
                 gyro_gain_scale: self.gx1_gyro_gain,
                 command: None,
             },
+            retime: self.retime,
         })
     }
 

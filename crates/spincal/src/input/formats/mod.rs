@@ -163,6 +163,9 @@ pub struct ReadOptions {
     /// Sample rate for formats without a time column (overrides `Fs` metadata; imucal: 204.8 Hz).
     pub sample_rate_hz: Option<f64>,
     pub gx1: Gx1Options,
+    /// Replace the timestamps by t₀ + i·Δt, Δt from all the timestamps (for coarse, repeated or
+    /// jittered stamps). Dropped samples are not restored: use it on recordings without gaps.
+    pub retime: bool,
 }
 
 /// A recording and what its reader learned.
@@ -267,7 +270,24 @@ pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loa
     loaded.detection = detection;
     loaded.recording.source.format = format.name().into();
     apply_scale(&mut loaded, options)?;
+    if options.retime {
+        retime(&mut loaded);
+    }
     Ok(loaded)
+}
+
+/// Evenly spaced timestamps at the rate all the stamps give, from the first stamp.
+fn retime(loaded: &mut Loaded) {
+    let t = &mut loaded.recording.time_s;
+    let dt = crate::input::recording::sample_interval(t);
+    if let (Some(&t0), true) = (t.first(), dt.is_finite()) {
+        for (i, v) in t.iter_mut().enumerate() {
+            *v = t0 + i as f64 * dt;
+        }
+        loaded.notes.push(format!(
+            "re-timed: t = {t0} s + i · {dt:.9} s (from all timestamps)"
+        ));
+    }
 }
 
 impl Loaded {
