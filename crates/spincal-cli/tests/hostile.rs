@@ -70,42 +70,33 @@ fn os(s: &str) -> &std::ffi::OsStr {
     std::ffi::OsStr::new(s)
 }
 
+/// `spincal correct --model MODEL INPUT -o OUTPUT`: exit code and stderr.
+fn correct(model: &Path, input: &Path, output: &Path) -> (i32, String) {
+    run(&[
+        os("correct"),
+        os("--model"),
+        model.as_os_str(),
+        input.as_os_str(),
+        os("-o"),
+        output.as_os_str(),
+    ])
+}
+
 #[test]
 fn an_output_that_is_an_input_or_the_model_is_refused_and_nothing_changes() {
     let s = setup();
     let before = contents(&[&s.rec, &s.model]);
-    let (code, err) = run(&[
-        os("correct"),
-        os("--model"),
-        s.model.as_os_str(),
-        s.rec.as_os_str(),
-        os("-o"),
-        s.rec.as_os_str(),
-    ]);
+    let (code, err) = correct(&s.model, &s.rec, &s.rec);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("also an input"), "{err}");
     // The same file reached by another spelling.
     let other_spelling = s.dir.join(".").join("rec.csv");
-    let (code, err) = run(&[
-        os("correct"),
-        os("--model"),
-        s.model.as_os_str(),
-        s.rec.as_os_str(),
-        os("-o"),
-        other_spelling.as_os_str(),
-    ]);
+    let (code, err) = correct(&s.model, &s.rec, &other_spelling);
     assert_eq!(code, 2, "{err}");
     // -o naming the model, with a bad input.
     let bad = s.dir.join("bad.csv");
     std::fs::write(&bad, "t,ax,ay,az\nnot numbers at all\n").unwrap();
-    let (code, err) = run(&[
-        os("correct"),
-        os("--model"),
-        s.model.as_os_str(),
-        bad.as_os_str(),
-        os("-o"),
-        s.model.as_os_str(),
-    ]);
+    let (code, err) = correct(&s.model, &bad, &s.model);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("linear.json"), "{err}");
     assert_eq!(contents(&[&s.rec, &s.model]), before);
@@ -119,14 +110,7 @@ fn a_link_output_stays_a_link_and_a_device_is_never_removed() {
     let link = s.dir.join("link.csv");
     std::fs::write(&target, "old contents").unwrap();
     std::os::unix::fs::symlink(&target, &link).unwrap();
-    let (code, err) = run(&[
-        os("correct"),
-        os("--model"),
-        s.model.as_os_str(),
-        s.rec.as_os_str(),
-        os("-o"),
-        link.as_os_str(),
-    ]);
+    let (code, err) = correct(&s.model, &s.rec, &link);
     assert_eq!(code, 0, "{err}");
     assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
     let rows = std::fs::read_to_string(&target).unwrap().lines().count();
@@ -135,14 +119,7 @@ fn a_link_output_stays_a_link_and_a_device_is_never_removed() {
     let written = std::fs::read(&target).unwrap();
     let empty = s.dir.join("empty.csv");
     std::fs::write(&empty, "").unwrap();
-    let (code, err) = run(&[
-        os("correct"),
-        os("--model"),
-        s.model.as_os_str(),
-        empty.as_os_str(),
-        os("-o"),
-        link.as_os_str(),
-    ]);
+    let (code, err) = correct(&s.model, &empty, &link);
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("empty.csv"), "{err}");
     assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
@@ -155,14 +132,7 @@ fn a_link_output_stays_a_link_and_a_device_is_never_removed() {
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
     let full = Path::new("/dev/full");
     if full.exists() {
-        let (code, err) = run(&[
-            os("correct"),
-            os("--model"),
-            s.model.as_os_str(),
-            s.rec.as_os_str(),
-            os("-o"),
-            full.as_os_str(),
-        ]);
+        let (code, err) = correct(&s.model, &s.rec, &full);
         assert_eq!(code, 1, "{err}");
         assert!(full.exists(), "the device node is still there");
     }
@@ -216,14 +186,7 @@ fn a_byte_order_mark_is_not_part_of_the_header() {
         .assert()
         .success();
     let out = s.dir.join("out.csv");
-    let (code, err) = run(&[
-        os("correct"),
-        os("--model"),
-        s.model.as_os_str(),
-        bom.as_os_str(),
-        os("-o"),
-        out.as_os_str(),
-    ]);
+    let (code, err) = correct(&s.model, &bom, &out);
     assert_eq!(code, 0, "{err}");
     assert!(std::fs::read_to_string(&out).unwrap().starts_with("t_s,"));
 }
@@ -306,7 +269,7 @@ proptest! {
         let input = dir.path().join("damaged.csv");
         std::fs::write(&input, &damaged).unwrap();
         let out = dir.path().join("out.csv");
-        let (code, err) = run(&[os("correct"), os("--model"), s.model.as_os_str(), input.as_os_str(), os("-o"), out.as_os_str()]);
+        let (code, err) = correct(&s.model, &input, &out);
         prop_assert!(matches!(code, 0 | 1 | 3), "exit {code}: {err}");
         prop_assert_eq!(std::fs::read(&input).unwrap(), damaged.clone());
         if code == 1 {
@@ -363,14 +326,7 @@ fn a_headerless_file_needs_its_unit_named_and_a_moving_file_has_no_allan_deviati
     let bare = dir.path().join("bare.csv");
     std::fs::write(&bare, text.split_once('\n').unwrap().1).unwrap();
     let out = dir.path().join("out.csv");
-    let (code, err) = run(&[
-        os("correct"),
-        os("--model"),
-        s.model.as_os_str(),
-        bare.as_os_str(),
-        os("-o"),
-        out.as_os_str(),
-    ]);
+    let (code, err) = correct(&s.model, &bare, &out);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--accel-unit") && err.contains("bare.csv"), "{err}");
     assert!(!out.exists());
