@@ -132,7 +132,7 @@ fn a_link_output_stays_a_link_and_a_device_is_never_removed() {
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
     let full = Path::new("/dev/full");
     if full.exists() {
-        let (code, err) = correct(&s.model, &s.rec, &full);
+        let (code, err) = correct(&s.model, &s.rec, full);
         assert_eq!(code, 1, "{err}");
         assert!(full.exists(), "the device node is still there");
     }
