@@ -173,35 +173,28 @@ mirror!(SysidModelArg => ModelKind {
     Hw => ModelKind::Hw,
 });
 
-/// A finite number greater than zero (a rate, a length, a speed, gravity).
-pub fn positive(text: &str) -> Result<f64, String> {
+/// A finite number that `accept` allows; `expected` says what that is, for the message.
+fn number(text: &str, accept: fn(f64) -> bool, expected: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-        Ok(v) => Err(format!(
-            "{v} is not allowed here: expected a finite number greater than 0"
-        )),
+        Ok(v) if v.is_finite() && accept(v) => Ok(v),
+        Ok(v) => Err(format!("{v} is not allowed here: expected {expected}")),
         Err(_) => Err(format!("'{text}' is not a number")),
     }
+}
+
+/// A finite number greater than zero (a rate, a length, a speed, gravity).
+pub fn positive(text: &str) -> Result<f64, String> {
+    number(text, |v| v > 0.0, "a finite number greater than 0")
 }
 
 /// A finite number, zero or more (a noise level, a percentage of error).
 pub fn non_negative(text: &str) -> Result<f64, String> {
-    match text.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
-        Ok(v) => Err(format!(
-            "{v} is not allowed here: expected a finite number, 0 or more"
-        )),
-        Err(_) => Err(format!("'{text}' is not a number")),
-    }
+    number(text, |v| v >= 0.0, "a finite number, 0 or more")
 }
 
 /// Any finite number (an angle, an offset).
 pub fn finite(text: &str) -> Result<f64, String> {
-    match text.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() => Ok(v),
-        Ok(v) => Err(format!("{v} is not allowed here: expected a finite number")),
-        Err(_) => Err(format!("'{text}' is not a number")),
-    }
+    number(text, |_| true, "a finite number")
 }
 
 #[cfg(test)]

@@ -169,15 +169,7 @@ pub fn inspect(recording: &Recording, range_mps2: Option<f64>) -> Inspection {
             constant_axes.push(name);
             continue;
         }
-        let hits: Vec<(usize, f64)> = match range_mps2 {
-            Some(range) => axis
-                .iter()
-                .enumerate()
-                .filter(|(_, v)| v.abs() >= RANGE_SHARE * range)
-                .map(|(i, v)| (i, v.abs()))
-                .collect(),
-            None => flat_tops(axis, min, max),
-        };
+        let hits = saturated_samples(axis, min, max, range_mps2);
         if let Some(&(first, limit)) = hits.first() {
             saturation.push(Saturation {
                 axis: name,
@@ -217,20 +209,25 @@ pub fn saturated_mask(recording: &Recording, range_mps2: Option<f64>) -> Vec<boo
         if min == max {
             continue;
         }
-        match range_mps2 {
-            Some(range) => {
-                for (m, v) in mask.iter_mut().zip(axis) {
-                    *m |= v.abs() >= RANGE_SHARE * range;
-                }
-            }
-            None => {
-                for (i, _) in flat_tops(axis, min, max) {
-                    mask[i] = true;
-                }
-            }
+        for (i, _) in saturated_samples(axis, min, max, range_mps2) {
+            mask[i] = true;
         }
     }
     mask
+}
+
+/// The saturated samples of one non-constant axis and the magnitude each sits at: beyond
+/// [`RANGE_SHARE`] of a known range, else on a flat top at the axis's extreme.
+fn saturated_samples(axis: &[f64], min: f64, max: f64, range_mps2: Option<f64>) -> Vec<(usize, f64)> {
+    match range_mps2 {
+        Some(range) => axis
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| v.abs() >= RANGE_SHARE * range)
+            .map(|(i, v)| (i, v.abs()))
+            .collect(),
+        None => flat_tops(axis, min, max),
+    }
 }
 
 /// The least and greatest value, ignoring NaN.
