@@ -152,8 +152,7 @@ pub fn run(args: CorrectArgs, _ui: Ui) -> anyhow::Result<()> {
             match (failure, written, summary) {
                 (Some(e), _, _) => Err(e),
                 (None, Err(e), _) => Err(e.into()),
-                (None, Ok(()), Some(s)) => Ok(s),
-                (None, Ok(()), None) => unreachable!("a successful write ran the stream"),
+                (None, Ok(()), summary) => summary.context("the output was written without its rows"),
             }
         }
         _ => stream(

@@ -689,19 +689,24 @@ fn radius_start(options: &FitOptions, look: &FirstLook) -> f64 {
     })
 }
 
+/// β's start: the first recording's mean levels are ω²r cos β + b_x and ω²r sin β + b_y, taken
+/// with zero offsets.
+fn beta_start(looks: &[FirstLook]) -> f64 {
+    let s0 = &looks[0].start;
+    s0.mean[1].atan2(s0.mean[0])
+}
+
 /// β, the sensor offsets and (when shared) the radius.
 fn shared_parameters(options: &FitOptions, looks: &[FirstLook]) -> Vec<ParamDef> {
     let g = options.gravity_mps2;
     let pi = std::f64::consts::PI;
-    // Mean levels give ω²r cos β + b_x and ω²r sin β + b_y; start with zero offsets.
-    let s0 = &looks[0].start;
     let mut defs = vec![ParamDef {
         name: "beta".into(),
         unit: "rad",
         role: Role::Beta,
         lower: -2.0 * pi,
         upper: 2.0 * pi,
-        start: s0.mean[1].atan2(s0.mean[0]),
+        start: beta_start(looks),
     }];
     if options.fit_offsets {
         for &a in options.axes.axes() {
@@ -744,8 +749,7 @@ fn recording_parameters(
         String::new()
     };
     let (s, w) = (&looks[k].start, looks[k].rate.omega_radps);
-    let s0 = &looks[0].start;
-    let beta0 = s0.mean[1].atan2(s0.mean[0]);
+    let beta0 = beta_start(looks);
     let axes = options.axes.axes();
     let mut defs = Vec::new();
     if !options.shared_radius {
