@@ -16,6 +16,7 @@ pub struct ReadmeDoctests;
 // tests/architecture.rs).
 pub mod allan;
 pub mod calibrate;
+pub mod campaign;
 pub mod correctors;
 pub mod input;
 pub mod metrics;

@@ -76,15 +76,75 @@ pub struct LmReport {
     pub jtj: Mat<f64>,
 }
 
-/// Minimises ½‖r(p)‖² from `p0`.
+/// Minimises ½‖r(p)‖² from `p0`, forming the normal equations from the whole Jacobian.
 pub fn levenberg_marquardt(
     problem: &dyn LeastSquares,
     p0: &[f64],
     options: &LmOptions,
     observer: &Observer,
 ) -> LmReport {
+    levenberg_marquardt_normal(&Dense::new(problem), p0, None, options, observer)
+}
+
+/// A least-squares problem that supplies its normal equations (JᵀJ, Jᵀr) directly, so that the
+/// Jacobian never has to be stored whole (memory bounded by the parameter count, not the data).
+pub trait NormalEquations {
+    fn n_params(&self) -> usize;
+    /// ‖r(p)‖².
+    fn sse(&self, p: &[f64]) -> f64;
+    /// Overwrites `jtj` (n × n) and `jtr` (n) at `p`; returns ‖r(p)‖².
+    fn normal_equations(&self, p: &[f64], jtj: &mut Mat<f64>, jtr: &mut [f64]) -> f64;
+}
+
+/// The normal equations of a [`LeastSquares`] problem from its whole Jacobian.
+struct Dense<'a> {
+    problem: &'a dyn LeastSquares,
+    jac: std::cell::RefCell<Mat<f64>>,
+}
+
+impl<'a> Dense<'a> {
+    fn new(problem: &'a dyn LeastSquares) -> Dense<'a> {
+        let jac = Mat::zeros(problem.n_residuals(), problem.n_params());
+        Dense {
+            problem,
+            jac: std::cell::RefCell::new(jac),
+        }
+    }
+}
+
+impl NormalEquations for Dense<'_> {
+    fn n_params(&self) -> usize {
+        self.problem.n_params()
+    }
+    fn sse(&self, p: &[f64]) -> f64 {
+        let mut r = vec![0.0; self.problem.n_residuals()];
+        self.problem.residuals(p, &mut r);
+        sum_sq(&r)
+    }
+    fn normal_equations(&self, p: &[f64], jtj: &mut Mat<f64>, jtr: &mut [f64]) -> f64 {
+        let m = self.problem.n_residuals();
+        let mut r = vec![0.0; m];
+        self.problem.residuals(p, &mut r);
+        let mut jac = self.jac.borrow_mut();
+        self.problem.jacobian(p, jac.as_mut());
+        gram(&jac, jtj);
+        for (k, gk) in jtr.iter_mut().enumerate() {
+            *gk = (0..m).map(|i| jac[(i, k)] * r[i]).sum();
+        }
+        sum_sq(&r)
+    }
+}
+
+/// Minimises ½‖r(p)‖² from `p0` given the problem's normal equations. Parameters with
+/// `free[k] == false` stay at their start.
+pub fn levenberg_marquardt_normal(
+    problem: &dyn NormalEquations,
+    p0: &[f64],
+    free: Option<&[bool]>,
+    options: &LmOptions,
+    observer: &Observer,
+) -> LmReport {
     let n = problem.n_params();
-    let m = problem.n_residuals();
     let clip = |p: &mut [f64]| {
         if let (Some(lo), Some(hi)) = (&options.lower, &options.upper) {
             for i in 0..p.len() {
@@ -92,17 +152,14 @@ pub fn levenberg_marquardt(
             }
         }
     };
+    let fixed = |k: usize| free.is_some_and(|f| !f[k]);
     let mut p = p0.to_vec();
     clip(&mut p);
-    let mut r = vec![0.0; m];
-    let mut r_trial = vec![0.0; m];
-    let mut jac = Mat::<f64>::zeros(m, n);
     let mut jtj = Mat::<f64>::zeros(n, n);
     let mut g = vec![0.0; n];
     let mut trial = vec![0.0; n];
 
-    problem.residuals(&p, &mut r);
-    let mut sse = sum_sq(&r);
+    let mut sse = f64::NAN;
     let mut mu = options.initial_damping;
     let mut nu = 2.0;
     let mut stop = LmStop::MaxIterations;
@@ -111,23 +168,28 @@ pub fn levenberg_marquardt(
 
     while iterations < options.max_iterations {
         if need_jacobian {
-            problem.jacobian(&p, jac.as_mut());
-            gram(&jac, &mut jtj);
-            for (k, gk) in g.iter_mut().enumerate() {
-                *gk = (0..m).map(|i| jac[(i, k)] * r[i]).sum();
-            }
+            sse = problem.normal_equations(&p, &mut jtj, &mut g);
             need_jacobian = false;
-            if g.iter().fold(0.0f64, |a, v| a.max(v.abs())) < options.gradient_tolerance {
+            let largest = (0..n)
+                .filter(|&k| !fixed(k))
+                .fold(0.0f64, |a, k| a.max(g[k].abs()));
+            if largest < options.gradient_tolerance {
                 stop = LmStop::GradientTolerance;
                 break;
             }
         }
         iterations += 1;
-        // Parameters on a bound whose descent direction points out of the box stay put.
+        // Fixed parameters, and those on a bound whose descent direction points out of the box,
+        // stay put.
         let pinned: Vec<bool> = (0..n)
-            .map(|k| match (&options.lower, &options.upper) {
-                (Some(lo), Some(hi)) => (p[k] <= lo[k] && g[k] > 0.0) || (p[k] >= hi[k] && g[k] < 0.0),
-                _ => false,
+            .map(|k| {
+                fixed(k)
+                    || match (&options.lower, &options.upper) {
+                        (Some(lo), Some(hi)) => {
+                            (p[k] <= lo[k] && g[k] > 0.0) || (p[k] >= hi[k] && g[k] < 0.0)
+                        }
+                        _ => false,
+                    }
             })
             .collect();
         let Some(delta) = damped_step(&jtj, &g, mu, &pinned) else {
@@ -144,8 +206,7 @@ pub fn levenberg_marquardt(
         }
         clip(&mut trial);
         let step: Vec<f64> = (0..n).map(|k| trial[k] - p[k]).collect();
-        problem.residuals(&trial, &mut r_trial);
-        let sse_trial = sum_sq(&r_trial);
+        let sse_trial = problem.sse(&trial);
         // Predicted decrease of the quadratic model for the (clipped) step.
         let mut predicted = 0.0;
         for a in 0..n {
@@ -163,7 +224,6 @@ pub fn levenberg_marquardt(
                 .zip(&p)
                 .all(|(d, x)| d.abs() <= options.step_tolerance * (x.abs() + options.step_tolerance));
             p.copy_from_slice(&trial);
-            std::mem::swap(&mut r, &mut r_trial);
             sse = sse_trial;
             mu *= (1.0 / 3.0f64).max(1.0 - (2.0 * rho - 1.0).powi(3));
             nu = 2.0;
@@ -191,8 +251,7 @@ pub fn levenberg_marquardt(
             }
         }
     }
-    problem.jacobian(&p, jac.as_mut());
-    gram(&jac, &mut jtj);
+    sse = problem.normal_equations(&p, &mut jtj, &mut g);
     LmReport {
         params: p,
         sse,

@@ -6,7 +6,7 @@
 pub mod lm;
 pub mod nelder_mead;
 
-pub use lm::{levenberg_marquardt, LmOptions, LmReport, LmStop};
+pub use lm::{levenberg_marquardt, levenberg_marquardt_normal, LmOptions, LmReport, LmStop, NormalEquations};
 pub use nelder_mead::{nelder_mead_bounded, Bounds, BoundsError, NelderMeadOptions, NelderMeadReport};
 
 use faer::MatMut;

@@ -6,6 +6,8 @@
 //! errors, bias with a slow bounded drift, nonlinearity, white noise, saturation at its range and
 //! quantisation. Every random draw comes from one `ChaCha8Rng` seeded by the caller.
 
+pub mod campaign;
+
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};

@@ -1,0 +1,508 @@
+//! The campaign file (TOML): which recordings of one unit were made, and how.
+//!
+//! ```toml
+//! unit = "imu-07"
+//! gravity_mps2 = 9.80665          # optional, local gravity
+//! [[recording]]
+//! file = "still-1.csv"            # relative to this file
+//! kind = "static"                 # one or more still poses (found in the file)
+//! [[recording]]
+//! file = "t33-r09.csv"
+//! kind = "turntable"
+//! rpm = 33.333                    # nominal; the rate is measured from the data
+//! radius_m = 0.09
+//! radius_tol_m = 0.002
+//! out = "+x"                      # sensor axis pointing away from the spindle
+//! up = "+z"                       # sensor axis along the spindle, upwards
+//! direction = "cw"                # optional: cw or ccw seen from above; found from the data
+//! truth = "t33-r09.truth.csv"     # optional: true specific force per sample (simulations)
+//! ```
+//! Optional per recording: `columns` and `accel_unit` (as the CLI's flags), `truth`, and
+//! `noise_floor_mps2` (the RMS per axis of the error no corrector can remove, when known).
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::input::recording::{AccelUnit, STANDARD_GRAVITY};
+use crate::turntable::model::Direction;
+
+/// A sensor axis with a sign, as `out` and `up` name them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct SignedAxis {
+    /// 0 = x, 1 = y, 2 = z.
+    pub axis: usize,
+    /// +1 or −1.
+    pub sign: i8,
+}
+
+impl SignedAxis {
+    pub fn parse(text: &str) -> Option<SignedAxis> {
+        let t = text.trim();
+        let (sign, rest) = match t.as_bytes().first()? {
+            b'+' => (1, &t[1..]),
+            b'-' => (-1, &t[1..]),
+            _ => (1, t),
+        };
+        let axis = match rest {
+            "x" | "X" => 0,
+            "y" | "Y" => 1,
+            "z" | "Z" => 2,
+            _ => return None,
+        };
+        Some(SignedAxis { axis, sign })
+    }
+
+    /// The unit vector of this axis in sensor coordinates.
+    pub fn vector(self) -> [f64; 3] {
+        let mut v = [0.0; 3];
+        v[self.axis] = f64::from(self.sign);
+        v
+    }
+
+    pub fn name(self) -> String {
+        format!(
+            "{}{}",
+            if self.sign > 0 { '+' } else { '-' },
+            ["x", "y", "z"][self.axis]
+        )
+    }
+}
+
+/// How the sensor sat on the platter during one run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TurntableEntry {
+    pub rpm: f64,
+    pub radius_m: f64,
+    pub radius_tol_m: f64,
+    pub out: SignedAxis,
+    pub up: SignedAxis,
+    pub direction: Option<Direction>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum EntryKind {
+    /// Still poses (one or more, found in the file).
+    Static,
+    Turntable(TurntableEntry),
+}
+
+/// One recording of the campaign.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CampaignEntry {
+    /// Resolved path (relative entries are taken relative to the campaign file).
+    pub file: PathBuf,
+    /// Line of the `[[recording]]` table in the campaign file.
+    pub line: usize,
+    pub kind: EntryKind,
+    pub columns: Option<String>,
+    pub accel_unit: Option<AccelUnit>,
+    pub truth: Option<PathBuf>,
+    pub noise_floor_mps2: Option<[f64; 3]>,
+}
+
+/// A parsed campaign file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Campaign {
+    pub unit: String,
+    /// The campaign file itself.
+    pub path: PathBuf,
+    pub gravity_mps2: f64,
+    pub recordings: Vec<CampaignEntry>,
+}
+
+/// A campaign file that cannot be used, located.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum CampaignError {
+    #[error("{file}: cannot read: {message}")]
+    Io { file: String, message: String },
+    #[error("{file}:{line}:{column}: {message}")]
+    Syntax {
+        file: String,
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    #[error("{file}:{line}: `{key}`: {message}")]
+    Entry {
+        file: String,
+        line: usize,
+        key: String,
+        message: String,
+    },
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCampaign {
+    unit: Option<Spanned<String>>,
+    gravity_mps2: Option<Spanned<f64>>,
+    #[serde(default)]
+    recording: Vec<Spanned<RawEntry>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawEntry {
+    file: Option<Spanned<String>>,
+    kind: Option<Spanned<String>>,
+    rpm: Option<Spanned<f64>>,
+    radius_m: Option<Spanned<f64>>,
+    radius_tol_m: Option<Spanned<f64>>,
+    out: Option<Spanned<String>>,
+    up: Option<Spanned<String>>,
+    direction: Option<Spanned<String>>,
+    columns: Option<Spanned<String>>,
+    accel_unit: Option<Spanned<String>>,
+    truth: Option<Spanned<String>>,
+    noise_floor_mps2: Option<Spanned<Vec<f64>>>,
+}
+
+/// 1-based line and column of a byte offset.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+struct Locator<'a> {
+    file: String,
+    text: &'a str,
+}
+
+impl Locator<'_> {
+    fn at(&self, span: Range<usize>, key: &str, message: impl Into<String>) -> CampaignError {
+        CampaignError::Entry {
+            file: self.file.clone(),
+            line: line_column(self.text, span.start).0,
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+
+    fn required<T: Clone>(
+        &self,
+        value: &Option<Spanned<T>>,
+        entry: Range<usize>,
+        key: &str,
+    ) -> Result<(T, Range<usize>), CampaignError> {
+        value
+            .as_ref()
+            .map(|v| (v.get_ref().clone(), v.span()))
+            .ok_or_else(|| self.at(entry, key, "missing"))
+    }
+
+    fn number(
+        &self,
+        value: &Option<Spanned<f64>>,
+        entry: Range<usize>,
+        key: &str,
+        ok: fn(f64) -> bool,
+        why: &str,
+    ) -> Result<f64, CampaignError> {
+        let (v, span) = self.required(value, entry, key)?;
+        if v.is_finite() && ok(v) {
+            Ok(v)
+        } else {
+            Err(self.at(span, key, format!("{v}: {why}")))
+        }
+    }
+}
+
+impl Campaign {
+    /// Reads and checks a campaign file.
+    pub fn read_path(path: &Path) -> Result<Campaign, CampaignError> {
+        let text = std::fs::read_to_string(path).map_err(|e| CampaignError::Io {
+            file: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        Campaign::parse(&text, path)
+    }
+
+    /// Parses campaign text; `path` names the file in errors and anchors relative paths.
+    pub fn parse(text: &str, path: &Path) -> Result<Campaign, CampaignError> {
+        let file = path.display().to_string();
+        let raw: RawCampaign = toml::from_str(text).map_err(|e| {
+            let (line, column) = e.span().map_or((1, 1), |s| line_column(text, s.start));
+            CampaignError::Syntax {
+                file: file.clone(),
+                line,
+                column,
+                message: e.message().trim().to_string(),
+            }
+        })?;
+        let at = Locator {
+            file: file.clone(),
+            text,
+        };
+        let base = path.parent().unwrap_or(Path::new(""));
+        let unit = match &raw.unit {
+            Some(u) if u.get_ref().trim().is_empty() => return Err(at.at(u.span(), "unit", "empty")),
+            Some(u) => u.get_ref().clone(),
+            None => path
+                .file_stem()
+                .map_or("unit".into(), |s| s.to_string_lossy().into_owned()),
+        };
+        let gravity_mps2 = match &raw.gravity_mps2 {
+            Some(_) => at.number(
+                &raw.gravity_mps2,
+                0..0,
+                "gravity_mps2",
+                |g| (9.7..9.9).contains(&g),
+                "local gravity lies between 9.7 and 9.9 m/s²",
+            )?,
+            None => STANDARD_GRAVITY,
+        };
+        if raw.recording.is_empty() {
+            return Err(CampaignError::Entry {
+                file,
+                line: 1,
+                key: "recording".into(),
+                message: "no [[recording]] tables: a campaign needs at least one recording".into(),
+            });
+        }
+        let mut recordings = Vec::with_capacity(raw.recording.len());
+        for spanned in &raw.recording {
+            let span = spanned.span();
+            let e = spanned.get_ref();
+            let (name, name_span) = at.required(&e.file, span.clone(), "file")?;
+            if name.trim().is_empty() {
+                return Err(at.at(name_span, "file", "empty"));
+            }
+            let resolve = |p: &str| {
+                let p = Path::new(p);
+                if p.is_absolute() {
+                    p.to_path_buf()
+                } else {
+                    base.join(p)
+                }
+            };
+            let (kind_text, kind_span) = at.required(&e.kind, span.clone(), "kind")?;
+            let turntable_only = [
+                ("rpm", e.rpm.as_ref().map(Spanned::span)),
+                ("radius_m", e.radius_m.as_ref().map(Spanned::span)),
+                ("radius_tol_m", e.radius_tol_m.as_ref().map(Spanned::span)),
+                ("out", e.out.as_ref().map(Spanned::span)),
+                ("up", e.up.as_ref().map(Spanned::span)),
+                ("direction", e.direction.as_ref().map(Spanned::span)),
+            ];
+            let kind = match kind_text.as_str() {
+                "static" => {
+                    if let Some((key, Some(s))) = turntable_only.iter().find(|(_, s)| s.is_some()) {
+                        return Err(at.at(
+                            s.clone(),
+                            key,
+                            "only a turntable recording has this key (kind = \"static\")",
+                        ));
+                    }
+                    EntryKind::Static
+                }
+                "turntable" => {
+                    let rpm = at.number(
+                        &e.rpm,
+                        span.clone(),
+                        "rpm",
+                        |v| v > 0.0 && v <= 1000.0,
+                        "must be positive and at most 1000",
+                    )?;
+                    let radius_m = at.number(
+                        &e.radius_m,
+                        span.clone(),
+                        "radius_m",
+                        |v| (0.0..=2.0).contains(&v),
+                        "must be between 0 and 2 m",
+                    )?;
+                    let radius_tol_m = at.number(
+                        &e.radius_tol_m,
+                        span.clone(),
+                        "radius_tol_m",
+                        |v| v > 0.0 && v <= 2.0,
+                        "must be positive (the ruler's tolerance), at most 2 m",
+                    )?;
+                    let axis =
+                        |value: &Option<Spanned<String>>, key: &str| -> Result<SignedAxis, CampaignError> {
+                            let (text, s) = at.required(value, span.clone(), key)?;
+                            SignedAxis::parse(&text).ok_or_else(|| {
+                                at.at(
+                                    s,
+                                    key,
+                                    format!("'{text}': expected one of +x, -x, +y, -y, +z, -z"),
+                                )
+                            })
+                        };
+                    let out = axis(&e.out, "out")?;
+                    let up = axis(&e.up, "up")?;
+                    if out.axis == up.axis {
+                        let s = e.up.as_ref().map_or(span.clone(), Spanned::span);
+                        return Err(at.at(
+                            s,
+                            "up",
+                            format!(
+                                "{} is along out = {}: the two must be different axes",
+                                up.name(),
+                                out.name()
+                            ),
+                        ));
+                    }
+                    let direction = match &e.direction {
+                        None => None,
+                        Some(d) => Some(match d.get_ref().as_str() {
+                            "cw" => Direction::Cw,
+                            "ccw" => Direction::Ccw,
+                            other => {
+                                return Err(at.at(
+                                    d.span(),
+                                    "direction",
+                                    format!("'{other}': expected cw or ccw"),
+                                ))
+                            }
+                        }),
+                    };
+                    EntryKind::Turntable(TurntableEntry {
+                        rpm,
+                        radius_m,
+                        radius_tol_m,
+                        out,
+                        up,
+                        direction,
+                    })
+                }
+                other => {
+                    return Err(at.at(
+                        kind_span,
+                        "kind",
+                        format!("'{other}': expected static or turntable"),
+                    ))
+                }
+            };
+            let accel_unit = match &e.accel_unit {
+                None => None,
+                Some(u) => Some(AccelUnit::parse(u.get_ref()).ok_or_else(|| {
+                    at.at(
+                        u.span(),
+                        "accel_unit",
+                        format!("'{}': expected g or m/s^2", u.get_ref()),
+                    )
+                })?),
+            };
+            let noise_floor_mps2 = match &e.noise_floor_mps2 {
+                None => None,
+                Some(v) => {
+                    let values = v.get_ref();
+                    if values.len() != 3 || values.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+                        return Err(at.at(
+                            v.span(),
+                            "noise_floor_mps2",
+                            "expected three finite non-negative numbers [x, y, z]",
+                        ));
+                    }
+                    Some([values[0], values[1], values[2]])
+                }
+            };
+            recordings.push(CampaignEntry {
+                file: resolve(&name),
+                line: line_column(text, span.start).0,
+                kind,
+                columns: e.columns.as_ref().map(|c| c.get_ref().clone()),
+                accel_unit,
+                truth: e.truth.as_ref().map(|t| resolve(t.get_ref())),
+                noise_floor_mps2,
+            });
+        }
+        Ok(Campaign {
+            unit,
+            path: path.to_path_buf(),
+            gravity_mps2,
+            recordings,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"
+unit = "imu-07"
+[[recording]]
+file = "still-1.csv"
+kind = "static"
+
+[[recording]]
+file = "t33-r09.csv"
+kind = "turntable"
+rpm = 33.333
+radius_m = 0.09
+radius_tol_m = 0.002
+out = "+x"
+up = "-z"
+"#;
+
+    fn parse(text: &str) -> Result<Campaign, CampaignError> {
+        Campaign::parse(text, Path::new("runs/c.toml"))
+    }
+
+    #[test]
+    fn a_good_file_parses_with_paths_relative_to_it() {
+        let c = parse(GOOD).unwrap();
+        assert_eq!(c.unit, "imu-07");
+        assert_eq!(c.recordings.len(), 2);
+        assert_eq!(c.recordings[0].file, Path::new("runs/still-1.csv"));
+        assert_eq!(c.recordings[1].line, 7);
+        match &c.recordings[1].kind {
+            EntryKind::Turntable(t) => {
+                assert_eq!(t.up, SignedAxis { axis: 2, sign: -1 });
+                assert_eq!(t.radius_m, 0.09);
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn bad_entries_name_file_line_and_key() {
+        let cases = [
+            (GOOD.replace("up = \"-z\"", "up = \"+x\""), "runs/c.toml:15: `up`"),
+            (
+                GOOD.replace("radius_m = 0.09", "radius_m = -0.09"),
+                "runs/c.toml:12: `radius_m`",
+            ),
+            (
+                GOOD.replace("rpm = 33.333\n", ""),
+                "runs/c.toml:7: `rpm`: missing",
+            ),
+            (
+                GOOD.replace("kind = \"static\"", "kind = \"still\""),
+                "runs/c.toml:5: `kind`",
+            ),
+            (
+                GOOD.replace("kind = \"static\"", "kind = \"static\"\nrpm = 3"),
+                "runs/c.toml:6: `rpm`",
+            ),
+            (
+                GOOD.replace("out = \"+x\"", "out = \"+w\""),
+                "runs/c.toml:14: `out`",
+            ),
+        ];
+        for (text, start) in cases {
+            let e = parse(&text).unwrap_err().to_string();
+            assert!(e.starts_with(start), "{e} (wanted {start})");
+        }
+    }
+
+    #[test]
+    fn syntax_and_unknown_keys_are_located() {
+        let e = parse(&GOOD.replace("radius_tol_m", "radius_tolerance"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("runs/c.toml:13:"), "{e}");
+        assert!(e.contains("radius_tolerance"), "{e}");
+        let e = parse("unit = \n").unwrap_err().to_string();
+        assert!(e.starts_with("runs/c.toml:1:"), "{e}");
+        let e = parse("unit = \"a\"\n").unwrap_err().to_string();
+        assert!(e.contains("no [[recording]]"), "{e}");
+    }
+}

@@ -1,0 +1,1146 @@
+//! The joint fit of one sensor model and every recording of a campaign (SPEC §7).
+//!
+//! Turntable run i, sample at τ = t − t_mid (platter frame P: x radial outward through the sensor,
+//! z along the spindle, upwards; the platter turns by σω, σ = +1 counter-clockwise from above):
+//! ```text
+//! ϑ = ϑ₀ − σ ω τ                                   (direction of the tilt in P)
+//! f_P = [−ω² r + g sin α cos ϑ,  g sin α sin ϑ,  g cos α]
+//! f_B = Q · Rx(ε₁) Ry(ε₂) Rz(β) · f_P               (Q: the nominal `out`/`up` mounting)
+//! m   = h(b + δᵢ + D (I + M) f_B)                  (the sensor model, `sensor.rs`)
+//! ```
+//! β turns the sensor about the spindle (free over the circle, so either sign convention for
+//! "outward" fits), ε₁, ε₂ tilt it on its mount, δᵢ is the run's bias offset from the unit's bias.
+//! Still pose p: f_B = g · ŵ with ŵ = normalise(w₀ + a e₁ + b e₂) (two angles about the pose's
+//! first estimate), m̄ = h(b + δ_p + D (I + M) f_B).
+//!
+//! Every residual is divided by its noise (per run and axis; the mean's standard error for a
+//! pose), and priors enter as residuals: (r − r_nominal)/tolerance and δ/σ_bias (bias
+//! instability between recordings) and ε/σ_mount (how flat the sensor sits). The normal equations are accumulated per sample, never a
+//! stored Jacobian, so memory is the recordings plus an n × n matrix.
+//!
+//! Standard errors are the sandwich H⁻¹ S H⁻¹ with S from scores summed over blocks of
+//! consecutive samples (batch-means HAC): residuals coloured by wow, flutter or drift within a
+//! block are accounted for; a pose and each prior are blocks of their own.
+
+// Per-axis and per-parameter arrays are indexed together; iterators would obscure that.
+#![allow(clippy::needless_range_loop)]
+
+use faer::prelude::Solve;
+use faer::{Mat, Side};
+use serde::{Deserialize, Serialize};
+
+use crate::campaign::file::{SignedAxis, TurntableEntry};
+use crate::campaign::sensor::{SensorModel, SENSOR_PARAMS, SENSOR_PARAM_NAMES};
+use crate::optim::{levenberg_marquardt_normal, LmOptions, LmStop, NormalEquations};
+use crate::progress::Observer;
+use crate::turntable::model::Direction;
+
+/// Parameters per turntable run: r, ω, α, ϑ₀, β, ε₁, ε₂, wow (2), δ (3).
+pub const RUN_PARAMS: usize = 12;
+/// Geometric parameters per run (all but the offsets), which come first.
+const GEOMETRY: usize = 9;
+/// Names and units of a run's parameters.
+pub const RUN_PARAM_NAMES: [&str; RUN_PARAMS] = [
+    "radius (m)",
+    "omega (rad/s)",
+    "tilt (rad)",
+    "tilt_direction (rad)",
+    "beta (rad)",
+    "mount_tilt_1 (rad)",
+    "mount_tilt_2 (rad)",
+    "wow_cos",
+    "wow_sin",
+    "offset_x (m/s²)",
+    "offset_y (m/s²)",
+    "offset_z (m/s²)",
+];
+/// Parameters per still pose: two angles of gravity's direction, δ (3).
+pub const POSE_PARAMS: usize = 5;
+const POSE_PARAM_NAMES: [&str; POSE_PARAMS] = [
+    "direction_1 (rad)",
+    "direction_2 (rad)",
+    "offset_x (m/s²)",
+    "offset_y (m/s²)",
+    "offset_z (m/s²)",
+];
+
+/// One turntable run, ready for the fit.
+#[derive(Debug, Clone)]
+pub struct RunInput {
+    pub name: String,
+    /// Seconds; any origin.
+    pub time_s: Vec<f64>,
+    pub accel_mps2: [Vec<f64>; 3],
+    /// Samples the fit uses (false: saturated or otherwise unusable).
+    pub keep: Vec<bool>,
+    pub entry: TurntableEntry,
+}
+
+/// One still pose, ready for the fit.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct PoseInput {
+    pub name: String,
+    pub mean_mps2: [f64; 3],
+    /// Standard error of the mean per axis, m/s².
+    pub sigma_mean_mps2: [f64; 3],
+    pub samples: usize,
+}
+
+/// Which sensor terms are estimated (the others stay at zero).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SensorTerms {
+    pub misalignment: bool,
+    pub nonlinearity: bool,
+}
+
+impl SensorTerms {
+    pub const ALL: SensorTerms = SensorTerms {
+        misalignment: true,
+        nonlinearity: true,
+    };
+    pub const LINEAR: SensorTerms = SensorTerms {
+        misalignment: true,
+        nonlinearity: false,
+    };
+
+    fn free(self, k: usize) -> bool {
+        match k {
+            0..=5 => true,
+            6..=8 => self.misalignment,
+            _ => self.nonlinearity,
+        }
+    }
+}
+
+/// Settings of the joint fit.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct JointSettings {
+    pub gravity_mps2: f64,
+    /// Standard deviation of a recording's bias offset from the unit's bias, m/s².
+    pub bias_instability_mps2: f64,
+    /// Standard deviation of the sensor's tilt on its mount (how flat it sits), rad.
+    pub mount_tilt_rad: f64,
+    pub terms: SensorTerms,
+    /// Length of the blocks whose scores form the robust covariance, s.
+    pub block_s: f64,
+    pub max_iterations: usize,
+}
+
+impl Default for JointSettings {
+    fn default() -> Self {
+        JointSettings {
+            gravity_mps2: crate::input::recording::STANDARD_GRAVITY,
+            bias_instability_mps2: 0.003 * crate::input::recording::STANDARD_GRAVITY,
+            mount_tilt_rad: 2f64.to_radians(),
+            terms: SensorTerms::ALL,
+            block_s: 5.0,
+            max_iterations: 100,
+        }
+    }
+}
+
+/// A fitted parameter with its robust standard error.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct JointParam {
+    pub name: String,
+    pub value: f64,
+    /// Robust (block HAC) standard error; `None` when fixed or not determined.
+    pub std_error: Option<f64>,
+    /// Whether the parameter was estimated (false: held at its nominal value).
+    pub free: bool,
+}
+
+/// One run's fitted geometry.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunFit {
+    pub name: String,
+    pub direction: Direction,
+    pub params: Vec<JointParam>,
+    /// Residual RMS per axis, m/s².
+    pub residual_rms_mps2: [f64; 3],
+    pub samples_used: usize,
+}
+
+/// One pose's fit.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct PoseFit {
+    pub name: String,
+    pub params: Vec<JointParam>,
+    /// Fitted specific force in the body frame, m/s².
+    pub specific_force_mps2: [f64; 3],
+}
+
+/// The joint fit's result.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct JointFit {
+    pub sensor: SensorModel,
+    pub sensor_params: Vec<JointParam>,
+    pub runs: Vec<RunFit>,
+    pub poses: Vec<PoseFit>,
+    pub terms: SensorTerms,
+    /// Weighted sum of squares and its degrees of freedom.
+    pub chi2: f64,
+    pub dof: usize,
+    pub iterations: usize,
+    pub stop: LmStop,
+    /// How the standard errors were formed, in words.
+    pub covariance: String,
+    #[serde(skip)]
+    pub(crate) state: FitState,
+}
+
+/// What the corrector selection needs besides the numbers shown.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct FitState {
+    pub params: Vec<f64>,
+    pub directions: Vec<f64>,
+    pub mountings: Vec<[[f64; 3]; 3]>,
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum JointError {
+    #[error("the campaign has no recordings the fit can use")]
+    Empty,
+    #[error("{name}: {why}")]
+    Run { name: String, why: String },
+    #[error("joint fit setting {name} = {value}: {why}")]
+    Setting {
+        name: &'static str,
+        value: f64,
+        why: &'static str,
+    },
+}
+
+/// Body ← mounting-frame rotation: columns are `out`, `up × out` and `up` in sensor axes.
+pub fn mounting_matrix(out: SignedAxis, up: SignedAxis) -> [[f64; 3]; 3] {
+    let o = out.vector();
+    let u = up.vector();
+    let y = [
+        u[1] * o[2] - u[2] * o[1],
+        u[2] * o[0] - u[0] * o[2],
+        u[0] * o[1] - u[1] * o[0],
+    ];
+    std::array::from_fn(|r| [o[r], y[r], u[r]])
+}
+
+type M3 = [[f64; 3]; 3];
+
+fn mul(a: &M3, b: &M3) -> M3 {
+    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
+}
+
+fn apply(a: &M3, v: &[f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|i| a[i][0] * v[0] + a[i][1] * v[1] + a[i][2] * v[2])
+}
+
+fn rot_x(e: f64) -> (M3, M3) {
+    let (s, c) = e.sin_cos();
+    (
+        [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]],
+        [[0.0, 0.0, 0.0], [0.0, -s, -c], [0.0, c, -s]],
+    )
+}
+
+fn rot_y(e: f64) -> (M3, M3) {
+    let (s, c) = e.sin_cos();
+    (
+        [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]],
+        [[-s, 0.0, c], [0.0, 0.0, 0.0], [-c, 0.0, -s]],
+    )
+}
+
+fn rot_z(e: f64) -> (M3, M3) {
+    let (s, c) = e.sin_cos();
+    (
+        [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
+        [[-s, -c, 0.0], [c, -s, 0.0], [0.0, 0.0, 0.0]],
+    )
+}
+
+/// A run's geometry at given parameters: f_B and its derivatives per sample.
+///
+/// Wow (a once-per-revolution speed change) is modelled because it shares the rotation's
+/// frequency with the tilt's gravity term: ω(τ) = ω (1 + w_c cos ωτ + w_s sin ωτ). It moves the
+/// platter angle, the centripetal level and adds the tangential acceleration r ω̇.
+pub(crate) struct RunGeometry {
+    qr: M3,
+    d_beta: M3,
+    d_eps1: M3,
+    d_eps2: M3,
+    radius: f64,
+    omega: f64,
+    sin_tilt: f64,
+    cos_tilt: f64,
+    phase: f64,
+    wow: [f64; 2],
+    direction: f64,
+    gravity: f64,
+}
+
+impl RunGeometry {
+    pub(crate) fn new(q: &M3, run: &[f64], direction: f64, gravity: f64) -> RunGeometry {
+        let (rx, drx) = rot_x(run[5]);
+        let (ry, dry) = rot_y(run[6]);
+        let (rz, drz) = rot_z(run[4]);
+        let qrx = mul(q, &rx);
+        let qdrx = mul(q, &drx);
+        RunGeometry {
+            qr: mul(&mul(&qrx, &ry), &rz),
+            d_beta: mul(&mul(&qrx, &ry), &drz),
+            d_eps1: mul(&mul(&qdrx, &ry), &rz),
+            d_eps2: mul(&mul(&qrx, &dry), &rz),
+            radius: run[0],
+            omega: run[1],
+            sin_tilt: run[2].sin(),
+            cos_tilt: run[2].cos(),
+            phase: run[3],
+            wow: [run[7], run[8]],
+            direction,
+            gravity,
+        }
+    }
+
+    /// True specific force in the body frame at τ (seconds from the run's middle).
+    pub(crate) fn force(&self, tau: f64) -> [f64; 3] {
+        self.force_and_derivatives(tau).0
+    }
+
+    /// f_B and ∂f_B/∂(r, ω, α, ϑ₀, β, ε₁, ε₂, w_c, w_s).
+    fn force_and_derivatives(&self, tau: f64) -> ([f64; 3], [[f64; 3]; GEOMETRY]) {
+        let (g, w, r, sigma) = (self.gravity, self.omega, self.radius, self.direction);
+        let [wc, ws] = self.wow;
+        let (s1, c1) = (w * tau).sin_cos();
+        let m = wc * c1 + ws * s1;
+        let m_quad = -wc * s1 + ws * c1;
+        let rate = w * (1.0 + m);
+        let rate_dot = w * w * m_quad;
+        let angle = w * tau + wc * s1 - ws * c1;
+        let (s, c) = (self.phase - sigma * angle).sin_cos();
+        let amplitude = g * self.sin_tilt;
+        let fp = [
+            -rate * rate * r + amplitude * c,
+            amplitude * s + sigma * r * rate_dot,
+            g * self.cos_tilt,
+        ];
+        // ∂/∂ω through the rate, the angle and ω̇.
+        let d_rate = (1.0 + m) + w * tau * m_quad;
+        let d_angle = tau * (1.0 + m);
+        let d_rate_dot = 2.0 * w * m_quad - w * w * tau * m;
+        let dp = [
+            [-rate * rate, sigma * rate_dot, 0.0],
+            [
+                -2.0 * rate * r * d_rate + amplitude * s * sigma * d_angle,
+                -amplitude * c * sigma * d_angle + sigma * r * d_rate_dot,
+                0.0,
+            ],
+            [g * self.cos_tilt * c, g * self.cos_tilt * s, -g * self.sin_tilt],
+            [-amplitude * s, amplitude * c, 0.0],
+            [
+                -2.0 * rate * r * w * c1 + amplitude * s * sigma * s1,
+                -amplitude * c * sigma * s1 - sigma * r * w * w * s1,
+                0.0,
+            ],
+            [
+                -2.0 * rate * r * w * s1 - amplitude * s * sigma * c1,
+                amplitude * c * sigma * c1 + sigma * r * w * w * c1,
+                0.0,
+            ],
+        ];
+        let mut d = [[0.0; 3]; GEOMETRY];
+        for k in 0..4 {
+            d[k] = apply(&self.qr, &dp[k]);
+        }
+        d[4] = apply(&self.d_beta, &fp);
+        d[5] = apply(&self.d_eps1, &fp);
+        d[6] = apply(&self.d_eps2, &fp);
+        d[7] = apply(&self.qr, &dp[4]);
+        d[8] = apply(&self.qr, &dp[5]);
+        (apply(&self.qr, &fp), d)
+    }
+}
+
+/// A pose's gravity direction: w₀ and a tangent basis.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PoseFrame {
+    w0: [f64; 3],
+    e1: [f64; 3],
+    e2: [f64; 3],
+}
+
+impl PoseFrame {
+    fn new(mean: [f64; 3]) -> PoseFrame {
+        let norm = (mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2]).sqrt();
+        let w0 = if norm > 0.0 {
+            mean.map(|v| v / norm)
+        } else {
+            [0.0, 0.0, 1.0]
+        };
+        // The axis least aligned with w₀ makes a well-conditioned tangent basis.
+        let k = (0..3)
+            .min_by(|&a, &b| w0[a].abs().total_cmp(&w0[b].abs()))
+            .unwrap_or(0);
+        let mut a = [0.0; 3];
+        a[k] = 1.0;
+        let dot = a[0] * w0[0] + a[1] * w0[1] + a[2] * w0[2];
+        let e1 = normalise([a[0] - dot * w0[0], a[1] - dot * w0[1], a[2] - dot * w0[2]]);
+        let e2 = [
+            w0[1] * e1[2] - w0[2] * e1[1],
+            w0[2] * e1[0] - w0[0] * e1[2],
+            w0[0] * e1[1] - w0[1] * e1[0],
+        ];
+        PoseFrame { w0, e1, e2 }
+    }
+
+    /// g ŵ and its derivatives with respect to the two angles.
+    fn force(&self, a: f64, b: f64, g: f64) -> ([f64; 3], [[f64; 3]; 2]) {
+        let w: [f64; 3] = std::array::from_fn(|k| self.w0[k] + a * self.e1[k] + b * self.e2[k]);
+        let norm = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+        let hat = w.map(|v| v / norm);
+        let d = |e: &[f64; 3]| -> [f64; 3] {
+            let dot = hat[0] * e[0] + hat[1] * e[1] + hat[2] * e[2];
+            std::array::from_fn(|k| g * (e[k] - dot * hat[k]) / norm)
+        };
+        (hat.map(|v| g * v), [d(&self.e1), d(&self.e2)])
+    }
+}
+
+fn normalise(v: [f64; 3]) -> [f64; 3] {
+    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    v.map(|x| x / n)
+}
+
+/// The problem as the optimiser sees it.
+pub(crate) struct JointProblem<'a> {
+    pub runs: &'a [RunInput],
+    pub poses: &'a [PoseInput],
+    pub gravity: f64,
+    pub bias_sigma: f64,
+    pub mount_tilt_sigma: f64,
+    pub directions: Vec<f64>,
+    pub mountings: Vec<M3>,
+    pub pose_frames: Vec<PoseFrame>,
+    /// Per run and axis, the residual noise, m/s².
+    pub run_sigma: Vec<[f64; 3]>,
+    pub block_samples: Vec<usize>,
+}
+
+/// Where a run's or a pose's parameters start in the parameter vector.
+pub(crate) fn run_offset(i: usize) -> usize {
+    SENSOR_PARAMS + i * RUN_PARAMS
+}
+
+fn pose_offset(n_runs: usize, p: usize) -> usize {
+    SENSOR_PARAMS + n_runs * RUN_PARAMS + p * POSE_PARAMS
+}
+
+/// Accumulates rows into a local dense system, then scatters it into the global one.
+struct LocalSystem {
+    index: Vec<usize>,
+    gram: Vec<f64>,
+    grad: Vec<f64>,
+    sse: f64,
+}
+
+impl LocalSystem {
+    fn new(index: Vec<usize>) -> LocalSystem {
+        let n = index.len();
+        LocalSystem {
+            index,
+            gram: vec![0.0; n * n],
+            grad: vec![0.0; n],
+            sse: 0.0,
+        }
+    }
+
+    fn add_row(&mut self, row: &[f64], residual: f64) {
+        let n = self.index.len();
+        for a in 0..n {
+            let ra = row[a];
+            if ra == 0.0 {
+                continue;
+            }
+            self.grad[a] += ra * residual;
+            let line = &mut self.gram[a * n..a * n + n];
+            for b in a..n {
+                line[b] += ra * row[b];
+            }
+        }
+        self.sse += residual * residual;
+    }
+
+    fn scatter(&self, jtj: &mut Mat<f64>, jtr: &mut [f64]) {
+        let n = self.index.len();
+        for a in 0..n {
+            jtr[self.index[a]] += self.grad[a];
+            for b in a..n {
+                let v = self.gram[a * n + b];
+                let (i, j) = (self.index[a], self.index[b]);
+                jtj[(i, j)] += v;
+                if i != j {
+                    jtj[(j, i)] += v;
+                }
+            }
+        }
+    }
+}
+
+/// Sensor-parameter part of a weighted row: ∂m_k/∂(b, s, M, q) given u, (I+M) f_B and f_B.
+#[allow(clippy::too_many_arguments)]
+fn sensor_row(
+    row: &mut [f64],
+    k: usize,
+    slope: f64,
+    weight: f64,
+    u: f64,
+    skewed: f64,
+    force: &[f64; 3],
+    scale: f64,
+) {
+    row[k] = slope;
+    row[3 + k] = slope * skewed;
+    match k {
+        1 => row[6] = slope * scale * force[0],
+        2 => {
+            row[7] = slope * scale * force[0];
+            row[8] = slope * scale * force[1];
+        }
+        _ => {}
+    }
+    row[9 + k] = weight * u * u;
+}
+
+/// What one evaluation of the problem produces.
+pub(crate) enum Want<'a> {
+    Sse,
+    Normal(&'a mut Mat<f64>, &'a mut [f64]),
+    /// Σ over blocks of s sᵀ (s: the block's score Jᵀr), into the matrix.
+    Meat(&'a mut Mat<f64>),
+}
+
+impl JointProblem<'_> {
+    pub(crate) fn n_params(&self) -> usize {
+        SENSOR_PARAMS + self.runs.len() * RUN_PARAMS + self.poses.len() * POSE_PARAMS
+    }
+
+    pub(crate) fn geometry(&self, p: &[f64], i: usize) -> RunGeometry {
+        let o = run_offset(i);
+        RunGeometry::new(
+            &self.mountings[i],
+            &p[o..o + RUN_PARAMS],
+            self.directions[i],
+            self.gravity,
+        )
+    }
+
+    /// Residuals of run i, per sample and axis (unweighted, model − measured), with a callback.
+    pub(crate) fn run_residuals(&self, p: &[f64], i: usize, mut f: impl FnMut(usize, [f64; 3])) {
+        let sensor = SensorModel::from_params(p);
+        let geo = self.geometry(p, i);
+        let run = &self.runs[i];
+        let o = run_offset(i);
+        let delta = [p[o + GEOMETRY], p[o + GEOMETRY + 1], p[o + GEOMETRY + 2]];
+        let mid = mid_time(&run.time_s);
+        for (s, &t) in run.time_s.iter().enumerate() {
+            if !run.keep[s] {
+                continue;
+            }
+            let u = sensor.linear_response(geo.force(t - mid), delta);
+            let r: [f64; 3] = std::array::from_fn(|k| {
+                u[k] + sensor.quadratic_per_mps2[k] * u[k] * u[k] - run.accel_mps2[k][s]
+            });
+            f(s, r);
+        }
+    }
+
+    pub(crate) fn evaluate(&self, p: &[f64], mut want: Want<'_>) -> f64 {
+        let sensor = SensorModel::from_params(p);
+        let mut sse = 0.0;
+        if let Want::Normal(jtj, jtr) = &mut want {
+            jtj.fill(0.0);
+            jtr.fill(0.0);
+        }
+        if let Want::Meat(meat) = &mut want {
+            meat.fill(0.0);
+        }
+        let scale = sensor.scale_error.map(|s| 1.0 + s);
+        for i in 0..self.runs.len() {
+            let run = &self.runs[i];
+            let o = run_offset(i);
+            let geo = self.geometry(p, i);
+            let delta = [p[o + GEOMETRY], p[o + GEOMETRY + 1], p[o + GEOMETRY + 2]];
+            let mid = mid_time(&run.time_s);
+            let index: Vec<usize> = (0..SENSOR_PARAMS).chain(o..o + RUN_PARAMS).collect();
+            let mut local = LocalSystem::new(index.clone());
+            let mut block = vec![0.0; index.len()];
+            let mut in_block = 0;
+            let mut row = vec![0.0; index.len()];
+            let sigma = self.run_sigma[i];
+            let want_rows = !matches!(want, Want::Sse);
+            for (s, &t) in run.time_s.iter().enumerate() {
+                if !run.keep[s] {
+                    continue;
+                }
+                let tau = t - mid;
+                if !want_rows {
+                    let u = sensor.linear_response(geo.force(tau), delta);
+                    for k in 0..3 {
+                        let r = (u[k] + sensor.quadratic_per_mps2[k] * u[k] * u[k] - run.accel_mps2[k][s])
+                            / sigma[k];
+                        sse += r * r;
+                    }
+                    continue;
+                }
+                let (force, d) = geo.force_and_derivatives(tau);
+                let skewed = sensor.skewed(force);
+                let u: [f64; 3] =
+                    std::array::from_fn(|k| sensor.bias_mps2[k] + delta[k] + scale[k] * skewed[k]);
+                for k in 0..3 {
+                    let q = sensor.quadratic_per_mps2[k];
+                    let w = 1.0 / sigma[k];
+                    let r = (u[k] + q * u[k] * u[k] - run.accel_mps2[k][s]) * w;
+                    let slope = (1.0 + 2.0 * q * u[k]) * w;
+                    row.fill(0.0);
+                    sensor_row(&mut row, k, slope, w, u[k], skewed[k], &force, scale[k]);
+                    for (j, dj) in d.iter().enumerate() {
+                        let sk = sensor.skewed(*dj);
+                        row[SENSOR_PARAMS + j] = slope * scale[k] * sk[k];
+                    }
+                    row[SENSOR_PARAMS + GEOMETRY + k] = slope;
+                    match &mut want {
+                        Want::Meat(_) => {
+                            for (b, v) in block.iter_mut().zip(&row) {
+                                *b += v * r;
+                            }
+                        }
+                        _ => local.add_row(&row, r),
+                    }
+                }
+                in_block += 1;
+                if in_block == self.block_samples[i] {
+                    if let Want::Meat(meat) = &mut want {
+                        add_outer(meat, &index, &block);
+                    }
+                    block.fill(0.0);
+                    in_block = 0;
+                }
+            }
+            if in_block > 0 {
+                if let Want::Meat(meat) = &mut want {
+                    add_outer(meat, &index, &block);
+                }
+            }
+            // Priors: radius within its tolerance, the run's bias offset within the instability.
+            let entry = &run.entry;
+            let mut prior = |param: usize, value: f64, sigma: f64, want: &mut Want<'_>| {
+                let r = value / sigma;
+                sse += r * r;
+                match want {
+                    Want::Sse => {}
+                    Want::Normal(jtj, jtr) => {
+                        jtj[(param, param)] += 1.0 / (sigma * sigma);
+                        jtr[param] += r / sigma;
+                    }
+                    // A prior's information is its stated variance, not the realised score².
+                    Want::Meat(meat) => meat[(param, param)] += 1.0 / (sigma * sigma),
+                }
+            };
+            prior(o, p[o] - entry.radius_m, entry.radius_tol_m, &mut want);
+            prior(o + 5, p[o + 5], self.mount_tilt_sigma, &mut want);
+            prior(o + 6, p[o + 6], self.mount_tilt_sigma, &mut want);
+            for k in 0..3 {
+                prior(o + GEOMETRY + k, delta[k], self.bias_sigma, &mut want);
+            }
+            if let Want::Normal(jtj, jtr) = &mut want {
+                local.scatter(jtj, jtr);
+                sse += local.sse;
+            } else if let Want::Meat(_) = want {
+                // The sse of the rows is not needed for the meat.
+            }
+        }
+        let n_runs = self.runs.len();
+        for (pi, pose) in self.poses.iter().enumerate() {
+            let o = pose_offset(n_runs, pi);
+            let (force, d) = self.pose_frames[pi].force(p[o], p[o + 1], self.gravity);
+            let delta = [p[o + 2], p[o + 3], p[o + 4]];
+            let skewed = sensor.skewed(force);
+            let u: [f64; 3] = std::array::from_fn(|k| sensor.bias_mps2[k] + delta[k] + scale[k] * skewed[k]);
+            let index: Vec<usize> = (0..SENSOR_PARAMS).chain(o..o + POSE_PARAMS).collect();
+            let mut local = LocalSystem::new(index.clone());
+            let mut block = vec![0.0; index.len()];
+            let mut row = vec![0.0; index.len()];
+            for k in 0..3 {
+                let q = sensor.quadratic_per_mps2[k];
+                let w = 1.0 / pose.sigma_mean_mps2[k];
+                let r = (u[k] + q * u[k] * u[k] - pose.mean_mps2[k]) * w;
+                if matches!(want, Want::Sse) {
+                    sse += r * r;
+                    continue;
+                }
+                let slope = (1.0 + 2.0 * q * u[k]) * w;
+                row.fill(0.0);
+                sensor_row(&mut row, k, slope, w, u[k], skewed[k], &force, scale[k]);
+                for (j, dj) in d.iter().enumerate() {
+                    let sk = sensor.skewed(*dj);
+                    row[SENSOR_PARAMS + j] = slope * scale[k] * sk[k];
+                }
+                row[SENSOR_PARAMS + 2 + k] = slope;
+                local.add_row(&row, r);
+                for (b, v) in block.iter_mut().zip(&row) {
+                    *b += v * r;
+                }
+            }
+            for k in 0..3 {
+                let param = o + 2 + k;
+                let r = delta[k] / self.bias_sigma;
+                sse += r * r;
+                match &mut want {
+                    Want::Sse => {}
+                    Want::Normal(jtj, jtr) => {
+                        jtj[(param, param)] += 1.0 / (self.bias_sigma * self.bias_sigma);
+                        jtr[param] += r / self.bias_sigma;
+                    }
+                    Want::Meat(meat) => meat[(param, param)] += 1.0 / (self.bias_sigma * self.bias_sigma),
+                }
+            }
+            match &mut want {
+                Want::Normal(jtj, jtr) => {
+                    local.scatter(jtj, jtr);
+                    sse += local.sse;
+                }
+                Want::Meat(meat) => add_outer(meat, &index, &block),
+                Want::Sse => {}
+            }
+        }
+        sse
+    }
+}
+
+fn add_outer(meat: &mut Mat<f64>, index: &[usize], score: &[f64]) {
+    for (a, &i) in index.iter().enumerate() {
+        if score[a] == 0.0 {
+            continue;
+        }
+        for (b, &j) in index.iter().enumerate() {
+            meat[(i, j)] += score[a] * score[b];
+        }
+    }
+}
+
+pub(crate) fn mid_time(t: &[f64]) -> f64 {
+    match (t.first(), t.last()) {
+        (Some(a), Some(b)) => 0.5 * (a + b),
+        _ => 0.0,
+    }
+}
+
+impl NormalEquations for JointProblem<'_> {
+    fn n_params(&self) -> usize {
+        JointProblem::n_params(self)
+    }
+    fn sse(&self, p: &[f64]) -> f64 {
+        self.evaluate(p, Want::Sse)
+    }
+    fn normal_equations(&self, p: &[f64], jtj: &mut Mat<f64>, jtr: &mut [f64]) -> f64 {
+        self.evaluate(p, Want::Normal(jtj, jtr))
+    }
+}
+
+/// The rotation rate and sense that best demodulate the horizontal readings (mounting frame
+/// m_x + i m_y = G e^{i(ψ − σωτ)} + constant), scanned within ±25 % of the nominal rate and then
+/// refined by golden section. Returns (ω, σ, amplitude G, ψ).
+pub(crate) fn demodulate(
+    time_s: &[f64],
+    horizontal: &[[f64; 2]],
+    nominal_radps: f64,
+) -> (f64, f64, f64, f64) {
+    let n = horizontal.len().max(1) as f64;
+    let mid = mid_time(time_s);
+    let mean = [0, 1].map(|c| horizontal.iter().map(|h| h[c]).sum::<f64>() / n);
+    let amplitude = |w: f64, sigma: f64| -> (f64, f64) {
+        let (mut re, mut im) = (0.0, 0.0);
+        for (h, &t) in horizontal.iter().zip(time_s) {
+            let (x, y) = (h[0] - mean[0], h[1] - mean[1]);
+            let (sn, cs) = (sigma * w * (t - mid)).sin_cos();
+            re += x * cs - y * sn;
+            im += x * sn + y * cs;
+        }
+        ((re * re + im * im).sqrt() / n, im.atan2(re))
+    };
+    let span = match (time_s.first(), time_s.last()) {
+        (Some(a), Some(b)) if b > a => b - a,
+        _ => 1.0,
+    };
+    let step = 0.5 / span;
+    let (lo, hi) = (0.75 * nominal_radps, 1.25 * nominal_radps);
+    let mut best = (0.0, nominal_radps, 1.0);
+    for sigma in [1.0, -1.0] {
+        let mut w = lo;
+        while w <= hi {
+            let a = amplitude(w, sigma).0;
+            if a > best.0 {
+                best = (a, w, sigma);
+            }
+            w += step;
+        }
+    }
+    let (_, w0, sigma) = best;
+    let (mut a, mut b) = (w0 - step, w0 + step);
+    let ratio = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..40 {
+        let c = b - ratio * (b - a);
+        let d = a + ratio * (b - a);
+        if amplitude(c, sigma).0 > amplitude(d, sigma).0 {
+            b = d;
+        } else {
+            a = c;
+        }
+    }
+    let w = 0.5 * (a + b);
+    let (g, psi) = amplitude(w, sigma);
+    (w, sigma, g, psi)
+}
+
+/// Starting values of a run's geometry from its readings in the mounting frame.
+fn run_start(run: &RunInput, q: &M3, gravity: f64) -> ([f64; RUN_PARAMS], f64) {
+    let mut time = Vec::with_capacity(run.time_s.len());
+    let mut horizontal = Vec::with_capacity(run.time_s.len());
+    for (s, &t) in run.time_s.iter().enumerate() {
+        if !run.keep[s] {
+            continue;
+        }
+        let a = [run.accel_mps2[0][s], run.accel_mps2[1][s], run.accel_mps2[2][s]];
+        // Qᵀ a: the readings along out, up × out and up.
+        let m: [f64; 3] = std::array::from_fn(|c| (0..3).map(|r| q[r][c] * a[r]).sum());
+        time.push(t);
+        horizontal.push([m[0], m[1]]);
+    }
+    let nominal = run.entry.rpm * 2.0 * std::f64::consts::PI / 60.0;
+    let (w, found_sigma, amplitude, psi) = demodulate(&time, &horizontal, nominal);
+    let sigma = run.entry.direction.map_or(found_sigma, Direction::sign);
+    let n = horizontal.len().max(1) as f64;
+    let cx = horizontal.iter().map(|h| h[0]).sum::<f64>() / n;
+    let cy = horizontal.iter().map(|h| h[1]).sum::<f64>() / n;
+    let tilt = (amplitude / gravity).clamp(0.0, 0.5).asin();
+    // The constant is −ω² r turned by β; with no centripetal level β is left at 0.
+    let beta = if (cx * cx + cy * cy).sqrt() > 1e-3 {
+        (-cy).atan2(-cx)
+    } else {
+        0.0
+    };
+    let mut start = [0.0; RUN_PARAMS];
+    start[0] = run.entry.radius_m;
+    start[1] = w;
+    start[2] = tilt.max(1e-4);
+    start[3] = psi - beta;
+    start[4] = beta;
+    (start, sigma)
+}
+
+/// The body ← platter rotation Q·Rx(ε₁)Ry(ε₂)Rz(β) of a run's parameters.
+pub(crate) fn rotation_of(q: &M3, run: &[f64]) -> M3 {
+    RunGeometry::new(q, run, 1.0, 1.0).qr
+}
+
+/// Noise per axis from first differences (white noise survives differencing; slow motion does
+/// not), m/s².
+fn difference_noise(accel: &[Vec<f64>; 3], keep: &[bool]) -> [f64; 3] {
+    std::array::from_fn(|k| {
+        let a = &accel[k];
+        let (mut sum, mut n) = (0.0f64, 0.0f64);
+        for s in 1..a.len() {
+            if keep[s] && keep[s - 1] {
+                let d = a[s] - a[s - 1];
+                sum += d * d;
+                n += 1.0;
+            }
+        }
+        (sum / n.max(1.0) / 2.0).sqrt().max(1e-6)
+    })
+}
+
+/// Fits the sensor model and every run and pose jointly.
+pub fn fit_joint(
+    runs: &[RunInput],
+    poses: &[PoseInput],
+    settings: &JointSettings,
+    observer: &Observer,
+) -> Result<JointFit, JointError> {
+    if runs.is_empty() && poses.is_empty() {
+        return Err(JointError::Empty);
+    }
+    for (name, value, ok, why) in [
+        (
+            "gravity_mps2",
+            settings.gravity_mps2,
+            settings.gravity_mps2 > 0.0,
+            "must be positive",
+        ),
+        (
+            "bias_instability_mps2",
+            settings.bias_instability_mps2,
+            settings.bias_instability_mps2 > 0.0,
+            "must be positive",
+        ),
+        (
+            "mount_tilt_rad",
+            settings.mount_tilt_rad,
+            settings.mount_tilt_rad > 0.0,
+            "must be positive",
+        ),
+        (
+            "block_s",
+            settings.block_s,
+            settings.block_s > 0.0,
+            "must be positive",
+        ),
+    ] {
+        if !(ok && value.is_finite()) {
+            return Err(JointError::Setting { name, value, why });
+        }
+    }
+    for run in runs {
+        let used = run.keep.iter().filter(|&&k| k).count();
+        if used < 100 {
+            return Err(JointError::Run {
+                name: run.name.clone(),
+                why: format!("{used} usable samples; a turntable run needs at least 100"),
+            });
+        }
+    }
+    let g = settings.gravity_mps2;
+    let mountings: Vec<M3> = runs
+        .iter()
+        .map(|r| mounting_matrix(r.entry.out, r.entry.up))
+        .collect();
+    let mut p = vec![0.0; SENSOR_PARAMS + runs.len() * RUN_PARAMS + poses.len() * POSE_PARAMS];
+    let mut directions = Vec::with_capacity(runs.len());
+    for (i, run) in runs.iter().enumerate() {
+        let (start, direction) = run_start(run, &mountings[i], g);
+        p[run_offset(i)..run_offset(i) + RUN_PARAMS].copy_from_slice(&start);
+        directions.push(direction);
+    }
+    let block_samples = runs
+        .iter()
+        .map(|r| {
+            let rate = crate::input::recording::sample_interval(&r.time_s);
+            ((settings.block_s / rate).round() as usize).max(10)
+        })
+        .collect();
+    let mut problem = JointProblem {
+        runs,
+        poses,
+        gravity: g,
+        bias_sigma: settings.bias_instability_mps2,
+        mount_tilt_sigma: settings.mount_tilt_rad,
+        directions,
+        mountings,
+        pose_frames: poses.iter().map(|p| PoseFrame::new(p.mean_mps2)).collect(),
+        run_sigma: runs
+            .iter()
+            .map(|r| difference_noise(&r.accel_mps2, &r.keep))
+            .collect(),
+        block_samples,
+    };
+    let free: Vec<bool> = (0..p.len())
+        .map(|k| k >= SENSOR_PARAMS || settings.terms.free(k))
+        .collect();
+    let options = LmOptions {
+        max_iterations: settings.max_iterations,
+        cost_tolerance: 1e-12,
+        step_tolerance: 1e-10,
+        gradient_tolerance: 0.0,
+        ..LmOptions::default()
+    };
+    // First pass with the white-noise weights, then reweight each run by its residual RMS (which
+    // includes drift and unmodelled motion) and solve again from there.
+    let first = levenberg_marquardt_normal(&problem, &p, Some(&free), &options, observer);
+    p = first.params;
+    for i in 0..runs.len() {
+        let mut sums = [0.0f64; 3];
+        let mut n = 0.0f64;
+        problem.run_residuals(&p, i, |_, r| {
+            for k in 0..3 {
+                sums[k] += r[k] * r[k];
+            }
+            n += 1.0;
+        });
+        problem.run_sigma[i] = sums.map(|s| (s / n.max(1.0)).sqrt().max(1e-6));
+    }
+    let report = levenberg_marquardt_normal(&problem, &p, Some(&free), &options, observer);
+    let p = report.params;
+
+    // Robust covariance over the free parameters.
+    let n = p.len();
+    let mut meat = Mat::<f64>::zeros(n, n);
+    problem.evaluate(&p, Want::Meat(&mut meat));
+    let index: Vec<usize> = (0..n).filter(|&k| free[k]).collect();
+    let cov = sandwich(&report.jtj, &meat, &index);
+    let m_rows: usize = runs
+        .iter()
+        .map(|r| 3 * r.keep.iter().filter(|&&k| k).count())
+        .sum::<usize>()
+        + 3 * poses.len();
+    let dof = m_rows.saturating_sub(index.len());
+    let se = |k: usize| -> Option<f64> {
+        let pos = index.iter().position(|&i| i == k)?;
+        let v = cov.as_ref()?[(pos, pos)];
+        (v.is_finite() && v >= 0.0).then(|| v.sqrt())
+    };
+    let param = |name: &str, k: usize| JointParam {
+        name: name.to_string(),
+        value: p[k],
+        std_error: se(k),
+        free: free[k],
+    };
+    let sensor_params = (0..SENSOR_PARAMS)
+        .map(|k| param(SENSOR_PARAM_NAMES[k], k))
+        .collect();
+    let run_fits = runs
+        .iter()
+        .enumerate()
+        .map(|(i, run)| {
+            let o = run_offset(i);
+            let mut sums = [0.0f64; 3];
+            let mut count = 0usize;
+            problem.run_residuals(&p, i, |_, r| {
+                for k in 0..3 {
+                    sums[k] += r[k] * r[k];
+                }
+                count += 1;
+            });
+            RunFit {
+                name: run.name.clone(),
+                direction: Direction::from_sign(problem.directions[i]),
+                params: (0..RUN_PARAMS)
+                    .map(|j| param(RUN_PARAM_NAMES[j], o + j))
+                    .collect(),
+                residual_rms_mps2: sums.map(|s| (s / count.max(1) as f64).sqrt()),
+                samples_used: count,
+            }
+        })
+        .collect();
+    let pose_fits = poses
+        .iter()
+        .enumerate()
+        .map(|(pi, pose)| {
+            let o = pose_offset(runs.len(), pi);
+            PoseFit {
+                name: pose.name.clone(),
+                params: (0..POSE_PARAMS)
+                    .map(|j| param(POSE_PARAM_NAMES[j], o + j))
+                    .collect(),
+                specific_force_mps2: problem.pose_frames[pi].force(p[o], p[o + 1], g).0,
+            }
+        })
+        .collect();
+    let blocks = problem.block_samples.first().copied().unwrap_or(0);
+    Ok(JointFit {
+        sensor: SensorModel::from_params(&p),
+        sensor_params,
+        runs: run_fits,
+        poses: pose_fits,
+        terms: settings.terms,
+        chi2: report.sse,
+        dof,
+        iterations: first.iterations + report.iterations,
+        stop: report.stop,
+        covariance: format!(
+            "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run, each still pose and each prior a block of its own (batch-means HAC)",
+            settings.block_s, blocks
+        ),
+        state: FitState {
+            params: p,
+            directions: problem.directions.clone(),
+            mountings: problem.mountings.clone(),
+        },
+    })
+}
+
+/// H⁻¹ S H⁻¹ over the given parameters, with the small-sample factor G/(G − 1) omitted (blocks
+/// are many); `None` when H is singular there.
+fn sandwich(h: &Mat<f64>, s: &Mat<f64>, index: &[usize]) -> Option<Mat<f64>> {
+    let n = index.len();
+    let hs = Mat::from_fn(n, n, |a, b| h[(index[a], index[b])]);
+    let ss = Mat::from_fn(n, n, |a, b| s[(index[a], index[b])]);
+    // Scale to unit diagonal for a well-conditioned factorisation.
+    let d: Vec<f64> = (0..n).map(|a| hs[(a, a)].max(f64::MIN_POSITIVE).sqrt()).collect();
+    let scaled = Mat::from_fn(n, n, |a, b| hs[(a, b)] / (d[a] * d[b]));
+    let llt = scaled.llt(Side::Lower).ok()?;
+    let inv = llt.solve(Mat::<f64>::identity(n, n));
+    let h_inv = Mat::from_fn(n, n, |a, b| inv[(a, b)] / (d[a] * d[b]));
+    let left = &h_inv * &ss;
+    Some(&left * &h_inv)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mounting_matrix_is_a_right_handed_rotation() {
+        for out in ["+x", "-x", "+y", "-y", "+z", "-z"] {
+            for up in ["+x", "-x", "+y", "-y", "+z", "-z"] {
+                let (o, u) = (SignedAxis::parse(out).unwrap(), SignedAxis::parse(up).unwrap());
+                if o.axis == u.axis {
+                    continue;
+                }
+                let q = mounting_matrix(o, u);
+                let det = q[0][0] * (q[1][1] * q[2][2] - q[1][2] * q[2][1])
+                    - q[0][1] * (q[1][0] * q[2][2] - q[1][2] * q[2][0])
+                    + q[0][2] * (q[1][0] * q[2][1] - q[1][1] * q[2][0]);
+                assert_eq!(det, 1.0, "{out} {up}");
+                assert_eq!(apply(&q, &[1.0, 0.0, 0.0]), o.vector());
+                assert_eq!(apply(&q, &[0.0, 0.0, 1.0]), u.vector());
+            }
+        }
+    }
+
+    #[test]
+    fn run_derivatives_match_finite_differences() {
+        let q = mounting_matrix(SignedAxis::parse("-y").unwrap(), SignedAxis::parse("+x").unwrap());
+        let base = [
+            0.09, 3.5, 0.02, 0.7, 0.3, 0.01, -0.02, 0.002, -0.001, 0.0, 0.0, 0.0,
+        ];
+        let tau = 3.7;
+        let (_, d) = RunGeometry::new(&q, &base, -1.0, 9.81).force_and_derivatives(tau);
+        for j in 0..GEOMETRY {
+            let h = 1e-6;
+            let mut plus = base;
+            let mut minus = base;
+            plus[j] += h;
+            minus[j] -= h;
+            let fp = RunGeometry::new(&q, &plus, -1.0, 9.81).force(tau);
+            let fm = RunGeometry::new(&q, &minus, -1.0, 9.81).force(tau);
+            for k in 0..3 {
+                let numeric = (fp[k] - fm[k]) / (2.0 * h);
+                assert!(
+                    (numeric - d[j][k]).abs() < 1e-6,
+                    "param {j} axis {k}: {numeric} vs {}",
+                    d[j][k]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn pose_derivatives_match_finite_differences() {
+        let frame = PoseFrame::new([0.3, -9.7, 1.1]);
+        let (_, d) = frame.force(0.02, -0.01, 9.81);
+        for j in 0..2 {
+            let h = 1e-7;
+            let at = |x: f64| {
+                let (a, b) = if j == 0 {
+                    (0.02 + x, -0.01)
+                } else {
+                    (0.02, -0.01 + x)
+                };
+                frame.force(a, b, 9.81).0
+            };
+            let (fp, fm) = (at(h), at(-h));
+            for k in 0..3 {
+                assert!(((fp[k] - fm[k]) / (2.0 * h) - d[j][k]).abs() < 1e-6);
+            }
+        }
+    }
+}

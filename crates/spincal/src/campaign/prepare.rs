@@ -1,0 +1,177 @@
+//! From a unit's recordings to the joint fit's inputs: turntable runs as they are (saturated
+//! samples left out), still recordings cut into poses.
+
+use serde::{Deserialize, Serialize};
+
+use crate::campaign::file::TurntableEntry;
+use crate::campaign::joint::{PoseInput, RunInput};
+use crate::correctors::static_detect::{detect_static, StaticOptions, StillInterval};
+use crate::input::inspect::saturated_mask;
+use crate::input::recording::Recording;
+
+/// One recording of the unit, loaded.
+#[derive(Debug, Clone)]
+pub struct UnitRecording {
+    /// The file (or a simulated name).
+    pub name: String,
+    pub recording: Recording,
+    /// `None`: still poses.
+    pub turntable: Option<TurntableEntry>,
+    /// The true specific force per sample, m/s², when known (simulations).
+    pub truth: Option<[Vec<f64>; 3]>,
+    /// RMS per axis of the error no corrector can remove, m/s², when known.
+    pub floor_mps2: Option<[f64; 3]>,
+}
+
+/// Where a pose came from.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct PoseOrigin {
+    /// Index into the unit's recordings.
+    pub recording: usize,
+    /// Samples `[start, end)` of that recording.
+    pub start: usize,
+    pub end: usize,
+}
+
+/// The joint fit's inputs and where they came from.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    pub runs: Vec<RunInput>,
+    /// Index into the unit's recordings, per run.
+    pub run_origin: Vec<usize>,
+    pub poses: Vec<PoseInput>,
+    pub pose_origin: Vec<PoseOrigin>,
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum PrepareError {
+    #[error("{name}: no still interval of at least {min_s} s found (a still recording should hold each pose a few seconds)")]
+    NoPose { name: String, min_s: f64 },
+    #[error("{name}: {samples} samples; a recording needs at least {needed}")]
+    TooShort {
+        name: String,
+        samples: usize,
+        needed: usize,
+    },
+}
+
+/// Samples at each end of a still interval left out (the hand may still be settling).
+const EDGE_FRACTION: f64 = 0.1;
+/// Blocks a pose is cut into to estimate the standard error of its mean.
+const POSE_BLOCKS: usize = 8;
+
+/// Still intervals of a still recording: the detector's, or the whole recording when it is one
+/// short pose the detector cannot set a threshold on.
+fn still_intervals(rec: &Recording, name: &str) -> Result<Vec<StillInterval>, PrepareError> {
+    let options = StaticOptions {
+        init_s: (0.3 * rec.duration_s()).clamp(0.5, 3.0),
+        window_s: (0.1 * rec.duration_s()).clamp(0.2, 1.0),
+        min_interval_s: (0.4 * rec.duration_s()).clamp(0.5, 2.0),
+        ..StaticOptions::default()
+    };
+    let found = detect_static(&rec.time_s, &rec.accel_mps2, &options)
+        .map(|d| d.intervals)
+        .unwrap_or_default();
+    if !found.is_empty() {
+        return Ok(found);
+    }
+    Err(PrepareError::NoPose {
+        name: name.to_string(),
+        min_s: options.min_interval_s,
+    })
+}
+
+fn pose_input(rec: &Recording, name: String, start: usize, end: usize) -> PoseInput {
+    let n = end - start;
+    let mut mean = [0.0; 3];
+    let mut sigma = [0.0; 3];
+    for k in 0..3 {
+        let xs = &rec.accel_mps2[k][start..end];
+        mean[k] = xs.iter().sum::<f64>() / n as f64;
+        // Standard error of the mean from block means (coloured noise widens it), never below
+        // the white-noise value from first differences.
+        let block = (n / POSE_BLOCKS).max(1);
+        let means: Vec<f64> = xs
+            .chunks(block)
+            .filter(|c| c.len() == block)
+            .map(|c| c.iter().sum::<f64>() / block as f64)
+            .collect();
+        let m = means.len().max(2) as f64;
+        let between = means.iter().map(|v| (v - mean[k]).powi(2)).sum::<f64>() / (m - 1.0) / m;
+        let diff = xs.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (n.max(2) - 1) as f64);
+        sigma[k] = between.sqrt().max((diff / n as f64).sqrt()).max(1e-6);
+    }
+    PoseInput {
+        name,
+        mean_mps2: mean,
+        sigma_mean_mps2: sigma,
+        samples: n,
+    }
+}
+
+/// Cuts the unit's recordings into the joint fit's runs and poses.
+pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
+    let mut out = Prepared {
+        runs: Vec::new(),
+        run_origin: Vec::new(),
+        poses: Vec::new(),
+        pose_origin: Vec::new(),
+    };
+    for (index, unit) in recordings.iter().enumerate() {
+        let rec = &unit.recording;
+        match &unit.turntable {
+            Some(entry) => {
+                if rec.len() < 100 {
+                    return Err(PrepareError::TooShort {
+                        name: unit.name.clone(),
+                        samples: rec.len(),
+                        needed: 100,
+                    });
+                }
+                let keep = saturated_mask(rec, None).iter().map(|s| !s).collect();
+                out.runs.push(RunInput {
+                    name: unit.name.clone(),
+                    time_s: rec.time_s.clone(),
+                    accel_mps2: rec.accel_mps2.clone(),
+                    keep,
+                    entry: entry.clone(),
+                });
+                out.run_origin.push(index);
+            }
+            None => {
+                if rec.len() < 10 {
+                    return Err(PrepareError::TooShort {
+                        name: unit.name.clone(),
+                        samples: rec.len(),
+                        needed: 10,
+                    });
+                }
+                let intervals = still_intervals(rec, &unit.name)?;
+                let several = intervals.len() > 1;
+                for (k, interval) in intervals.iter().enumerate() {
+                    let edge = ((interval.len() as f64) * EDGE_FRACTION) as usize;
+                    let (start, end) = (interval.start + edge, interval.end - edge);
+                    let name = if several {
+                        format!(
+                            "{} pose {} ({:.1}–{:.1} s)",
+                            unit.name,
+                            k + 1,
+                            interval.t_start_s,
+                            interval.t_end_s
+                        )
+                    } else {
+                        unit.name.clone()
+                    };
+                    out.poses.push(pose_input(rec, name, start, end));
+                    out.pose_origin.push(PoseOrigin {
+                        recording: index,
+                        start,
+                        end,
+                    });
+                }
+            }
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,275 @@
+//! The physical sensor error model shared by every recording of a unit (SPEC §7), and its inverse,
+//! the `physical` corrector.
+//!
+//! ```text
+//! m = h(u),   u = b + D (I + M) f,   h(u)_k = u_k + q_k u_k²
+//! ```
+//! - f: true specific force in the sensor's body frame, m/s²;
+//! - b: bias, m/s²; D = diag(1 + s_k): scale errors;
+//! - M: misalignment, strictly lower triangular (`[m_yx, m_zx, m_zy]`, rad, small-angle): the body
+//!   frame's x is the sensor's x axis, its y lies in the plane of the sensor's x and y axes, z
+//!   completes it. A full 3×3 matrix would add a rotation, which no set of still poses or turntable
+//!   runs can tell from the mounting (the mounting's rotation is fitted per recording instead);
+//! - q: per-axis quadratic nonlinearity, 1/(m/s²).
+
+// Per-axis arrays are indexed together; iterators would obscure that.
+#![allow(clippy::needless_range_loop)]
+
+use serde::{Deserialize, Serialize};
+
+use crate::correctors::corrector::{
+    check_finite, Axis, CorrectedSample, Corrector, ModelError, SampleCorrector,
+};
+
+/// Parameters of the sensor model, in the order the joint fit uses.
+pub const SENSOR_PARAMS: usize = 12;
+
+/// Names of the 12 sensor parameters, in fit order, with their units.
+pub const SENSOR_PARAM_NAMES: [&str; SENSOR_PARAMS] = [
+    "bias_x (m/s²)",
+    "bias_y (m/s²)",
+    "bias_z (m/s²)",
+    "scale_error_x",
+    "scale_error_y",
+    "scale_error_z",
+    "misalignment_yx (rad)",
+    "misalignment_zx (rad)",
+    "misalignment_zy (rad)",
+    "quadratic_x (1/(m/s²))",
+    "quadratic_y (1/(m/s²))",
+    "quadratic_z (1/(m/s²))",
+];
+
+/// The sensor error model (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorModel {
+    /// b, m/s².
+    pub bias_mps2: [f64; 3],
+    /// s_k (0.004 is a sensor reading 0.4 % high).
+    pub scale_error: [f64; 3],
+    /// [m_yx, m_zx, m_zy], rad: how much of the body x reaches the y axis, of x and of y the z axis.
+    pub misalignment_rad: [f64; 3],
+    /// q_k, 1/(m/s²).
+    pub quadratic_per_mps2: [f64; 3],
+}
+
+impl Default for SensorModel {
+    fn default() -> Self {
+        SensorModel::IDEAL
+    }
+}
+
+impl SensorModel {
+    /// A perfect sensor.
+    pub const IDEAL: SensorModel = SensorModel {
+        bias_mps2: [0.0; 3],
+        scale_error: [0.0; 3],
+        misalignment_rad: [0.0; 3],
+        quadratic_per_mps2: [0.0; 3],
+    };
+
+    /// From the fit's parameter vector (first [`SENSOR_PARAMS`] values).
+    pub fn from_params(p: &[f64]) -> SensorModel {
+        SensorModel {
+            bias_mps2: [p[0], p[1], p[2]],
+            scale_error: [p[3], p[4], p[5]],
+            misalignment_rad: [p[6], p[7], p[8]],
+            quadratic_per_mps2: [p[9], p[10], p[11]],
+        }
+    }
+
+    /// The fit's parameter vector.
+    pub fn params(&self) -> [f64; SENSOR_PARAMS] {
+        let mut p = [0.0; SENSOR_PARAMS];
+        p[0..3].copy_from_slice(&self.bias_mps2);
+        p[3..6].copy_from_slice(&self.scale_error);
+        p[6..9].copy_from_slice(&self.misalignment_rad);
+        p[9..12].copy_from_slice(&self.quadratic_per_mps2);
+        p
+    }
+
+    /// (I + M) f: the specific force as the three non-orthogonal axes see it.
+    pub fn skewed(&self, f: [f64; 3]) -> [f64; 3] {
+        let [m_yx, m_zx, m_zy] = self.misalignment_rad;
+        [f[0], f[1] + m_yx * f[0], f[2] + m_zx * f[0] + m_zy * f[1]]
+    }
+
+    /// The sensor's linear response u = b + D (I + M) f, before the nonlinearity.
+    pub fn linear_response(&self, f: [f64; 3], extra_bias: [f64; 3]) -> [f64; 3] {
+        let v = self.skewed(f);
+        std::array::from_fn(|k| self.bias_mps2[k] + extra_bias[k] + (1.0 + self.scale_error[k]) * v[k])
+    }
+
+    /// What the sensor reads for a true specific force `f` (body frame, m/s²).
+    pub fn measure(&self, f: [f64; 3]) -> [f64; 3] {
+        let u = self.linear_response(f, [0.0; 3]);
+        std::array::from_fn(|k| u[k] + self.quadratic_per_mps2[k] * u[k] * u[k])
+    }
+
+    /// The true specific force that reads `m`, or `None` where the nonlinearity has no inverse (a
+    /// reading beyond the quadratic's turning point).
+    pub fn correct(&self, m: [f64; 3]) -> Option<[f64; 3]> {
+        let mut v = [0.0; 3];
+        for k in 0..3 {
+            let q = self.quadratic_per_mps2[k];
+            // The root of q u² + u − m = 0 nearest u = m, in the form without cancellation.
+            let disc = 1.0 + 4.0 * q * m[k];
+            if disc <= 0.0 {
+                return None;
+            }
+            let u = 2.0 * m[k] / (1.0 + disc.sqrt());
+            v[k] = (u - self.bias_mps2[k]) / (1.0 + self.scale_error[k]);
+        }
+        let [m_yx, m_zx, m_zy] = self.misalignment_rad;
+        let fx = v[0];
+        let fy = v[1] - m_yx * fx;
+        let fz = v[2] - m_zx * fx - m_zy * fy;
+        let f = [fx, fy, fz];
+        f.iter().all(|x| x.is_finite()).then_some(f)
+    }
+
+    /// Checks that the model can be applied: finite values and no scale that maps an axis to 0.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        check_finite("bias_mps2", &self.bias_mps2)?;
+        check_finite("scale_error", &self.scale_error)?;
+        check_finite("misalignment_rad", &self.misalignment_rad)?;
+        check_finite("quadratic_per_mps2", &self.quadratic_per_mps2)?;
+        for k in 0..3 {
+            if self.scale_error[k] <= -1.0 {
+                return Err(ModelError::new(
+                    format!("scale_error[{k}]"),
+                    format!(
+                        "{}: a scale of 1 + s ≤ 0 inverts or removes the axis",
+                        self.scale_error[k]
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The saved `physical` corrector: the inverse of a fitted [`SensorModel`], all three axes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhysicalCorrector {
+    pub sensor: SensorModel,
+    /// Local gravity of the campaign, m/s² (for the record).
+    pub gravity_mps2: f64,
+    /// The range of readings the campaign covered per axis, m/s² ([min, max]); outside it the
+    /// quadratic term is extrapolated and such samples are marked.
+    pub input_range_mps2: [[f64; 2]; 3],
+}
+
+impl PhysicalCorrector {
+    pub fn validate(&self) -> Result<(), ModelError> {
+        self.sensor.validate().map_err(|e| e.within("sensor"))?;
+        let g = self.gravity_mps2;
+        if !(g.is_finite() && g > 0.0) {
+            return Err(ModelError::new(
+                "gravity_mps2",
+                format!("{g}: must be finite and positive"),
+            ));
+        }
+        for (k, [lo, hi]) in self.input_range_mps2.iter().enumerate() {
+            if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+                return Err(ModelError::new(
+                    format!("input_range_mps2[{k}]"),
+                    format!("[{lo}, {hi}]: must be finite with min ≤ max"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether a reading lies beyond the covered range by more than 10 % of its width.
+    pub fn outside_range(&self, m: [f64; 3]) -> bool {
+        (0..3).any(|k| {
+            let [lo, hi] = self.input_range_mps2[k];
+            let margin = 0.1 * (hi - lo);
+            m[k] < lo - margin || m[k] > hi + margin
+        })
+    }
+}
+
+struct PhysicalStream<'a>(&'a PhysicalCorrector);
+
+impl SampleCorrector for PhysicalStream<'_> {
+    fn correct_sample(&mut self, accel_mps2: [f64; 3]) -> CorrectedSample {
+        match self.0.sensor.correct(accel_mps2) {
+            Some(f) => CorrectedSample {
+                accel_mps2: f,
+                valid: true,
+                outside_training_range: self.0.outside_range(accel_mps2),
+            },
+            None => CorrectedSample {
+                accel_mps2,
+                valid: false,
+                outside_training_range: true,
+            },
+        }
+    }
+}
+
+impl Corrector for PhysicalCorrector {
+    fn corrected_axes(&self) -> Vec<Axis> {
+        Axis::ALL.to_vec()
+    }
+    fn warmup_samples(&self) -> usize {
+        0
+    }
+    fn stream(&self) -> Box<dyn SampleCorrector + '_> {
+        Box::new(PhysicalStream(self))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sensor() -> SensorModel {
+        SensorModel {
+            bias_mps2: [0.04, -0.06, 0.08],
+            scale_error: [0.004, -0.006, 0.003],
+            misalignment_rad: [0.005, -0.003, 0.004],
+            quadratic_per_mps2: [6e-4, -6e-4, 3e-4],
+        }
+    }
+
+    #[test]
+    fn correct_inverts_measure() {
+        let s = sensor();
+        for f in [
+            [9.8, 0.0, 0.0],
+            [-3.0, 7.0, -6.5],
+            [0.0, 0.0, 0.0],
+            [1.0, -9.8, 2.0],
+        ] {
+            let back = s.correct(s.measure(f)).unwrap();
+            for k in 0..3 {
+                assert!((back[k] - f[k]).abs() < 1e-12, "{f:?} → {back:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_reading_past_the_turning_point_is_refused() {
+        let s = SensorModel {
+            quadratic_per_mps2: [0.1, 0.0, 0.0],
+            ..SensorModel::IDEAL
+        };
+        assert!(s.correct([-3.0, 0.0, 0.0]).is_none());
+        assert!(s.correct([3.0, 0.0, 0.0]).is_some());
+    }
+
+    #[test]
+    fn validation_names_the_field() {
+        let mut s = sensor();
+        s.scale_error[1] = -1.5;
+        assert_eq!(s.validate().unwrap_err().field, "scale_error[1]");
+        s.scale_error[1] = 0.0;
+        s.bias_mps2[2] = f64::NAN;
+        assert!(s.validate().unwrap_err().field.starts_with("bias_mps2"));
+    }
+}

@@ -1,0 +1,577 @@
+//! A whole calibration campaign of one simulated unit: still poses and turntable runs on one
+//! timeline (the bias drift carries on from one recording to the next), with the true specific
+//! force per sample and the truth in the joint fit's own parametrisation.
+//!
+//! The sensor's 3×3 sensitivity diag(1 + s)(I + M₆) (six misalignment angles, [`SensorProfile`]) is
+//! split as L·R, L lower triangular and R a rotation: L is the fit's D (I + M), and R only renames
+//! the frame the true force is expressed in (the body frame of `campaign::sensor`). The turntable
+//! geometry follows `campaign::joint`'s model exactly, plus what it leaves out: wow, flutter, their
+//! tangential acceleration r·ω̇, bias drift, quantisation and saturation.
+
+// Axis loops index several parallel arrays at once.
+#![allow(clippy::needless_range_loop)]
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
+
+use crate::campaign::file::{SignedAxis, TurntableEntry};
+use crate::campaign::joint::{mounting_matrix, RUN_PARAMS};
+use crate::campaign::sensor::SensorModel;
+use crate::input::recording::{Recording, Source, STANDARD_GRAVITY};
+use crate::simulate::{SensorProfile, SimulationError};
+use crate::turntable::model::Direction;
+
+/// One turntable run of a simulated campaign.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RunSetup {
+    pub rpm: f64,
+    pub radius_m: f64,
+    /// The ruler's tolerance written to the campaign file; the true radius is drawn within it.
+    pub radius_tol_m: f64,
+    pub out: SignedAxis,
+    pub up: SignedAxis,
+    pub direction: Direction,
+    pub tilt_deg: f64,
+    /// Steady speed error, % of nominal.
+    pub speed_error_pct: f64,
+    /// Once-per-revolution speed modulation, % peak.
+    pub wow_pct: f64,
+    pub flutter_pct: f64,
+    pub flutter_hz: f64,
+    /// Standard deviation of the sensor's tilt on its mount, deg.
+    pub mount_tilt_deg: f64,
+    pub duration_s: f64,
+}
+
+impl Default for RunSetup {
+    fn default() -> Self {
+        RunSetup {
+            rpm: 100.0 / 3.0,
+            radius_m: 0.10,
+            radius_tol_m: 0.002,
+            out: SignedAxis { axis: 0, sign: 1 },
+            up: SignedAxis { axis: 2, sign: 1 },
+            direction: Direction::Cw,
+            tilt_deg: 1.0,
+            speed_error_pct: 0.5,
+            wow_pct: 0.1,
+            flutter_pct: 0.05,
+            flutter_hz: 6.0,
+            mount_tilt_deg: 0.5,
+            duration_s: 60.0,
+        }
+    }
+}
+
+/// A campaign: still poses, then turntable runs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CampaignSetup {
+    pub unit: String,
+    pub sensor: SensorProfile,
+    /// Still poses: the six faces up in turn, each tilted at random by up to `pose_tilt_deg`.
+    pub poses: usize,
+    pub pose_tilt_deg: f64,
+    pub pose_duration_s: f64,
+    pub runs: Vec<RunSetup>,
+    /// Time between recordings (the bias drift goes on), s.
+    pub gap_s: f64,
+    pub gravity_mps2: f64,
+}
+
+impl Default for CampaignSetup {
+    /// One unit: six still poses and turntable runs at 33⅓ and 45 rpm at two radii, in four
+    /// mountings (z, x and y along the spindle, one upside down).
+    fn default() -> Self {
+        let axis = |t: &str| SignedAxis::parse(t).unwrap_or(SignedAxis { axis: 0, sign: 1 });
+        let run = |rpm: f64, radius_m: f64, out: &str, up: &str| RunSetup {
+            rpm,
+            radius_m,
+            out: axis(out),
+            up: axis(up),
+            ..RunSetup::default()
+        };
+        CampaignSetup {
+            unit: "simulated-unit".into(),
+            sensor: SensorProfile::default(),
+            poses: 6,
+            pose_tilt_deg: 25.0,
+            pose_duration_s: 5.0,
+            runs: vec![
+                run(100.0 / 3.0, 0.06, "+x", "+z"),
+                run(45.0, 0.12, "+y", "+z"),
+                run(100.0 / 3.0, 0.12, "+z", "+x"),
+                run(45.0, 0.06, "-x", "-z"),
+            ],
+            gap_s: 20.0,
+            gravity_mps2: STANDARD_GRAVITY,
+        }
+    }
+}
+
+/// A simulated recording of the campaign.
+#[derive(Debug, Clone)]
+pub struct SimulatedRecording {
+    /// File stem, e.g. `pose-1` or `run-2-33rpm-r0.06`.
+    pub name: String,
+    /// `None` for a still pose.
+    pub turntable: Option<TurntableEntry>,
+    pub recording: Recording,
+    /// The true specific force per sample, body frame, m/s².
+    pub true_accel_mps2: [Vec<f64>; 3],
+    /// RMS per axis of white noise plus bias drift: the error no corrector can predict, m/s².
+    pub floor_mps2: [f64; 3],
+}
+
+/// The truth in the joint fit's parametrisation.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CampaignTruth {
+    pub seed: u64,
+    pub setup: CampaignSetup,
+    pub sensor: SensorModel,
+    /// Per run: r, ω (mean over the run), α, ϑ₀ (at the run's middle), β, ε₁, ε₂, the wow (w_c,
+    /// w_s) and the mean bias drift over the run (the run's offset), as `campaign::joint` orders
+    /// them.
+    pub runs: Vec<[f64; RUN_PARAMS]>,
+    /// Per pose, the true specific force, m/s².
+    pub poses: Vec<[f64; 3]>,
+}
+
+/// A simulated campaign.
+#[derive(Debug, Clone)]
+pub struct SimulatedCampaign {
+    pub recordings: Vec<SimulatedRecording>,
+    pub truth: CampaignTruth,
+}
+
+/// L of diag(1 + s)(I + M₆) = L·R, as the fit's sensor model (bias and nonlinearity from the
+/// profile).
+pub fn profile_sensor_model(profile: &SensorProfile) -> SensorModel {
+    let mis = profile.misalignment_deg.map(f64::to_radians);
+    let scale = profile.scale_error_pct.map(|p| 1.0 + p / 100.0);
+    let s = [
+        [scale[0], scale[0] * mis[0], scale[0] * mis[1]],
+        [scale[1] * mis[2], scale[1], scale[1] * mis[3]],
+        [scale[2] * mis[4], scale[2] * mis[5], scale[2]],
+    ];
+    // Gram–Schmidt on the rows: row k = Σ_{j≤k} L_kj q_j.
+    let mut q = [[0.0; 3]; 3];
+    let mut l = [[0.0; 3]; 3];
+    for k in 0..3 {
+        let mut v = s[k];
+        for j in 0..k {
+            let c: f64 = (0..3).map(|i| s[k][i] * q[j][i]).sum();
+            l[k][j] = c;
+            for i in 0..3 {
+                v[i] -= c * q[j][i];
+            }
+        }
+        let norm = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        l[k][k] = norm;
+        q[k] = v.map(|x| x / norm);
+    }
+    let g = STANDARD_GRAVITY;
+    let quadratic = 1.5 * profile.nonlinearity_pct_fs / 100.0 / (profile.range_g * g);
+    SensorModel {
+        bias_mps2: profile.bias_g.map(|b| b * g),
+        scale_error: [l[0][0] - 1.0, l[1][1] - 1.0, l[2][2] - 1.0],
+        misalignment_rad: [l[1][0] / l[1][1], l[2][0] / l[2][2], l[2][1] / l[2][2]],
+        quadratic_per_mps2: [quadratic; 3],
+    }
+}
+
+/// The sensor as a sample-by-sample process: drift state, noise and quantisation.
+struct SensorProcess<'a> {
+    profile: &'a SensorProfile,
+    model: SensorModel,
+    drift: [f64; 3],
+    decay: f64,
+    innovation: f64,
+    bound: f64,
+    lsb: f64,
+    max_code: f64,
+    dt: f64,
+}
+
+impl SensorProcess<'_> {
+    /// Lets the drift run on through a gap of `seconds`.
+    fn idle(&mut self, seconds: f64, rng: &mut ChaCha8Rng) {
+        if self.bound <= 0.0 {
+            return;
+        }
+        let steps = seconds / self.dt;
+        let decay = self.decay.powf(steps);
+        let stationary = self.bound / 3.0;
+        for k in 0..3 {
+            let z: f64 = StandardNormal.sample(rng);
+            self.drift[k] = (decay * self.drift[k] + stationary * (1.0 - decay * decay).sqrt() * z)
+                .clamp(-self.bound, self.bound);
+        }
+    }
+
+    /// One reading of true force `f`; returns the reading, the unpredictable error per axis
+    /// (drift + white noise) and whether it saturated.
+    fn read(&mut self, f: [f64; 3], rng: &mut ChaCha8Rng) -> ([f64; 3], [f64; 3], bool) {
+        let mut out = [0.0; 3];
+        let mut random = [0.0; 3];
+        let mut saturated = false;
+        let u = self.model.linear_response(f, [0.0; 3]);
+        for k in 0..3 {
+            if self.bound > 0.0 {
+                let z: f64 = StandardNormal.sample(rng);
+                self.drift[k] =
+                    (self.decay * self.drift[k] + self.innovation * z).clamp(-self.bound, self.bound);
+            }
+            let z: f64 = StandardNormal.sample(rng);
+            let noise = self.profile.noise_g * STANDARD_GRAVITY * z;
+            let uk = u[k] + self.drift[k];
+            let analog = uk + self.model.quadratic_per_mps2[k] * uk * uk + noise;
+            random[k] = self.drift[k] + noise;
+            let code = (analog / self.lsb).round();
+            saturated |= code.abs() > self.max_code;
+            out[k] = code.clamp(-self.max_code - 1.0, self.max_code) * self.lsb;
+        }
+        (out, random, saturated)
+    }
+}
+
+fn rms_per_axis(values: &[[f64; 3]]) -> [f64; 3] {
+    std::array::from_fn(|k| {
+        (values.iter().map(|v| v[k] * v[k]).sum::<f64>() / values.len().max(1) as f64).sqrt()
+    })
+}
+
+fn recording(name: &str, time_s: Vec<f64>, accel: [Vec<f64>; 3]) -> Recording {
+    Recording {
+        time_s,
+        accel_mps2: accel,
+        gyro_radps: None,
+        source: Source {
+            name: name.to_string(),
+            format: "simulated".into(),
+            columns: ["t_s", "ax_mps2", "ay_mps2", "az_mps2"]
+                .map(String::from)
+                .to_vec(),
+            metadata: Vec::new(),
+            lines: Vec::new(),
+        },
+    }
+}
+
+/// Simulates the campaign. Deterministic for a given seed.
+pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCampaign, SimulationError> {
+    let profile = &setup.sensor;
+    let invalid = |name, value, why| Err(SimulationError::Invalid { name, value, why });
+    if !(profile.sample_rate_hz > 0.0 && profile.sample_rate_hz.is_finite()) {
+        return invalid("sample_rate_hz", profile.sample_rate_hz, "must be positive");
+    }
+    if !(2..=32).contains(&profile.bits) {
+        return invalid("bits", profile.bits as f64, "must be 2 to 32");
+    }
+    if !(profile.range_g > 0.0) {
+        return invalid("range_g", profile.range_g, "must be positive");
+    }
+    if !(profile.bias_drift_time_s > 0.0) {
+        return invalid("bias_drift_time_s", profile.bias_drift_time_s, "must be positive");
+    }
+    if !(setup.pose_duration_s > 0.0) {
+        return invalid("pose_duration_s", setup.pose_duration_s, "must be positive");
+    }
+    for run in &setup.runs {
+        if !(run.rpm > 0.0 && run.duration_s > 0.0 && run.radius_m >= 0.0 && run.radius_tol_m > 0.0) {
+            return invalid(
+                "runs",
+                run.rpm,
+                "every run needs rpm, duration_s and radius_tol_m > 0 and radius_m ≥ 0",
+            );
+        }
+        if run.out.axis == run.up.axis {
+            return invalid("runs.up", run.up.axis as f64, "must be a different axis from out");
+        }
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let g = setup.gravity_mps2;
+    let dt = 1.0 / profile.sample_rate_hz;
+    let full_scale = profile.range_g * STANDARD_GRAVITY;
+    let bound = profile.bias_drift_g * STANDARD_GRAVITY;
+    let decay = (-dt / profile.bias_drift_time_s).exp();
+    let model = profile_sensor_model(profile);
+    let mut sensor = SensorProcess {
+        profile,
+        model,
+        drift: [0.0; 3],
+        decay,
+        innovation: bound / 3.0 * (1.0 - decay * decay).sqrt(),
+        bound,
+        lsb: 2.0 * full_scale / 2f64.powi(profile.bits as i32),
+        max_code: 2f64.powi(profile.bits as i32 - 1) - 1.0,
+        dt,
+    };
+    // Start the drift from its stationary distribution.
+    sensor.idle(10.0 * profile.bias_drift_time_s, &mut rng);
+
+    let mut recordings = Vec::new();
+    let mut true_poses = Vec::new();
+    let faces: [[f64; 3]; 6] = [
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+    ];
+    for p in 0..setup.poses {
+        // A face, tilted by a random angle up to the limit in a random direction.
+        let face = faces[p % 6];
+        let tilt = setup.pose_tilt_deg.to_radians() * rng.gen::<f64>().sqrt();
+        let azimuth = 2.0 * std::f64::consts::PI * rng.gen::<f64>();
+        let k = (0..3).find(|&k| face[k] != 0.0).unwrap_or(2);
+        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+        let mut dir = [0.0; 3];
+        dir[k] = face[k] * tilt.cos();
+        dir[i] = tilt.sin() * azimuth.cos();
+        dir[j] = tilt.sin() * azimuth.sin();
+        let force = dir.map(|v| g * v);
+        let n = (setup.pose_duration_s * profile.sample_rate_hz).round() as usize;
+        let mut accel = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut random = Vec::with_capacity(n);
+        for s in 0..n {
+            let (a, e, _) = sensor.read(force, &mut rng);
+            for c in 0..3 {
+                accel[c][s] = a[c];
+            }
+            random.push(e);
+        }
+        let name = format!("pose-{}", p + 1);
+        recordings.push(SimulatedRecording {
+            turntable: None,
+            recording: recording(&name, (0..n).map(|s| s as f64 * dt).collect(), accel),
+            true_accel_mps2: force.map(|v| vec![v; n]),
+            floor_mps2: rms_per_axis(&random),
+            name,
+        });
+        true_poses.push(force);
+        sensor.idle(setup.gap_s, &mut rng);
+    }
+
+    let mut true_runs = Vec::new();
+    for (index, run) in setup.runs.iter().enumerate() {
+        let radius = run.radius_m + run.radius_tol_m * (2.0 * rng.gen::<f64>() - 1.0) / 2.0;
+        let omega = run.rpm * (1.0 + run.speed_error_pct / 100.0) * 2.0 * std::f64::consts::PI / 60.0;
+        let tilt = run.tilt_deg.to_radians();
+        let azimuth = 2.0 * std::f64::consts::PI * rng.gen::<f64>();
+        let beta = 2.0 * std::f64::consts::PI * rng.gen::<f64>() - std::f64::consts::PI;
+        let mount_tilt = run.mount_tilt_deg.to_radians();
+        let eps1: f64 = mount_tilt * Distribution::<f64>::sample(&StandardNormal, &mut rng);
+        let eps2: f64 = mount_tilt * Distribution::<f64>::sample(&StandardNormal, &mut rng);
+        let wow_phase = 2.0 * std::f64::consts::PI * rng.gen::<f64>();
+        let flutter_phase = 2.0 * std::f64::consts::PI * rng.gen::<f64>();
+        let modulations = [
+            (
+                run.wow_pct / 100.0,
+                omega / (2.0 * std::f64::consts::PI),
+                wow_phase,
+            ),
+            (run.flutter_pct / 100.0, run.flutter_hz, flutter_phase),
+        ];
+        let sigma = run.direction.sign();
+        let q = mounting_matrix(run.out, run.up);
+        let mut geometry = [0.0; RUN_PARAMS];
+        geometry[0] = radius;
+        geometry[2] = tilt;
+        geometry[4] = beta;
+        geometry[5] = eps1;
+        geometry[6] = eps2;
+        // Only the rotation part of the geometry is used below (ω and ϑ come per sample).
+        let rotation = crate::campaign::joint::rotation_of(&q, &geometry);
+        let n = (run.duration_s * profile.sample_rate_hz).round() as usize;
+        let time_s: Vec<f64> = (0..n).map(|s| s as f64 * dt).collect();
+        let mid = 0.5 * (time_s[0] + time_s[n.saturating_sub(1)]);
+        let mut accel = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut truth = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut random = Vec::with_capacity(n);
+        let mut drift_sum = [0.0; 3];
+        let mut theta = Vec::with_capacity(n);
+        for (s, &t) in time_s.iter().enumerate() {
+            // ω(t) = ω(1 + Σ m sin(2πft + p)); the platter angle is its exact integral.
+            let (mut rate, mut angle, mut rate_dot) = (omega, omega * t, 0.0);
+            for &(m, f, p) in &modulations {
+                if m == 0.0 || f <= 0.0 {
+                    continue;
+                }
+                let w = 2.0 * std::f64::consts::PI * f;
+                rate += omega * m * (w * t + p).sin();
+                angle += omega * m * (p.cos() - (w * t + p).cos()) / w;
+                rate_dot += omega * m * w * (w * t + p).cos();
+            }
+            let vartheta = azimuth - sigma * angle;
+            theta.push(vartheta);
+            let (sn, cs) = vartheta.sin_cos();
+            let amplitude = g * tilt.sin();
+            // The tangential acceleration r ω̇ along the direction of motion, σ ẑ × x̂.
+            let platter = [
+                -rate * rate * radius + amplitude * cs,
+                amplitude * sn + sigma * radius * rate_dot,
+                g * tilt.cos(),
+            ];
+            let force: [f64; 3] = std::array::from_fn(|r| (0..3).map(|c| rotation[r][c] * platter[c]).sum());
+            let (a, e, _) = sensor.read(force, &mut rng);
+            for c in 0..3 {
+                accel[c][s] = a[c];
+                truth[c][s] = force[c];
+                drift_sum[c] += sensor.drift[c];
+            }
+            random.push(e);
+        }
+        // The wow in the fit's terms: m(τ) = w_c cos ωτ + w_s sin ωτ with τ from the middle.
+        let (wow_m, wow_p) = (modulations[0].0, modulations[0].2);
+        let wow_c = wow_m * (omega * mid + wow_p).sin();
+        let wow_s = wow_m * (omega * mid + wow_p).cos();
+        // ϑ without the wow's periodic part is a line: its value at the middle is ϑ₀.
+        for (s, &t) in time_s.iter().enumerate() {
+            let (s1, c1) = (omega * (t - mid)).sin_cos();
+            theta[s] += sigma * (wow_c * s1 - wow_s * c1);
+        }
+        let (w_fit, phase_fit) = line_fit(&time_s, &theta, mid);
+        geometry[1] = -sigma * w_fit;
+        geometry[3] = phase_fit;
+        geometry[7] = wow_c;
+        geometry[8] = wow_s;
+        for c in 0..3 {
+            geometry[9 + c] = drift_sum[c] / n.max(1) as f64;
+        }
+        true_runs.push(geometry);
+        let entry = TurntableEntry {
+            rpm: run.rpm,
+            radius_m: run.radius_m,
+            radius_tol_m: run.radius_tol_m,
+            out: run.out,
+            up: run.up,
+            direction: None,
+        };
+        let name = format!(
+            "run-{}-{}rpm-r{:.3}-out{}-up{}",
+            index + 1,
+            run.rpm.round(),
+            run.radius_m,
+            run.out.name(),
+            run.up.name()
+        );
+        recordings.push(SimulatedRecording {
+            turntable: Some(entry),
+            recording: recording(&name, time_s, accel),
+            true_accel_mps2: truth,
+            floor_mps2: rms_per_axis(&random),
+            name,
+        });
+        sensor.idle(setup.gap_s, &mut rng);
+    }
+    Ok(SimulatedCampaign {
+        recordings,
+        truth: CampaignTruth {
+            seed,
+            setup: setup.clone(),
+            sensor: model,
+            runs: true_runs,
+            poses: true_poses,
+        },
+    })
+}
+
+/// Slope and value at `mid` of the least-squares line through (t, y).
+fn line_fit(t: &[f64], y: &[f64], mid: f64) -> (f64, f64) {
+    let n = t.len() as f64;
+    let mean_y = y.iter().sum::<f64>() / n;
+    let (mut sxy, mut sxx, mut mean_t) = (0.0, 0.0, 0.0);
+    for &ti in t {
+        mean_t += ti;
+    }
+    mean_t /= n;
+    for (ti, yi) in t.iter().zip(y) {
+        sxy += (ti - mean_t) * (yi - mean_y);
+        sxx += (ti - mean_t) * (ti - mean_t);
+    }
+    let slope = sxy / sxx;
+    (slope, mean_y + slope * (mid - mean_t))
+}
+
+impl SimulatedCampaign {
+    /// The campaign file for these recordings, with files named `<name>.csv` beside it.
+    pub fn campaign_toml(&self) -> String {
+        let mut text = format!(
+            "# A simulated campaign (spincal simulate --campaign, seed {}).\nunit = \"{}\"\ngravity_mps2 = {}\n",
+            self.truth.seed, self.truth.setup.unit, self.truth.setup.gravity_mps2
+        );
+        for r in &self.recordings {
+            text.push_str(&format!("\n[[recording]]\nfile = \"{}.csv\"\n", r.name));
+            match &r.turntable {
+                None => text.push_str("kind = \"static\"\n"),
+                Some(t) => text.push_str(&format!(
+                    "kind = \"turntable\"\nrpm = {}\nradius_m = {}\nradius_tol_m = {}\nout = \"{}\"\nup = \"{}\"\n",
+                    t.rpm,
+                    t.radius_m,
+                    t.radius_tol_m,
+                    t.out.name(),
+                    t.up.name()
+                )),
+            }
+            let f = r.floor_mps2;
+            text.push_str(&format!(
+                "truth = \"{}.truth.csv\"\nnoise_floor_mps2 = [{}, {}, {}]\n",
+                r.name, f[0], f[1], f[2]
+            ));
+        }
+        text
+    }
+
+    /// The true specific force of recording `i` as a recording (for `<name>.truth.csv`).
+    pub fn truth_recording(&self, i: usize) -> Recording {
+        let r = &self.recordings[i];
+        recording(
+            &format!("{} (true specific force)", r.name),
+            r.recording.time_s.clone(),
+            r.true_accel_mps2.clone(),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn profile_split_reproduces_the_sensitivity_up_to_a_rotation() {
+        let profile = SensorProfile::default();
+        let m = profile_sensor_model(&profile);
+        // |L f| = |S Rᵀ f| for every f, so the row norms of L equal those of S.
+        let mis = profile.misalignment_deg.map(f64::to_radians);
+        let scale = profile.scale_error_pct.map(|p| 1.0 + p / 100.0);
+        let s_row0 = scale[0] * (1.0 + mis[0] * mis[0] + mis[1] * mis[1]).sqrt();
+        assert!(((1.0 + m.scale_error[0]) - s_row0).abs() < 1e-12);
+        assert!(m.misalignment_rad.iter().all(|v| v.abs() < 0.03));
+    }
+
+    #[test]
+    fn same_seed_same_campaign() {
+        let setup = CampaignSetup {
+            runs: vec![RunSetup {
+                duration_s: 5.0,
+                ..RunSetup::default()
+            }],
+            ..CampaignSetup::default()
+        };
+        let a = simulate_campaign(&setup, 3).unwrap();
+        let b = simulate_campaign(&setup, 3).unwrap();
+        assert_eq!(a.recordings.len(), 7);
+        for (x, y) in a.recordings.iter().zip(&b.recordings) {
+            assert_eq!(x.recording, y.recording);
+        }
+        // A still pose reads about g in magnitude.
+        let r = &a.recordings[0].recording.accel_mps2;
+        let norm = (r[0][0].powi(2) + r[1][0].powi(2) + r[2][0].powi(2)).sqrt();
+        assert!((norm - STANDARD_GRAVITY).abs() < 0.2, "{norm}");
+    }
+}
