@@ -12,10 +12,12 @@ fn main() {
             r.flutter_pct = 0.0;
         }
     }
+    if let Ok(g) = std::env::var("POSES") { setup.poses = g.parse().unwrap(); }
+    if let Ok(g) = std::env::var("TILT") { for r in &mut setup.runs { r.tilt_deg = g.parse().unwrap(); } }
     if std::env::var("NODRIFT").is_ok() {
         setup.sensor.bias_drift_g = 0.0;
     }
-    let sim = simulate_campaign(&setup, seed).unwrap();
+    let mut sim = simulate_campaign(&setup, seed).unwrap();
     let units: Vec<UnitRecording> = sim
         .recordings
         .iter()
@@ -27,7 +29,13 @@ fn main() {
             floor_mps2: None,
         })
         .collect();
-    let prep = prepare(&units).unwrap();
+    let mut prep = prepare(&units).unwrap();
+    if let Ok(keep) = std::env::var("RUNS") {
+        let keep: Vec<usize> = keep.split(',').map(|v| v.parse().unwrap()).collect();
+        prep.runs = prep.runs.iter().enumerate().filter(|(i, _)| keep.contains(i)).map(|(_, r)| r.clone()).collect();
+        let truth_runs = sim.truth.runs.clone();
+        sim.truth.runs = truth_runs.iter().enumerate().filter(|(i, _)| keep.contains(i)).map(|(_, r)| *r).collect();
+    }
     let t = std::time::Instant::now();
     let fit = fit_joint(
         &prep.runs,

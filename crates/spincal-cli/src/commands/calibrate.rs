@@ -18,7 +18,8 @@ use crate::ui::{self, Ui, UsageError};
 
 #[derive(Args, Debug)]
 #[command(
-    after_help = "Examples:\n  spincal calibrate rec33.csv rec45.csv --radius 0.10 --radius-tol 0.002 --out cal\n  \
+    after_help = "Examples:\n  spincal calibrate --campaign unit7/campaign.toml --out cal   # still poses + turntable runs, held-out selection\n  \
+                        spincal calibrate rec33.csv rec45.csv --radius 0.10 --radius-tol 0.002 --out cal\n  \
                         spincal calibrate rec.csv --sweep full --out cal   # the paper's grid (the paper: --restarts 10)\n  \
                         spincal calibrate rec.csv --hidden 10,6 --correct-axes x,y --out cal"
 )]
@@ -29,6 +30,10 @@ pub struct CalibrateArgs {
     /// Output folder: model.json, results.json, report.html.
     #[arg(long, default_value = "spincal-calibration")]
     pub out: PathBuf,
+    /// A campaign file (TOML) listing a unit's still poses and turntable runs: one sensor model is
+    /// fitted jointly and correctors are chosen on held-out conditions. Replaces the recordings.
+    #[arg(long, value_name = "FILE", conflicts_with = "recordings")]
+    pub campaign: Option<PathBuf>,
     /// Network architecture search (default: small; none when --hidden is given).
     #[arg(long, value_enum)]
     pub sweep: Option<SweepArg>,
@@ -173,6 +178,10 @@ pub fn summary(output: &CalibrationOutput, out: &Path) -> String {
 }
 
 pub fn run(args: CalibrateArgs, ui: Ui) -> anyhow::Result<()> {
+    if let Some(file) = &args.campaign {
+        return super::campaign::calibrate(file, &args.out, args.fit.json, ui);
+    }
+    super::fit::require_recordings(&args.fit.recordings)?;
     let settings = args.settings()?;
     let inputs: Vec<&Path> = args.fit.recordings.iter().map(PathBuf::as_path).collect();
     let outputs = ["model.json", "results.json", "report.html"].map(|name| args.out.join(name));

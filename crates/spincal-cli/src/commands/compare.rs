@@ -22,6 +22,13 @@ pub struct CompareArgs {
 }
 
 pub fn run(args: CompareArgs, ui: Ui) -> anyhow::Result<()> {
+    if args.calibrate.campaign.is_some() {
+        return Err(crate::ui::UsageError(
+            "compare takes recordings, not --campaign (spincal calibrate --campaign compares the correctors of a campaign)".into(),
+        )
+        .into());
+    }
+    super::fit::require_recordings(&args.calibrate.fit.recordings)?;
     let inputs: Vec<&std::path::Path> = args
         .calibrate
         .fit

@@ -16,7 +16,6 @@ use crate::ui::{self, Ui, UsageError};
 #[derive(Args, Debug)]
 pub struct TurntableArgs {
     /// Recordings (CSV); several are fitted jointly with shared sensor offsets.
-    #[arg(required = true)]
     pub recordings: Vec<PathBuf>,
     #[command(flatten)]
     pub read: ReadArgs,
@@ -115,7 +114,16 @@ impl TurntableArgs {
     }
 }
 
+/// Recordings are required by every command but `calibrate --campaign`, which checks itself.
+pub fn require_recordings(recordings: &[PathBuf]) -> Result<(), UsageError> {
+    if recordings.is_empty() {
+        return Err(UsageError("no recordings given: name at least one recording file".into()));
+    }
+    Ok(())
+}
+
 pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
+    require_recordings(&args.turntable.recordings)?;
     let options = args.turntable.options()?;
     let inputs: Vec<&std::path::Path> = args.turntable.recordings.iter().map(PathBuf::as_path).collect();
     let outputs: Vec<&std::path::Path> = args

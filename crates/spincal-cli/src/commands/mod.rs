@@ -2,6 +2,7 @@
 
 pub mod allan;
 pub mod calibrate;
+pub mod campaign;
 pub mod compare;
 pub mod correct;
 pub mod demo;

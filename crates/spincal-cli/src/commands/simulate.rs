@@ -13,13 +13,22 @@ use crate::ui::{self, UsageError};
 
 #[derive(Args, Debug)]
 #[command(
-    after_help = "Example:\n  spincal simulate -o rec33.csv --rpm 33.333 --radius 0.10 --tilt-deg 1.5 --seed 7\n  \
-                        writes rec33.csv (t_s, ax_g, ay_g, az_g) and rec33.truth.json"
+    after_help = "Examples:\n  spincal simulate -o rec33.csv --rpm 33.333 --radius 0.10 --tilt-deg 1.5 --seed 7\n  \
+                        writes rec33.csv (t_s, ax_g, ay_g, az_g) and rec33.truth.json\n  \
+                        spincal simulate --campaign unit7 --seed 7\n  \
+                        writes unit7/campaign.toml, still poses and turntable runs with their true specific force"
 )]
 pub struct SimulateArgs {
     /// Output CSV.
-    #[arg(short, long)]
-    pub output: PathBuf,
+    #[arg(short, long, required_unless_present = "campaign")]
+    pub output: Option<PathBuf>,
+    /// Write a whole campaign of one unit into this folder instead (campaign.toml, still poses and
+    /// turntable runs in m/s², each with its true specific force, and truth.json).
+    #[arg(long, value_name = "DIR", conflicts_with = "output")]
+    pub campaign: Option<PathBuf>,
+    /// With --campaign: the campaign setup as JSON (fields of CampaignSetup; defaults otherwise).
+    #[arg(long, requires = "campaign")]
+    pub setup: Option<PathBuf>,
     /// Truth sidecar (default: the output name with .truth.json).
     #[arg(long)]
     pub truth: Option<PathBuf>,
@@ -77,6 +86,12 @@ pub struct SimulateArgs {
 }
 
 pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
+    if let Some(dir) = &args.campaign {
+        return super::campaign::simulate(dir, args.seed, args.setup.as_deref(), args.json);
+    }
+    let Some(output) = args.output.clone() else {
+        return Err(UsageError("give -o FILE (or --campaign DIR)".into()).into());
+    };
     let mut sensor = match &args.sensor {
         Some(path) => {
             let text =
@@ -111,15 +126,15 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     let truth_path = args
         .truth
         .clone()
-        .unwrap_or_else(|| args.output.with_extension("truth.json"));
+        .unwrap_or_else(|| output.with_extension("truth.json"));
     let sensor_file: Vec<&std::path::Path> = args.sensor.iter().map(|p| p.as_path()).collect();
-    super::check_outputs(&sensor_file, &[&args.output, &truth_path])?;
+    super::check_outputs(&sensor_file, &[&output, &truth_path])?;
     let sim = simulate(&sensor, &table, args.seed).map_err(|e| UsageError(e.to_string()))?;
-    sim.recording.write_csv_path(&args.output, unit)?;
+    sim.recording.write_csv_path(&output, unit)?;
     super::write_text(&truth_path, &(serde_json::to_string_pretty(&sim.truth)? + "\n"))?;
     if args.json {
         return ui::print_json(&serde_json::json!({
-            "recording": args.output,
+            "recording": output,
             "truth": truth_path,
             "samples": sim.recording.len(),
             "saturated_samples": sim.truth.saturated_samples,
@@ -127,7 +142,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     }
     ui::print(&format!(
         "wrote {} ({} samples at {} Hz, {:.1} s; {} saturated) and {}\n",
-        args.output.display(),
+        output.display(),
         sim.recording.len(),
         sensor.sample_rate_hz,
         sim.recording.duration_s(),

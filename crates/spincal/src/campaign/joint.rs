@@ -11,7 +11,8 @@
 //! β turns the sensor about the spindle (free over the circle, so either sign convention for
 //! "outward" fits), ε₁, ε₂ tilt it on its mount, δᵢ is the run's bias offset from the unit's bias.
 //! Still pose p: f_B = g · ŵ with ŵ = normalise(w₀ + a e₁ + b e₂) (two angles about the pose's
-//! first estimate), m̄ = h(b + δ_p + D (I + M) f_B).
+//! first estimate), m̄ = h(b + δ_s + D (I + M) f_B), δ_s the offset of its session (the still
+//! recording it came from: one sitting, one bias).
 //!
 //! Every residual is divided by its noise (per run and axis; the mean's standard error for a
 //! pose), and priors enter as residuals: (r − r_nominal)/tolerance and δ/σ_bias (bias
@@ -30,13 +31,13 @@ use faer::{Mat, Side};
 use serde::{Deserialize, Serialize};
 
 use crate::campaign::file::{SignedAxis, TurntableEntry};
-use crate::campaign::sensor::{SensorModel, SENSOR_PARAMS, SENSOR_PARAM_NAMES};
+use crate::correctors::physical::{SensorModel, SENSOR_PARAMS, SENSOR_PARAM_NAMES};
 use crate::optim::{levenberg_marquardt_normal, LmOptions, LmStop, NormalEquations};
 use crate::progress::Observer;
 use crate::turntable::model::Direction;
 
-/// Parameters per turntable run: r, ω, α, ϑ₀, β, ε₁, ε₂, wow (2), δ (3).
-pub const RUN_PARAMS: usize = 12;
+/// Parameters per turntable run: r, ω, α, ϑ₀, β, ε₁, ε₂, wow (2), δ (3), drift rate (3).
+pub const RUN_PARAMS: usize = 15;
 /// Geometric parameters per run (all but the offsets), which come first.
 const GEOMETRY: usize = 9;
 /// Names and units of a run's parameters.
@@ -53,16 +54,14 @@ pub const RUN_PARAM_NAMES: [&str; RUN_PARAMS] = [
     "offset_x (m/s²)",
     "offset_y (m/s²)",
     "offset_z (m/s²)",
+    "drift_x (m/s² per s)",
+    "drift_y (m/s² per s)",
+    "drift_z (m/s² per s)",
 ];
-/// Parameters per still pose: two angles of gravity's direction, δ (3).
-pub const POSE_PARAMS: usize = 5;
-const POSE_PARAM_NAMES: [&str; POSE_PARAMS] = [
-    "direction_1 (rad)",
-    "direction_2 (rad)",
-    "offset_x (m/s²)",
-    "offset_y (m/s²)",
-    "offset_z (m/s²)",
-];
+/// Parameters per still pose: two angles of gravity's direction. The bias offset δ (3) belongs
+/// to the pose's session (one still recording), shared by its poses.
+pub const POSE_PARAMS: usize = 2;
+const POSE_PARAM_NAMES: [&str; POSE_PARAMS] = ["direction_1 (rad)", "direction_2 (rad)"];
 
 /// One turntable run, ready for the fit.
 #[derive(Debug, Clone)]
@@ -84,28 +83,57 @@ pub struct PoseInput {
     /// Standard error of the mean per axis, m/s².
     pub sigma_mean_mps2: [f64; 3],
     pub samples: usize,
+    /// Middle of the pose on its recording's clock, s.
+    pub time_s: f64,
+    /// The still recording it came from (0, 1, …): poses of one recording share a bias offset.
+    pub session: usize,
 }
 
 /// Which sensor terms are estimated (the others stay at zero).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct SensorTerms {
+    pub bias_scale: bool,
     pub misalignment: bool,
     pub nonlinearity: bool,
 }
 
 impl SensorTerms {
     pub const ALL: SensorTerms = SensorTerms {
+        bias_scale: true,
         misalignment: true,
         nonlinearity: true,
     };
     pub const LINEAR: SensorTerms = SensorTerms {
+        bias_scale: true,
         misalignment: true,
         nonlinearity: false,
     };
+    pub const BIAS_SCALE: SensorTerms = SensorTerms {
+        bias_scale: true,
+        misalignment: false,
+        nonlinearity: false,
+    };
+    /// The sensor held fixed (a perfect sensor): only the recordings' geometry is fitted.
+    pub const NONE: SensorTerms = SensorTerms {
+        bias_scale: false,
+        misalignment: false,
+        nonlinearity: false,
+    };
 
-    fn free(self, k: usize) -> bool {
+    /// The terms in words.
+    pub fn describe(self) -> &'static str {
+        match (self.bias_scale, self.misalignment, self.nonlinearity) {
+            (true, true, true) => "bias, scale, misalignment and nonlinearity",
+            (true, true, false) => "bias, scale and misalignment",
+            (true, false, false) => "bias and scale",
+            (false, false, false) => "none (a perfect sensor)",
+            _ => "a partial set of terms",
+        }
+    }
+
+    pub fn free(self, k: usize) -> bool {
         match k {
-            0..=5 => true,
+            0..=5 => self.bias_scale,
             6..=8 => self.misalignment,
             _ => self.nonlinearity,
         }
@@ -195,6 +223,62 @@ pub(crate) struct FitState {
     pub params: Vec<f64>,
     pub directions: Vec<f64>,
     pub mountings: Vec<[[f64; 3]; 3]>,
+    pub gravity: f64,
+}
+
+impl JointFit {
+    /// The fitted true specific force of run `i` at the given times (body frame, m/s²): the
+    /// reference correctors learn from. `time_s` on the run's own clock.
+    pub fn run_reference(&self, i: usize, time_s: &[f64]) -> [Vec<f64>; 3] {
+        let st = &self.state;
+        let o = run_offset(i);
+        let geo = RunGeometry::new(&st.mountings[i], &st.params[o..o + RUN_PARAMS], st.directions[i], st.gravity);
+        let mid = mid_time(time_s);
+        let mut out = [vec![0.0; time_s.len()], vec![0.0; time_s.len()], vec![0.0; time_s.len()]];
+        for (s, &t) in time_s.iter().enumerate() {
+            let f = geo.force(t - mid);
+            for k in 0..3 {
+                out[k][s] = f[k];
+            }
+        }
+        out
+    }
+
+    /// Free sensor parameters whose uncertainty matters: one standard error moves a reading at
+    /// 1 g by more than `tolerance_mps2`. Each comes with the recording that would determine it.
+    pub fn undetermined(&self, gravity: f64, tolerance_mps2: f64) -> Vec<(String, String)> {
+        let axis = ["x", "y", "z"];
+        let mut out = Vec::new();
+        for (k, p) in self.sensor_params.iter().enumerate() {
+            if !p.free {
+                continue;
+            }
+            let effect = match k {
+                0..=2 => 1.0,
+                3..=8 => gravity,
+                _ => gravity * gravity,
+            };
+            let bad = p.std_error.is_none_or(|se| !(se * effect <= tolerance_mps2));
+            if !bad {
+                continue;
+            }
+            let advice = match k {
+                0..=5 => format!(
+                    "still poses with the {} axis up and down",
+                    axis[k % 3]
+                ),
+                6 => "still poses tilted about 45° between x and y, or a turntable run with z along the spindle".into(),
+                7 => "still poses tilted about 45° between x and z, or a turntable run with y along the spindle".into(),
+                8 => "still poses tilted about 45° between y and z, or a turntable run with x along the spindle".into(),
+                _ => format!(
+                    "still poses with the {0} axis up, down and level, or a turntable run with {0} pointing out at a higher speed",
+                    axis[k - 9]
+                ),
+            };
+            out.push((p.name.clone(), advice));
+        }
+        out
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -420,6 +504,10 @@ pub(crate) struct JointProblem<'a> {
     pub directions: Vec<f64>,
     pub mountings: Vec<M3>,
     pub pose_frames: Vec<PoseFrame>,
+    /// Per pose and axis, the standard error of its mean (after the variance component), m/s².
+    pub pose_sigma: Vec<[f64; 3]>,
+    /// Per pose, its time from the middle of its session, s.
+    pub pose_tau: Vec<f64>,
     /// Per run and axis, the residual noise, m/s².
     pub run_sigma: Vec<[f64; 3]>,
     pub block_samples: Vec<usize>,
@@ -432,6 +520,34 @@ pub(crate) fn run_offset(i: usize) -> usize {
 
 fn pose_offset(n_runs: usize, p: usize) -> usize {
     SENSOR_PARAMS + n_runs * RUN_PARAMS + p * POSE_PARAMS
+}
+
+/// Parameters per still session: bias offset δ (3) and drift rate (3) about its middle.
+const SESSION_PARAMS: usize = 6;
+
+fn session_offset(n_runs: usize, n_poses: usize, session: usize) -> usize {
+    SENSOR_PARAMS + n_runs * RUN_PARAMS + n_poses * POSE_PARAMS + SESSION_PARAMS * session
+}
+
+/// A run's bias offset at τ: δ + d τ.
+fn run_offset_at(p: &[f64], o: usize, tau: f64) -> [f64; 3] {
+    std::array::from_fn(|k| p[o + GEOMETRY + k] + p[o + GEOMETRY + 3 + k] * tau)
+}
+
+/// Each pose's time from the middle of its session.
+fn session_times(poses: &[PoseInput]) -> Vec<f64> {
+    poses
+        .iter()
+        .map(|pose| {
+            let times = poses.iter().filter(|q| q.session == pose.session).map(|q| q.time_s);
+            let (lo, hi) = times.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| (a.min(t), b.max(t)));
+            pose.time_s - 0.5 * (lo + hi)
+        })
+        .collect()
+}
+
+fn sessions(poses: &[PoseInput]) -> usize {
+    poses.iter().map(|p| p.session + 1).max().unwrap_or(0)
 }
 
 /// Accumulates rows into a local dense system, then scatters it into the global one.
@@ -520,7 +636,7 @@ pub(crate) enum Want<'a> {
 
 impl JointProblem<'_> {
     pub(crate) fn n_params(&self) -> usize {
-        SENSOR_PARAMS + self.runs.len() * RUN_PARAMS + self.poses.len() * POSE_PARAMS
+        SENSOR_PARAMS + self.runs.len() * RUN_PARAMS + self.poses.len() * POSE_PARAMS + SESSION_PARAMS * sessions(self.poses)
     }
 
     pub(crate) fn geometry(&self, p: &[f64], i: usize) -> RunGeometry {
@@ -533,18 +649,29 @@ impl JointProblem<'_> {
         )
     }
 
+    /// Model − measured mean of pose `i`, m/s².
+    pub(crate) fn pose_residual(&self, p: &[f64], i: usize) -> [f64; 3] {
+        let sensor = SensorModel::from_params(p);
+        let o = pose_offset(self.runs.len(), i);
+        let so = session_offset(self.runs.len(), self.poses.len(), self.poses[i].session);
+        let (force, _) = self.pose_frames[i].force(p[o], p[o + 1], self.gravity);
+        let dt = self.pose_tau[i];
+        let u = sensor.linear_response(force, std::array::from_fn(|k| p[so + k] + p[so + 3 + k] * dt));
+        std::array::from_fn(|k| u[k] + sensor.quadratic_per_mps2[k] * u[k] * u[k] - self.poses[i].mean_mps2[k])
+    }
+
     /// Residuals of run i, per sample and axis (unweighted, model − measured), with a callback.
     pub(crate) fn run_residuals(&self, p: &[f64], i: usize, mut f: impl FnMut(usize, [f64; 3])) {
         let sensor = SensorModel::from_params(p);
         let geo = self.geometry(p, i);
         let run = &self.runs[i];
         let o = run_offset(i);
-        let delta = [p[o + GEOMETRY], p[o + GEOMETRY + 1], p[o + GEOMETRY + 2]];
         let mid = mid_time(&run.time_s);
         for (s, &t) in run.time_s.iter().enumerate() {
             if !run.keep[s] {
                 continue;
             }
+            let delta = run_offset_at(p, o, t - mid);
             let u = sensor.linear_response(geo.force(t - mid), delta);
             let r: [f64; 3] = std::array::from_fn(|k| {
                 u[k] + sensor.quadratic_per_mps2[k] * u[k] * u[k] - run.accel_mps2[k][s]
@@ -568,7 +695,6 @@ impl JointProblem<'_> {
             let run = &self.runs[i];
             let o = run_offset(i);
             let geo = self.geometry(p, i);
-            let delta = [p[o + GEOMETRY], p[o + GEOMETRY + 1], p[o + GEOMETRY + 2]];
             let mid = mid_time(&run.time_s);
             let index: Vec<usize> = (0..SENSOR_PARAMS).chain(o..o + RUN_PARAMS).collect();
             let mut local = LocalSystem::new(index.clone());
@@ -582,6 +708,7 @@ impl JointProblem<'_> {
                     continue;
                 }
                 let tau = t - mid;
+                let delta = run_offset_at(p, o, tau);
                 if !want_rows {
                     let u = sensor.linear_response(geo.force(tau), delta);
                     for k in 0..3 {
@@ -607,6 +734,7 @@ impl JointProblem<'_> {
                         row[SENSOR_PARAMS + j] = slope * scale[k] * sk[k];
                     }
                     row[SENSOR_PARAMS + GEOMETRY + k] = slope;
+                    row[SENSOR_PARAMS + GEOMETRY + 3 + k] = slope * tau;
                     match &mut want {
                         Want::Meat(_) => {
                             for (b, v) in block.iter_mut().zip(&row) {
@@ -649,7 +777,7 @@ impl JointProblem<'_> {
             prior(o + 5, p[o + 5], self.mount_tilt_sigma, &mut want);
             prior(o + 6, p[o + 6], self.mount_tilt_sigma, &mut want);
             for k in 0..3 {
-                prior(o + GEOMETRY + k, delta[k], self.bias_sigma, &mut want);
+                prior(o + GEOMETRY + k, p[o + GEOMETRY + k], self.bias_sigma, &mut want);
             }
             if let Want::Normal(jtj, jtr) = &mut want {
                 local.scatter(jtj, jtr);
@@ -659,19 +787,25 @@ impl JointProblem<'_> {
             }
         }
         let n_runs = self.runs.len();
+        let n_poses = self.poses.len();
         for (pi, pose) in self.poses.iter().enumerate() {
             let o = pose_offset(n_runs, pi);
+            let so = session_offset(n_runs, n_poses, pose.session);
             let (force, d) = self.pose_frames[pi].force(p[o], p[o + 1], self.gravity);
-            let delta = [p[o + 2], p[o + 3], p[o + 4]];
+            let dt = self.pose_tau[pi];
+            let delta: [f64; 3] = std::array::from_fn(|k| p[so + k] + p[so + 3 + k] * dt);
             let skewed = sensor.skewed(force);
             let u: [f64; 3] = std::array::from_fn(|k| sensor.bias_mps2[k] + delta[k] + scale[k] * skewed[k]);
-            let index: Vec<usize> = (0..SENSOR_PARAMS).chain(o..o + POSE_PARAMS).collect();
+            let index: Vec<usize> = (0..SENSOR_PARAMS)
+                .chain(o..o + POSE_PARAMS)
+                .chain(so..so + SESSION_PARAMS)
+                .collect();
             let mut local = LocalSystem::new(index.clone());
             let mut block = vec![0.0; index.len()];
             let mut row = vec![0.0; index.len()];
             for k in 0..3 {
                 let q = sensor.quadratic_per_mps2[k];
-                let w = 1.0 / pose.sigma_mean_mps2[k];
+                let w = 1.0 / self.pose_sigma[pi][k];
                 let r = (u[k] + q * u[k] * u[k] - pose.mean_mps2[k]) * w;
                 if matches!(want, Want::Sse) {
                     sse += r * r;
@@ -684,23 +818,11 @@ impl JointProblem<'_> {
                     let sk = sensor.skewed(*dj);
                     row[SENSOR_PARAMS + j] = slope * scale[k] * sk[k];
                 }
-                row[SENSOR_PARAMS + 2 + k] = slope;
+                row[SENSOR_PARAMS + POSE_PARAMS + k] = slope;
+                row[SENSOR_PARAMS + POSE_PARAMS + 3 + k] = slope * dt;
                 local.add_row(&row, r);
                 for (b, v) in block.iter_mut().zip(&row) {
                     *b += v * r;
-                }
-            }
-            for k in 0..3 {
-                let param = o + 2 + k;
-                let r = delta[k] / self.bias_sigma;
-                sse += r * r;
-                match &mut want {
-                    Want::Sse => {}
-                    Want::Normal(jtj, jtr) => {
-                        jtj[(param, param)] += 1.0 / (self.bias_sigma * self.bias_sigma);
-                        jtr[param] += r / self.bias_sigma;
-                    }
-                    Want::Meat(meat) => meat[(param, param)] += 1.0 / (self.bias_sigma * self.bias_sigma),
                 }
             }
             match &mut want {
@@ -710,6 +832,23 @@ impl JointProblem<'_> {
                 }
                 Want::Meat(meat) => add_outer(meat, &index, &block),
                 Want::Sse => {}
+            }
+        }
+        // Each still session's bias offset within the instability.
+        for session in 0..sessions(self.poses) {
+            let so = session_offset(n_runs, n_poses, session);
+            for k in 0..3 {
+                let param = so + k;
+                let r = p[param] / self.bias_sigma;
+                sse += r * r;
+                match &mut want {
+                    Want::Sse => {}
+                    Want::Normal(jtj, jtr) => {
+                        jtj[(param, param)] += 1.0 / (self.bias_sigma * self.bias_sigma);
+                        jtr[param] += r / self.bias_sigma;
+                    }
+                    Want::Meat(meat) => meat[(param, param)] += 1.0 / (self.bias_sigma * self.bias_sigma),
+                }
             }
         }
         sse
@@ -913,7 +1052,7 @@ pub fn fit_joint(
         .iter()
         .map(|r| mounting_matrix(r.entry.out, r.entry.up))
         .collect();
-    let mut p = vec![0.0; SENSOR_PARAMS + runs.len() * RUN_PARAMS + poses.len() * POSE_PARAMS];
+    let mut p = vec![0.0; SENSOR_PARAMS + runs.len() * RUN_PARAMS + poses.len() * POSE_PARAMS + SESSION_PARAMS * sessions(poses)];
     let mut directions = Vec::with_capacity(runs.len());
     for (i, run) in runs.iter().enumerate() {
         let (start, direction) = run_start(run, &mountings[i], g);
@@ -936,6 +1075,8 @@ pub fn fit_joint(
         directions,
         mountings,
         pose_frames: poses.iter().map(|p| PoseFrame::new(p.mean_mps2)).collect(),
+        pose_sigma: poses.iter().map(|p| p.sigma_mean_mps2).collect(),
+        pose_tau: session_times(poses),
         run_sigma: runs
             .iter()
             .map(|r| difference_noise(&r.accel_mps2, &r.keep))
@@ -966,6 +1107,28 @@ pub fn fit_joint(
             n += 1.0;
         });
         problem.run_sigma[i] = sums.map(|s| (s / n.max(1.0)).sqrt().max(1e-6));
+    }
+    // Poses scatter by more than their means' noise when the bias wanders between them: a variance
+    // component per session and axis, from the residuals (each pose keeps ~1 of its 3 degrees of
+    // freedom after its two direction angles, hence the factor 3).
+    for session in 0..sessions(poses) {
+        let members: Vec<usize> = (0..poses.len()).filter(|&i| poses[i].session == session).collect();
+        if members.len() < 2 {
+            continue;
+        }
+        let mut extra = [0.0f64; 3];
+        for &i in &members {
+            let r = problem.pose_residual(&p, i);
+            for k in 0..3 {
+                extra[k] += 3.0 * r[k] * r[k] - poses[i].sigma_mean_mps2[k].powi(2);
+            }
+        }
+        for &i in &members {
+            for k in 0..3 {
+                let component = (extra[k] / members.len() as f64).max(0.0);
+                problem.pose_sigma[i][k] = (poses[i].sigma_mean_mps2[k].powi(2) + component).sqrt();
+            }
+        }
     }
     let report = levenberg_marquardt_normal(&problem, &p, Some(&free), &options, observer);
     let p = report.params;
@@ -1053,6 +1216,7 @@ pub fn fit_joint(
             params: p,
             directions: problem.directions.clone(),
             mountings: problem.mountings.clone(),
+            gravity: g,
         },
     })
 }

@@ -2,14 +2,19 @@
 //! one physical sensor model fitted jointly with every run, and correctors chosen on conditions
 //! they never trained on.
 //!
-//! `file` reads the campaign file, `sensor` is the sensor model and its inverse (the `physical`
-//! corrector), `joint` fits it.
+//! `file` reads the campaign file, `prepare` cuts recordings into runs and poses, `joint` fits
+//! the sensor model (`correctors::physical`) jointly with them, and `select` trains and scores the
+//! candidate correctors on held-out conditions.
 
 pub mod file;
 pub mod joint;
+pub mod load;
 pub mod prepare;
-pub mod sensor;
+pub mod select;
 
 pub use file::{Campaign, CampaignEntry, CampaignError, EntryKind, SignedAxis, TurntableEntry};
 pub use joint::{fit_joint, JointFit, JointSettings, PoseInput, RunInput, SensorTerms};
-pub use sensor::{PhysicalCorrector, SensorModel};
+pub use crate::correctors::physical::{PhysicalCorrector, SensorModel};
+pub use load::{load_campaign, LoadError};
+pub use prepare::UnitRecording;
+pub use select::{calibrate_campaign, CampaignOutput, CampaignResult, CampaignSettings, CandidateKind};

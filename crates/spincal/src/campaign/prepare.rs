@@ -82,7 +82,7 @@ fn still_intervals(rec: &Recording, name: &str) -> Result<Vec<StillInterval>, Pr
     })
 }
 
-fn pose_input(rec: &Recording, name: String, start: usize, end: usize) -> PoseInput {
+fn pose_input(rec: &Recording, name: String, start: usize, end: usize, next_session: usize) -> PoseInput {
     let n = end - start;
     let mut mean = [0.0; 3];
     let mut sigma = [0.0; 3];
@@ -107,6 +107,8 @@ fn pose_input(rec: &Recording, name: String, start: usize, end: usize) -> PoseIn
         mean_mps2: mean,
         sigma_mean_mps2: sigma,
         samples: n,
+        time_s: 0.5 * (rec.time_s[start] + rec.time_s[end - 1]),
+        session: next_session - 1,
     }
 }
 
@@ -118,6 +120,7 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
         poses: Vec::new(),
         pose_origin: Vec::new(),
     };
+    let mut sessions = 0;
     for (index, unit) in recordings.iter().enumerate() {
         let rec = &unit.recording;
         match &unit.turntable {
@@ -148,6 +151,7 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
                     });
                 }
                 let intervals = still_intervals(rec, &unit.name)?;
+                sessions += 1;
                 let several = intervals.len() > 1;
                 for (k, interval) in intervals.iter().enumerate() {
                     let edge = ((interval.len() as f64) * EDGE_FRACTION) as usize;
@@ -163,7 +167,7 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
                     } else {
                         unit.name.clone()
                     };
-                    out.poses.push(pose_input(rec, name, start, end));
+                    out.poses.push(pose_input(rec, name, start, end, sessions));
                     out.pose_origin.push(PoseOrigin {
                         recording: index,
                         start,

@@ -14,6 +14,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::correctors::physical::PhysicalCorrector;
 use crate::correctors::ann::AnnModel;
 use crate::correctors::corrector::{join_field, Axis, Corrector, ModelError, SampleCorrector};
 use crate::correctors::linear::LinearModel;
@@ -31,6 +32,8 @@ pub enum CorrectorModel {
     Linear(Box<LinearModel>),
     /// Offsets, scale and misalignment from still poses (`spincal static`).
     Static(Box<StaticCalibration>),
+    /// The inverse of a campaign's fitted sensor model (`spincal calibrate --campaign`).
+    Physical(Box<PhysicalCorrector>),
 }
 
 impl CorrectorModel {
@@ -39,6 +42,7 @@ impl CorrectorModel {
             CorrectorModel::Ann(m) => m.as_ref(),
             CorrectorModel::Linear(m) => m.as_ref(),
             CorrectorModel::Static(m) => m.as_ref(),
+            CorrectorModel::Physical(m) => m.as_ref(),
         }
     }
 
@@ -51,6 +55,7 @@ impl CorrectorModel {
             CorrectorModel::Ann(m) => m.validate(),
             CorrectorModel::Linear(m) => m.validate(),
             CorrectorModel::Static(m) => m.validate(),
+            CorrectorModel::Physical(m) => m.validate(),
         }
     }
 
@@ -60,6 +65,7 @@ impl CorrectorModel {
             CorrectorModel::Ann(_) => "ann",
             CorrectorModel::Linear(_) => "linear",
             CorrectorModel::Static(_) => "static",
+            CorrectorModel::Physical(_) => "physical",
         }
     }
 }

@@ -4,7 +4,7 @@
 //!
 //! The sensor's 3×3 sensitivity diag(1 + s)(I + M₆) (six misalignment angles, [`SensorProfile`]) is
 //! split as L·R, L lower triangular and R a rotation: L is the fit's D (I + M), and R only renames
-//! the frame the true force is expressed in (the body frame of `campaign::sensor`). The turntable
+//! the frame the true force is expressed in (the body frame of `correctors::physical`). The turntable
 //! geometry follows `campaign::joint`'s model exactly, plus what it leaves out: wow, flutter, their
 //! tangential acceleration r·ω̇, bias drift, quantisation and saturation.
 
@@ -18,10 +18,13 @@ use serde::{Deserialize, Serialize};
 
 use crate::campaign::file::{SignedAxis, TurntableEntry};
 use crate::campaign::joint::{mounting_matrix, RUN_PARAMS};
-use crate::campaign::sensor::SensorModel;
+use crate::correctors::physical::SensorModel;
 use crate::input::recording::{Recording, Source, STANDARD_GRAVITY};
 use crate::simulate::{SensorProfile, SimulationError};
 use crate::turntable::model::Direction;
+
+/// Seconds the simulated hand takes to turn the sensor from one still pose to the next.
+const TURN_S: f64 = 2.0;
 
 /// One turntable run of a simulated campaign.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -55,7 +58,7 @@ impl Default for RunSetup {
             out: SignedAxis { axis: 0, sign: 1 },
             up: SignedAxis { axis: 2, sign: 1 },
             direction: Direction::Cw,
-            tilt_deg: 1.0,
+            tilt_deg: 2.0,
             speed_error_pct: 0.5,
             wow_pct: 0.1,
             flutter_pct: 0.05,
@@ -72,7 +75,9 @@ impl Default for RunSetup {
 pub struct CampaignSetup {
     pub unit: String,
     pub sensor: SensorProfile,
-    /// Still poses: the six faces up in turn, each tilted at random by up to `pose_tilt_deg`.
+    /// Still poses, in one recording: the six faces up in turn (then six edges, 45° between two
+    /// axes), each tilted at random by up to `pose_tilt_deg`, held `pose_duration_s`, turned from
+    /// one to the next in 2 s.
     pub poses: usize,
     pub pose_tilt_deg: f64,
     pub pose_duration_s: f64,
@@ -83,8 +88,9 @@ pub struct CampaignSetup {
 }
 
 impl Default for CampaignSetup {
-    /// One unit: six still poses and turntable runs at 33⅓ and 45 rpm at two radii, in four
-    /// mountings (z, x and y along the spindle, one upside down).
+    /// One unit: twelve still poses (six faces, six edges) and turntable runs at 33⅓ and 45 rpm at
+    /// two radii in two mountings (z up; on its side with x up), balanced so that holding out a
+    /// speed or a radius leaves both mountings.
     fn default() -> Self {
         let axis = |t: &str| SignedAxis::parse(t).unwrap_or(SignedAxis { axis: 0, sign: 1 });
         let run = |rpm: f64, radius_m: f64, out: &str, up: &str| RunSetup {
@@ -97,14 +103,14 @@ impl Default for CampaignSetup {
         CampaignSetup {
             unit: "simulated-unit".into(),
             sensor: SensorProfile::default(),
-            poses: 6,
+            poses: 12,
             pose_tilt_deg: 25.0,
             pose_duration_s: 5.0,
             runs: vec![
                 run(100.0 / 3.0, 0.06, "+x", "+z"),
-                run(45.0, 0.12, "+y", "+z"),
                 run(100.0 / 3.0, 0.12, "+z", "+x"),
-                run(45.0, 0.06, "-x", "-z"),
+                run(45.0, 0.06, "-z", "+x"),
+                run(45.0, 0.12, "+y", "+z"),
             ],
             gap_s: 20.0,
             gravity_mps2: STANDARD_GRAVITY,
@@ -133,8 +139,8 @@ pub struct CampaignTruth {
     pub setup: CampaignSetup,
     pub sensor: SensorModel,
     /// Per run: r, ω (mean over the run), α, ϑ₀ (at the run's middle), β, ε₁, ε₂, the wow (w_c,
-    /// w_s) and the mean bias drift over the run (the run's offset), as `campaign::joint` orders
-    /// them.
+    /// w_s) and the bias drift over the run as a line (value at the middle, slope), as
+    /// `campaign::joint` orders them.
     pub runs: Vec<[f64; RUN_PARAMS]>,
     /// Per pose, the true specific force, m/s².
     pub poses: Vec<[f64; 3]>,
@@ -323,37 +329,74 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
         [0.0, 1.0, 0.0],
         [0.0, -1.0, 0.0],
     ];
+    // The still poses: one recording, the sensor turned by hand from one pose to the next.
+    let mut directions = Vec::with_capacity(setup.poses);
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    let edges: [[f64; 3]; 6] = [
+        [h, h, 0.0],
+        [-h, -h, 0.0],
+        [h, 0.0, -h],
+        [-h, 0.0, h],
+        [0.0, h, h],
+        [0.0, -h, -h],
+    ];
     for p in 0..setup.poses {
-        // A face, tilted by a random angle up to the limit in a random direction.
-        let face = faces[p % 6];
+        // A face (then an edge, 45° between two axes), tilted at random up to the limit.
+        let face = if p % 12 < 6 { faces[p % 6] } else { edges[p % 6] };
         let tilt = setup.pose_tilt_deg.to_radians() * rng.gen::<f64>().sqrt();
         let azimuth = 2.0 * std::f64::consts::PI * rng.gen::<f64>();
-        let k = (0..3).find(|&k| face[k] != 0.0).unwrap_or(2);
-        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
-        let mut dir = [0.0; 3];
-        dir[k] = face[k] * tilt.cos();
-        dir[i] = tilt.sin() * azimuth.cos();
-        dir[j] = tilt.sin() * azimuth.sin();
-        let force = dir.map(|v| g * v);
-        let n = (setup.pose_duration_s * profile.sample_rate_hz).round() as usize;
+        // Tilt `face` by `tilt` towards a random direction perpendicular to it.
+        let any = if face[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+        let dot: f64 = (0..3).map(|k| any[k] * face[k]).sum();
+        let e1 = normalised(std::array::from_fn(|k| any[k] - dot * face[k]));
+        let e2 = [
+            face[1] * e1[2] - face[2] * e1[1],
+            face[2] * e1[0] - face[0] * e1[2],
+            face[0] * e1[1] - face[1] * e1[0],
+        ];
+        let dir: [f64; 3] = std::array::from_fn(|k| {
+            face[k] * tilt.cos() + tilt.sin() * (azimuth.cos() * e1[k] + azimuth.sin() * e2[k])
+        });
+        directions.push(dir);
+    }
+    if !directions.is_empty() {
+        let hold = (setup.pose_duration_s * profile.sample_rate_hz).round() as usize;
+        let turn = (TURN_S * profile.sample_rate_hz).round() as usize;
+        let mut forces: Vec<[f64; 3]> = Vec::new();
+        for (p, dir) in directions.iter().enumerate() {
+            if p > 0 {
+                // Along the great circle from the previous pose (normalised linear blend).
+                let prev = directions[p - 1];
+                for s in 1..=turn {
+                    let x = s as f64 / (turn + 1) as f64;
+                    let w: [f64; 3] = std::array::from_fn(|k| (1.0 - x) * prev[k] + x * dir[k]);
+                    let n = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt().max(1e-9);
+                    forces.push(w.map(|v| g * v / n));
+                }
+            }
+            forces.extend(std::iter::repeat_n(dir.map(|v| g * v), hold));
+            true_poses.push(dir.map(|v| g * v));
+        }
+        let n = forces.len();
         let mut accel = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut truth = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
         let mut random = Vec::with_capacity(n);
-        for s in 0..n {
-            let (a, e, _) = sensor.read(force, &mut rng);
+        for (s, force) in forces.iter().enumerate() {
+            let (a, e, _) = sensor.read(*force, &mut rng);
             for c in 0..3 {
                 accel[c][s] = a[c];
+                truth[c][s] = force[c];
             }
             random.push(e);
         }
-        let name = format!("pose-{}", p + 1);
+        let name = "still-poses".to_string();
         recordings.push(SimulatedRecording {
             turntable: None,
             recording: recording(&name, (0..n).map(|s| s as f64 * dt).collect(), accel),
-            true_accel_mps2: force.map(|v| vec![v; n]),
+            true_accel_mps2: truth,
             floor_mps2: rms_per_axis(&random),
             name,
         });
-        true_poses.push(force);
         sensor.idle(setup.gap_s, &mut rng);
     }
 
@@ -393,7 +436,7 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
         let mut accel = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
         let mut truth = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
         let mut random = Vec::with_capacity(n);
-        let mut drift_sum = [0.0; 3];
+        let mut drift_series = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
         let mut theta = Vec::with_capacity(n);
         for (s, &t) in time_s.iter().enumerate() {
             // ω(t) = ω(1 + Σ m sin(2πft + p)); the platter angle is its exact integral.
@@ -422,7 +465,7 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
             for c in 0..3 {
                 accel[c][s] = a[c];
                 truth[c][s] = force[c];
-                drift_sum[c] += sensor.drift[c];
+                drift_series[c][s] = sensor.drift[c];
             }
             random.push(e);
         }
@@ -440,8 +483,11 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
         geometry[3] = phase_fit;
         geometry[7] = wow_c;
         geometry[8] = wow_s;
+        // The drift as the fit sees it: a line through the run, its value at the middle and slope.
         for c in 0..3 {
-            geometry[9 + c] = drift_sum[c] / n.max(1) as f64;
+            let (slope, at_mid) = line_fit(&time_s, &drift_series[c], mid);
+            geometry[9 + c] = at_mid;
+            geometry[12 + c] = slope;
         }
         true_runs.push(geometry);
         let entry = TurntableEntry {
@@ -479,6 +525,11 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
             poses: true_poses,
         },
     })
+}
+
+fn normalised(v: [f64; 3]) -> [f64; 3] {
+    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    v.map(|x| x / n)
 }
 
 /// Slope and value at `mid` of the least-squares line through (t, y).
@@ -565,7 +616,7 @@ mod tests {
         };
         let a = simulate_campaign(&setup, 3).unwrap();
         let b = simulate_campaign(&setup, 3).unwrap();
-        assert_eq!(a.recordings.len(), 7);
+        assert_eq!(a.recordings.len(), 2);
         for (x, y) in a.recordings.iter().zip(&b.recordings) {
             assert_eq!(x.recording, y.recording);
         }

@@ -1,0 +1,203 @@
+//! `spincal calibrate --campaign FILE` and `spincal simulate --campaign DIR`: a unit's campaign
+//! in, results.json, report.html and (when a corrector holds on every held-out condition)
+//! model.json out.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use spincal::campaign::{calibrate_campaign, load_campaign, Campaign, CampaignOutput, CampaignSettings};
+use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
+use spincal::AccelUnit;
+
+use crate::ui::{self, Ui, UsageError};
+
+/// Calibrates the unit a campaign file describes; writes into `out`.
+pub fn calibrate(file: &Path, out: &Path, json: bool, ui: Ui) -> anyhow::Result<()> {
+    let campaign = Campaign::read_path(file).map_err(|e| UsageError(e.to_string()))?;
+    let outputs = ["model.json", "results.json", "report.html"].map(|name| out.join(name));
+    let mut inputs: Vec<&Path> = vec![file];
+    for entry in &campaign.recordings {
+        inputs.push(&entry.file);
+        if let Some(t) = &entry.truth {
+            inputs.push(t);
+        }
+    }
+    super::check_outputs(&inputs, &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>())?;
+    let units = load_campaign(&campaign)?;
+    let settings = CampaignSettings {
+        joint: spincal::campaign::JointSettings {
+            gravity_mps2: campaign.gravity_mps2,
+            ..Default::default()
+        },
+        ..CampaignSettings::default()
+    };
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let bar = ui.progress(1, "calibrating the campaign");
+    let output = calibrate_campaign(&campaign.unit, &units, &settings, &|p| crate::ui::show(&bar, p))?;
+    bar.finish_and_clear();
+    let model_path = out.join("model.json");
+    if let Some(model) = &output.saved {
+        model.write_path(&model_path)?;
+    }
+    super::write_text(&out.join("results.json"), &(serde_json::to_string_pretty(&output.result)? + "\n"))?;
+    super::write_text(&out.join("report.html"), &report_html(&output))?;
+    if json {
+        return ui::print_json(&output.result);
+    }
+    ui::print(&summary(&output, out))
+}
+
+fn fmt3(v: &[f64; 3]) -> String {
+    format!("{:.4} {:.4} {:.4}", v[0], v[1], v[2])
+}
+
+/// The terminal summary: the verdict first, then the held-out table.
+pub fn summary(output: &CampaignOutput, out: &Path) -> String {
+    let r = &output.result;
+    let mut text = format!("unit {}: {}\n\n", r.unit, r.verdict);
+    text.push_str("held-out condition            corrector        RMS error x y z (m/s²)   uncorrected              against\n");
+    for h in &r.held_out {
+        let rms = h.rms_mps2.map_or_else(|| h.note.clone().unwrap_or_default(), |v| fmt3(&v));
+        let _ = writeln!(
+            text,
+            "{:<29} {:<16} {:<24} {:<24} {}",
+            h.condition,
+            h.candidate,
+            rms,
+            fmt3(&h.uncorrected_rms_mps2),
+            h.against
+        );
+    }
+    if !r.undetermined.is_empty() {
+        text.push_str("\nnot determined by this campaign (one standard error moves a 1 g reading by more than 0.02 m/s²):\n");
+        for (name, advice) in &r.undetermined {
+            let _ = writeln!(text, "  {name}: {advice}");
+        }
+    }
+    let dir = out.display();
+    let _ = writeln!(
+        text,
+        "\nwrote {}{dir}/results.json, {dir}/report.html",
+        if output.saved.is_some() { format!("{dir}/model.json, ") } else { String::new() }
+    );
+    text
+}
+
+fn escape(text: &str) -> String {
+    text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+}
+
+/// A self-contained HTML report: the verdict, held-out errors per corrector, the sensor model.
+pub fn report_html(output: &CampaignOutput) -> String {
+    let r = &output.result;
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!doctype html><html><head><meta charset=\"utf-8\"><title>spincal campaign: {unit}</title>\
+         <style>body{{font-family:sans-serif;max-width:70em;margin:2em auto}}table{{border-collapse:collapse}}\
+         td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}th{{background:#eee}}.bad{{color:#b00}}</style></head><body>\
+         <h1>Campaign calibration: {unit}</h1><h2>Verdict</h2><p>{verdict}</p>",
+        unit = escape(&r.unit),
+        verdict = escape(&r.verdict)
+    );
+    h.push_str("<h2>Correctors on held-out conditions</h2><table><tr><th>corrector</th><th>what it is</th><th>mean RMS error, m/s²</th><th>worst ratio to uncorrected</th><th>eligible</th><th>why not</th></tr>");
+    for c in &r.candidates {
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            c.candidate,
+            escape(&c.description),
+            c.mean_rms_mps2.map_or("–".into(), |v| format!("{v:.4}")),
+            c.worst_ratio_to_uncorrected.map_or("–".into(), |v| format!("{v:.2}")),
+            if c.eligible { "yes" } else { "no" },
+            escape(c.why_not.as_deref().unwrap_or(""))
+        );
+    }
+    h.push_str("</table><p>Each corrector is trained on every condition but one and scored on the one left out. The error is against the true specific force when the recording carries it (simulations), otherwise against the held-out recording refitted with a perfect sensor.</p>");
+    h.push_str("<table><tr><th>held out</th><th>corrector</th><th>RMS x</th><th>RMS y</th><th>RMS z</th><th>uncorrected x</th><th>y</th><th>z</th><th>floor x</th><th>y</th><th>z</th><th>against</th></tr>");
+    for s in &r.held_out {
+        let cells = |v: Option<[f64; 3]>| v.map_or("<td>–</td><td>–</td><td>–</td>".to_string(), |v| v.iter().map(|x| format!("<td>{x:.4}</td>")).collect());
+        let worse = s.rms_mps2.is_some_and(|v| v.iter().sum::<f64>() > s.uncorrected_rms_mps2.iter().sum::<f64>());
+        let _ = write!(
+            h,
+            "<tr{}><td>{}</td><td>{}</td>{}{}{}<td>{}</td></tr>",
+            if worse { " class=\"bad\"" } else { "" },
+            escape(&s.condition),
+            s.candidate,
+            cells(s.rms_mps2),
+            cells(Some(s.uncorrected_rms_mps2)),
+            cells(s.floor_mps2),
+            s.against
+        );
+    }
+    h.push_str("</table><h2>Sensor model (joint fit of every recording)</h2>");
+    let _ = write!(h, "<p>Terms: {}. Standard errors: {}.</p><table><tr><th>parameter</th><th>value</th><th>standard error</th></tr>", r.joint.terms.describe(), escape(&r.joint.covariance));
+    for p in &r.joint.sensor_params {
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{:.6}</td><td>{}</td></tr>",
+            escape(&p.name),
+            p.value,
+            p.std_error.map_or("–".into(), |v| format!("{v:.6}"))
+        );
+    }
+    h.push_str("</table>");
+    if !r.undetermined.is_empty() {
+        h.push_str("<h2>What this campaign does not determine</h2><ul>");
+        for (name, advice) in &r.undetermined {
+            let _ = write!(h, "<li>{}: record {}</li>", escape(name), escape(advice));
+        }
+        h.push_str("</ul>");
+    }
+    h.push_str("<h2>Recordings</h2><ul>");
+    for run in &r.joint.runs {
+        let _ = write!(h, "<li>{} ({}, residual RMS {} m/s²)</li>", escape(&run.name), run.direction.describe(), fmt3(&run.residual_rms_mps2));
+    }
+    for pose in &r.joint.poses {
+        let _ = write!(h, "<li>{} (still pose)</li>", escape(&pose.name));
+    }
+    h.push_str("</ul></body></html>\n");
+    h
+}
+
+/// Writes a simulated campaign into `dir`: campaign.toml, one CSV per recording, its truth CSV and
+/// truth.json. Refuses to replace any file already there.
+pub fn simulate(dir: &Path, seed: u64, setup_file: Option<&Path>, json: bool) -> anyhow::Result<()> {
+    let setup = match setup_file {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+            serde_json::from_str::<CampaignSetup>(&text).with_context(|| format!("{}: not a campaign setup", path.display()))?
+        }
+        None => CampaignSetup::default(),
+    };
+    let sim = simulate_campaign(&setup, seed).map_err(|e| UsageError(e.to_string()))?;
+    let mut targets = vec![dir.join("campaign.toml"), dir.join("truth.json")];
+    for r in &sim.recordings {
+        targets.push(dir.join(format!("{}.csv", r.name)));
+        targets.push(dir.join(format!("{}.truth.csv", r.name)));
+    }
+    if let Some(existing) = targets.iter().find(|p| p.exists()) {
+        return Err(UsageError(format!("{} already exists: spincal does not replace files in a campaign folder; choose an empty folder", existing.display())).into());
+    }
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    for (i, r) in sim.recordings.iter().enumerate() {
+        r.recording.write_csv_path(&dir.join(format!("{}.csv", r.name)), AccelUnit::Mps2)?;
+        sim.truth_recording(i).write_csv_path(&dir.join(format!("{}.truth.csv", r.name)), AccelUnit::Mps2)?;
+    }
+    super::write_text(&dir.join("truth.json"), &(serde_json::to_string_pretty(&sim.truth)? + "\n"))?;
+    super::write_text(&dir.join("campaign.toml"), &sim.campaign_toml())?;
+    if json {
+        return ui::print_json(&serde_json::json!({
+            "campaign": dir.join("campaign.toml"),
+            "recordings": sim.recordings.iter().map(|r| &r.name).collect::<Vec<_>>(),
+        }));
+    }
+    ui::print(&format!(
+        "wrote {} with {} recordings ({} still poses, {} turntable runs), their true specific force and truth.json\n",
+        dir.join("campaign.toml").display(),
+        sim.recordings.len(),
+        setup.poses,
+        setup.runs.len()
+    ))
+}

@@ -1,0 +1,696 @@
+//! Calibrating a unit: the joint fit, then every candidate corrector trained on all conditions
+//! but one and scored on the one left out, for each condition in turn. The saved corrector is the
+//! best on held-out conditions and never worse than no correction on any of them.
+//!
+//! Each candidate has one shape ([`Candidate::train`]: a training set in, a corrector out) and
+//! every one is scored by the same function ([`score`]): against the true specific force where the
+//! recording carries it, otherwise against the held-out recording's own best explanation (its
+//! geometry refitted with the sensor taken as perfect: the residual a correct calibration leaves).
+
+// Per-axis arrays are indexed together.
+#![allow(clippy::needless_range_loop)]
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::campaign::joint::{fit_joint, JointError, JointFit, JointSettings, PoseInput, RunInput, SensorTerms};
+use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
+use crate::correctors::physical::PhysicalCorrector;
+use crate::correctors::corrector::{Axis, Corrector};
+use crate::correctors::linear::LinearModel;
+use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
+use crate::progress::{Observer, Progress};
+
+/// The kinds of corrector a campaign compares.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CandidateKind {
+    /// The inverse of the sensor model with every term (bias, scale, misalignment, nonlinearity).
+    Physical,
+    /// The inverse of the sensor model without the nonlinearity.
+    PhysicalLinear,
+    /// Offset plus a 3 × 3 matrix (12 parameters) from measured to the fitted reference.
+    Linear,
+}
+
+impl CandidateKind {
+    pub const ALL: [CandidateKind; 3] = [CandidateKind::Physical, CandidateKind::PhysicalLinear, CandidateKind::Linear];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            CandidateKind::Physical => "physical",
+            CandidateKind::PhysicalLinear => "physical-linear",
+            CandidateKind::Linear => "linear-12",
+        }
+    }
+
+    pub fn describe(self) -> &'static str {
+        match self {
+            CandidateKind::Physical => "inverse sensor model: bias, scale, misalignment, quadratic nonlinearity",
+            CandidateKind::PhysicalLinear => "inverse sensor model: bias, scale, misalignment",
+            CandidateKind::Linear => "offset + 3×3 matrix fitted from measured to reference (12 parameters)",
+        }
+    }
+}
+
+/// Settings of a campaign calibration, checked before any work starts.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CampaignSettings {
+    pub joint: JointSettings,
+    pub candidates: Vec<CandidateKind>,
+    /// A sensor parameter is "determined" when one standard error moves a 1 g reading by at most
+    /// this, m/s².
+    pub determined_tolerance_mps2: f64,
+}
+
+impl Default for CampaignSettings {
+    fn default() -> Self {
+        CampaignSettings {
+            joint: JointSettings::default(),
+            candidates: CandidateKind::ALL.to_vec(),
+            determined_tolerance_mps2: 0.02,
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CampaignCalError {
+    #[error(transparent)]
+    Prepare(#[from] PrepareError),
+    #[error("joint fit: {0}")]
+    Joint(#[from] JointError),
+    #[error("campaign setting {name}: {why}")]
+    Setting { name: &'static str, why: String },
+}
+
+/// A group of recordings that share one condition, held out together.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Condition {
+    /// e.g. "speed 45 rpm", "radius 0.120 m", "mounting out +y, up +z", "poses 2 and 5".
+    pub label: String,
+    /// Indices into the prepared runs and poses.
+    pub runs: Vec<usize>,
+    pub poses: Vec<usize>,
+}
+
+/// One candidate's error on one held-out condition.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct HeldOutScore {
+    pub condition: String,
+    pub candidate: String,
+    /// RMS error per axis over the held-out samples, m/s²; `None` when training failed.
+    pub rms_mps2: Option<[f64; 3]>,
+    /// The uncorrected signal's RMS error on the same samples, m/s².
+    pub uncorrected_rms_mps2: [f64; 3],
+    /// The random floor on those samples (simulations), m/s².
+    pub floor_mps2: Option<[f64; 3]>,
+    /// "truth" or "refit" (see the module documentation).
+    pub against: String,
+    pub note: Option<String>,
+}
+
+/// One candidate over every held-out condition.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CandidateSummary {
+    pub candidate: String,
+    pub description: String,
+    /// Mean over conditions of the RMS error (all axes), m/s².
+    pub mean_rms_mps2: Option<f64>,
+    /// Worst ratio of its RMS to the uncorrected RMS over the conditions.
+    pub worst_ratio_to_uncorrected: Option<f64>,
+    /// Never worse than uncorrected and trained on every condition.
+    pub eligible: bool,
+    pub why_not: Option<String>,
+}
+
+/// Everything a campaign calibration found (results.json).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CampaignResult {
+    pub unit: String,
+    pub recordings: Vec<String>,
+    pub joint: JointFit,
+    /// Sensor parameters the campaign does not determine, with what would.
+    pub undetermined: Vec<(String, String)>,
+    pub conditions: Vec<Condition>,
+    pub held_out: Vec<HeldOutScore>,
+    pub candidates: Vec<CandidateSummary>,
+    /// The saved corrector's name, if any.
+    pub saved: Option<String>,
+    /// One paragraph: what was saved and why, or why nothing was.
+    pub verdict: String,
+    pub seconds_total: f64,
+}
+
+/// The result and the corrector file to write (if any).
+#[derive(Debug, Clone)]
+pub struct CampaignOutput {
+    pub result: CampaignResult,
+    pub saved: Option<CorrectorFile>,
+}
+
+/// A training set: the prepared runs and poses it may use, and its full joint fit (made once,
+/// shared by the candidates that need it).
+struct Training<'a> {
+    runs: Vec<RunInput>,
+    poses: Vec<PoseInput>,
+    joint: &'a JointSettings,
+    full_fit: std::sync::OnceLock<Result<JointFit, String>>,
+}
+
+impl<'a> Training<'a> {
+    fn new(runs: Vec<RunInput>, poses: Vec<PoseInput>, joint: &'a JointSettings) -> Training<'a> {
+        Training {
+            runs,
+            poses,
+            joint,
+            full_fit: std::sync::OnceLock::new(),
+        }
+    }
+
+    /// The joint fit with the settings' terms, or with `terms` when they differ.
+    fn fit(&self, terms: SensorTerms, observer: &Observer) -> Result<std::borrow::Cow<'_, JointFit>, String> {
+        if terms == self.joint.terms {
+            let fit = self
+                .full_fit
+                .get_or_init(|| fit_joint(&self.runs, &self.poses, self.joint, observer).map_err(|e| e.to_string()));
+            return fit.as_ref().map(std::borrow::Cow::Borrowed).map_err(Clone::clone);
+        }
+        let settings = JointSettings {
+            terms,
+            ..self.joint.clone()
+        };
+        fit_joint(&self.runs, &self.poses, &settings, observer)
+            .map(std::borrow::Cow::Owned)
+            .map_err(|e| e.to_string())
+    }
+}
+
+/// A corrector kind: trained on a set of runs and poses.
+trait Candidate {
+    fn kind(&self) -> CandidateKind;
+    fn train(&self, training: &Training<'_>, observer: &Observer) -> Result<CorrectorModel, String>;
+}
+
+fn input_range(runs: &[RunInput], poses: &[PoseInput]) -> [[f64; 2]; 3] {
+    let mut range = [[f64::INFINITY, f64::NEG_INFINITY]; 3];
+    for run in runs {
+        for k in 0..3 {
+            for (s, &v) in run.accel_mps2[k].iter().enumerate() {
+                if run.keep[s] {
+                    range[k][0] = range[k][0].min(v);
+                    range[k][1] = range[k][1].max(v);
+                }
+            }
+        }
+    }
+    for pose in poses {
+        for k in 0..3 {
+            range[k][0] = range[k][0].min(pose.mean_mps2[k]);
+            range[k][1] = range[k][1].max(pose.mean_mps2[k]);
+        }
+    }
+    range.map(|r| if r[0] <= r[1] { r } else { [0.0, 0.0] })
+}
+
+struct PhysicalCandidate(SensorTerms, CandidateKind);
+
+impl Candidate for PhysicalCandidate {
+    fn kind(&self) -> CandidateKind {
+        self.1
+    }
+    fn train(&self, t: &Training<'_>, observer: &Observer) -> Result<CorrectorModel, String> {
+        let fit = t.fit(self.0, observer)?;
+        Ok(CorrectorModel::Physical(Box::new(PhysicalCorrector {
+            sensor: fit.sensor,
+            gravity_mps2: t.joint.gravity_mps2,
+            input_range_mps2: input_range(&t.runs, &t.poses),
+        })))
+    }
+}
+
+/// Samples per run used to fit the 12-parameter map (evenly spaced); enough for 12 unknowns.
+const LINEAR_SAMPLES_PER_RUN: usize = 4000;
+
+struct LinearCandidate;
+
+impl Candidate for LinearCandidate {
+    fn kind(&self) -> CandidateKind {
+        CandidateKind::Linear
+    }
+    fn train(&self, t: &Training<'_>, observer: &Observer) -> Result<CorrectorModel, String> {
+        // The reference is the full physical fit's specific force.
+        let fit = t.fit(t.joint.terms, observer)?;
+        // Normal equations of f_k = c_k + Σ_j A_kj m_j, rows weighted equally per sample; a
+        // pose's mean counts as many samples as it averages (capped like a run).
+        let mut ata = [[0.0f64; 4]; 4];
+        let mut atb = [[0.0f64; 4]; 3];
+        let mut add = |m: [f64; 3], f: [f64; 3], w: f64| {
+            let x = [m[0], m[1], m[2], 1.0];
+            for a in 0..4 {
+                for b in 0..4 {
+                    ata[a][b] += w * x[a] * x[b];
+                }
+                for k in 0..3 {
+                    atb[k][a] += w * x[a] * f[k];
+                }
+            }
+        };
+        for (i, run) in t.runs.iter().enumerate() {
+            let reference = fit.run_reference(i, &run.time_s);
+            let step = (run.time_s.len() / LINEAR_SAMPLES_PER_RUN).max(1);
+            for s in (0..run.time_s.len()).step_by(step) {
+                if run.keep[s] {
+                    let m = [run.accel_mps2[0][s], run.accel_mps2[1][s], run.accel_mps2[2][s]];
+                    add(m, [reference[0][s], reference[1][s], reference[2][s]], 1.0);
+                }
+            }
+        }
+        for (p, pose) in t.poses.iter().enumerate() {
+            let w = pose.samples.min(LINEAR_SAMPLES_PER_RUN) as f64;
+            add(pose.mean_mps2, fit.poses[p].specific_force_mps2, w);
+        }
+        let a = faer::Mat::from_fn(4, 4, |i, j| ata[i][j]);
+        let lu = a.partial_piv_lu();
+        let mut matrix = vec![vec![0.0; 3]; 3];
+        let mut offset = vec![0.0; 3];
+        for k in 0..3 {
+            let rhs = faer::Mat::from_fn(4, 1, |i, _| atb[k][i]);
+            let x = faer::prelude::Solve::solve(&lu, &rhs);
+            for j in 0..3 {
+                matrix[k][j] = x[(j, 0)];
+            }
+            offset[k] = x[(3, 0)];
+        }
+        if matrix.iter().flatten().chain(&offset).any(|v| !v.is_finite()) {
+            return Err("the 12-parameter map is singular on this training set (too few distinct orientations)".into());
+        }
+        Ok(CorrectorModel::Linear(Box::new(LinearModel {
+            axes: Axis::ALL.to_vec(),
+            offset_mps2: offset,
+            matrix,
+            training: None,
+        })))
+    }
+}
+
+fn candidate(kind: CandidateKind) -> Box<dyn Candidate + Sync> {
+    match kind {
+        CandidateKind::Physical => Box::new(PhysicalCandidate(SensorTerms::ALL, kind)),
+        CandidateKind::PhysicalLinear => Box::new(PhysicalCandidate(SensorTerms::LINEAR, kind)),
+        CandidateKind::Linear => Box::new(LinearCandidate),
+    }
+}
+
+/// The held-out groups: each speed, radius and mounting among the runs (when the campaign has more
+/// than one), and the still poses in three groups.
+pub fn conditions(prepared: &Prepared) -> Vec<Condition> {
+    let mut out = Vec::new();
+    let runs = &prepared.runs;
+    let mut group = |label_of: &dyn Fn(&RunInput) -> String| {
+        let mut labels: Vec<String> = runs.iter().map(label_of).collect();
+        labels.sort();
+        labels.dedup();
+        if labels.len() < 2 {
+            return;
+        }
+        for label in labels {
+            let members: Vec<usize> = (0..runs.len()).filter(|&i| label_of(&runs[i]) == label).collect();
+            if out.iter().any(|c: &Condition| c.runs == members && c.poses.is_empty()) {
+                continue;
+            }
+            out.push(Condition {
+                label,
+                runs: members,
+                poses: Vec::new(),
+            });
+        }
+    };
+    group(&|r| format!("speed {:.1} rpm", r.entry.rpm));
+    group(&|r| format!("radius {:.3} m", r.entry.radius_m));
+    group(&|r| format!("mounting out {}, up {}", r.entry.out.name(), r.entry.up.name()));
+    let n_poses = prepared.poses.len();
+    if n_poses >= 3 {
+        let groups = 3.min(n_poses / 2).max(1);
+        for g in 0..groups {
+            let members: Vec<usize> = (g..n_poses).step_by(groups).collect();
+            let names: Vec<String> = members.iter().map(|p| (p + 1).to_string()).collect();
+            out.push(Condition {
+                label: format!("poses {}", names.join(", ")),
+                runs: Vec::new(),
+                poses: members,
+            });
+        }
+    }
+    out
+}
+
+/// RMS per axis of `a − b` over the samples where `use_sample` holds.
+fn rms3(a: &[Vec<f64>; 3], b: &[Vec<f64>; 3], range: std::ops::Range<usize>, keep: impl Fn(usize) -> bool) -> ([f64; 3], usize) {
+    let mut sums = [0.0; 3];
+    let mut n = 0;
+    for s in range {
+        if !keep(s) {
+            continue;
+        }
+        for k in 0..3 {
+            let d = a[k][s] - b[k][s];
+            sums[k] += d * d;
+        }
+        n += 1;
+    }
+    (sums.map(|v| (v / n.max(1) as f64).sqrt()), n)
+}
+
+/// The held-out recordings' signals after a corrector (identity for `None`).
+fn apply_corrector(corrector: Option<&CorrectorModel>, accel: &[Vec<f64>; 3]) -> ([Vec<f64>; 3], Vec<bool>) {
+    let n = accel[0].len();
+    match corrector {
+        None => (accel.clone(), vec![true; n]),
+        Some(c) => {
+            let mut stream = c.stream();
+            let mut out = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+            let mut valid = vec![true; n];
+            for s in 0..n {
+                let r = stream.correct_sample([accel[0][s], accel[1][s], accel[2][s]]);
+                for k in 0..3 {
+                    out[k][s] = r.accel_mps2[k];
+                }
+                valid[s] = r.valid;
+            }
+            (out, valid)
+        }
+    }
+}
+
+/// Error of a corrector (or none) on the held-out condition, per axis, with the floor when known.
+fn score(
+    corrector: Option<&CorrectorModel>,
+    condition: &Condition,
+    prepared: &Prepared,
+    units: &[UnitRecording],
+    joint: &JointSettings,
+) -> Result<([f64; 3], Option<[f64; 3]>, &'static str), String> {
+    let mut sums = [0.0; 3];
+    let mut floor_sums = [0.0; 3];
+    let mut floor_known = true;
+    let mut count = 0usize;
+    let mut against = "truth";
+    let mut add = |rms: [f64; 3], n: usize, floor: Option<[f64; 3]>| {
+        for k in 0..3 {
+            sums[k] += rms[k] * rms[k] * n as f64;
+        }
+        match floor {
+            Some(f) => {
+                for k in 0..3 {
+                    floor_sums[k] += f[k] * f[k] * n as f64;
+                }
+            }
+            None => floor_known = false,
+        }
+        count += n;
+    };
+    for &i in &condition.runs {
+        let run = &prepared.runs[i];
+        let unit = &units[prepared.run_origin[i]];
+        let (corrected, valid) = apply_corrector(corrector, &run.accel_mps2);
+        let keep = |s: usize| run.keep[s] && valid[s];
+        match &unit.truth {
+            Some(truth) => {
+                let (rms, n) = rms3(&corrected, truth, 0..run.time_s.len(), keep);
+                add(rms, n, unit.floor_mps2);
+            }
+            None => {
+                against = "refit";
+                let mut refit_run = run.clone();
+                refit_run.accel_mps2 = corrected;
+                for s in 0..refit_run.keep.len() {
+                    refit_run.keep[s] = keep(s);
+                }
+                let settings = JointSettings {
+                    terms: SensorTerms::NONE,
+                    ..joint.clone()
+                };
+                let fit = fit_joint(std::slice::from_ref(&refit_run), &[], &settings, &crate::progress::silent)
+                    .map_err(|e| e.to_string())?;
+                let n = fit.runs[0].samples_used;
+                add(fit.runs[0].residual_rms_mps2, n, None);
+            }
+        }
+    }
+    for &p in &condition.poses {
+        let origin = &prepared.pose_origin[p];
+        let unit = &units[origin.recording];
+        let accel = &unit.recording.accel_mps2;
+        let window: [Vec<f64>; 3] = std::array::from_fn(|k| accel[k][origin.start..origin.end].to_vec());
+        let (corrected, valid) = apply_corrector(corrector, &window);
+        let len = origin.end - origin.start;
+        match &unit.truth {
+            Some(truth) => {
+                let t: [Vec<f64>; 3] = std::array::from_fn(|k| truth[k][origin.start..origin.end].to_vec());
+                let (rms, n) = rms3(&corrected, &t, 0..len, |s| valid[s]);
+                add(rms, n, unit.floor_mps2);
+            }
+            None => {
+                // The pose's own best explanation: |mean| = g along its fitted direction.
+                against = "refit";
+                let n = valid.iter().filter(|&&v| v).count().max(1);
+                let mean: [f64; 3] = std::array::from_fn(|k| {
+                    (0..len).filter(|&s| valid[s]).map(|s| corrected[k][s]).sum::<f64>() / n as f64
+                });
+                let norm = (mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2]).sqrt();
+                let g = joint.gravity_mps2;
+                let residual: [f64; 3] = std::array::from_fn(|k| mean[k] - g * mean[k] / norm.max(f64::MIN_POSITIVE));
+                add(residual.map(f64::abs), 1, None);
+            }
+        }
+    }
+    if count == 0 {
+        return Err("no usable samples".into());
+    }
+    let rms = sums.map(|v| (v / count as f64).sqrt());
+    let floor = floor_known.then(|| floor_sums.map(|v| (v / count as f64).sqrt()));
+    Ok((rms, floor, against))
+}
+
+fn combined(rms: [f64; 3]) -> f64 {
+    ((rms[0] * rms[0] + rms[1] * rms[1] + rms[2] * rms[2]) / 3.0).sqrt()
+}
+
+fn subset<T: Clone>(items: &[T], skip: &[usize]) -> Vec<T> {
+    items
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !skip.contains(i))
+        .map(|(_, v)| v.clone())
+        .collect()
+}
+
+fn check_settings(settings: &CampaignSettings) -> Result<(), CampaignCalError> {
+    if settings.candidates.is_empty() {
+        return Err(CampaignCalError::Setting {
+            name: "candidates",
+            why: "at least one corrector kind must be compared".into(),
+        });
+    }
+    let t = settings.determined_tolerance_mps2;
+    if !(t.is_finite() && t > 0.0) {
+        return Err(CampaignCalError::Setting {
+            name: "determined_tolerance_mps2",
+            why: format!("{t}: must be positive"),
+        });
+    }
+    let j = &settings.joint;
+    for (name, v) in [
+        ("gravity_mps2", j.gravity_mps2),
+        ("bias_instability_mps2", j.bias_instability_mps2),
+        ("mount_tilt_rad", j.mount_tilt_rad),
+        ("block_s", j.block_s),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(CampaignCalError::Setting {
+                name,
+                why: format!("{v}: must be positive"),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Calibrates a unit from its recordings.
+pub fn calibrate_campaign(
+    unit: &str,
+    units: &[UnitRecording],
+    settings: &CampaignSettings,
+    observer: &Observer,
+) -> Result<CampaignOutput, CampaignCalError> {
+    let started = Instant::now();
+    check_settings(settings)?;
+    let prepared = prepare(units)?;
+    observer(Progress::step("joint fit", 0, Some(1)));
+    let joint = fit_joint(&prepared.runs, &prepared.poses, &settings.joint, observer)?;
+    let g = settings.joint.gravity_mps2;
+    let undetermined = joint.undetermined(g, settings.determined_tolerance_mps2);
+    let conditions = conditions(&prepared);
+    let candidates: Vec<Box<dyn Candidate + Sync>> = settings.candidates.iter().map(|&k| candidate(k)).collect();
+
+    // Conditions are independent: in parallel, collected in order (the same result on any
+    // number of threads).
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let total = conditions.len();
+    let per_condition: Vec<Vec<HeldOutScore>> = conditions
+        .par_iter()
+        .map(|condition| {
+            let training = Training::new(
+                subset(&prepared.runs, &condition.runs),
+                subset(&prepared.poses, &condition.poses),
+                &settings.joint,
+            );
+            let (uncorrected, floor, against) =
+                score(None, condition, &prepared, units, &settings.joint).unwrap_or(([f64::NAN; 3], None, "refit"));
+            let rows = candidates
+                .iter()
+                .map(|cand| {
+                    let trained = cand.train(&training, &crate::progress::silent);
+                    let (rms, note) = match trained {
+                        Ok(model) => match score(Some(&model), condition, &prepared, units, &settings.joint) {
+                            Ok((rms, _, _)) => (Some(rms), None),
+                            Err(e) => (None, Some(format!("scoring failed: {e}"))),
+                        },
+                        Err(e) => (None, Some(format!("training failed: {e}"))),
+                    };
+                    HeldOutScore {
+                        condition: condition.label.clone(),
+                        candidate: cand.kind().name().to_string(),
+                        rms_mps2: rms,
+                        uncorrected_rms_mps2: uncorrected,
+                        floor_mps2: floor,
+                        against: against.to_string(),
+                        note,
+                    }
+                })
+                .collect();
+            let finished = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            observer(Progress::step("held-out conditions", finished, Some(total)));
+            rows
+        })
+        .collect();
+    let held_out: Vec<HeldOutScore> = per_condition.into_iter().flatten().collect();
+
+    let summaries: Vec<CandidateSummary> = candidates
+        .iter()
+        .map(|cand| summarise(cand.kind(), &held_out, conditions.len()))
+        .collect();
+    let best = summaries
+        .iter()
+        .filter(|s| s.eligible)
+        .min_by(|a, b| a.mean_rms_mps2.unwrap_or(f64::INFINITY).total_cmp(&b.mean_rms_mps2.unwrap_or(f64::INFINITY)));
+    let (saved, verdict) = match best {
+        Some(best) => {
+            let kind = settings
+                .candidates
+                .iter()
+                .copied()
+                .find(|k| k.name() == best.candidate)
+                .unwrap_or(CandidateKind::PhysicalLinear);
+            let training = Training::new(prepared.runs.clone(), prepared.poses.clone(), &settings.joint);
+            observer(Progress::step("final training", 0, Some(1)));
+            match candidate(kind).train(&training, observer) {
+                Ok(model) => {
+                    let verdict = format!(
+                        "Saved {} ({}): the lowest error on held-out conditions ({:.4} m/s² mean RMS over {} conditions, at worst {:.2}× the uncorrected error), trained on every recording of the campaign.",
+                        kind.name(),
+                        kind.describe(),
+                        best.mean_rms_mps2.unwrap_or(f64::NAN),
+                        conditions.len(),
+                        best.worst_ratio_to_uncorrected.unwrap_or(f64::NAN)
+                    );
+                    (Some(CorrectorFile::new(model)), verdict)
+                }
+                Err(e) => (None, format!("Nothing saved: the final training of {} failed: {e}", kind.name())),
+            }
+        }
+        None if conditions.is_empty() => (None, no_conditions_verdict(&prepared, &undetermined)),
+        None => (
+            None,
+            format!(
+                "Nothing saved: every candidate is worse than no correction on at least one held-out condition ({}).",
+                summaries
+                    .iter()
+                    .map(|s| format!("{}: {}", s.candidate, s.why_not.as_deref().unwrap_or("?")))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ),
+        ),
+    };
+    let saved_name = saved.as_ref().and(best).map(|b| b.candidate.clone());
+    Ok(CampaignOutput {
+        result: CampaignResult {
+            unit: unit.to_string(),
+            recordings: units.iter().map(|u| u.name.clone()).collect(),
+            joint,
+            undetermined,
+            conditions,
+            held_out,
+            candidates: summaries,
+            saved: saved_name,
+            verdict,
+            seconds_total: started.elapsed().as_secs_f64(),
+        },
+        saved,
+    })
+}
+
+fn no_conditions_verdict(prepared: &Prepared, undetermined: &[(String, String)]) -> String {
+    let mut next = vec![
+        "a turntable run at a second speed or radius (e.g. 45 rpm, or the sensor at another radius)".to_string(),
+    ];
+    if prepared.poses.len() < 6 {
+        next.push("six still poses (each face up in turn, a few seconds each)".into());
+    }
+    for (_, advice) in undetermined.iter().take(3) {
+        if !next.contains(advice) {
+            next.push(advice.clone());
+        }
+    }
+    format!(
+        "Nothing saved: with no second condition to hold out, no corrector can be shown to hold on data it never saw. Record next: {}.",
+        next.join("; ")
+    )
+}
+
+fn summarise(kind: CandidateKind, held_out: &[HeldOutScore], n_conditions: usize) -> CandidateSummary {
+    let rows: Vec<&HeldOutScore> = held_out.iter().filter(|h| h.candidate == kind.name()).collect();
+    let mut why_not = None;
+    let mut sum = 0.0;
+    let mut worst: Option<f64> = None;
+    for row in &rows {
+        match row.rms_mps2 {
+            None => {
+                why_not.get_or_insert(format!("not trained for \"{}\"", row.condition));
+            }
+            Some(rms) => {
+                sum += combined(rms);
+                let ratio = combined(rms) / combined(row.uncorrected_rms_mps2);
+                worst = Some(worst.map_or(ratio, |w: f64| w.max(ratio)));
+                if !(ratio <= 1.0) {
+                    why_not.get_or_insert(format!("{:.2}× the uncorrected error on \"{}\"", ratio, row.condition));
+                }
+            }
+        }
+    }
+    let complete = rows.len() == n_conditions && n_conditions > 0 && rows.iter().all(|r| r.rms_mps2.is_some());
+    if n_conditions == 0 {
+        why_not = Some("no held-out condition".into());
+    }
+    CandidateSummary {
+        candidate: kind.name().to_string(),
+        description: kind.describe().to_string(),
+        mean_rms_mps2: complete.then(|| sum / n_conditions as f64),
+        worst_ratio_to_uncorrected: worst,
+        eligible: complete && why_not.is_none(),
+        why_not,
+    }
+}
