@@ -1,0 +1,118 @@
+//! `spincal simulate --campaign` and `spincal calibrate --campaign` from the outside: files,
+//! exit codes, located errors, and a physical corrector applied by `correct`.
+
+use assert_cmd::Command;
+
+fn spincal() -> Command {
+    Command::cargo_bin("spincal").unwrap()
+}
+
+#[test]
+fn simulated_campaign_calibrates_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let unit = dir.path().join("unit");
+    spincal()
+        .args(["simulate", "--seed", "4", "--campaign"])
+        .arg(&unit)
+        .assert()
+        .success();
+    let campaign = unit.join("campaign.toml");
+    assert!(campaign.exists());
+    let out = dir.path().join("cal");
+    let run = spincal()
+        .args(["calibrate", "--campaign"])
+        .arg(&campaign)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(stdout.contains("held-out condition"), "{stdout}");
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let saved = results["saved"].as_str();
+    assert_eq!(out.join("model.json").exists(), saved.is_some());
+    assert!(results["verdict"].as_str().unwrap().len() > 20);
+    assert_eq!(results["held_out"][0]["against"], "truth");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("Verdict"));
+
+    // A second simulation into the same folder refuses, and leaves the first untouched.
+    let before = std::fs::read(&campaign).unwrap();
+    let again = spincal()
+        .args(["simulate", "--seed", "5", "--campaign"])
+        .arg(&unit)
+        .output()
+        .unwrap();
+    assert_eq!(again.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&again.stderr).contains("already exists"));
+    assert_eq!(std::fs::read(&campaign).unwrap(), before);
+}
+
+#[test]
+fn a_bad_campaign_entry_is_named_by_file_line_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("c.toml");
+    std::fs::write(
+        &file,
+        "unit = \"u\"\n[[recording]]\nfile = \"r.csv\"\nkind = \"turntable\"\nrpm = 33.3\nradius_m = -0.1\nradius_tol_m = 0.002\nout = \"+x\"\nup = \"+z\"\n",
+    )
+    .unwrap();
+    let run = spincal()
+        .args(["calibrate", "--campaign"])
+        .arg(&file)
+        .arg("--out")
+        .arg(dir.path().join("out"))
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("c.toml:6: `radius_m`"), "{stderr}");
+
+    // A missing recording names the campaign line and the file.
+    std::fs::write(&file, "[[recording]]\nfile = \"missing.csv\"\nkind = \"static\"\n").unwrap();
+    let run = spincal()
+        .args(["calibrate", "--campaign"])
+        .arg(&file)
+        .arg("--out")
+        .arg(dir.path().join("out"))
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("c.toml:1: `file`") && stderr.contains("missing.csv"), "{stderr}");
+}
+
+#[test]
+fn correct_applies_a_physical_corrector_to_every_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("model.json");
+    std::fs::write(
+        &model,
+        r#"{"format_version": 1, "spincal_version": "test", "corrector": {"kind": "physical",
+            "sensor": {"bias_mps2": [0.1, -0.2, 0.05], "scale_error": [0.01, 0.0, -0.01],
+                       "misalignment_rad": [0.0, 0.0, 0.0], "quadratic_per_mps2": [0.0, 0.0, 0.0]},
+            "gravity_mps2": 9.80665, "input_range_mps2": [[-10, 10], [-10, 10], [-10, 10]]}}"#,
+    )
+    .unwrap();
+    let input = dir.path().join("in.csv");
+    std::fs::write(&input, "t_s,ax_mps2,ay_mps2,az_mps2\n0,1.11,-0.2,9.75\n0.01,0.1,0.8,9.6\n").unwrap();
+    let out = dir.path().join("out.csv");
+    spincal()
+        .arg("correct")
+        .arg(&input)
+        .arg("--model")
+        .arg(&model)
+        .arg("-o")
+        .arg(&out)
+        .assert()
+        .success();
+    let text = std::fs::read_to_string(&out).unwrap();
+    let rows: Vec<&str> = text.lines().skip(1).collect();
+    assert_eq!(rows.len(), 2, "{text}");
+    // ax_mps2_corrected = (1.11 − 0.1) / 1.01 = 1.0.
+    assert!(text.starts_with("t_s,ax_mps2,ay_mps2,az_mps2,ax_mps2_corrected,"), "{text}");
+    let x: f64 = rows[0].split(',').nth(4).unwrap().parse().unwrap();
+    assert!((x - 1.0).abs() < 1e-9, "{text}");
+}
