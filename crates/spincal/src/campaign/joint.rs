@@ -16,7 +16,9 @@
 //!
 //! Every residual is divided by its noise (per run and axis; the mean's standard error for a
 //! pose), and priors enter as residuals: (r − r_nominal)/tolerance and δ/σ_bias (bias
-//! instability between recordings) and ε/σ_mount (how flat the sensor sits). The normal equations are accumulated per sample, never a
+//! instability between recordings), ε/σ_mount (how flat the sensor sits) and, for each free sensor
+//! term, its value over a datasheet-sized width (bias 0.5 m/s², scale 0.02, misalignment 0.02 rad,
+//! nonlinearity 10⁻³ /(m/s²)). The normal equations are accumulated per sample, never a
 //! stored Jacobian, so memory is the recordings plus an n × n matrix.
 //!
 //! Standard errors are the sandwich H⁻¹ S H⁻¹ with S from scores summed over blocks of
@@ -148,6 +150,9 @@ pub struct JointSettings {
     pub bias_instability_mps2: f64,
     /// Standard deviation of the sensor's tilt on its mount (how flat it sits), rad.
     pub mount_tilt_rad: f64,
+    /// Prior standard deviations of the sensor terms about zero: bias (m/s²), scale error,
+    /// misalignment (rad), quadratic nonlinearity (1/(m/s²)).
+    pub sensor_prior_sd: [f64; 4],
     pub terms: SensorTerms,
     /// Length of the blocks whose scores form the robust covariance, s.
     pub block_s: f64,
@@ -160,6 +165,7 @@ impl Default for JointSettings {
             gravity_mps2: crate::input::recording::STANDARD_GRAVITY,
             bias_instability_mps2: 0.003 * crate::input::recording::STANDARD_GRAVITY,
             mount_tilt_rad: 2f64.to_radians(),
+            sensor_prior_sd: [0.5, 0.02, 0.02, 1e-3],
             terms: SensorTerms::ALL,
             block_s: 5.0,
             max_iterations: 100,
@@ -501,6 +507,9 @@ pub(crate) struct JointProblem<'a> {
     pub gravity: f64,
     pub bias_sigma: f64,
     pub mount_tilt_sigma: f64,
+    /// Prior widths of bias, scale, misalignment and nonlinearity.
+    pub sensor_prior_sd: [f64; 4],
+    pub sensor_free: [bool; SENSOR_PARAMS],
     pub directions: Vec<f64>,
     pub mountings: Vec<M3>,
     pub pose_frames: Vec<PoseFrame>,
@@ -834,6 +843,25 @@ impl JointProblem<'_> {
                 Want::Sse => {}
             }
         }
+        // Weak priors on the sensor's terms (0 ± a datasheet-sized width): where the campaign says
+        // nothing they keep a term near zero instead of wandering; where it speaks they are
+        // negligible.
+        for k in 0..SENSOR_PARAMS {
+            if !self.sensor_free[k] {
+                continue;
+            }
+            let sigma = self.sensor_prior_sd[k / 3];
+            let r = p[k] / sigma;
+            sse += r * r;
+            match &mut want {
+                Want::Sse => {}
+                Want::Normal(jtj, jtr) => {
+                    jtj[(k, k)] += 1.0 / (sigma * sigma);
+                    jtr[k] += r / sigma;
+                }
+                Want::Meat(meat) => meat[(k, k)] += 1.0 / (sigma * sigma),
+            }
+        }
         // Each still session's bias offset within the instability.
         for session in 0..sessions(self.poses) {
             let so = session_offset(n_runs, n_poses, session);
@@ -1072,6 +1100,8 @@ pub fn fit_joint(
         gravity: g,
         bias_sigma: settings.bias_instability_mps2,
         mount_tilt_sigma: settings.mount_tilt_rad,
+        sensor_prior_sd: settings.sensor_prior_sd,
+        sensor_free: std::array::from_fn(|k| settings.terms.free(k)),
         directions,
         mountings,
         pose_frames: poses.iter().map(|p| PoseFrame::new(p.mean_mps2)).collect(),

@@ -1,0 +1,310 @@
+//! Speed benchmark of the joint campaign fit (tracker issue 13) against a scipy peer
+//! (`bench/campaign/scipy_joint.py`).
+//!
+//! Usage: `joint_fit_bench SEED OUT_DIR [REPETITIONS]`
+//!
+//! Simulates a campaign of 6 still poses and the default 4 turntable runs at 2 minutes each
+//! (100 Hz), cuts it into the fit's inputs with `campaign::prepare`, and writes for the peer
+//! `OUT_DIR/problem.json`: every run's samples, keep mask and nominal entry, every pose, the
+//! settings, the mounting matrices, the rotation senses and the fit's starting vector. It then
+//! times `fit_joint` (one warm-up call, then REPETITIONS calls: best and median) and writes
+//! `OUT_DIR/spincal_fit.json` with every fitted parameter the public API exposes.
+//!
+//! What is not reachable from outside the crate: the starting vector (`run_start`, private), the
+//! weights of the second pass (`JointProblem::run_sigma`/`pose_sigma`, pub(crate)) and the still
+//! session's bias offset and drift (only in the pub(crate) `FitState`). The starting vector is
+//! therefore recomputed here by the procedure `campaign::joint` documents and implements (a
+//! demodulation scan within ±25 % of the nominal rate, golden-section refinement, start geometry
+//! from the demodulated amplitude and phase); the first pass's weights (first-difference noise) are
+//! written too. The peer then does what `fit_joint` does: solve with those weights, reweight from
+//! the residuals (per run and axis; a variance component per still session), solve again.
+//!
+//! Run single-threaded (RAYON_NUM_THREADS=1, `taskset -c 1`); `fit_joint` itself does not use
+//! rayon, faer is built without it.
+
+use std::f64::consts::PI;
+use std::time::Instant;
+
+use serde_json::{json, Value};
+use spincal::campaign::joint::{fit_joint, mounting_matrix, JointSettings, RunInput, RUN_PARAMS};
+use spincal::campaign::prepare::{prepare, UnitRecording};
+use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
+
+type M3 = [[f64; 3]; 3];
+
+fn mid_time(t: &[f64]) -> f64 {
+    match (t.first(), t.last()) {
+        (Some(a), Some(b)) => 0.5 * (a + b),
+        _ => 0.0,
+    }
+}
+
+/// The rotation rate and sense that best demodulate the horizontal readings: the same scan and
+/// golden-section refinement `campaign::joint::demodulate` documents. Returns (ω, σ, G, ψ).
+fn demodulate(time_s: &[f64], horizontal: &[[f64; 2]], nominal: f64) -> (f64, f64, f64, f64) {
+    let n = horizontal.len().max(1) as f64;
+    let mid = mid_time(time_s);
+    let mean = [0, 1].map(|c| horizontal.iter().map(|h| h[c]).sum::<f64>() / n);
+    let amplitude = |w: f64, sigma: f64| -> (f64, f64) {
+        let (mut re, mut im) = (0.0, 0.0);
+        for (h, &t) in horizontal.iter().zip(time_s) {
+            let (x, y) = (h[0] - mean[0], h[1] - mean[1]);
+            let (sn, cs) = (sigma * w * (t - mid)).sin_cos();
+            re += x * cs - y * sn;
+            im += x * sn + y * cs;
+        }
+        ((re * re + im * im).sqrt() / n, im.atan2(re))
+    };
+    let span = match (time_s.first(), time_s.last()) {
+        (Some(a), Some(b)) if b > a => b - a,
+        _ => 1.0,
+    };
+    let step = 0.5 / span;
+    let (lo, hi) = (0.75 * nominal, 1.25 * nominal);
+    let mut best = (0.0, nominal, 1.0);
+    for sigma in [1.0, -1.0] {
+        let mut w = lo;
+        while w <= hi {
+            let a = amplitude(w, sigma).0;
+            if a > best.0 {
+                best = (a, w, sigma);
+            }
+            w += step;
+        }
+    }
+    let (_, w0, sigma) = best;
+    let (mut a, mut b) = (w0 - step, w0 + step);
+    let ratio = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..40 {
+        let c = b - ratio * (b - a);
+        let d = a + ratio * (b - a);
+        if amplitude(c, sigma).0 > amplitude(d, sigma).0 {
+            b = d;
+        } else {
+            a = c;
+        }
+    }
+    let w = 0.5 * (a + b);
+    let (g, psi) = amplitude(w, sigma);
+    (w, sigma, g, psi)
+}
+
+/// A run's starting geometry and rotation sense, as `campaign::joint` forms them.
+fn run_start(run: &RunInput, q: &M3, gravity: f64) -> ([f64; RUN_PARAMS], f64) {
+    let mut time = Vec::new();
+    let mut horizontal = Vec::new();
+    for (s, &t) in run.time_s.iter().enumerate() {
+        if !run.keep[s] {
+            continue;
+        }
+        let a = [run.accel_mps2[0][s], run.accel_mps2[1][s], run.accel_mps2[2][s]];
+        let m: [f64; 3] = std::array::from_fn(|c| (0..3).map(|r| q[r][c] * a[r]).sum());
+        time.push(t);
+        horizontal.push([m[0], m[1]]);
+    }
+    let nominal = run.entry.rpm * 2.0 * PI / 60.0;
+    let (w, found_sigma, amplitude, psi) = demodulate(&time, &horizontal, nominal);
+    let sigma = run.entry.direction.map_or(found_sigma, |d| d.sign());
+    let n = horizontal.len().max(1) as f64;
+    let cx = horizontal.iter().map(|h| h[0]).sum::<f64>() / n;
+    let cy = horizontal.iter().map(|h| h[1]).sum::<f64>() / n;
+    let tilt = (amplitude / gravity).clamp(0.0, 0.5).asin();
+    let beta = if (cx * cx + cy * cy).sqrt() > 1e-3 {
+        (-cy).atan2(-cx)
+    } else {
+        0.0
+    };
+    let mut start = [0.0; RUN_PARAMS];
+    start[0] = run.entry.radius_m;
+    start[1] = w;
+    start[2] = tilt.max(1e-4);
+    start[3] = psi - beta;
+    start[4] = beta;
+    (start, sigma)
+}
+
+/// White-noise level per axis from first differences (the first pass's weights).
+fn difference_noise(run: &RunInput) -> [f64; 3] {
+    std::array::from_fn(|k| {
+        let a = &run.accel_mps2[k];
+        let (mut sum, mut n) = (0.0f64, 0.0f64);
+        for s in 1..a.len() {
+            if run.keep[s] && run.keep[s - 1] {
+                let d = a[s] - a[s - 1];
+                sum += d * d;
+                n += 1.0;
+            }
+        }
+        (sum / n.max(1.0) / 2.0).sqrt().max(1e-6)
+    })
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let usage = "usage: joint_fit_bench SEED OUT_DIR [REPETITIONS]";
+    let seed: u64 = args.next().expect(usage).parse().expect(usage);
+    let out_dir = std::path::PathBuf::from(args.next().expect(usage));
+    let reps: usize = args.next().map_or(5, |s| s.parse().expect(usage)).max(1);
+    std::fs::create_dir_all(&out_dir).expect("cannot create the output directory");
+
+    let mut setup = CampaignSetup {
+        poses: 6,
+        ..CampaignSetup::default()
+    };
+    for run in &mut setup.runs {
+        run.duration_s = 120.0;
+    }
+    let sim = simulate_campaign(&setup, seed).expect("simulation");
+    let units: Vec<UnitRecording> = sim
+        .recordings
+        .iter()
+        .map(|r| UnitRecording {
+            name: r.name.clone(),
+            recording: r.recording.clone(),
+            turntable: r.turntable.clone(),
+            truth: None,
+            floor_mps2: None,
+        })
+        .collect();
+    let prep = prepare(&units).expect("prepare");
+    let settings = JointSettings::default();
+    let g = settings.gravity_mps2;
+
+    // The starting vector (sensor 12, then 15 per run, 2 per pose, 6 per still session: all zero
+    // but the runs' geometry) and what the peer needs besides the data.
+    let n_sessions = prep.poses.iter().map(|p| p.session + 1).max().unwrap_or(0);
+    let n_params = 12 + RUN_PARAMS * prep.runs.len() + 2 * prep.poses.len() + 6 * n_sessions;
+    let mut start = vec![0.0; n_params];
+    let mut directions = Vec::new();
+    let mut mountings = Vec::new();
+    let t_start = Instant::now();
+    for (i, run) in prep.runs.iter().enumerate() {
+        let q = mounting_matrix(run.entry.out, run.entry.up);
+        let (s, sigma) = run_start(run, &q, g);
+        start[12 + RUN_PARAMS * i..12 + RUN_PARAMS * (i + 1)].copy_from_slice(&s);
+        directions.push(sigma);
+        mountings.push(q);
+    }
+    let start_s = t_start.elapsed().as_secs_f64();
+
+    let runs_json: Vec<Value> = prep
+        .runs
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            json!({
+                "name": r.name,
+                "time_s": r.time_s,
+                "accel_mps2": r.accel_mps2,
+                "keep": r.keep,
+                "rpm": r.entry.rpm,
+                "radius_m": r.entry.radius_m,
+                "radius_tol_m": r.entry.radius_tol_m,
+                "out": r.entry.out.name(),
+                "up": r.entry.up.name(),
+                "mounting": mountings[i],
+                "direction": directions[i],
+                "first_pass_sigma_mps2": difference_noise(r),
+            })
+        })
+        .collect();
+    let problem = json!({
+        "seed": seed,
+        "gravity_mps2": g,
+        "bias_instability_mps2": settings.bias_instability_mps2,
+        "mount_tilt_rad": settings.mount_tilt_rad,
+        "max_iterations": settings.max_iterations,
+        "lm": { "cost_tolerance": 1e-12, "step_tolerance": 1e-10 },
+        "layout": "12 sensor, 15 per run, 2 per pose, 6 per still session",
+        "n_params": n_params,
+        "start": start,
+        "runs": runs_json,
+        "poses": prep.poses,
+        "truth": sim.truth,
+    });
+    std::fs::write(out_dir.join("problem.json"), serde_json::to_vec(&problem).unwrap())
+        .expect("cannot write problem.json");
+
+    // Timing: one warm-up call, then `reps` calls.
+    let fit_once = || fit_joint(&prep.runs, &prep.poses, &settings, &spincal::progress::silent).expect("fit");
+    let warm = Instant::now();
+    let mut fit = fit_once();
+    let warm_s = warm.elapsed().as_secs_f64();
+    let mut times = Vec::with_capacity(reps);
+    for _ in 0..reps {
+        let t = Instant::now();
+        fit = std::hint::black_box(fit_once());
+        times.push(t.elapsed().as_secs_f64());
+    }
+    let best = times.iter().copied().fold(f64::INFINITY, f64::min);
+    let med = median(&mut times.clone());
+
+    // Every exposed parameter in the fit's layout order (the still session's 6 are not exposed).
+    let mut values = Vec::new();
+    let mut errors = Vec::new();
+    let mut names = Vec::new();
+    let mut push = |prefix: &str, p: &spincal::campaign::joint::JointParam| {
+        names.push(format!("{prefix}{}", p.name));
+        values.push(p.value);
+        errors.push(p.std_error);
+    };
+    for p in &fit.sensor_params {
+        push("sensor: ", p);
+    }
+    for (i, r) in fit.runs.iter().enumerate() {
+        for p in &r.params {
+            push(&format!("run {i}: "), p);
+        }
+    }
+    for (i, pose) in fit.poses.iter().enumerate() {
+        for p in &pose.params {
+            push(&format!("pose {i}: "), p);
+        }
+    }
+    let result = json!({
+        "seed": seed,
+        "names": names,
+        "values": values,
+        "std_errors": errors,
+        "chi2": fit.chi2,
+        "dof": fit.dof,
+        "iterations_both_passes": fit.iterations,
+        "stop": fit.stop,
+        "directions": fit.runs.iter().map(|r| r.direction).collect::<Vec<_>>(),
+        "residual_rms_mps2": fit.runs.iter().map(|r| r.residual_rms_mps2).collect::<Vec<_>>(),
+        "samples_used": fit.runs.iter().map(|r| r.samples_used).sum::<usize>(),
+        "pose_specific_force_mps2": fit.poses.iter().map(|p| p.specific_force_mps2).collect::<Vec<_>>(),
+        "timing": {
+            "repetitions": reps,
+            "warmup_s": warm_s,
+            "times_s": times,
+            "best_s": best,
+            "median_s": med,
+            "start_values_s_example_reimplementation": start_s,
+        },
+    });
+    std::fs::write(out_dir.join("spincal_fit.json"), serde_json::to_string_pretty(&result).unwrap())
+        .expect("cannot write spincal_fit.json");
+    println!("{}", serde_json::to_string_pretty(&result).unwrap());
+    eprintln!(
+        "spincal fit_joint: {} params, {} samples, {} iterations (both passes), stop {:?}, chi2 {:.6e}; best {:.4} s, median {:.4} s of {}",
+        n_params,
+        fit.runs.iter().map(|r| r.samples_used).sum::<usize>(),
+        fit.iterations,
+        fit.stop,
+        fit.chi2,
+        best,
+        med,
+        reps
+    );
+}
