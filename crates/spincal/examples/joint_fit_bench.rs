@@ -196,6 +196,34 @@ fn main() {
         mountings.push(q);
     }
     let start_s = t_start.elapsed().as_secs_f64();
+    // Check the recomputed start against spincal's own: with no iterations allowed, both passes
+    // return their starting point, so the fit's parameters are its starting vector.
+    let frozen = fit_joint(
+        &prep.runs,
+        &prep.poses,
+        &JointSettings {
+            max_iterations: 0,
+            ..settings.clone()
+        },
+        &spincal::progress::silent,
+    )
+    .expect("fit with no iterations");
+    let spincal_start: Vec<f64> = frozen
+        .sensor_params
+        .iter()
+        .chain(frozen.runs.iter().flat_map(|r| r.params.iter()))
+        .chain(frozen.poses.iter().flat_map(|p| p.params.iter()))
+        .map(|p| p.value)
+        .collect();
+    let start_mismatch = spincal_start
+        .iter()
+        .zip(&start)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f64, f64::max);
+    assert!(
+        start_mismatch == 0.0,
+        "the recomputed starting vector differs from fit_joint's by up to {start_mismatch:e}"
+    );
 
     let runs_json: Vec<Value> = prep
         .runs
@@ -221,9 +249,7 @@ fn main() {
     let problem = json!({
         "seed": seed,
         "gravity_mps2": g,
-        "bias_instability_mps2": settings.bias_instability_mps2,
-        "mount_tilt_rad": settings.mount_tilt_rad,
-        "max_iterations": settings.max_iterations,
+        "settings": settings,
         "lm": { "cost_tolerance": 1e-12, "step_tolerance": 1e-10 },
         "layout": "12 sensor, 15 per run, 2 per pose, 6 per still session",
         "n_params": n_params,
@@ -291,6 +317,7 @@ fn main() {
             "best_s": best,
             "median_s": med,
             "start_values_s_example_reimplementation": start_s,
+            "start_vector_matches_fit_joint": start_mismatch == 0.0,
         },
     });
     std::fs::write(out_dir.join("spincal_fit.json"), serde_json::to_string_pretty(&result).unwrap())

@@ -12,8 +12,18 @@ use spincal::AccelUnit;
 
 use crate::ui::{self, Ui, UsageError};
 
-/// Calibrates the unit a campaign file describes; writes into `out`.
+/// Calibrates the unit a campaign file describes; writes into `out` and prints the summary.
 pub fn calibrate(file: &Path, out: &Path, json: bool, ui: Ui) -> anyhow::Result<()> {
+    let output = calibrate_to(file, out, ui)?;
+    if json {
+        return ui::print_json(&output.result);
+    }
+    ui::print(&summary(&output, out))
+}
+
+/// Calibrates the unit a campaign file describes; writes results.json, report.html and (when a
+/// corrector held on every held-out condition) model.json into `out`.
+pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignOutput> {
     let campaign = Campaign::read_path(file).map_err(|e| UsageError(e.to_string()))?;
     let outputs = ["model.json", "results.json", "report.html"].map(|name| out.join(name));
     let mut inputs: Vec<&Path> = vec![file];
@@ -42,10 +52,7 @@ pub fn calibrate(file: &Path, out: &Path, json: bool, ui: Ui) -> anyhow::Result<
     }
     super::write_text(&out.join("results.json"), &(serde_json::to_string_pretty(&output.result)? + "\n"))?;
     super::write_text(&out.join("report.html"), &report_html(&output))?;
-    if json {
-        return ui::print_json(&output.result);
-    }
-    ui::print(&summary(&output, out))
+    Ok(output)
 }
 
 fn fmt3(v: &[f64; 3]) -> String {
@@ -161,8 +168,7 @@ pub fn report_html(output: &CampaignOutput) -> String {
     h
 }
 
-/// Writes a simulated campaign into `dir`: campaign.toml, one CSV per recording, its truth CSV and
-/// truth.json. Refuses to replace any file already there.
+/// Writes a simulated campaign into `dir` and says so.
 pub fn simulate(dir: &Path, seed: u64, setup_file: Option<&Path>, json: bool) -> anyhow::Result<()> {
     let setup = match setup_file {
         Some(path) => {
@@ -171,22 +177,7 @@ pub fn simulate(dir: &Path, seed: u64, setup_file: Option<&Path>, json: bool) ->
         }
         None => CampaignSetup::default(),
     };
-    let sim = simulate_campaign(&setup, seed).map_err(|e| UsageError(e.to_string()))?;
-    let mut targets = vec![dir.join("campaign.toml"), dir.join("truth.json")];
-    for r in &sim.recordings {
-        targets.push(dir.join(format!("{}.csv", r.name)));
-        targets.push(dir.join(format!("{}.truth.csv", r.name)));
-    }
-    if let Some(existing) = targets.iter().find(|p| p.exists()) {
-        return Err(UsageError(format!("{} already exists: spincal does not replace files in a campaign folder; choose an empty folder", existing.display())).into());
-    }
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    for (i, r) in sim.recordings.iter().enumerate() {
-        r.recording.write_csv_path(&dir.join(format!("{}.csv", r.name)), AccelUnit::Mps2)?;
-        sim.truth_recording(i).write_csv_path(&dir.join(format!("{}.truth.csv", r.name)), AccelUnit::Mps2)?;
-    }
-    super::write_text(&dir.join("truth.json"), &(serde_json::to_string_pretty(&sim.truth)? + "\n"))?;
-    super::write_text(&dir.join("campaign.toml"), &sim.campaign_toml())?;
+    let sim = write_simulated_campaign(dir, &setup, seed, false)?;
     if json {
         return ui::print_json(&serde_json::json!({
             "campaign": dir.join("campaign.toml"),
@@ -200,4 +191,31 @@ pub fn simulate(dir: &Path, seed: u64, setup_file: Option<&Path>, json: bool) ->
         setup.poses,
         setup.runs.len()
     ))
+}
+
+/// Writes campaign.toml, one CSV per recording, its truth CSV and truth.json into `dir`. Refuses
+/// to replace a file already there unless `replace_own` (the demo's own folder).
+pub fn write_simulated_campaign(
+    dir: &Path,
+    setup: &CampaignSetup,
+    seed: u64,
+    replace_own: bool,
+) -> anyhow::Result<spincal::simulate::campaign::SimulatedCampaign> {
+    let sim = simulate_campaign(setup, seed).map_err(|e| UsageError(e.to_string()))?;
+    let mut targets = vec![dir.join("campaign.toml"), dir.join("truth.json")];
+    for r in &sim.recordings {
+        targets.push(dir.join(format!("{}.csv", r.name)));
+        targets.push(dir.join(format!("{}.truth.csv", r.name)));
+    }
+    if let Some(existing) = targets.iter().find(|p| !replace_own && p.exists()) {
+        return Err(UsageError(format!("{} already exists: spincal does not replace files in a campaign folder; choose an empty folder", existing.display())).into());
+    }
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    for (i, r) in sim.recordings.iter().enumerate() {
+        r.recording.write_csv_path(&dir.join(format!("{}.csv", r.name)), AccelUnit::Mps2)?;
+        sim.truth_recording(i).write_csv_path(&dir.join(format!("{}.truth.csv", r.name)), AccelUnit::Mps2)?;
+    }
+    super::write_text(&dir.join("truth.json"), &(serde_json::to_string_pretty(&sim.truth)? + "\n"))?;
+    super::write_text(&dir.join("campaign.toml"), &sim.campaign_toml())?;
+    Ok(sim)
 }

@@ -1,4 +1,6 @@
-//! `spincal demo`: the default session simulated, then calibrated, with no input needed.
+//! `spincal demo`: a simulated unit calibrated from a campaign (still poses and turntable runs,
+//! correctors chosen on held-out conditions), then the paper's single-recording protocol on the
+//! default session, with no input needed.
 
 use std::path::PathBuf;
 
@@ -47,6 +49,16 @@ pub fn default_session() -> Vec<(String, TurntableSetup)> {
 
 pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    // The campaign first: its verdict is what a user should read first.
+    let campaign_dir = args.out.join("campaign");
+    super::campaign::write_simulated_campaign(
+        &campaign_dir,
+        &spincal::simulate::campaign::CampaignSetup::default(),
+        args.seed,
+        true,
+    )?;
+    let campaign_out = args.out.join("campaign-calibration");
+    let campaign = super::campaign::calibrate_to(&campaign_dir.join("campaign.toml"), &campaign_out, ui)?;
     let mut recordings = Vec::new();
     for (k, (name, table)) in default_session().into_iter().enumerate() {
         let sim = simulate(&SensorProfile::default(), &table, args.seed + k as u64)?;
@@ -80,9 +92,11 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
     if args.json {
         return ui::print_json(&output.result);
     }
-    ui::print(&summary(&output, &args.out))?;
+    ui::print(&format!("== Campaign (one unit: still poses and turntable runs) ==\n{}", super::campaign::summary(&campaign, &campaign_out)))?;
+    ui::print(&format!("\n== The paper's protocol (one recording, 60/20/20) ==\n{}", summary(&output, &args.out)))?;
     ui::print(&format!(
-        "open {}/report.html to read the whole story\n",
-        args.out.display()
+        "open {}/report.html (the paper's protocol) and {}/report.html (the campaign)\n",
+        args.out.display(),
+        campaign_out.display()
     ))
 }

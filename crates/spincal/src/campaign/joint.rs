@@ -1033,6 +1033,19 @@ pub fn fit_joint(
     settings: &JointSettings,
     observer: &Observer,
 ) -> Result<JointFit, JointError> {
+    fit_joint_from(runs, poses, settings, None, observer)
+}
+
+/// As [`fit_joint`], starting from another fit of the same runs and poses (its parameters, with
+/// the terms this fit does not estimate set to zero): a nested model then starts in the basin the
+/// larger one found.
+pub fn fit_joint_from(
+    runs: &[RunInput],
+    poses: &[PoseInput],
+    settings: &JointSettings,
+    start: Option<&JointFit>,
+    observer: &Observer,
+) -> Result<JointFit, JointError> {
     if runs.is_empty() && poses.is_empty() {
         return Err(JointError::Empty);
     }
@@ -1086,6 +1099,15 @@ pub fn fit_joint(
         let (start, direction) = run_start(run, &mountings[i], g);
         p[run_offset(i)..run_offset(i) + RUN_PARAMS].copy_from_slice(&start);
         directions.push(direction);
+    }
+    if let Some(previous) = start.filter(|f| f.state.params.len() == p.len()) {
+        p.copy_from_slice(&previous.state.params);
+        directions.clone_from(&previous.state.directions);
+        for k in 0..SENSOR_PARAMS {
+            if !settings.terms.free(k) {
+                p[k] = 0.0;
+            }
+        }
     }
     let block_samples = runs
         .iter()

@@ -15,7 +15,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::campaign::joint::{fit_joint, JointError, JointFit, JointSettings, PoseInput, RunInput, SensorTerms};
+use crate::campaign::joint::{fit_joint, fit_joint_from, JointError, JointFit, JointSettings, PoseInput, RunInput, SensorTerms};
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
 use crate::correctors::physical::PhysicalCorrector;
 use crate::correctors::corrector::{Axis, Corrector};
@@ -182,7 +182,9 @@ impl<'a> Training<'a> {
             terms,
             ..self.joint.clone()
         };
-        fit_joint(&self.runs, &self.poses, &settings, observer)
+        // A nested model starts where the full one ended.
+        let full = self.fit(self.joint.terms, observer).ok();
+        fit_joint_from(&self.runs, &self.poses, &settings, full.as_deref(), observer)
             .map(std::borrow::Cow::Owned)
             .map_err(|e| e.to_string())
     }
