@@ -71,7 +71,11 @@ fn a_bad_campaign_entry_is_named_by_file_line_and_key() {
     assert!(stderr.contains("c.toml:6: `radius_m`"), "{stderr}");
 
     // A missing recording names the campaign line and the file.
-    std::fs::write(&file, "[[recording]]\nfile = \"missing.csv\"\nkind = \"static\"\n").unwrap();
+    std::fs::write(
+        &file,
+        "[[recording]]\nfile = \"missing.csv\"\nkind = \"static\"\n",
+    )
+    .unwrap();
     let run = spincal()
         .args(["calibrate", "--campaign"])
         .arg(&file)
@@ -81,7 +85,10 @@ fn a_bad_campaign_entry_is_named_by_file_line_and_key() {
         .unwrap();
     assert_eq!(run.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(stderr.contains("c.toml:1: `file`") && stderr.contains("missing.csv"), "{stderr}");
+    assert!(
+        stderr.contains("c.toml:1: `file`") && stderr.contains("missing.csv"),
+        "{stderr}"
+    );
 }
 
 #[test]
@@ -97,7 +104,11 @@ fn correct_applies_a_physical_corrector_to_every_row() {
     )
     .unwrap();
     let input = dir.path().join("in.csv");
-    std::fs::write(&input, "t_s,ax_mps2,ay_mps2,az_mps2\n0,1.11,-0.2,9.75\n0.01,0.1,0.8,9.6\n").unwrap();
+    std::fs::write(
+        &input,
+        "t_s,ax_mps2,ay_mps2,az_mps2\n0,1.11,-0.2,9.75\n0.01,0.1,0.8,9.6\n",
+    )
+    .unwrap();
     let out = dir.path().join("out.csv");
     spincal()
         .arg("correct")
@@ -112,7 +123,10 @@ fn correct_applies_a_physical_corrector_to_every_row() {
     let rows: Vec<&str> = text.lines().skip(1).collect();
     assert_eq!(rows.len(), 2, "{text}");
     // ax_mps2_corrected = (1.11 − 0.1) / 1.01 = 1.0.
-    assert!(text.starts_with("t_s,ax_mps2,ay_mps2,az_mps2,ax_mps2_corrected,"), "{text}");
+    assert!(
+        text.starts_with("t_s,ax_mps2,ay_mps2,az_mps2,ax_mps2_corrected,"),
+        "{text}"
+    );
     let x: f64 = rows[0].split(',').nth(4).unwrap().parse().unwrap();
     assert!((x - 1.0).abs() < 1e-9, "{text}");
 }

@@ -29,7 +29,12 @@ fn main() {
                 floor_mps2: Some(r.floor_mps2),
             })
             .collect();
-        let out = match calibrate_campaign("unit", &units, &CampaignSettings::default(), &spincal::progress::silent) {
+        let out = match calibrate_campaign(
+            "unit",
+            &units,
+            &CampaignSettings::default(),
+            &spincal::progress::silent,
+        ) {
             Ok(out) => out,
             Err(e) => return eprintln!("seed {seed}: {e}"),
         };

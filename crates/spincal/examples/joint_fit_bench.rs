@@ -187,7 +187,6 @@ fn main() {
     let mut start = vec![0.0; n_params];
     let mut directions = Vec::new();
     let mut mountings = Vec::new();
-    let t_start = Instant::now();
     for (i, run) in prep.runs.iter().enumerate() {
         let q = mounting_matrix(run.entry.out, run.entry.up);
         let (s, sigma) = run_start(run, &q, g);
@@ -195,7 +194,17 @@ fn main() {
         directions.push(sigma);
         mountings.push(q);
     }
-    let start_s = t_start.elapsed().as_secs_f64();
+    // The starting values' share of fit_joint's time (the same computation, timed alone).
+    let mut start_times = Vec::with_capacity(reps);
+    for _ in 0..reps {
+        let t = Instant::now();
+        for (i, run) in prep.runs.iter().enumerate() {
+            std::hint::black_box(run_start(run, &mountings[i], g));
+        }
+        start_times.push(t.elapsed().as_secs_f64());
+    }
+    let start_best = start_times.iter().copied().fold(f64::INFINITY, f64::min);
+    let start_s = median(&mut start_times.clone());
     // Check the recomputed start against spincal's own: with no iterations allowed, both passes
     // return their starting point, so the fit's parameters are its starting vector.
     let frozen = fit_joint(
@@ -258,8 +267,11 @@ fn main() {
         "poses": prep.poses,
         "truth": sim.truth,
     });
-    std::fs::write(out_dir.join("problem.json"), serde_json::to_vec(&problem).unwrap())
-        .expect("cannot write problem.json");
+    std::fs::write(
+        out_dir.join("problem.json"),
+        serde_json::to_vec(&problem).unwrap(),
+    )
+    .expect("cannot write problem.json");
 
     // Timing: one warm-up call, then `reps` calls.
     let fit_once = || fit_joint(&prep.runs, &prep.poses, &settings, &spincal::progress::silent).expect("fit");
@@ -274,6 +286,16 @@ fn main() {
     }
     let best = times.iter().copied().fold(f64::INFINITY, f64::min);
     let med = median(&mut times.clone());
+
+    // One more (untimed) call that records the cost after each accepted LM step (both passes).
+    let trace = std::sync::Mutex::new(Vec::<(usize, f64)>::new());
+    let observer = |p: spincal::progress::Progress<'_>| {
+        if let Some(c) = p.cost {
+            trace.lock().unwrap().push((p.done, c));
+        }
+    };
+    fit_joint(&prep.runs, &prep.poses, &settings, &observer).expect("fit");
+    let trace = trace.into_inner().unwrap();
 
     // Every exposed parameter in the fit's layout order (the still session's 6 are not exposed).
     let mut values = Vec::new();
@@ -310,6 +332,7 @@ fn main() {
         "residual_rms_mps2": fit.runs.iter().map(|r| r.residual_rms_mps2).collect::<Vec<_>>(),
         "samples_used": fit.runs.iter().map(|r| r.samples_used).sum::<usize>(),
         "pose_specific_force_mps2": fit.poses.iter().map(|p| p.specific_force_mps2).collect::<Vec<_>>(),
+        "accepted_steps_cost": trace,
         "timing": {
             "repetitions": reps,
             "warmup_s": warm_s,
@@ -317,11 +340,16 @@ fn main() {
             "best_s": best,
             "median_s": med,
             "start_values_s_example_reimplementation": start_s,
+            "start_values_times_s": start_times,
+            "start_values_best_s": start_best,
             "start_vector_matches_fit_joint": start_mismatch == 0.0,
         },
     });
-    std::fs::write(out_dir.join("spincal_fit.json"), serde_json::to_string_pretty(&result).unwrap())
-        .expect("cannot write spincal_fit.json");
+    std::fs::write(
+        out_dir.join("spincal_fit.json"),
+        serde_json::to_string_pretty(&result).unwrap(),
+    )
+    .expect("cannot write spincal_fit.json");
     println!("{}", serde_json::to_string_pretty(&result).unwrap());
     eprintln!(
         "spincal fit_joint: {} params, {} samples, {} iterations (both passes), stop {:?}, chi2 {:.6e}; best {:.4} s, median {:.4} s of {}",

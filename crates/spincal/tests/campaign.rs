@@ -39,7 +39,13 @@ fn standard_errors_cover_the_truth_over_20_seeds() {
     for seed in 0..20 {
         let sim = simulate_campaign(&CampaignSetup::default(), seed).unwrap();
         let prepared = prepare(&units(&sim, false)).unwrap();
-        let fit = fit_joint(&prepared.runs, &prepared.poses, &JointSettings::default(), &spincal::progress::silent).unwrap();
+        let fit = fit_joint(
+            &prepared.runs,
+            &prepared.poses,
+            &JointSettings::default(),
+            &spincal::progress::silent,
+        )
+        .unwrap();
         let truth = sim.truth.sensor.params();
         for (k, p) in fit.sensor_params.iter().enumerate() {
             let se = p.std_error.expect("every sensor parameter has a standard error");
@@ -94,7 +100,13 @@ fn the_fitted_sensor_model_corrects_an_unseen_run() {
             terms: SensorTerms::LINEAR,
             ..JointSettings::default()
         };
-        let fit = fit_joint(&prepared.runs, &prepared.poses, &settings, &spincal::progress::silent).unwrap();
+        let fit = fit_joint(
+            &prepared.runs,
+            &prepared.poses,
+            &settings,
+            &spincal::progress::silent,
+        )
+        .unwrap();
         let unseen = sim.recordings.last().unwrap();
         let (mut corrected, mut raw) = (0.0, 0.0);
         for s in 0..unseen.recording.len() {
@@ -123,11 +135,25 @@ fn a_single_recording_saves_nothing_and_says_what_to_record() {
         ..CampaignSetup::default()
     };
     let sim = simulate_campaign(&setup, 5).unwrap();
-    let out = calibrate_campaign("one", &units(&sim, true), &CampaignSettings::default(), &spincal::progress::silent).unwrap();
+    let out = calibrate_campaign(
+        "one",
+        &units(&sim, true),
+        &CampaignSettings::default(),
+        &spincal::progress::silent,
+    )
+    .unwrap();
     assert!(out.saved.is_none());
     assert!(out.result.saved.is_none());
-    assert!(out.result.verdict.starts_with("Nothing saved"), "{}", out.result.verdict);
-    assert!(out.result.verdict.contains("second speed or radius"), "{}", out.result.verdict);
+    assert!(
+        out.result.verdict.starts_with("Nothing saved"),
+        "{}",
+        out.result.verdict
+    );
+    assert!(
+        out.result.verdict.contains("second speed or radius"),
+        "{}",
+        out.result.verdict
+    );
     assert!(out.result.conditions.is_empty());
 }
 
@@ -136,12 +162,26 @@ fn a_single_recording_saves_nothing_and_says_what_to_record() {
 #[test]
 fn a_saved_corrector_held_on_every_condition_and_round_trips() {
     let sim = simulate_campaign(&CampaignSetup::default(), 11).unwrap();
-    let out = calibrate_campaign("u", &units(&sim, true), &CampaignSettings::default(), &spincal::progress::silent).unwrap();
+    let out = calibrate_campaign(
+        "u",
+        &units(&sim, true),
+        &CampaignSettings::default(),
+        &spincal::progress::silent,
+    )
+    .unwrap();
     assert!(!out.result.conditions.is_empty());
     for summary in &out.result.candidates {
-        let rows: Vec<_> = out.result.held_out.iter().filter(|h| h.candidate == summary.candidate).collect();
+        let rows: Vec<_> = out
+            .result
+            .held_out
+            .iter()
+            .filter(|h| h.candidate == summary.candidate)
+            .collect();
         let worse = rows.iter().any(|h| match h.rms_mps2 {
-            Some(r) => r.iter().map(|v| v * v).sum::<f64>() > h.uncorrected_rms_mps2.iter().map(|v| v * v).sum::<f64>(),
+            Some(r) => {
+                r.iter().map(|v| v * v).sum::<f64>()
+                    > h.uncorrected_rms_mps2.iter().map(|v| v * v).sum::<f64>()
+            }
             None => true,
         });
         assert_eq!(summary.eligible, !worse, "{summary:?}");
@@ -162,6 +202,8 @@ fn a_saved_corrector_held_on_every_condition_and_round_trips() {
         gravity_mps2: 9.8,
         input_range_mps2: [[-10.0, 10.0]; 3],
     })));
-    let e = CorrectorFile::from_json(&bad.to_json(), "m.json").unwrap_err().to_string();
+    let e = CorrectorFile::from_json(&bad.to_json(), "m.json")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("corrector.sensor.scale_error[1]"), "{e}");
 }

@@ -50,7 +50,10 @@ pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignO
     if let Some(model) = &output.saved {
         model.write_path(&model_path)?;
     }
-    super::write_text(&out.join("results.json"), &(serde_json::to_string_pretty(&output.result)? + "\n"))?;
+    super::write_text(
+        &out.join("results.json"),
+        &(serde_json::to_string_pretty(&output.result)? + "\n"),
+    )?;
     super::write_text(&out.join("report.html"), &report_html(&output))?;
     Ok(output)
 }
@@ -65,7 +68,9 @@ pub fn summary(output: &CampaignOutput, out: &Path) -> String {
     let mut text = format!("unit {}: {}\n\n", r.unit, r.verdict);
     text.push_str("held-out condition            corrector        RMS error x y z (m/s²)   uncorrected              against\n");
     for h in &r.held_out {
-        let rms = h.rms_mps2.map_or_else(|| h.note.clone().unwrap_or_default(), |v| fmt3(&v));
+        let rms = h
+            .rms_mps2
+            .map_or_else(|| h.note.clone().unwrap_or_default(), |v| fmt3(&v));
         let _ = writeln!(
             text,
             "{:<29} {:<16} {:<24} {:<24} {}",
@@ -86,13 +91,19 @@ pub fn summary(output: &CampaignOutput, out: &Path) -> String {
     let _ = writeln!(
         text,
         "\nwrote {}{dir}/results.json, {dir}/report.html",
-        if output.saved.is_some() { format!("{dir}/model.json, ") } else { String::new() }
+        if output.saved.is_some() {
+            format!("{dir}/model.json, ")
+        } else {
+            String::new()
+        }
     );
     text
 }
 
 fn escape(text: &str) -> String {
-    text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
 }
 
 /// A self-contained HTML report: the verdict, held-out errors per corrector, the sensor model.
@@ -116,7 +127,8 @@ pub fn report_html(output: &CampaignOutput) -> String {
             c.candidate,
             escape(&c.description),
             c.mean_rms_mps2.map_or("–".into(), |v| format!("{v:.4}")),
-            c.worst_ratio_to_uncorrected.map_or("–".into(), |v| format!("{v:.2}")),
+            c.worst_ratio_to_uncorrected
+                .map_or("–".into(), |v| format!("{v:.2}")),
             if c.eligible { "yes" } else { "no" },
             escape(c.why_not.as_deref().unwrap_or(""))
         );
@@ -124,8 +136,14 @@ pub fn report_html(output: &CampaignOutput) -> String {
     h.push_str("</table><p>Each corrector is trained on every condition but one and scored on the one left out. The error is against the true specific force when the recording carries it (simulations), otherwise against the held-out recording refitted with a perfect sensor.</p>");
     h.push_str("<table><tr><th>held out</th><th>corrector</th><th>RMS x</th><th>RMS y</th><th>RMS z</th><th>uncorrected x</th><th>y</th><th>z</th><th>floor x</th><th>y</th><th>z</th><th>against</th></tr>");
     for s in &r.held_out {
-        let cells = |v: Option<[f64; 3]>| v.map_or("<td>–</td><td>–</td><td>–</td>".to_string(), |v| v.iter().map(|x| format!("<td>{x:.4}</td>")).collect());
-        let worse = s.rms_mps2.is_some_and(|v| v.iter().sum::<f64>() > s.uncorrected_rms_mps2.iter().sum::<f64>());
+        let cells = |v: Option<[f64; 3]>| {
+            v.map_or("<td>–</td><td>–</td><td>–</td>".to_string(), |v| {
+                v.iter().map(|x| format!("<td>{x:.4}</td>")).collect()
+            })
+        };
+        let worse = s
+            .rms_mps2
+            .is_some_and(|v| v.iter().sum::<f64>() > s.uncorrected_rms_mps2.iter().sum::<f64>());
         let _ = write!(
             h,
             "<tr{}><td>{}</td><td>{}</td>{}{}{}<td>{}</td></tr>",
@@ -159,7 +177,13 @@ pub fn report_html(output: &CampaignOutput) -> String {
     }
     h.push_str("<h2>Recordings</h2><ul>");
     for run in &r.joint.runs {
-        let _ = write!(h, "<li>{} ({}, residual RMS {} m/s²)</li>", escape(&run.name), run.direction.describe(), fmt3(&run.residual_rms_mps2));
+        let _ = write!(
+            h,
+            "<li>{} ({}, residual RMS {} m/s²)</li>",
+            escape(&run.name),
+            run.direction.describe(),
+            fmt3(&run.residual_rms_mps2)
+        );
     }
     for pose in &r.joint.poses {
         let _ = write!(h, "<li>{} (still pose)</li>", escape(&pose.name));
@@ -172,8 +196,10 @@ pub fn report_html(output: &CampaignOutput) -> String {
 pub fn simulate(dir: &Path, seed: u64, setup_file: Option<&Path>, json: bool) -> anyhow::Result<()> {
     let setup = match setup_file {
         Some(path) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            serde_json::from_str::<CampaignSetup>(&text).with_context(|| format!("{}: not a campaign setup", path.display()))?
+            let text =
+                std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+            serde_json::from_str::<CampaignSetup>(&text)
+                .with_context(|| format!("{}: not a campaign setup", path.display()))?
         }
         None => CampaignSetup::default(),
     };
@@ -208,14 +234,23 @@ pub fn write_simulated_campaign(
         targets.push(dir.join(format!("{}.truth.csv", r.name)));
     }
     if let Some(existing) = targets.iter().find(|p| !replace_own && p.exists()) {
-        return Err(UsageError(format!("{} already exists: spincal does not replace files in a campaign folder; choose an empty folder", existing.display())).into());
+        return Err(UsageError(format!(
+            "{} already exists: spincal does not replace files in a campaign folder; choose an empty folder",
+            existing.display()
+        ))
+        .into());
     }
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     for (i, r) in sim.recordings.iter().enumerate() {
-        r.recording.write_csv_path(&dir.join(format!("{}.csv", r.name)), AccelUnit::Mps2)?;
-        sim.truth_recording(i).write_csv_path(&dir.join(format!("{}.truth.csv", r.name)), AccelUnit::Mps2)?;
+        r.recording
+            .write_csv_path(&dir.join(format!("{}.csv", r.name)), AccelUnit::Mps2)?;
+        sim.truth_recording(i)
+            .write_csv_path(&dir.join(format!("{}.truth.csv", r.name)), AccelUnit::Mps2)?;
     }
-    super::write_text(&dir.join("truth.json"), &(serde_json::to_string_pretty(&sim.truth)? + "\n"))?;
+    super::write_text(
+        &dir.join("truth.json"),
+        &(serde_json::to_string_pretty(&sim.truth)? + "\n"),
+    )?;
     super::write_text(&dir.join("campaign.toml"), &sim.campaign_toml())?;
     Ok(sim)
 }

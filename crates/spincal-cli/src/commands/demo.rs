@@ -92,8 +92,14 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
     if args.json {
         return ui::print_json(&output.result);
     }
-    ui::print(&format!("== Campaign (one unit: still poses and turntable runs) ==\n{}", super::campaign::summary(&campaign, &campaign_out)))?;
-    ui::print(&format!("\n== The paper's protocol (one recording, 60/20/20) ==\n{}", summary(&output, &args.out)))?;
+    ui::print(&format!(
+        "== Campaign (one unit: still poses and turntable runs) ==\n{}",
+        super::campaign::summary(&campaign, &campaign_out)
+    ))?;
+    ui::print(&format!(
+        "\n== The paper's protocol (one recording, 60/20/20) ==\n{}",
+        summary(&output, &args.out)
+    ))?;
     ui::print(&format!(
         "open {}/report.html (the paper's protocol) and {}/report.html (the campaign)\n",
         args.out.display(),

@@ -117,7 +117,9 @@ impl TurntableArgs {
 /// Recordings are required by every command but `calibrate --campaign`, which checks itself.
 pub fn require_recordings(recordings: &[PathBuf]) -> Result<(), UsageError> {
     if recordings.is_empty() {
-        return Err(UsageError("no recordings given: name at least one recording file".into()));
+        return Err(UsageError(
+            "no recordings given: name at least one recording file".into(),
+        ));
     }
     Ok(())
 }

@@ -465,10 +465,10 @@ up = "-z"
     #[test]
     fn bad_entries_name_file_line_and_key() {
         let cases = [
-            (GOOD.replace("up = \"-z\"", "up = \"+x\""), "runs/c.toml:15: `up`"),
+            (GOOD.replace("up = \"-z\"", "up = \"+x\""), "runs/c.toml:14: `up`"),
             (
                 GOOD.replace("radius_m = 0.09", "radius_m = -0.09"),
-                "runs/c.toml:12: `radius_m`",
+                "runs/c.toml:11: `radius_m`",
             ),
             (
                 GOOD.replace("rpm = 33.333\n", ""),
@@ -484,7 +484,7 @@ up = "-z"
             ),
             (
                 GOOD.replace("out = \"+x\"", "out = \"+w\""),
-                "runs/c.toml:14: `out`",
+                "runs/c.toml:13: `out`",
             ),
         ];
         for (text, start) in cases {
@@ -498,7 +498,7 @@ up = "-z"
         let e = parse(&GOOD.replace("radius_tol_m", "radius_tolerance"))
             .unwrap_err()
             .to_string();
-        assert!(e.starts_with("runs/c.toml:13:"), "{e}");
+        assert!(e.starts_with("runs/c.toml:12:"), "{e}");
         assert!(e.contains("radius_tolerance"), "{e}");
         let e = parse("unit = \n").unwrap_err().to_string();
         assert!(e.starts_with("runs/c.toml:1:"), "{e}");

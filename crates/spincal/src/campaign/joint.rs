@@ -238,9 +238,18 @@ impl JointFit {
     pub fn run_reference(&self, i: usize, time_s: &[f64]) -> [Vec<f64>; 3] {
         let st = &self.state;
         let o = run_offset(i);
-        let geo = RunGeometry::new(&st.mountings[i], &st.params[o..o + RUN_PARAMS], st.directions[i], st.gravity);
+        let geo = RunGeometry::new(
+            &st.mountings[i],
+            &st.params[o..o + RUN_PARAMS],
+            st.directions[i],
+            st.gravity,
+        );
         let mid = mid_time(time_s);
-        let mut out = [vec![0.0; time_s.len()], vec![0.0; time_s.len()], vec![0.0; time_s.len()]];
+        let mut out = [
+            vec![0.0; time_s.len()],
+            vec![0.0; time_s.len()],
+            vec![0.0; time_s.len()],
+        ];
         for (s, &t) in time_s.iter().enumerate() {
             let f = geo.force(t - mid);
             for k in 0..3 {
@@ -533,6 +542,8 @@ fn pose_offset(n_runs: usize, p: usize) -> usize {
 
 /// Parameters per still session: bias offset δ (3) and drift rate (3) about its middle.
 const SESSION_PARAMS: usize = 6;
+/// A still session's drift rate has a prior of the bias instability per this many seconds.
+const SESSION_DRIFT_S: f64 = 100.0;
 
 fn session_offset(n_runs: usize, n_poses: usize, session: usize) -> usize {
     SENSOR_PARAMS + n_runs * RUN_PARAMS + n_poses * POSE_PARAMS + SESSION_PARAMS * session
@@ -548,8 +559,13 @@ fn session_times(poses: &[PoseInput]) -> Vec<f64> {
     poses
         .iter()
         .map(|pose| {
-            let times = poses.iter().filter(|q| q.session == pose.session).map(|q| q.time_s);
-            let (lo, hi) = times.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| (a.min(t), b.max(t)));
+            let times = poses
+                .iter()
+                .filter(|q| q.session == pose.session)
+                .map(|q| q.time_s);
+            let (lo, hi) = times.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| {
+                (a.min(t), b.max(t))
+            });
             pose.time_s - 0.5 * (lo + hi)
         })
         .collect()
@@ -645,7 +661,10 @@ pub(crate) enum Want<'a> {
 
 impl JointProblem<'_> {
     pub(crate) fn n_params(&self) -> usize {
-        SENSOR_PARAMS + self.runs.len() * RUN_PARAMS + self.poses.len() * POSE_PARAMS + SESSION_PARAMS * sessions(self.poses)
+        SENSOR_PARAMS
+            + self.runs.len() * RUN_PARAMS
+            + self.poses.len() * POSE_PARAMS
+            + SESSION_PARAMS * sessions(self.poses)
     }
 
     pub(crate) fn geometry(&self, p: &[f64], i: usize) -> RunGeometry {
@@ -666,7 +685,9 @@ impl JointProblem<'_> {
         let (force, _) = self.pose_frames[i].force(p[o], p[o + 1], self.gravity);
         let dt = self.pose_tau[i];
         let u = sensor.linear_response(force, std::array::from_fn(|k| p[so + k] + p[so + 3 + k] * dt));
-        std::array::from_fn(|k| u[k] + sensor.quadratic_per_mps2[k] * u[k] * u[k] - self.poses[i].mean_mps2[k])
+        std::array::from_fn(|k| {
+            u[k] + sensor.quadratic_per_mps2[k] * u[k] * u[k] - self.poses[i].mean_mps2[k]
+        })
     }
 
     /// Residuals of run i, per sample and axis (unweighted, model − measured), with a callback.
@@ -862,20 +883,26 @@ impl JointProblem<'_> {
                 Want::Meat(meat) => meat[(k, k)] += 1.0 / (sigma * sigma),
             }
         }
-        // Each still session's bias offset within the instability.
+        // Each still session's bias offset within the instability, and its drift rate within the
+        // instability per SESSION_DRIFT_S (poses alone say little about a slope).
         for session in 0..sessions(self.poses) {
             let so = session_offset(n_runs, n_poses, session);
-            for k in 0..3 {
+            for k in 0..SESSION_PARAMS {
                 let param = so + k;
-                let r = p[param] / self.bias_sigma;
+                let sigma = if k < 3 {
+                    self.bias_sigma
+                } else {
+                    self.bias_sigma / SESSION_DRIFT_S
+                };
+                let r = p[param] / sigma;
                 sse += r * r;
                 match &mut want {
                     Want::Sse => {}
                     Want::Normal(jtj, jtr) => {
-                        jtj[(param, param)] += 1.0 / (self.bias_sigma * self.bias_sigma);
-                        jtr[param] += r / self.bias_sigma;
+                        jtj[(param, param)] += 1.0 / (sigma * sigma);
+                        jtr[param] += r / sigma;
                     }
-                    Want::Meat(meat) => meat[(param, param)] += 1.0 / (self.bias_sigma * self.bias_sigma),
+                    Want::Meat(meat) => meat[(param, param)] += 1.0 / (sigma * sigma),
                 }
             }
         }
@@ -1093,7 +1120,13 @@ pub fn fit_joint_from(
         .iter()
         .map(|r| mounting_matrix(r.entry.out, r.entry.up))
         .collect();
-    let mut p = vec![0.0; SENSOR_PARAMS + runs.len() * RUN_PARAMS + poses.len() * POSE_PARAMS + SESSION_PARAMS * sessions(poses)];
+    let mut p = vec![
+        0.0;
+        SENSOR_PARAMS
+            + runs.len() * RUN_PARAMS
+            + poses.len() * POSE_PARAMS
+            + SESSION_PARAMS * sessions(poses)
+    ];
     let mut directions = Vec::with_capacity(runs.len());
     for (i, run) in runs.iter().enumerate() {
         let (start, direction) = run_start(run, &mountings[i], g);
@@ -1164,7 +1197,9 @@ pub fn fit_joint_from(
     // component per session and axis, from the residuals (each pose keeps ~1 of its 3 degrees of
     // freedom after its two direction angles, hence the factor 3).
     for session in 0..sessions(poses) {
-        let members: Vec<usize> = (0..poses.len()).filter(|&i| poses[i].session == session).collect();
+        let members: Vec<usize> = (0..poses.len())
+            .filter(|&i| poses[i].session == session)
+            .collect();
         if members.len() < 2 {
             continue;
         }

@@ -12,9 +12,9 @@ pub mod load;
 pub mod prepare;
 pub mod select;
 
+pub use crate::correctors::physical::{PhysicalCorrector, SensorModel};
 pub use file::{Campaign, CampaignEntry, CampaignError, EntryKind, SignedAxis, TurntableEntry};
 pub use joint::{fit_joint, JointFit, JointSettings, PoseInput, RunInput, SensorTerms};
-pub use crate::correctors::physical::{PhysicalCorrector, SensorModel};
 pub use load::{load_campaign, LoadError};
 pub use prepare::UnitRecording;
 pub use select::{calibrate_campaign, CampaignOutput, CampaignResult, CampaignSettings, CandidateKind};

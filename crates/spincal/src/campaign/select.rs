@@ -15,12 +15,14 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::campaign::joint::{fit_joint, fit_joint_from, JointError, JointFit, JointSettings, PoseInput, RunInput, SensorTerms};
+use crate::campaign::joint::{
+    fit_joint, fit_joint_from, JointError, JointFit, JointSettings, PoseInput, RunInput, SensorTerms,
+};
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
-use crate::correctors::physical::PhysicalCorrector;
 use crate::correctors::corrector::{Axis, Corrector};
 use crate::correctors::linear::LinearModel;
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
+use crate::correctors::physical::PhysicalCorrector;
 use crate::progress::{Observer, Progress};
 
 /// The kinds of corrector a campaign compares.
@@ -36,7 +38,11 @@ pub enum CandidateKind {
 }
 
 impl CandidateKind {
-    pub const ALL: [CandidateKind; 3] = [CandidateKind::Physical, CandidateKind::PhysicalLinear, CandidateKind::Linear];
+    pub const ALL: [CandidateKind; 3] = [
+        CandidateKind::Physical,
+        CandidateKind::PhysicalLinear,
+        CandidateKind::Linear,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -48,7 +54,9 @@ impl CandidateKind {
 
     pub fn describe(self) -> &'static str {
         match self {
-            CandidateKind::Physical => "inverse sensor model: bias, scale, misalignment, quadratic nonlinearity",
+            CandidateKind::Physical => {
+                "inverse sensor model: bias, scale, misalignment, quadratic nonlinearity"
+            }
             CandidateKind::PhysicalLinear => "inverse sensor model: bias, scale, misalignment",
             CandidateKind::Linear => "offset + 3×3 matrix fitted from measured to reference (12 parameters)",
         }
@@ -173,9 +181,9 @@ impl<'a> Training<'a> {
     /// The joint fit with the settings' terms, or with `terms` when they differ.
     fn fit(&self, terms: SensorTerms, observer: &Observer) -> Result<std::borrow::Cow<'_, JointFit>, String> {
         if terms == self.joint.terms {
-            let fit = self
-                .full_fit
-                .get_or_init(|| fit_joint(&self.runs, &self.poses, self.joint, observer).map_err(|e| e.to_string()));
+            let fit = self.full_fit.get_or_init(|| {
+                fit_joint(&self.runs, &self.poses, self.joint, observer).map_err(|e| e.to_string())
+            });
             return fit.as_ref().map(std::borrow::Cow::Borrowed).map_err(Clone::clone);
         }
         let settings = JointSettings {
@@ -287,7 +295,10 @@ impl Candidate for LinearCandidate {
             offset[k] = x[(3, 0)];
         }
         if matrix.iter().flatten().chain(&offset).any(|v| !v.is_finite()) {
-            return Err("the 12-parameter map is singular on this training set (too few distinct orientations)".into());
+            return Err(
+                "the 12-parameter map is singular on this training set (too few distinct orientations)"
+                    .into(),
+            );
         }
         Ok(CorrectorModel::Linear(Box::new(LinearModel {
             axes: Axis::ALL.to_vec(),
@@ -320,7 +331,10 @@ pub fn conditions(prepared: &Prepared) -> Vec<Condition> {
         }
         for label in labels {
             let members: Vec<usize> = (0..runs.len()).filter(|&i| label_of(&runs[i]) == label).collect();
-            if out.iter().any(|c: &Condition| c.runs == members && c.poses.is_empty()) {
+            if out
+                .iter()
+                .any(|c: &Condition| c.runs == members && c.poses.is_empty())
+            {
                 continue;
             }
             out.push(Condition {
@@ -350,7 +364,12 @@ pub fn conditions(prepared: &Prepared) -> Vec<Condition> {
 }
 
 /// RMS per axis of `a − b` over the samples where `use_sample` holds.
-fn rms3(a: &[Vec<f64>; 3], b: &[Vec<f64>; 3], range: std::ops::Range<usize>, keep: impl Fn(usize) -> bool) -> ([f64; 3], usize) {
+fn rms3(
+    a: &[Vec<f64>; 3],
+    b: &[Vec<f64>; 3],
+    range: std::ops::Range<usize>,
+    keep: impl Fn(usize) -> bool,
+) -> ([f64; 3], usize) {
     let mut sums = [0.0; 3];
     let mut n = 0;
     for s in range {
@@ -435,8 +454,13 @@ fn score(
                     terms: SensorTerms::NONE,
                     ..joint.clone()
                 };
-                let fit = fit_joint(std::slice::from_ref(&refit_run), &[], &settings, &crate::progress::silent)
-                    .map_err(|e| e.to_string())?;
+                let fit = fit_joint(
+                    std::slice::from_ref(&refit_run),
+                    &[],
+                    &settings,
+                    &crate::progress::silent,
+                )
+                .map_err(|e| e.to_string())?;
                 let n = fit.runs[0].samples_used;
                 add(fit.runs[0].residual_rms_mps2, n, None);
             }
@@ -460,11 +484,16 @@ fn score(
                 against = "refit";
                 let n = valid.iter().filter(|&&v| v).count().max(1);
                 let mean: [f64; 3] = std::array::from_fn(|k| {
-                    (0..len).filter(|&s| valid[s]).map(|s| corrected[k][s]).sum::<f64>() / n as f64
+                    (0..len)
+                        .filter(|&s| valid[s])
+                        .map(|s| corrected[k][s])
+                        .sum::<f64>()
+                        / n as f64
                 });
                 let norm = (mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2]).sqrt();
                 let g = joint.gravity_mps2;
-                let residual: [f64; 3] = std::array::from_fn(|k| mean[k] - g * mean[k] / norm.max(f64::MIN_POSITIVE));
+                let residual: [f64; 3] =
+                    std::array::from_fn(|k| mean[k] - g * mean[k] / norm.max(f64::MIN_POSITIVE));
                 add(residual.map(f64::abs), 1, None);
             }
         }
@@ -536,7 +565,8 @@ pub fn calibrate_campaign(
     let g = settings.joint.gravity_mps2;
     let undetermined = joint.undetermined(g, settings.determined_tolerance_mps2);
     let conditions = conditions(&prepared);
-    let candidates: Vec<Box<dyn Candidate + Sync>> = settings.candidates.iter().map(|&k| candidate(k)).collect();
+    let candidates: Vec<Box<dyn Candidate + Sync>> =
+        settings.candidates.iter().map(|&k| candidate(k)).collect();
 
     // Conditions are independent: in parallel, collected in order (the same result on any
     // number of threads).
@@ -550,17 +580,19 @@ pub fn calibrate_campaign(
                 subset(&prepared.poses, &condition.poses),
                 &settings.joint,
             );
-            let (uncorrected, floor, against) =
-                score(None, condition, &prepared, units, &settings.joint).unwrap_or(([f64::NAN; 3], None, "refit"));
+            let (uncorrected, floor, against) = score(None, condition, &prepared, units, &settings.joint)
+                .unwrap_or(([f64::NAN; 3], None, "refit"));
             let rows = candidates
                 .iter()
                 .map(|cand| {
                     let trained = cand.train(&training, &crate::progress::silent);
                     let (rms, note) = match trained {
-                        Ok(model) => match score(Some(&model), condition, &prepared, units, &settings.joint) {
-                            Ok((rms, _, _)) => (Some(rms), None),
-                            Err(e) => (None, Some(format!("scoring failed: {e}"))),
-                        },
+                        Ok(model) => {
+                            match score(Some(&model), condition, &prepared, units, &settings.joint) {
+                                Ok((rms, _, _)) => (Some(rms), None),
+                                Err(e) => (None, Some(format!("scoring failed: {e}"))),
+                            }
+                        }
                         Err(e) => (None, Some(format!("training failed: {e}"))),
                     };
                     HeldOutScore {
@@ -585,10 +617,11 @@ pub fn calibrate_campaign(
         .iter()
         .map(|cand| summarise(cand.kind(), &held_out, conditions.len()))
         .collect();
-    let best = summaries
-        .iter()
-        .filter(|s| s.eligible)
-        .min_by(|a, b| a.mean_rms_mps2.unwrap_or(f64::INFINITY).total_cmp(&b.mean_rms_mps2.unwrap_or(f64::INFINITY)));
+    let best = summaries.iter().filter(|s| s.eligible).min_by(|a, b| {
+        a.mean_rms_mps2
+            .unwrap_or(f64::INFINITY)
+            .total_cmp(&b.mean_rms_mps2.unwrap_or(f64::INFINITY))
+    });
     let (saved, verdict) = match best {
         Some(best) => {
             let kind = settings
@@ -647,7 +680,8 @@ pub fn calibrate_campaign(
 
 fn no_conditions_verdict(prepared: &Prepared, undetermined: &[(String, String)]) -> String {
     let mut next = vec![
-        "a turntable run at a second speed or radius (e.g. 45 rpm, or the sensor at another radius)".to_string(),
+        "a turntable run at a second speed or radius (e.g. 45 rpm, or the sensor at another radius)"
+            .to_string(),
     ];
     if prepared.poses.len() < 6 {
         next.push("six still poses (each face up in turn, a few seconds each)".into());
@@ -678,12 +712,16 @@ fn summarise(kind: CandidateKind, held_out: &[HeldOutScore], n_conditions: usize
                 let ratio = combined(rms) / combined(row.uncorrected_rms_mps2);
                 worst = Some(worst.map_or(ratio, |w: f64| w.max(ratio)));
                 if !(ratio <= 1.0) {
-                    why_not.get_or_insert(format!("{:.2}× the uncorrected error on \"{}\"", ratio, row.condition));
+                    why_not.get_or_insert(format!(
+                        "{:.2}× the uncorrected error on \"{}\"",
+                        ratio, row.condition
+                    ));
                 }
             }
         }
     }
-    let complete = rows.len() == n_conditions && n_conditions > 0 && rows.iter().all(|r| r.rms_mps2.is_some());
+    let complete =
+        rows.len() == n_conditions && n_conditions > 0 && rows.iter().all(|r| r.rms_mps2.is_some());
     if n_conditions == 0 {
         why_not = Some("no held-out condition".into());
     }

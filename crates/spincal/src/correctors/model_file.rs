@@ -14,10 +14,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::correctors::physical::PhysicalCorrector;
 use crate::correctors::ann::AnnModel;
 use crate::correctors::corrector::{join_field, Axis, Corrector, ModelError, SampleCorrector};
 use crate::correctors::linear::LinearModel;
+use crate::correctors::physical::PhysicalCorrector;
 use crate::correctors::static_cal::StaticCalibration;
 
 /// The corrector file format this build writes and reads.

@@ -346,7 +346,11 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
         let tilt = setup.pose_tilt_deg.to_radians() * rng.gen::<f64>().sqrt();
         let azimuth = 2.0 * std::f64::consts::PI * rng.gen::<f64>();
         // Tilt `face` by `tilt` towards a random direction perpendicular to it.
-        let any = if face[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+        let any = if face[0].abs() < 0.9 {
+            [1.0, 0.0, 0.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        };
         let dot: f64 = (0..3).map(|k| any[k] * face[k]).sum();
         let e1 = normalised(std::array::from_fn(|k| any[k] - dot * face[k]));
         let e2 = [
