@@ -21,7 +21,8 @@ fit_joint also forms (one more pass over the data plus a 90x90 inverse) is not r
 The residual function is the documented model (module doc of campaign/joint.rs), vectorised
 over the samples of each run; priors enter as residuals:
   (r - r_nominal)/tol, eps1/sigma_mount, eps2/sigma_mount, run offsets delta/sigma_bias,
-  session offsets delta_s/sigma_bias, each free sensor term/its datasheet width.
+  session offsets delta_s/sigma_bias, session drift rates d_s/(sigma_bias/100 s), each free
+  sensor term/its datasheet width.
 """
 import argparse
 import json
@@ -37,6 +38,9 @@ SENSOR = 12
 RUN = 15
 POSE = 2
 SESSION = 6
+# A still session's drift rate has a prior of the bias instability per this many seconds
+# (campaign/joint.rs SESSION_DRIFT_S, a private constant: not in the exported settings).
+SESSION_DRIFT_S = 100.0
 
 
 def rot_x(e):
@@ -103,7 +107,7 @@ class Problem:
         self.pose_o = SENSOR + RUN * self.n_runs
         self.session_o = self.pose_o + POSE * self.n_poses
         self.m = sum(3 * len(r["tau"]) for r in self.runs) + 3 * self.n_poses
-        self.m += 6 * self.n_runs + 3 * self.n_sessions + int(self.sensor_free.sum())
+        self.m += 6 * self.n_runs + 6 * self.n_sessions + int(self.sensor_free.sum())
         self.set_weights([r["w1"] for r in self.runs], self.pose_sem)
 
     @staticmethod
@@ -174,6 +178,7 @@ class Problem:
         for s in range(self.n_sessions):
             so = self.session_o + SESSION * s
             pri += list(p[so:so + 3] / self.bias_sigma)
+            pri += list(p[so + 3:so + 6] / (self.bias_sigma / SESSION_DRIFT_S))
         parts.append(np.asarray(pri))
         parts.append((p[:SENSOR] / self.sensor_sd)[self.sensor_free])
         return np.concatenate(parts)
@@ -284,7 +289,8 @@ class Problem:
             so = self.session_o + SESSION * s
             for k in range(3):
                 J[row + k, so + k] = 1 / self.bias_sigma
-            row += 3
+                J[row + 3 + k, so + 3 + k] = SESSION_DRIFT_S / self.bias_sigma
+            row += 6
         for k in np.flatnonzero(self.sensor_free):
             J[row, k] = 1 / self.sensor_sd[k]
             row += 1
