@@ -1,8 +1,9 @@
 //! Reading-speed benchmark for bench/io/run.sh.
 //!
 //! `read_bench gen DIR ROWS` writes DIR/bench.csv (t,ax,ay,az,gx,gy,gz) and DIR/bench.gx1 (the same
-//! samples as a 3DM-GX1 0x03 stream); `read_bench read DIR REPEATS` times spincal's CSV reader and
-//! GX1 decoder (best of REPEATS, file read included) and prints `name seconds megabytes samples`.
+//! samples as a 3DM-GX1 0x03 stream); `read_bench read DIR REPEATS [csv]` times spincal's CSV reader
+//! and (without `csv`) the GX1 decoder, file read included, and prints
+//! `name best_seconds median_seconds megabytes samples`.
 
 use std::path::Path;
 use std::time::Instant;
@@ -29,43 +30,54 @@ fn generate(dir: &Path, rows: usize) {
     std::fs::write(dir.join("bench.gx1"), bytes).expect("write gx1");
 }
 
-fn best_of<T>(repeats: usize, mut f: impl FnMut() -> T) -> (f64, T) {
-    let mut best = f64::INFINITY;
+/// Best and median seconds of `repeats` runs, and the last result.
+fn timed<T>(repeats: usize, mut f: impl FnMut() -> T) -> (f64, f64, T) {
+    let mut secs = Vec::new();
     let mut out = None;
     for _ in 0..repeats.max(1) {
         let start = Instant::now();
         let v = f();
-        best = best.min(start.elapsed().as_secs_f64());
+        secs.push(start.elapsed().as_secs_f64());
         out = Some(v);
     }
-    (best, out.expect("at least one repeat"))
+    secs.sort_by(f64::total_cmp);
+    (secs[0], secs[secs.len() / 2], out.expect("at least one repeat"))
 }
 
-fn read(dir: &Path, repeats: usize) {
+fn read(dir: &Path, repeats: usize, csv_only: bool) {
     let csv = dir.join("bench.csv");
     let mb = std::fs::metadata(&csv).expect("csv exists").len() as f64 / 1e6;
     let options = ReadOptions {
         format: Some(Format::Csv),
         ..Default::default()
     };
-    let (secs, loaded) = best_of(repeats, || read_path(&csv, &options).expect("read csv"));
-    println!("spincal-csv {secs:.6} {mb:.3} {}", loaded.recording.len());
-
+    let (best, median, loaded) = timed(repeats, || read_path(&csv, &options).expect("read csv"));
+    println!(
+        "spincal-csv {best:.6} {median:.6} {mb:.3} {}",
+        loaded.recording.len()
+    );
+    if csv_only {
+        return;
+    }
     let gx1 = dir.join("bench.gx1");
-    let (secs, (rec, _)) = best_of(repeats, || {
+    let (best, median, (rec, _)) = timed(repeats, || {
         let bytes = std::fs::read(&gx1).expect("read gx1");
         decode(&bytes, "bench.gx1", &Gx1Options::default()).expect("decode")
     });
     let mb = std::fs::metadata(&gx1).expect("gx1 exists").len() as f64 / 1e6;
-    println!("spincal-gx1 {secs:.6} {mb:.3} {}", rec.len());
+    println!("spincal-gx1 {best:.6} {median:.6} {mb:.3} {}", rec.len());
 }
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let usage = "usage: read_bench gen DIR ROWS | read_bench read DIR REPEATS";
+    let usage = "usage: read_bench gen DIR ROWS | read_bench read DIR REPEATS [csv]";
     match (args.get(1).map(String::as_str), args.get(2), args.get(3)) {
         (Some("gen"), Some(dir), Some(n)) => generate(Path::new(dir), n.parse().expect(usage)),
-        (Some("read"), Some(dir), Some(r)) => read(Path::new(dir), r.parse().expect(usage)),
+        (Some("read"), Some(dir), Some(r)) => read(
+            Path::new(dir),
+            r.parse().expect(usage),
+            args.get(4).is_some_and(|a| a == "csv"),
+        ),
         _ => {
             eprintln!("{usage}");
             std::process::exit(2);
