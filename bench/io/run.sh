@@ -2,7 +2,8 @@
 # Reading speed: spincal's CSV reader and 3DM-GX1 decoder against numpy.loadtxt and pandas.read_csv
 # on the same generated file, in one run. Usage: bench/io/run.sh [ROWS] [REPEATS] [CPU]
 # Every reader runs pinned to one CPU (default 1) under the same rule: best and median of REPEATS,
-# file read included. spincal's CSV reader is then timed again on all CPUs. Writes only bench/out/io.
+# file read included; cpu s is the least on-CPU time of a repeat (steadier under load). spincal's CSV
+# reader is then timed again on all CPUs (its cpu s counts the main thread only). Writes only bench/out/io.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 ROWS=${1:-1000000}
@@ -29,11 +30,12 @@ echo "rows: $ROWS; best and median of $REPEATS; pinned to CPU $CPU except spinca
     "numpy $("$VENV/bin/python" -c 'import numpy; print(numpy.__version__)')," \
     "pandas $("$VENV/bin/python" -c 'import pandas; print(pandas.__version__)')"
 awk '
-    { name[NR] = $1; best[NR] = $2; med[NR] = $3; mb[NR] = $4; n[NR] = $5
-      if ($1 == "pandas-read_csv") { pb = $2; pm = $3 } }
+    { name[NR] = $1; best[NR] = $2; med[NR] = $3; cpu[NR] = $4; mb[NR] = $5; n[NR] = $6
+      if ($1 == "pandas-read_csv") { pb = $2; pm = $3; pc = $4 } }
     END {
-        printf "%-22s %9s %9s %9s %14s %18s\n", "reader", "best s", "median s", "MB/s", "samples/s", "x pandas (best/med)"
+        printf "%-21s %8s %8s %8s %8s %13s  %s\n", "reader", "best s", "median s", "cpu s", "MB/s",
+            "samples/s", "x pandas.read_csv (best / median / cpu)"
         for (i = 1; i <= NR; i++)
-            printf "%-22s %9.4f %9.4f %9.1f %14.0f %11.2f / %5.2f\n", name[i], best[i], med[i],
-                mb[i] / best[i], n[i] / best[i], pb / best[i], pm / med[i]
+            printf "%-21s %8.4f %8.4f %8.4f %8.1f %13.0f  %6.2f / %5.2f / %5.2f\n", name[i], best[i],
+                med[i], cpu[i], mb[i] / best[i], n[i] / best[i], pb / best[i], pm / med[i], pc / cpu[i]
     }' "$OUT/times.txt"

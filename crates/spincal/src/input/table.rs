@@ -347,49 +347,33 @@ impl<'a> TableHead<'a> {
     #[doc(hidden)]
     pub fn rows_in_chunks(&self, targets: &[(usize, f64)], chunks: usize) -> Result<Rows, TableError> {
         let pieces = split_at_lines(self.rest, chunks.max(1));
-        // Rows per byte from the first 64 KiB, to allocate the columns once.
-        let sample = &self.rest[..self.rest.len().min(1 << 16)];
-        let per_sample = memchr::memchr_iter(b'\n', sample).count() + 1;
-        let estimate = |bytes: usize| bytes / sample.len().max(1) * per_sample + per_sample + 1;
-        let empty = |bytes: usize| Rows {
-            columns: targets
-                .iter()
-                .map(|_| Vec::with_capacity(estimate(bytes)))
-                .collect(),
-            lines: Vec::with_capacity(estimate(bytes)),
-        };
-        let mut out = empty(self.rest.len());
-        for (column, &(c, scale)) in out.columns.iter_mut().zip(targets) {
-            column.push(self.first.1[c] * scale);
-        }
-        out.lines.push(self.first.0);
         let located = |line: usize, fault: Fault| fault.locate(&self.file, line, &self.header, self.width);
-        if pieces.len() == 1 {
-            // One chunk writes straight into the result, numbering lines as it goes.
-            self.parse_chunk(self.rest, self.first.0, targets, &mut out)
-                .map_err(|(line, fault)| located(line, fault))?;
-        } else {
-            use rayon::prelude::*;
-            let parsed: Vec<_> = pieces
-                .par_iter()
-                .map(|piece| {
-                    let mut rows = empty(piece.len());
-                    self.parse_chunk(piece, 0, targets, &mut rows)
-                        .map(|lines| (lines, rows))
-                })
-                .collect();
-            // In file order: the first chunk with a fault holds the file's first fault, and the
-            // chunks before it give its line.
-            let mut base = self.first.0;
-            for result in parsed {
-                let (lines, rows) = result.map_err(|(line, fault)| located(base + line, fault))?;
-                for (all, part) in out.columns.iter_mut().zip(&rows.columns) {
-                    all.extend_from_slice(part);
-                }
-                out.lines.extend(rows.lines.iter().map(|l| l + base));
-                base += lines;
+        let out = if pieces.len() == 1 {
+            // Rows per byte from the first 64 KiB, to allocate the columns once.
+            let sample = &self.rest[..self.rest.len().min(1 << 16)];
+            let per_sample = memchr::memchr_iter(b'\n', sample).count() + 1;
+            let rows = self.rest.len() / sample.len().max(1) * per_sample + per_sample + 1;
+            let mut out = Rows {
+                columns: targets.iter().map(|_| Vec::with_capacity(rows)).collect(),
+                lines: Vec::with_capacity(rows),
+            };
+            for (column, &(c, scale)) in out.columns.iter_mut().zip(targets) {
+                column.push(self.first.1[c] * scale);
             }
-        }
+            out.lines.push(self.first.0);
+            // One chunk writes straight into the result, numbering lines as it goes.
+            self.parse_chunk(self.rest, self.first.0, |row, line| {
+                for (column, &(c, scale)) in out.columns.iter_mut().zip(targets) {
+                    column.push(row[c] * scale);
+                }
+                out.lines.push(line);
+            })
+            .map_err(|(line, fault)| located(line, fault))?;
+            out
+        } else {
+            self.rows_in_parallel(&pieces, targets)
+                .map_err(|(line, fault)| located(line, fault))?
+        };
         if let Some(line) = self.not_text {
             return Err(TableError::NotText {
                 file: self.file.clone(),
@@ -399,14 +383,87 @@ impl<'a> TableHead<'a> {
         Ok(out)
     }
 
-    /// Parses the whole lines in `piece`, numbered from `base + 1`, appending to `out`; returns the
-    /// number of lines, or the first fault with its line.
+    /// Parses the pieces in parallel, each into its own stretch of the result (as long as its
+    /// lines, an upper bound on its rows), then closes the gaps left by blank and comment lines.
+    fn rows_in_parallel(&self, pieces: &[&[u8]], targets: &[(usize, f64)]) -> Result<Rows, (usize, Fault)> {
+        use rayon::prelude::*;
+        let counts: Vec<usize> = pieces
+            .par_iter()
+            .map(|p| memchr::memchr_iter(b'\n', p).count() + usize::from(!p.ends_with(b"\n")))
+            .collect();
+        let total = 1 + counts.iter().sum::<usize>();
+        // Zeroed allocations are mapped lazily, so the workers fault in their own stretches.
+        let mut columns: Vec<Vec<f64>> = targets
+            .iter()
+            .map(|&(c, scale)| {
+                let mut column = vec![0.0; total];
+                column[0] = self.first.1[c] * scale;
+                column
+            })
+            .collect();
+        let mut lines = vec![0; total];
+        lines[0] = self.first.0;
+        let mut column_rests: Vec<&mut [f64]> = columns.iter_mut().map(|c| &mut c[1..]).collect();
+        let mut line_rest = &mut lines[1..];
+        let mut stretches = Vec::with_capacity(pieces.len());
+        for &n in &counts {
+            let mut piece_columns = Vec::with_capacity(targets.len());
+            for rest in column_rests.iter_mut() {
+                let (head, tail) = std::mem::take(rest).split_at_mut(n);
+                *rest = tail;
+                piece_columns.push(head);
+            }
+            let (head, tail) = std::mem::take(&mut line_rest).split_at_mut(n);
+            line_rest = tail;
+            stretches.push((piece_columns, head));
+        }
+        let parsed: Vec<Result<(usize, usize), (usize, Fault)>> = pieces
+            .par_iter()
+            .zip(stretches.into_par_iter())
+            .map(|(piece, (mut piece_columns, piece_lines))| {
+                let mut i = 0;
+                let n_lines = self.parse_chunk(piece, 0, |row, line| {
+                    for (column, &(c, scale)) in piece_columns.iter_mut().zip(targets) {
+                        column[i] = row[c] * scale;
+                    }
+                    piece_lines[i] = line;
+                    i += 1;
+                })?;
+                Ok((n_lines, i))
+            })
+            .collect();
+        // In file order: the first piece with a fault holds the file's first fault, and the pieces
+        // before it give its line.
+        let (mut base, mut write, mut read) = (self.first.0, 1, 1);
+        for (result, n) in parsed.into_iter().zip(counts) {
+            let (n_lines, rows) = result.map_err(|(line, fault)| (base + line, fault))?;
+            if read != write {
+                for column in columns.iter_mut() {
+                    column.copy_within(read..read + rows, write);
+                }
+                lines.copy_within(read..read + rows, write);
+            }
+            for line in &mut lines[write..write + rows] {
+                *line += base;
+            }
+            base += n_lines;
+            write += rows;
+            read += n;
+        }
+        for column in columns.iter_mut() {
+            column.truncate(write);
+        }
+        lines.truncate(write);
+        Ok(Rows { columns, lines })
+    }
+
+    /// Parses the whole lines in `piece`, numbered from `base + 1`, handing each row and its line to
+    /// `emit`; returns the number of lines, or the first fault with its line.
     fn parse_chunk(
         &self,
         piece: &[u8],
         base: usize,
-        targets: &[(usize, f64)],
-        out: &mut Rows,
+        mut emit: impl FnMut(&[f64], usize),
     ) -> Result<usize, (usize, Fault)> {
         let mut row = vec![0.0; self.width];
         let mut careful = Vec::with_capacity(self.width);
@@ -437,10 +494,7 @@ impl<'a> TableHead<'a> {
                     row.copy_from_slice(&careful);
                 }
             }
-            for (column, &(c, scale)) in out.columns.iter_mut().zip(targets) {
-                column.push(row[c] * scale);
-            }
-            out.lines.push(line);
+            emit(&row, line);
         }
         Ok(line - base)
     }
