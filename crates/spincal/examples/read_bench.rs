@@ -2,9 +2,10 @@
 //!
 //! `read_bench gen DIR ROWS` writes DIR/bench.csv (t,ax,ay,az,gx,gy,gz) and DIR/bench.gx1 (the same
 //! samples as a 3DM-GX1 0x03 stream); `read_bench read DIR REPEATS [csv]` times spincal's CSV reader
-//! and (without `csv`) the GX1 decoder, file read included, and prints
+//! and (without `csv`) its streaming `RowReader` and the GX1 decoder, file read included, and prints
 //! `name best_seconds median_seconds cpu_seconds megabytes samples`.
 
+use std::io::BufReader;
 use std::path::Path;
 use std::time::Instant;
 
@@ -12,6 +13,7 @@ use rand::{Rng, SeedableRng};
 use spincal::formats::gx1::{decode, encode, Gx1EncodeOptions, Gx1Options};
 use spincal::formats::{read_path, Format, ReadOptions};
 use spincal::recording::{AccelUnit, Recording, Source};
+use spincal::table::{Record, RowReader, TableOptions};
 
 fn generate(dir: &Path, rows: usize) {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
@@ -75,6 +77,18 @@ fn read(dir: &Path, repeats: usize, csv_only: bool) {
     if csv_only {
         return;
     }
+    // The streaming reader `spincal correct` uses: one row at a time, constant memory.
+    let (best, median, cpu, rows) = timed(repeats, || {
+        let file = std::fs::File::open(&csv).expect("open csv");
+        let mut rows =
+            RowReader::new(BufReader::new(file), "bench.csv", &TableOptions::default()).expect("header");
+        let (mut values, mut n) = (Vec::new(), 0);
+        while let Some(record) = rows.next_record(&mut values).expect("read") {
+            n += usize::from(matches!(record, Record::Parsed { .. }));
+        }
+        n
+    });
+    println!("spincal-csv-stream {best:.6} {median:.6} {cpu:.6} {mb:.3} {rows}");
     let gx1 = dir.join("bench.gx1");
     let (best, median, cpu, (rec, _)) = timed(repeats, || {
         let bytes = std::fs::read(&gx1).expect("read gx1");
