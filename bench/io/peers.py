@@ -1,5 +1,8 @@
-"""Times numpy.loadtxt and pandas.read_csv on bench.csv; prints `name seconds megabytes samples`."""
+"""Times numpy.loadtxt and pandas.read_csv on bench.csv with read_bench's rule (best and median of
+REPEATS, file read included, and the least on-CPU seconds from /proc/self/schedstat as read_bench
+reads it); prints `name best_seconds median_seconds cpu_seconds megabytes samples`."""
 import os
+import statistics
 import sys
 import time
 
@@ -7,22 +10,32 @@ import numpy as np
 import pandas as pd
 
 
-def best_of(repeats, f):
-    best, out = float("inf"), None
+def cpu_seconds():
+    try:
+        with open("/proc/self/schedstat") as f:
+            return int(f.read().split()[0]) * 1e-9
+    except OSError:
+        return 0.0
+
+
+def timed(repeats, f):
+    secs, cpu, out = [], float("inf"), None
     for _ in range(repeats):
-        start = time.perf_counter()
+        start, cpu_start = time.perf_counter(), cpu_seconds()
         out = f()
-        best = min(best, time.perf_counter() - start)
-    return best, out
+        secs.append(time.perf_counter() - start)
+        cpu = min(cpu, cpu_seconds() - cpu_start)
+    secs.sort()
+    return secs[0], secs[len(secs) // 2], cpu, out
 
 
 def main():
     path, repeats = os.path.join(sys.argv[1], "bench.csv"), int(sys.argv[2])
     mb = os.path.getsize(path) / 1e6
-    secs, a = best_of(repeats, lambda: np.loadtxt(path, delimiter=",", skiprows=1))
-    print(f"numpy-loadtxt {secs:.6f} {mb:.3f} {a.shape[0]}")
-    secs, df = best_of(repeats, lambda: pd.read_csv(path))
-    print(f"pandas-read_csv {secs:.6f} {mb:.3f} {len(df)}")
+    best, median, cpu, a = timed(repeats, lambda: np.loadtxt(path, delimiter=",", skiprows=1))
+    print(f"numpy-loadtxt {best:.6f} {median:.6f} {cpu:.6f} {mb:.3f} {a.shape[0]}")
+    best, median, cpu, df = timed(repeats, lambda: pd.read_csv(path))
+    print(f"pandas-read_csv {best:.6f} {median:.6f} {cpu:.6f} {mb:.3f} {len(df)}")
 
 
 if __name__ == "__main__":

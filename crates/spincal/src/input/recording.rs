@@ -9,7 +9,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::input::table::{find_column, Location, Table, TableError, TableOptions};
+use crate::input::table::{find_column, read_file, Location, Table, TableError, TableHead, TableOptions};
 
 /// Standard gravity, m/s² (the default local g).
 pub const STANDARD_GRAVITY: f64 = 9.80665;
@@ -271,46 +271,75 @@ impl Recording {
 
     /// Reads a recording from a delimited text file.
     pub fn read_csv_path(path: &Path, map: &ColumnMap) -> Result<Recording, RecordingError> {
-        let table = Table::read_path(path, &map.table)?;
-        Recording::from_table(&table, map)
+        let file = path.display().to_string();
+        let bytes = read_file(path).map_err(|source| TableError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        Recording::parse_csv(&bytes, &file, map)
     }
 
-    /// Reads a recording from any text source; `name` is used in errors.
-    pub fn read_csv<R: BufRead>(reader: R, name: &str, map: &ColumnMap) -> Result<Recording, RecordingError> {
-        let table = Table::read(reader, name, &map.table)?;
-        Recording::from_table(&table, map)
+    /// Reads a recording from any text source (to its end, then [`Recording::parse_csv`]); `name`
+    /// is used in errors.
+    pub fn read_csv<R: BufRead>(
+        mut reader: R,
+        name: &str,
+        map: &ColumnMap,
+    ) -> Result<Recording, RecordingError> {
+        let mut bytes = Vec::new();
+        reader.read_to_end(&mut bytes).map_err(|source| TableError::Io {
+            file: name.to_string(),
+            source,
+        })?;
+        Recording::parse_csv(&bytes, name, map)
+    }
+
+    /// Parses a delimited text file held in memory; `name` is used in errors. Only the chosen
+    /// columns are kept, converted to SI while they are parsed; the result and every error are
+    /// those of [`Table::parse`] followed by [`Recording::from_table`].
+    pub fn parse_csv(bytes: &[u8], name: &str, map: &ColumnMap) -> Result<Recording, RecordingError> {
+        let head = TableHead::new(bytes, name, &map.table)?;
+        let plan = match Plan::new(&head.header, head.width(), name, map) {
+            Ok(plan) => plan,
+            Err(e) => {
+                // An error in the table comes first, as when the whole table was read before.
+                head.rows(&[])?;
+                return Err(e);
+            }
+        };
+        let rows = head.rows(&plan.targets())?;
+        let mut columns = rows.columns.into_iter();
+        let mut next = || columns.next().unwrap_or_default();
+        let time_s = next();
+        let accel_mps2 = [next(), next(), next()];
+        let gyro_radps = (plan.indices.len() == 7).then(|| [next(), next(), next()]);
+        let recording = Recording {
+            time_s,
+            accel_mps2,
+            gyro_radps,
+            source: Source {
+                name: name.to_string(),
+                format: "csv".into(),
+                columns: plan.names,
+                metadata: head.metadata.iter().map(|(_, s)| s.clone()).collect(),
+                lines: rows.lines,
+            },
+        };
+        recording.check_time()?;
+        Ok(recording)
     }
 
     /// Picks time/accel/gyro columns out of a table and converts them to SI.
     pub fn from_table(table: &Table, map: &ColumnMap) -> Result<Recording, RecordingError> {
-        let indices = resolve_columns(table, map)?;
-        let name_of = |i: usize| {
-            table
-                .header
-                .get(i)
-                .cloned()
-                .unwrap_or_else(|| format!("column {}", i + 1))
-        };
-        let time_unit = map
-            .time_unit
-            .or_else(|| unit_from_name(&name_of(indices[0]), TimeUnit::parse))
-            .unwrap_or(TimeUnit::S);
-        let accel_unit = map
-            .accel_unit
-            .or_else(|| unit_from_name(&name_of(indices[1]), AccelUnit::parse))
-            .unwrap_or(AccelUnit::Mps2);
-        let scale = |c: usize, k: f64| table.columns[c].iter().map(|v| v * k).collect::<Vec<f64>>();
-        let time_s = scale(indices[0], time_unit.to_si());
-        let accel_mps2 = [1, 2, 3].map(|k| scale(indices[k], accel_unit.to_si()));
-        let gyro_radps = if indices.len() == 7 {
-            let unit = map
-                .gyro_unit
-                .or_else(|| unit_from_name(&name_of(indices[4]), GyroUnit::parse))
-                .unwrap_or(GyroUnit::Radps);
-            Some([4, 5, 6].map(|k| scale(indices[k], unit.to_si())))
-        } else {
-            None
-        };
+        let plan = Plan::new(&table.header, table.n_columns(), &table.file, map)?;
+        let mut columns = plan
+            .targets()
+            .into_iter()
+            .map(|(c, k)| table.columns[c].iter().map(|v| v * k).collect::<Vec<f64>>());
+        let mut next = || columns.next().unwrap_or_default();
+        let time_s = next();
+        let accel_mps2 = [next(), next(), next()];
+        let gyro_radps = (plan.indices.len() == 7).then(|| [next(), next(), next()]);
         let recording = Recording {
             time_s,
             accel_mps2,
@@ -318,7 +347,7 @@ impl Recording {
             source: Source {
                 name: table.file.clone(),
                 format: "csv".into(),
-                columns: indices.iter().map(|&i| name_of(i)).collect(),
+                columns: plan.names,
                 metadata: table.metadata.iter().map(|(_, s)| s.clone()).collect(),
                 lines: table.lines.clone(),
             },
@@ -466,48 +495,111 @@ fn unit_from_name<U>(name: &str, parse: impl Fn(&str) -> Option<U>) -> Option<U>
     lower.rsplit_once('_').and_then(|(_, suffix)| parse(suffix))
 }
 
-fn resolve_columns(table: &Table, map: &ColumnMap) -> Result<Vec<usize>, RecordingError> {
+/// Which file columns become time, acceleration and rate, and the factor to SI for each.
+struct Plan {
+    /// File columns of t, ax, ay, az[, gx, gy, gz].
+    indices: Vec<usize>,
+    /// Factor to SI of each.
+    scales: Vec<f64>,
+    /// Their names in the file (or `column N`).
+    names: Vec<String>,
+}
+
+impl Plan {
+    fn new(header: &[String], n_columns: usize, file: &str, map: &ColumnMap) -> Result<Plan, RecordingError> {
+        let indices = resolve_columns(header, n_columns, file, map)?;
+        let name_of = |i: usize| {
+            header
+                .get(i)
+                .cloned()
+                .unwrap_or_else(|| format!("column {}", i + 1))
+        };
+        let time_unit = map
+            .time_unit
+            .or_else(|| unit_from_name(&name_of(indices[0]), TimeUnit::parse))
+            .unwrap_or(TimeUnit::S);
+        let accel_unit = map
+            .accel_unit
+            .or_else(|| unit_from_name(&name_of(indices[1]), AccelUnit::parse))
+            .unwrap_or(AccelUnit::Mps2);
+        let mut scales = vec![
+            time_unit.to_si(),
+            accel_unit.to_si(),
+            accel_unit.to_si(),
+            accel_unit.to_si(),
+        ];
+        if indices.len() == 7 {
+            let unit = map
+                .gyro_unit
+                .or_else(|| unit_from_name(&name_of(indices[4]), GyroUnit::parse))
+                .unwrap_or(GyroUnit::Radps);
+            scales.extend([unit.to_si(); 3]);
+        }
+        let names = indices.iter().map(|&i| name_of(i)).collect();
+        Ok(Plan {
+            indices,
+            scales,
+            names,
+        })
+    }
+
+    /// (file column, factor) of each output column.
+    fn targets(&self) -> Vec<(usize, f64)> {
+        self.indices
+            .iter()
+            .copied()
+            .zip(self.scales.iter().copied())
+            .collect()
+    }
+}
+
+fn resolve_columns(
+    header: &[String],
+    n_columns: usize,
+    file: &str,
+    map: &ColumnMap,
+) -> Result<Vec<usize>, RecordingError> {
     let available = || {
-        if table.header.is_empty() {
-            format!("{} unnamed", table.n_columns())
+        if header.is_empty() {
+            format!("{} unnamed", n_columns)
         } else {
-            table.header.join(", ")
+            header.join(", ")
         }
     };
     if let Some(keys) = &map.columns {
         return keys
             .iter()
             .map(|k| {
-                find_column(&table.header, table.n_columns(), k).ok_or_else(|| RecordingError::NoSuchColumn {
-                    file: table.file.clone(),
+                find_column(header, n_columns, k).ok_or_else(|| RecordingError::NoSuchColumn {
+                    file: file.to_string(),
                     key: k.clone(),
                     available: available(),
                 })
             })
             .collect();
     }
-    if table.header.is_empty() {
-        return match table.n_columns() {
+    if header.is_empty() {
+        return match n_columns {
             4 => Ok(vec![0, 1, 2, 3]),
             n if n >= 7 => Ok((0..7).collect()),
             _ => Err(RecordingError::AmbiguousColumns {
-                file: table.file.clone(),
+                file: file.to_string(),
                 available: available(),
             }),
         };
     }
     let names: Vec<String> = TIME_NAMES.iter().map(|s| s.to_string()).collect();
-    let time = find_any(&table.header, &names);
-    let accel: Option<Vec<usize>> = (0..3).map(|a| find_any(&table.header, &accel_names(a))).collect();
+    let time = find_any(header, &names);
+    let accel: Option<Vec<usize>> = (0..3).map(|a| find_any(header, &accel_names(a))).collect();
     let (Some(time), Some(accel)) = (time, accel) else {
         return Err(RecordingError::AmbiguousColumns {
-            file: table.file.clone(),
+            file: file.to_string(),
             available: available(),
         });
     };
     let mut indices = vec![time];
     indices.extend(accel);
-    let gyro: Option<Vec<usize>> = (0..3).map(|a| find_any(&table.header, &gyro_names(a))).collect();
+    let gyro: Option<Vec<usize>> = (0..3).map(|a| find_any(header, &gyro_names(a))).collect();
     if let Some(gyro) = gyro {
         indices.extend(gyro);
     }
@@ -577,5 +669,73 @@ mod tests {
             }
         }
         assert_eq!(back.gyro_radps, r.gyro_radps);
+    }
+
+    /// Parsing with units applied on the way gives what reading the table and then converting gave:
+    /// the same bits, and the same first error (a bad cell anywhere before a column problem).
+    #[test]
+    fn units_applied_while_parsing_match_the_table_route() {
+        let map = |columns: Option<&str>| match columns {
+            Some(c) => ColumnMap::default().with_columns(c).unwrap(),
+            None => ColumnMap::default(),
+        };
+        let mut long = String::from("t_ms,ax_g,ay_g,az_g,gx_dps,gy_dps,gz_dps,temp\n");
+        for i in 0..40_000 {
+            let x = (i as f64 * 0.37).sin();
+            long.push_str(&format!(
+                "{},{x},{},{},{},{},{},25.5\n",
+                i * 10,
+                x / 7.0,
+                1.0 - x,
+                x * 300.0,
+                -x,
+                x / 3.0
+            ));
+        }
+        let cases: Vec<(String, ColumnMap)> = vec![
+            ("t_ms;ax_g;ay_g;az_g\n0;0;0;1\n10;0.1;0;1\n".into(), map(None)),
+            (
+                "t,ax,ay,az,gx_dps,gy_dps,gz_dps\n0,1,2,3,4,5,6\n0.01,1,2,3,4,5,6\n".into(),
+                map(None),
+            ),
+            ("x y z time\n1 2 3 0\n4 5 6 1\n".into(), map(Some("4,x,y,z"))),
+            ("t,a\n0,1\n1,2\n".into(), map(Some("t,a,a,a"))),
+            ("0,1,2,3\n1,2,3,4\n".into(), map(None)),
+            ("0,1,2,3,4,5,6,7\n1,2,3,4,5,6,7,8\n".into(), map(None)),
+            ("t,ax\n0,1\n1,x\n".into(), map(None)),
+            ("x y z time\n1 2 3 0\n4 5 q 1\n".into(), map(Some("t,x,y,z"))),
+            ("x y z time\n1 2 3 0\n4 5 6 1\n".into(), map(Some("t,x,y,z"))),
+            ("t,ax,ay,az\n0,0,0,1\n0.02,0,0,1\n0.01,0,0,1\n".into(), map(None)),
+            (long.clone(), map(None)),
+            (long.clone(), map(Some("t_ms,temp,ax_g,ax_g"))),
+            (long.replace("\n39000,", "\n39000,,"), map(None)),
+        ];
+        for (text, map) in &cases {
+            let table_route = Table::parse(text.as_bytes(), "rec.csv", &map.table)
+                .map_err(RecordingError::from)
+                .and_then(|t| Recording::from_table(&t, map));
+            for threads in [1, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let parsed = pool.install(|| Recording::parse_csv(text.as_bytes(), "rec.csv", map));
+                match (&parsed, &table_route) {
+                    (Ok(a), Ok(b)) => {
+                        assert_eq!(a, b);
+                        let bits = |r: &Recording| {
+                            let mut v: Vec<u64> = r.time_s.iter().map(|x| x.to_bits()).collect();
+                            for axis in r.accel_mps2.iter().chain(r.gyro_radps.iter().flatten()) {
+                                v.extend(axis.iter().map(|x| x.to_bits()));
+                            }
+                            v
+                        };
+                        assert_eq!(bits(a), bits(b));
+                    }
+                    (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
+                    _ => panic!("{parsed:?} vs {table_route:?}"),
+                }
+            }
+        }
     }
 }

@@ -7,7 +7,7 @@
 //! 1-based column (with its header name when there is one).
 
 use std::fmt;
-use std::io::BufRead;
+use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 
 /// Field separator of a delimited text file.
@@ -180,42 +180,525 @@ impl Table {
         self.columns.len()
     }
 
-    /// Reads a table from a file path.
+    /// Reads a table from a file path (see [`read_file`] and [`Table::parse`]).
     pub fn read_path(path: &Path, options: &TableOptions) -> Result<Table, TableError> {
         let file = path.display().to_string();
-        let handle = std::fs::File::open(path).map_err(|source| TableError::Io {
+        let bytes = read_file(path).map_err(|source| TableError::Io {
             file: file.clone(),
             source,
         })?;
-        Table::read(std::io::BufReader::new(handle), &file, options)
+        Table::parse(&bytes, &file, options)
     }
 
-    /// Reads a table from any buffered reader; `file` names the source in errors.
-    pub fn read<R: BufRead>(reader: R, file: &str, options: &TableOptions) -> Result<Table, TableError> {
-        let mut rows = RowReader::new(reader, file, options)?;
-        let width = rows.width();
-        let mut columns = vec![Vec::new(); width];
-        let mut lines = Vec::new();
-        let mut values = Vec::with_capacity(width);
-        while let Some(line) = rows.next_row(&mut values)? {
-            for (column, v) in columns.iter_mut().zip(&values) {
-                column.push(*v);
-            }
-            lines.push(line);
-        }
+    /// Reads a table from any buffered reader; `file` names the source in errors. The input is read
+    /// to its end, then parsed by [`Table::parse`].
+    pub fn read<R: BufRead>(mut reader: R, file: &str, options: &TableOptions) -> Result<Table, TableError> {
+        let mut bytes = Vec::new();
+        reader.read_to_end(&mut bytes).map_err(|source| TableError::Io {
+            file: file.to_string(),
+            source,
+        })?;
+        Table::parse(&bytes, file, options)
+    }
+
+    /// Parses a table held in memory; `file` names the source in errors.
+    pub fn parse(bytes: &[u8], file: &str, options: &TableOptions) -> Result<Table, TableError> {
+        let head = TableHead::new(bytes, file, options)?;
+        let every: Vec<(usize, f64)> = (0..head.width()).map(|c| (c, 1.0)).collect();
+        let rows = head.rows(&every)?;
         Ok(Table {
             file: file.to_string(),
-            delimiter: rows.delimiter,
-            header: rows.header.clone(),
-            metadata: rows.metadata.clone(),
-            columns,
-            lines,
+            delimiter: head.delimiter,
+            header: head.header,
+            metadata: head.metadata,
+            columns: rows.columns,
+            lines: rows.lines,
         })
     }
 
     /// Finds a column by header name (case-insensitive) or by 1-based index written as a number.
     pub fn column_index(&self, key: &str) -> Option<usize> {
         find_column(&self.header, self.n_columns(), key)
+    }
+}
+
+/// The bytes of a file: mapped when it is a large regular file, read whole otherwise.
+pub enum FileBytes {
+    Mapped(memmap2::Mmap),
+    Read(Vec<u8>),
+}
+
+impl std::ops::Deref for FileBytes {
+    type Target = [u8];
+    fn deref(&self) -> &[u8] {
+        match self {
+            FileBytes::Mapped(map) => map,
+            FileBytes::Read(bytes) => bytes,
+        }
+    }
+}
+
+/// Files from this size up are mapped rather than copied into memory.
+const MAP_BYTES: u64 = 1 << 20;
+
+/// Opens a file for parsing in memory: a regular file of at least 1 MiB is mapped (no copy), any
+/// other (small, pipe, device) is read whole.
+pub fn read_file(path: &Path) -> std::io::Result<FileBytes> {
+    let mut file = std::fs::File::open(path)?;
+    let meta = file.metadata()?;
+    if meta.is_file() && meta.len() >= MAP_BYTES {
+        // SAFETY: the map is read-only. Another process truncating the file while it is parsed
+        // would fault the read (SIGBUS), as in any reader that maps files; spincal's inputs are
+        // finished recordings, and the speed of a mapped read is why this is worth it.
+        if let Ok(map) = unsafe { memmap2::MmapOptions::new().populate().map(&file) } {
+            return Ok(FileBytes::Mapped(map));
+        }
+    }
+    let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0));
+    file.read_to_end(&mut bytes)?;
+    Ok(FileBytes::Read(bytes))
+}
+
+/// The start of a table held in memory, read line by line like [`RowReader`] does (metadata,
+/// header, separator, width and the first data row); [`TableHead::rows`] then parses the rest.
+#[derive(Debug)]
+pub struct TableHead<'a> {
+    file: String,
+    pub delimiter: Delimiter,
+    pub header: Vec<String>,
+    pub metadata: Vec<(usize, String)>,
+    width: usize,
+    /// The first data row's line and values.
+    first: (usize, Vec<f64>),
+    /// The bytes after the first data row, up to the first line that is not UTF-8 text.
+    rest: &'a [u8],
+    /// That line, when there is one.
+    not_text: Option<usize>,
+}
+
+/// Rows parsed by [`TableHead::rows`]: the chosen columns and the 1-based line of every row.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Rows {
+    pub columns: Vec<Vec<f64>>,
+    pub lines: Vec<usize>,
+}
+
+/// Below this many bytes per chunk a parallel split costs more than it gains.
+const MIN_CHUNK_BYTES: usize = 1 << 20;
+
+impl<'a> TableHead<'a> {
+    pub fn new(bytes: &'a [u8], file: &str, options: &TableOptions) -> Result<Self, TableError> {
+        let RowReader {
+            reader: rest,
+            file,
+            delimiter,
+            header,
+            metadata,
+            width,
+            pending,
+            ..
+        } = RowReader::new(bytes, file, options)?;
+        let Some(first) = pending else {
+            unreachable!("RowReader::new always holds the first data row")
+        };
+        // One UTF-8 check for the whole rest. Rows before a line that is not text are read as
+        // usual, and that line is then the error, as when lines were read one at a time.
+        let (rest, not_text) = match std::str::from_utf8(rest) {
+            Ok(_) => (rest, None),
+            Err(e) => {
+                let cut = memchr::memrchr(b'\n', &rest[..e.valid_up_to()]).map_or(0, |p| p + 1);
+                let line = first.0 + 1 + memchr::memchr_iter(b'\n', &rest[..cut]).count();
+                (&rest[..cut], Some(line))
+            }
+        };
+        Ok(TableHead {
+            file,
+            delimiter,
+            header,
+            metadata,
+            width,
+            first,
+            rest,
+            not_text,
+        })
+    }
+
+    /// Number of fields per row.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Parses every data row. Output column `k` is file column `targets[k].0` times `targets[k].1`
+    /// (units applied while parsing); every cell is checked, chosen or not, so errors are those of
+    /// [`Table::read`]. Large inputs are parsed in chunks in parallel; the result does not depend
+    /// on the thread count.
+    pub fn rows(&self, targets: &[(usize, f64)]) -> Result<Rows, TableError> {
+        let threads = rayon::current_num_threads();
+        let chunks = if threads > 1 {
+            // A few chunks per thread even out lines of different lengths and a busy core.
+            (self.rest.len() / MIN_CHUNK_BYTES).clamp(1, 4 * threads)
+        } else {
+            1
+        };
+        self.rows_in_chunks(targets, chunks)
+    }
+
+    /// [`TableHead::rows`] with the number of chunks given (tests check that it does not matter).
+    #[doc(hidden)]
+    pub fn rows_in_chunks(&self, targets: &[(usize, f64)], chunks: usize) -> Result<Rows, TableError> {
+        let pieces = split_at_lines(self.rest, chunks.max(1));
+        let located = |line: usize, fault: Fault| fault.locate(&self.file, line, &self.header, self.width);
+        let out = if pieces.len() == 1 {
+            // Rows per byte from the first 64 KiB, to allocate the columns once.
+            let sample = &self.rest[..self.rest.len().min(1 << 16)];
+            let per_sample = memchr::memchr_iter(b'\n', sample).count() + 1;
+            let rows = self.rest.len() / sample.len().max(1) * per_sample + per_sample + 1;
+            let mut out = Rows {
+                columns: targets.iter().map(|_| Vec::with_capacity(rows)).collect(),
+                lines: Vec::with_capacity(rows),
+            };
+            for (column, &(c, scale)) in out.columns.iter_mut().zip(targets) {
+                column.push(self.first.1[c] * scale);
+            }
+            out.lines.push(self.first.0);
+            // One chunk writes straight into the result, numbering lines as it goes.
+            self.parse_chunk(self.rest, self.first.0, |row, line| {
+                for (column, &(c, scale)) in out.columns.iter_mut().zip(targets) {
+                    column.push(row[c] * scale);
+                }
+                out.lines.push(line);
+            })
+            .map_err(|(line, fault)| located(line, fault))?;
+            out
+        } else {
+            self.rows_in_parallel(&pieces, targets)
+                .map_err(|(line, fault)| located(line, fault))?
+        };
+        if let Some(line) = self.not_text {
+            return Err(TableError::NotText {
+                file: self.file.clone(),
+                line,
+            });
+        }
+        Ok(out)
+    }
+
+    /// Parses the pieces in parallel, each into its own stretch of the result (as long as its
+    /// lines, an upper bound on its rows), then closes the gaps left by blank and comment lines.
+    fn rows_in_parallel(&self, pieces: &[&[u8]], targets: &[(usize, f64)]) -> Result<Rows, (usize, Fault)> {
+        use rayon::prelude::*;
+        let counts: Vec<usize> = pieces
+            .par_iter()
+            .map(|p| memchr::memchr_iter(b'\n', p).count() + usize::from(!p.ends_with(b"\n")))
+            .collect();
+        let total = 1 + counts.iter().sum::<usize>();
+        // Zeroed allocations are mapped lazily, so the workers fault in their own stretches.
+        let mut columns: Vec<Vec<f64>> = targets
+            .iter()
+            .map(|&(c, scale)| {
+                let mut column = vec![0.0; total];
+                column[0] = self.first.1[c] * scale;
+                column
+            })
+            .collect();
+        let mut lines = vec![0; total];
+        lines[0] = self.first.0;
+        let mut column_rests: Vec<&mut [f64]> = columns.iter_mut().map(|c| &mut c[1..]).collect();
+        let mut line_rest = &mut lines[1..];
+        let mut stretches = Vec::with_capacity(pieces.len());
+        for &n in &counts {
+            let mut piece_columns = Vec::with_capacity(targets.len());
+            for rest in column_rests.iter_mut() {
+                let (head, tail) = std::mem::take(rest).split_at_mut(n);
+                *rest = tail;
+                piece_columns.push(head);
+            }
+            let (head, tail) = std::mem::take(&mut line_rest).split_at_mut(n);
+            line_rest = tail;
+            stretches.push((piece_columns, head));
+        }
+        let parsed: Vec<Result<(usize, usize), (usize, Fault)>> = pieces
+            .par_iter()
+            .zip(stretches.into_par_iter())
+            .map(|(piece, (mut piece_columns, piece_lines))| {
+                let mut i = 0;
+                let n_lines = self.parse_chunk(piece, 0, |row, line| {
+                    for (column, &(c, scale)) in piece_columns.iter_mut().zip(targets) {
+                        column[i] = row[c] * scale;
+                    }
+                    piece_lines[i] = line;
+                    i += 1;
+                })?;
+                Ok((n_lines, i))
+            })
+            .collect();
+        // In file order: the first piece with a fault holds the file's first fault, and the pieces
+        // before it give its line.
+        let (mut base, mut write, mut read) = (self.first.0, 1, 1);
+        for (result, n) in parsed.into_iter().zip(counts) {
+            let (n_lines, rows) = result.map_err(|(line, fault)| (base + line, fault))?;
+            if read != write {
+                for column in columns.iter_mut() {
+                    column.copy_within(read..read + rows, write);
+                }
+                lines.copy_within(read..read + rows, write);
+            }
+            for line in &mut lines[write..write + rows] {
+                *line += base;
+            }
+            base += n_lines;
+            write += rows;
+            read += n;
+        }
+        for column in columns.iter_mut() {
+            column.truncate(write);
+        }
+        lines.truncate(write);
+        Ok(Rows { columns, lines })
+    }
+
+    /// Parses the whole lines in `piece`, numbered from `base + 1`, handing each row and its line to
+    /// `emit`; returns the number of lines, or the first fault with its line.
+    fn parse_chunk(
+        &self,
+        piece: &[u8],
+        base: usize,
+        mut emit: impl FnMut(&[f64], usize),
+    ) -> Result<usize, (usize, Fault)> {
+        let mut row = vec![0.0; self.width];
+        let mut careful = Vec::with_capacity(self.width);
+        let mut p = 0;
+        let mut line = base;
+        while p < piece.len() {
+            line += 1;
+            let rest = &piece[p..];
+            match fast_row(rest, self.delimiter, &mut row) {
+                Fast::Row(used) => p += used,
+                Fast::Skip(used) => {
+                    p += used;
+                    continue;
+                }
+                Fast::Slow => {
+                    let (end, has_newline) = match memchr::memchr(b'\n', rest) {
+                        Some(end) => (end, true),
+                        None => (rest.len(), false),
+                    };
+                    p += end + usize::from(has_newline);
+                    let text = std::str::from_utf8(&rest[..end]).map_err(|_| (line, Fault::NotText))?;
+                    let text = text.trim_end_matches(['\n', '\r']);
+                    if is_skippable(text) {
+                        continue;
+                    }
+                    check_row(text, self.delimiter, self.width, has_newline, &mut careful)
+                        .map_err(|fault| (line, fault))?;
+                    row.copy_from_slice(&careful);
+                }
+            }
+            emit(&row, line);
+        }
+        Ok(line - base)
+    }
+}
+
+/// Splits `bytes` into at most `chunks` pieces of about equal size, each ending after a newline
+/// (the last one at the end).
+fn split_at_lines(bytes: &[u8], chunks: usize) -> Vec<&[u8]> {
+    let mut pieces = Vec::with_capacity(chunks);
+    let mut start = 0;
+    for k in 1..chunks {
+        let target = (bytes.len() * k / chunks).max(start);
+        let Some(end) = memchr::memchr(b'\n', &bytes[target..]).map(|e| target + e + 1) else {
+            break;
+        };
+        pieces.push(&bytes[start..end]);
+        start = end;
+    }
+    pieces.push(&bytes[start..]);
+    pieces.retain(|p| !p.is_empty());
+    if pieces.is_empty() {
+        pieces.push(&bytes[..0]);
+    }
+    pieces
+}
+
+/// What is wrong with one data line; [`Fault::locate`] adds the file and line.
+#[derive(Debug)]
+enum Fault {
+    Ragged { found: usize },
+    Truncated { found: usize },
+    EmptyCell { column: usize },
+    NotANumber { column: usize, text: String },
+    NonFinite { column: usize, text: String },
+    NotText,
+}
+
+impl Fault {
+    fn locate(self, file: &str, line: usize, header: &[String], width: usize) -> TableError {
+        let at = |column: Option<usize>| Location {
+            file: file.to_string(),
+            line,
+            column: column.map(|c| c + 1),
+            column_name: column.and_then(|c| header.get(c).cloned()),
+        };
+        match self {
+            Fault::Ragged { found } => TableError::Ragged {
+                at: at(None),
+                expected: width,
+                found,
+            },
+            Fault::Truncated { found } => TableError::Truncated {
+                file: file.to_string(),
+                line,
+                expected: width,
+                found,
+            },
+            Fault::EmptyCell { column } => TableError::EmptyCell { at: at(Some(column)) },
+            Fault::NotANumber { column, text } => TableError::NotANumber {
+                at: at(Some(column)),
+                text,
+            },
+            Fault::NonFinite { column, text } => TableError::NonFinite {
+                at: at(Some(column)),
+                text,
+            },
+            Fault::NotText => TableError::NotText {
+                file: file.to_string(),
+                line,
+            },
+        }
+    }
+}
+
+/// Parses one data line the careful way: any Unicode spacing, every fault named. It decides every
+/// line the byte-level [`fast_row`] declines, so both paths give the same values and errors.
+fn check_row(
+    text: &str,
+    delimiter: Delimiter,
+    width: usize,
+    has_newline: bool,
+    values: &mut Vec<f64>,
+) -> Result<(), Fault> {
+    let mut fields = Vec::with_capacity(width);
+    delimiter.split_row(text, Some(width), &mut fields);
+    if fields.len() != width {
+        if !has_newline && fields.len() < width {
+            return Err(Fault::Truncated { found: fields.len() });
+        }
+        return Err(Fault::Ragged { found: fields.len() });
+    }
+    values.clear();
+    for (c, field) in fields.iter().enumerate() {
+        if field.is_empty() {
+            return Err(Fault::EmptyCell { column: c });
+        }
+        match field.parse::<f64>() {
+            Ok(v) if v.is_finite() => values.push(v),
+            Ok(_) => {
+                return Err(Fault::NonFinite {
+                    column: c,
+                    text: field.to_string(),
+                })
+            }
+            Err(_) => {
+                return Err(Fault::NotANumber {
+                    column: c,
+                    text: field.to_string(),
+                })
+            }
+        }
+    }
+    Ok(())
+}
+
+/// What [`fast_row`] made of the start of its input (byte counts include the newline).
+enum Fast {
+    Row(usize),
+    Skip(usize),
+    Slow,
+}
+
+/// ASCII bytes that `str::trim` and `split_whitespace` remove; other spacing takes the careful path.
+#[inline(always)]
+fn is_space(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\r' | 0x0b | 0x0c)
+}
+
+/// Reads one line of plain ASCII numbers straight from bytes into `row` (`row.len()` fields), or
+/// recognises a blank or comment line. Anything else (non-ASCII, a bad or non-finite number, a wrong
+/// field count) is `Slow`, for [`check_row`] to decide. fast-float2 reads the same decimal syntax
+/// as `str::parse` and rounds correctly too, so the values are the same bits.
+#[inline]
+fn fast_row(input: &[u8], delimiter: Delimiter, row: &mut [f64]) -> Fast {
+    let mut p = 0;
+    while p < input.len() && is_space(input[p]) {
+        p += 1;
+    }
+    match input.get(p) {
+        None => return Fast::Skip(input.len()),
+        Some(b'\n') => return Fast::Skip(p + 1),
+        Some(b'#' | b'%') => {
+            return Fast::Skip(memchr::memchr(b'\n', &input[p..]).map_or(input.len(), |e| p + e + 1))
+        }
+        _ => {}
+    }
+    match delimiter {
+        Delimiter::Comma => fast_fields::<b','>(input, p, row),
+        Delimiter::Semicolon => fast_fields::<b';'>(input, p, row),
+        // Leading tabs are empty fields, not padding.
+        Delimiter::Tab => fast_fields::<b'\t'>(input, 0, row),
+        Delimiter::Whitespace => fast_fields::<0>(input, p, row),
+    }
+}
+
+/// The fields of [`fast_row`]; `SEP` is the separator byte, 0 for runs of spaces.
+#[inline(always)]
+fn fast_fields<const SEP: u8>(input: &[u8], mut p: usize, row: &mut [f64]) -> Fast {
+    let pad = |b: u8| is_space(b) && b != SEP;
+    let len = input.len();
+    let last = row.len() - 1;
+    for (c, slot) in row.iter_mut().enumerate() {
+        while p < len && pad(input[p]) {
+            p += 1;
+        }
+        let Ok((value, used)) = fast_float2::parse_partial::<f64, _>(&input[p..]) else {
+            return Fast::Slow;
+        };
+        if !value.is_finite() {
+            return Fast::Slow;
+        }
+        *slot = value;
+        p += used;
+        if c < last {
+            if SEP == 0 {
+                // The spaces after it are the next field's padding.
+                if p >= len || !is_space(input[p]) {
+                    return Fast::Slow;
+                }
+            } else {
+                while p < len && pad(input[p]) {
+                    p += 1;
+                }
+                if p >= len || input[p] != SEP {
+                    return Fast::Slow;
+                }
+                p += 1;
+            }
+        }
+    }
+    while p < len && pad(input[p]) {
+        p += 1;
+    }
+    if SEP != 0 && p < len && input[p] == SEP {
+        // One trailing separator (`1,2,`) is tolerated, as by `Delimiter::split_row`.
+        p += 1;
+        while p < len && pad(input[p]) {
+            p += 1;
+        }
+    }
+    match input.get(p) {
+        None => Fast::Row(len),
+        Some(b'\n') => Fast::Row(p + 1),
+        _ => Fast::Slow,
     }
 }
 
@@ -388,7 +871,8 @@ pub enum Record {
 
 /// Streams the rows of a table one at a time, in constant memory.
 ///
-/// Construction reads ahead to the first data row to learn the separator, header and width.
+/// Construction reads ahead to the first data row to learn the separator, header and width. Rows
+/// are parsed from one reused byte buffer by the same byte-level parser as [`TableHead::rows`].
 pub struct RowReader<R: BufRead> {
     reader: R,
     file: String,
@@ -397,7 +881,8 @@ pub struct RowReader<R: BufRead> {
     pub metadata: Vec<(usize, String)>,
     width: usize,
     line_no: usize,
-    buffer: String,
+    /// The current line's bytes, reused from line to line.
+    bytes: Vec<u8>,
     /// The first data line, parsed during construction and handed out by the first `next_row`.
     pending: Option<(usize, Vec<f64>)>,
 }
@@ -445,7 +930,10 @@ impl<R: BufRead> RowReader<R> {
                     preamble.pop();
                 }
             }
-            let mut rows = RowReader {
+            let mut checked = Vec::with_capacity(width);
+            check_row(text, delimiter, width, ended == Some(true), &mut checked)
+                .map_err(|fault| fault.locate(file, line_no, &header, width))?;
+            return Ok(RowReader {
                 reader,
                 file: file.to_string(),
                 delimiter,
@@ -453,13 +941,9 @@ impl<R: BufRead> RowReader<R> {
                 metadata: preamble,
                 width,
                 line_no,
-                buffer: String::new(),
-                pending: None,
-            };
-            let mut checked = Vec::with_capacity(width);
-            rows.parse_fields(text, line_no, &mut checked, ended == Some(true))?;
-            rows.pending = Some((line_no, checked));
-            return Ok(rows);
+                bytes: Vec::new(),
+                pending: Some((line_no, checked)),
+            });
         }
     }
 
@@ -481,23 +965,28 @@ impl<R: BufRead> RowReader<R> {
             return Ok(Some(line));
         }
         loop {
-            let mut buffer = std::mem::take(&mut self.buffer);
-            let ended = read_line(&mut self.reader, &mut buffer, &self.file, self.line_no + 1)?;
-            let Some(has_newline) = ended else {
-                self.buffer = buffer;
-                return Ok(None);
-            };
-            self.line_no += 1;
-            let text = buffer.trim_end_matches(['\n', '\r']);
-            if is_skippable(text) {
-                self.buffer = buffer;
-                continue;
+            self.bytes.clear();
+            match self.reader.read_until(b'\n', &mut self.bytes) {
+                Ok(0) => return Ok(None),
+                Ok(_) => self.line_no += 1,
+                Err(e) if e.kind() == std::io::ErrorKind::InvalidData => {
+                    return Err(TableError::NotText {
+                        file: self.file.clone(),
+                        line: self.line_no + 1,
+                    })
+                }
+                Err(source) => {
+                    return Err(TableError::Io {
+                        file: self.file.clone(),
+                        source,
+                    })
+                }
             }
-            let line = self.line_no;
-            let result = self.parse_fields(text, line, values, has_newline);
-            self.buffer = buffer;
-            result?;
-            return Ok(Some(line));
+            match self.parse_line(values) {
+                Ok(true) => return Ok(Some(self.line_no)),
+                Ok(false) => continue,
+                Err(fault) => return Err(self.locate(fault)),
+            }
         }
     }
 
@@ -510,12 +999,11 @@ impl<R: BufRead> RowReader<R> {
             values.extend_from_slice(&first);
             return Ok(Some(Record::Parsed { line }));
         }
-        let mut bytes = Vec::new();
         loop {
-            bytes.clear();
+            self.bytes.clear();
             let read = self
                 .reader
-                .read_until(b'\n', &mut bytes)
+                .read_until(b'\n', &mut self.bytes)
                 .map_err(|source| TableError::Io {
                     file: self.file.clone(),
                     source,
@@ -525,95 +1013,44 @@ impl<R: BufRead> RowReader<R> {
             }
             self.line_no += 1;
             let line = self.line_no;
-            let has_newline = bytes.ends_with(b"\n");
-            while matches!(bytes.last(), Some(b'\n' | b'\r')) {
-                bytes.pop();
-            }
-            let text = match std::str::from_utf8(&bytes) {
-                Ok(text) => text,
-                Err(_) => {
-                    return Ok(Some(Record::Refused {
+            return Ok(Some(match self.parse_line(values) {
+                Ok(true) => Record::Parsed { line },
+                Ok(false) => continue,
+                Err(fault) => {
+                    let mut end = self.bytes.len();
+                    while end > 0 && matches!(self.bytes[end - 1], b'\n' | b'\r') {
+                        end -= 1;
+                    }
+                    Record::Refused {
                         line,
-                        text: String::from_utf8_lossy(&bytes).into_owned(),
-                        error: TableError::NotText {
-                            file: self.file.clone(),
-                            line,
-                        },
-                    }))
+                        text: String::from_utf8_lossy(&self.bytes[..end]).into_owned(),
+                        error: self.locate(fault),
+                    }
                 }
-            };
-            if is_skippable(text) {
-                continue;
-            }
-            return Ok(Some(match self.parse_fields(text, line, values, has_newline) {
-                Ok(()) => Record::Parsed { line },
-                Err(error) => Record::Refused {
-                    line,
-                    text: text.to_string(),
-                    error,
-                },
             }));
         }
     }
 
-    /// Parses the fields of one data line with full error locations.
-    fn parse_fields(
-        &self,
-        text: &str,
-        line: usize,
-        values: &mut Vec<f64>,
-        has_newline: bool,
-    ) -> Result<(), TableError> {
-        let mut fields = Vec::with_capacity(self.width);
-        self.delimiter.split_row(text, Some(self.width), &mut fields);
-        if fields.len() != self.width {
-            if !has_newline && fields.len() < self.width {
-                return Err(TableError::Truncated {
-                    file: self.file.clone(),
-                    line,
-                    expected: self.width,
-                    found: fields.len(),
-                });
-            }
-            return Err(TableError::Ragged {
-                at: self.location(line, None),
-                expected: self.width,
-                found: fields.len(),
-            });
+    /// Parses the line in the buffer into `values`: `Ok(true)` for a row, `Ok(false)` for a blank
+    /// or comment line.
+    fn parse_line(&self, values: &mut Vec<f64>) -> Result<bool, Fault> {
+        values.resize(self.width, 0.0);
+        if let Fast::Row(_) = fast_row(&self.bytes, self.delimiter, values) {
+            return Ok(true);
         }
-        values.clear();
-        for (c, field) in fields.iter().enumerate() {
-            if field.is_empty() {
-                return Err(TableError::EmptyCell {
-                    at: self.location(line, Some(c)),
-                });
-            }
-            match field.parse::<f64>() {
-                Ok(v) if v.is_finite() => values.push(v),
-                Ok(_) => {
-                    return Err(TableError::NonFinite {
-                        at: self.location(line, Some(c)),
-                        text: field.to_string(),
-                    });
-                }
-                Err(_) => {
-                    return Err(TableError::NotANumber {
-                        at: self.location(line, Some(c)),
-                        text: field.to_string(),
-                    });
-                }
-            }
+        // A fast row is ASCII, so only the other lines need the UTF-8 check.
+        let text = std::str::from_utf8(&self.bytes).map_err(|_| Fault::NotText)?;
+        let has_newline = text.ends_with('\n');
+        let text = text.trim_end_matches(['\n', '\r']);
+        if is_skippable(text) {
+            return Ok(false);
         }
-        Ok(())
+        check_row(text, self.delimiter, self.width, has_newline, values)?;
+        Ok(true)
     }
 
-    fn location(&self, line: usize, column: Option<usize>) -> Location {
-        Location {
-            file: self.file.clone(),
-            line,
-            column: column.map(|c| c + 1),
-            column_name: column.and_then(|c| self.header.get(c).cloned()),
-        }
+    fn locate(&self, fault: Fault) -> TableError {
+        fault.locate(&self.file, self.line_no, &self.header, self.width)
     }
 }
 
@@ -661,6 +1098,9 @@ fn parse_number(field: &str) -> Option<f64> {
 pub fn display_name(path: &Path) -> String {
     PathBuf::from(path).display().to_string()
 }
+
+#[cfg(test)]
+mod reference;
 
 #[cfg(test)]
 mod tests {
@@ -758,5 +1198,320 @@ mod tests {
         assert_eq!(t.column_index("ax"), Some(1));
         assert_eq!(t.column_index("1"), Some(0));
         assert_eq!(t.column_index("3"), None);
+    }
+
+    /// What a reader made of some input, comparable across readers: the table's every bit, or the
+    /// error's text.
+    fn outcome(result: Result<Table, TableError>) -> Result<String, String> {
+        result
+            .map(|t| {
+                let bits: Vec<Vec<u64>> = t
+                    .columns
+                    .iter()
+                    .map(|c| c.iter().map(|v| v.to_bits()).collect())
+                    .collect();
+                format!(
+                    "{} {:?} {:?} {:?} {:?} {:?}",
+                    t.file, t.delimiter, t.header, t.metadata, bits, t.lines
+                )
+            })
+            .map_err(|e| e.to_string())
+    }
+
+    /// Every row the streaming reader gives (`next_record`), as text.
+    fn streamed(bytes: &[u8], options: &TableOptions) -> Result<Vec<String>, String> {
+        let mut rows = RowReader::new(bytes, "test.csv", options).map_err(|e| e.to_string())?;
+        let mut values = Vec::new();
+        let mut out = Vec::new();
+        while let Some(record) = rows.next_record(&mut values).map_err(|e| e.to_string())? {
+            out.push(match record {
+                Record::Parsed { line } => {
+                    format!(
+                        "{line} {:?}",
+                        values.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+                    )
+                }
+                Record::Refused { line, text, error } => format!("{line} refused {text:?}: {error}"),
+            });
+        }
+        Ok(out)
+    }
+
+    fn old_streamed(bytes: &[u8], options: &TableOptions) -> Result<Vec<String>, String> {
+        let mut rows = reference::OldRowReader::new(bytes, "test.csv", options).map_err(|e| e.to_string())?;
+        let mut values = Vec::new();
+        let mut out = Vec::new();
+        while let Some(record) = rows.next_record(&mut values).map_err(|e| e.to_string())? {
+            out.push(match record {
+                Record::Parsed { line } => {
+                    format!(
+                        "{line} {:?}",
+                        values.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+                    )
+                }
+                Record::Refused { line, text, error } => format!("{line} refused {text:?}: {error}"),
+            });
+        }
+        Ok(out)
+    }
+
+    /// The byte-level reader, in any number of chunks, and the streaming reader agree with the
+    /// line-at-a-time reader they replace: same bits, same lines, same errors.
+    fn agree_with(bytes: &[u8], options: &TableOptions) {
+        let old = outcome(reference::read(bytes, "test.csv", options));
+        assert_eq!(
+            outcome(Table::parse(bytes, "test.csv", options)),
+            old,
+            "{:?}",
+            String::from_utf8_lossy(bytes)
+        );
+        for chunks in [2, 3, 7, 64] {
+            let chunked = TableHead::new(bytes, "test.csv", options).and_then(|head| {
+                let every: Vec<(usize, f64)> = (0..head.width()).map(|c| (c, 1.0)).collect();
+                let rows = head.rows_in_chunks(&every, chunks)?;
+                Ok(Table {
+                    file: "test.csv".into(),
+                    delimiter: head.delimiter,
+                    header: head.header,
+                    metadata: head.metadata,
+                    columns: rows.columns,
+                    lines: rows.lines,
+                })
+            });
+            assert_eq!(
+                outcome(chunked),
+                old,
+                "{chunks} chunks: {:?}",
+                String::from_utf8_lossy(bytes)
+            );
+        }
+        // The streaming reader stops at the first error with `next_row` …
+        let mut next_row = RowReader::new(bytes, "test.csv", options).and_then(|mut rows| {
+            let mut columns = vec![Vec::new(); rows.width()];
+            let mut lines = Vec::new();
+            let mut values = Vec::new();
+            while let Some(line) = rows.next_row(&mut values)? {
+                columns.iter_mut().zip(&values).for_each(|(c, v)| c.push(*v));
+                lines.push(line);
+            }
+            Ok(Table {
+                file: "test.csv".into(),
+                delimiter: rows.delimiter,
+                header: rows.header.clone(),
+                metadata: rows.metadata.clone(),
+                columns,
+                lines,
+            })
+        });
+        if let Ok(t) = &mut next_row {
+            t.file = "test.csv".into();
+        }
+        assert_eq!(
+            outcome(next_row),
+            old,
+            "next_row: {:?}",
+            String::from_utf8_lossy(bytes)
+        );
+        // … and goes on past it with `next_record`.
+        assert_eq!(
+            streamed(bytes, options),
+            old_streamed(bytes, options),
+            "{:?}",
+            String::from_utf8_lossy(bytes)
+        );
+    }
+
+    fn agree(bytes: &[u8]) {
+        agree_with(bytes, &TableOptions::default());
+    }
+
+    #[test]
+    fn fast_reader_agrees_on_awkward_files() {
+        for text in [
+            // line endings, BOM, blank and comment lines, an empty last line
+            &b"t,ax\r\n0,1\r\n0.01,2\r\n"[..],
+            b"\xef\xbb\xbft,ax\n0,1\n0.01,2\n",
+            b"\xef\xbb\xbf0,1\n0.01,2",
+            b"t,ax\n\n0,1\n   \n# note\n  % note\n0.01,2\n\n",
+            b"t,ax\n0,1\n0.01,2\n\n\n",
+            b"t,ax\n0,1\n0.01,2\n   ",
+            b"t,ax\n0,1\n0.01,2\r\r\n",
+            b"t,ax\n0,1\n0.01,2\r",
+            // quoted header names, trailing separators, padding
+            b"\"t\",\"ax\"\n0,1\n0.01,2\n",
+            b"t,ax,\n0,1,\n0.01 , 2 ,\t\n",
+            b"t,ax\n0,1\n0.01,2,,\n",
+            b"t,ax\n 0 ,\t1\x0b\n0.01,\x0c2\n",
+            // every separator
+            b"t;ax;ay\n0;1;2\n1;2;3;\n",
+            b"t\tax\tay\n0\t1\t2\n1\t\t3\n",
+            b"t\tax\n0\t1\n\t1\t2\n",
+            b"t\tax\n0\t1\n1 \t 2\t\n",
+            b"t ax ay\n0 1 2\n  1\t2   3  \n",
+            b"0 1 2\n1 2\n",
+            b"0 1 2\n1 2 3 4\n",
+            b"0 1 2\n1,2 3 4\n",
+            // number syntax
+            b"t,ax\n0,+1\n1,-.5\n2,5.\n3,1e5\n4,1E-5\n5,-0\n6,00012\n7,1e+300\n",
+            b"t,ax\n0,1\n1,1e\n",
+            b"t,ax\n0,1\n1,.\n",
+            b"t,ax\n0,1\n1,1.2.3\n",
+            b"t,ax\n0,1\n1,0x10\n",
+            b"t,ax\n0,1\n1,1_0\n",
+            b"t,ax\n0,1\n1,1e400\n",
+            b"t,ax\n0,1\n1,1e-400\n",
+            b"t,ax\n0,1\n1,-inf\n",
+            b"t,ax\n0,1\n1,infinity\n",
+            b"t,ax\n0,1\n1,nan\n",
+            b"t,ax\n0,NaN\n",
+            b"t,ax\n0,1\n1,123456789012345678901234567890.123456789e-10\n",
+            b"t,ax\n0,1\n1,0.30000000000000004441\n2,2.2250738585072011e-308\n3,1.7976931348623157e308\n",
+            b"t,ax\n0,1\n1,9007199254740993\n2,0.1000000000000000055511151231257827\n",
+            // errors
+            b"t,ax\n0,1\n1,\"2\"\n",
+            b"t,ax\n0,1\n1,2 3\n",
+            b"t,ax\n0,1\n1\n",
+            b"t,ax,ay\n0,1,2\n1,2",
+            b"t,ax,ay\n0,1,2\n1,2,",
+            b"t,ax\n0,1\n1,abc\n2,3",
+            // Unicode spacing and text
+            "t,ax\n0,1\n1,\u{a0}2\n".as_bytes(),
+            "t,ax\n0,1\n\u{3000}# note\n1,2\n".as_bytes(),
+            "t ax\n0 1\n1\u{2003}2\n".as_bytes(),
+            "t,ax\n0,1\n1,2µ\n".as_bytes(),
+            "t,ax\n0,1\n# µ\n1,2\n".as_bytes(),
+            // not UTF-8: in a row, in a comment, after an earlier error, at the very start
+            b"t,ax\n0,1\n1,2\n2,\xff\n3,4\n",
+            b"t,ax\n0,1\n# \xff\n3,4\n",
+            b"t,ax\n0,1\n1,x\n2,\xff\n",
+            b"t,ax\n0,1\n1,2\n2,3\xff",
+            b"\xff\n0,1\n",
+            b"t,ax\n\xff\n0,1\n",
+            // no data
+            b"",
+            b"\n\n",
+            b"t,ax\n",
+            b"t,ax\n# only\n",
+        ] {
+            agree(text);
+        }
+        for delimiter in [
+            Delimiter::Comma,
+            Delimiter::Semicolon,
+            Delimiter::Tab,
+            Delimiter::Whitespace,
+        ] {
+            let options = TableOptions {
+                delimiter: Some(delimiter),
+            };
+            for text in [
+                &b"t,ax\n0,1\n1,2\n"[..],
+                b"t;ax\n0;1\n1;2;\n",
+                b"t\tax\n0\t1\n1\t2\n",
+                b"t ax\n0 1\n1  2\n",
+                b"0,1 2\n1,2 3\n",
+            ] {
+                agree_with(text, &options);
+            }
+        }
+    }
+
+    #[test]
+    fn fast_reader_agrees_on_random_text() {
+        use proptest::prelude::*;
+        let token = prop_oneof![
+            (-1e6f64..1e6).prop_map(|v| format!("{v}")),
+            (-1e6f64..1e6).prop_map(|v| format!("{v:e}")),
+            any::<f64>().prop_map(|v| format!("{v}")),
+            any::<u64>().prop_map(|v| format!("{v}.{}", v % 1000)),
+            Just("NaN".to_string()),
+            Just("inf".to_string()),
+            Just("".to_string()),
+            Just("x".to_string()),
+            Just("1e".to_string()),
+            Just("\"t\"".to_string()),
+            Just("\u{a0}".to_string()),
+            Just("é".to_string()),
+        ];
+        let sep = prop_oneof![
+            4 => Just(","),
+            1 => Just(";"),
+            1 => Just("\t"),
+            1 => Just(" "),
+            1 => Just("  "),
+            3 => Just("\n"),
+            1 => Just("\r\n"),
+            1 => Just("\n# c\n"),
+            1 => Just("\n\n"),
+        ];
+        let text = proptest::collection::vec((token, sep), 0..80).prop_map(|v| {
+            let body: String = v.into_iter().map(|(t, s)| t + s).collect();
+            format!("t,ax,ay\n0,1,2\n{body}")
+        });
+        let mut runner = proptest::test_runner::TestRunner::new(proptest::test_runner::Config {
+            cases: 2000,
+            ..Default::default()
+        });
+        runner
+            .run(&text, |text| {
+                agree(text.as_bytes());
+                Ok(())
+            })
+            .unwrap();
+    }
+
+    /// A file of `rows` rows of full-precision numbers, as spincal writes them.
+    fn long_file(rows: usize) -> String {
+        let mut text = String::from("t,ax,ay\n");
+        for i in 0..rows {
+            let x = (i as f64 * 0.7).sin() * 9.81;
+            text.push_str(&format!("{},{},{}\n", i as f64 * 0.01, x, x / 3.0));
+        }
+        text
+    }
+
+    #[test]
+    fn bad_number_in_a_later_chunk_names_its_line() {
+        let mut lines: Vec<String> = long_file(20_000).lines().map(String::from).collect();
+        lines[15_000 - 1] = "150,1,x".into();
+        let text = lines.join("\n") + "\n";
+        let head = TableHead::new(text.as_bytes(), "test.csv", &TableOptions::default()).unwrap();
+        for chunks in [1, 2, 8, 100] {
+            let e = head.rows_in_chunks(&[(0, 1.0)], chunks).unwrap_err();
+            assert_eq!(
+                e.to_string(),
+                "test.csv:15000, column 3 (ay): 'x' is not a number"
+            );
+        }
+        // The first fault in the file wins, even when a later chunk has one too.
+        lines[3_000 - 1] = "30,,1".into();
+        let text = lines.join("\n") + "\n";
+        let head = TableHead::new(text.as_bytes(), "test.csv", &TableOptions::default()).unwrap();
+        for chunks in [1, 2, 8, 100] {
+            let e = head.rows_in_chunks(&[], chunks).unwrap_err();
+            assert_eq!(e.to_string(), "test.csv:3000, column 2 (ax): the cell is empty");
+        }
+        agree(text.as_bytes());
+    }
+
+    #[test]
+    fn chunks_and_threads_do_not_change_a_bit() {
+        let text = long_file(150_000) + "# end\n\n";
+        let head = TableHead::new(text.as_bytes(), "test.csv", &TableOptions::default()).unwrap();
+        let targets = [(2, 1.0), (0, 1e-3), (1, std::f64::consts::PI / 180.0), (1, 1.0)];
+        let one = head.rows_in_chunks(&targets, 1).unwrap();
+        assert_eq!(one.lines.len(), 150_000);
+        assert_eq!(one.lines[149_999], 150_001);
+        for chunks in [2, 5, 16] {
+            assert_eq!(head.rows_in_chunks(&targets, chunks).unwrap(), one);
+        }
+        for threads in [1, 2, 4] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            assert_eq!(pool.install(|| head.rows(&targets)).unwrap(), one);
+        }
+        agree(text.as_bytes());
     }
 }

@@ -227,7 +227,7 @@ pub enum FormatError {
 /// Reads a file in the given or detected format.
 pub fn read_path(path: &Path, options: &ReadOptions) -> Result<Loaded, FormatError> {
     let file = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| FormatError::Io {
+    let bytes = crate::input::table::read_file(path).map_err(|source| FormatError::Io {
         file: file.clone(),
         source,
     })?;
@@ -246,7 +246,7 @@ pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loa
         .unwrap_or(Format::Csv);
     let mut loaded = match format {
         Format::Csv => {
-            let recording = Recording::read_csv(bytes, file, &options.columns)?;
+            let recording = Recording::parse_csv(bytes, file, &options.columns)?;
             Loaded::new(recording, format, false)
         }
         Format::Whitespace => read_whitespace(bytes, file, options)?,
@@ -333,7 +333,7 @@ fn table_options(options: &ReadOptions, default: Option<Delimiter>) -> TableOpti
 
 /// imu_tk: `t ax ay az`, no header. Values above 200 in magnitude are taken to be raw counts.
 fn read_whitespace(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
-    let table = Table::read(bytes, file, &table_options(options, Some(Delimiter::Whitespace)))?;
+    let table = Table::parse(bytes, file, &table_options(options, Some(Delimiter::Whitespace)))?;
     let mut map = options.columns.clone();
     if map.columns.is_none() && table.header.is_empty() && table.n_columns() != 4 {
         map.columns = Some(vec!["1".into(), "2".into(), "3".into(), "4".into()]);
@@ -421,7 +421,7 @@ fn read_imucal(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded
 
 /// MPU-6050 logger: `Fs,<Hz>` metadata, no time column: time = i / Fs.
 fn read_mpu6050(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
-    let table = Table::read(bytes, file, &table_options(options, None))?;
+    let table = Table::parse(bytes, file, &table_options(options, None))?;
     let mut fs = None;
     for (line, text) in &table.metadata {
         let mut parts = text.splitn(2, [',', ';', '\t']);
@@ -495,7 +495,7 @@ fn read_phyphox(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loade
     };
     let mut map = options.columns.clone();
     map.table.delimiter = Some(delimiter);
-    let recording = Recording::read_csv(input, file, &map)?;
+    let recording = Recording::parse_csv(input, file, &map)?;
     let mut l = Loaded::new(recording, Format::Phyphox, false);
     if decimal_comma {
         l.notes.push("decimal comma converted".into());
