@@ -79,3 +79,41 @@ fn calibration_results_are_identical_across_thread_counts() {
     );
     assert_eq!(models[0], models[1], "model.json differs between 1 and 2 threads");
 }
+
+/// A campaign's held-out conditions run in parallel; results.json and model.json do not depend
+/// on how many threads ran them.
+#[test]
+fn campaign_results_are_identical_across_thread_counts() {
+    let dir = tempfile::tempdir().unwrap();
+    let work = dir.path();
+    spincal()
+        .current_dir(work)
+        .args(["simulate", "--quiet", "--seed", "6", "--campaign", "unit"])
+        .assert()
+        .success();
+    let mut outputs = Vec::new();
+    for threads in ["1", "2"] {
+        let out = format!("cal{threads}");
+        spincal()
+            .current_dir(work)
+            .env("RAYON_NUM_THREADS", threads)
+            .args([
+                "calibrate",
+                "--quiet",
+                "--campaign",
+                "unit/campaign.toml",
+                "--out",
+                &out,
+            ])
+            .assert()
+            .success();
+        let mut results: Value =
+            serde_json::from_str(&std::fs::read_to_string(work.join(&out).join("results.json")).unwrap())
+                .unwrap();
+        without_timings(&mut results);
+        let model = std::fs::read(work.join(&out).join("model.json")).ok();
+        outputs.push((results, model));
+    }
+    assert_eq!(outputs[0].0, outputs[1].0);
+    assert_eq!(outputs[0].1, outputs[1].1);
+}

@@ -1217,7 +1217,13 @@ pub fn fit_joint_from(
             }
         }
     }
-    let report = levenberg_marquardt_normal(&problem, &p, Some(&free), &options, observer);
+    // The second pass starts at the first one's minimum: little damping, or the strongly
+    // correlated bias, offset and drift directions crawl.
+    let second = LmOptions {
+        initial_damping: 1e-6,
+        ..options.clone()
+    };
+    let report = levenberg_marquardt_normal(&problem, &p, Some(&free), &second, observer);
     let p = report.params;
 
     // Robust covariance over the free parameters.
