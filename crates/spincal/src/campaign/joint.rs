@@ -273,7 +273,9 @@ impl JointFit {
                 3..=8 => gravity,
                 _ => gravity * gravity,
             };
-            let bad = p.std_error.is_none_or(|se| !(se * effect <= tolerance_mps2));
+            let bad = p
+                .std_error
+                .is_none_or(|se| se.is_nan() || se * effect > tolerance_mps2);
             if !bad {
                 continue;
             }

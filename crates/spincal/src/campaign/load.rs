@@ -13,14 +13,14 @@ pub enum LoadError {
         campaign: String,
         line: usize,
         #[source]
-        source: FormatError,
+        source: Box<FormatError>,
     },
     #[error("{campaign}:{line}: `truth`: {source}")]
     Truth {
         campaign: String,
         line: usize,
         #[source]
-        source: FormatError,
+        source: Box<FormatError>,
     },
     #[error("{campaign}:{line}: `truth`: {truth} has {found} samples but the recording has {expected}")]
     TruthLength {
@@ -67,7 +67,7 @@ pub fn load_campaign(campaign: &Campaign) -> Result<Vec<UnitRecording>, LoadErro
         let loaded = read_path(&entry.file, &options).map_err(|source| LoadError::Recording {
             campaign: name.clone(),
             line: entry.line,
-            source,
+            source: Box::new(source),
         })?;
         if loaded.raw_counts {
             return Err(LoadError::RawCounts {
@@ -83,7 +83,7 @@ pub fn load_campaign(campaign: &Campaign) -> Result<Vec<UnitRecording>, LoadErro
                 let t = read_path(path, &ReadOptions::default()).map_err(|source| LoadError::Truth {
                     campaign: name.clone(),
                     line: entry.line,
-                    source,
+                    source: Box::new(source),
                 })?;
                 if t.recording.len() != recording.len() {
                     return Err(LoadError::TruthLength {

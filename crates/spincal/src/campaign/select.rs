@@ -406,6 +406,9 @@ fn apply_corrector(corrector: Option<&CorrectorModel>, accel: &[Vec<f64>; 3]) ->
     }
 }
 
+/// RMS error per axis, the random floor per axis when known, and what it was measured against.
+type Scored = ([f64; 3], Option<[f64; 3]>, &'static str);
+
 /// Error of a corrector (or none) on the held-out condition, per axis, with the floor when known.
 fn score(
     corrector: Option<&CorrectorModel>,
@@ -413,7 +416,7 @@ fn score(
     prepared: &Prepared,
     units: &[UnitRecording],
     joint: &JointSettings,
-) -> Result<([f64; 3], Option<[f64; 3]>, &'static str), String> {
+) -> Result<Scored, String> {
     let mut sums = [0.0; 3];
     let mut floor_sums = [0.0; 3];
     let mut floor_known = true;
@@ -711,7 +714,7 @@ fn summarise(kind: CandidateKind, held_out: &[HeldOutScore], n_conditions: usize
                 sum += combined(rms);
                 let ratio = combined(rms) / combined(row.uncorrected_rms_mps2);
                 worst = Some(worst.map_or(ratio, |w: f64| w.max(ratio)));
-                if !(ratio <= 1.0) {
+                if ratio.is_nan() || ratio > 1.0 {
                     why_not.get_or_insert(format!(
                         "{:.2}× the uncorrected error on \"{}\"",
                         ratio, row.condition

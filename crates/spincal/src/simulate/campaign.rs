@@ -277,13 +277,13 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
     if !(2..=32).contains(&profile.bits) {
         return invalid("bits", profile.bits as f64, "must be 2 to 32");
     }
-    if !(profile.range_g > 0.0) {
+    if profile.range_g.is_nan() || profile.range_g <= 0.0 {
         return invalid("range_g", profile.range_g, "must be positive");
     }
-    if !(profile.bias_drift_time_s > 0.0) {
+    if profile.bias_drift_time_s.is_nan() || profile.bias_drift_time_s <= 0.0 {
         return invalid("bias_drift_time_s", profile.bias_drift_time_s, "must be positive");
     }
-    if !(setup.pose_duration_s > 0.0) {
+    if setup.pose_duration_s.is_nan() || setup.pose_duration_s <= 0.0 {
         return invalid("pose_duration_s", setup.pose_duration_s, "must be positive");
     }
     for run in &setup.runs {
