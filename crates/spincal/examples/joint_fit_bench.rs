@@ -10,134 +10,22 @@
 //! times `fit_joint` (one warm-up call, then REPETITIONS calls: best and median) and writes
 //! `OUT_DIR/spincal_fit.json` with every fitted parameter the public API exposes.
 //!
-//! What is not reachable from outside the crate: the starting vector (`run_start`, private), the
-//! weights of the second pass (`JointProblem::run_sigma`/`pose_sigma`, pub(crate)) and the still
-//! session's bias offset and drift (only in the pub(crate) `FitState`). The starting vector is
-//! therefore recomputed here by the procedure `campaign::joint` documents and implements (a
-//! demodulation scan within ±25 % of the nominal rate, golden-section refinement, start geometry
-//! from the demodulated amplitude and phase); the first pass's weights (first-difference noise) are
-//! written too. The peer then does what `fit_joint` does: solve with those weights, reweight from
+//! The starting vector comes from `campaign::joint::run_start`, the first pass's weights from
+//! `difference_noise`. What is not reachable from outside the crate: the weights of the second pass (`JointProblem::run_sigma`/`pose_sigma`, pub(crate)) and the still
+//! session's bias offset and drift (only in the pub(crate) `FitState`). The peer then does what `fit_joint` does: solve with those weights, reweight from
 //! the residuals (per run and axis; a variance component per still session), solve again.
 //!
 //! Run single-threaded (RAYON_NUM_THREADS=1, `taskset -c 1`); `fit_joint` itself does not use
 //! rayon, faer is built without it.
 
-use std::f64::consts::PI;
 use std::time::Instant;
 
 use serde_json::{json, Value};
-use spincal::campaign::joint::{fit_joint, mounting_matrix, JointSettings, RunInput, RUN_PARAMS};
+use spincal::campaign::joint::{
+    difference_noise, fit_joint, mounting_matrix, run_start, JointSettings, RUN_PARAMS,
+};
 use spincal::campaign::prepare::{prepare, UnitRecording};
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
-
-type M3 = [[f64; 3]; 3];
-
-fn mid_time(t: &[f64]) -> f64 {
-    match (t.first(), t.last()) {
-        (Some(a), Some(b)) => 0.5 * (a + b),
-        _ => 0.0,
-    }
-}
-
-/// The rotation rate and sense that best demodulate the horizontal readings: the same scan and
-/// golden-section refinement `campaign::joint::demodulate` documents. Returns (ω, σ, G, ψ).
-fn demodulate(time_s: &[f64], horizontal: &[[f64; 2]], nominal: f64) -> (f64, f64, f64, f64) {
-    let n = horizontal.len().max(1) as f64;
-    let mid = mid_time(time_s);
-    let mean = [0, 1].map(|c| horizontal.iter().map(|h| h[c]).sum::<f64>() / n);
-    let amplitude = |w: f64, sigma: f64| -> (f64, f64) {
-        let (mut re, mut im) = (0.0, 0.0);
-        for (h, &t) in horizontal.iter().zip(time_s) {
-            let (x, y) = (h[0] - mean[0], h[1] - mean[1]);
-            let (sn, cs) = (sigma * w * (t - mid)).sin_cos();
-            re += x * cs - y * sn;
-            im += x * sn + y * cs;
-        }
-        ((re * re + im * im).sqrt() / n, im.atan2(re))
-    };
-    let span = match (time_s.first(), time_s.last()) {
-        (Some(a), Some(b)) if b > a => b - a,
-        _ => 1.0,
-    };
-    let step = 0.5 / span;
-    let (lo, hi) = (0.75 * nominal, 1.25 * nominal);
-    let mut best = (0.0, nominal, 1.0);
-    for sigma in [1.0, -1.0] {
-        let mut w = lo;
-        while w <= hi {
-            let a = amplitude(w, sigma).0;
-            if a > best.0 {
-                best = (a, w, sigma);
-            }
-            w += step;
-        }
-    }
-    let (_, w0, sigma) = best;
-    let (mut a, mut b) = (w0 - step, w0 + step);
-    let ratio = 0.5 * (5f64.sqrt() - 1.0);
-    for _ in 0..40 {
-        let c = b - ratio * (b - a);
-        let d = a + ratio * (b - a);
-        if amplitude(c, sigma).0 > amplitude(d, sigma).0 {
-            b = d;
-        } else {
-            a = c;
-        }
-    }
-    let w = 0.5 * (a + b);
-    let (g, psi) = amplitude(w, sigma);
-    (w, sigma, g, psi)
-}
-
-/// A run's starting geometry and rotation sense, as `campaign::joint` forms them.
-fn run_start(run: &RunInput, q: &M3, gravity: f64) -> ([f64; RUN_PARAMS], f64) {
-    let mut time = Vec::new();
-    let mut horizontal = Vec::new();
-    for (s, &t) in run.time_s.iter().enumerate() {
-        if !run.keep[s] {
-            continue;
-        }
-        let a = [run.accel_mps2[0][s], run.accel_mps2[1][s], run.accel_mps2[2][s]];
-        let m: [f64; 3] = std::array::from_fn(|c| (0..3).map(|r| q[r][c] * a[r]).sum());
-        time.push(t);
-        horizontal.push([m[0], m[1]]);
-    }
-    let nominal = run.entry.rpm * 2.0 * PI / 60.0;
-    let (w, found_sigma, amplitude, psi) = demodulate(&time, &horizontal, nominal);
-    let sigma = run.entry.direction.map_or(found_sigma, |d| d.sign());
-    let n = horizontal.len().max(1) as f64;
-    let cx = horizontal.iter().map(|h| h[0]).sum::<f64>() / n;
-    let cy = horizontal.iter().map(|h| h[1]).sum::<f64>() / n;
-    let tilt = (amplitude / gravity).clamp(0.0, 0.5).asin();
-    let beta = if (cx * cx + cy * cy).sqrt() > 1e-3 {
-        (-cy).atan2(-cx)
-    } else {
-        0.0
-    };
-    let mut start = [0.0; RUN_PARAMS];
-    start[0] = run.entry.radius_m;
-    start[1] = w;
-    start[2] = tilt.max(1e-4);
-    start[3] = psi - beta;
-    start[4] = beta;
-    (start, sigma)
-}
-
-/// White-noise level per axis from first differences (the first pass's weights).
-fn difference_noise(run: &RunInput) -> [f64; 3] {
-    std::array::from_fn(|k| {
-        let a = &run.accel_mps2[k];
-        let (mut sum, mut n) = (0.0f64, 0.0f64);
-        for s in 1..a.len() {
-            if run.keep[s] && run.keep[s - 1] {
-                let d = a[s] - a[s - 1];
-                sum += d * d;
-                n += 1.0;
-            }
-        }
-        (sum / n.max(1.0) / 2.0).sqrt().max(1e-6)
-    })
-}
 
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -251,7 +139,7 @@ fn main() {
                 "up": r.entry.up.name(),
                 "mounting": mountings[i],
                 "direction": directions[i],
-                "first_pass_sigma_mps2": difference_noise(r),
+                "first_pass_sigma_mps2": difference_noise(&r.accel_mps2, &r.keep),
             })
         })
         .collect();

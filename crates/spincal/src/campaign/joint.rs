@@ -997,8 +997,9 @@ pub(crate) fn demodulate(
     (w, sigma, g, psi)
 }
 
-/// Starting values of a run's geometry from its readings in the mounting frame.
-fn run_start(run: &RunInput, q: &M3, gravity: f64) -> ([f64; RUN_PARAMS], f64) {
+/// Starting values of a run's geometry from its readings in the mounting frame (`q`: the
+/// mounting matrix), and the rotation sense σ (given, or found by demodulation).
+pub fn run_start(run: &RunInput, q: &M3, gravity: f64) -> ([f64; RUN_PARAMS], f64) {
     let mut time = Vec::with_capacity(run.time_s.len());
     let mut horizontal = Vec::with_capacity(run.time_s.len());
     for (s, &t) in run.time_s.iter().enumerate() {
@@ -1040,7 +1041,7 @@ pub(crate) fn rotation_of(q: &M3, run: &[f64]) -> M3 {
 
 /// Noise per axis from first differences (white noise survives differencing; slow motion does
 /// not), m/s².
-fn difference_noise(accel: &[Vec<f64>; 3], keep: &[bool]) -> [f64; 3] {
+pub fn difference_noise(accel: &[Vec<f64>; 3], keep: &[bool]) -> [f64; 3] {
     std::array::from_fn(|k| {
         let a = &accel[k];
         let (mut sum, mut n) = (0.0f64, 0.0f64);
