@@ -129,6 +129,13 @@ fn usage_errors_exit_2() {
         .args(["inspect", rec.to_str().unwrap(), "--format", "nope"])
         .assert()
         .code(2);
+    // A non-finite offset would make every acceleration non-finite.
+    let out = spincal()
+        .args(["inspect", rec.to_str().unwrap(), "--accel-offset", "inf,0,0"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("'inf' is not a finite number"));
 }
 
 #[test]

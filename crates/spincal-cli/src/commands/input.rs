@@ -58,7 +58,9 @@ pub fn parse_triple(text: &str) -> Result<[f64; 3], String> {
         .map(|s| {
             s.trim()
                 .parse::<f64>()
-                .map_err(|_| format!("'{s}' is not a number"))
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("'{s}' is not a finite number"))
         })
         .collect::<Result<_, _>>()?;
     <[f64; 3]>::try_from(v).map_err(|v| format!("expected 3 comma-separated numbers, got {}", v.len()))

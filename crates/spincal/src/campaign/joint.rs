@@ -542,6 +542,9 @@ fn pose_offset(n_runs: usize, p: usize) -> usize {
     SENSOR_PARAMS + n_runs * RUN_PARAMS + p * POSE_PARAMS
 }
 
+/// Samples between exact re-anchorings of the demodulation scan's phasor.
+const SCAN_BLOCK: usize = 64;
+
 /// Parameters per still session: bias offset δ (3) and drift rate (3) about its middle.
 const SESSION_PARAMS: usize = 6;
 /// A still session's drift rate has a prior of the bias instability per this many seconds.
@@ -969,16 +972,44 @@ pub(crate) fn demodulate(
     };
     let step = 0.5 / span;
     let (lo, hi) = (0.75 * nominal_radps, 1.25 * nominal_radps);
+    // The coarse scan advances the phasor by the median step and re-anchors it exactly every
+    // SCAN_BLOCK samples (one sin_cos per block, not per sample), and sums both senses at once;
+    // the refinement below is exact.
+    let dt = crate::input::recording::sample_interval(time_s);
+    let centred: Vec<[f64; 2]> = horizontal
+        .iter()
+        .map(|h| [h[0] - mean[0], h[1] - mean[1]])
+        .collect();
+    let scan = |w: f64| -> [f64; 2] {
+        let (step_s, step_c) = (w * dt).sin_cos();
+        let (mut pos, mut neg) = ([0.0f64; 2], [0.0f64; 2]);
+        for (block, chunk) in centred.chunks(SCAN_BLOCK).enumerate() {
+            let (mut sn, mut cs) = (w * (time_s[block * SCAN_BLOCK] - mid)).sin_cos();
+            for h in chunk {
+                let (x, y) = (h[0], h[1]);
+                pos[0] += x * cs - y * sn;
+                pos[1] += x * sn + y * cs;
+                neg[0] += x * cs + y * sn;
+                neg[1] += y * cs - x * sn;
+                (sn, cs) = (sn * step_c + cs * step_s, cs * step_c - sn * step_s);
+            }
+        }
+        [pos[0].hypot(pos[1]) / n, neg[0].hypot(neg[1]) / n]
+    };
     let mut best = (0.0, nominal_radps, 1.0);
-    for sigma in [1.0, -1.0] {
-        let mut w = lo;
-        while w <= hi {
-            let a = amplitude(w, sigma).0;
+    let mut w = lo;
+    while w <= hi {
+        let [a_pos, a_neg] = if dt.is_finite() && dt > 0.0 {
+            scan(w)
+        } else {
+            [amplitude(w, 1.0).0, amplitude(w, -1.0).0]
+        };
+        for (a, sigma) in [(a_pos, 1.0), (a_neg, -1.0)] {
             if a > best.0 {
                 best = (a, w, sigma);
             }
-            w += step;
         }
+        w += step;
     }
     let (_, w0, sigma) = best;
     let (mut a, mut b) = (w0 - step, w0 + step);

@@ -222,6 +222,12 @@ pub enum FormatError {
     },
     #[error("accel scale must be finite and non-zero, got {0}")]
     BadScale(f64),
+    #[error("read option {name} = {value}: {why}")]
+    BadOption {
+        name: &'static str,
+        value: String,
+        why: &'static str,
+    },
 }
 
 /// Reads a file in the given or detected format.
@@ -236,6 +242,24 @@ pub fn read_path(path: &Path, options: &ReadOptions) -> Result<Loaded, FormatErr
 
 /// Reads an in-memory file; `file` names it in errors.
 pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
+    if let Some(rate) = options.sample_rate_hz {
+        if !(rate.is_finite() && rate > 0.0) {
+            return Err(FormatError::BadOption {
+                name: "sample_rate_hz",
+                value: rate.to_string(),
+                why: "must be a finite positive rate in Hz",
+            });
+        }
+    }
+    if let Some(offset) = options.accel_offset {
+        if offset.iter().any(|v| !v.is_finite()) {
+            return Err(FormatError::BadOption {
+                name: "accel_offset",
+                value: format!("{offset:?}"),
+                why: "every offset must be finite",
+            });
+        }
+    }
     let detection = match options.format {
         Some(_) => None,
         None => Some(detect(bytes)),
@@ -514,6 +538,29 @@ fn read_phyphox(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loade
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn unusable_read_options_are_refused_by_name() {
+        let bytes = b"ax,ay,az\n1,2,3\n4,5,6\n";
+        for options in [
+            ReadOptions {
+                sample_rate_hz: Some(f64::NAN),
+                ..Default::default()
+            },
+            ReadOptions {
+                sample_rate_hz: Some(0.0),
+                ..Default::default()
+            },
+            ReadOptions {
+                accel_offset: Some([0.0, f64::INFINITY, 0.0]),
+                ..Default::default()
+            },
+        ] {
+            let e = read_bytes(bytes, "f.csv", &options).unwrap_err();
+            assert!(matches!(e, FormatError::BadOption { .. }), "{e}");
+        }
+    }
+
     use super::*;
 
     fn read(text: &[u8]) -> Loaded {
