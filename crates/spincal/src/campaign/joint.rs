@@ -359,6 +359,22 @@ fn rot_z(e: f64) -> (M3, M3) {
     )
 }
 
+/// The once-per-revolution terms at one instant (see [`RunGeometry::kinematics`]).
+struct Kinematics {
+    /// sin and cos of ωτ.
+    s1: f64,
+    c1: f64,
+    /// Relative speed change and its quadrature part.
+    m: f64,
+    m_quad: f64,
+    rate: f64,
+    rate_dot: f64,
+    /// sin and cos of ϑ.
+    s: f64,
+    c: f64,
+    platter: [f64; 3],
+}
+
 /// A run's geometry at given parameters: f_B and its derivatives per sample.
 ///
 /// Wow (a once-per-revolution speed change) is modelled because it shares the rotation's
@@ -404,11 +420,11 @@ impl RunGeometry {
 
     /// True specific force in the body frame at τ (seconds from the run's middle).
     pub(crate) fn force(&self, tau: f64) -> [f64; 3] {
-        self.force_and_derivatives(tau).0
+        apply(&self.qr, &self.kinematics(tau).platter)
     }
 
-    /// f_B and ∂f_B/∂(r, ω, α, ϑ₀, β, ε₁, ε₂, w_c, w_s).
-    fn force_and_derivatives(&self, tau: f64) -> ([f64; 3], [[f64; 3]; GEOMETRY]) {
+    /// The platter's motion at τ and the specific force in the platter frame.
+    fn kinematics(&self, tau: f64) -> Kinematics {
         let (g, w, r, sigma) = (self.gravity, self.omega, self.radius, self.direction);
         let [wc, ws] = self.wow;
         let (s1, c1) = (w * tau).sin_cos();
@@ -419,11 +435,38 @@ impl RunGeometry {
         let angle = w * tau + wc * s1 - ws * c1;
         let (s, c) = (self.phase - sigma * angle).sin_cos();
         let amplitude = g * self.sin_tilt;
-        let fp = [
-            -rate * rate * r + amplitude * c,
-            amplitude * s + sigma * r * rate_dot,
-            g * self.cos_tilt,
-        ];
+        Kinematics {
+            s1,
+            c1,
+            m,
+            m_quad,
+            rate,
+            rate_dot,
+            s,
+            c,
+            platter: [
+                -rate * rate * r + amplitude * c,
+                amplitude * s + sigma * r * rate_dot,
+                g * self.cos_tilt,
+            ],
+        }
+    }
+
+    /// f_B and ∂f_B/∂(r, ω, α, ϑ₀, β, ε₁, ε₂, w_c, w_s).
+    fn force_and_derivatives(&self, tau: f64) -> ([f64; 3], [[f64; 3]; GEOMETRY]) {
+        let (g, w, r, sigma) = (self.gravity, self.omega, self.radius, self.direction);
+        let Kinematics {
+            s1,
+            c1,
+            m,
+            m_quad,
+            rate,
+            rate_dot,
+            s,
+            c,
+            platter: fp,
+        } = self.kinematics(tau);
+        let amplitude = g * self.sin_tilt;
         // ∂/∂ω through the rate, the angle and ω̇.
         let d_rate = (1.0 + m) + w * tau * m_quad;
         let d_angle = tau * (1.0 + m);
@@ -817,8 +860,6 @@ impl JointProblem<'_> {
             if let Want::Normal(jtj, jtr) = &mut want {
                 local.scatter(jtj, jtr);
                 sse += local.sse;
-            } else if let Want::Meat(_) = want {
-                // The sse of the rows is not needed for the meat.
             }
         }
         let n_runs = self.runs.len();
