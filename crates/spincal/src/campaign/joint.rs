@@ -674,20 +674,24 @@ impl LocalSystem {
     }
 }
 
-/// Sensor-parameter part of a weighted row: ∂m_k/∂(b, s, M, q) given u, (I+M) f_B and f_B.
+/// A weighted row of axis `k` up to the recording's own offsets: ∂m_k/∂(b, s, M, q) given u_k
+/// and f_B, then the recording's parameters through `derivatives` (∂f_B per parameter, in the
+/// order they follow the sensor's). `slope` is h'(u_k)·weight.
 #[allow(clippy::too_many_arguments)]
-fn sensor_row(
+fn model_row(
     row: &mut [f64],
     k: usize,
+    sensor: &SensorModel,
     slope: f64,
     weight: f64,
     u: f64,
-    skewed: f64,
     force: &[f64; 3],
-    scale: f64,
+    derivatives: &[[f64; 3]],
 ) {
+    row.fill(0.0);
+    let scale = 1.0 + sensor.scale_error[k];
     row[k] = slope;
-    row[3 + k] = slope * skewed;
+    row[3 + k] = slope * sensor.skewed(*force)[k];
     match k {
         1 => row[6] = slope * scale * force[0],
         2 => {
@@ -697,6 +701,9 @@ fn sensor_row(
         _ => {}
     }
     row[9 + k] = weight * u * u;
+    for (j, dj) in derivatives.iter().enumerate() {
+        row[SENSOR_PARAMS + j] = slope * scale * sensor.skewed(*dj)[k];
+    }
 }
 
 /// What one evaluation of the problem produces.
@@ -705,6 +712,23 @@ pub(crate) enum Want<'a> {
     Normal(&'a mut Mat<f64>, &'a mut [f64]),
     /// Σ over blocks of s sᵀ (s: the block's score Jᵀr), into the matrix.
     Meat(&'a mut Mat<f64>),
+}
+
+impl Want<'_> {
+    /// A prior `value / sigma` as one more residual on parameter `param`; returns its square.
+    fn add_prior(&mut self, param: usize, value: f64, sigma: f64) -> f64 {
+        let r = value / sigma;
+        match self {
+            Want::Sse => {}
+            Want::Normal(jtj, jtr) => {
+                jtj[(param, param)] += 1.0 / (sigma * sigma);
+                jtr[param] += r / sigma;
+            }
+            // A prior's information is its stated variance, not the realised score².
+            Want::Meat(meat) => meat[(param, param)] += 1.0 / (sigma * sigma),
+        }
+        r * r
+    }
 }
 
 impl JointProblem<'_> {
@@ -805,12 +829,7 @@ impl JointProblem<'_> {
                     let w = 1.0 / sigma[k];
                     let r = (u[k] + q * u[k] * u[k] - run.accel_mps2[k][s]) * w;
                     let slope = (1.0 + 2.0 * q * u[k]) * w;
-                    row.fill(0.0);
-                    sensor_row(&mut row, k, slope, w, u[k], skewed[k], &force, scale[k]);
-                    for (j, dj) in d.iter().enumerate() {
-                        let sk = sensor.skewed(*dj);
-                        row[SENSOR_PARAMS + j] = slope * scale[k] * sk[k];
-                    }
+                    model_row(&mut row, k, &sensor, slope, w, u[k], &force, &d);
                     row[SENSOR_PARAMS + GEOMETRY + k] = slope;
                     row[SENSOR_PARAMS + GEOMETRY + 3 + k] = slope * tau;
                     match &mut want {
@@ -838,24 +857,11 @@ impl JointProblem<'_> {
             }
             // Priors: radius within its tolerance, the run's bias offset within the instability.
             let entry = &run.entry;
-            let mut prior = |param: usize, value: f64, sigma: f64, want: &mut Want<'_>| {
-                let r = value / sigma;
-                sse += r * r;
-                match want {
-                    Want::Sse => {}
-                    Want::Normal(jtj, jtr) => {
-                        jtj[(param, param)] += 1.0 / (sigma * sigma);
-                        jtr[param] += r / sigma;
-                    }
-                    // A prior's information is its stated variance, not the realised score².
-                    Want::Meat(meat) => meat[(param, param)] += 1.0 / (sigma * sigma),
-                }
-            };
-            prior(o, p[o] - entry.radius_m, entry.radius_tol_m, &mut want);
-            prior(o + 5, p[o + 5], self.mount_tilt_sigma, &mut want);
-            prior(o + 6, p[o + 6], self.mount_tilt_sigma, &mut want);
+            sse += want.add_prior(o, p[o] - entry.radius_m, entry.radius_tol_m);
+            sse += want.add_prior(o + 5, p[o + 5], self.mount_tilt_sigma);
+            sse += want.add_prior(o + 6, p[o + 6], self.mount_tilt_sigma);
             for k in 0..3 {
-                prior(o + GEOMETRY + k, p[o + GEOMETRY + k], self.bias_sigma, &mut want);
+                sse += want.add_prior(o + GEOMETRY + k, p[o + GEOMETRY + k], self.bias_sigma);
             }
             if let Want::Normal(jtj, jtr) = &mut want {
                 local.scatter(jtj, jtr);
@@ -888,12 +894,7 @@ impl JointProblem<'_> {
                     continue;
                 }
                 let slope = (1.0 + 2.0 * q * u[k]) * w;
-                row.fill(0.0);
-                sensor_row(&mut row, k, slope, w, u[k], skewed[k], &force, scale[k]);
-                for (j, dj) in d.iter().enumerate() {
-                    let sk = sensor.skewed(*dj);
-                    row[SENSOR_PARAMS + j] = slope * scale[k] * sk[k];
-                }
+                model_row(&mut row, k, &sensor, slope, w, u[k], &force, &d);
                 row[SENSOR_PARAMS + POSE_PARAMS + k] = slope;
                 row[SENSOR_PARAMS + POSE_PARAMS + 3 + k] = slope * dt;
                 local.add_row(&row, r);
@@ -917,17 +918,7 @@ impl JointProblem<'_> {
             if !self.sensor_free[k] {
                 continue;
             }
-            let sigma = self.sensor_prior_sd[k / 3];
-            let r = p[k] / sigma;
-            sse += r * r;
-            match &mut want {
-                Want::Sse => {}
-                Want::Normal(jtj, jtr) => {
-                    jtj[(k, k)] += 1.0 / (sigma * sigma);
-                    jtr[k] += r / sigma;
-                }
-                Want::Meat(meat) => meat[(k, k)] += 1.0 / (sigma * sigma),
-            }
+            sse += want.add_prior(k, p[k], self.sensor_prior_sd[k / 3]);
         }
         // Each still session's bias offset within the instability, and its drift rate within the
         // instability per SESSION_DRIFT_S (poses alone say little about a slope).
@@ -940,16 +931,7 @@ impl JointProblem<'_> {
                 } else {
                     self.bias_sigma / SESSION_DRIFT_S
                 };
-                let r = p[param] / sigma;
-                sse += r * r;
-                match &mut want {
-                    Want::Sse => {}
-                    Want::Normal(jtj, jtr) => {
-                        jtj[(param, param)] += 1.0 / (sigma * sigma);
-                        jtr[param] += r / sigma;
-                    }
-                    Want::Meat(meat) => meat[(param, param)] += 1.0 / (sigma * sigma),
-                }
+                sse += want.add_prior(param, p[param], sigma);
             }
         }
         sse

@@ -634,6 +634,8 @@ pub fn calibrate_campaign(
                 .find(|k| k.name() == best.candidate)
                 .unwrap_or(CandidateKind::PhysicalLinear);
             let training = Training::new(prepared.runs.clone(), prepared.poses.clone(), &settings.joint);
+            // Every recording's joint fit is the one made above: the final training reuses it.
+            let _ = training.full_fit.set(Ok(joint.clone()));
             observer(Progress::step("final training", 0, Some(1)));
             match candidate(kind).train(&training, observer) {
                 Ok(model) => {

@@ -308,34 +308,43 @@ impl Recording {
             }
         };
         let rows = head.rows(&plan.targets())?;
-        let mut columns = rows.columns.into_iter();
-        let mut next = || columns.next().unwrap_or_default();
-        let time_s = next();
-        let accel_mps2 = [next(), next(), next()];
-        let gyro_radps = (plan.indices.len() == 7).then(|| [next(), next(), next()]);
-        let recording = Recording {
-            time_s,
-            accel_mps2,
-            gyro_radps,
-            source: Source {
-                name: name.to_string(),
-                format: "csv".into(),
-                columns: plan.names,
-                metadata: head.metadata.iter().map(|(_, s)| s.clone()).collect(),
-                lines: rows.lines,
-            },
-        };
-        recording.check_time()?;
-        Ok(recording)
+        let metadata = head.metadata.iter().map(|(_, s)| s.clone()).collect();
+        Recording::from_columns(
+            plan,
+            rows.columns.into_iter(),
+            name.to_string(),
+            metadata,
+            rows.lines,
+        )
     }
 
     /// Picks time/accel/gyro columns out of a table and converts them to SI.
     pub fn from_table(table: &Table, map: &ColumnMap) -> Result<Recording, RecordingError> {
         let plan = Plan::new(&table.header, table.n_columns(), &table.file, map)?;
-        let mut columns = plan
+        let columns: Vec<Vec<f64>> = plan
             .targets()
             .into_iter()
-            .map(|(c, k)| table.columns[c].iter().map(|v| v * k).collect::<Vec<f64>>());
+            .map(|(c, k)| table.columns[c].iter().map(|v| v * k).collect())
+            .collect();
+        let metadata = table.metadata.iter().map(|(_, s)| s.clone()).collect();
+        Recording::from_columns(
+            plan,
+            columns.into_iter(),
+            table.file.clone(),
+            metadata,
+            table.lines.clone(),
+        )
+    }
+
+    /// A recording from the plan's columns in SI, in its order (time, accel x y z, gyro x y z when
+    /// planned); checks the time.
+    fn from_columns(
+        plan: Plan,
+        mut columns: impl Iterator<Item = Vec<f64>>,
+        name: String,
+        metadata: Vec<String>,
+        lines: Vec<usize>,
+    ) -> Result<Recording, RecordingError> {
         let mut next = || columns.next().unwrap_or_default();
         let time_s = next();
         let accel_mps2 = [next(), next(), next()];
@@ -345,11 +354,11 @@ impl Recording {
             accel_mps2,
             gyro_radps,
             source: Source {
-                name: table.file.clone(),
+                name,
                 format: "csv".into(),
                 columns: plan.names,
-                metadata: table.metadata.iter().map(|(_, s)| s.clone()).collect(),
-                lines: table.lines.clone(),
+                metadata,
+                lines,
             },
         };
         recording.check_time()?;

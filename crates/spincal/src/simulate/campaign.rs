@@ -20,7 +20,7 @@ use crate::campaign::file::{SignedAxis, TurntableEntry};
 use crate::campaign::joint::{mounting_matrix, RUN_PARAMS};
 use crate::correctors::physical::SensorModel;
 use crate::input::recording::{Recording, Source, STANDARD_GRAVITY};
-use crate::simulate::{SensorProfile, SimulationError};
+use crate::simulate::{modulated_rotation, SensorProfile, SimulationError};
 use crate::turntable::model::Direction;
 
 /// Seconds the simulated hand takes to turn the sensor from one still pose to the next.
@@ -443,17 +443,7 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
         let mut drift_series = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
         let mut theta = Vec::with_capacity(n);
         for (s, &t) in time_s.iter().enumerate() {
-            // ω(t) = ω(1 + Σ m sin(2πft + p)); the platter angle is its exact integral.
-            let (mut rate, mut angle, mut rate_dot) = (omega, omega * t, 0.0);
-            for &(m, f, p) in &modulations {
-                if m == 0.0 || f <= 0.0 {
-                    continue;
-                }
-                let w = 2.0 * std::f64::consts::PI * f;
-                rate += omega * m * (w * t + p).sin();
-                angle += omega * m * (p.cos() - (w * t + p).cos()) / w;
-                rate_dot += omega * m * w * (w * t + p).cos();
-            }
+            let (rate, angle, rate_dot) = modulated_rotation(omega, &modulations, t, 0.0);
             let vartheta = azimuth - sigma * angle;
             theta.push(vartheta);
             let (sn, cs) = vartheta.sin_cos();

@@ -167,6 +167,28 @@ fn check(name: &'static str, value: f64, ok: bool, why: &'static str) -> Result<
     }
 }
 
+/// The platter's rate, angle (`angle0` at t = 0) and angular acceleration at `t` when its speed is
+/// ω(t) = ω (1 + Σ m sin(2πft + p)) over `modulations` of (m, f, p); the angle is ω(t)'s exact
+/// integral.
+pub(crate) fn modulated_rotation(
+    omega: f64,
+    modulations: &[(f64, f64, f64)],
+    t: f64,
+    angle0: f64,
+) -> (f64, f64, f64) {
+    let (mut rate, mut angle, mut rate_dot) = (omega, omega * t + angle0, 0.0);
+    for &(m, f, p) in modulations {
+        if m == 0.0 || f <= 0.0 {
+            continue;
+        }
+        let w = 2.0 * std::f64::consts::PI * f;
+        rate += omega * m * (w * t + p).sin();
+        angle += omega * m * (p.cos() - (w * t + p).cos()) / w;
+        rate_dot += omega * m * w * (w * t + p).cos();
+    }
+    (rate, angle, rate_dot)
+}
+
 /// Simulates one session. Deterministic for a given seed.
 pub fn simulate(
     sensor: &SensorProfile,
@@ -249,17 +271,7 @@ pub fn simulate(
     let phase0 = table.tilt_azimuth_deg.to_radians();
     let mut true_accel = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
     for (i, &t) in time_s.iter().enumerate() {
-        // ω(t) = ω(1 + Σ m sin(2πft + p)); θ(t) is its exact integral.
-        let (mut rate, mut angle, mut rate_dot) = (omega, omega * t + phase0, 0.0);
-        for &(m, f, p) in &modulations {
-            if m == 0.0 || f <= 0.0 {
-                continue;
-            }
-            let w = 2.0 * std::f64::consts::PI * f;
-            rate += omega * m * (w * t + p).sin();
-            angle += omega * m * (p.cos() - (w * t + p).cos()) / w;
-            rate_dot += omega * m * w * (w * t + p).cos();
-        }
+        let (rate, angle, rate_dot) = modulated_rotation(omega, &modulations, t, phase0);
         let centripetal = rate * rate * table.radius_m;
         let tangential = table.radius_m * rate_dot;
         let u = angle - beta;
