@@ -23,3 +23,6 @@ else
     as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends chromium fonts-dejavu-core
     /usr/bin/chromium --version
 fi
+
+# The test venv (.venv): Python peers and fixture writers the tests call.
+bash "$(dirname "$0")/python_env.sh"
