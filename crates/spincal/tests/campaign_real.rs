@@ -25,6 +25,8 @@ fn pose(rec: &spincal::Recording, iv: &StillInterval, to_si: f64) -> PoseInput {
         samples: iv.len(),
         time_s: 0.5 * (rec.time_s[iv.start] + rec.time_s[iv.end - 1]),
         session: 0,
+        gyro_mean_radps: None,
+        gyro_sigma_mean_radps: None,
     }
 }
 

@@ -75,6 +75,8 @@ pub struct RunInput {
     /// Samples the fit uses (false: saturated or otherwise unusable).
     pub keep: Vec<bool>,
     pub entry: TurntableEntry,
+    /// Gyro x, y, z, rad/s, when recorded (`campaign::gyro` calibrates it; this fit ignores it).
+    pub gyro_radps: Option<[Vec<f64>; 3]>,
 }
 
 /// One still pose, ready for the fit.
@@ -89,6 +91,11 @@ pub struct PoseInput {
     pub time_s: f64,
     /// The still recording it came from (0, 1, …): poses of one recording share a bias offset.
     pub session: usize,
+    /// The gyro's mean over the pose and its standard error, rad/s, when recorded.
+    #[serde(default)]
+    pub gyro_mean_radps: Option<[f64; 3]>,
+    #[serde(default)]
+    pub gyro_sigma_mean_radps: Option<[f64; 3]>,
 }
 
 /// Which sensor terms are estimated (the others stay at zero).
@@ -230,6 +237,9 @@ pub(crate) struct FitState {
     pub directions: Vec<f64>,
     pub mountings: Vec<[[f64; 3]; 3]>,
     pub gravity: f64,
+    /// The robust covariance over the free parameters `free_index` (in that order).
+    pub covariance: Option<Mat<f64>>,
+    pub free_index: Vec<usize>,
 }
 
 impl JointFit {
@@ -257,6 +267,52 @@ impl JointFit {
             }
         }
         out
+    }
+
+    /// Run `i`'s fitted parameters (r, ω, α, ϑ₀, β, ε₁, ε₂, w_c, w_s, δ, drift).
+    pub fn run_params(&self, i: usize) -> &[f64] {
+        let o = run_offset(i);
+        &self.state.params[o..o + RUN_PARAMS]
+    }
+
+    /// The platter's speed ω(τ) at τ (seconds from the run's middle) with run parameters `run`
+    /// (as [`JointFit::run_params`]), rad/s.
+    pub fn run_rate(&self, i: usize, run: &[f64], tau: f64) -> f64 {
+        self.geometry_of(i, run).kinematics(tau).rate
+    }
+
+    /// The direction of run `i`'s rotation vector in the body frame (the spindle, signed by the
+    /// direction of rotation), a unit vector.
+    pub fn run_spindle(&self, i: usize, run: &[f64]) -> [f64; 3] {
+        self.geometry_of(i, run).angular_rate_direction()
+    }
+
+    fn geometry_of(&self, i: usize, run: &[f64]) -> RunGeometry {
+        let st = &self.state;
+        RunGeometry::new(&st.mountings[i], run, st.directions[i], st.gravity)
+    }
+
+    /// The robust covariance of run `i`'s parameters `params` (indices into the run's own), zero
+    /// for parameters held fixed; `None` when the fit had no covariance.
+    pub fn run_covariance(&self, i: usize, params: &[usize]) -> Option<Vec<Vec<f64>>> {
+        let cov = self.state.covariance.as_ref()?;
+        let o = run_offset(i);
+        let pos: Vec<Option<usize>> = params
+            .iter()
+            .map(|&p| self.state.free_index.iter().position(|&k| k == o + p))
+            .collect();
+        Some(
+            pos.iter()
+                .map(|a| {
+                    pos.iter()
+                        .map(|b| match (a, b) {
+                            (Some(a), Some(b)) => cov[(*a, *b)],
+                            _ => 0.0,
+                        })
+                        .collect()
+                })
+                .collect(),
+        )
     }
 
     /// Free sensor parameters whose uncertainty matters: one standard error moves a reading at
@@ -416,6 +472,12 @@ impl RunGeometry {
             direction,
             gravity,
         }
+    }
+
+    /// The platter turns at σ ω(τ) about the spindle, the mounting frame's third axis (β turns
+    /// about it and so leaves it alone): this is σ times that axis in the body frame.
+    fn angular_rate_direction(&self) -> [f64; 3] {
+        std::array::from_fn(|r| self.direction * self.qr[r][2])
     }
 
     /// True specific force in the body frame at τ (seconds from the run's middle).
@@ -1367,6 +1429,8 @@ pub fn fit_joint_from(
             directions: problem.directions.clone(),
             mountings: problem.mountings.clone(),
             gravity: g,
+            covariance: cov,
+            free_index: index,
         },
     })
 }

@@ -7,6 +7,7 @@
 //! candidate correctors on held-out conditions.
 
 pub mod file;
+pub mod gyro;
 pub mod joint;
 pub mod load;
 pub mod prepare;
@@ -14,6 +15,7 @@ pub mod select;
 
 pub use crate::correctors::physical::{PhysicalCorrector, SensorModel};
 pub use file::{Campaign, CampaignEntry, CampaignError, EntryKind, SignedAxis, TurntableEntry};
+pub use gyro::{fit_gyro, GyroFit, GyroModel, GyroSettings};
 pub use joint::{fit_joint, JointFit, JointSettings, PoseInput, RunInput, SensorTerms};
 pub use load::{load_campaign, LoadError};
 pub use prepare::UnitRecording;

@@ -82,15 +82,15 @@ fn still_intervals(rec: &Recording, name: &str) -> Result<Vec<StillInterval>, Pr
     })
 }
 
-fn pose_input(rec: &Recording, name: String, start: usize, end: usize, next_session: usize) -> PoseInput {
+/// Mean per axis over `[start, end)` and its standard error: from block means (coloured noise
+/// widens it), never below the white-noise value from first differences, nor below `floor`.
+fn mean_and_error(axes: &[Vec<f64>; 3], start: usize, end: usize, floor: f64) -> ([f64; 3], [f64; 3]) {
     let n = end - start;
     let mut mean = [0.0; 3];
     let mut sigma = [0.0; 3];
     for k in 0..3 {
-        let xs = &rec.accel_mps2[k][start..end];
+        let xs = &axes[k][start..end];
         mean[k] = xs.iter().sum::<f64>() / n as f64;
-        // Standard error of the mean from block means (coloured noise widens it), never below
-        // the white-noise value from first differences.
         let block = (n / POSE_BLOCKS).max(1);
         let means: Vec<f64> = xs
             .chunks(block)
@@ -100,15 +100,23 @@ fn pose_input(rec: &Recording, name: String, start: usize, end: usize, next_sess
         let m = means.len().max(2) as f64;
         let between = means.iter().map(|v| (v - mean[k]).powi(2)).sum::<f64>() / (m - 1.0) / m;
         let diff = xs.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (n.max(2) - 1) as f64);
-        sigma[k] = between.sqrt().max((diff / n as f64).sqrt()).max(1e-6);
+        sigma[k] = between.sqrt().max((diff / n as f64).sqrt()).max(floor);
     }
+    (mean, sigma)
+}
+
+fn pose_input(rec: &Recording, name: String, start: usize, end: usize, next_session: usize) -> PoseInput {
+    let (mean, sigma) = mean_and_error(&rec.accel_mps2, start, end, 1e-6);
+    let gyro = rec.gyro_radps.as_ref().map(|g| mean_and_error(g, start, end, 1e-9));
     PoseInput {
         name,
         mean_mps2: mean,
         sigma_mean_mps2: sigma,
-        samples: n,
+        samples: end - start,
         time_s: 0.5 * (rec.time_s[start] + rec.time_s[end - 1]),
         session: next_session - 1,
+        gyro_mean_radps: gyro.map(|g| g.0),
+        gyro_sigma_mean_radps: gyro.map(|g| g.1),
     }
 }
 
@@ -139,6 +147,7 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
                     accel_mps2: rec.accel_mps2.clone(),
                     keep,
                     entry: entry.clone(),
+                    gyro_radps: rec.gyro_radps.clone(),
                 });
                 out.run_origin.push(index);
             }

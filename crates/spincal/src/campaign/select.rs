@@ -15,6 +15,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::campaign::gyro::{fit_gyro, GyroFit, GyroSettings};
 use crate::campaign::joint::{
     fit_joint, fit_joint_from, JointError, JointFit, JointSettings, PoseInput, RunInput, SensorTerms,
 };
@@ -71,12 +72,15 @@ pub struct CampaignSettings {
     /// A sensor parameter is "determined" when one standard error moves a 1 g reading by at most
     /// this, m/s².
     pub determined_tolerance_mps2: f64,
+    #[serde(default)]
+    pub gyro: GyroSettings,
 }
 
 impl Default for CampaignSettings {
     fn default() -> Self {
         CampaignSettings {
             joint: JointSettings::default(),
+            gyro: GyroSettings::default(),
             candidates: CandidateKind::ALL.to_vec(),
             determined_tolerance_mps2: 0.02,
         }
@@ -142,6 +146,11 @@ pub struct CampaignResult {
     pub joint: JointFit,
     /// Sensor parameters the campaign does not determine, with what would.
     pub undetermined: Vec<(String, String)>,
+    /// The gyroscope's calibration, when the runs carry gyro columns.
+    pub gyro: Option<GyroFit>,
+    /// Why the gyroscope could not be calibrated, when it could not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gyro_error: Option<String>,
     pub conditions: Vec<Condition>,
     pub held_out: Vec<HeldOutScore>,
     pub candidates: Vec<CandidateSummary>,
@@ -567,6 +576,11 @@ pub fn calibrate_campaign(
     let joint = fit_joint(&prepared.runs, &prepared.poses, &settings.joint, observer)?;
     let g = settings.joint.gravity_mps2;
     let undetermined = joint.undetermined(g, settings.determined_tolerance_mps2);
+    // The gyroscope rides on the joint fit's rates; its failure costs the accelerometer nothing.
+    let (gyro, gyro_error) = match fit_gyro(&prepared.runs, &prepared.poses, &joint, &settings.gyro) {
+        Ok(fit) => (fit, None),
+        Err(e) => (None, Some(e.to_string())),
+    };
     let conditions = conditions(&prepared);
     let candidates: Vec<Box<dyn Candidate + Sync>> =
         settings.candidates.iter().map(|&k| candidate(k)).collect();
@@ -647,7 +661,12 @@ pub fn calibrate_campaign(
                         conditions.len(),
                         best.worst_ratio_to_uncorrected.unwrap_or(f64::NAN)
                     );
-                    (Some(CorrectorFile::new(model)), verdict)
+                    let mut file = CorrectorFile::new(model);
+                    file.gyro = gyro
+                        .as_ref()
+                        .map(|g| g.model.clone())
+                        .filter(|m| m.validate().is_ok());
+                    (Some(file), verdict)
                 }
                 Err(e) => (None, format!("Nothing saved: the final training of {} failed: {e}", kind.name())),
             }
@@ -672,6 +691,8 @@ pub fn calibrate_campaign(
             recordings: units.iter().map(|u| u.name.clone()).collect(),
             joint,
             undetermined,
+            gyro,
+            gyro_error,
             conditions,
             held_out,
             candidates: summaries,

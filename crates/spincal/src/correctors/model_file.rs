@@ -133,6 +133,10 @@ pub struct CorrectorFile {
     pub format_version: u32,
     pub spincal_version: String,
     pub corrector: CorrectorModel,
+    /// The gyroscope's calibration (`spincal calibrate --campaign` with gyro columns), applied by
+    /// `correct` to the gyro columns.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gyro: Option<crate::campaign::gyro::GyroModel>,
 }
 
 impl CorrectorFile {
@@ -141,6 +145,7 @@ impl CorrectorFile {
             format_version: FORMAT_VERSION,
             spincal_version: env!("CARGO_PKG_VERSION").to_string(),
             corrector,
+            gyro: None,
         }
     }
 
@@ -151,7 +156,11 @@ impl CorrectorFile {
     /// Checks the model against its own structure ([`CorrectorModel::validate`]); fields are
     /// paths in the file (`corrector.network.weights`).
     pub fn validate(&self) -> Result<(), ModelError> {
-        self.corrector.validate().map_err(|e| e.within("corrector"))
+        self.corrector.validate().map_err(|e| e.within("corrector"))?;
+        match &self.gyro {
+            Some(gyro) => gyro.validate().map_err(|e| e.within("gyro")),
+            None => Ok(()),
+        }
     }
 
     /// Parses a file's text; `file` names it in errors. The version is checked before anything

@@ -17,6 +17,7 @@ use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use crate::campaign::file::{SignedAxis, TurntableEntry};
+use crate::campaign::gyro::GyroModel;
 use crate::campaign::joint::{mounting_matrix, RUN_PARAMS};
 use crate::correctors::physical::SensorModel;
 use crate::input::recording::{Recording, Source, STANDARD_GRAVITY};
@@ -69,12 +70,136 @@ impl Default for RunSetup {
     }
 }
 
+/// The gyroscope: m = b + K ω + drift + noise, K = diag(1 + s)(I + M₆) in the accelerometer's
+/// body frame (the frame the joint fit defines), ω the true angular rate, rad/s. The Earth's rotation
+/// (≤ 7.3·10⁻⁵ rad/s) is left out: a still pose reads the bias alone.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GyroProfile {
+    /// Whether the unit records a gyroscope at all.
+    pub recorded: bool,
+    /// Constant bias per axis, deg/s.
+    pub bias_dps: [f64; 3],
+    /// Scale-factor error per axis, %.
+    pub scale_error_pct: [f64; 3],
+    /// Cross-axis sensitivity (small angles), deg: x to y and z, y to x and z, z to x and y.
+    pub misalignment_deg: [f64; 6],
+    /// White noise, deg/s RMS per sample.
+    pub noise_dps: f64,
+    /// Bound of the slow bias drift (Ornstein–Uhlenbeck clipped to ±this, the accelerometer's
+    /// correlation time), deg/s.
+    pub bias_drift_dps: f64,
+    /// Full-scale range ±, deg/s; 16-bit quantisation over it.
+    pub range_dps: f64,
+}
+
+impl Default for GyroProfile {
+    /// A consumer MEMS gyroscope (MPU-6050 class) at ±500 °/s.
+    fn default() -> Self {
+        GyroProfile {
+            recorded: true,
+            bias_dps: [0.8, -0.5, 0.3],
+            scale_error_pct: [0.5, -0.8, 0.6],
+            misalignment_deg: [0.4, -0.3, 0.5, 0.2, -0.4, 0.3],
+            noise_dps: 0.05,
+            bias_drift_dps: 0.02,
+            range_dps: 500.0,
+        }
+    }
+}
+
+impl GyroProfile {
+    /// K = diag(1 + s)(I + M₆), the reading per unit of true rate.
+    pub fn sensitivity(&self) -> [[f64; 3]; 3] {
+        let m = self.misalignment_deg.map(f64::to_radians);
+        let s = self.scale_error_pct.map(|p| 1.0 + p / 100.0);
+        [
+            [s[0], s[0] * m[0], s[0] * m[1]],
+            [s[1] * m[2], s[1], s[1] * m[3]],
+            [s[2] * m[4], s[2] * m[5], s[2]],
+        ]
+    }
+
+    /// The profile as the calibration's model (bias in rad/s).
+    pub fn model(&self) -> GyroModel {
+        GyroModel {
+            bias_radps: self.bias_dps.map(f64::to_radians),
+            sensitivity: self.sensitivity(),
+        }
+    }
+}
+
+/// The gyroscope as a sample-by-sample process (its own random stream, so that adding it leaves
+/// the accelerometer's samples unchanged).
+struct GyroProcess {
+    model: GyroModel,
+    drift: [f64; 3],
+    decay: f64,
+    innovation: f64,
+    bound: f64,
+    noise: f64,
+    lsb: f64,
+    max_code: f64,
+    dt: f64,
+    rng: ChaCha8Rng,
+}
+
+impl GyroProcess {
+    fn new(profile: &GyroProfile, decay: f64, dt: f64, seed: u64) -> GyroProcess {
+        let bound = profile.bias_drift_dps.to_radians();
+        let full_scale = profile.range_dps.to_radians();
+        let mut process = GyroProcess {
+            model: profile.model(),
+            drift: [0.0; 3],
+            decay,
+            innovation: bound / 3.0 * (1.0 - decay * decay).sqrt(),
+            bound,
+            noise: profile.noise_dps.to_radians(),
+            lsb: 2.0 * full_scale / 65536.0,
+            max_code: 32767.0,
+            dt,
+            rng: ChaCha8Rng::seed_from_u64(seed ^ 0x6779_726f_5f73_696d),
+        };
+        process.rng.set_stream(1);
+        process.idle(1e4);
+        process
+    }
+
+    fn idle(&mut self, seconds: f64) {
+        if self.bound <= 0.0 {
+            return;
+        }
+        let decay = self.decay.powf(seconds / self.dt);
+        for k in 0..3 {
+            let z: f64 = StandardNormal.sample(&mut self.rng);
+            self.drift[k] = (decay * self.drift[k] + self.bound / 3.0 * (1.0 - decay * decay).sqrt() * z)
+                .clamp(-self.bound, self.bound);
+        }
+    }
+
+    /// One reading of true rate `w` (body frame, rad/s).
+    fn read(&mut self, w: [f64; 3]) -> [f64; 3] {
+        let ideal = self.model.measure(w);
+        std::array::from_fn(|k| {
+            if self.bound > 0.0 {
+                let z: f64 = StandardNormal.sample(&mut self.rng);
+                self.drift[k] =
+                    (self.decay * self.drift[k] + self.innovation * z).clamp(-self.bound, self.bound);
+            }
+            let z: f64 = StandardNormal.sample(&mut self.rng);
+            let analog = ideal[k] + self.drift[k] + self.noise * z;
+            (analog / self.lsb).round().clamp(-self.max_code - 1.0, self.max_code) * self.lsb
+        })
+    }
+}
+
 /// A campaign: still poses, then turntable runs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CampaignSetup {
     pub unit: String,
     pub sensor: SensorProfile,
+    pub gyro: GyroProfile,
     /// Still poses, in one recording: the six faces up in turn (then six edges, 45° between two
     /// axes), each tilted at random by up to `pose_tilt_deg`, held `pose_duration_s`, turned from
     /// one to the next in 2 s.
@@ -89,8 +214,9 @@ pub struct CampaignSetup {
 
 impl Default for CampaignSetup {
     /// One unit: twelve still poses (six faces, six edges) and turntable runs at 33⅓ and 45 rpm at
-    /// two radii in two mountings (z up; on its side with x up), balanced so that holding out a
-    /// speed or a radius leaves both mountings.
+    /// two radii in three mountings (z up twice; on its side with x up, with y up), so that each
+    /// gyro axis is along the spindle once, and holding out a speed or a radius leaves two
+    /// mountings.
     fn default() -> Self {
         let axis = |t: &str| SignedAxis::parse(t).unwrap_or(SignedAxis { axis: 0, sign: 1 });
         let run = |rpm: f64, radius_m: f64, out: &str, up: &str| RunSetup {
@@ -103,13 +229,14 @@ impl Default for CampaignSetup {
         CampaignSetup {
             unit: "simulated-unit".into(),
             sensor: SensorProfile::default(),
+            gyro: GyroProfile::default(),
             poses: 12,
             pose_tilt_deg: 25.0,
             pose_duration_s: 5.0,
             runs: vec![
                 run(100.0 / 3.0, 0.06, "+x", "+z"),
                 run(100.0 / 3.0, 0.12, "+z", "+x"),
-                run(45.0, 0.06, "-z", "+x"),
+                run(45.0, 0.06, "-z", "+y"),
                 run(45.0, 0.12, "+y", "+z"),
             ],
             gap_s: 20.0,
@@ -128,6 +255,8 @@ pub struct SimulatedRecording {
     pub recording: Recording,
     /// The true specific force per sample, body frame, m/s².
     pub true_accel_mps2: [Vec<f64>; 3],
+    /// The true angular rate per sample, body frame, rad/s (when the gyroscope is recorded).
+    pub true_gyro_radps: Option<[Vec<f64>; 3]>,
     /// RMS per axis of white noise plus bias drift: the error no corrector can predict, m/s².
     pub floor_mps2: [f64; 3],
 }
@@ -138,6 +267,8 @@ pub struct CampaignTruth {
     pub seed: u64,
     pub setup: CampaignSetup,
     pub sensor: SensorModel,
+    /// The gyroscope's constant bias and sensitivity (without its drift), when recorded.
+    pub gyro: Option<GyroModel>,
     /// Per run: r, ω (mean over the run), α, ϑ₀ (at the run's middle), β, ε₁, ε₂, the wow (w_c,
     /// w_s) and the bias drift over the run as a line (value at the middle, slope), as
     /// `campaign::joint` orders them.
@@ -250,17 +381,19 @@ fn rms_per_axis(values: &[[f64; 3]]) -> [f64; 3] {
     })
 }
 
-fn recording(name: &str, time_s: Vec<f64>, accel: [Vec<f64>; 3]) -> Recording {
+fn recording(name: &str, time_s: Vec<f64>, accel: [Vec<f64>; 3], gyro: Option<[Vec<f64>; 3]>) -> Recording {
+    let mut columns = ["t_s", "ax_mps2", "ay_mps2", "az_mps2"].map(String::from).to_vec();
+    if gyro.is_some() {
+        columns.extend(["gx_radps", "gy_radps", "gz_radps"].map(String::from));
+    }
     Recording {
         time_s,
         accel_mps2: accel,
-        gyro_radps: None,
+        gyro_radps: gyro,
         source: Source {
             name: name.to_string(),
             format: "simulated".into(),
-            columns: ["t_s", "ax_mps2", "ay_mps2", "az_mps2"]
-                .map(String::from)
-                .to_vec(),
+            columns,
             metadata: Vec::new(),
             lines: Vec::new(),
         },
@@ -298,6 +431,19 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
             return invalid("runs.up", run.up.axis as f64, "must be a different axis from out");
         }
     }
+    let gyro_profile = &setup.gyro;
+    if gyro_profile.recorded {
+        if !(gyro_profile.range_dps > 0.0 && gyro_profile.range_dps.is_finite()) {
+            return invalid("gyro.range_dps", gyro_profile.range_dps, "must be positive");
+        }
+        if !(gyro_profile.noise_dps >= 0.0 && gyro_profile.bias_drift_dps >= 0.0) {
+            return invalid(
+                "gyro.noise_dps",
+                gyro_profile.noise_dps.min(gyro_profile.bias_drift_dps),
+                "noise_dps and bias_drift_dps must be ≥ 0",
+            );
+        }
+    }
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let g = setup.gravity_mps2;
     let dt = 1.0 / profile.sample_rate_hz;
@@ -318,6 +464,16 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
     };
     // Start the drift from its stationary distribution.
     sensor.idle(10.0 * profile.bias_drift_time_s, &mut rng);
+    let mut gyro = gyro_profile
+        .recorded
+        .then(|| GyroProcess::new(gyro_profile, decay, dt, seed));
+    // Gaps between recordings: both drifts go on.
+    let idle = |sensor: &mut SensorProcess, gyro: &mut Option<GyroProcess>, rng: &mut ChaCha8Rng| {
+        sensor.idle(setup.gap_s, rng);
+        if let Some(gyro) = gyro {
+            gyro.idle(setup.gap_s);
+        }
+    };
 
     let mut recordings = Vec::new();
     let mut true_poses = Vec::new();
@@ -384,6 +540,7 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
         let n = forces.len();
         let mut accel = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
         let mut truth = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut rates = SampledRates::new(gyro.is_some(), n);
         let mut random = Vec::with_capacity(n);
         for (s, force) in forces.iter().enumerate() {
             let (a, e, _) = sensor.read(*force, &mut rng);
@@ -392,16 +549,28 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
                 truth[c][s] = force[c];
             }
             random.push(e);
+            if let Some(gyro) = gyro.as_mut() {
+                // While the hand turns it, gravity's direction in the body frame moves along a
+                // great circle: the body turns the other way about that circle's axis.
+                let w = if s == 0 {
+                    [0.0; 3]
+                } else {
+                    turn_rate(&forces[s - 1], force, dt)
+                };
+                rates.push(s, w, gyro.read(w));
+            }
         }
         let name = "still-poses".to_string();
+        let (gyro_read, gyro_true) = rates.finish();
         recordings.push(SimulatedRecording {
             turntable: None,
-            recording: recording(&name, (0..n).map(|s| s as f64 * dt).collect(), accel),
+            recording: recording(&name, (0..n).map(|s| s as f64 * dt).collect(), accel, gyro_read),
             true_accel_mps2: truth,
+            true_gyro_radps: gyro_true,
             floor_mps2: rms_per_axis(&random),
             name,
         });
-        sensor.idle(setup.gap_s, &mut rng);
+        idle(&mut sensor, &mut gyro, &mut rng);
     }
 
     let mut true_runs = Vec::new();
@@ -441,6 +610,7 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
         let mut truth = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
         let mut random = Vec::with_capacity(n);
         let mut drift_series = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut rates = SampledRates::new(gyro.is_some(), n);
         let mut theta = Vec::with_capacity(n);
         for (s, &t) in time_s.iter().enumerate() {
             let (rate, angle, rate_dot) = modulated_rotation(omega, &modulations, t, 0.0);
@@ -462,6 +632,11 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
                 drift_series[c][s] = sensor.drift[c];
             }
             random.push(e);
+            if let Some(gyro) = gyro.as_mut() {
+                // The platter turns at σ·rate about the spindle, the mounting frame's third axis.
+                let w: [f64; 3] = std::array::from_fn(|r| sigma * rate * rotation[r][2]);
+                rates.push(s, w, gyro.read(w));
+            }
         }
         // The wow in the fit's terms: m(τ) = w_c cos ωτ + w_s sin ωτ with τ from the middle.
         let (wow_m, wow_p) = (modulations[0].0, modulations[0].2);
@@ -500,14 +675,16 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
             run.out.name(),
             run.up.name()
         );
+        let (gyro_read, gyro_true) = rates.finish();
         recordings.push(SimulatedRecording {
             turntable: Some(entry),
-            recording: recording(&name, time_s, accel),
+            recording: recording(&name, time_s, accel, gyro_read),
             true_accel_mps2: truth,
+            true_gyro_radps: gyro_true,
             floor_mps2: rms_per_axis(&random),
             name,
         });
-        sensor.idle(setup.gap_s, &mut rng);
+        idle(&mut sensor, &mut gyro, &mut rng);
     }
     Ok(SimulatedCampaign {
         recordings,
@@ -515,10 +692,58 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
             seed,
             setup: setup.clone(),
             sensor: model,
+            gyro: gyro.as_ref().map(|g| g.model.clone()),
             runs: true_runs,
             poses: true_poses,
         },
     })
+}
+
+/// Gyro readings and true rates of one recording, filled sample by sample.
+struct SampledRates {
+    read: Option<[Vec<f64>; 3]>,
+    truth: Option<[Vec<f64>; 3]>,
+}
+
+impl SampledRates {
+    fn new(recorded: bool, n: usize) -> SampledRates {
+        let zeros = || [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        SampledRates {
+            read: recorded.then(zeros),
+            truth: recorded.then(zeros),
+        }
+    }
+
+    fn push(&mut self, s: usize, truth: [f64; 3], read: [f64; 3]) {
+        if let (Some(r), Some(t)) = (self.read.as_mut(), self.truth.as_mut()) {
+            for c in 0..3 {
+                r[c][s] = read[c];
+                t[c][s] = truth[c];
+            }
+        }
+    }
+
+    fn finish(self) -> (Option<[Vec<f64>; 3]>, Option<[Vec<f64>; 3]>) {
+        (self.read, self.truth)
+    }
+}
+
+/// The body's angular rate that turns gravity's direction from `a` to `b` in `dt` about the great
+/// circle through them (dĝ/dt = −ω × ĝ), rad/s.
+fn turn_rate(a: &[f64; 3], b: &[f64; 3], dt: f64) -> [f64; 3] {
+    let (a, b) = (normalised(*a), normalised(*b));
+    let cross = [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ];
+    let sin = (cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]).sqrt();
+    if sin < 1e-15 {
+        return [0.0; 3];
+    }
+    let cos = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let angle = sin.atan2(cos);
+    cross.map(|c| -angle / dt * c / sin)
 }
 
 fn normalised(v: [f64; 3]) -> [f64; 3] {
@@ -576,9 +801,10 @@ impl SimulatedCampaign {
     pub fn truth_recording(&self, i: usize) -> Recording {
         let r = &self.recordings[i];
         recording(
-            &format!("{} (true specific force)", r.name),
+            &format!("{} (true specific force and angular rate)", r.name),
             r.recording.time_s.clone(),
             r.true_accel_mps2.clone(),
+            r.true_gyro_radps.clone(),
         )
     }
 }
