@@ -33,6 +33,14 @@ pub struct NoiseParams {
     pub floor_reached: [bool; 3],
     /// Points used for the −½ fit per axis (0: fell back to the point of slope nearest −½).
     pub white_points: [usize; 3],
+    /// Rate random walk K (σ = K √(τ/3) on the +½ slope): m/s³/√Hz for acceleration, rad/s²/√Hz
+    /// for a gyro.
+    #[serde(default)]
+    pub random_walk: [f64; 3],
+    /// Points on the +½ slope used per axis (0: the curve never rose, and K is an upper bound
+    /// from its last point).
+    #[serde(default)]
+    pub random_walk_points: [usize; 3],
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -126,6 +134,8 @@ pub fn noise_params(curve: &AllanCurve) -> NoiseParams {
         bias_instability_tau_s: [0.0; 3],
         floor_reached: [false; 3],
         white_points: [0; 3],
+        random_walk: [0.0; 3],
+        random_walk_points: [0; 3],
     };
     let lt: Vec<f64> = curve.tau_s.iter().map(|t| t.log10()).collect();
     for a in 0..3 {
@@ -159,6 +169,22 @@ pub fn noise_params(curve: &AllanCurve) -> NoiseParams {
             intercepts.iter().sum::<f64>() / intercepts.len() as f64
         };
         p.noise_density[a] = 10f64.powf(log_n);
+        // Rate random walk K: σ(τ) = K √(τ/3) on the +½ slope right of the minimum. Where the
+        // curve ends before it rises, the last point bounds K from above.
+        let mut walk = Vec::new();
+        for k in kmin..ad.len().saturating_sub(1) {
+            if (0.35..=0.65).contains(&slope(k)) {
+                walk.push(la[k] - 0.5 * (lt[k] - 3f64.log10()));
+            }
+        }
+        p.random_walk_points[a] = walk.len();
+        let last = ad.len() - 1;
+        let log_k = if walk.is_empty() {
+            la[last] - 0.5 * (lt[last] - 3f64.log10())
+        } else {
+            walk.iter().sum::<f64>() / walk.len() as f64
+        };
+        p.random_walk[a] = 10f64.powf(log_k);
     }
     p
 }

@@ -33,6 +33,17 @@ pub struct AllanArgs {
     /// Write a simulator sensor profile (JSON).
     #[arg(long)]
     pub profile: Option<PathBuf>,
+    /// Write Kalibr's IMU noise file (imu.yaml: noise densities and random walks of the
+    /// accelerometer and the gyroscope, the rate, the topic). Needs gyro columns.
+    #[arg(long)]
+    pub kalibr: Option<PathBuf>,
+    /// The gyroscope from a second file (imu_tk's layout: `t gx gy gz`, rad/s), sample for
+    /// sample beside the recording, when the recording has no gyro columns.
+    #[arg(long)]
+    pub gyro_file: Option<PathBuf>,
+    /// The ROS topic written into the Kalibr file.
+    #[arg(long, default_value = "/imu0")]
+    pub kalibr_topic: String,
     /// Points per decade of τ.
     #[arg(long, default_value_t = 10)]
     pub per_decade: usize,
@@ -44,10 +55,14 @@ pub struct AllanArgs {
 #[derive(Serialize)]
 struct Report<'a> {
     file: String,
+    sample_rate_hz: f64,
     samples_used: usize,
     span_s: [f64; 2],
     params: &'a NoiseParams,
     curve: &'a AllanCurve,
+    /// The gyroscope's figures (rad/s units), when the recording has gyro columns.
+    gyro_params: Option<&'a NoiseParams>,
+    gyro_curve: Option<&'a AllanCurve>,
 }
 
 /// A still sensor's spread is about its shortest-τ Allan deviation (white noise: equal; slow
@@ -82,12 +97,13 @@ fn refuse_motion(
 
 pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     let png = args.plot.as_ref().map(|p| p.with_extension("png"));
-    let outputs: Vec<&std::path::Path> = [&args.plot, &png, &args.curve, &args.profile]
+    let outputs: Vec<&std::path::Path> = [&args.plot, &png, &args.curve, &args.profile, &args.kalibr]
         .into_iter()
         .flatten()
         .map(|p| p.as_path())
         .collect();
     let mut inputs = vec![args.input.rec.as_path()];
+    inputs.extend(args.gyro_file.as_deref());
     inputs.extend(args.calibration.as_deref());
     super::check_outputs(&inputs, &outputs)?;
     let loaded = args.input.load(ui)?;
@@ -135,6 +151,30 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         refuse_motion(&part, &curve, &args.input.rec)?;
     }
     let params = noise_params(&curve);
+    let gyro_rec = match &args.gyro_file {
+        Some(path) => Some(read_gyro_file(path, rec)?),
+        None => rec.gyro_radps.clone(),
+    };
+    let gyro = match &gyro_rec {
+        Some(g) => {
+            let part: [Vec<f64>; 3] = std::array::from_fn(|a| g[a][start..end].to_vec());
+            let curve = allan_deviation(&part, dt, args.per_decade)?;
+            let params = noise_params(&curve);
+            Some((curve, params))
+        }
+        None => None,
+    };
+    if let Some(path) = &args.kalibr {
+        let Some((_, gyro_params)) = &gyro else {
+            return Err(UsageError(format!(
+                "{}: no gyro columns, and Kalibr's file needs the gyroscope's noise too (pass --columns t,ax,ay,az,gx,gy,gz)",
+                args.input.rec.display()
+            ))
+            .into());
+        };
+        let kalibr = spincal::export::KalibrImu::from_axes(&params, gyro_params, &args.kalibr_topic, 1.0 / dt);
+        super::write_text(path, &kalibr.to_yaml())?;
+    }
     if let Some(path) = &args.curve {
         spincal::output::write_file(path, |out| write_curve_csv(&curve, out))?;
     }
@@ -157,10 +197,13 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     if args.json {
         return ui::print_json(&Report {
             file: args.input.rec.display().to_string(),
+            sample_rate_hz: 1.0 / dt,
             samples_used: end - start,
             span_s,
             params: &params,
             curve: &curve,
+            gyro_params: gyro.as_ref().map(|g| &g.1),
+            gyro_curve: gyro.as_ref().map(|g| &g.0),
         });
     }
     let mut s = format!("{}\n{}\n", args.input.rec.display(), format_line(&loaded));
@@ -182,8 +225,59 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
             params.bias_instability_tau_s[a]
         );
     }
+    for a in 0..3 {
+        s += &format!(
+            "{}: rate random walk {}{:.4e} m/s³/√Hz\n",
+            ["x", "y", "z"][a],
+            if params.random_walk_points[a] > 0 { "" } else { "≤ " },
+            params.random_walk[a]
+        );
+    }
+    if let Some((_, g)) = &gyro {
+        for a in 0..3 {
+            s += &format!(
+                "gyro {}: noise density {:.4e} rad/s/√Hz, bias instability {}{:.4e} rad/s, rate random walk {}{:.4e} rad/s²/√Hz\n",
+                ["x", "y", "z"][a],
+                g.noise_density[a],
+                if g.floor_reached[a] { "" } else { "≤ " },
+                g.bias_instability[a],
+                if g.random_walk_points[a] > 0 { "" } else { "≤ " },
+                g.random_walk[a]
+            );
+        }
+    }
     if params.floor_reached.iter().any(|r| !r) {
         s += "≤: no flat part within τ ≤ T/10; a longer still recording is needed for the floor\n";
     }
     ui::print(&s)
+}
+
+/// A gyro recording in its own file, as the main recording's gyro columns: the same number of
+/// samples at the same times (within half a sample).
+fn read_gyro_file(path: &std::path::Path, rec: &spincal::Recording) -> anyhow::Result<[Vec<f64>; 3]> {
+    let loaded = spincal::formats::read_path(path, &spincal::formats::ReadOptions::default())
+        .with_context(|| format!("reading {}", path.display()))?;
+    let g = loaded.recording;
+    if g.len() != rec.len() {
+        return Err(UsageError(format!(
+            "{}: {} samples, but the recording has {}; the gyro file must sample beside it",
+            path.display(),
+            g.len(),
+            rec.len()
+        ))
+        .into());
+    }
+    let half = 0.5 / rec.sample_rate_hz();
+    if let Some(i) = (0..g.len()).find(|&i| (g.time_s[i] - rec.time_s[i]).abs() > half.max(0.011)) {
+        return Err(UsageError(format!(
+            "{}: sample {} is at {} s, the recording's at {} s; the gyro file must sample beside it",
+            path.display(),
+            i + 1,
+            g.time_s[i],
+            rec.time_s[i]
+        ))
+        .into());
+    }
+    // Its three value columns are rad/s whatever the reader took them for.
+    Ok(g.gyro_radps.unwrap_or(g.accel_mps2))
 }

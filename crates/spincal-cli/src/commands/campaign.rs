@@ -25,7 +25,15 @@ pub fn calibrate(file: &Path, out: &Path, json: bool, ui: Ui) -> anyhow::Result<
 /// corrector held on every held-out condition) model.json into `out`.
 pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignOutput> {
     let campaign = Campaign::read_path(file).map_err(|e| UsageError(e.to_string()))?;
-    let outputs = ["model.json", "results.json", "report.html"].map(|name| out.join(name));
+    let outputs = [
+        "model.json",
+        "results.json",
+        "report.html",
+        "imucal.json",
+        "imu_tk_acc.calib",
+        "imu_tk_gyro.calib",
+    ]
+    .map(|name| out.join(name));
     let mut inputs: Vec<&Path> = vec![file];
     for entry in &campaign.recordings {
         inputs.push(&entry.file);
@@ -55,6 +63,19 @@ pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignO
         &(serde_json::to_string_pretty(&output.result)? + "\n"),
     )?;
     super::write_text(&out.join("report.html"), &report_html(&output))?;
+    // The same calibration in the files imucal and imu_tk read (linear part; see spincal::export).
+    let sensor = &output.result.joint.sensor;
+    let gyro = output.result.gyro.as_ref().map(|g| &g.model);
+    super::write_text(
+        &out.join("imucal.json"),
+        &(serde_json::to_string_pretty(&spincal::export::imucal_json(sensor, gyro))? + "\n"),
+    )?;
+    if let Some((acc, gyr)) = spincal::export::imu_tk_calibs(sensor, gyro) {
+        super::write_text(&out.join("imu_tk_acc.calib"), &acc.to_text())?;
+        if let Some(gyr) = gyr {
+            super::write_text(&out.join("imu_tk_gyro.calib"), &gyr.to_text())?;
+        }
+    }
     Ok(output)
 }
 
@@ -87,10 +108,46 @@ pub fn summary(output: &CampaignOutput, out: &Path) -> String {
             let _ = writeln!(text, "  {name}: {advice}");
         }
     }
+    if let Some(g) = &r.gyro {
+        text.push_str("\ngyroscope (the record player as a rate table):\n");
+        let b = g.model.bias_radps.map(f64::to_degrees);
+        let k = &g.model.sensitivity;
+        let _ = writeln!(
+            text,
+            "  bias {:.4} {:.4} {:.4} °/s; scale error {:+.3} {:+.3} {:+.3} %",
+            b[0],
+            b[1],
+            b[2],
+            100.0 * (k[0][0] - 1.0),
+            100.0 * (k[1][1] - 1.0),
+            100.0 * (k[2][2] - 1.0)
+        );
+        text.push_str("  run                                      rate from accel (rad/s)  raw gyro       calibrated gyro
+");
+        for c in &g.rate_checks {
+            let rel = |v: f64| 100.0 * (v.abs() / c.accel_rate_radps - 1.0);
+            let _ = writeln!(
+                text,
+                "  {:<40} {:<24.6} {:.6} ({:+.3} %)  {:.6} ({:+.4} %)",
+                c.run,
+                c.accel_rate_radps,
+                c.raw_gyro_rate_radps,
+                rel(c.raw_gyro_rate_radps),
+                c.calibrated_gyro_rate_radps,
+                rel(c.calibrated_gyro_rate_radps)
+            );
+        }
+        for (name, advice) in &g.undetermined {
+            let _ = writeln!(text, "  not determined: {name}: {advice}");
+        }
+    }
+    if let Some(e) = &r.gyro_error {
+        let _ = writeln!(text, "\ngyroscope not calibrated: {e}");
+    }
     let dir = out.display();
     let _ = writeln!(
         text,
-        "\nwrote {}{dir}/results.json, {dir}/report.html",
+        "\nwrote {}{dir}/results.json, {dir}/report.html, {dir}/imucal.json, {dir}/imu_tk_*.calib",
         if output.saved.is_some() {
             format!("{dir}/model.json, ")
         } else {
@@ -174,6 +231,45 @@ pub fn report_html(output: &CampaignOutput) -> String {
             let _ = write!(h, "<li>{}: record {}</li>", escape(name), escape(advice));
         }
         h.push_str("</ul>");
+    }
+    if let Some(g) = &r.gyro {
+        let _ = write!(
+            h,
+            "<h2>Gyroscope</h2><p>m = b + K ω, ω in the accelerometer's body frame. Each turntable run's rotation rate, measured by the accelerometer, is the reference about the spindle; still poses give the bias. Standard errors: {}.</p><table><tr><th>parameter</th><th>value</th><th>standard error</th></tr>",
+            escape(&g.covariance)
+        );
+        for p in g.params.iter().chain(&g.session_drift) {
+            let _ = write!(
+                h,
+                "<tr><td>{}</td><td>{:.6e}</td><td>{}</td></tr>",
+                escape(&p.name),
+                p.value,
+                p.std_error.map_or("–".into(), |v| format!("{v:.2e}"))
+            );
+        }
+        h.push_str("</table><h3>Cross-check: the gyro against the accelerometer's rate</h3><table><tr><th>run</th><th>rate from the accelerometer, rad/s</th><th>raw gyro about the spindle</th><th>calibrated gyro</th><th>residual RMS x y z, rad/s</th></tr>");
+        for c in &g.rate_checks {
+            let _ = write!(
+                h,
+                "<tr><td>{}</td><td>{:.6} ± {}</td><td>{:.6}</td><td>{:.6}</td><td>{:.2e} {:.2e} {:.2e}</td></tr>",
+                escape(&c.run),
+                c.accel_rate_radps,
+                c.accel_rate_se_radps.map_or("–".into(), |v| format!("{v:.1e}")),
+                c.raw_gyro_rate_radps,
+                c.calibrated_gyro_rate_radps,
+                c.residual_rms_radps[0],
+                c.residual_rms_radps[1],
+                c.residual_rms_radps[2]
+            );
+        }
+        h.push_str("</table>");
+        if !g.undetermined.is_empty() {
+            h.push_str("<ul>");
+            for (name, advice) in &g.undetermined {
+                let _ = write!(h, "<li>{}: {}</li>", escape(name), escape(advice));
+            }
+            h.push_str("</ul>");
+        }
     }
     h.push_str("<h2>Recordings</h2><ul>");
     for run in &r.joint.runs {

@@ -81,9 +81,12 @@ impl CorrectArgs {
 struct Columns {
     time: usize,
     accel: [usize; 3],
-    /// Multiply file values by these to get s and m/s².
+    /// Gyro x, y, z, when the file has them.
+    gyro: Option<[usize; 3]>,
+    /// Multiply file values by these to get s, m/s² and rad/s.
     time_to_s: f64,
     accel_to_mps2: f64,
+    gyro_to_radps: f64,
 }
 
 /// Resolves columns with the same rules as whole-file reading, by reading a one-row table of
@@ -110,11 +113,18 @@ fn resolve_columns(header: &[String], width: usize, file: &str, map: &ColumnMap)
             .with_context(|| format!("{file}: cannot locate column {name}"))
     };
     let names = &recording.source.columns;
+    let gyro = if names.len() >= 7 {
+        Some([index(&names[4])?, index(&names[5])?, index(&names[6])?])
+    } else {
+        None
+    };
     Ok(Columns {
         time: index(&names[0])?,
         accel: [index(&names[1])?, index(&names[2])?, index(&names[3])?],
+        gyro,
         time_to_s: recording.time_s[0],
         accel_to_mps2: recording.accel_mps2[0][0],
+        gyro_to_radps: recording.gyro_radps.as_ref().map_or(1.0, |g| g[0][0]),
     })
 }
 
@@ -187,11 +197,18 @@ struct StreamSummary {
     refused: usize,
     /// The first refused rows: line and reason.
     first_refusals: Vec<String>,
+    /// The model calibrates a gyroscope but the file has no gyro columns.
+    gyro_uncorrected: bool,
 }
 
 impl StreamSummary {
     /// Warns about extrapolated rows; refused rows make the result an error (exit code 3).
     fn finish(&self, name: &str) -> anyhow::Result<()> {
+        if self.gyro_uncorrected {
+            eprintln!(
+                "warning: {name}: the model calibrates the gyroscope, but no gyro columns were found (pass --columns t,ax,ay,az,gx,gy,gz); only the accelerometer was corrected"
+            );
+        }
         if let Some(line) = self.first_outside_line {
             eprintln!(
                 "warning: {name}: {} of {} rows ({:.1} %) have an input more than {:.0} % of the training \
@@ -282,6 +299,22 @@ fn stream(
             sep,
         ));
     }
+    // The gyro calibration, when the model has one and the file has gyro columns.
+    let gyro = match (&model.gyro, columns.gyro) {
+        (Some(g), Some(c)) => Some((
+            g.corrector()
+                .context("the model's gyro sensitivity is singular")?,
+            c,
+        )),
+        _ => None,
+    };
+    if let Some((_, c)) = &gyro {
+        for &col in c {
+            line.push(sep);
+            line.push_str(&field(&format!("{}_corrected", header[col]), sep));
+        }
+    }
+    let gyro_width = if gyro.is_some() { 3 } else { 0 };
     line.push(sep);
     line.push_str("valid");
     line.push(sep);
@@ -298,6 +331,7 @@ fn stream(
         first_outside_line: None,
         refused: 0,
         first_refusals: Vec::new(),
+        gyro_uncorrected: model.gyro.is_some() && columns.gyro.is_none(),
     };
     let refuse = |summary: &mut StreamSummary, out: &mut dyn Write, fields: Vec<String>, reason: String| {
         summary.refused += 1;
@@ -309,7 +343,7 @@ fn stream(
             .map(|f| field(f, sep))
             .collect::<Vec<_>>()
             .join(&sep.to_string());
-        for _ in &axes {
+        for _ in 0..axes.len() + gyro_width {
             row.push(sep);
         }
         writeln!(
@@ -354,6 +388,12 @@ fn stream(
         }
         for axis in &axes {
             write!(out, "{sep}{}", sample.accel_mps2[axis.index()] * from_mps2)?;
+        }
+        if let Some((corrector, c)) = &gyro {
+            let rate = corrector.correct(c.map(|col| values[col] * columns.gyro_to_radps));
+            for w in rate {
+                write!(out, "{sep}{}", w / columns.gyro_to_radps)?;
+            }
         }
         let status = if sample.outside_training_range {
             "extrapolated"

@@ -89,6 +89,17 @@ impl SensorModel {
         p
     }
 
+    /// D (I + M): the linear part of the response, u = b + D (I + M) f.
+    pub fn linear_matrix(&self) -> [[f64; 3]; 3] {
+        let d = self.scale_error.map(|s| 1.0 + s);
+        let [m_yx, m_zx, m_zy] = self.misalignment_rad;
+        [
+            [d[0], 0.0, 0.0],
+            [d[1] * m_yx, d[1], 0.0],
+            [d[2] * m_zx, d[2] * m_zy, d[2]],
+        ]
+    }
+
     /// (I + M) f: the specific force as the three non-orthogonal axes see it.
     pub fn skewed(&self, f: [f64; 3]) -> [f64; 3] {
         let [m_yx, m_zx, m_zy] = self.misalignment_rad;

@@ -1,0 +1,258 @@
+//! spincal's calibrations in other tools' files, read back by those tools: imucal's own loader
+//! applies `imucal.json`; PyYAML reads the Kalibr file and allantools recomputes its noise
+//! density; imu_tk's `.calib` is checked against the files imu_tk itself wrote. The gyroscope
+//! calibration is applied by `correct` to the gyro columns.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn spincal() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_spincal"))
+}
+
+fn run(cmd: &mut Command) -> String {
+    let out = cmd.output().expect("runs");
+    assert!(
+        out.status.success(),
+        "{:?} failed:\n{}\n{}",
+        cmd,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// The test venv's python (scripts/setup.sh makes it). `None` with a printed reason when absent,
+/// unless SPINCAL_REQUIRE_PYTHON=1 (CI), where absence fails.
+fn venv_python() -> Option<PathBuf> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let python = root.join(".venv/bin/python");
+    if python.exists() {
+        return Some(python);
+    }
+    let required = std::env::var("SPINCAL_REQUIRE_PYTHON").is_ok_and(|v| v == "1");
+    assert!(!required, "SPINCAL_REQUIRE_PYTHON=1 but {} is absent: run scripts/setup.sh", python.display());
+    eprintln!("skipped: {} is absent (run scripts/setup.sh)", python.display());
+    None
+}
+
+fn shared(relative: &str) -> Option<PathBuf> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data").join(relative);
+    if path.exists() {
+        Some(path)
+    } else {
+        eprintln!("skipped: {} is absent (../shared/data is not beside this clone)", path.display());
+        None
+    }
+}
+
+fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap_or(f64::NAN)).collect())
+        .collect();
+    (header, rows)
+}
+
+/// A simulated campaign with gyro, calibrated; returns (campaign dir, output dir).
+fn calibrated_campaign(dir: &Path) -> (PathBuf, PathBuf) {
+    let campaign = dir.join("campaign");
+    let out = dir.join("calibration");
+    run(spincal().args(["simulate", "--campaign"]).arg(&campaign).args(["--seed", "11"]));
+    run(spincal()
+        .args(["calibrate", "--campaign"])
+        .arg(campaign.join("campaign.toml"))
+        .arg("--out")
+        .arg(&out));
+    (campaign, out)
+}
+
+#[test]
+fn campaign_calibration_loads_in_imucal_applies_to_the_gyro_and_writes_imu_tk_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let (campaign, out) = calibrated_campaign(dir.path());
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let sensor: spincal::campaign::SensorModel =
+        serde_json::from_value(results["joint"]["sensor"].clone()).unwrap();
+    let gyro: spincal::campaign::GyroModel = serde_json::from_value(results["gyro"]["model"].clone()).unwrap();
+    let linear = spincal::campaign::SensorModel {
+        quadratic_per_mps2: [0.0; 3],
+        ..sensor
+    };
+    let gyro_corrector = gyro.corrector().unwrap();
+    let run_csv = campaign.join("run-1-33rpm-r0.060-out+x-up+z.csv");
+    let (header, rows) = read_csv(&run_csv);
+    assert_eq!(header[4], "gx_radps");
+
+    // correct: the gyro columns come out calibrated, the same numbers as the library's inverse.
+    let corrected = dir.path().join("corrected.csv");
+    run(spincal()
+        .args(["correct", "--model"])
+        .arg(out.join("model.json"))
+        .arg(&run_csv)
+        .arg("-o")
+        .arg(&corrected));
+    let (out_header, out_rows) = read_csv(&corrected);
+    let gx = out_header.iter().position(|h| h == "gx_radps_corrected").expect("gyro corrected columns");
+    for (row, out_row) in rows.iter().zip(&out_rows).step_by(97) {
+        let w = gyro_corrector.correct([row[4], row[5], row[6]]);
+        for k in 0..3 {
+            assert_eq!(out_row[gx + k], w[k], "correct's gyro columns are the library's inverse");
+        }
+    }
+
+    // imu_tk: the files parse with imu_tk's layout and give the corrected vectors in imu_tk's
+    // (rotated) frame: the same lengths and the same angle between force and rate.
+    let acc_tk =
+        spincal::export::ImuTkCalib::parse(&std::fs::read_to_string(out.join("imu_tk_acc.calib")).unwrap(), "acc")
+            .unwrap();
+    let gyr_tk =
+        spincal::export::ImuTkCalib::parse(&std::fs::read_to_string(out.join("imu_tk_gyro.calib")).unwrap(), "gyr")
+            .unwrap();
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    for row in rows.iter().step_by(101) {
+        let (m, wm) = ([row[1], row[2], row[3]], [row[4], row[5], row[6]]);
+        let (f, w) = (linear.correct(m).unwrap(), gyro_corrector.correct(wm));
+        let (f_tk, w_tk) = (acc_tk.apply(m), gyr_tk.apply(wm));
+        assert!((dot(f, f) - dot(f_tk, f_tk)).abs() < 1e-8);
+        assert!((dot(w, w) - dot(w_tk, w_tk)).abs() < 1e-10);
+        assert!((dot(f, w) - dot(f_tk, w_tk)).abs() < 1e-9);
+    }
+
+    // imucal's own loader and calibrate(): the same numbers as spincal's linear inverse.
+    let Some(python) = venv_python() else { return };
+    let imucal_out = dir.path().join("imucal.csv");
+    let script = r#"
+import sys, numpy as np
+from imucal.management import load_calibration_info
+cal = load_calibration_info(sys.argv[1])
+data = np.loadtxt(sys.argv[2], delimiter=",", skiprows=1)
+acc, gyr = cal.calibrate(data[:, 1:4], data[:, 4:7], "m/s^2", "rad/s")
+np.savetxt(sys.argv[3], np.hstack([acc, gyr]), delimiter=",", fmt="%.17g", header="ax,ay,az,gx,gy,gz", comments="")
+print(type(cal).__name__)
+"#;
+    let kind = run(Command::new(&python)
+        .args(["-c", script])
+        .arg(out.join("imucal.json"))
+        .arg(&run_csv)
+        .arg(&imucal_out));
+    assert_eq!(kind.trim(), "FerrarisCalibrationInfo");
+    let (_, theirs) = read_csv(&imucal_out);
+    assert_eq!(theirs.len(), rows.len());
+    let mut worst = [0.0f64; 2];
+    for (row, t) in rows.iter().zip(&theirs) {
+        let f = linear.correct([row[1], row[2], row[3]]).unwrap();
+        let w = gyro_corrector.correct([row[4], row[5], row[6]]);
+        for k in 0..3 {
+            worst[0] = worst[0].max((t[k] - f[k]).abs());
+            worst[1] = worst[1].max((t[3 + k] - w[k]).abs());
+        }
+    }
+    assert!(worst[0] < 1e-10 && worst[1] < 1e-12, "imucal differs from spincal by {worst:?}");
+}
+
+/// Noise density by an independent Allan deviation (allantools' overlapping ADEV) of the same
+/// samples, read off the −½ line the same way: mean of log(σ√τ) over the points whose local slope
+/// is within ±0.15 of −½, left of the minimum. Arguments: accel file, gyro file (the same file when
+/// it has gyro columns), t₀, t₁, rate.
+const ALLANTOOLS_DENSITY: &str = r#"
+import sys, numpy as np, allantools
+def load(path):
+    csv = path.endswith(".csv")
+    return np.genfromtxt(path, delimiter="," if csv else None, skip_header=1 if csv else 0)
+acc_path, gyr_path, t0, t1, rate = sys.argv[1], sys.argv[2], float(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5])
+acc = load(acc_path)
+gyr = acc[:, 3:] if gyr_path == acc_path else load(gyr_path)
+keep = (acc[:, 0] >= t0) & (acc[:, 0] <= t1)
+columns = [acc[keep, 1 + k] for k in range(3)] + [gyr[keep, 1 + k] for k in range(3)]
+out = []
+for y in columns:
+    taus = np.unique(np.round(np.logspace(0, np.log10(len(y) / 10), 60)).astype(int)) / rate
+    t, ad, _, _ = allantools.oadev(y, rate=rate, data_type="freq", taus=taus)
+    lt, la = np.log10(t), np.log10(ad)
+    kmin = int(np.argmin(ad))
+    slope = np.diff(la) / np.diff(lt)
+    pts = [la[k] + 0.5 * lt[k] for k in range(max(kmin, 1)) if k < len(slope) and -0.65 <= slope[k] <= -0.35]
+    out.append(10 ** np.mean(pts) if pts else float("nan"))
+print(",".join(repr(float(v)) for v in out))
+"#;
+
+/// `spincal allan --kalibr` on a recording: Kalibr's keys parse with PyYAML, and the noise
+/// densities agree with allantools within 10 %.
+fn kalibr_against_allantools(python: &Path, accel: &Path, gyro: Option<&Path>, dir: &Path) {
+    let yaml_path = dir.join("imu.yaml");
+    let mut args: Vec<std::ffi::OsString> = vec!["allan".into(), accel.into(), "--still".into()];
+    if let Some(g) = gyro {
+        args.extend(["--gyro-file".into(), g.into()]);
+    }
+    run(spincal()
+        .args(&args)
+        .arg("--kalibr")
+        .arg(&yaml_path)
+        .args(["--kalibr-topic", "/imu0"]));
+    let check = r#"
+import sys, yaml
+d = yaml.safe_load(open(sys.argv[1]))
+keys = {"accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density", "gyroscope_random_walk", "rostopic", "update_rate"}
+assert set(d) == keys, set(d) ^ keys
+assert d["rostopic"] == "/imu0"
+for k in keys - {"rostopic"}:
+    assert isinstance(d[k], float) and d[k] > 0, (k, d[k])
+print(d["accelerometer_noise_density"], d["gyroscope_noise_density"], d["update_rate"])
+"#;
+    let parsed = run(Command::new(python).args(["-c", check]).arg(&yaml_path));
+    let v: Vec<f64> = parsed.split_whitespace().map(|s| s.parse().unwrap()).collect();
+    let report: serde_json::Value = serde_json::from_str(&run(spincal().args(&args).arg("--json"))).unwrap();
+    let rate = report["sample_rate_hz"].as_f64().unwrap();
+    assert!((v[2] / rate - 1.0).abs() < 1e-9, "update_rate {} vs {rate}", v[2]);
+    let span = &report["span_s"];
+    let theirs = run(Command::new(python)
+        .args(["-c", ALLANTOOLS_DENSITY])
+        .arg(accel)
+        .arg(gyro.unwrap_or(accel))
+        .arg(span[0].as_f64().unwrap().to_string())
+        .arg(span[1].as_f64().unwrap().to_string())
+        .arg(rate.to_string()));
+    let theirs: Vec<f64> = theirs.trim().split(',').map(|s| s.parse().unwrap()).collect();
+    let ours_acc: Vec<f64> = serde_json::from_value(report["params"]["noise_density"].clone()).unwrap();
+    let ours_gyr: Vec<f64> = serde_json::from_value(report["gyro_params"]["noise_density"].clone()).unwrap();
+    for (k, ours) in ours_acc.iter().chain(&ours_gyr).enumerate() {
+        let rel = (ours / theirs[k] - 1.0).abs();
+        println!("{} axis {k}: spincal {ours:.4e}, allantools {:.4e}", accel.display(), theirs[k]);
+        assert!(rel < 0.10, "axis {k}: spincal {ours:.4e} vs allantools {:.4e} ({:.1} %)", theirs[k], 100.0 * rel);
+    }
+    let max = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
+    assert!((v[0] / max(&ours_acc) - 1.0).abs() < 1e-6);
+    assert!((v[1] / max(&ours_gyr) - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn kalibr_file_of_a_simulated_still_recording_parses_and_matches_allantools() {
+    let Some(python) = venv_python() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let still = dir.path().join("still");
+    let setup = dir.path().join("setup.json");
+    std::fs::write(&setup, r#"{"poses": 1, "pose_duration_s": 600.0, "runs": []}"#).unwrap();
+    run(spincal()
+        .args(["simulate", "--campaign"])
+        .arg(&still)
+        .arg("--setup")
+        .arg(&setup));
+    kalibr_against_allantools(&python, &still.join("still-poses.csv"), None, dir.path());
+}
+
+#[test]
+fn kalibr_file_of_the_real_t265_still_start_parses_and_matches_allantools() {
+    let (Some(acc), Some(gyr)) = (
+        shared("imu/realsense_t265/t265_acc.mat"),
+        shared("imu/realsense_t265/t265_gyr.mat"),
+    ) else {
+        return;
+    };
+    let Some(python) = venv_python() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    kalibr_against_allantools(&python, &acc, Some(&gyr), dir.path());
+}
