@@ -31,17 +31,26 @@ fn venv_python() -> Option<PathBuf> {
         return Some(python);
     }
     let required = std::env::var("SPINCAL_REQUIRE_PYTHON").is_ok_and(|v| v == "1");
-    assert!(!required, "SPINCAL_REQUIRE_PYTHON=1 but {} is absent: run scripts/setup.sh", python.display());
+    assert!(
+        !required,
+        "SPINCAL_REQUIRE_PYTHON=1 but {} is absent: run scripts/setup.sh",
+        python.display()
+    );
     eprintln!("skipped: {} is absent (run scripts/setup.sh)", python.display());
     None
 }
 
 fn shared(relative: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data").join(relative);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data")
+        .join(relative);
     if path.exists() {
         Some(path)
     } else {
-        eprintln!("skipped: {} is absent (../shared/data is not beside this clone)", path.display());
+        eprintln!(
+            "skipped: {} is absent (../shared/data is not beside this clone)",
+            path.display()
+        );
         None
     }
 }
@@ -51,7 +60,11 @@ fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
     let mut lines = text.lines();
     let header = lines.next().unwrap().split(',').map(String::from).collect();
     let rows = lines
-        .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap_or(f64::NAN)).collect())
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse::<f64>().unwrap_or(f64::NAN))
+                .collect()
+        })
         .collect();
     (header, rows)
 }
@@ -60,7 +73,10 @@ fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
 fn calibrated_campaign(dir: &Path) -> (PathBuf, PathBuf) {
     let campaign = dir.join("campaign");
     let out = dir.join("calibration");
-    run(spincal().args(["simulate", "--campaign"]).arg(&campaign).args(["--seed", "11"]));
+    run(spincal()
+        .args(["simulate", "--campaign"])
+        .arg(&campaign)
+        .args(["--seed", "11"]));
     run(spincal()
         .args(["calibrate", "--campaign"])
         .arg(campaign.join("campaign.toml"))
@@ -77,7 +93,8 @@ fn campaign_calibration_loads_in_imucal_applies_to_the_gyro_and_writes_imu_tk_fi
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
     let sensor: spincal::campaign::SensorModel =
         serde_json::from_value(results["joint"]["sensor"].clone()).unwrap();
-    let gyro: spincal::campaign::GyroModel = serde_json::from_value(results["gyro"]["model"].clone()).unwrap();
+    let gyro: spincal::campaign::GyroModel =
+        serde_json::from_value(results["gyro"]["model"].clone()).unwrap();
     let linear = spincal::campaign::SensorModel {
         quadratic_per_mps2: [0.0; 3],
         ..sensor
@@ -96,22 +113,33 @@ fn campaign_calibration_loads_in_imucal_applies_to_the_gyro_and_writes_imu_tk_fi
         .arg("-o")
         .arg(&corrected));
     let (out_header, out_rows) = read_csv(&corrected);
-    let gx = out_header.iter().position(|h| h == "gx_radps_corrected").expect("gyro corrected columns");
+    let gx = out_header
+        .iter()
+        .position(|h| h == "gx_radps_corrected")
+        .expect("gyro corrected columns");
     for (row, out_row) in rows.iter().zip(&out_rows).step_by(97) {
         let w = gyro_corrector.correct([row[4], row[5], row[6]]);
         for k in 0..3 {
-            assert_eq!(out_row[gx + k], w[k], "correct's gyro columns are the library's inverse");
+            assert_eq!(
+                out_row[gx + k],
+                w[k],
+                "correct's gyro columns are the library's inverse"
+            );
         }
     }
 
     // imu_tk: the files parse with imu_tk's layout and give the corrected vectors in imu_tk's
     // (rotated) frame: the same lengths and the same angle between force and rate.
-    let acc_tk =
-        spincal::export::ImuTkCalib::parse(&std::fs::read_to_string(out.join("imu_tk_acc.calib")).unwrap(), "acc")
-            .unwrap();
-    let gyr_tk =
-        spincal::export::ImuTkCalib::parse(&std::fs::read_to_string(out.join("imu_tk_gyro.calib")).unwrap(), "gyr")
-            .unwrap();
+    let acc_tk = spincal::export::ImuTkCalib::parse(
+        &std::fs::read_to_string(out.join("imu_tk_acc.calib")).unwrap(),
+        "acc",
+    )
+    .unwrap();
+    let gyr_tk = spincal::export::ImuTkCalib::parse(
+        &std::fs::read_to_string(out.join("imu_tk_gyro.calib")).unwrap(),
+        "gyr",
+    )
+    .unwrap();
     let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     for row in rows.iter().step_by(101) {
         let (m, wm) = ([row[1], row[2], row[3]], [row[4], row[5], row[6]]);
@@ -151,7 +179,10 @@ print(type(cal).__name__)
             worst[1] = worst[1].max((t[3 + k] - w[k]).abs());
         }
     }
-    assert!(worst[0] < 1e-10 && worst[1] < 1e-12, "imucal differs from spincal by {worst:?}");
+    assert!(
+        worst[0] < 1e-10 && worst[1] < 1e-12,
+        "imucal differs from spincal by {worst:?}"
+    );
 }
 
 /// Noise density by an independent Allan deviation (allantools' overlapping ADEV) of the same
@@ -221,8 +252,17 @@ print(d["accelerometer_noise_density"], d["gyroscope_noise_density"], d["update_
     let ours_gyr: Vec<f64> = serde_json::from_value(report["gyro_params"]["noise_density"].clone()).unwrap();
     for (k, ours) in ours_acc.iter().chain(&ours_gyr).enumerate() {
         let rel = (ours / theirs[k] - 1.0).abs();
-        println!("{} axis {k}: spincal {ours:.4e}, allantools {:.4e}", accel.display(), theirs[k]);
-        assert!(rel < 0.10, "axis {k}: spincal {ours:.4e} vs allantools {:.4e} ({:.1} %)", theirs[k], 100.0 * rel);
+        println!(
+            "{} axis {k}: spincal {ours:.4e}, allantools {:.4e}",
+            accel.display(),
+            theirs[k]
+        );
+        assert!(
+            rel < 0.10,
+            "axis {k}: spincal {ours:.4e} vs allantools {:.4e} ({:.1} %)",
+            theirs[k],
+            100.0 * rel
+        );
     }
     let max = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
     assert!((v[0] / max(&ours_acc) - 1.0).abs() < 1e-6);

@@ -53,12 +53,30 @@ impl KalibrImu {
     /// The `imu.yaml` text, with Kalibr's keys.
     pub fn to_yaml(&self) -> String {
         let mut s = String::new();
-        s.push_str("# IMU noise model for Kalibr (spincal allan --kalibr): continuous-time densities from the\n");
+        s.push_str(
+            "# IMU noise model for Kalibr (spincal allan --kalibr): continuous-time densities from the\n",
+        );
         s.push_str("# Allan deviation, the largest axis of each sensor.\n");
-        let _ = writeln!(s, "accelerometer_noise_density: {:.6e}  # m/s^2/sqrt(Hz)", self.accelerometer_noise_density);
-        let _ = writeln!(s, "accelerometer_random_walk: {:.6e}  # m/s^3/sqrt(Hz)", self.accelerometer_random_walk);
-        let _ = writeln!(s, "gyroscope_noise_density: {:.6e}  # rad/s/sqrt(Hz)", self.gyroscope_noise_density);
-        let _ = writeln!(s, "gyroscope_random_walk: {:.6e}  # rad/s^2/sqrt(Hz)", self.gyroscope_random_walk);
+        let _ = writeln!(
+            s,
+            "accelerometer_noise_density: {:.6e}  # m/s^2/sqrt(Hz)",
+            self.accelerometer_noise_density
+        );
+        let _ = writeln!(
+            s,
+            "accelerometer_random_walk: {:.6e}  # m/s^3/sqrt(Hz)",
+            self.accelerometer_random_walk
+        );
+        let _ = writeln!(
+            s,
+            "gyroscope_noise_density: {:.6e}  # rad/s/sqrt(Hz)",
+            self.gyroscope_noise_density
+        );
+        let _ = writeln!(
+            s,
+            "gyroscope_random_walk: {:.6e}  # rad/s^2/sqrt(Hz)",
+            self.gyroscope_random_walk
+        );
         let _ = writeln!(s, "rostopic: {}", self.rostopic);
         let _ = writeln!(s, "update_rate: {}  # Hz", self.update_rate_hz);
         s
@@ -133,7 +151,12 @@ impl ImuTkCalib {
         for r in 0..3 {
             for c in 0..3 {
                 if r != c && scale[r][c] != 0.0 {
-                    return Err(err(format!("the scale matrix has {} at row {}, column {}; imu_tk's is diagonal", scale[r][c], r + 1, c + 1)));
+                    return Err(err(format!(
+                        "the scale matrix has {} at row {}, column {}; imu_tk's is diagonal",
+                        scale[r][c],
+                        r + 1,
+                        c + 1
+                    )));
                 }
             }
         }
@@ -165,7 +188,10 @@ impl ImuTkCalib {
 /// triangular, spincal's lower triangular: the two body frames differ by a rotation, which is
 /// applied to the gyroscope too so that both files share imu_tk's frame. The quadratic terms are
 /// left out.
-pub fn imu_tk_calibs(sensor: &SensorModel, gyro: Option<&GyroModel>) -> Option<(ImuTkCalib, Option<ImuTkCalib>)> {
+pub fn imu_tk_calibs(
+    sensor: &SensorModel,
+    gyro: Option<&GyroModel>,
+) -> Option<(ImuTkCalib, Option<ImuTkCalib>)> {
     // f = A (m − b), A = (D (I + M))⁻¹; A = Q U (Gram–Schmidt on A's columns), imu_tk's frame is Qᵀ f.
     let a = inverse(&sensor.linear_matrix())?;
     let mut q = [[0.0; 3]; 3];
@@ -192,7 +218,8 @@ pub fn imu_tk_calibs(sensor: &SensorModel, gyro: Option<&GyroModel>) -> Option<(
     let gyro = match gyro {
         Some(g) => {
             let k_inv = inverse(&g.sensitivity)?;
-            let qt_k_inv: M3 = std::array::from_fn(|r| std::array::from_fn(|c| (0..3).map(|i| q[i][r] * k_inv[i][c]).sum()));
+            let qt_k_inv: M3 =
+                std::array::from_fn(|r| std::array::from_fn(|c| (0..3).map(|i| q[i][r] * k_inv[i][c]).sum()));
             Some(ImuTkCalib::from_map(&qt_k_inv, g.bias_radps))
         }
         None => None,
@@ -206,7 +233,9 @@ pub fn imu_tk_calibs(sensor: &SensorModel, gyro: Option<&GyroModel>) -> Option<(
 /// (the comment says so).
 pub fn imucal_json(sensor: &SensorModel, gyro: Option<&GyroModel>) -> serde_json::Value {
     let d = sensor.scale_error.map(|s| 1.0 + s);
-    let diag = |v: [f64; 3]| -> M3 { std::array::from_fn(|r| std::array::from_fn(|c| if r == c { v[r] } else { 0.0 })) };
+    let diag = |v: [f64; 3]| -> M3 {
+        std::array::from_fn(|r| std::array::from_fn(|c| if r == c { v[r] } else { 0.0 }))
+    };
     let m = sensor.misalignment_rad;
     let r_a: M3 = [[1.0, 0.0, 0.0], [m[0], 1.0, 0.0], [m[1], m[2], 1.0]];
     let (k_g, r_g, b_g) = match gyro {
@@ -242,7 +271,8 @@ pub fn imucal_json(sensor: &SensorModel, gyro: Option<&GyroModel>) -> serde_json
 }
 
 fn inverse(a: &M3) -> Option<M3> {
-    let det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+    let det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+        - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
         + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
     if !(det.is_finite() && det.abs() > 1e-12) {
         return None;
@@ -271,7 +301,11 @@ mod tests {
     fn gyro() -> GyroModel {
         GyroModel {
             bias_radps: [0.01, -0.02, 0.005],
-            sensitivity: [[1.005, 0.007, -0.005], [0.008, 0.992, 0.003], [-0.007, 0.005, 1.006]],
+            sensitivity: [
+                [1.005, 0.007, -0.005],
+                [0.008, 0.992, 0.003],
+                [-0.007, 0.005, 1.006],
+            ],
         }
     }
 
@@ -301,7 +335,10 @@ mod tests {
             input_range_mps2: [[-20.0, 20.0]; 3],
         };
         let gc = g.corrector().unwrap();
-        for (f, w) in [([1.0, 2.0, 9.0], [0.3, -1.0, 3.5]), ([-9.0, 0.5, 1.0], [4.0, 0.2, -0.1])] {
+        for (f, w) in [
+            ([1.0, 2.0, 9.0], [0.3, -1.0, 3.5]),
+            ([-9.0, 0.5, 1.0], [4.0, 0.2, -0.1]),
+        ] {
             let m = s.measure(f);
             let ours = corrector.sensor.correct(m).unwrap();
             let theirs = acc.apply(m);

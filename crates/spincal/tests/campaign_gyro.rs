@@ -58,17 +58,24 @@ fn gyro_parameters_are_recovered_within_their_errors_over_12_seeds() {
             } else {
                 worst[2] = worst[2].max(error);
             }
-            println!("seed {seed} {}: {:.6e} ± {:.2e} (truth {:.6e})", p.name, p.value, se, true_values[k]);
+            println!(
+                "seed {seed} {}: {:.6e} ± {:.2e} (truth {:.6e})",
+                p.name, p.value, se, true_values[k]
+            );
         }
         // Bias and each axis's own scale are determined; cross-axis terms may be limited by how
         // well the accelerometer fixes each mount's tilt, and the report must say so.
         for (name, advice) in &fit.undetermined {
-            assert!(!name.contains("bias") && !["gyro_K_xx", "gyro_K_yy", "gyro_K_zz"].contains(&name.as_str()), "seed {seed}: {name}");
+            assert!(
+                !name.contains("bias") && !["gyro_K_xx", "gyro_K_yy", "gyro_K_zz"].contains(&name.as_str()),
+                "seed {seed}: {name}"
+            );
             assert!(advice.contains("mount"), "seed {seed}: {name}: {advice}");
         }
         // The cross-check: the calibrated gyro reads the accelerometer's rate about the spindle.
         for check in &fit.rate_checks {
-            let rel = (check.calibrated_gyro_rate_radps.abs() - check.accel_rate_radps.abs()) / check.accel_rate_radps;
+            let rel = (check.calibrated_gyro_rate_radps.abs() - check.accel_rate_radps.abs())
+                / check.accel_rate_radps;
             assert!(rel.abs() < 1e-3, "seed {seed} {}: {rel}", check.run);
         }
     }

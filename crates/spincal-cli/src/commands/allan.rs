@@ -172,7 +172,8 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
             ))
             .into());
         };
-        let kalibr = spincal::export::KalibrImu::from_axes(&params, gyro_params, &args.kalibr_topic, 1.0 / dt);
+        let kalibr =
+            spincal::export::KalibrImu::from_axes(&params, gyro_params, &args.kalibr_topic, 1.0 / dt);
         super::write_text(path, &kalibr.to_yaml())?;
     }
     if let Some(path) = &args.curve {
@@ -229,7 +230,11 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         s += &format!(
             "{}: rate random walk {}{:.4e} m/s³/√Hz\n",
             ["x", "y", "z"][a],
-            if params.random_walk_points[a] > 0 { "" } else { "≤ " },
+            if params.random_walk_points[a] > 0 {
+                ""
+            } else {
+                "≤ "
+            },
             params.random_walk[a]
         );
     }

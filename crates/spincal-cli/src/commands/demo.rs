@@ -53,7 +53,11 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
     let campaign_dir = args.out.join("campaign");
     super::campaign::write_simulated_campaign(
         &campaign_dir,
-        &spincal::simulate::campaign::CampaignSetup::default(),
+        // As a user would record it: six still poses (the faces), runs at 33⅓ and 45 rpm at two radii.
+        &spincal::simulate::campaign::CampaignSetup {
+            poses: 6,
+            ..Default::default()
+        },
         args.seed,
         true,
     )?;

@@ -48,7 +48,9 @@ impl GyroModel {
 
     /// The reading for true rate `w` (body frame, rad/s).
     pub fn measure(&self, w: [f64; 3]) -> [f64; 3] {
-        std::array::from_fn(|i| self.bias_radps[i] + (0..3).map(|j| self.sensitivity[i][j] * w[j]).sum::<f64>())
+        std::array::from_fn(|i| {
+            self.bias_radps[i] + (0..3).map(|j| self.sensitivity[i][j] * w[j]).sum::<f64>()
+        })
     }
 
     /// The corrector: K⁻¹ and b, so that ω = K⁻¹ (m − b). `None` when K is singular.
@@ -269,7 +271,9 @@ impl GyroRun<'_> {
 
     /// The rotation vector's direction with tilt corrections `delta` (first order).
     fn direction(&self, delta: [f64; 2]) -> [f64; 3] {
-        std::array::from_fn(|j| self.spindle[j] + self.d_spindle[0][j] * delta[0] + self.d_spindle[1][j] * delta[1])
+        std::array::from_fn(|j| {
+            self.spindle[j] + self.d_spindle[0][j] * delta[0] + self.d_spindle[1][j] * delta[1]
+        })
     }
 }
 
@@ -491,7 +495,7 @@ impl Problem<'_> {
                     }
                 }
                 count += 1;
-                if count % block == 0 {
+                if count.is_multiple_of(block) {
                     flush(&mut score, &mut meat);
                 }
             });
@@ -620,7 +624,9 @@ pub fn fit_gyro(
         },
         run_sigma: gyro_runs
             .iter()
-            .map(|run| crate::campaign::joint::difference_noise(run.gyro, &run.input.keep).map(|v| v.max(1e-9)))
+            .map(|run| {
+                crate::campaign::joint::difference_noise(run.gyro, &run.input.keep).map(|v| v.max(1e-9))
+            })
             .collect(),
         runs: gyro_runs,
         poses: pose_rows,
@@ -830,6 +836,10 @@ mod tests {
         let e = model.validate().unwrap_err();
         assert!(e.to_string().contains("sensitivity[1][1]"), "{e}");
         model.sensitivity[1][1] = f64::NAN;
-        assert!(model.validate().unwrap_err().to_string().contains("sensitivity[1]"));
+        assert!(model
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("sensitivity[1]"));
     }
 }

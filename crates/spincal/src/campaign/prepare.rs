@@ -107,7 +107,10 @@ fn mean_and_error(axes: &[Vec<f64>; 3], start: usize, end: usize, floor: f64) ->
 
 fn pose_input(rec: &Recording, name: String, start: usize, end: usize, next_session: usize) -> PoseInput {
     let (mean, sigma) = mean_and_error(&rec.accel_mps2, start, end, 1e-6);
-    let gyro = rec.gyro_radps.as_ref().map(|g| mean_and_error(g, start, end, 1e-9));
+    let gyro = rec
+        .gyro_radps
+        .as_ref()
+        .map(|g| mean_and_error(g, start, end, 1e-9));
     PoseInput {
         name,
         mean_mps2: mean,

@@ -188,7 +188,10 @@ impl GyroProcess {
             }
             let z: f64 = StandardNormal.sample(&mut self.rng);
             let analog = ideal[k] + self.drift[k] + self.noise * z;
-            (analog / self.lsb).round().clamp(-self.max_code - 1.0, self.max_code) * self.lsb
+            (analog / self.lsb)
+                .round()
+                .clamp(-self.max_code - 1.0, self.max_code)
+                * self.lsb
         })
     }
 }
@@ -382,7 +385,9 @@ fn rms_per_axis(values: &[[f64; 3]]) -> [f64; 3] {
 }
 
 fn recording(name: &str, time_s: Vec<f64>, accel: [Vec<f64>; 3], gyro: Option<[Vec<f64>; 3]>) -> Recording {
-    let mut columns = ["t_s", "ax_mps2", "ay_mps2", "az_mps2"].map(String::from).to_vec();
+    let mut columns = ["t_s", "ax_mps2", "ay_mps2", "az_mps2"]
+        .map(String::from)
+        .to_vec();
     if gyro.is_some() {
         columns.extend(["gx_radps", "gy_radps", "gz_radps"].map(String::from));
     }
@@ -699,6 +704,9 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
     })
 }
 
+/// Three axes of samples.
+type Axes = [Vec<f64>; 3];
+
 /// Gyro readings and true rates of one recording, filled sample by sample.
 struct SampledRates {
     read: Option<[Vec<f64>; 3]>,
@@ -723,7 +731,7 @@ impl SampledRates {
         }
     }
 
-    fn finish(self) -> (Option<[Vec<f64>; 3]>, Option<[Vec<f64>; 3]>) {
+    fn finish(self) -> (Option<Axes>, Option<Axes>) {
         (self.read, self.truth)
     }
 }
