@@ -182,6 +182,13 @@ pub struct RecordingSummary {
     pub warnings: Vec<String>,
 }
 
+/// Wall time of one stage of a calibration, s.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct StageTime {
+    pub stage: String,
+    pub seconds: f64,
+}
+
 /// Everything a calibration found: the single source of every number in the report.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct CalibrationResult {
@@ -203,6 +210,10 @@ pub struct CalibrationResult {
     /// The best on validation overall (may be a compare-only model), among rows without warnings.
     pub best_overall: String,
     pub seconds_total: f64,
+    /// Where the time went: read (by the caller), turntable fit, network sweep and training,
+    /// each corrector, cross-condition scoring, report (by the caller).
+    #[serde(default)]
+    pub stage_seconds: Vec<StageTime>,
 }
 
 /// Signals for the report's plots (not numbers shown as text).
@@ -227,7 +238,13 @@ pub fn calibrate(
     let started = Instant::now();
     let refs: Vec<&Recording> = recordings.iter().collect();
     observer(Progress::step("turntable fit", 0, Some(1)));
+    let clock = Instant::now();
     let turntable = fit_turntable(&refs, &settings.fit, observer)?;
+    let mut stages = vec![StageTime {
+        stage: "turntable fit".into(),
+        seconds: clock.elapsed().as_secs_f64(),
+    }];
+    let sweep_clock = Instant::now();
     let references = with_signal(recordings, |k, t| turntable.reference(k, t));
     let models = with_signal(recordings, |k, t| turntable.model(k, t));
     let (measured, reference) = (&recordings[0], &references[0]);
@@ -265,6 +282,12 @@ pub fn calibrate(
         }
         NetworkChoice::Fixed { hidden, restarts } => (Vec::new(), hidden.clone(), *restarts),
     };
+    if !sweep_rows.is_empty() {
+        stages.push(StageTime {
+            stage: "network sweep".into(),
+            seconds: sweep_clock.elapsed().as_secs_f64(),
+        });
+    }
     observer(Progress::step("network", 0, Some(1)));
     let clock = Instant::now();
     let network = problem.train(&hidden, restarts, settings.seed, &settings.lm)?;
@@ -419,7 +442,15 @@ pub fn calibrate(
     let chosen_corrector: &dyn Corrector = if chosen == "ANN" { &network } else { &linear };
     let corrected_all = chosen_corrector.correct(measured).accel_mps2;
 
+    // Each corrector's own time, as its comparison row has it.
+    for row in comparison.iter().filter(|r| r.seconds > 0.0) {
+        stages.push(StageTime {
+            stage: format!("corrector {}", row.model),
+            seconds: row.seconds,
+        });
+    }
     // Cross-condition: trained on recording 1, tested on each other recording.
+    let cross_clock = Instant::now();
     let mut cross_condition = Vec::new();
     for (k, other) in recordings.iter().enumerate().skip(1) {
         observer(Progress::step(
@@ -507,6 +538,10 @@ pub fn calibrate(
             warnings: fit.inspection.warnings(&rec.source.name),
         })
         .collect();
+    stages.push(StageTime {
+        stage: "cross-condition".into(),
+        seconds: cross_clock.elapsed().as_secs_f64(),
+    });
     let result = CalibrationResult {
         results_version: RESULTS_VERSION,
         spincal_version: env!("CARGO_PKG_VERSION").to_string(),
@@ -524,6 +559,7 @@ pub fn calibrate(
         chosen,
         best_overall,
         seconds_total: started.elapsed().as_secs_f64(),
+        stage_seconds: stages,
     };
     Ok(CalibrationOutput {
         result,

@@ -138,18 +138,34 @@ pub fn calibrate_with_progress(
 }
 
 /// Runs a calibration with progress bars and writes the three output files.
+/// `read_seconds` is how long reading the recordings took, when they were read (a stage of its
+/// own in results.json).
 pub fn run_calibration(
     recordings: &[Recording],
     settings: &CalibrateSettings,
     out: &Path,
+    read_seconds: Option<f64>,
     ui: Ui,
 ) -> anyhow::Result<CalibrationOutput> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let output = calibrate_with_progress(recordings, settings, ui, "calibrating")?;
+    let mut output = calibrate_with_progress(recordings, settings, ui, "calibrating")?;
+    let stage = |stage: &str, seconds: f64| spincal::calibrate::StageTime {
+        stage: stage.to_string(),
+        seconds,
+    };
+    if let Some(seconds) = read_seconds {
+        output.result.stage_seconds.insert(0, stage("read", seconds));
+    }
     output.saved.write_path(&out.join("model.json"))?;
+    let clock = std::time::Instant::now();
+    let html = render_report(&output, recordings)?;
+    // The report lists the stages before it; its own time goes into results.json.
+    output
+        .result
+        .stage_seconds
+        .push(stage("report", clock.elapsed().as_secs_f64()));
     let results = serde_json::to_string_pretty(&output.result)? + "\n";
     super::write_text(&out.join("results.json"), &results)?;
-    let html = render_report(&output, recordings)?;
     super::write_text(&out.join("report.html"), &html)?;
     Ok(output)
 }
@@ -186,13 +202,15 @@ pub fn run(args: CalibrateArgs, ui: Ui) -> anyhow::Result<()> {
     let inputs: Vec<&Path> = args.fit.recordings.iter().map(PathBuf::as_path).collect();
     let outputs = ["model.json", "results.json", "report.html"].map(|name| args.out.join(name));
     super::check_outputs(&inputs, &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>())?;
+    let clock = std::time::Instant::now();
     let recordings = args
         .fit
         .recordings
         .iter()
         .map(|p| args.fit.read.read(p))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let output = run_calibration(&recordings, &settings, &args.out, ui)?;
+    let read_seconds = clock.elapsed().as_secs_f64();
+    let output = run_calibration(&recordings, &settings, &args.out, Some(read_seconds), ui)?;
     if args.fit.json {
         return ui::print_json(&output.result);
     }

@@ -42,7 +42,9 @@ pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignO
         }
     }
     super::check_outputs(&inputs, &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>())?;
+    let clock = std::time::Instant::now();
     let units = load_campaign(&campaign)?;
+    let read_seconds = clock.elapsed().as_secs_f64();
     let settings = CampaignSettings {
         joint: spincal::campaign::JointSettings {
             gravity_mps2: campaign.gravity_mps2,
@@ -52,7 +54,14 @@ pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignO
     };
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let bar = ui.progress(1, "calibrating the campaign");
-    let output = calibrate_campaign(&campaign.unit, &units, &settings, &|p| crate::ui::show(&bar, p))?;
+    let mut output = calibrate_campaign(&campaign.unit, &units, &settings, &|p| crate::ui::show(&bar, p))?;
+    output.result.stage_seconds.insert(
+        0,
+        spincal::calibrate::StageTime {
+            stage: "read".into(),
+            seconds: read_seconds,
+        },
+    );
     bar.finish_and_clear();
     let model_path = out.join("model.json");
     if let Some(model) = &output.saved {
@@ -271,6 +280,16 @@ pub fn report_html(output: &CampaignOutput) -> String {
             h.push_str("</ul>");
         }
     }
+    h.push_str("<h2>Where the time went</h2><table><tr><th>stage</th><th>time (s)</th></tr>");
+    for s in &r.stage_seconds {
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{:.2}</td></tr>",
+            escape(&s.stage),
+            s.seconds
+        );
+    }
+    h.push_str("</table>");
     h.push_str("<h2>Recordings</h2><ul>");
     for run in &r.joint.runs {
         let _ = write!(

@@ -53,11 +53,7 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
     let campaign_dir = args.out.join("campaign");
     super::campaign::write_simulated_campaign(
         &campaign_dir,
-        // As a user would record it: six still poses (the faces), runs at 33⅓ and 45 rpm at two radii.
-        &spincal::simulate::campaign::CampaignSetup {
-            poses: 6,
-            ..Default::default()
-        },
+        &spincal::simulate::campaign::CampaignSetup::default(),
         args.seed,
         true,
     )?;
@@ -92,7 +88,7 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
         seed: args.seed,
         ..CalibrateSettings::default()
     };
-    let output = run_calibration(&recordings, &settings, &args.out, ui)?;
+    let output = run_calibration(&recordings, &settings, &args.out, None, ui)?;
     if args.json {
         return ui::print_json(&output.result);
     }

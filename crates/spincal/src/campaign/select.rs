@@ -159,6 +159,10 @@ pub struct CampaignResult {
     /// One paragraph: what was saved and why, or why nothing was.
     pub verdict: String,
     pub seconds_total: f64,
+    /// Where the time went: joint fit, gyro fit, held-out conditions, final training (and read
+    /// and report when the caller adds them).
+    #[serde(default)]
+    pub stage_seconds: Vec<crate::calibrate::StageTime>,
 }
 
 /// The result and the corrector file to write (if any).
@@ -573,7 +577,17 @@ pub fn calibrate_campaign(
     check_settings(settings)?;
     let prepared = prepare(units)?;
     observer(Progress::step("joint fit", 0, Some(1)));
+    let mut stages = Vec::new();
+    let mut clock = Instant::now();
+    let mut lap = |stage: &str, stages: &mut Vec<crate::calibrate::StageTime>| {
+        stages.push(crate::calibrate::StageTime {
+            stage: stage.to_string(),
+            seconds: clock.elapsed().as_secs_f64(),
+        });
+        clock = Instant::now();
+    };
     let joint = fit_joint(&prepared.runs, &prepared.poses, &settings.joint, observer)?;
+    lap("joint fit", &mut stages);
     let g = settings.joint.gravity_mps2;
     let undetermined = joint.undetermined(g, settings.determined_tolerance_mps2);
     // The gyroscope rides on the joint fit's rates; its failure costs the accelerometer nothing.
@@ -581,6 +595,7 @@ pub fn calibrate_campaign(
         Ok(fit) => (fit, None),
         Err(e) => (None, Some(e.to_string())),
     };
+    lap("gyro fit", &mut stages);
     let conditions = conditions(&prepared);
     let candidates: Vec<Box<dyn Candidate + Sync>> =
         settings.candidates.iter().map(|&k| candidate(k)).collect();
@@ -629,6 +644,7 @@ pub fn calibrate_campaign(
         })
         .collect();
     let held_out: Vec<HeldOutScore> = per_condition.into_iter().flatten().collect();
+    lap("held-out conditions", &mut stages);
 
     let summaries: Vec<CandidateSummary> = candidates
         .iter()
@@ -684,6 +700,7 @@ pub fn calibrate_campaign(
             ),
         ),
     };
+    lap("final training", &mut stages);
     let saved_name = saved.as_ref().and(best).map(|b| b.candidate.clone());
     Ok(CampaignOutput {
         result: CampaignResult {
@@ -699,6 +716,7 @@ pub fn calibrate_campaign(
             saved: saved_name,
             verdict,
             seconds_total: started.elapsed().as_secs_f64(),
+            stage_seconds: stages,
         },
         saved,
     })

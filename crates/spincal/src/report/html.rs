@@ -142,6 +142,17 @@ fn title_section(r: &CalibrationResult) -> String {
         escape(&r.chosen),
         escape(&r.best_overall)
     ));
+    if !r.stage_seconds.is_empty() {
+        html.push_str("<table><tr><th>stage</th><th>time (s)</th></tr>\n");
+        for (k, s) in r.stage_seconds.iter().enumerate() {
+            html.push_str(&format!(
+                "<tr><td>{}</td><td>{}</td></tr>\n",
+                escape(&s.stage),
+                num(&format!("/stage_seconds/{k}/seconds"), s.seconds, 2)
+            ));
+        }
+        html.push_str("</table>\n");
+    }
     html
 }
 
