@@ -182,12 +182,7 @@ pub struct RecordingSummary {
     pub warnings: Vec<String>,
 }
 
-/// Wall time of one stage of a calibration, s.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct StageTime {
-    pub stage: String,
-    pub seconds: f64,
-}
+pub use crate::progress::StageTime;
 
 /// Everything a calibration found: the single source of every number in the report.
 #[derive(Debug, Clone, Serialize, Deserialize)]

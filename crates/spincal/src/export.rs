@@ -10,7 +10,7 @@
 
 use std::fmt::Write as _;
 
-use crate::campaign::gyro::GyroModel;
+use crate::correctors::gyro::{inverse, GyroModel};
 use crate::correctors::physical::SensorModel;
 
 type M3 = [[f64; 3]; 3];
@@ -268,21 +268,6 @@ pub fn imucal_json(sensor: &SensorModel, gyro: Option<&GyroModel>) -> serde_json
         "cal_type": "Ferraris",
         "_format_version": "2.0",
     })
-}
-
-fn inverse(a: &M3) -> Option<M3> {
-    let det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
-        - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
-        + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
-    if !(det.is_finite() && det.abs() > 1e-12) {
-        return None;
-    }
-    let c = |i: usize, j: usize| {
-        let (r0, r1) = ((i + 1) % 3, (i + 2) % 3);
-        let (c0, c1) = ((j + 1) % 3, (j + 2) % 3);
-        a[r0][c0] * a[r1][c1] - a[r0][c1] * a[r1][c0]
-    };
-    Some(std::array::from_fn(|i| std::array::from_fn(|j| c(j, i) / det)))
 }
 
 #[cfg(test)]

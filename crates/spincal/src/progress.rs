@@ -50,3 +50,10 @@ pub type Observer<'a> = dyn Fn(Progress<'_>) + Sync + 'a;
 
 /// The observer that shows nothing: pass `&silent`.
 pub fn silent(_: Progress<'_>) {}
+
+/// Wall time of one stage of a calibration, s.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct StageTime {
+    pub stage: String,
+    pub seconds: f64,
+}

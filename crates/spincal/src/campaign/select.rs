@@ -162,7 +162,7 @@ pub struct CampaignResult {
     /// Where the time went: joint fit, gyro fit, held-out conditions, final training (and read
     /// and report when the caller adds them).
     #[serde(default)]
-    pub stage_seconds: Vec<crate::calibrate::StageTime>,
+    pub stage_seconds: Vec<crate::progress::StageTime>,
 }
 
 /// The result and the corrector file to write (if any).
@@ -579,8 +579,8 @@ pub fn calibrate_campaign(
     observer(Progress::step("joint fit", 0, Some(1)));
     let mut stages = Vec::new();
     let mut clock = Instant::now();
-    let mut lap = |stage: &str, stages: &mut Vec<crate::calibrate::StageTime>| {
-        stages.push(crate::calibrate::StageTime {
+    let mut lap = |stage: &str, stages: &mut Vec<crate::progress::StageTime>| {
+        stages.push(crate::progress::StageTime {
             stage: stage.to_string(),
             seconds: clock.elapsed().as_secs_f64(),
         });

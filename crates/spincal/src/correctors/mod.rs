@@ -7,6 +7,7 @@
 pub mod ann;
 pub mod corrector;
 pub mod division;
+pub mod gyro;
 pub mod linear;
 pub mod model_file;
 pub mod physical;

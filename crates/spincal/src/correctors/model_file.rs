@@ -136,7 +136,7 @@ pub struct CorrectorFile {
     /// The gyroscope's calibration (`spincal calibrate --campaign` with gyro columns), applied by
     /// `correct` to the gyro columns.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub gyro: Option<crate::campaign::gyro::GyroModel>,
+    pub gyro: Option<crate::correctors::gyro::GyroModel>,
 }
 
 impl CorrectorFile {

@@ -17,8 +17,8 @@ use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use crate::campaign::file::{SignedAxis, TurntableEntry};
-use crate::campaign::gyro::GyroModel;
 use crate::campaign::joint::{mounting_matrix, RUN_PARAMS};
+use crate::correctors::gyro::GyroModel;
 use crate::correctors::physical::SensorModel;
 use crate::input::recording::{Recording, Source, STANDARD_GRAVITY};
 use crate::simulate::{modulated_rotation, SensorProfile, SimulationError};

@@ -1,0 +1,102 @@
+//! A gyroscope's calibration m = b + K ω (ω: true rate in the accelerometer's body frame, rad/s)
+//! and its inverse, applied by `correct` to the gyro columns. `campaign::gyro` fits it.
+
+// 3×3 algebra reads best with indices.
+#![allow(clippy::needless_range_loop)]
+
+use serde::{Deserialize, Serialize};
+
+use crate::correctors::corrector::{check_finite, ModelError};
+
+type M3 = [[f64; 3]; 3];
+
+/// A gyroscope's bias and sensitivity: m = b + K ω.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GyroModel {
+    /// b, rad/s.
+    pub bias_radps: [f64; 3],
+    /// K, row per gyro axis: reading per unit of true rate about each body axis.
+    pub sensitivity: M3,
+}
+
+impl GyroModel {
+    pub const IDEAL: GyroModel = GyroModel {
+        bias_radps: [0.0; 3],
+        sensitivity: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+    };
+
+    /// The reading for true rate `w` (body frame, rad/s).
+    pub fn measure(&self, w: [f64; 3]) -> [f64; 3] {
+        std::array::from_fn(|i| {
+            self.bias_radps[i] + (0..3).map(|j| self.sensitivity[i][j] * w[j]).sum::<f64>()
+        })
+    }
+
+    /// The corrector: K⁻¹ and b, so that ω = K⁻¹ (m − b). `None` when K is singular.
+    pub fn corrector(&self) -> Option<GyroCorrector> {
+        Some(GyroCorrector {
+            bias: self.bias_radps,
+            inverse: inverse(&self.sensitivity)?,
+        })
+    }
+
+    /// Checks what applying the model relies on: finite values, each axis's own scale between
+    /// 0.5 and 2, K well-conditioned.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        check_finite("bias_radps", &self.bias_radps)?;
+        for i in 0..3 {
+            check_finite(&format!("sensitivity[{i}]"), &self.sensitivity[i])?;
+            let k = self.sensitivity[i][i];
+            if !(0.5..=2.0).contains(&k) {
+                return Err(ModelError::new(
+                    format!("sensitivity[{i}][{i}]"),
+                    format!("{k}: an axis's own sensitivity must lie between 0.5 and 2"),
+                ));
+            }
+        }
+        let det = determinant(&self.sensitivity);
+        if det.abs() < 0.1 {
+            return Err(ModelError::new(
+                "sensitivity",
+                format!("determinant {det}: the axes are nearly dependent, the inverse would amplify noise"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The inverse of a [`GyroModel`], ready to apply.
+#[derive(Debug, Clone, Copy)]
+pub struct GyroCorrector {
+    bias: [f64; 3],
+    inverse: M3,
+}
+
+impl GyroCorrector {
+    /// The true rate for reading `m`, rad/s.
+    pub fn correct(&self, m: [f64; 3]) -> [f64; 3] {
+        let d: [f64; 3] = std::array::from_fn(|k| m[k] - self.bias[k]);
+        std::array::from_fn(|i| (0..3).map(|j| self.inverse[i][j] * d[j]).sum())
+    }
+}
+
+fn determinant(a: &M3) -> f64 {
+    a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+        + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+}
+
+/// The inverse of a 3×3 matrix; `None` when it is (nearly) singular.
+pub(crate) fn inverse(a: &M3) -> Option<M3> {
+    let det = determinant(a);
+    if !(det.is_finite() && det.abs() > 1e-12) {
+        return None;
+    }
+    let c = |i: usize, j: usize| {
+        let (r0, r1) = ((i + 1) % 3, (i + 2) % 3);
+        let (c0, c1) = ((j + 1) % 3, (j + 2) % 3);
+        a[r0][c0] * a[r1][c1] - a[r0][c1] * a[r1][c0]
+    };
+    // Cyclic cofactors carry their sign; the inverse is the transposed cofactor matrix over det.
+    Some(std::array::from_fn(|i| std::array::from_fn(|j| c(j, i) / det)))
+}
