@@ -1553,10 +1553,33 @@ mod tests {
         let text = lines.join("\n") + "\n";
         let head = TableHead::new(text.as_bytes(), "test.csv", &TableOptions::default()).unwrap();
         for chunks in [1, 2, 8, 100] {
-            let e = head.rows_in_chunks(&[], chunks).unwrap_err();
+            let e = head.rows_in_chunks(&[(1, 1.0)], chunks).unwrap_err();
             assert_eq!(e.to_string(), "test.csv:3000, column 2 (ax): the cell is empty");
         }
         agree(text.as_bytes());
+    }
+
+    /// An empty cell is an error only in a chosen column, in any chunk; elsewhere the row is kept.
+    #[test]
+    fn empty_cells_in_columns_not_chosen_are_allowed() {
+        let mut lines: Vec<String> = long_file(20_000).lines().map(String::from).collect();
+        lines[3_000 - 1] = "30,,1".into();
+        lines[17_000 - 1] = "170,2,".into();
+        let text = lines.join("\n") + "\n";
+        let head = TableHead::new(text.as_bytes(), "test.csv", &TableOptions::default()).unwrap();
+        for chunks in [1, 2, 8, 100] {
+            let rows = head.rows_in_chunks(&[(0, 1.0)], chunks).unwrap();
+            assert_eq!(rows.lines.len(), 20_000);
+            assert_eq!(rows.columns[0][3_000 - 2], 30.0);
+            let e = head.rows_in_chunks(&[(0, 1.0), (2, 1.0)], chunks).unwrap_err();
+            assert_eq!(e.to_string(), "test.csv:17000, column 3 (ay): the cell is empty");
+        }
+        let t = Table::parse_columns(text.as_bytes(), "test.csv", &TableOptions::default(), &["t"]).unwrap();
+        assert_eq!((t.header.as_slice(), t.n_rows()), (&["t".to_string()][..], 20_000));
+        let e = Table::parse(text.as_bytes(), "test.csv", &TableOptions::default()).unwrap_err();
+        assert_eq!(e.to_string(), "test.csv:3000, column 2 (ax): the cell is empty");
+        let e = Table::parse_columns(text.as_bytes(), "test.csv", &TableOptions::default(), &["q"]).unwrap_err();
+        assert_eq!(e.to_string(), "test.csv: no column 'q' (columns: t, ax, ay)");
     }
 
     #[test]

@@ -27,8 +27,9 @@ pub const MAGIC: &[u8] = b"MATLAB 5.0 MAT-file";
 /// Size of the v5 header.
 const HEADER_BYTES: usize = 128;
 
-/// Decompressed bytes accepted from one `miCOMPRESSED` element (a zlib bomb stops here).
-const MAX_INFLATED_BYTES: u64 = 1 << 34;
+/// Decompressed bytes accepted from one `miCOMPRESSED` element: one element of at most 2³² − 1
+/// bytes and its tag, the most the format can describe (a zlib bomb stops here).
+const MAX_INFLATED_BYTES: u64 = (1 << 32) + 7;
 
 /// What is wrong with a MAT-file.
 #[derive(Debug, thiserror::Error)]
@@ -45,7 +46,7 @@ pub enum MatError {
         variable: String,
         why: String,
     },
-    #[error("{file}: no numeric 2-D real variable to read as columns{skipped}")]
+    #[error("{file}: no numeric 2-D real variable of more than one value to read as columns{skipped}")]
     NoNumeric { file: String, skipped: String },
 }
 

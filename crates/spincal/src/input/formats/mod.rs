@@ -284,7 +284,8 @@ pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loa
         .unwrap_or(Format::Csv);
     let mut loaded = match format {
         Format::Csv => {
-            let recording = Recording::parse_csv(bytes, file, &options.columns)?;
+            let recording =
+                Recording::parse_csv_timed(bytes, file, &options.columns, options.sample_rate_hz)?;
             Loaded::new(recording, format, false)
         }
         Format::Whitespace => read_whitespace(bytes, file, options)?,
@@ -311,11 +312,7 @@ pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loa
     if let (Some(rate), Format::Csv | Format::Whitespace | Format::Phyphox | Format::Mat) =
         (options.sample_rate_hz, format)
     {
-        // The rate given wins over the file's time column (a sample index, or a coarse clock).
-        let t = &mut loaded.recording.time_s;
-        for (i, v) in t.iter_mut().enumerate() {
-            *v = i as f64 / rate;
-        }
+        // The rate given won over the file's time column (a sample index, or a coarse clock).
         let column = loaded.recording.source.columns.first().cloned().unwrap_or_default();
         loaded
             .notes
@@ -358,7 +355,7 @@ pub fn read_table(bytes: &[u8], file: &str, options: &TableOptions, keys: &[&str
 fn read_mat(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
     let parsed = mat::parse(bytes, file)?;
     let table = mat::table(&parsed, file)?;
-    let recording = Recording::from_table(&table, &options.columns)?;
+    let recording = Recording::from_table_timed(&table, &options.columns, options.sample_rate_hz)?;
     let mut l = Loaded::new(recording, Format::Mat, false);
     for s in &parsed.skipped {
         l.notes.push(format!("variable '{}' skipped: {}", s.name, s.why));
@@ -429,7 +426,7 @@ fn read_whitespace(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Lo
     if map.columns.is_none() && table.header.is_empty() && table.n_columns() != 4 {
         map.columns = Some(vec!["1".into(), "2".into(), "3".into(), "4".into()]);
     }
-    let recording = Recording::from_table(&table, &map)?;
+    let recording = Recording::from_table_timed(&table, &map, options.sample_rate_hz)?;
     // Why a threshold: 200 m/s² (20 g) is beyond most MEMS ranges, counts are in the thousands.
     let raw = median_abs(&recording.accel_mps2) > 200.0;
     let mut l = Loaded::new(recording, Format::Whitespace, raw);
@@ -608,7 +605,7 @@ fn read_phyphox(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loade
     };
     let mut map = options.columns.clone();
     map.table.delimiter = Some(delimiter);
-    let recording = Recording::parse_csv(input, file, &map)?;
+    let recording = Recording::parse_csv_timed(input, file, &map, options.sample_rate_hz)?;
     let mut l = Loaded::new(recording, Format::Phyphox, false);
     if decimal_comma {
         l.notes.push("decimal comma converted".into());
