@@ -36,7 +36,13 @@ fuzz_target!(|data: &[u8]| {
             z.write_all(rest).unwrap();
             let z = z.finish().unwrap();
             let mut f = header(big_endian);
-            let word = |v: u32| if big_endian { v.to_be_bytes() } else { v.to_le_bytes() };
+            let word = |v: u32| {
+                if big_endian {
+                    v.to_be_bytes()
+                } else {
+                    v.to_le_bytes()
+                }
+            };
             f.extend(word(15));
             f.extend(word(z.len() as u32));
             f.extend(z);

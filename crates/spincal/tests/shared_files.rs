@@ -65,7 +65,10 @@ fn data_lines(path: &Path) -> usize {
     std::fs::read_to_string(path)
         .unwrap()
         .lines()
-        .filter(|l| l.trim_start().starts_with(|c: char| c == '-' || c == '.' || c.is_ascii_digit()))
+        .filter(|l| {
+            l.trim_start()
+                .starts_with(|c: char| c == '-' || c == '.' || c.is_ascii_digit())
+        })
         .count()
 }
 
@@ -129,7 +132,11 @@ fn imucal_session(_: &Path, l: &Loaded) {
 fn ferraris_session(path: &Path, l: &Loaded) {
     let r = &l.recording;
     assert_eq!(r.len(), 10_376);
-    assert!((r.sample_rate_hz() - 102.4).abs() < 1e-9, "{}", r.sample_rate_hz());
+    assert!(
+        (r.sample_rate_hz() - 102.4).abs() < 1e-9,
+        "{}",
+        r.sample_rate_hz()
+    );
     let list = std::fs::read_to_string(path.with_file_name("example_ferraris_session_list.json")).unwrap();
     let list: serde_json::Value = serde_json::from_str(&list).unwrap();
     let section = |name: &str| {
@@ -183,7 +190,10 @@ fn mpu_params_acc(_: &Path, t: &Table) {
 fn mpu_params_gyro(_: &Path, t: &Table) {
     assert_eq!(t.n_rows(), 12);
     for s in &t.columns[0][6..9] {
-        assert!((s / (1.0f64.to_radians() / 131.0) - 1.0).abs() < 0.05, "scale {s}");
+        assert!(
+            (s / (1.0f64.to_radians() / 131.0) - 1.0).abs() < 0.05,
+            "scale {s}"
+        );
     }
 }
 
@@ -283,7 +293,12 @@ fn walk(root: &Path, dir: &Path, out: &mut BTreeSet<String>) {
         if path.is_dir() {
             walk(root, &path, out);
         } else {
-            out.insert(path.strip_prefix(root).unwrap().to_string_lossy().replace('\\', "/"));
+            out.insert(
+                path.strip_prefix(root)
+                    .unwrap()
+                    .to_string_lossy()
+                    .replace('\\', "/"),
+            );
         }
     }
 }
@@ -304,9 +319,17 @@ fn every_shared_file_is_read_or_listed() {
     let expected = expected();
     let listed: BTreeSet<String> = expected.iter().map(|(p, _)| p.to_string()).collect();
     let new: Vec<&String> = found.difference(&listed).collect();
-    assert!(new.is_empty(), "files in {} not listed in this test: {new:?}", root.display());
+    assert!(
+        new.is_empty(),
+        "files in {} not listed in this test: {new:?}",
+        root.display()
+    );
     let gone: Vec<&String> = listed.difference(&found).collect();
-    assert!(gone.is_empty(), "listed files missing from {}: {gone:?}", root.display());
+    assert!(
+        gone.is_empty(),
+        "listed files missing from {}: {gone:?}",
+        root.display()
+    );
     let mut not_data = 0;
     for (relative, how) in &expected {
         let path: PathBuf = root.join(relative);
@@ -322,7 +345,10 @@ fn every_shared_file_is_read_or_listed() {
             }
         }
     }
-    eprintln!("{} files read, {not_data} listed as not data", expected.len() - not_data);
+    eprintln!(
+        "{} files read, {not_data} listed as not data",
+        expected.len() - not_data
+    );
 }
 
 /// The CSV copies hold 5 significant digits of what the MAT-files hold exactly (README).
@@ -330,7 +356,10 @@ fn every_shared_file_is_read_or_listed() {
 fn mat_files_and_their_csv_copies_agree() {
     for (stem, keys) in [
         ("sysid/Silverbox_SNLS80mV", &["V1", "V2"][..]),
-        ("sysid/CascadedTanks_dataBenchmark", &["uEst", "yEst", "uVal", "yVal"][..]),
+        (
+            "sysid/CascadedTanks_dataBenchmark",
+            &["uEst", "yEst", "uVal", "yVal"][..],
+        ),
     ] {
         let (Some(mat), Some(csv)) = (
             common::shared_data(&format!("{stem}.mat")),
@@ -362,7 +391,10 @@ fn an_empty_cell_is_an_error_only_in_a_used_column() {
     let file = path.display().to_string();
     let bytes = read_file(&path).unwrap();
     let e = read_table(&bytes, &file, &TableOptions::default(), &["uBenchMark", "fs"]).unwrap_err();
-    assert_eq!(e.to_string(), format!("{file}:3, column 3 (fs): the cell is empty"));
+    assert_eq!(
+        e.to_string(),
+        format!("{file}:3, column 3 (fs): the cell is empty")
+    );
     let t = read_table(&bytes, &file, &TableOptions::default(), &["yBenchMark"]).unwrap();
     assert_eq!(t.header, ["yBenchMark"]);
     // The same through the recording reader: empty cells in columns not chosen are no error.
@@ -384,7 +416,11 @@ fn sample_rate_overrides_a_time_column() {
     o.sample_rate_hz = Some(4.0);
     let timed = read_bytes(text.as_bytes(), "s.csv", &o).unwrap();
     assert_eq!(timed.recording.time_s, [0.0, 0.25, 0.5]);
-    assert!(timed.notes.iter().any(|n| n.contains("`n` column is not used")), "{:?}", timed.notes);
+    assert!(
+        timed.notes.iter().any(|n| n.contains("`n` column is not used")),
+        "{:?}",
+        timed.notes
+    );
 }
 
 /// A MAT-file is detected by its header and read as a recording through `--columns`.

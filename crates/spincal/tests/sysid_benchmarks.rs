@@ -49,8 +49,14 @@ fn protocol(
         scored.structure
     );
     assert!(sim.is_finite());
-    assert!(sim < share * spread, "{name}: RMSE {sim} not below {share} × the test output's std {spread}");
-    assert!(sim < share * constant, "{name}: RMSE {sim} not below {share} × {constant}, a constant's");
+    assert!(
+        sim < share * spread,
+        "{name}: RMSE {sim} not below {share} × the test output's std {spread}"
+    );
+    assert!(
+        sim < share * constant,
+        "{name}: RMSE {sim} not below {share} × {constant}, a constant's"
+    );
     scored
 }
 
@@ -65,8 +71,16 @@ fn silverbox_arx_on_the_arrow() {
     protocol(
         "Silverbox",
         &spec,
-        DataPart { u: &u, y, range: 40_650..127_400 },
-        DataPart { u: &u, y, range: 0..40_575 },
+        DataPart {
+            u: &u,
+            y,
+            range: 40_650..127_400,
+        },
+        DataPart {
+            u: &u,
+            y,
+            range: 0..40_575,
+        },
         50,
         0.5,
     );
@@ -86,8 +100,16 @@ fn wiener_hammerstein_2009_oe() {
     protocol(
         "WH2009",
         &spec,
-        DataPart { u: &u, y, range: 5_200..105_200 },
-        DataPart { u: &u, y, range: 105_200..184_000 },
+        DataPart {
+            u: &u,
+            y,
+            range: 5_200..105_200,
+        },
+        DataPart {
+            u: &u,
+            y,
+            range: 105_200..184_000,
+        },
         50,
         0.5,
     );
@@ -109,8 +131,16 @@ fn cascaded_tanks_separate_test_record() {
     protocol(
         "Cascaded tanks",
         &spec,
-        DataPart { u: &u, y: &t.columns[1], range: 0..1024 },
-        DataPart { u: &u_val, y: &t.columns[3], range: 0..1024 },
+        DataPart {
+            u: &u,
+            y: &t.columns[1],
+            range: 0..1024,
+        },
+        DataPart {
+            u: &u_val,
+            y: &t.columns[3],
+            range: 0..1024,
+        },
         5,
         0.6,
     );

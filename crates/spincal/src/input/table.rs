@@ -226,7 +226,12 @@ impl Table {
     /// in any other column is no error (benchmark files leave a constant's column empty after its
     /// first row). The header holds each chosen column's name, or its key when the file has no
     /// header; `lines` are the file's lines, so errors and later checks still name them.
-    pub fn parse_columns(bytes: &[u8], file: &str, options: &TableOptions, keys: &[&str]) -> Result<Table, TableError> {
+    pub fn parse_columns(
+        bytes: &[u8],
+        file: &str,
+        options: &TableOptions,
+        keys: &[&str],
+    ) -> Result<Table, TableError> {
         let head = TableHead::new(bytes, file, options)?;
         let mut targets = Vec::with_capacity(keys.len());
         for key in keys {
@@ -1575,10 +1580,14 @@ mod tests {
             assert_eq!(e.to_string(), "test.csv:17000, column 3 (ay): the cell is empty");
         }
         let t = Table::parse_columns(text.as_bytes(), "test.csv", &TableOptions::default(), &["t"]).unwrap();
-        assert_eq!((t.header.as_slice(), t.n_rows()), (&["t".to_string()][..], 20_000));
+        assert_eq!(
+            (t.header.as_slice(), t.n_rows()),
+            (&["t".to_string()][..], 20_000)
+        );
         let e = Table::parse(text.as_bytes(), "test.csv", &TableOptions::default()).unwrap_err();
         assert_eq!(e.to_string(), "test.csv:3000, column 2 (ax): the cell is empty");
-        let e = Table::parse_columns(text.as_bytes(), "test.csv", &TableOptions::default(), &["q"]).unwrap_err();
+        let e =
+            Table::parse_columns(text.as_bytes(), "test.csv", &TableOptions::default(), &["q"]).unwrap_err();
         assert_eq!(e.to_string(), "test.csv: no column 'q' (columns: t, ax, ay)");
     }
 

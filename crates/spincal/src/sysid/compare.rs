@@ -307,7 +307,13 @@ pub fn fit_and_score(
     observer: &Observer,
 ) -> Result<ScoredFit, SysidError> {
     let test = test.map(|range| DataPart { u, y, range });
-    fit_and_score_parts(spec, DataPart { u, y, range: train }, test, init_samples, observer)
+    fit_and_score_parts(
+        spec,
+        DataPart { u, y, range: train },
+        test,
+        init_samples,
+        observer,
+    )
 }
 
 /// Inputs, output and the samples of them to use: a training or test part.
@@ -329,7 +335,13 @@ pub fn fit_and_score_parts(
 ) -> Result<ScoredFit, SysidError> {
     for part in std::iter::once(&train).chain(test.as_ref()) {
         let r = &part.range;
-        let n = part.u.iter().map(|ui| ui.len()).chain([part.y.len()]).min().unwrap_or(0);
+        let n = part
+            .u
+            .iter()
+            .map(|ui| ui.len())
+            .chain([part.y.len()])
+            .min()
+            .unwrap_or(0);
         if r.start >= r.end || r.end > n {
             return Err(SysidError::BadOrders(format!(
                 "range {}..{} is empty or beyond the {} samples",
@@ -343,9 +355,19 @@ pub fn fit_and_score_parts(
     let start = Instant::now();
     let fitted = spec.fit(&slice(&train), &train.y[train.range.clone()], observer)?;
     let seconds = start.elapsed().as_secs_f64();
-    let train_scores = score(&fitted.model, &slice(&train), &train.y[train.range.clone()], init_samples)?;
+    let train_scores = score(
+        &fitted.model,
+        &slice(&train),
+        &train.y[train.range.clone()],
+        init_samples,
+    )?;
     let test_scores = match &test {
-        Some(p) => Some(score(&fitted.model, &slice(p), &p.y[p.range.clone()], init_samples)?),
+        Some(p) => Some(score(
+            &fitted.model,
+            &slice(p),
+            &p.y[p.range.clone()],
+            init_samples,
+        )?),
         None => None,
     };
     Ok(ScoredFit {

@@ -247,7 +247,7 @@ impl<'a> Reader<'a> {
                 ))
             }
         };
-        if e.data.len() % size != 0 {
+        if !e.data.len().is_multiple_of(size) {
             return Err(self.corrupt(
                 place,
                 base + e.at,
@@ -297,15 +297,32 @@ impl<'a> Reader<'a> {
                 MI_MATRIX => self.matrix(&e, place, out)?,
                 MI_COMPRESSED => {
                     if place.compressed_at.is_some() {
-                        return Err(self.corrupt(place, e.at, None, "a compressed element inside a compressed element"));
+                        return Err(self.corrupt(
+                            place,
+                            e.at,
+                            None,
+                            "a compressed element inside a compressed element",
+                        ));
                     }
                     let mut inflated = Vec::new();
                     let mut decoder = flate2::read::ZlibDecoder::new(e.data).take(MAX_INFLATED_BYTES + 1);
                     if let Err(error) = decoder.read_to_end(&mut inflated) {
-                        return Err(self.corrupt(place, e.at, None, format!("the compressed element does not inflate: {error}")));
+                        return Err(self.corrupt(
+                            place,
+                            e.at,
+                            None,
+                            format!("the compressed element does not inflate: {error}"),
+                        ));
                     }
                     if inflated.len() as u64 > MAX_INFLATED_BYTES {
-                        return Err(self.corrupt(place, e.at, None, format!("the compressed element inflates to more than {MAX_INFLATED_BYTES} bytes")));
+                        return Err(self.corrupt(
+                            place,
+                            e.at,
+                            None,
+                            format!(
+                                "the compressed element inflates to more than {MAX_INFLATED_BYTES} bytes"
+                            ),
+                        ));
                     }
                     self.top_level(
                         &inflated,
@@ -321,7 +338,9 @@ impl<'a> Reader<'a> {
                         place,
                         e.at,
                         None,
-                        format!("type {k} at the top level; a MAT-file holds matrix (14) or compressed (15) elements"),
+                        format!(
+                        "type {k} at the top level; a MAT-file holds matrix (14) or compressed (15) elements"
+                    ),
                     ))
                 }
             }
@@ -346,28 +365,61 @@ impl<'a> Reader<'a> {
         let sub = |at: usize, variable: Option<&str>| self.element(data, at, base, place, variable);
         let flags = sub(0, None)?;
         if flags.kind != MI_UINT32 || flags.data.len() != 8 {
-            return Err(self.corrupt(place, base, None, "a matrix must start with its 8-byte array flags (uint32)"));
+            return Err(self.corrupt(
+                place,
+                base,
+                None,
+                "a matrix must start with its 8-byte array flags (uint32)",
+            ));
         }
         let word = self.u32(flags.data);
         let class = (word & 0xff) as u8;
         let complex = word & 0x0800 != 0;
         let logical = word & 0x0200 != 0;
         let dims = sub(flags.next, None)?;
-        if dims.kind != MI_INT32 || dims.data.is_empty() || dims.data.len() % 4 != 0 {
-            return Err(self.corrupt(place, base + dims.at, None, "the dimensions must be a non-empty int32 array"));
+        if dims.kind != MI_INT32 || dims.data.is_empty() || !dims.data.len().is_multiple_of(4) {
+            return Err(self.corrupt(
+                place,
+                base + dims.at,
+                None,
+                "the dimensions must be a non-empty int32 array",
+            ));
         }
-        let dims_values: Vec<i64> = dims.data.chunks_exact(4).map(|c| self.u32(c) as i32 as i64).collect();
+        let dims_values: Vec<i64> = dims
+            .data
+            .chunks_exact(4)
+            .map(|c| self.u32(c) as i32 as i64)
+            .collect();
         if dims_values.iter().any(|&d| d < 0) {
-            return Err(self.corrupt(place, base + dims.at, None, format!("negative dimension in {dims_values:?}")));
+            return Err(self.corrupt(
+                place,
+                base + dims.at,
+                None,
+                format!("negative dimension in {dims_values:?}"),
+            ));
         }
         let name_el = sub(dims.next, None)?;
         if name_el.kind != MI_INT8 && name_el.kind != MI_UINT8 && name_el.kind != MI_UTF8 {
-            return Err(self.corrupt(place, base + name_el.at, None, format!("the array name must be text (int8), found type {}", name_el.kind)));
+            return Err(self.corrupt(
+                place,
+                base + name_el.at,
+                None,
+                format!("the array name must be text (int8), found type {}", name_el.kind),
+            ));
         }
-        let name = String::from_utf8_lossy(name_el.data).trim_end_matches('\0').to_string();
-        let shape = dims_values.iter().map(|d| d.to_string()).collect::<Vec<_>>().join("×");
+        let name = String::from_utf8_lossy(name_el.data)
+            .trim_end_matches('\0')
+            .to_string();
+        let shape = dims_values
+            .iter()
+            .map(|d| d.to_string())
+            .collect::<Vec<_>>()
+            .join("×");
         let skip = |out: &mut MatFile, why: String| {
-            out.skipped.push(Skipped { name: name.clone(), why });
+            out.skipped.push(Skipped {
+                name: name.clone(),
+                why,
+            });
             Ok(())
         };
         let class_text = if logical { "logical" } else { class_name(class) };
@@ -375,14 +427,22 @@ impl<'a> Reader<'a> {
             return skip(out, format!("{shape} {class_text}: not a numeric array"));
         }
         if complex {
-            return skip(out, format!("{shape} complex {class_text}: complex values are not read"));
+            return skip(
+                out,
+                format!("{shape} complex {class_text}: complex values are not read"),
+            );
         }
         if dims_values.len() != 2 {
             return skip(out, format!("{shape} {class_text}: only 2-D arrays are read"));
         }
         let (rows, cols) = (dims_values[0] as usize, dims_values[1] as usize);
         let Some(count) = rows.checked_mul(cols) else {
-            return Err(self.corrupt(place, base + dims.at, Some(&name), format!("dimensions {shape} overflow")));
+            return Err(self.corrupt(
+                place,
+                base + dims.at,
+                Some(&name),
+                format!("dimensions {shape} overflow"),
+            ));
         };
         let real = sub(name_el.next, Some(&name))?;
         let values = self.numbers(&real, base, place, &name)?;
@@ -391,7 +451,10 @@ impl<'a> Reader<'a> {
                 place,
                 base + real.at,
                 Some(&name),
-                format!("a {shape} array needs {count} values, the real part holds {}", values.len()),
+                format!(
+                    "a {shape} array needs {count} values, the real part holds {}",
+                    values.len()
+                ),
             ));
         }
         if let Some(i) = values.iter().position(|v| !v.is_finite()) {
@@ -533,7 +596,10 @@ mod tests {
     use super::*;
 
     /// A little-endian v5 file from (name, class, rows, cols, data type, payload) entries.
-    pub(crate) fn write(vars: &[(&str, u8, i32, i32, u32, Vec<u8>)], compress: bool) -> Vec<u8> {
+    /// (name, class, rows, cols, data type, payload).
+    type Var<'a> = (&'a str, u8, i32, i32, u32, Vec<u8>);
+
+    pub(crate) fn write(vars: &[Var], compress: bool) -> Vec<u8> {
         let mut out = Vec::new();
         let mut text = b"MATLAB 5.0 MAT-file, Platform: test, Created on: never".to_vec();
         text.resize(116, b' ');
@@ -588,7 +654,14 @@ mod tests {
                 &[
                     ("u", 6, 1, 3, MI_DOUBLE, doubles(&[1.0, 2.0, 3.5])),
                     ("m", 6, 3, 2, MI_DOUBLE, doubles(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0])),
-                    ("k", 10, 3, 1, MI_INT16, [-1i16, 2, 300].iter().flat_map(|x| x.to_le_bytes()).collect()),
+                    (
+                        "k",
+                        10,
+                        3,
+                        1,
+                        MI_INT16,
+                        [-1i16, 2, 300].iter().flat_map(|x| x.to_le_bytes()).collect(),
+                    ),
                     ("Ts", 6, 1, 1, MI_UINT8, vec![4]),
                     ("s", 4, 1, 2, MI_UINT16, vec![104, 0, 105, 0]),
                 ],
@@ -633,7 +706,11 @@ mod tests {
         // The element's size claims more than the file holds.
         bytes[132] = 0xff;
         let e = parse(&bytes, "f.mat").unwrap_err();
-        assert!(e.to_string().starts_with("f.mat: byte 128: the element (type 14) says"), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("f.mat: byte 128: the element (type 14) says"),
+            "{e}"
+        );
         let e = parse(b"MATLAB 5.0 MAT-file", "f.mat").unwrap_err();
         assert!(e.to_string().contains("the header needs 128 bytes"), "{e}");
         let e = parse(b"hello", "f.mat").unwrap_err();
@@ -642,6 +719,10 @@ mod tests {
         let mut z = write(&[("u", 6, 1, 3, MI_DOUBLE, doubles(&[1.0, 2.0, 3.5]))], true);
         z[136] ^= 0xff;
         let e = parse(&z, "f.mat").unwrap_err();
-        assert!(e.to_string().starts_with("f.mat: byte 128: the compressed element does not inflate"), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("f.mat: byte 128: the compressed element does not inflate"),
+            "{e}"
+        );
     }
 }

@@ -313,10 +313,16 @@ pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loa
         (options.sample_rate_hz, format)
     {
         // The rate given won over the file's time column (a sample index, or a coarse clock).
-        let column = loaded.recording.source.columns.first().cloned().unwrap_or_default();
-        loaded
-            .notes
-            .push(format!("time = sample number / {rate} Hz (--sample-rate given; the `{column}` column is not used)"));
+        let column = loaded
+            .recording
+            .source
+            .columns
+            .first()
+            .cloned()
+            .unwrap_or_default();
+        loaded.notes.push(format!(
+            "time = sample number / {rate} Hz (--sample-rate given; the `{column}` column is not used)"
+        ));
     }
     apply_scale(&mut loaded, options)?;
     if options.retime {
@@ -328,7 +334,12 @@ pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loa
 /// Reads the columns `keys` (header names or 1-based indices) of a numeric table in any tabular
 /// format: a MAT-file (by its first bytes) or delimited text. Only those columns are kept, in that
 /// order, so an empty cell elsewhere in a text file is no error.
-pub fn read_table(bytes: &[u8], file: &str, options: &TableOptions, keys: &[&str]) -> Result<Table, FormatError> {
+pub fn read_table(
+    bytes: &[u8],
+    file: &str,
+    options: &TableOptions,
+    keys: &[&str],
+) -> Result<Table, FormatError> {
     let table = if mat::is_mat(bytes) {
         mat::table(&mat::parse(bytes, file)?, file)?
     } else {
@@ -494,9 +505,9 @@ fn read_imucal(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded
     let recording = Recording {
         time_s: order.iter().map(|&i| samples[i] / fs).collect(),
         accel_mps2: acc.map(|c| order.iter().map(|&i| table.columns[c][i]).collect()),
-        gyro_radps: gyro.as_ref().map(|g| {
-            std::array::from_fn(|a| order.iter().map(|&i| table.columns[g[a]][i]).collect())
-        }),
+        gyro_radps: gyro
+            .as_ref()
+            .map(|g| std::array::from_fn(|a| order.iter().map(|&i| table.columns[g[a]][i]).collect())),
         source: Source {
             name: file.into(),
             format: "imucal".into(),
@@ -547,10 +558,14 @@ fn read_mpu6050(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loade
         column(&table, &["ay", "acc_y", "accy"])?,
         column(&table, &["az", "acc_z", "accz"])?,
     ];
-    let gyro: Option<Vec<usize>> = [["gx", "gyr_x", "gyrox"], ["gy", "gyr_y", "gyroy"], ["gz", "gyr_z", "gyroz"]]
-        .iter()
-        .map(|names| names.iter().find_map(|n| table.column_index(n)))
-        .collect();
+    let gyro: Option<Vec<usize>> = [
+        ["gx", "gyr_x", "gyrox"],
+        ["gy", "gyr_y", "gyroy"],
+        ["gz", "gyr_z", "gyroz"],
+    ]
+    .iter()
+    .map(|names| names.iter().find_map(|n| table.column_index(n)))
+    .collect();
     let n = table.n_rows();
     let recording = Recording {
         time_s: (0..n).map(|i| i as f64 / fs).collect(),
