@@ -108,7 +108,7 @@ fn shared_file(relative: &str) -> Option<PathBuf> {
 }
 
 /// Files the examples name that come from ../shared/data.
-const SHARED: [(&str, &str); 4] = [
+const SHARED: [(&str, &str); 5] = [
     ("xsens_acc.mat", "imu/imu_tk_xsens/xsens_acc.mat"),
     ("annotated_session.csv", "imu/imucal/annotated_session.csv"),
     (
@@ -116,6 +116,10 @@ const SHARED: [(&str, &str); 4] = [
         "imu/mpu6050/example_data_calibration.csv",
     ),
     ("Silverbox_SNLS80mV.csv", "sysid/Silverbox_SNLS80mV.csv"),
+    (
+        "CascadedTanks_dataBenchmark.mat",
+        "sysid/CascadedTanks_dataBenchmark.mat",
+    ),
 ];
 
 fn simulate(dir: &Path, name: &str, rpm: &str, seed: &str) {

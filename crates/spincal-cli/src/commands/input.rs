@@ -9,7 +9,7 @@ use spincal::formats::{self, Loaded, ReadOptions};
 use spincal::recording::ColumnMap;
 use spincal::Recording;
 
-use super::values::{AccelUnitArg, DelimiterArg, FormatArg, TimeUnitArg};
+use super::values::{AccelUnitArg, DelimiterArg, FormatArg, GyroUnitArg, TimeUnitArg};
 use crate::ui::{Ui, UsageError};
 
 /// Flags that say how to read a recording file; shared by every command that reads one.
@@ -24,6 +24,9 @@ pub struct ReadArgs {
     /// Unit of the acceleration columns (default: from the column names, else m/s²).
     #[arg(long, value_enum, value_name = "UNIT")]
     pub accel_unit: Option<AccelUnitArg>,
+    /// Unit of the gyro columns (default: from the column names, else rad/s).
+    #[arg(long, value_enum, value_name = "UNIT")]
+    pub gyro_unit: Option<GyroUnitArg>,
     /// Unit of the time column (default: from the column name, else s).
     #[arg(long, value_enum, value_name = "UNIT")]
     pub time_unit: Option<TimeUnitArg>,
@@ -36,7 +39,8 @@ pub struct ReadArgs {
     /// Per-axis offset `x,y,z` subtracted before --accel-scale (file units).
     #[arg(long, value_parser = parse_triple, allow_hyphen_values = true, value_name = "X,Y,Z")]
     pub accel_offset: Option<[f64; 3]>,
-    /// Sample rate, Hz, for files without a time column (MPU-6050 without `Fs`, imucal).
+    /// Sample rate, Hz: time = sample number / rate. Needed by files without a time column
+    /// (MPU-6050 without `Fs`, imucal); overrides a file's time column (a sample index, a coarse clock).
     #[arg(long, value_name = "HZ", value_parser = super::values::positive, allow_negative_numbers = true)]
     pub sample_rate: Option<f64>,
     /// Replace the timestamps by evenly spaced ones at the rate all of them give (coarse, repeated
@@ -75,6 +79,7 @@ impl ReadArgs {
         }
         map.accel_unit = self.accel_unit.map(Into::into);
         map.time_unit = self.time_unit.map(Into::into);
+        map.gyro_unit = self.gyro_unit.map(Into::into);
         map.table.delimiter = self.delimiter.map(Into::into);
         Ok(map)
     }
@@ -123,8 +128,12 @@ impl ReadArgs {
 
     /// Reads one recording in SI units; a file of raw counts without a scale is refused.
     pub fn read(&self, path: &Path) -> anyhow::Result<Recording> {
-        let loaded = formats::read_path(path, &self.options()?)
+        let mut loaded = formats::read_path(path, &self.options()?)
             .with_context(|| format!("reading {}", path.display()))?;
+        if loaded.gyro_counts {
+            // Raw gyro counts are not rad/s; without a gyro scale they are left out.
+            loaded.recording.gyro_radps = None;
+        }
         if loaded.raw_counts {
             return Err(UsageError(format!(
                 "{}: the {} file holds raw counts; spincal needs m/s² or g here (pass --accel-scale, or use `spincal static` to calibrate the counts first)",
@@ -140,7 +149,8 @@ impl ReadArgs {
 /// One recording to read, with the reading flags.
 #[derive(Args, Debug)]
 pub struct InputArgs {
-    /// Recording to read (CSV, whitespace text, imucal, MPU-6050 logger, phyphox, 3DM-GX1 binary).
+    /// Recording to read (CSV, whitespace text, imucal, MPU-6050 logger, phyphox, 3DM-GX1 binary,
+    /// MATLAB v5 MAT-file).
     pub rec: PathBuf,
     #[command(flatten)]
     pub read: ReadArgs,

@@ -5,8 +5,9 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
-use spincal::sysid::{fit_and_score, FitScore, ModelKind, ModelSpec, ScoredFit, SysidModel};
-use spincal::table::{Table, TableOptions};
+use spincal::formats::read_table;
+use spincal::sysid::{fit_and_score_parts, DataPart, FitScore, ModelKind, ModelSpec, ScoredFit, SysidModel};
+use spincal::table::{read_file, TableOptions};
 
 use super::values::{DelimiterArg, SysidModelArg};
 use crate::ui::{self, Ui, UsageError};
@@ -15,8 +16,12 @@ use crate::ui::{self, Ui, UsageError};
 #[command(after_help = "Examples:\n  \
     spincal sysid arx --orders 6,8,1 --data Silverbox_SNLS80mV.csv --input V1 --output V2 \\\n      \
     --train 40650..127400 --test 0..40575 --init-samples 50\n  \
-    spincal sysid bj --orders 4,4,4,4,1 --data io.csv --input 1 --output 2 --train ..2000 --json\n\n\
-Ranges are 0-based sample indices, end excluded (START..END, ..END or START..).\n\
+    spincal sysid bj --orders 4,4,4,4,1 --data io.csv --input 1 --output 2 --train ..2000 --json\n  \
+    spincal sysid oe --data CascadedTanks_dataBenchmark.mat --input uEst --output yEst \\\n      \
+    --test-input uVal --test-output yVal\n\n\
+Ranges are 0-based sample indices, end excluded (START..END, ..END or START..). With\n\
+--test-input/--test-output the test part is those columns (--test then indexes them).\n\
+Columns that are not named may have empty cells.\n\
 Fit % is MATLAB's normalised RMSE fit; every number says whether it is a simulation (from the\n\
 first --init-samples measured outputs) or a one-step-ahead prediction.")]
 pub struct SysidArgs {
@@ -27,7 +32,7 @@ pub struct SysidArgs {
     /// bj [nb nc nd nf nk]. Default: the paper's.
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     orders: Option<Vec<usize>>,
-    /// Delimited numeric table.
+    /// Numeric table: delimited text or a MATLAB v5 MAT-file (variables as columns).
     #[arg(long)]
     data: PathBuf,
     /// Field separator of --data (default: detected).
@@ -42,9 +47,15 @@ pub struct SysidArgs {
     /// Training samples (default: all).
     #[arg(long)]
     train: Option<String>,
-    /// Test samples (default: none).
+    /// Test samples (default: none, or all of --test-input/--test-output).
     #[arg(long)]
     test: Option<String>,
+    /// Input column of a separate test part (e.g. uVal); needs --test-output.
+    #[arg(long, requires = "test_output")]
+    test_input: Option<String>,
+    /// Output column of a separate test part (e.g. yVal); needs --test-input.
+    #[arg(long, requires = "test_input")]
+    test_output: Option<String>,
     /// Measured outputs that start each simulation (excluded from the scores).
     #[arg(long, default_value_t = 5)]
     init_samples: usize,
@@ -103,31 +114,44 @@ pub fn run(args: SysidArgs, ui: Ui) -> anyhow::Result<()> {
     let options = TableOptions {
         delimiter: args.delimiter.map(Into::into),
     };
-    let table = Table::read_path(&args.data, &options)?;
+    let mut keys = vec![args.input.as_str(), args.output.as_str()];
+    if let (Some(i), Some(o)) = (&args.test_input, &args.test_output) {
+        keys.extend([i.as_str(), o.as_str()]);
+    }
+    let file = args.data.display().to_string();
+    let bytes = read_file(&args.data).with_context(|| format!("reading {file}"))?;
+    let table = read_table(&bytes, &file, &options, &keys)?;
     reading.finish_and_clear();
-    let column = |key: &str| {
-        table.column_index(key).ok_or_else(|| {
-            UsageError(format!(
-                "{}: no column '{key}' (header: {:?})",
-                table.file, table.header
-            ))
-        })
-    };
-    let (ci, co) = (column(&args.input)?, column(&args.output)?);
-    let (u, y) = (&table.columns[ci], &table.columns[co]);
+    let (u, y) = (&table.columns[0][..], &table.columns[1][..]);
     let n = y.len();
     let train = match &args.train {
         Some(t) => parse_range(t, n)?,
         None => 0..n,
     };
-    let test = args.test.as_deref().map(|t| parse_range(t, n)).transpose()?;
+    let (u_test, y_test) = if table.n_columns() == 4 {
+        (&table.columns[2][..], &table.columns[3][..])
+    } else {
+        (u, y)
+    };
+    let test = match (&args.test, table.n_columns() == 4) {
+        (Some(t), _) => Some(parse_range(t, y_test.len())?),
+        (None, true) => Some(0..y_test.len()),
+        (None, false) => None,
+    };
+    let (us, us_test) = ([u], [u_test]);
     let bar = ui.progress(spec.max_iterations as u64, spec.kind.name());
-    let row = fit_and_score(
+    let row = fit_and_score_parts(
         &spec,
-        &[u],
-        y,
-        train.clone(),
-        test.clone(),
+        DataPart {
+            u: &us,
+            y,
+            range: train.clone(),
+        },
+        test.clone().map(|range| DataPart {
+            u: &us_test,
+            y: y_test,
+            range,
+        }),
         args.init_samples,
         &|p| bar.set_position(p.done as u64),
     )

@@ -3,7 +3,7 @@
 
 use clap::ValueEnum;
 use spincal::formats::Format;
-use spincal::recording::{AccelUnit, TimeUnit};
+use spincal::recording::{AccelUnit, GyroUnit, TimeUnit};
 use spincal::static_cal::StaticModel;
 use spincal::sysid::ModelKind;
 use spincal::table::Delimiter;
@@ -39,6 +39,9 @@ pub enum FormatArg {
     /// Microstrain 3DM-GX1 binary stream.
     #[value(name = "3dm-gx1", alias = "gx1")]
     Gx1,
+    /// MATLAB v5 MAT-file (numeric variables as columns).
+    #[value(alias = "matlab")]
+    Mat,
 }
 mirror!(FormatArg => Format {
     Csv => Format::Csv,
@@ -47,7 +50,18 @@ mirror!(FormatArg => Format {
     Mpu6050 => Format::Mpu6050,
     Phyphox => Format::Phyphox,
     Gx1 => Format::Gx1,
+    Mat => Format::Mat,
 });
+
+/// Units of angular rate in a file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum GyroUnitArg {
+    /// rad/s.
+    Radps,
+    /// Degrees per second.
+    Dps,
+}
+mirror!(GyroUnitArg => GyroUnit { Radps => GyroUnit::Radps, Dps => GyroUnit::Dps });
 
 /// Units of acceleration in a file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

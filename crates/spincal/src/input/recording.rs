@@ -298,6 +298,17 @@ impl Recording {
     /// columns are kept, converted to SI while they are parsed; the result and every error are
     /// those of [`Table::parse`] followed by [`Recording::from_table`].
     pub fn parse_csv(bytes: &[u8], name: &str, map: &ColumnMap) -> Result<Recording, RecordingError> {
+        Recording::parse_csv_timed(bytes, name, map, None)
+    }
+
+    /// [`Recording::parse_csv`]; with `rate_hz`, time is sample number / rate and the time
+    /// column's values are not used (nor checked): a sample index, or a clock too coarse to use.
+    pub fn parse_csv_timed(
+        bytes: &[u8],
+        name: &str,
+        map: &ColumnMap,
+        rate_hz: Option<f64>,
+    ) -> Result<Recording, RecordingError> {
         let head = TableHead::new(bytes, name, &map.table)?;
         let plan = match Plan::new(&head.header, head.width(), name, map) {
             Ok(plan) => plan,
@@ -315,11 +326,22 @@ impl Recording {
             name.to_string(),
             metadata,
             rows.lines,
+            rate_hz,
         )
     }
 
     /// Picks time/accel/gyro columns out of a table and converts them to SI.
     pub fn from_table(table: &Table, map: &ColumnMap) -> Result<Recording, RecordingError> {
+        Recording::from_table_timed(table, map, None)
+    }
+
+    /// [`Recording::from_table`], with time = sample number / `rate_hz` when given (see
+    /// [`Recording::parse_csv_timed`]).
+    pub fn from_table_timed(
+        table: &Table,
+        map: &ColumnMap,
+        rate_hz: Option<f64>,
+    ) -> Result<Recording, RecordingError> {
         let plan = Plan::new(&table.header, table.n_columns(), &table.file, map)?;
         let columns: Vec<Vec<f64>> = plan
             .targets()
@@ -333,6 +355,7 @@ impl Recording {
             table.file.clone(),
             metadata,
             table.lines.clone(),
+            rate_hz,
         )
     }
 
@@ -344,9 +367,15 @@ impl Recording {
         name: String,
         metadata: Vec<String>,
         lines: Vec<usize>,
+        rate_hz: Option<f64>,
     ) -> Result<Recording, RecordingError> {
         let mut next = || columns.next().unwrap_or_default();
-        let time_s = next();
+        let mut time_s = next();
+        if let Some(rate) = rate_hz {
+            for (i, t) in time_s.iter_mut().enumerate() {
+                *t = i as f64 / rate;
+            }
+        }
         let accel_mps2 = [next(), next(), next()];
         let gyro_radps = (plan.indices.len() == 7).then(|| [next(), next(), next()]);
         let recording = Recording {

@@ -146,6 +146,12 @@ pub enum TableError {
     NotText { file: String, line: usize },
     #[error("{file}: no header line naming the label column '{name}' was found")]
     NoLabelColumn { file: String, name: String },
+    #[error("{file}: no column '{key}' (columns: {available})")]
+    NoColumn {
+        file: String,
+        key: String,
+        available: String,
+    },
 }
 
 /// How to read a table.
@@ -210,6 +216,50 @@ impl Table {
             file: file.to_string(),
             delimiter: head.delimiter,
             header: head.header,
+            metadata: head.metadata,
+            columns: rows.columns,
+            lines: rows.lines,
+        })
+    }
+
+    /// Parses only the columns `keys` (header names or 1-based indices), in that order: an empty cell
+    /// in any other column is no error (benchmark files leave a constant's column empty after its
+    /// first row). The header holds each chosen column's name, or its key when the file has no
+    /// header; `lines` are the file's lines, so errors and later checks still name them.
+    pub fn parse_columns(
+        bytes: &[u8],
+        file: &str,
+        options: &TableOptions,
+        keys: &[&str],
+    ) -> Result<Table, TableError> {
+        let head = TableHead::new(bytes, file, options)?;
+        let mut targets = Vec::with_capacity(keys.len());
+        for key in keys {
+            let Some(c) = find_column(&head.header, head.width(), key) else {
+                // A bad cell anywhere comes first, as in `Table::parse`.
+                head.rows(&[])?;
+                return Err(TableError::NoColumn {
+                    file: file.to_string(),
+                    key: key.to_string(),
+                    available: if head.header.is_empty() {
+                        format!("{} unnamed", head.width())
+                    } else {
+                        head.header.join(", ")
+                    },
+                });
+            };
+            targets.push((c, 1.0));
+        }
+        let rows = head.rows(&targets)?;
+        let header = targets
+            .iter()
+            .zip(keys)
+            .map(|(&(c, _), key)| head.header.get(c).cloned().unwrap_or_else(|| key.to_string()))
+            .collect();
+        Ok(Table {
+            file: file.to_string(),
+            delimiter: head.delimiter,
+            header,
             metadata: head.metadata,
             columns: rows.columns,
             lines: rows.lines,
@@ -330,7 +380,8 @@ impl<'a> TableHead<'a> {
 
     /// Parses every data row. Output column `k` is file column `targets[k].0` times `targets[k].1`
     /// (units applied while parsing); every cell is checked, chosen or not, so errors are those of
-    /// [`Table::read`]. Large inputs are parsed in chunks in parallel; the result does not depend
+    /// [`Table::read`], except that an empty cell is an error only in a chosen column (after the
+    /// first data row, which fixes the width and must be complete). Large inputs are parsed in chunks in parallel; the result does not depend
     /// on the thread count.
     pub fn rows(&self, targets: &[(usize, f64)]) -> Result<Rows, TableError> {
         let threads = rayon::current_num_threads();
@@ -346,6 +397,11 @@ impl<'a> TableHead<'a> {
     /// [`TableHead::rows`] with the number of chunks given (tests check that it does not matter).
     #[doc(hidden)]
     pub fn rows_in_chunks(&self, targets: &[(usize, f64)], chunks: usize) -> Result<Rows, TableError> {
+        let mut used = vec![false; self.width];
+        for &(c, _) in targets {
+            used[c] = true;
+        }
+        let used = &used[..];
         let pieces = split_at_lines(self.rest, chunks.max(1));
         let located = |line: usize, fault: Fault| fault.locate(&self.file, line, &self.header, self.width);
         let out = if pieces.len() == 1 {
@@ -362,7 +418,7 @@ impl<'a> TableHead<'a> {
             }
             out.lines.push(self.first.0);
             // One chunk writes straight into the result, numbering lines as it goes.
-            self.parse_chunk(self.rest, self.first.0, |row, line| {
+            self.parse_chunk(self.rest, self.first.0, used, |row, line| {
                 for (column, &(c, scale)) in out.columns.iter_mut().zip(targets) {
                     column.push(row[c] * scale);
                 }
@@ -371,7 +427,7 @@ impl<'a> TableHead<'a> {
             .map_err(|(line, fault)| located(line, fault))?;
             out
         } else {
-            self.rows_in_parallel(&pieces, targets)
+            self.rows_in_parallel(&pieces, targets, used)
                 .map_err(|(line, fault)| located(line, fault))?
         };
         if let Some(line) = self.not_text {
@@ -385,7 +441,12 @@ impl<'a> TableHead<'a> {
 
     /// Parses the pieces in parallel, each into its own stretch of the result (as long as its
     /// lines, an upper bound on its rows), then closes the gaps left by blank and comment lines.
-    fn rows_in_parallel(&self, pieces: &[&[u8]], targets: &[(usize, f64)]) -> Result<Rows, (usize, Fault)> {
+    fn rows_in_parallel(
+        &self,
+        pieces: &[&[u8]],
+        targets: &[(usize, f64)],
+        used: &[bool],
+    ) -> Result<Rows, (usize, Fault)> {
         use rayon::prelude::*;
         let counts: Vec<usize> = pieces
             .par_iter()
@@ -422,7 +483,7 @@ impl<'a> TableHead<'a> {
             .zip(stretches.into_par_iter())
             .map(|(piece, (mut piece_columns, piece_lines))| {
                 let mut i = 0;
-                let n_lines = self.parse_chunk(piece, 0, |row, line| {
+                let n_lines = self.parse_chunk(piece, 0, used, |row, line| {
                     for (column, &(c, scale)) in piece_columns.iter_mut().zip(targets) {
                         column[i] = row[c] * scale;
                     }
@@ -458,11 +519,13 @@ impl<'a> TableHead<'a> {
     }
 
     /// Parses the whole lines in `piece`, numbered from `base + 1`, handing each row and its line to
-    /// `emit`; returns the number of lines, or the first fault with its line.
+    /// `emit`; returns the number of lines, or the first fault with its line. An empty cell is a
+    /// fault only where `used` is true (elsewhere its value is NaN, never handed on).
     fn parse_chunk(
         &self,
         piece: &[u8],
         base: usize,
+        used: &[bool],
         mut emit: impl FnMut(&[f64], usize),
     ) -> Result<usize, (usize, Fault)> {
         let mut row = vec![0.0; self.width];
@@ -489,7 +552,7 @@ impl<'a> TableHead<'a> {
                     if is_skippable(text) {
                         continue;
                     }
-                    check_row(text, self.delimiter, self.width, has_newline, &mut careful)
+                    check_row(text, self.delimiter, self.width, has_newline, used, &mut careful)
                         .map_err(|fault| (line, fault))?;
                     row.copy_from_slice(&careful);
                 }
@@ -570,12 +633,15 @@ impl Fault {
 }
 
 /// Parses one data line the careful way: any Unicode spacing, every fault named. It decides every
-/// line the byte-level [`fast_row`] declines, so both paths give the same values and errors.
+/// line the byte-level [`fast_row`] declines, so both paths give the same values and errors. An
+/// empty cell in a column whose `used` entry is false reads as NaN (columns beyond `used` count as
+/// used; `&[]` makes every cell required).
 fn check_row(
     text: &str,
     delimiter: Delimiter,
     width: usize,
     has_newline: bool,
+    used: &[bool],
     values: &mut Vec<f64>,
 ) -> Result<(), Fault> {
     let mut fields = Vec::with_capacity(width);
@@ -589,6 +655,10 @@ fn check_row(
     values.clear();
     for (c, field) in fields.iter().enumerate() {
         if field.is_empty() {
+            if used.get(c) == Some(&false) {
+                values.push(f64::NAN);
+                continue;
+            }
             return Err(Fault::EmptyCell { column: c });
         }
         match field.parse::<f64>() {
@@ -931,7 +1001,7 @@ impl<R: BufRead> RowReader<R> {
                 }
             }
             let mut checked = Vec::with_capacity(width);
-            check_row(text, delimiter, width, ended == Some(true), &mut checked)
+            check_row(text, delimiter, width, ended == Some(true), &[], &mut checked)
                 .map_err(|fault| fault.locate(file, line_no, &header, width))?;
             return Ok(RowReader {
                 reader,
@@ -1045,7 +1115,7 @@ impl<R: BufRead> RowReader<R> {
         if is_skippable(text) {
             return Ok(false);
         }
-        check_row(text, self.delimiter, self.width, has_newline, values)?;
+        check_row(text, self.delimiter, self.width, has_newline, &[], values)?;
         Ok(true)
     }
 
@@ -1488,10 +1558,37 @@ mod tests {
         let text = lines.join("\n") + "\n";
         let head = TableHead::new(text.as_bytes(), "test.csv", &TableOptions::default()).unwrap();
         for chunks in [1, 2, 8, 100] {
-            let e = head.rows_in_chunks(&[], chunks).unwrap_err();
+            let e = head.rows_in_chunks(&[(1, 1.0)], chunks).unwrap_err();
             assert_eq!(e.to_string(), "test.csv:3000, column 2 (ax): the cell is empty");
         }
         agree(text.as_bytes());
+    }
+
+    /// An empty cell is an error only in a chosen column, in any chunk; elsewhere the row is kept.
+    #[test]
+    fn empty_cells_in_columns_not_chosen_are_allowed() {
+        let mut lines: Vec<String> = long_file(20_000).lines().map(String::from).collect();
+        lines[3_000 - 1] = "30,,1".into();
+        lines[17_000 - 1] = "170,2,".into();
+        let text = lines.join("\n") + "\n";
+        let head = TableHead::new(text.as_bytes(), "test.csv", &TableOptions::default()).unwrap();
+        for chunks in [1, 2, 8, 100] {
+            let rows = head.rows_in_chunks(&[(0, 1.0)], chunks).unwrap();
+            assert_eq!(rows.lines.len(), 20_000);
+            assert_eq!(rows.columns[0][3_000 - 2], 30.0);
+            let e = head.rows_in_chunks(&[(0, 1.0), (2, 1.0)], chunks).unwrap_err();
+            assert_eq!(e.to_string(), "test.csv:17000, column 3 (ay): the cell is empty");
+        }
+        let t = Table::parse_columns(text.as_bytes(), "test.csv", &TableOptions::default(), &["t"]).unwrap();
+        assert_eq!(
+            (t.header.as_slice(), t.n_rows()),
+            (&["t".to_string()][..], 20_000)
+        );
+        let e = Table::parse(text.as_bytes(), "test.csv", &TableOptions::default()).unwrap_err();
+        assert_eq!(e.to_string(), "test.csv:3000, column 2 (ax): the cell is empty");
+        let e =
+            Table::parse_columns(text.as_bytes(), "test.csv", &TableOptions::default(), &["q"]).unwrap_err();
+        assert_eq!(e.to_string(), "test.csv: no column 'q' (columns: t, ax, ay)");
     }
 
     #[test]

@@ -306,23 +306,68 @@ pub fn fit_and_score(
     init_samples: usize,
     observer: &Observer,
 ) -> Result<ScoredFit, SysidError> {
-    for r in std::iter::once(&train).chain(test.as_ref()) {
-        if r.start >= r.end || r.end > y.len() {
+    let test = test.map(|range| DataPart { u, y, range });
+    fit_and_score_parts(
+        spec,
+        DataPart { u, y, range: train },
+        test,
+        init_samples,
+        observer,
+    )
+}
+
+/// Inputs, output and the samples of them to use: a training or test part.
+#[derive(Debug, Clone)]
+pub struct DataPart<'a> {
+    pub u: &'a [&'a [f64]],
+    pub y: &'a [f64],
+    pub range: Range<usize>,
+}
+
+/// [`fit_and_score`] with the test part in series of its own (benchmarks that ship estimation and
+/// validation records side by side). The test part is only scored, never used to fit.
+pub fn fit_and_score_parts(
+    spec: &ModelSpec,
+    train: DataPart<'_>,
+    test: Option<DataPart<'_>>,
+    init_samples: usize,
+    observer: &Observer,
+) -> Result<ScoredFit, SysidError> {
+    for part in std::iter::once(&train).chain(test.as_ref()) {
+        let r = &part.range;
+        let n = part
+            .u
+            .iter()
+            .map(|ui| ui.len())
+            .chain([part.y.len()])
+            .min()
+            .unwrap_or(0);
+        if r.start >= r.end || r.end > n {
             return Err(SysidError::BadOrders(format!(
                 "range {}..{} is empty or beyond the {} samples",
-                r.start,
-                r.end,
-                y.len()
+                r.start, r.end, n
             )));
         }
     }
-    let slice = |r: &Range<usize>| -> Vec<&[f64]> { u.iter().map(|ui| &ui[r.clone()]).collect() };
+    fn slice<'a>(p: &DataPart<'a>) -> Vec<&'a [f64]> {
+        p.u.iter().map(|ui| &ui[p.range.clone()]).collect()
+    }
     let start = Instant::now();
-    let fitted = spec.fit(&slice(&train), &y[train.clone()], observer)?;
+    let fitted = spec.fit(&slice(&train), &train.y[train.range.clone()], observer)?;
     let seconds = start.elapsed().as_secs_f64();
-    let train_scores = score(&fitted.model, &slice(&train), &y[train.clone()], init_samples)?;
+    let train_scores = score(
+        &fitted.model,
+        &slice(&train),
+        &train.y[train.range.clone()],
+        init_samples,
+    )?;
     let test_scores = match &test {
-        Some(r) => Some(score(&fitted.model, &slice(r), &y[r.clone()], init_samples)?),
+        Some(p) => Some(score(
+            &fitted.model,
+            &slice(p),
+            &p.y[p.range.clone()],
+            init_samples,
+        )?),
         None => None,
     };
     Ok(ScoredFit {

@@ -18,8 +18,8 @@ mod tsqr;
 
 pub use arx::{ArxFit, ArxParams};
 pub use compare::{
-    fit_and_score, score, FitScore, FittedModel, ModelKind, ModelSpec, PredictionKind, ScoredFit, Scores,
-    SysidModel,
+    fit_and_score, fit_and_score_parts, score, DataPart, FitScore, FittedModel, ModelKind, ModelSpec,
+    PredictionKind, ScoredFit, Scores, SysidModel,
 };
 pub use hw::{HwFit, HwModel, HwParams, PiecewiseLinear};
 pub use narx::{NarxFit, NarxModel, NarxParams};

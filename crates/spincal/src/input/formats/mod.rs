@@ -9,6 +9,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod gx1;
+pub mod mat;
 
 use std::path::Path;
 
@@ -35,16 +36,19 @@ pub enum Format {
     Phyphox,
     /// Microstrain 3DM-GX1 binary serial stream.
     Gx1,
+    /// MATLAB v5 MAT-file: numeric variables become columns (see [`mat`]).
+    Mat,
 }
 
 impl Format {
-    pub const ALL: [Format; 6] = [
+    pub const ALL: [Format; 7] = [
         Format::Csv,
         Format::Whitespace,
         Format::Imucal,
         Format::Mpu6050,
         Format::Phyphox,
         Format::Gx1,
+        Format::Mat,
     ];
 
     pub fn name(self) -> &'static str {
@@ -55,6 +59,7 @@ impl Format {
             Format::Mpu6050 => "mpu6050",
             Format::Phyphox => "phyphox",
             Format::Gx1 => "3dm-gx1",
+            Format::Mat => "mat",
         }
     }
 
@@ -64,6 +69,7 @@ impl Format {
             "imu-tk" | "imu_tk" | "imutk" => Some(Format::Whitespace),
             "gx1" | "3dmgx1" => Some(Format::Gx1),
             "mpu-6050" => Some(Format::Mpu6050),
+            "matlab" => Some(Format::Mat),
             t => Format::ALL.into_iter().find(|f| f.name() == t),
         }
     }
@@ -92,6 +98,9 @@ pub fn detect(head: &[u8]) -> Detection {
         format,
         reason: reason.to_string(),
     };
+    if mat::is_mat(head) {
+        return found(Format::Mat, "starts with 'MATLAB 5.0 MAT-file'");
+    }
     // Text files have no NUL and no control bytes other than tab/CR/LF; the GX1 stream is full of them.
     let binary = head
         .iter()
@@ -178,6 +187,9 @@ pub struct Loaded {
     pub detection: Option<Detection>,
     /// `accel_mps2` holds raw counts (no scale was given for a raw-count format).
     pub raw_counts: bool,
+    /// `gyro_radps` holds the file's raw counts, not rad/s (MPU-6050, imucal: no gyro scale is
+    /// known); a consumer that needs rad/s must not use it as such.
+    pub gyro_counts: bool,
     /// Per-sample section labels (imucal's `part`).
     #[serde(skip)]
     pub labels: Option<Vec<String>>,
@@ -203,6 +215,8 @@ pub enum FormatError {
     Recording(#[from] RecordingError),
     #[error(transparent)]
     Gx1(#[from] Gx1Error),
+    #[error(transparent)]
+    Mat(#[from] mat::MatError),
     #[error("{file}: no sample rate: the file has no time column and no `Fs,<Hz>` line; pass --sample-rate")]
     NoSampleRate { file: String },
     #[error("{file}:{line}: sample rate '{text}' is not a positive number")]
@@ -270,7 +284,8 @@ pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loa
         .unwrap_or(Format::Csv);
     let mut loaded = match format {
         Format::Csv => {
-            let recording = Recording::parse_csv(bytes, file, &options.columns)?;
+            let recording =
+                Recording::parse_csv_timed(bytes, file, &options.columns, options.sample_rate_hz)?;
             Loaded::new(recording, format, false)
         }
         Format::Whitespace => read_whitespace(bytes, file, options)?,
@@ -290,14 +305,73 @@ pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loa
             l.gx1 = Some(report);
             l
         }
+        Format::Mat => read_mat(bytes, file, options)?,
     };
     loaded.detection = detection;
     loaded.recording.source.format = format.name().into();
+    if let (Some(rate), Format::Csv | Format::Whitespace | Format::Phyphox | Format::Mat) =
+        (options.sample_rate_hz, format)
+    {
+        // The rate given won over the file's time column (a sample index, or a coarse clock).
+        let column = loaded
+            .recording
+            .source
+            .columns
+            .first()
+            .cloned()
+            .unwrap_or_default();
+        loaded.notes.push(format!(
+            "time = sample number / {rate} Hz (--sample-rate given; the `{column}` column is not used)"
+        ));
+    }
     apply_scale(&mut loaded, options)?;
     if options.retime {
         retime(&mut loaded);
     }
     Ok(loaded)
+}
+
+/// Reads the columns `keys` (header names or 1-based indices) of a numeric table in any tabular
+/// format: a MAT-file (by its first bytes) or delimited text. Only those columns are kept, in that
+/// order, so an empty cell elsewhere in a text file is no error.
+pub fn read_table(
+    bytes: &[u8],
+    file: &str,
+    options: &TableOptions,
+    keys: &[&str],
+) -> Result<Table, FormatError> {
+    let table = if mat::is_mat(bytes) {
+        mat::table(&mat::parse(bytes, file)?, file)?
+    } else {
+        return Ok(Table::parse_columns(bytes, file, options, keys)?);
+    };
+    let picked: Vec<usize> = keys
+        .iter()
+        .map(|k| {
+            table.column_index(k).ok_or_else(|| FormatError::MissingColumn {
+                file: file.into(),
+                name: k.to_string(),
+                available: table.header.join(", "),
+            })
+        })
+        .collect::<Result<_, _>>()?;
+    Ok(Table {
+        header: picked.iter().map(|&c| table.header[c].clone()).collect(),
+        columns: picked.iter().map(|&c| table.columns[c].clone()).collect(),
+        ..table
+    })
+}
+
+/// A MAT-file: its numeric variables as a table, then the columns as for `csv`.
+fn read_mat(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
+    let parsed = mat::parse(bytes, file)?;
+    let table = mat::table(&parsed, file)?;
+    let recording = Recording::from_table_timed(&table, &options.columns, options.sample_rate_hz)?;
+    let mut l = Loaded::new(recording, Format::Mat, false);
+    for s in &parsed.skipped {
+        l.notes.push(format!("variable '{}' skipped: {}", s.name, s.why));
+    }
+    Ok(l)
 }
 
 /// Evenly spaced timestamps at the rate all the stamps give, from the first stamp.
@@ -321,6 +395,7 @@ impl Loaded {
             format,
             detection: None,
             raw_counts,
+            gyro_counts: false,
             labels: None,
             gx1: None,
             notes: Vec::new(),
@@ -362,7 +437,7 @@ fn read_whitespace(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Lo
     if map.columns.is_none() && table.header.is_empty() && table.n_columns() != 4 {
         map.columns = Some(vec!["1".into(), "2".into(), "3".into(), "4".into()]);
     }
-    let recording = Recording::from_table(&table, &map)?;
+    let recording = Recording::from_table_timed(&table, &map, options.sample_rate_hz)?;
     // Why a threshold: 200 m/s² (20 g) is beyond most MEMS ranges, counts are in the thousands.
     let raw = median_abs(&recording.accel_mps2) > 200.0;
     let mut l = Loaded::new(recording, Format::Whitespace, raw);
@@ -408,6 +483,10 @@ fn read_imucal(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded
         column(table, &["acc_y"])?,
         column(table, &["acc_z"])?,
     ];
+    let gyro: Option<Vec<usize>> = ["gyr_x", "gyr_y", "gyr_z"]
+        .iter()
+        .map(|n| table.column_index(n))
+        .collect();
     let fs = options.sample_rate_hz.unwrap_or(IMUCAL_SAMPLE_RATE_HZ);
     let samples = &table.columns[idx];
     let mut order: Vec<usize> = (0..table.n_rows()).collect();
@@ -426,19 +505,26 @@ fn read_imucal(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded
     let recording = Recording {
         time_s: order.iter().map(|&i| samples[i] / fs).collect(),
         accel_mps2: acc.map(|c| order.iter().map(|&i| table.columns[c][i]).collect()),
-        gyro_radps: None,
+        gyro_radps: gyro
+            .as_ref()
+            .map(|g| std::array::from_fn(|a| order.iter().map(|&i| table.columns[g[a]][i]).collect())),
         source: Source {
             name: file.into(),
             format: "imucal".into(),
-            columns: ["samples", "acc_x", "acc_y", "acc_z"].map(String::from).to_vec(),
+            columns: [idx, acc[0], acc[1], acc[2]]
+                .iter()
+                .chain(gyro.iter().flatten())
+                .map(|&c| table.header[c].clone())
+                .collect(),
             metadata: table.metadata.iter().map(|(_, s)| s.clone()).collect(),
             lines: order.iter().map(|&i| table.lines[i]).collect(),
         },
     };
     let mut l = Loaded::new(recording, Format::Imucal, true);
+    l.gyro_counts = gyro.is_some();
     l.labels = Some(order.iter().map(|&i| lt.labels[i].clone()).collect());
     l.notes.push(format!(
-        "time = samples / {fs} Hz; rows sorted by `samples`; gyro counts not converted (no scale)"
+        "time = samples / {fs} Hz; rows sorted by `samples`; gyro kept in raw counts (no scale)"
     ));
     Ok(l)
 }
@@ -472,22 +558,37 @@ fn read_mpu6050(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loade
         column(&table, &["ay", "acc_y", "accy"])?,
         column(&table, &["az", "acc_z", "accz"])?,
     ];
+    let gyro: Option<Vec<usize>> = [
+        ["gx", "gyr_x", "gyrox"],
+        ["gy", "gyr_y", "gyroy"],
+        ["gz", "gyr_z", "gyroz"],
+    ]
+    .iter()
+    .map(|names| names.iter().find_map(|n| table.column_index(n)))
+    .collect();
     let n = table.n_rows();
     let recording = Recording {
         time_s: (0..n).map(|i| i as f64 / fs).collect(),
         accel_mps2: acc.map(|c| table.columns[c].clone()),
-        gyro_radps: None,
+        gyro_radps: gyro
+            .as_ref()
+            .map(|g| std::array::from_fn(|a| table.columns[g[a]].clone())),
         source: Source {
             name: file.into(),
             format: "mpu6050".into(),
-            columns: acc.iter().map(|&c| table.header[c].clone()).collect(),
+            columns: acc
+                .iter()
+                .chain(gyro.iter().flatten())
+                .map(|&c| table.header[c].clone())
+                .collect(),
             metadata: table.metadata.iter().map(|(_, s)| s.clone()).collect(),
             lines: table.lines.clone(),
         },
     };
     let mut l = Loaded::new(recording, Format::Mpu6050, true);
+    l.gyro_counts = gyro.is_some();
     l.notes.push(format!(
-        "time synthesised from Fs = {fs} Hz; gyro counts not converted (no scale)"
+        "time synthesised from Fs = {fs} Hz; gyro kept in raw counts (no scale)"
     ));
     Ok(l)
 }
@@ -519,7 +620,7 @@ fn read_phyphox(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loade
     };
     let mut map = options.columns.clone();
     map.table.delimiter = Some(delimiter);
-    let recording = Recording::parse_csv(input, file, &map)?;
+    let recording = Recording::parse_csv_timed(input, file, &map, options.sample_rate_hz)?;
     let mut l = Loaded::new(recording, Format::Phyphox, false);
     if decimal_comma {
         l.notes.push("decimal comma converted".into());
