@@ -19,7 +19,7 @@ use crate::errors::Error;
 /// The unwind payload that stops library work after Ctrl-C (or a failing progress callback).
 struct Interrupted;
 
-/// The latest progress, as the Python callback receives it: stage, done, total.
+/// A progress report as the Python callback receives it: stage, done, total.
 type Snapshot = (String, usize, Option<usize>);
 
 /// How often the calling thread looks at signals and progress.
@@ -34,7 +34,9 @@ pub fn run<T: Send>(
     work: impl FnOnce(&Observer) -> T + Send,
 ) -> PyResult<T> {
     let cancel = AtomicBool::new(false);
-    let latest: Mutex<Option<Snapshot>> = Mutex::new(None);
+    // Reports not yet handed over: the latest of each stage, in order (a stage that came and went
+    // between two polls is still shown).
+    let pending: Mutex<Vec<Snapshot>> = Mutex::new(Vec::new());
     let done = (Mutex::new(false), Condvar::new());
     let want_progress = progress.is_some();
     let observer = |p: Progress<'_>| {
@@ -42,8 +44,14 @@ pub fn run<T: Send>(
             resume_unwind(Box::new(Interrupted));
         }
         if want_progress {
-            if let Ok(mut slot) = latest.lock() {
-                *slot = Some((p.stage.to_string(), p.done, p.total));
+            if let Ok(mut queue) = pending.lock() {
+                match queue.last_mut() {
+                    Some(last) if last.0 == p.stage => {
+                        last.1 = p.done;
+                        last.2 = p.total;
+                    }
+                    _ => queue.push((p.stage.to_string(), p.done, p.total)),
+                }
             }
         }
     };
@@ -74,11 +82,12 @@ pub fn run<T: Send>(
                 }
             }
             if let (Some(callback), None) = (progress, &failure) {
-                let snapshot = latest.lock().ok().and_then(|mut slot| slot.take());
-                if let Some((stage, n, total)) = snapshot {
+                let reports = pending.lock().map(|mut queue| std::mem::take(&mut *queue)).unwrap_or_default();
+                for (stage, n, total) in reports {
                     if let Err(e) = callback.call1((stage, n, total)) {
                         failure = Some(e);
                         cancel.store(true, Ordering::Relaxed);
+                        break;
                     }
                 }
             }
