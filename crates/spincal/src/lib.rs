@@ -18,6 +18,7 @@ pub mod allan;
 pub mod calibrate;
 pub mod campaign;
 pub mod correctors;
+pub mod fleet;
 pub mod input;
 pub mod metrics;
 pub mod optim;

@@ -1,0 +1,378 @@
+//! The fleet table: every unit's sensor parameters with their standard errors, fleet statistics
+//! per parameter, and the units that lie far from the fleet.
+//!
+//! ## The outlier rule
+//!
+//! For each sensor parameter, over the units that were calibrated:
+//!
+//! - the fleet's centre is the median `m` of the units' values;
+//! - the fleet's spread is the robust standard deviation `s = 1.4826 · c(n) · MAD`, with MAD the
+//!   median absolute deviation from `m` and `c(n)` the small-sample correction of the MAD for `n`
+//!   units (Croux and Rousseeuw: 1.196, 1.495, 1.363, 1.206, 1.200, 1.140, 1.129, 1.107 for n = 2
+//!   to 9, then n / (n − 0.8));
+//! - a unit with value `x` and standard error `σ` scores `z = (x − m) / √(s² + σ²)`: its distance
+//!   from the fleet in units of the fleet's spread and its own uncertainty together, so a
+//!   parameter the unit's campaign determined poorly is not called an outlier for that alone;
+//! - the unit is flagged on that parameter when `|z| > threshold` (default 5).
+//!
+//! No parameter is judged with fewer than `min_units` calibrated units (default 5), nor when the
+//! spread and the standard error are both zero. Median and MAD ignore up to half the fleet being
+//! faulty, so one faulty unit cannot hide itself by widening the spread.
+
+use serde::{Deserialize, Serialize};
+
+use crate::correctors::physical::{SENSOR_PARAMS, SENSOR_PARAM_NAMES};
+use crate::fleet::UnitOutcome;
+
+/// How far from the fleet a unit must lie to be flagged.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OutlierSettings {
+    /// Flag when |z| exceeds this (see the module documentation).
+    pub threshold: f64,
+    /// Fewest calibrated units for a parameter to be judged at all.
+    pub min_units: usize,
+}
+
+impl Default for OutlierSettings {
+    fn default() -> Self {
+        OutlierSettings {
+            threshold: 5.0,
+            min_units: 5,
+        }
+    }
+}
+
+/// One unit far from the fleet on one parameter.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OutlierFlag {
+    pub unit: String,
+    pub parameter: String,
+    pub value: f64,
+    pub std_error: Option<f64>,
+    pub fleet_median: f64,
+    pub fleet_spread: f64,
+    /// z of the module documentation.
+    pub score: f64,
+    /// In words, e.g. "bias_x (m/s²) = 0.52 ± 0.003: 9.4 from the fleet median 0.04 (fleet spread
+    /// 0.05, threshold 5)".
+    pub reason: String,
+}
+
+/// A parameter across the fleet.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ParameterStats {
+    pub parameter: String,
+    /// Units whose value entered the statistics.
+    pub units: usize,
+    pub median: Option<f64>,
+    /// Robust standard deviation, 1.4826 · c(n) · MAD.
+    pub spread: Option<f64>,
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+    /// Median of the units' own standard errors: compare with `spread` to see whether the units
+    /// differ by more than their calibrations can tell.
+    pub median_std_error: Option<f64>,
+    /// Whether outliers were judged on this parameter (enough units, a spread).
+    pub judged: bool,
+}
+
+/// One unit's row.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FleetRow {
+    pub unit: String,
+    pub source: String,
+    /// The unit's name in its campaign file (when it could be read and calibrated).
+    pub campaign_unit: Option<String>,
+    pub ok: bool,
+    /// The saved corrector, if any.
+    pub saved: Option<String>,
+    /// The saved corrector's mean RMS error over the held-out conditions, m/s².
+    pub held_out_rms_mps2: Option<f64>,
+    /// The sensor parameters in the order of [`FleetTable::parameters`].
+    pub values: Vec<Option<f64>>,
+    pub std_errors: Vec<Option<f64>>,
+    pub flags: Vec<OutlierFlag>,
+    /// Why the unit failed, located.
+    pub error: Option<String>,
+}
+
+/// The fleet table (fleet.json; [`FleetTable::to_csv`] gives fleet.csv).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FleetTable {
+    /// The sensor parameters with their units: bias m/s², scale error (a fraction), misalignment
+    /// rad, quadratic 1/(m/s²).
+    pub parameters: Vec<String>,
+    pub rows: Vec<FleetRow>,
+    pub stats: Vec<ParameterStats>,
+    /// Every flag of every row, in row order.
+    pub outliers: Vec<OutlierFlag>,
+    pub settings: OutlierSettings,
+    /// The outlier rule in words.
+    pub rule: String,
+    pub units_ok: usize,
+    pub units_failed: usize,
+}
+
+/// A parameter name with its unit stated: the names without one are dimensionless fractions.
+pub fn parameter_label(k: usize) -> String {
+    let name = SENSOR_PARAM_NAMES[k];
+    if name.contains('(') {
+        name.to_string()
+    } else {
+        format!("{name} (fraction)")
+    }
+}
+
+/// The name's stem and its unit: "bias_x (m/s²)" → ("bias_x", "(m/s²)").
+fn split_unit(label: &str) -> (&str, &str) {
+    match label.find(" (") {
+        Some(at) => (&label[..at], &label[at + 1..]),
+        None => (label, ""),
+    }
+}
+
+fn median(sorted: &[f64]) -> f64 {
+    let n = sorted.len();
+    if n % 2 == 1 {
+        sorted[n / 2]
+    } else {
+        0.5 * (sorted[n / 2 - 1] + sorted[n / 2])
+    }
+}
+
+/// The MAD's small-sample consistency factor c(n).
+fn mad_correction(n: usize) -> f64 {
+    const SMALL: [f64; 8] = [1.196, 1.495, 1.363, 1.206, 1.200, 1.140, 1.129, 1.107];
+    match n {
+        0 | 1 => 1.0,
+        2..=9 => SMALL[n - 2],
+        _ => n as f64 / (n as f64 - 0.8),
+    }
+}
+
+/// Median and robust spread of finite values (`None` when there are none).
+pub fn robust_centre_spread(values: &[f64]) -> Option<(f64, f64)> {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let m = median(&v);
+    let mut dev: Vec<f64> = v.iter().map(|x| (x - m).abs()).collect();
+    dev.sort_by(f64::total_cmp);
+    let spread = 1.482_602_218_505_602 * mad_correction(v.len()) * median(&dev);
+    Some((m, spread))
+}
+
+fn fmt(v: f64) -> String {
+    format!("{v:.6e}")
+}
+
+/// The fleet table of these outcomes.
+pub fn fleet_table(units: &[UnitOutcome], settings: &OutlierSettings) -> FleetTable {
+    let parameters: Vec<String> = (0..SENSOR_PARAMS).map(parameter_label).collect();
+    let mut rows: Vec<FleetRow> = units
+        .iter()
+        .map(|u| match &u.result {
+            Ok(cal) => {
+                let params = cal.sensor_params();
+                let value = |k: usize| params.get(k).map(|p| p.value).filter(|v| v.is_finite());
+                let se = |k: usize| params.get(k).and_then(|p| p.std_error).filter(|v| v.is_finite());
+                let held_out = cal.saved().and_then(|name| {
+                    cal.result
+                        .candidates
+                        .iter()
+                        .find(|c| c.candidate == name)
+                        .and_then(|c| c.mean_rms_mps2)
+                });
+                FleetRow {
+                    unit: u.unit.clone(),
+                    source: u.source.display().to_string(),
+                    campaign_unit: Some(cal.unit.clone()),
+                    ok: true,
+                    saved: cal.saved().map(str::to_string),
+                    held_out_rms_mps2: held_out,
+                    values: (0..SENSOR_PARAMS).map(value).collect(),
+                    std_errors: (0..SENSOR_PARAMS).map(se).collect(),
+                    flags: Vec::new(),
+                    error: None,
+                }
+            }
+            Err(message) => FleetRow {
+                unit: u.unit.clone(),
+                source: u.source.display().to_string(),
+                campaign_unit: None,
+                ok: false,
+                saved: None,
+                held_out_rms_mps2: None,
+                values: vec![None; SENSOR_PARAMS],
+                std_errors: vec![None; SENSOR_PARAMS],
+                flags: Vec::new(),
+                error: Some(message.clone()),
+            },
+        })
+        .collect();
+
+    let mut stats = Vec::with_capacity(SENSOR_PARAMS);
+    for k in 0..SENSOR_PARAMS {
+        let present: Vec<(usize, f64, Option<f64>)> = rows
+            .iter()
+            .enumerate()
+            .filter_map(|(i, r)| r.values[k].map(|v| (i, v, r.std_errors[k])))
+            .collect();
+        let values: Vec<f64> = present.iter().map(|p| p.1).collect();
+        let centre = robust_centre_spread(&values);
+        let ses: Vec<f64> = present.iter().filter_map(|p| p.2).collect();
+        let median_se = robust_centre_spread(&ses).map(|(m, _)| m);
+        let judged = centre.is_some() && present.len() >= settings.min_units.max(1);
+        if let (true, Some((m, s))) = (judged, centre) {
+            for &(i, x, se) in &present {
+                let scale = (s * s + se.unwrap_or(0.0).powi(2)).sqrt();
+                if !(scale > 0.0) {
+                    continue;
+                }
+                let z = (x - m) / scale;
+                if z.abs() > settings.threshold {
+                    let flag = OutlierFlag {
+                        unit: rows[i].unit.clone(),
+                        parameter: parameters[k].clone(),
+                        value: x,
+                        std_error: se,
+                        fleet_median: m,
+                        fleet_spread: s,
+                        score: z,
+                        reason: format!(
+                            "{} = {}{}: {:+.1} from the fleet median {} (fleet spread {}; flagged beyond {})",
+                            parameters[k],
+                            fmt(x),
+                            se.map_or(String::new(), |se| format!(" ± {}", fmt(se))),
+                            z,
+                            fmt(m),
+                            fmt(s),
+                            settings.threshold
+                        ),
+                    };
+                    rows[i].flags.push(flag);
+                }
+            }
+        }
+        stats.push(ParameterStats {
+            parameter: parameters[k].clone(),
+            units: present.len(),
+            median: centre.map(|c| c.0),
+            spread: centre.map(|c| c.1),
+            min: values.iter().copied().reduce(f64::min),
+            max: values.iter().copied().reduce(f64::max),
+            median_std_error: median_se,
+            judged,
+        });
+    }
+    let outliers = rows.iter().flat_map(|r| r.flags.iter().cloned()).collect();
+    let units_ok = rows.iter().filter(|r| r.ok).count();
+    FleetTable {
+        parameters,
+        units_failed: rows.len() - units_ok,
+        units_ok,
+        rows,
+        stats,
+        outliers,
+        rule: format!(
+            "A unit is flagged on a parameter when |x − m| / √(s² + σ²) > {}, with m the fleet median, s the fleet's robust standard deviation (1.4826 × MAD, small-sample corrected) and σ the unit's own standard error; parameters are judged only with at least {} calibrated units.",
+            settings.threshold, settings.min_units
+        ),
+        settings: settings.clone(),
+    }
+}
+
+/// A CSV field, quoted when it must be (RFC 4180).
+fn field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
+fn number(v: Option<f64>) -> String {
+    v.map_or(String::new(), |v| format!("{v}"))
+}
+
+impl FleetTable {
+    /// fleet.csv: one row per unit, every number in full precision, units in the header (`bias_x
+    /// (m/s²)` and its standard error `bias_x SE (m/s²)`, …); empty cells where a unit failed.
+    pub fn to_csv(&self) -> String {
+        let mut header = vec![
+            "unit".to_string(),
+            "source".into(),
+            "status".into(),
+            "saved".into(),
+            "held_out_rms (m/s²)".into(),
+        ];
+        for p in &self.parameters {
+            let (stem, unit) = split_unit(p);
+            header.push(p.clone());
+            header.push(format!("{stem} SE {unit}").trim_end().to_string());
+        }
+        header.push("outlier_parameters".into());
+        header.push("error".into());
+        let mut text = header.iter().map(|h| field(h)).collect::<Vec<_>>().join(",");
+        text.push('\n');
+        for row in &self.rows {
+            let mut cells = vec![
+                field(&row.unit),
+                field(&row.source),
+                if row.ok { "ok".into() } else { "failed".into() },
+                field(row.saved.as_deref().unwrap_or("")),
+                number(row.held_out_rms_mps2),
+            ];
+            for k in 0..self.parameters.len() {
+                cells.push(number(row.values.get(k).copied().flatten()));
+                cells.push(number(row.std_errors.get(k).copied().flatten()));
+            }
+            let flagged: Vec<&str> = row.flags.iter().map(|f| split_unit(&f.parameter).0).collect();
+            cells.push(field(&flagged.join(";")));
+            cells.push(field(row.error.as_deref().unwrap_or("")));
+            text.push_str(&cells.join(","));
+            text.push('\n');
+        }
+        text
+    }
+
+    /// The flagged units' names, in row order, each once.
+    pub fn flagged_units(&self) -> Vec<&str> {
+        self.rows
+            .iter()
+            .filter(|r| !r.flags.is_empty())
+            .map(|r| r.unit.as_str())
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn robust_spread_of_a_normal_sample_is_about_its_sd_and_ignores_an_outlier() {
+        // Normal quantiles at (i − 0.5)/n: a sample whose SD is about 1.
+        let q = [-1.5341, -0.8871, -0.4888, -0.1573, 0.1573, 0.4888, 0.8871, 1.5341];
+        let (m, s) = robust_centre_spread(&q).unwrap();
+        assert!(m.abs() < 1e-12);
+        assert!((s - 1.0).abs() < 0.2, "{s}");
+        let mut with_outlier = q.to_vec();
+        with_outlier[7] = 1000.0;
+        let (m2, s2) = robust_centre_spread(&with_outlier).unwrap();
+        assert!(m2.abs() < 0.2 && (s2 - s).abs() < 0.5, "{m2} {s2}");
+        assert!(robust_centre_spread(&[f64::NAN]).is_none());
+    }
+
+    #[test]
+    fn csv_fields_are_quoted_when_needed() {
+        assert_eq!(field("a,b"), "\"a,b\"");
+        assert_eq!(field("say \"x\""), "\"say \"\"x\"\"\"");
+        assert_eq!(field("plain"), "plain");
+        assert_eq!(split_unit("bias_x (m/s²)"), ("bias_x", "(m/s²)"));
+        assert_eq!(parameter_label(3), "scale_error_x (fraction)");
+    }
+}
