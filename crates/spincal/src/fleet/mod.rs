@@ -224,6 +224,34 @@ pub fn unit_labels(sources: &[PathBuf]) -> Vec<String> {
     out
 }
 
+/// The units named by `paths`: each as given, except a folder without `campaign.toml` whose
+/// sub-folders hold one (a fleet written by `spincal simulate --fleet`), which stands for those
+/// sub-folders in name order. Anything else (a folder holding neither) stays, to fail as its own
+/// unit.
+pub fn expand_sources(paths: &[PathBuf]) -> Vec<PathBuf> {
+    let mut out = Vec::with_capacity(paths.len());
+    for path in paths {
+        if path.is_dir() && !path.join(CAMPAIGN_FILE).is_file() {
+            let mut units: Vec<PathBuf> = std::fs::read_dir(path)
+                .map(|entries| {
+                    entries
+                        .filter_map(Result::ok)
+                        .map(|e| e.path())
+                        .filter(|p| p.is_dir() && p.join(CAMPAIGN_FILE).is_file())
+                        .collect()
+                })
+                .unwrap_or_default();
+            if !units.is_empty() {
+                units.sort();
+                out.extend(units);
+                continue;
+            }
+        }
+        out.push(path.clone());
+    }
+    out
+}
+
 /// The settings a campaign file is calibrated with: `base` with the file's own gravity.
 pub fn settings_for(campaign: &Campaign, base: &CampaignSettings) -> CampaignSettings {
     let mut settings = base.clone();
@@ -361,6 +389,19 @@ mod tests {
             dir.path().join("x").join("imu-7.toml"),
         ];
         assert_eq!(unit_labels(&sources), ["imu-7", "imu-7-2", "line-3", "imu-7-3"]);
+    }
+
+    #[test]
+    fn a_folder_of_unit_folders_expands_in_name_order() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["b", "a", "c"] {
+            std::fs::create_dir(dir.path().join(name)).unwrap();
+        }
+        std::fs::write(dir.path().join("b").join(CAMPAIGN_FILE), "").unwrap();
+        std::fs::write(dir.path().join("a").join(CAMPAIGN_FILE), "").unwrap();
+        let empty = dir.path().join("c");
+        let got = expand_sources(&[dir.path().to_path_buf(), empty.clone()]);
+        assert_eq!(got, [dir.path().join("a"), dir.path().join("b"), empty]);
     }
 
     #[test]

@@ -4,8 +4,8 @@
 //! Unit `i`'s sensor is the nominal [`SensorProfile`] with, independently per axis (and per
 //! misalignment angle), a normal draw added: bias sd `bias_sd_g`, scale error sd
 //! `scale_sd_pct`, misalignment sd `misalignment_sd_deg` ([`UnitSpread`]). A faulty unit has
-//! [`FaultSetup`] added on top (by default +0.05 g bias on x and +3 % scale error on y: ten
-//! times the fleet's spread). Every draw comes from one `ChaCha8Rng` seeded by the caller; each
+//! [`FaultSetup`] added on top (by default +0.1 g bias on x and +5 % scale error on y: about
+//! twenty times the fleet's spread). Every draw comes from one `ChaCha8Rng` seeded by the caller; each
 //! unit's campaign gets its own seed from it, so the fleet is the same for the same seed.
 
 use std::path::{Path, PathBuf};
@@ -53,11 +53,12 @@ pub struct FaultSetup {
 }
 
 impl Default for FaultSetup {
-    /// +0.05 g bias on x and +3 % scale error on y: ten fleet standard deviations each.
+    /// +0.1 g bias on x and +5 % scale error on y: about twenty times the fleet's standard
+    /// deviation of each (and several times the bias drift's bound).
     fn default() -> Self {
         FaultSetup {
-            bias_g: [0.05, 0.0, 0.0],
-            scale_error_pct: [0.0, 3.0, 0.0],
+            bias_g: [0.1, 0.0, 0.0],
+            scale_error_pct: [0.0, 5.0, 0.0],
         }
     }
 }
@@ -327,9 +328,9 @@ mod tests {
         for u in &a.units {
             let d = u.campaign.truth.setup.sensor.bias_g[0] - nominal.bias_g[0];
             assert_eq!(u.faulty, u.name == "unit-03");
-            // Good units within 5 sd of nominal; the faulty one 0.05 g out, give or take its draw.
+            // Good units within 5 sd of nominal; the faulty one 0.1 g out, give or take its draw.
             if u.faulty {
-                assert!((d - 0.05).abs() < 0.025, "{d}");
+                assert!((d - 0.1).abs() < 0.025, "{d}");
             } else {
                 assert!(d.abs() < 0.025, "{d}");
             }
