@@ -22,7 +22,7 @@ use spincal::{AccelUnit, CorrectorFile, CorrectorModel, Recording};
 mod errors;
 mod long;
 
-use errors::{usage, Kind};
+use errors::usage;
 
 /// JSON text of a serialisable library value.
 fn json<T: serde::Serialize>(value: &T) -> PyResult<String> {
@@ -861,6 +861,125 @@ fn sensitivity(
     json(&rows)
 }
 
+/// A fleet error as the right exception: files and campaign entries → FormatError, the
+/// calibration → FitError.
+fn fleet_error(e: spincal::fleet::FleetError) -> PyErr {
+    use spincal::fleet::FleetError as F;
+    match &e {
+        F::NoCampaign { .. } | F::Campaign(_) | F::Load(_) => errors::format(e),
+        F::Calibration { .. } => errors::fit(e),
+        _ => errors::Error::new_err(e.to_string()),
+    }
+}
+
+/// A unit's campaign file and every file it reads (campaign file, recordings, truth files), so a
+/// driver can ship them to a worker: (campaign file, [inputs]).
+#[pyfunction]
+fn campaign_inputs(source: PathBuf) -> PyResult<(PathBuf, Vec<PathBuf>)> {
+    let path = spincal::fleet::campaign_path(&source).map_err(fleet_error)?;
+    let campaign = Campaign::read_path(&path).map_err(errors::format)?;
+    Ok((path, spincal::fleet::campaign_inputs(&campaign)))
+}
+
+/// The unit label of each source, unique in the fleet (a folder's name, …).
+#[pyfunction]
+fn unit_labels(sources: Vec<PathBuf>) -> Vec<String> {
+    spincal::fleet::unit_labels(&sources)
+}
+
+/// Calibrates one unit (a campaign file or a folder holding campaign.toml) on one thread, as
+/// `spincal calibrate --campaign`: returns (unit, results.json text, model.json text or None).
+#[pyfunction]
+#[pyo3(signature = (source, *, progress = None))]
+fn calibrate_unit(
+    py: Python<'_>,
+    source: PathBuf,
+    progress: Option<Bound<'_, PyAny>>,
+) -> PyResult<(String, String, Option<String>)> {
+    let settings = spincal::fleet::FleetSettings::default();
+    let unit = long::run(py, progress.as_ref(), |observer| {
+        spincal::fleet::calibrate_unit(&source, &settings, observer)
+    })?
+    .map_err(fleet_error)?;
+    Ok((unit.unit.clone(), unit.results_json(), unit.model_json()))
+}
+
+/// One unit's outcome as the driver has it: (label, source, results.json or None, model.json or
+/// None, error message or None).
+type OutcomeTuple = (String, PathBuf, Option<String>, Option<String>, Option<String>);
+
+/// The fleet table (every sensor parameter with its standard error per unit, fleet statistics,
+/// outliers) from the units' outcomes; returns (table JSON, table CSV, fleet.html).
+#[pyfunction]
+#[pyo3(signature = (outcomes, *, threshold = None, min_units = None))]
+fn fleet_table(
+    outcomes: Vec<OutcomeTuple>,
+    threshold: Option<f64>,
+    min_units: Option<usize>,
+) -> PyResult<(String, String, String)> {
+    use spincal::fleet::{OutlierSettings, UnitCalibration, UnitOutcome};
+    let mut settings = OutlierSettings::default();
+    if let Some(t) = threshold {
+        if !(t.is_finite() && t > 0.0) {
+            return Err(usage(format!("threshold = {t}: must be a positive number")));
+        }
+        settings.threshold = t;
+    }
+    if let Some(m) = min_units {
+        settings.min_units = m;
+    }
+    let mut units = Vec::with_capacity(outcomes.len());
+    for (label, source, results, model, error) in outcomes {
+        let result = match (results, error) {
+            (Some(text), None) => {
+                let result: spincal::campaign::CampaignResult = serde_json::from_str(&text)
+                    .map_err(|e| usage(format!("{label}: results.json is not a campaign result: {e}")))?;
+                let model = model
+                    .map(|m| CorrectorFile::from_json(&m, &format!("{label}/model.json")))
+                    .transpose()
+                    .map_err(errors::model)?;
+                Ok(UnitCalibration {
+                    unit: result.unit.clone(),
+                    campaign: source.clone(),
+                    inputs: Vec::new(),
+                    result,
+                    model,
+                })
+            }
+            (_, Some(message)) => Err(message),
+            (None, None) => return Err(usage(format!("{label}: neither a result nor an error"))),
+        };
+        units.push(UnitOutcome {
+            unit: label,
+            source,
+            result,
+        });
+    }
+    let table = spincal::fleet::fleet_table(&units, &settings);
+    let html = spincal::report::fleet::fleet_html(&table)
+        .map_err(|e| errors::Error::new_err(format!("drawing fleet.html: {e}")))?;
+    Ok((json(&table)?, table.to_csv(), html))
+}
+
+/// Simulates a fleet (`setup_json` overrides FleetSetup: units, faulty, spread, fault, campaign)
+/// into `folder` (one campaign folder per unit, fleet-truth.json); returns (folders, truth JSON).
+#[pyfunction]
+#[pyo3(signature = (folder, seed = 7, setup_json = None))]
+fn simulate_fleet(
+    py: Python<'_>,
+    folder: PathBuf,
+    seed: u64,
+    setup_json: Option<&str>,
+) -> PyResult<(Vec<PathBuf>, String)> {
+    use spincal::simulate::fleet::FleetSetup;
+    let setup = with_overrides(FleetSetup::default(), setup_json, "fleet setup")?;
+    let fleet = py
+        .detach(|| spincal::simulate::fleet::simulate_fleet(&setup, seed))
+        .map_err(errors::usage_error)?;
+    let folders = py.detach(|| fleet.write_folders(&folder)).map_err(errors::usage_error)?;
+    Ok((folders, json(&fleet.truth())?))
+}
+
 /// The library's version.
 #[pyfunction]
 fn version() -> &'static str {
@@ -886,6 +1005,10 @@ fn _spincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(allan, m)?)?;
     m.add_function(wrap_pyfunction!(sensitivity, m)?)?;
     m.add_function(wrap_pyfunction!(version, m)?)?;
-    let _ = Kind::Usage;
+    m.add_function(wrap_pyfunction!(campaign_inputs, m)?)?;
+    m.add_function(wrap_pyfunction!(unit_labels, m)?)?;
+    m.add_function(wrap_pyfunction!(calibrate_unit, m)?)?;
+    m.add_function(wrap_pyfunction!(fleet_table, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate_fleet, m)?)?;
     Ok(())
 }

@@ -81,6 +81,8 @@ __all__ = [
     "static_calibration",
     "allan",
     "sensitivity",
+    "simulate_fleet",
+    "calibrate_unit",
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -466,11 +468,19 @@ class CampaignCalibration:
 
     __slots__ = ("_inner", "result", "corrector")
 
-    def __init__(self, inner: "_spincal.CampaignCalibration"):
+    def __init__(self, inner: Optional["_spincal.CampaignCalibration"]):
         self._inner = inner
-        self.result = CampaignResult._from_json(inner.result_json())
-        saved = inner.corrector()
-        self.corrector = None if saved is None else Corrector(saved)
+        if inner is not None:
+            self.result = CampaignResult._from_json(inner.result_json())
+            saved = inner.corrector()
+            self.corrector = None if saved is None else Corrector(saved)
+
+    @classmethod
+    def _from_texts(cls, results: str, model: Optional[str]) -> "CampaignCalibration":
+        cal = cls(None)
+        cal.result = CampaignResult._from_json(results)
+        cal.corrector = None if model is None else Corrector(_spincal.Corrector.from_json(model, "model.json"))
+        return cal
 
     def to_dict(self) -> Dict[str, Any]:
         """results.json's content."""
@@ -478,7 +488,15 @@ class CampaignCalibration:
 
     def write(self, folder: PathLike) -> None:
         """Writes results.json and (when a corrector was saved) model.json into ``folder``."""
-        self._inner.write(os.fspath(folder))
+        if self._inner is not None:
+            self._inner.write(os.fspath(folder))
+            return
+        folder = os.fspath(folder)
+        os.makedirs(folder, exist_ok=True)
+        with open(os.path.join(folder, "results.json"), "w") as f:
+            f.write(json.dumps(self.result.to_dict(), indent=2) + "\n")
+        if self.corrector is not None:
+            self.corrector.save(os.path.join(folder, "model.json"))
 
     def __repr__(self) -> str:
         return f"CampaignCalibration(unit={self.result.unit!r}, saved={self.result.saved!r})"
@@ -657,3 +675,38 @@ def sensitivity(
         vary_percent=vary_percent,
     )
     return [Result(row) for row in json.loads(text)]
+
+
+def simulate_fleet(
+    folder: PathLike, *, seed: int = 7, setup: Optional[Mapping[str, Any]] = None
+) -> Tuple[List[str], List[Truth]]:
+    """Simulates a fleet of units scattered around a nominal sensor (some made faulty) into
+    ``folder``: one campaign folder per unit (``unit-01``, …) and ``fleet-truth.json``.
+    ``setup`` changes the library's FleetSetup: ``units``, ``faulty`` (0-based indices),
+    ``spread``, ``fault``, ``campaign``. Returns the unit folders and each unit's truth
+    (``name``, ``faulty``, ``truth``).
+
+    Example::
+
+        >>> folders, truths = spincal.simulate_fleet("fleet", setup={"units": 8, "faulty": [5]})  # doctest: +SKIP
+        >>> truths[5].faulty                                                                     # doctest: +SKIP
+        True
+    """
+    folders, text = _spincal.simulate_fleet(os.fspath(folder), seed, None if setup is None else json.dumps(dict(setup)))
+    return [os.fspath(f) for f in folders], [Truth(t) for t in json.loads(text)]
+
+
+def calibrate_unit(source: PathLike, *, progress: Progress = False) -> CampaignCalibration:
+    """Calibrates one unit of a fleet (a campaign file, or a folder holding ``campaign.toml``)
+    on one thread, exactly as ``spincal calibrate --campaign`` and as each task of
+    :func:`spincal.ray.calibrate_fleet` does.
+
+    Example::
+
+        >>> cal = spincal.calibrate_unit("fleet/unit-01")                         # doctest: +SKIP
+        >>> cal.result.saved                                                      # doctest: +SKIP
+        'physical-linear'
+    """
+    with _progress(progress, "unit") as callback:
+        unit, results, model = _spincal.calibrate_unit(os.fspath(source), progress=callback)
+    return CampaignCalibration._from_texts(results, model)
