@@ -52,7 +52,10 @@ fn columns_to_array<'py>(py: Python<'py>, columns: &[Vec<f64>; 3]) -> Bound<'py,
 /// An (n, 3) array as three columns (any strides).
 fn array_to_columns(view: ArrayView2<'_, f64>, what: &str) -> PyResult<[Vec<f64>; 3]> {
     if view.ncols() != 3 {
-        return Err(usage(format!("{what}: expected an (n, 3) array, got shape {:?}", view.shape())));
+        return Err(usage(format!(
+            "{what}: expected an (n, 3) array, got shape {:?}",
+            view.shape()
+        )));
     }
     Ok(std::array::from_fn(|a| view.column(a).to_vec()))
 }
@@ -130,7 +133,8 @@ impl PyRecording {
     /// Writes the recording as spincal's CSV (`t_s,ax_g,ay_g,az_g` for unit "g", or m/s²).
     #[pyo3(signature = (path, unit = "g"))]
     fn write_csv(&self, path: PathBuf, unit: &str) -> PyResult<()> {
-        let unit = AccelUnit::parse(unit).ok_or_else(|| usage(format!("unit {unit:?}: expected g or mps2")))?;
+        let unit =
+            AccelUnit::parse(unit).ok_or_else(|| usage(format!("unit {unit:?}: expected g or mps2")))?;
         self.inner.write_csv_path(&path, unit).map_err(errors::output)
     }
 }
@@ -320,7 +324,12 @@ fn simulation_defaults() -> PyResult<(String, String, String)> {
 /// returns the truth as JSON. Refuses to replace files already there.
 #[pyfunction]
 #[pyo3(signature = (folder, seed = 7, setup_json = None))]
-fn simulate_campaign(py: Python<'_>, folder: PathBuf, seed: u64, setup_json: Option<&str>) -> PyResult<String> {
+fn simulate_campaign(
+    py: Python<'_>,
+    folder: PathBuf,
+    seed: u64,
+    setup_json: Option<&str>,
+) -> PyResult<String> {
     use spincal::simulate::campaign::CampaignSetup;
     let setup = with_overrides(CampaignSetup::default(), setup_json, "campaign setup")?;
     let sim = py
@@ -356,7 +365,8 @@ fn simulate_campaign(py: Python<'_>, folder: PathBuf, seed: u64, setup_json: Opt
 }
 
 fn write_text(path: &Path, text: &str) -> PyResult<()> {
-    spincal::output::write_file(path, |out| std::io::Write::write_all(out, text.as_bytes())).map_err(errors::output)
+    spincal::output::write_file(path, |out| std::io::Write::write_all(out, text.as_bytes()))
+        .map_err(errors::output)
 }
 
 /// The turntable fit's options from keyword arguments (the CLI's defaults).
@@ -384,7 +394,8 @@ fn fit_options(
             return Err(usage(format!("{name} = {value:?}: must be a positive number")));
         }
     }
-    if !(radius_tol_m.is_finite() && radius_tol_m > 0.0) || !(gravity_mps2.is_finite() && gravity_mps2 > 0.0) {
+    if !(radius_tol_m.is_finite() && radius_tol_m > 0.0) || !(gravity_mps2.is_finite() && gravity_mps2 > 0.0)
+    {
         return Err(usage("radius_tol_m and gravity_mps2 must be positive numbers"));
     }
     Ok(FitOptions {
@@ -457,7 +468,10 @@ fn fit_turntable<'py>(
         Ok::<_, spincal::turntable::FitError>((fit, references))
     })?
     .map_err(errors::fit)?;
-    Ok((json(&fit)?, references.iter().map(|c| columns_to_array(py, c)).collect()))
+    Ok((
+        json(&fit)?,
+        references.iter().map(|c| columns_to_array(py, c)).collect(),
+    ))
 }
 
 /// A finished calibration: results (JSON), the saved corrector, and the report.
@@ -499,7 +513,8 @@ impl PyCalibration {
             .saved
             .write_path(&folder.join("model.json"))
             .map_err(errors::output)?;
-        let results = serde_json::to_string_pretty(&self.output.result).map_err(|e| usage(e.to_string()))? + "\n";
+        let results =
+            serde_json::to_string_pretty(&self.output.result).map_err(|e| usage(e.to_string()))? + "\n";
         write_text(&folder.join("results.json"), &results)?;
         let html = py
             .detach(|| spincal::report::render_report(&self.output, &self.recordings))
@@ -632,9 +647,12 @@ impl PyCampaignCalibration {
         std::fs::create_dir_all(&folder)
             .map_err(|e| errors::OutputError::new_err(format!("{}: cannot create: {e}", folder.display())))?;
         if let Some(model) = &self.output.saved {
-            model.write_path(&folder.join("model.json")).map_err(errors::output)?;
+            model
+                .write_path(&folder.join("model.json"))
+                .map_err(errors::output)?;
         }
-        let results = serde_json::to_string_pretty(&self.output.result).map_err(|e| usage(e.to_string()))? + "\n";
+        let results =
+            serde_json::to_string_pretty(&self.output.result).map_err(|e| usage(e.to_string()))? + "\n";
         write_text(&folder.join("results.json"), &results)
     }
 }
@@ -676,7 +694,9 @@ impl PyCorrector {
     /// Loads model.json (refused when invalid or of another format version).
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyCorrector> {
-        let file = py.detach(|| CorrectorFile::read_path(&path)).map_err(errors::model)?;
+        let file = py
+            .detach(|| CorrectorFile::read_path(&path))
+            .map_err(errors::model)?;
         Ok(PyCorrector { file })
     }
     /// A corrector from model.json's text (`name` names it in errors).
@@ -702,7 +722,12 @@ impl PyCorrector {
     /// The axes it changes (the others pass through).
     #[getter]
     fn axes(&self) -> Vec<&'static str> {
-        self.file.corrector.corrected_axes().iter().map(|a| a.name()).collect()
+        self.file
+            .corrector
+            .corrected_axes()
+            .iter()
+            .map(|a| a.name())
+            .collect()
     }
     /// Samples at the start without a full delay history (returned unchanged, valid = False).
     #[getter]
@@ -729,7 +754,10 @@ impl PyCorrector {
         Bound<'py, PyArray1<bool>>,
     )> {
         if accel.shape().len() != 2 || accel.shape()[1] != 3 {
-            return Err(usage(format!("accel: expected an (n, 3) array, got shape {:?}", accel.shape())));
+            return Err(usage(format!(
+                "accel: expected an (n, 3) array, got shape {:?}",
+                accel.shape()
+            )));
         }
         let view = accel.as_array();
         let corrector = &self.file.corrector;
@@ -753,7 +781,11 @@ impl PyCorrector {
             }
             (out, valid, outside)
         });
-        Ok((out.into_pyarray(py), valid.into_pyarray(py), outside.into_pyarray(py)))
+        Ok((
+            out.into_pyarray(py),
+            valid.into_pyarray(py),
+            outside.into_pyarray(py),
+        ))
     }
     /// The static calibration's JSON when this is one (for Allan deviation of calibrated data).
     fn static_json(&self) -> PyResult<Option<String>> {
@@ -819,7 +851,9 @@ fn static_calibration(
 #[pyo3(signature = (accel, dt_s, *, per_decade = 10))]
 fn allan(py: Python<'_>, accel: PyReadonlyArray2<'_, f64>, dt_s: f64, per_decade: usize) -> PyResult<String> {
     if !(dt_s.is_finite() && dt_s > 0.0) {
-        return Err(usage(format!("dt_s = {dt_s}: must be a positive number of seconds")));
+        return Err(usage(format!(
+            "dt_s = {dt_s}: must be a positive number of seconds"
+        )));
     }
     let axes = array_to_columns(accel.as_array(), "accel")?;
     let (curve, params) = py.detach(|| {
@@ -843,21 +877,29 @@ fn sensitivity(
     vary_percent: f64,
 ) -> PyResult<String> {
     if !(vary_percent > 0.0 && vary_percent < 100.0) {
-        return Err(usage(format!("vary_percent = {vary_percent}: expected a percentage in (0, 100)")));
+        return Err(usage(format!(
+            "vary_percent = {vary_percent}: expected a percentage in (0, 100)"
+        )));
     }
-    for (name, v) in [("radius_m", radius_m), ("rpm", rpm), ("gravity_mps2", gravity_mps2)] {
+    for (name, v) in [
+        ("radius_m", radius_m),
+        ("rpm", rpm),
+        ("gravity_mps2", gravity_mps2),
+    ] {
         if !(v.is_finite() && v > 0.0) {
             return Err(usage(format!("{name} = {v}: must be a positive number")));
         }
     }
-    let rows = spincal::turntable::sensitivity::sensitivity_table(&spincal::turntable::sensitivity::SensitivityInput {
-        radius_m,
-        tilt_rad: tilt_deg.to_radians(),
-        omega_radps: rpm * 2.0 * std::f64::consts::PI / 60.0,
-        beta_rad: beta_deg.to_radians(),
-        gravity_mps2,
-        vary: vary_percent / 100.0,
-    });
+    let rows = spincal::turntable::sensitivity::sensitivity_table(
+        &spincal::turntable::sensitivity::SensitivityInput {
+            radius_m,
+            tilt_rad: tilt_deg.to_radians(),
+            omega_radps: rpm * 2.0 * std::f64::consts::PI / 60.0,
+            beta_rad: beta_deg.to_radians(),
+            gravity_mps2,
+            vary: vary_percent / 100.0,
+        },
+    );
     json(&rows)
 }
 
@@ -976,7 +1018,9 @@ fn simulate_fleet(
     let fleet = py
         .detach(|| spincal::simulate::fleet::simulate_fleet(&setup, seed))
         .map_err(errors::usage_error)?;
-    let folders = py.detach(|| fleet.write_folders(&folder)).map_err(errors::usage_error)?;
+    let folders = py
+        .detach(|| fleet.write_folders(&folder))
+        .map_err(errors::usage_error)?;
     Ok((folders, json(&fleet.truth())?))
 }
 

@@ -82,7 +82,10 @@ pub fn run<T: Send>(
                 }
             }
             if let (Some(callback), None) = (progress, &failure) {
-                let reports = pending.lock().map(|mut queue| std::mem::take(&mut *queue)).unwrap_or_default();
+                let reports = pending
+                    .lock()
+                    .map(|mut queue| std::mem::take(&mut *queue))
+                    .unwrap_or_default();
                 for (stage, n, total) in reports {
                     if let Err(e) = callback.call1((stage, n, total)) {
                         failure = Some(e);

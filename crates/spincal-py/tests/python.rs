@@ -72,7 +72,9 @@ fn pytest_suite_passes_against_this_build() {
             !required,
             "SPINCAL_REQUIRE_PYTHON=1 but the spincal package is not installed in the venv (run `bash scripts/setup.sh`):\n{why}"
         );
-        eprintln!("note: the spincal wheel is not installed in .venv ({why}); testing this build's module anyway");
+        eprintln!(
+            "note: the spincal wheel is not installed in .venv ({why}); testing this build's module anyway"
+        );
     }
     let profile = profile_dir();
     let module = profile.join("lib_spincal.so");

@@ -146,7 +146,11 @@ pub fn sweep(
             let (arch, restart) = (job / restarts, job % restarts);
             // Reported before each run too, so an observer that stops the work (Ctrl-C in the
             // Python package) is heard before the next run starts rather than after it ends.
-            observer(Progress::step("network sweep", done.load(Ordering::Relaxed), Some(total)));
+            observer(Progress::step(
+                "network sweep",
+                done.load(Ordering::Relaxed),
+                Some(total),
+            ));
             let started = Instant::now();
             let (weights, report) =
                 problem.train_once(&layouts[arch], settings.base_seed, restart, &settings.lm);
