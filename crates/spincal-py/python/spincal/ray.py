@@ -224,6 +224,7 @@ def calibrate_fleet(
     min_units: Optional[int] = None,
     max_retries: int = 3,
     runtime_env: Optional[Mapping[str, Any]] = None,
+    max_in_flight: Optional[int] = None,
     progress: Union[bool, Any] = False,
 ) -> FleetResult:
     """Calibrates every unit (a campaign file or a folder holding ``campaign.toml``) as one Ray
@@ -232,7 +233,9 @@ def calibrate_fleet(
     ``outlier_threshold``/``min_units`` change the library's outlier rule (defaults in the
     table's ``settings``). ``max_retries``: how often a task whose worker was lost is run again
     (the result is the same). ``runtime_env`` is merged into the tasks' (``env_vars`` always
-    holds ``RAYON_NUM_THREADS=1``). ``progress=True`` shows a tqdm bar over the units.
+    holds ``RAYON_NUM_THREADS=1``). ``max_in_flight`` bounds the tasks submitted at once (default:
+    four per CPU of the cluster), so the driver reads and holds only that many units' files.
+    ``progress=True`` shows a tqdm bar over the units.
 
     Returns a :class:`FleetResult`; a unit's failure is in its :class:`UnitResult`, never an
     exception for the fleet.
@@ -255,27 +258,35 @@ def calibrate_fleet(
     env["env_vars"] = env_vars
     task = _remote_calibrate.options(num_cpus=1, max_retries=max_retries, runtime_env=env)
 
+    if max_in_flight is None:
+        max_in_flight = max(1, 4 * int(ray.cluster_resources().get("CPU", 1)))
     outcomes: Dict[int, Dict[str, Any]] = {}
     pending: Dict[Any, int] = {}
-    for i, (label, source) in enumerate(zip(labels, sources)):
-        try:
-            root, campaign, files = unit_payload(source)
-        except Error as e:
-            outcomes[i] = {"error": f"{type(e).__name__}: {e}"}
-            continue
-        pending[task.remote(label, root, campaign, files)] = i
-
     bar = None
     if progress:
         from tqdm.auto import tqdm
 
-        bar = tqdm(total=len(sources), desc="fleet", unit="unit", initial=len(outcomes))
+        bar = tqdm(total=len(sources), desc="fleet", unit="unit")
+    next_unit = 0
     try:
-        waiting = list(pending)
-        while waiting:
-            done, waiting = ray.wait(waiting, num_returns=1)
+        while next_unit < len(sources) or pending:
+            # Submit up to max_in_flight tasks; a unit's files are read only when it is submitted.
+            while next_unit < len(sources) and len(pending) < max_in_flight:
+                i = next_unit
+                next_unit += 1
+                try:
+                    root, campaign, files = unit_payload(sources[i])
+                except Error as e:
+                    outcomes[i] = {"error": f"{type(e).__name__}: {e}"}
+                    if bar is not None:
+                        bar.update(1)
+                    continue
+                pending[task.remote(labels[i], root, campaign, files)] = i
+            if not pending:
+                continue
+            done, _ = ray.wait(list(pending), num_returns=1)
             for ref in done:
-                i = pending[ref]
+                i = pending.pop(ref)
                 try:
                     outcomes[i] = ray.get(ref)
                 except Exception as e:  # the task itself was lost (worker died too often, …)

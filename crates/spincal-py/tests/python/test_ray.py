@@ -92,7 +92,7 @@ def test_a_fleet_on_ray_recovers_each_unit_and_flags_the_faulty_one(cluster, fle
 
 def test_a_retried_task_gives_the_same_result(cluster, fleet, tmp_path):
     _, folders, _ = fleet
-    first = sray.calibrate_fleet(folders[:2])
+    first = sray.calibrate_fleet(folders[:2], max_in_flight=1)
     markers = tmp_path / "markers"
     markers.mkdir()
     # Every task's first attempt kills its worker, as a lost node would; Ray runs it again.
