@@ -267,12 +267,16 @@ pub fn calibrate_campaign_file(
     observer: &Observer,
 ) -> Result<CampaignOutput, FleetError> {
     let recordings = load_campaign(campaign)?;
-    calibrate_campaign(&campaign.unit, &recordings, &settings_for(campaign, base), observer).map_err(
-        |source| FleetError::Calibration {
-            campaign: campaign.path.display().to_string(),
-            source,
-        },
+    calibrate_campaign(
+        &campaign.unit,
+        &recordings,
+        &settings_for(campaign, base),
+        observer,
     )
+    .map_err(|source| FleetError::Calibration {
+        campaign: campaign.path.display().to_string(),
+        source,
+    })
 }
 
 fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
@@ -323,7 +327,11 @@ pub fn silent_fleet(_: usize, _: Progress<'_>) {}
 
 /// Calibrates every unit, `settings.threads` at a time, each on one thread. Outcomes come in the
 /// order of `sources`; a unit's failure is its own.
-pub fn calibrate_fleet(sources: &[PathBuf], settings: &FleetSettings, observer: &FleetObserver) -> Vec<UnitOutcome> {
+pub fn calibrate_fleet(
+    sources: &[PathBuf],
+    settings: &FleetSettings,
+    observer: &FleetObserver,
+) -> Vec<UnitOutcome> {
     let labels = unit_labels(sources);
     let n = sources.len();
     let threads = settings
@@ -337,8 +345,8 @@ pub fn calibrate_fleet(sources: &[PathBuf], settings: &FleetSettings, observer: 
         if i >= n {
             break;
         }
-        let result =
-            calibrate_unit(&sources[i], settings, &|p: Progress<'_>| observer(i, p)).map_err(|e| e.to_string());
+        let result = calibrate_unit(&sources[i], settings, &|p: Progress<'_>| observer(i, p))
+            .map_err(|e| e.to_string());
         observer(
             i,
             Progress::step(if result.is_ok() { "done" } else { "failed" }, 1, Some(1)),
@@ -360,7 +368,9 @@ pub fn calibrate_fleet(sources: &[PathBuf], settings: &FleetSettings, observer: 
             work();
         }
     });
-    let slots = slots.into_inner().unwrap_or_else(|poisoned| poisoned.into_inner());
+    let slots = slots
+        .into_inner()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
     slots
         .into_iter()
         .zip(sources)
@@ -368,7 +378,12 @@ pub fn calibrate_fleet(sources: &[PathBuf], settings: &FleetSettings, observer: 
         .map(|((slot, source), unit)| UnitOutcome {
             unit,
             source: source.clone(),
-            result: slot.unwrap_or_else(|| Err(format!("{}: not calibrated (its worker stopped)", source.display()))),
+            result: slot.unwrap_or_else(|| {
+                Err(format!(
+                    "{}: not calibrated (its worker stopped)",
+                    source.display()
+                ))
+            }),
         })
         .collect()
 }
@@ -410,6 +425,9 @@ mod tests {
         let e = calibrate_unit(dir.path(), &FleetSettings::default(), &crate::progress::silent)
             .unwrap_err()
             .to_string();
-        assert!(e.contains(&dir.path().display().to_string()) && e.contains("campaign.toml"), "{e}");
+        assert!(
+            e.contains(&dir.path().display().to_string()) && e.contains("campaign.toml"),
+            "{e}"
+        );
     }
 }
