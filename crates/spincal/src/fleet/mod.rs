@@ -39,7 +39,7 @@ pub use table::{fleet_table, FleetRow, FleetTable, OutlierFlag, OutlierSettings,
 pub const CAMPAIGN_FILE: &str = "campaign.toml";
 
 /// Settings of a fleet calibration.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(default)]
 pub struct FleetSettings {
     /// The campaign calibration of every unit. `joint.gravity_mps2` is replaced by each campaign
@@ -47,15 +47,6 @@ pub struct FleetSettings {
     pub campaign: CampaignSettings,
     /// Units calibrated at once by [`calibrate_fleet`]; `None`: the machine's available cores.
     pub threads: Option<usize>,
-}
-
-impl Default for FleetSettings {
-    fn default() -> Self {
-        FleetSettings {
-            campaign: CampaignSettings::default(),
-            threads: None,
-        }
-    }
 }
 
 /// Why one unit could not be calibrated; every message names the file (and line, key) at fault.

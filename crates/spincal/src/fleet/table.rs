@@ -415,7 +415,7 @@ pub fn fleet_table(units: &[UnitOutcome], settings: &OutlierSettings) -> FleetTa
                 }
                 let var = sd * sd;
                 let scale = (var * (1.0 + 1.0 / k_ref as f64) + se.unwrap_or(0.0).powi(2)).sqrt();
-                if !(scale > 0.0) {
+                if scale.is_nan() || scale <= 0.0 {
                     continue;
                 }
                 let z = (x - mean) / scale;
