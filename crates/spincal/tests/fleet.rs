@@ -81,7 +81,11 @@ fn a_fleet_recovers_each_unit_flags_the_faulty_one_and_reports_broken_ones() {
         ..FleetSettings::default()
     };
     let outcomes = calibrate_fleet(&sources, &settings, &silent_fleet);
-    println!("fleet of {} sources on 2 workers: {:.1} s", sources.len(), started.elapsed().as_secs_f64());
+    println!(
+        "fleet of {} sources on 2 workers: {:.1} s",
+        sources.len(),
+        started.elapsed().as_secs_f64()
+    );
     assert_eq!(outcomes.len(), sources.len());
 
     // Broken sources fail alone, each with a located message.
@@ -90,7 +94,10 @@ fn a_fleet_recovers_each_unit_flags_the_faulty_one_and_reports_broken_ones() {
     let e = broken_outcome.result.as_ref().unwrap_err();
     assert!(e.contains("campaign.toml:") && e.contains(&missing), "{e}");
     let e = outcomes.last().unwrap().result.as_ref().unwrap_err();
-    assert!(e.contains(&empty.display().to_string()) && e.contains("campaign.toml"), "{e}");
+    assert!(
+        e.contains(&empty.display().to_string()) && e.contains("campaign.toml"),
+        "{e}"
+    );
 
     // Every simulated unit: calibrated, its parameters within 3 SE of its truth.
     let good: Vec<&UnitOutcome> = outcomes.iter().filter(|o| o.unit.starts_with("unit-")).collect();
@@ -98,7 +105,10 @@ fn a_fleet_recovers_each_unit_flags_the_faulty_one_and_reports_broken_ones() {
     let (mut inside, mut total) = (0usize, 0usize);
     for (outcome, unit) in good.iter().zip(&fleet.units) {
         assert_eq!(outcome.unit, unit.name);
-        let cal = outcome.result.as_ref().unwrap_or_else(|e| panic!("{}: {e}", unit.name));
+        let cal = outcome
+            .result
+            .as_ref()
+            .unwrap_or_else(|e| panic!("{}: {e}", unit.name));
         assert_eq!(cal.unit, unit.name);
         let truth = unit.campaign.truth.sensor.params();
         let mut unit_inside = 0;
@@ -106,7 +116,10 @@ fn a_fleet_recovers_each_unit_flags_the_faulty_one_and_reports_broken_ones() {
         for (k, p) in cal.sensor_params().iter().enumerate() {
             let se = p.std_error.expect("every sensor parameter has a standard error");
             let z = (p.value - truth[k]) / se;
-            println!("  {:<24} {:+.6e} truth {:+.6e} se {:.2e} z {z:+.1}", p.name, p.value, truth[k], se);
+            println!(
+                "  {:<24} {:+.6e} truth {:+.6e} se {:.2e} z {z:+.1}",
+                p.name, p.value, truth[k], se
+            );
             worst = worst.max(z.abs());
             unit_inside += usize::from(z.abs() <= 3.0);
         }
@@ -117,7 +130,11 @@ fn a_fleet_recovers_each_unit_flags_the_faulty_one_and_reports_broken_ones() {
             cal.result.joint.poses.len(),
             cal.saved()
         );
-        assert!(unit_inside >= 6, "{}: only {unit_inside}/12 within 3 SE", unit.name);
+        assert!(
+            unit_inside >= 6,
+            "{}: only {unit_inside}/12 within 3 SE",
+            unit.name
+        );
         inside += unit_inside;
         total += 12;
     }
@@ -130,11 +147,25 @@ fn a_fleet_recovers_each_unit_flags_the_faulty_one_and_reports_broken_ones() {
     for flag in &table.outliers {
         println!("flag: {}: {}", flag.unit, flag.reason);
     }
-    // The margin: every good unit's largest |z| over the parameters, against the threshold.
-    let all = fleet_table(&outcomes, &OutlierSettings { threshold: 0.0, ..OutlierSettings::default() });
+    // The margin: every unit's largest |z| / critical value over the parameters.
+    let all = fleet_table(
+        &outcomes,
+        &OutlierSettings {
+            false_alarm_probability: 0.99,
+            ..OutlierSettings::default()
+        },
+    );
     for row in all.rows.iter().filter(|r| r.ok) {
         let worst = row.flags.iter().map(|f| f.score.abs()).fold(0.0, f64::max);
-        println!("{}: largest |z| {worst:.1}", row.unit);
+        let critical = table
+            .rows
+            .iter()
+            .find(|r| r.unit == row.unit)
+            .map(|r| r.flags.len());
+        println!(
+            "{}: largest |z| {worst:.1} ({critical:?} flags at the default)",
+            row.unit
+        );
     }
     let faulty = &fleet.units[5].name;
     assert_eq!(table.flagged_units(), [faulty.as_str()]);
@@ -162,7 +193,11 @@ fn a_fleet_recovers_each_unit_flags_the_faulty_one_and_reports_broken_ones() {
             serde_json::to_string_pretty(&value).unwrap(),
             alone.saved.as_ref().map(|m| m.to_json() + "\n"),
         );
-        assert!(comparable(outcome) == expected, "{}: differs from the unit alone", outcome.unit);
+        assert!(
+            comparable(outcome) == expected,
+            "{}: differs from the unit alone",
+            outcome.unit
+        );
     }
     println!("each unit alone: {:.1} s", started.elapsed().as_secs_f64());
 

@@ -19,15 +19,18 @@ use spincal::simulate::fleet::{simulate_fleet, FleetSetup, WriteError};
 
 use crate::ui::{self, Ui, UnitsFailed, UsageError};
 
-pub const AFTER_HELP: &str = "Each UNIT is a campaign file, or a folder holding campaign.toml; a folder of such folders (as
+pub const AFTER_HELP: &str =
+    "Each UNIT is a campaign file, or a folder holding campaign.toml; a folder of such folders (as
 `spincal simulate --fleet` writes) stands for all of them. Each unit is calibrated exactly as
 `spincal calibrate --campaign` does, on one thread; --threads units run at once.
 
 Writes OUT/<unit>/results.json, report.html and (when saved) model.json per unit, and
 OUT/fleet.csv, fleet.json (every sensor parameter with its standard error per unit, fleet median
 and robust spread, outliers with the reason) and fleet.html (each parameter across the fleet,
-outliers highlighted). A unit is flagged when |x - median| / sqrt(spread² + SE²) exceeds
---outlier-threshold for a parameter (spread: 1.4826 × MAD; judged with 5 or more units).
+outliers highlighted). A unit is flagged on a parameter when it lies outside the prediction
+interval of the other units (those within 5 robust spreads of the median), widened by its own
+standard error, at two-sided probability --false-alarm (Student's t; judged with 5 or more
+units).
 
 Exit codes: 0 every unit calibrated; 3 some units failed (every other unit's outputs and the
 fleet table are written, the failures are in it); 1 no unit could be calibrated; 2 bad usage.
@@ -50,13 +53,21 @@ pub struct FleetArgs {
     /// Units calibrated at once (default: all cores); each unit uses one thread.
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     pub threads: Option<u64>,
-    /// Flag a unit when a parameter lies more than this many combined spreads from the fleet
-    /// median.
-    #[arg(long, default_value_t = 5.0, value_parser = super::values::positive, allow_negative_numbers = true)]
-    pub outlier_threshold: f64,
+    /// Chance that a unit like the others is flagged on one parameter (two-sided, 0 to 1).
+    #[arg(long, default_value_t = 1e-4, value_parser = probability, allow_negative_numbers = true)]
+    pub false_alarm: f64,
     /// Print the fleet table as JSON instead of the summary.
     #[arg(long)]
     pub json: bool,
+}
+
+fn probability(text: &str) -> Result<f64, String> {
+    let v: f64 = text.parse().map_err(|_| format!("{text}: not a number"))?;
+    if v > 0.0 && v < 1.0 {
+        Ok(v)
+    } else {
+        Err(format!("{text}: must lie strictly between 0 and 1"))
+    }
 }
 
 /// Every file a run writes, per unit and for the fleet.
@@ -97,7 +108,8 @@ pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
         .iter()
         .map(|label| {
             let bar = multi.add(ui.progress(1, "waiting"));
-            let template = format!("{{prefix:<{width}}} {{msg:>20}} [{{bar:30}}] {{pos}}/{{len}} {{elapsed_precise}}");
+            let template =
+                format!("{{prefix:<{width}}} {{msg:>20}} [{{bar:30}}] {{pos}}/{{len}} {{elapsed_precise}}");
             if let Ok(style) = ProgressStyle::with_template(&template) {
                 bar.set_style(style.progress_chars("=> "));
             }
@@ -134,7 +146,7 @@ pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
     let table = fleet_table(
         &outcomes,
         &OutlierSettings {
-            threshold: args.outlier_threshold,
+            false_alarm_probability: args.false_alarm,
             ..OutlierSettings::default()
         },
     );

@@ -39,7 +39,7 @@ pub use table::{fleet_table, FleetRow, FleetTable, OutlierFlag, OutlierSettings,
 pub const CAMPAIGN_FILE: &str = "campaign.toml";
 
 /// Settings of a fleet calibration.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(default)]
 pub struct FleetSettings {
     /// The campaign calibration of every unit. `joint.gravity_mps2` is replaced by each campaign
@@ -47,15 +47,6 @@ pub struct FleetSettings {
     pub campaign: CampaignSettings,
     /// Units calibrated at once by [`calibrate_fleet`]; `None`: the machine's available cores.
     pub threads: Option<usize>,
-}
-
-impl Default for FleetSettings {
-    fn default() -> Self {
-        FleetSettings {
-            campaign: CampaignSettings::default(),
-            threads: None,
-        }
-    }
 }
 
 /// Why one unit could not be calibrated; every message names the file (and line, key) at fault.
@@ -267,12 +258,16 @@ pub fn calibrate_campaign_file(
     observer: &Observer,
 ) -> Result<CampaignOutput, FleetError> {
     let recordings = load_campaign(campaign)?;
-    calibrate_campaign(&campaign.unit, &recordings, &settings_for(campaign, base), observer).map_err(
-        |source| FleetError::Calibration {
-            campaign: campaign.path.display().to_string(),
-            source,
-        },
+    calibrate_campaign(
+        &campaign.unit,
+        &recordings,
+        &settings_for(campaign, base),
+        observer,
     )
+    .map_err(|source| FleetError::Calibration {
+        campaign: campaign.path.display().to_string(),
+        source,
+    })
 }
 
 fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
@@ -323,7 +318,11 @@ pub fn silent_fleet(_: usize, _: Progress<'_>) {}
 
 /// Calibrates every unit, `settings.threads` at a time, each on one thread. Outcomes come in the
 /// order of `sources`; a unit's failure is its own.
-pub fn calibrate_fleet(sources: &[PathBuf], settings: &FleetSettings, observer: &FleetObserver) -> Vec<UnitOutcome> {
+pub fn calibrate_fleet(
+    sources: &[PathBuf],
+    settings: &FleetSettings,
+    observer: &FleetObserver,
+) -> Vec<UnitOutcome> {
     let labels = unit_labels(sources);
     let n = sources.len();
     let threads = settings
@@ -337,8 +336,8 @@ pub fn calibrate_fleet(sources: &[PathBuf], settings: &FleetSettings, observer: 
         if i >= n {
             break;
         }
-        let result =
-            calibrate_unit(&sources[i], settings, &|p: Progress<'_>| observer(i, p)).map_err(|e| e.to_string());
+        let result = calibrate_unit(&sources[i], settings, &|p: Progress<'_>| observer(i, p))
+            .map_err(|e| e.to_string());
         observer(
             i,
             Progress::step(if result.is_ok() { "done" } else { "failed" }, 1, Some(1)),
@@ -360,7 +359,9 @@ pub fn calibrate_fleet(sources: &[PathBuf], settings: &FleetSettings, observer: 
             work();
         }
     });
-    let slots = slots.into_inner().unwrap_or_else(|poisoned| poisoned.into_inner());
+    let slots = slots
+        .into_inner()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
     slots
         .into_iter()
         .zip(sources)
@@ -368,7 +369,12 @@ pub fn calibrate_fleet(sources: &[PathBuf], settings: &FleetSettings, observer: 
         .map(|((slot, source), unit)| UnitOutcome {
             unit,
             source: source.clone(),
-            result: slot.unwrap_or_else(|| Err(format!("{}: not calibrated (its worker stopped)", source.display()))),
+            result: slot.unwrap_or_else(|| {
+                Err(format!(
+                    "{}: not calibrated (its worker stopped)",
+                    source.display()
+                ))
+            }),
         })
         .collect()
 }
@@ -410,6 +416,9 @@ mod tests {
         let e = calibrate_unit(dir.path(), &FleetSettings::default(), &crate::progress::silent)
             .unwrap_err()
             .to_string();
-        assert!(e.contains(&dir.path().display().to_string()) && e.contains("campaign.toml"), "{e}");
+        assert!(
+            e.contains(&dir.path().display().to_string()) && e.contains("campaign.toml"),
+            "{e}"
+        );
     }
 }

@@ -3,33 +3,44 @@
 //!
 //! ## The outlier rule
 //!
-//! For each sensor parameter, over the units that were calibrated:
+//! Each sensor parameter is judged on its own, over the units that were calibrated (`n`).
 //!
-//! - the fleet's centre is the median `m` of the units' values;
-//! - the fleet's spread is the robust standard deviation `s = 1.4826 · c(n) · MAD`, with MAD the
-//!   median absolute deviation from `m` and `c(n)` the small-sample correction of the MAD for `n`
-//!   units (Croux and Rousseeuw: 1.196, 1.495, 1.363, 1.206, 1.200, 1.140, 1.129, 1.107 for n = 2
-//!   to 9, then n / (n − 0.8));
-//! - a unit with value `x` and standard error `σ` scores `z = (x − m) / √(s² + σ²)`: its distance
-//!   from the fleet in units of the fleet's spread and its own uncertainty together, so a
-//!   parameter the unit's campaign determined poorly is not called an outlier for that alone;
-//! - the unit is flagged on that parameter when `|z| > threshold` (default 5).
+//! 1. **Fleet statistics.** The median `m` and the robust spread `S = 1.4826 · c(n) · MAD` (MAD
+//!    the median absolute deviation from `m`, `c(n)` its small-sample correction from Croux and
+//!    Rousseeuw: 1.196, 1.495, 1.363, 1.206, 1.200, 1.140, 1.129, 1.107 for n = 2 to 9, then
+//!    n / (n − 0.8)).
+//! 2. **Screen.** Units with `|x − m| > screen · S` (default 5) are left out of every other unit's
+//!    reference, so that two faulty units cannot hide each other. The screen decides nothing by
+//!    itself.
+//! 3. **Test.** Unit `i` (value `x`, own standard error `σ`) is compared with its reference: the
+//!    other units that passed the screen (`k` of them, mean `μ`, sample standard deviation `s`).
+//!    If `i` were like them, `z = (x − μ) / √(s² (1 + 1/k) + σ²)` would follow Student's t with
+//!    `k − 1` degrees of freedom (the prediction interval of a new draw; `σ²` added so that a
+//!    parameter the unit's own campaign determined poorly is not called an outlier for that alone).
+//!    The unit is flagged when `|z|` exceeds the t quantile at two-sided probability
+//!    `false_alarm_probability` (default 1e-4: 9.1 against the 7 other units of an eight-unit fleet,
+//!    6.2 against 11, about 3.9 for a large fleet). A fleet of `N` good units then raises about `12 · N · 1e-4` false flags over its
+//!    twelve parameters.
 //!
-//! No parameter is judged with fewer than `min_units` calibrated units (default 5), nor when the
-//! spread and the standard error are both zero. Median and MAD ignore up to half the fleet being
-//! faulty, so one faulty unit cannot hide itself by widening the spread.
+//! With a median absolute deviation alone, a fleet of eight units underestimates its spread by
+//! half often enough that a good unit two standard deviations out would be flagged; the t quantile
+//! on the reference's own standard deviation is what makes small fleets safe. No parameter is
+//! judged with fewer than `min_units` calibrated units (default 5) or a reference of fewer than 3.
 
 use serde::{Deserialize, Serialize};
 
 use crate::correctors::physical::{SENSOR_PARAMS, SENSOR_PARAM_NAMES};
 use crate::fleet::UnitOutcome;
 
-/// How far from the fleet a unit must lie to be flagged.
+/// How far from the fleet a unit must lie to be flagged (see the module documentation).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct OutlierSettings {
-    /// Flag when |z| exceeds this (see the module documentation).
-    pub threshold: f64,
+    /// Chance that a unit like the others is flagged on one parameter (two-sided).
+    pub false_alarm_probability: f64,
+    /// Units further than this many robust spreads from the median are left out of the others'
+    /// references.
+    pub screen: f64,
     /// Fewest calibrated units for a parameter to be judged at all.
     pub min_units: usize,
 }
@@ -37,7 +48,8 @@ pub struct OutlierSettings {
 impl Default for OutlierSettings {
     fn default() -> Self {
         OutlierSettings {
-            threshold: 5.0,
+            false_alarm_probability: 1e-4,
+            screen: 5.0,
             min_units: 5,
         }
     }
@@ -50,12 +62,15 @@ pub struct OutlierFlag {
     pub parameter: String,
     pub value: f64,
     pub std_error: Option<f64>,
-    pub fleet_median: f64,
-    pub fleet_spread: f64,
-    /// z of the module documentation.
+    /// The other units it was compared with: how many, their mean and standard deviation.
+    pub reference_units: usize,
+    pub reference_mean: f64,
+    pub reference_sd: f64,
+    /// z of the module documentation, and the t quantile it exceeded.
     pub score: f64,
-    /// In words, e.g. "bias_x (m/s²) = 0.52 ± 0.003: 9.4 from the fleet median 0.04 (fleet spread
-    /// 0.05, threshold 5)".
+    pub critical: f64,
+    /// In words, e.g. "bias_x (m/s²) = 9.6e-1 ± 2.2e-2: z = +16.1 against the 7 other units
+    /// (mean 4.1e-2, sd 5.0e-2); flagged beyond 9.1".
     pub reason: String,
 }
 
@@ -68,12 +83,20 @@ pub struct ParameterStats {
     pub median: Option<f64>,
     /// Robust standard deviation, 1.4826 · c(n) · MAD.
     pub spread: Option<f64>,
+    /// Units that passed the screen (the references are drawn from these), their mean and
+    /// standard deviation.
+    pub screened_units: usize,
+    pub screened_mean: Option<f64>,
+    pub screened_sd: Option<f64>,
+    /// Where a further unit with a negligible standard error would be flagged, against all the
+    /// screened units: below the first or above the second.
+    pub limits: Option<[f64; 2]>,
     pub min: Option<f64>,
     pub max: Option<f64>,
     /// Median of the units' own standard errors: compare with `spread` to see whether the units
     /// differ by more than their calibrations can tell.
     pub median_std_error: Option<f64>,
-    /// Whether outliers were judged on this parameter (enough units, a spread).
+    /// Whether outliers were judged on this parameter (enough units).
     pub judged: bool,
 }
 
@@ -165,6 +188,128 @@ pub fn robust_centre_spread(values: &[f64]) -> Option<(f64, f64)> {
     Some((m, spread))
 }
 
+/// Mean and sample standard deviation (`None` below one and two values).
+fn mean_sd(values: &[f64]) -> (Option<f64>, Option<f64>) {
+    if values.is_empty() {
+        return (None, None);
+    }
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let sd = (values.len() >= 2)
+        .then(|| (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt());
+    (Some(mean), sd)
+}
+
+/// ln Γ(x) for x > 0 (Lanczos, g = 7, nine terms).
+fn ln_gamma(x: f64) -> f64 {
+    const C: [f64; 9] = [
+        0.999_999_999_999_809_9,
+        676.520_368_121_885_1,
+        -1_259.139_216_722_402_8,
+        771.323_428_777_653_1,
+        -176.615_029_162_140_6,
+        12.507_343_278_686_905,
+        -0.138_571_095_265_720_12,
+        9.984_369_578_019_572e-6,
+        1.505_632_735_149_311_6e-7,
+    ];
+    if x < 0.5 {
+        // Reflection.
+        let pi = std::f64::consts::PI;
+        return (pi / (pi * x).sin()).ln() - ln_gamma(1.0 - x);
+    }
+    let x = x - 1.0;
+    let mut sum = C[0];
+    for (i, c) in C.iter().enumerate().skip(1) {
+        sum += c / (x + i as f64);
+    }
+    let t = x + 7.5;
+    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + sum.ln()
+}
+
+/// The continued fraction of the regularised incomplete beta function (modified Lentz).
+fn beta_fraction(a: f64, b: f64, x: f64) -> f64 {
+    const TINY: f64 = 1e-300;
+    let mut c = 1.0;
+    let mut d = 1.0 - (a + b) * x / (a + 1.0);
+    if d.abs() < TINY {
+        d = TINY;
+    }
+    d = 1.0 / d;
+    let mut h = d;
+    for m in 1..=300 {
+        let m = m as f64;
+        let m2 = 2.0 * m;
+        for aa in [
+            m * (b - m) * x / ((a + m2 - 1.0) * (a + m2)),
+            -(a + m) * (a + b + m) * x / ((a + m2) * (a + m2 + 1.0)),
+        ] {
+            d = 1.0 + aa * d;
+            if d.abs() < TINY {
+                d = TINY;
+            }
+            c = 1.0 + aa / c;
+            if c.abs() < TINY {
+                c = TINY;
+            }
+            d = 1.0 / d;
+            h *= d * c;
+        }
+        if (d * c - 1.0).abs() < 1e-15 {
+            break;
+        }
+    }
+    h
+}
+
+/// The regularised incomplete beta function I_x(a, b).
+fn incomplete_beta(a: f64, b: f64, x: f64) -> f64 {
+    if x <= 0.0 {
+        return 0.0;
+    }
+    if x >= 1.0 {
+        return 1.0;
+    }
+    let front = (ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln()).exp();
+    if x < (a + 1.0) / (a + b + 2.0) {
+        front * beta_fraction(a, b, x) / a
+    } else {
+        1.0 - front * beta_fraction(b, a, 1.0 - x) / b
+    }
+}
+
+/// P(T > t) for Student's t with `nu` degrees of freedom, t ≥ 0.
+fn student_t_upper(t: f64, nu: f64) -> f64 {
+    0.5 * incomplete_beta(nu / 2.0, 0.5, nu / (nu + t * t))
+}
+
+/// The `p` quantile (p > 0.5) of Student's t with `nu` degrees of freedom, by bisection.
+pub fn student_t_quantile(p: f64, nu: f64) -> f64 {
+    let tail = 1.0 - p;
+    if !(tail > 0.0 && tail < 0.5 && nu > 0.0) {
+        return f64::INFINITY;
+    }
+    let (mut lo, mut hi) = (0.0, 1.0);
+    while student_t_upper(hi, nu) > tail {
+        hi *= 2.0;
+        if hi > 1e12 {
+            return f64::INFINITY;
+        }
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if student_t_upper(mid, nu) > tail {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+        if hi - lo <= 1e-12 * hi {
+            break;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
 fn fmt(v: f64) -> String {
     format!("{v:.6e}")
 }
@@ -226,31 +371,77 @@ pub fn fleet_table(units: &[UnitOutcome], settings: &OutlierSettings) -> FleetTa
         let ses: Vec<f64> = present.iter().filter_map(|p| p.2).collect();
         let median_se = robust_centre_spread(&ses).map(|(m, _)| m);
         let judged = centre.is_some() && present.len() >= settings.min_units.max(1);
-        if let (true, Some((m, s))) = (judged, centre) {
-            for &(i, x, se) in &present {
-                let scale = (s * s + se.unwrap_or(0.0).powi(2)).sqrt();
-                if !(scale > 0.0) {
+        // The screen: units within `screen` robust spreads of the median.
+        let passes: Vec<bool> = match centre {
+            Some((m, spread)) => present
+                .iter()
+                .map(|p| (p.1 - m).abs() <= settings.screen * spread)
+                .collect(),
+            None => vec![false; present.len()],
+        };
+        let screened: Vec<f64> = present
+            .iter()
+            .zip(&passes)
+            .filter(|(_, &ok)| ok)
+            .map(|(p, _)| p.1)
+            .collect();
+        let screened_units = screened.len();
+        let (screened_mean, screened_sd) = mean_sd(&screened);
+        let limits = match (screened_mean, screened_sd) {
+            (Some(mean), Some(sd)) if judged && screened_units >= 3 => {
+                let c = student_t_quantile(
+                    1.0 - settings.false_alarm_probability / 2.0,
+                    (screened_units - 1) as f64,
+                );
+                let half = c * sd * (1.0 + 1.0 / screened_units as f64).sqrt();
+                Some([mean - half, mean + half])
+            }
+            _ => None,
+        };
+        if judged {
+            for (j, &(i, x, se)) in present.iter().enumerate() {
+                let reference: Vec<f64> = present
+                    .iter()
+                    .enumerate()
+                    .filter(|&(other, _)| other != j && passes[other])
+                    .map(|(_, p)| p.1)
+                    .collect();
+                let k_ref = reference.len();
+                let (Some(mean), Some(sd)) = mean_sd(&reference) else {
+                    continue;
+                };
+                if k_ref < 3 {
                     continue;
                 }
-                let z = (x - m) / scale;
-                if z.abs() > settings.threshold {
+                let var = sd * sd;
+                let scale = (var * (1.0 + 1.0 / k_ref as f64) + se.unwrap_or(0.0).powi(2)).sqrt();
+                if scale.is_nan() || scale <= 0.0 {
+                    continue;
+                }
+                let z = (x - mean) / scale;
+                let critical =
+                    student_t_quantile(1.0 - settings.false_alarm_probability / 2.0, (k_ref - 1) as f64);
+                if z.abs() > critical {
                     let flag = OutlierFlag {
                         unit: rows[i].unit.clone(),
                         parameter: parameters[k].clone(),
                         value: x,
                         std_error: se,
-                        fleet_median: m,
-                        fleet_spread: s,
+                        reference_units: k_ref,
+                        reference_mean: mean,
+                        reference_sd: var.sqrt(),
                         score: z,
+                        critical,
                         reason: format!(
-                            "{} = {}{}: {:+.1} from the fleet median {} (fleet spread {}; flagged beyond {})",
+                            "{} = {}{}: z = {:+.1} against the {} other units (mean {}, sd {}); flagged beyond {:.1}",
                             parameters[k],
                             fmt(x),
                             se.map_or(String::new(), |se| format!(" ± {}", fmt(se))),
                             z,
-                            fmt(m),
-                            fmt(s),
-                            settings.threshold
+                            k_ref,
+                            fmt(mean),
+                            fmt(var.sqrt()),
+                            critical
                         ),
                     };
                     rows[i].flags.push(flag);
@@ -262,6 +453,10 @@ pub fn fleet_table(units: &[UnitOutcome], settings: &OutlierSettings) -> FleetTa
             units: present.len(),
             median: centre.map(|c| c.0),
             spread: centre.map(|c| c.1),
+            screened_units,
+            screened_mean,
+            screened_sd,
+            limits,
             min: values.iter().copied().reduce(f64::min),
             max: values.iter().copied().reduce(f64::max),
             median_std_error: median_se,
@@ -278,8 +473,8 @@ pub fn fleet_table(units: &[UnitOutcome], settings: &OutlierSettings) -> FleetTa
         stats,
         outliers,
         rule: format!(
-            "A unit is flagged on a parameter when |x − m| / √(s² + σ²) > {}, with m the fleet median, s the fleet's robust standard deviation (1.4826 × MAD, small-sample corrected) and σ the unit's own standard error; parameters are judged only with at least {} calibrated units.",
-            settings.threshold, settings.min_units
+            "A unit is flagged on a parameter when z = (x − μ) / √(s²(1 + 1/k) + σ²) lies beyond Student's t quantile with k − 1 degrees of freedom at two-sided probability {}: x and σ the unit's value and standard error, μ and s the mean and standard deviation of the k other units within {} robust spreads (1.4826 × MAD) of the fleet median. Parameters are judged only with at least {} calibrated units.",
+            settings.false_alarm_probability, settings.screen, settings.min_units
         ),
         settings: settings.clone(),
     }
@@ -365,6 +560,26 @@ mod tests {
         let (m2, s2) = robust_centre_spread(&with_outlier).unwrap();
         assert!(m2.abs() < 0.2 && (s2 - s).abs() < 0.5, "{m2} {s2}");
         assert!(robust_centre_spread(&[f64::NAN]).is_none());
+    }
+
+    #[test]
+    fn student_t_quantiles_match_the_tables() {
+        // Published values: t(0.975; 1) = 12.706, t(0.975; 5) = 2.571, t(0.995; 10) = 3.169,
+        // t(0.9995; 6) = 5.959, and the normal 0.99995 quantile 3.891 for many degrees of freedom.
+        for (p, nu, t) in [
+            (0.975, 1.0, 12.706),
+            (0.975, 5.0, 2.571),
+            (0.995, 10.0, 3.169),
+            (0.9995, 6.0, 5.959),
+            (0.99995, 1e7, 3.891),
+        ] {
+            let got = student_t_quantile(p, nu);
+            assert!((got - t).abs() < 1.5e-3, "t({p}; {nu}) = {got}, not {t}");
+        }
+        assert!((ln_gamma(5.0) - 24f64.ln()).abs() < 1e-12);
+        // The critical values the module documentation quotes.
+        assert!((student_t_quantile(1.0 - 5e-5, 6.0) - 9.08).abs() < 0.01);
+        assert!((student_t_quantile(1.0 - 5e-5, 10.0) - 6.21).abs() < 0.01);
     }
 
     #[test]

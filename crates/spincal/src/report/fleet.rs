@@ -32,7 +32,8 @@ fn num(pointer: &str, value: Option<f64>) -> String {
 }
 
 /// The distribution of parameter `k` across units: each unit's value with ±1 SE bars, the fleet
-/// median and the flagging limits (median ± threshold × spread, ignoring the units' own errors).
+/// median and the flagging limits against the screened units (for a unit whose own error is
+/// negligible; each unit is judged against the others, see `fleet::table`).
 pub fn parameter_plot(table: &FleetTable, k: usize) -> Option<LinePlot> {
     let name = table.parameters.get(k)?;
     let stats = table.stats.get(k)?;
@@ -77,9 +78,9 @@ pub fn parameter_plot(table: &FleetTable, k: usize) -> Option<LinePlot> {
                 .style(LineStyle::Dashed)
                 .width(1),
         );
-        if stats.judged && s > 0.0 {
-            let t = table.settings.threshold;
-            for (label, y) in [(format!("median ± {t} spread"), m + t * s), (String::new(), m - t * s)] {
+        let _ = s;
+        if let Some([lo, hi]) = stats.limits {
+            for (label, y) in [("flagging limits".to_string(), hi), (String::new(), lo)] {
                 plot = plot.series(
                     Series::new(label, vec![0.5, n + 0.5], vec![y, y])
                         .color(Rgb(150, 150, 150))
@@ -153,19 +154,25 @@ pub fn fleet_html(table: &FleetTable) -> Result<String, PlotError> {
     if !table.outliers.is_empty() {
         h.push_str("<h2>Flagged</h2><ul>");
         for f in &table.outliers {
-            h.push_str(&format!("<li><b>{}</b>: {}</li>", escape(&f.unit), escape(&f.reason)));
+            h.push_str(&format!(
+                "<li><b>{}</b>: {}</li>",
+                escape(&f.unit),
+                escape(&f.reason)
+            ));
         }
         h.push_str("</ul>");
     }
 
-    h.push_str("<h2>Fleet statistics</h2><table><tr><th>parameter</th><th>units</th><th>median</th><th>spread (robust SD)</th><th>median SE</th><th>min</th><th>max</th><th>judged</th></tr>");
+    h.push_str("<h2>Fleet statistics</h2><table><tr><th>parameter</th><th>units</th><th>median</th><th>spread (robust SD)</th><th>screened units</th><th>their SD</th><th>median SE</th><th>min</th><th>max</th><th>judged</th></tr>");
     for (k, s) in table.stats.iter().enumerate() {
         h.push_str(&format!(
-            "<tr><td class=\"name\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td class=\"name\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             escape(&s.parameter),
             s.units,
             num(&format!("/stats/{k}/median"), s.median),
             num(&format!("/stats/{k}/spread"), s.spread),
+            s.screened_units,
+            num(&format!("/stats/{k}/screened_sd"), s.screened_sd),
             num(&format!("/stats/{k}/median_std_error"), s.median_std_error),
             num(&format!("/stats/{k}/min"), s.min),
             num(&format!("/stats/{k}/max"), s.max),
@@ -174,7 +181,7 @@ pub fn fleet_html(table: &FleetTable) -> Result<String, PlotError> {
     }
     h.push_str("</table>");
 
-    h.push_str("<h2>Each parameter across the fleet</h2><p>One point per calibrated unit (x: its row in the table above) with ±1 standard error; the dashed black line is the fleet median, the grey ones the flagging limits for a unit whose own error is negligible. Flagged units are drawn in orange.</p>");
+    h.push_str("<h2>Each parameter across the fleet</h2><p>One point per calibrated unit (x: its row in the table above) with ±1 standard error; the dashed black line is the fleet median, the grey ones the flagging limits (against every unit that passed the screen) for a unit whose own error is negligible. Flagged units are drawn in orange.</p>");
     for k in 0..table.parameters.len() {
         if let Some(plot) = parameter_plot(table, k) {
             h.push_str(&format!(
@@ -194,11 +201,21 @@ pub fn fleet_html(table: &FleetTable) -> Result<String, PlotError> {
         h.push_str(&format!("<tr><td class=\"name\">{}</td>", escape(&row.unit)));
         for k in 0..table.parameters.len() {
             let flagged = row.flags.iter().any(|f| f.parameter == table.parameters[k]);
-            let style = if flagged { " style=\"background:#fde3d4\"" } else { "" };
+            let style = if flagged {
+                " style=\"background:#fde3d4\""
+            } else {
+                ""
+            };
             h.push_str(&format!(
                 "<td{style}>{}</td><td>{}</td>",
-                num(&format!("/rows/{i}/values/{k}"), row.values.get(k).copied().flatten()),
-                num(&format!("/rows/{i}/std_errors/{k}"), row.std_errors.get(k).copied().flatten())
+                num(
+                    &format!("/rows/{i}/values/{k}"),
+                    row.values.get(k).copied().flatten()
+                ),
+                num(
+                    &format!("/rows/{i}/std_errors/{k}"),
+                    row.std_errors.get(k).copied().flatten()
+                )
             ));
         }
         h.push_str("</tr>");

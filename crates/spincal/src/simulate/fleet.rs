@@ -132,7 +132,9 @@ impl SimulatedFleet {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum WriteError {
-    #[error("{path} already exists: spincal does not replace files in a campaign folder; choose an empty folder")]
+    #[error(
+        "{path} already exists: spincal does not replace files in a campaign folder; choose an empty folder"
+    )]
     Exists { path: String },
     #[error("{path}: cannot create the folder: {message}")]
     Folder { path: String, message: String },
@@ -149,7 +151,11 @@ pub fn simulate_fleet(setup: &FleetSetup, seed: u64) -> Result<SimulatedFleet, S
         return invalid("units", 0.0, "a fleet needs at least one unit");
     }
     if let Some(&bad) = setup.faulty.iter().find(|&&i| i >= setup.units) {
-        return invalid("faulty", bad as f64, "names a unit past the last (units count from 0)");
+        return invalid(
+            "faulty",
+            bad as f64,
+            "names a unit past the last (units count from 0)",
+        );
     }
     let spread = &setup.spread;
     for (name, v) in [
@@ -170,11 +176,13 @@ pub fn simulate_fleet(setup: &FleetSetup, seed: u64) -> Result<SimulatedFleet, S
     {
         return invalid("fault", f64::NAN, "every fault value must be finite");
     }
-    let normal = |sd: f64| Normal::new(0.0, sd).map_err(|_| SimulationError::Invalid {
-        name: "spread",
-        value: sd,
-        why: "not a valid standard deviation",
-    });
+    let normal = |sd: f64| {
+        Normal::new(0.0, sd).map_err(|_| SimulationError::Invalid {
+            name: "spread",
+            value: sd,
+            why: "not a valid standard deviation",
+        })
+    };
     let (bias, scale, mis) = (
         normal(spread.bias_sd_g)?,
         normal(spread.scale_sd_pct)?,
@@ -320,9 +328,16 @@ mod tests {
         assert_eq!(names, ["unit-01", "unit-02", "unit-03", "unit-04"]);
         for (x, y) in a.units.iter().zip(&b.units) {
             assert_eq!(x.campaign.truth.setup, y.campaign.truth.setup);
-            assert_eq!(x.campaign.recordings[0].recording, y.campaign.recordings[0].recording);
+            assert_eq!(
+                x.campaign.recordings[0].recording,
+                y.campaign.recordings[0].recording
+            );
         }
-        let bias: Vec<f64> = a.units.iter().map(|u| u.campaign.truth.setup.sensor.bias_g[0]).collect();
+        let bias: Vec<f64> = a
+            .units
+            .iter()
+            .map(|u| u.campaign.truth.setup.sensor.bias_g[0])
+            .collect();
         assert!(bias.windows(2).all(|w| w[0] != w[1]), "{bias:?}");
         let nominal = CampaignSetup::default().sensor;
         for u in &a.units {
