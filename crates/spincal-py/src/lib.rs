@@ -394,8 +394,7 @@ fn fit_options(
             return Err(usage(format!("{name} = {value:?}: must be a positive number")));
         }
     }
-    if !(radius_tol_m.is_finite() && radius_tol_m > 0.0) || !(gravity_mps2.is_finite() && gravity_mps2 > 0.0)
-    {
+    if !(radius_tol_m.is_finite() && radius_tol_m > 0.0 && gravity_mps2.is_finite() && gravity_mps2 > 0.0) {
         return Err(usage("radius_tol_m and gravity_mps2 must be positive numbers"));
     }
     Ok(FitOptions {
@@ -683,6 +682,13 @@ fn calibrate_campaign(
     Ok(PyCampaignCalibration { output })
 }
 
+/// Corrected samples (n, 3), valid (n,), outside the training range (n,).
+type CorrectedArrays<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<bool>>,
+    Bound<'py, PyArray1<bool>>,
+);
+
 /// A saved corrector (model.json) of any kind: ann, linear, static, physical.
 #[pyclass(name = "Corrector", module = "spincal._spincal", frozen)]
 struct PyCorrector {
@@ -748,11 +754,7 @@ impl PyCorrector {
         &self,
         py: Python<'py>,
         accel: PyReadonlyArray2<'py, f64>,
-    ) -> PyResult<(
-        Bound<'py, PyArray2<f64>>,
-        Bound<'py, PyArray1<bool>>,
-        Bound<'py, PyArray1<bool>>,
-    )> {
+    ) -> PyResult<CorrectedArrays<'py>> {
         if accel.shape().len() != 2 || accel.shape()[1] != 3 {
             return Err(usage(format!(
                 "accel: expected an (n, 3) array, got shape {:?}",
@@ -951,25 +953,16 @@ fn calibrate_unit(
 type OutcomeTuple = (String, PathBuf, Option<String>, Option<String>, Option<String>);
 
 /// The fleet table (every sensor parameter with its standard error per unit, fleet statistics,
-/// outliers) from the units' outcomes; returns (table JSON, table CSV, fleet.html).
+/// outliers) from the units' outcomes; `outliers_json` overrides the library's OutlierSettings.
+/// Returns (table JSON, table CSV, fleet.html).
 #[pyfunction]
-#[pyo3(signature = (outcomes, *, threshold = None, min_units = None))]
+#[pyo3(signature = (outcomes, *, outliers_json = None))]
 fn fleet_table(
     outcomes: Vec<OutcomeTuple>,
-    threshold: Option<f64>,
-    min_units: Option<usize>,
+    outliers_json: Option<&str>,
 ) -> PyResult<(String, String, String)> {
     use spincal::fleet::{OutlierSettings, UnitCalibration, UnitOutcome};
-    let mut settings = OutlierSettings::default();
-    if let Some(t) = threshold {
-        if !(t.is_finite() && t > 0.0) {
-            return Err(usage(format!("threshold = {t}: must be a positive number")));
-        }
-        settings.threshold = t;
-    }
-    if let Some(m) = min_units {
-        settings.min_units = m;
-    }
+    let settings = with_overrides(OutlierSettings::default(), outliers_json, "outlier settings")?;
     let mut units = Vec::with_capacity(outcomes.len());
     for (label, source, results, model, error) in outcomes {
         let result = match (results, error) {

@@ -165,7 +165,6 @@ def calibrate_unit(source: _Path, *, progress: _Progress = None) -> Tuple[str, s
 def fleet_table(
     outcomes: Sequence[Tuple[str, _Path, Optional[str], Optional[str], Optional[str]]],
     *,
-    threshold: Optional[float] = None,
-    min_units: Optional[int] = None,
+    outliers_json: Optional[str] = None,
 ) -> Tuple[str, str, str]: ...
 def simulate_fleet(folder: _Path, seed: int = 7, setup_json: Optional[str] = None) -> Tuple[List[str], str]: ...

@@ -220,8 +220,7 @@ def _write(path: str, text: str) -> None:
 def calibrate_fleet(
     units: Sequence[PathLike],
     *,
-    outlier_threshold: Optional[float] = None,
-    min_units: Optional[int] = None,
+    outliers: Optional[Mapping[str, Any]] = None,
     max_retries: int = 3,
     runtime_env: Optional[Mapping[str, Any]] = None,
     max_in_flight: Optional[int] = None,
@@ -230,8 +229,8 @@ def calibrate_fleet(
     """Calibrates every unit (a campaign file or a folder holding ``campaign.toml``) as one Ray
     task each, on the cluster ``ray.init()`` reached, and makes the fleet table with outliers.
 
-    ``outlier_threshold``/``min_units`` change the library's outlier rule (defaults in the
-    table's ``settings``). ``max_retries``: how often a task whose worker was lost is run again
+    ``outliers`` changes the library's outlier rule (``false_alarm_probability``, ``screen``,
+    ``min_units``; the values used are in the table's ``settings``, the rule in its ``rule``). ``max_retries``: how often a task whose worker was lost is run again
     (the result is the same). ``runtime_env`` is merged into the tasks' (``env_vars`` always
     holds ``RAYON_NUM_THREADS=1``). ``max_in_flight`` bounds the tasks submitted at once (default:
     four per CPU of the cluster), so the driver reads and holds only that many units' files.
@@ -300,7 +299,6 @@ def calibrate_fleet(
     results = [UnitResult(labels[i], sources[i], outcomes[i]) for i in range(len(sources))]
     table_json, table_csv, html = _spincal.fleet_table(
         [(u.label, u.source, u._results_json, u._model_json, u.error) for u in results],
-        threshold=outlier_threshold,
-        min_units=min_units,
+        outliers_json=None if outliers is None else json.dumps(dict(outliers)),
     )
     return FleetResult(results, Result(json.loads(table_json)), table_csv, html, time.perf_counter() - started)
