@@ -42,6 +42,29 @@ fn copy_tree(from: &Path, to: &Path) {
     }
 }
 
+/// The most recently modified file under `dir`.
+fn newest_source(dir: &Path) -> Option<(std::time::SystemTime, PathBuf)> {
+    let mut newest: Option<(std::time::SystemTime, PathBuf)> = None;
+    for entry in std::fs::read_dir(dir).ok()?.flatten() {
+        let path = entry.path();
+        let candidate = if path.is_dir() {
+            newest_source(&path)
+        } else {
+            entry
+                .metadata()
+                .and_then(|m| m.modified())
+                .ok()
+                .map(|t| (t, path))
+        };
+        if let Some(c) = candidate {
+            if newest.as_ref().is_none_or(|n| c.0 > n.0) {
+                newest = Some(c);
+            }
+        }
+    }
+    newest
+}
+
 #[test]
 fn pytest_suite_passes_against_this_build() {
     let required = std::env::var("SPINCAL_REQUIRE_PYTHON").is_ok_and(|v| v == "1");
@@ -83,6 +106,18 @@ fn pytest_suite_passes_against_this_build() {
         "{} was not built by this cargo run (the cdylib of crates/spincal-py)",
         module.display()
     );
+    // Cargo does not rebuild a cdylib-only library for an integration test: the module must be
+    // newer than every source it is built from (setup.sh's maturin build, or `cargo build`).
+    let built = std::fs::metadata(&module).and_then(|m| m.modified()).unwrap();
+    for dir in ["crates/spincal-py/src", "crates/spincal/src"] {
+        if let Some(newer) = newest_source(&root().join(dir)).filter(|(t, _)| *t > built) {
+            panic!(
+                "{} is older than {}: rebuild it (`bash scripts/setup.sh`, or `cargo build --release -p spincal-py`)",
+                module.display(),
+                newer.1.display()
+            );
+        }
+    }
     let cli = profile.join("spincal");
     assert!(
         cli.exists(),
