@@ -1,5 +1,6 @@
 //! The `spincal` command: parses arguments, calls the library, prints, draws progress bars.
-//! Exit codes: 0 success, 1 failure, 2 bad usage. A closed pipe on stdout is not an error.
+//! Exit codes: 0 success, 1 failure, 2 bad usage, 3 finished with some rows refused (`correct`) or
+//! some units failed (`fleet`). A closed pipe on stdout is not an error.
 
 mod commands;
 mod ui;
@@ -25,6 +26,9 @@ enum Command {
     Calibrate(commands::calibrate::CalibrateArgs),
     /// Every corrector on turntable recordings, as the paper's Table 2 (text, CSV, JSON).
     Compare(commands::compare::CompareArgs),
+    /// Calibrate many units, each from its campaign, in parallel; a fleet table with outliers.
+    #[command(after_help = commands::fleet::AFTER_HELP)]
+    Fleet(commands::fleet::FleetArgs),
     /// Simulate a 3DM-GX1-like accelerometer on a turntable (CSV + truth JSON).
     Simulate(commands::simulate::SimulateArgs),
     /// Fit the turntable model to recordings: r, ω, tilt, β, phase, offsets, drift.
@@ -93,6 +97,7 @@ fn main() {
         Command::Demo(args) => commands::demo::run(args, ui),
         Command::Calibrate(args) => commands::calibrate::run(args, ui),
         Command::Compare(args) => commands::compare::run(args, ui),
+        Command::Fleet(args) => commands::fleet::run(args, ui),
         Command::Simulate(args) => commands::simulate::run(args),
         Command::Fit(args) => commands::fit::run(args, ui),
         Command::Sensitivity(args) => commands::sensitivity::run(args),

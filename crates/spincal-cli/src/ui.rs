@@ -2,7 +2,7 @@
 
 use std::io::{IsTerminal, Write};
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use spincal::progress::Progress;
 
 /// What every command gets: whether progress may be drawn.
@@ -31,6 +31,16 @@ impl Ui {
         );
         bar.set_message(message.to_string());
         bar
+    }
+
+    /// A group of bars drawn together on stderr (one per fleet unit); hidden when quiet or not a
+    /// terminal. Bars made by [`Ui::progress`] are added to it.
+    pub fn multi(&self) -> MultiProgress {
+        if self.show_progress {
+            MultiProgress::new()
+        } else {
+            MultiProgress::with_draw_target(ProgressDrawTarget::hidden())
+        }
     }
 
     /// A spinner for work of unknown length.
@@ -77,7 +87,7 @@ pub fn exit_code(result: anyhow::Result<()>) -> i32 {
                 eprintln!("error: {e}");
                 return 2;
             }
-            if e.downcast_ref::<RowsRefused>().is_some() {
+            if e.downcast_ref::<RowsRefused>().is_some() || e.downcast_ref::<UnitsFailed>().is_some() {
                 eprintln!("error: {e}");
                 return 3;
             }
@@ -94,6 +104,12 @@ pub fn exit_code(result: anyhow::Result<()>) -> i32 {
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct UsageError(pub String);
+
+/// `spincal fleet` finished and wrote every other unit's outputs, but some units failed: exit
+/// code 3.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct UnitsFailed(pub String);
 
 /// The command finished and wrote every row, but refused some rows: exit code 3.
 #[derive(Debug, thiserror::Error)]

@@ -6,9 +6,9 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use spincal::campaign::{calibrate_campaign, load_campaign, Campaign, CampaignOutput, CampaignSettings};
+use spincal::campaign::{Campaign, CampaignOutput, CampaignSettings};
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
-use spincal::AccelUnit;
+use spincal::simulate::fleet::WriteError;
 
 use crate::ui::{self, Ui, UsageError};
 
@@ -42,26 +42,11 @@ pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignO
         }
     }
     super::check_outputs(&inputs, &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>())?;
-    let clock = std::time::Instant::now();
-    let units = load_campaign(&campaign)?;
-    let read_seconds = clock.elapsed().as_secs_f64();
-    let settings = CampaignSettings {
-        joint: spincal::campaign::JointSettings {
-            gravity_mps2: campaign.gravity_mps2,
-            ..Default::default()
-        },
-        ..CampaignSettings::default()
-    };
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let bar = ui.progress(1, "calibrating the campaign");
-    let mut output = calibrate_campaign(&campaign.unit, &units, &settings, &|p| crate::ui::show(&bar, p))?;
-    output.result.stage_seconds.insert(
-        0,
-        spincal::calibrate::StageTime {
-            stage: "read".into(),
-            seconds: read_seconds,
-        },
-    );
+    let output = spincal::fleet::calibrate_campaign_file(&campaign, &CampaignSettings::default(), &|p| {
+        crate::ui::show(&bar, p)
+    })?;
     bar.finish_and_clear();
     let model_path = out.join("model.json");
     if let Some(model) = &output.saved {
@@ -343,29 +328,9 @@ pub fn write_simulated_campaign(
     replace_own: bool,
 ) -> anyhow::Result<spincal::simulate::campaign::SimulatedCampaign> {
     let sim = simulate_campaign(setup, seed).map_err(|e| UsageError(e.to_string()))?;
-    let mut targets = vec![dir.join("campaign.toml"), dir.join("truth.json")];
-    for r in &sim.recordings {
-        targets.push(dir.join(format!("{}.csv", r.name)));
-        targets.push(dir.join(format!("{}.truth.csv", r.name)));
+    match sim.write_folder(dir, replace_own) {
+        Err(e @ WriteError::Exists { .. }) => Err(UsageError(e.to_string()).into()),
+        Err(e) => Err(e.into()),
+        Ok(()) => Ok(sim),
     }
-    if let Some(existing) = targets.iter().find(|p| !replace_own && p.exists()) {
-        return Err(UsageError(format!(
-            "{} already exists: spincal does not replace files in a campaign folder; choose an empty folder",
-            existing.display()
-        ))
-        .into());
-    }
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    for (i, r) in sim.recordings.iter().enumerate() {
-        r.recording
-            .write_csv_path(&dir.join(format!("{}.csv", r.name)), AccelUnit::Mps2)?;
-        sim.truth_recording(i)
-            .write_csv_path(&dir.join(format!("{}.truth.csv", r.name)), AccelUnit::Mps2)?;
-    }
-    super::write_text(
-        &dir.join("truth.json"),
-        &(serde_json::to_string_pretty(&sim.truth)? + "\n"),
-    )?;
-    super::write_text(&dir.join("campaign.toml"), &sim.campaign_toml())?;
-    Ok(sim)
 }

@@ -7,6 +7,7 @@ pub mod compare;
 pub mod correct;
 pub mod demo;
 pub mod fit;
+pub mod fleet;
 pub mod input;
 pub mod inspect;
 pub mod sensitivity;

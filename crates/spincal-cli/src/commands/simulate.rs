@@ -16,18 +16,34 @@ use crate::ui::{self, UsageError};
     after_help = "Examples:\n  spincal simulate -o rec33.csv --rpm 33.333 --radius 0.10 --tilt-deg 1.5 --seed 7\n  \
                         writes rec33.csv (t_s, ax_g, ay_g, az_g) and rec33.truth.json\n  \
                         spincal simulate --campaign unit7 --seed 7\n  \
-                        writes unit7/campaign.toml, still poses and turntable runs with their true specific force"
+                        writes unit7/campaign.toml, still poses and turntable runs with their true specific force\n  \
+                        spincal simulate --fleet 8 --faulty 3 --out fleet8 --seed 7\n  \
+                        writes fleet8/unit-01 … unit-08 (campaign folders, each unit with its own sensor errors;\n  \
+                        unit-03 with +0.1 g bias on x and +5 % scale error on y) and fleet8/fleet-truth.json"
 )]
 pub struct SimulateArgs {
     /// Output CSV.
-    #[arg(short, long, required_unless_present = "campaign")]
+    #[arg(short, long, required_unless_present_any = ["campaign", "fleet"])]
     pub output: Option<PathBuf>,
     /// Write a whole campaign of one unit into this folder instead (campaign.toml, still poses and
     /// turntable runs in m/s², each with its true specific force, and truth.json).
-    #[arg(long, value_name = "DIR", conflicts_with = "output")]
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["output", "fleet"])]
     pub campaign: Option<PathBuf>,
-    /// With --campaign: the campaign setup as JSON (fields of CampaignSetup; defaults otherwise).
-    #[arg(long, requires = "campaign")]
+    /// Write a fleet of N units into --out DIR instead: one campaign folder per unit (unit-01, …),
+    /// each unit's sensor drawn around the default one (bias sd 0.005 g, scale error sd 0.3 %,
+    /// misalignment sd 0.2° per axis), and fleet-truth.json.
+    #[arg(long, value_name = "N", conflicts_with = "output", requires = "out", value_parser = clap::value_parser!(u64).range(1..=10000))]
+    pub fleet: Option<u64>,
+    /// With --fleet: the folder the unit folders go into.
+    #[arg(long, value_name = "DIR", requires = "fleet")]
+    pub out: Option<PathBuf>,
+    /// With --fleet: units made faulty (+0.1 g bias on x, +5 % scale error on y), numbered from 1
+    /// as their folders (unit-03 is 3); comma-separated.
+    #[arg(long, value_name = "K", requires = "fleet", value_delimiter = ',')]
+    pub faulty: Vec<usize>,
+    /// With --campaign or --fleet: the campaign setup as JSON (fields of CampaignSetup; defaults
+    /// otherwise).
+    #[arg(long)]
     pub setup: Option<PathBuf>,
     /// Truth sidecar (default: the output name with .truth.json).
     #[arg(long)]
@@ -86,6 +102,19 @@ pub struct SimulateArgs {
 }
 
 pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
+    if let (Some(units), Some(out)) = (args.fleet, &args.out) {
+        return super::fleet::simulate(
+            units as usize,
+            out,
+            args.seed,
+            &args.faulty,
+            args.setup.as_deref(),
+            args.json,
+        );
+    }
+    if args.setup.is_some() && args.campaign.is_none() {
+        return Err(UsageError("--setup needs --campaign or --fleet".into()).into());
+    }
     if let Some(dir) = &args.campaign {
         return super::campaign::simulate(dir, args.seed, args.setup.as_deref(), args.json);
     }

@@ -7,6 +7,7 @@
 //! quantisation. Every random draw comes from one `ChaCha8Rng` seeded by the caller.
 
 pub mod campaign;
+pub mod fleet;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

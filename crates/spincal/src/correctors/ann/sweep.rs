@@ -144,6 +144,13 @@ pub fn sweep(
         .par_iter()
         .map(|&job| {
             let (arch, restart) = (job / restarts, job % restarts);
+            // Reported before each run too, so an observer that stops the work (Ctrl-C in the
+            // Python package) is heard before the next run starts rather than after it ends.
+            observer(Progress::step(
+                "network sweep",
+                done.load(Ordering::Relaxed),
+                Some(total),
+            ));
             let started = Instant::now();
             let (weights, report) =
                 problem.train_once(&layouts[arch], settings.base_seed, restart, &settings.lm);

@@ -1,0 +1,283 @@
+//! `spincal fleet UNIT... --out DIR`: many units, each calibrated from its campaign as
+//! `calibrate --campaign` does, several at once; per-unit folders, then the fleet table (CSV,
+//! JSON) and its HTML summary with outliers flagged. `spincal simulate --fleet N` writes a fleet.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+use indicatif::ProgressStyle;
+use spincal::campaign::{Campaign, CampaignOutput};
+use spincal::fleet::{
+    calibrate_fleet, campaign_inputs, campaign_path, expand_sources, fleet_table, unit_labels, FleetSettings,
+    FleetTable, OutlierSettings, UnitOutcome,
+};
+use spincal::progress::Progress;
+use spincal::simulate::campaign::CampaignSetup;
+use spincal::simulate::fleet::{simulate_fleet, FleetSetup, WriteError};
+
+use crate::ui::{self, Ui, UnitsFailed, UsageError};
+
+pub const AFTER_HELP: &str =
+    "Each UNIT is a campaign file, or a folder holding campaign.toml; a folder of such folders (as
+`spincal simulate --fleet` writes) stands for all of them. Each unit is calibrated exactly as
+`spincal calibrate --campaign` does, on one thread; --threads units run at once.
+
+Writes OUT/<unit>/results.json, report.html and (when saved) model.json per unit, and
+OUT/fleet.csv, fleet.json (every sensor parameter with its standard error per unit, fleet median
+and robust spread, outliers with the reason) and fleet.html (each parameter across the fleet,
+outliers highlighted). A unit is flagged on a parameter when it lies outside the prediction
+interval of the other units (those within 5 robust spreads of the median), widened by its own
+standard error, at two-sided probability --false-alarm (Student's t; judged with 5 or more
+units).
+
+Exit codes: 0 every unit calibrated; 3 some units failed (every other unit's outputs and the
+fleet table are written, the failures are in it); 1 no unit could be calibrated; 2 bad usage.
+
+A simulated fleet to try it on: `spincal simulate --fleet 8 --faulty 3 --out fleet8 --seed 7`; then
+`spincal fleet fleet8 --out fleet8-cal` calibrates all eight (a minute or two on two cores) and
+flags unit-03.
+
+Examples:
+  spincal fleet fleet8/unit-01 fleet8/unit-03 --out fleet8-two --threads 2";
+
+#[derive(Args, Debug)]
+pub struct FleetArgs {
+    /// The units: campaign files, folders holding campaign.toml, or folders of such folders.
+    #[arg(required = true, value_name = "DIR_OR_CAMPAIGN")]
+    pub units: Vec<PathBuf>,
+    /// Output folder: one folder per unit, fleet.csv, fleet.json and fleet.html.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Units calibrated at once (default: all cores); each unit uses one thread.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    pub threads: Option<u64>,
+    /// Chance that a unit like the others is flagged on one parameter (two-sided, 0 to 1).
+    #[arg(long, default_value_t = 1e-4, value_parser = probability, allow_negative_numbers = true)]
+    pub false_alarm: f64,
+    /// Print the fleet table as JSON instead of the summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn probability(text: &str) -> Result<f64, String> {
+    let v: f64 = text.parse().map_err(|_| format!("{text}: not a number"))?;
+    if v > 0.0 && v < 1.0 {
+        Ok(v)
+    } else {
+        Err(format!("{text}: must lie strictly between 0 and 1"))
+    }
+}
+
+/// Every file a run writes, per unit and for the fleet.
+fn outputs_of(out: &Path, labels: &[String]) -> Vec<PathBuf> {
+    let mut outputs: Vec<PathBuf> = ["fleet.csv", "fleet.json", "fleet.html"]
+        .iter()
+        .map(|n| out.join(n))
+        .collect();
+    for label in labels {
+        for name in ["model.json", "results.json", "report.html"] {
+            outputs.push(out.join(label).join(name));
+        }
+    }
+    outputs
+}
+
+pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
+    let sources = expand_sources(&args.units);
+    let labels = unit_labels(&sources);
+    // Outputs may not be inputs: every campaign that can be read names its files (one that
+    // cannot fails as its own unit later).
+    let mut inputs: Vec<PathBuf> = Vec::new();
+    for source in &sources {
+        if let Ok(campaign) = campaign_path(source).and_then(|p| Ok(Campaign::read_path(&p)?)) {
+            inputs.extend(campaign_inputs(&campaign));
+        }
+    }
+    let outputs = outputs_of(&args.out, &labels);
+    super::check_outputs(
+        &inputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
+        &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
+    )?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+
+    let multi = ui.multi();
+    let width = labels.iter().map(String::len).max().unwrap_or(4);
+    let bars: Vec<_> = labels
+        .iter()
+        .map(|label| {
+            let bar = multi.add(ui.progress(1, "waiting"));
+            let template =
+                format!("{{prefix:<{width}}} {{msg:>20}} [{{bar:30}}] {{pos}}/{{len}} {{elapsed_precise}}");
+            if let Ok(style) = ProgressStyle::with_template(&template) {
+                bar.set_style(style.progress_chars("=> "));
+            }
+            bar.set_prefix(label.clone());
+            bar
+        })
+        .collect();
+    let settings = FleetSettings {
+        threads: args.threads.map(|t| t as usize),
+        ..FleetSettings::default()
+    };
+    let observer = |i: usize, p: Progress<'_>| {
+        if let Some(bar) = bars.get(i) {
+            ui::show(bar, p);
+            if p.stage == "done" || p.stage == "failed" {
+                bar.finish();
+            }
+        }
+    };
+    let outcomes = calibrate_fleet(&sources, &settings, &observer);
+    let _ = multi.clear();
+
+    for outcome in &outcomes {
+        if let Ok(cal) = &outcome.result {
+            let dir = args.out.join(&outcome.unit);
+            cal.write(&dir)?;
+            let report = super::campaign::report_html(&CampaignOutput {
+                result: cal.result.clone(),
+                saved: cal.model.clone(),
+            });
+            super::write_text(&dir.join("report.html"), &report)?;
+        }
+    }
+    let table = fleet_table(
+        &outcomes,
+        &OutlierSettings {
+            false_alarm_probability: args.false_alarm,
+            ..OutlierSettings::default()
+        },
+    );
+    super::write_text(&args.out.join("fleet.csv"), &table.to_csv())?;
+    super::write_text(
+        &args.out.join("fleet.json"),
+        &(serde_json::to_string_pretty(&table)? + "\n"),
+    )?;
+    let html = spincal::report::fleet::fleet_html(&table).context("drawing fleet.html")?;
+    super::write_text(&args.out.join("fleet.html"), &html)?;
+
+    if args.json {
+        ui::print_json(&table)?;
+    } else {
+        ui::print(&summary(&table, &outcomes, &args.out))?;
+    }
+    let failed: Vec<String> = outcomes
+        .iter()
+        .filter_map(|o| o.result.as_ref().err().map(|e| format!("  {}: {e}", o.unit)))
+        .collect();
+    if failed.is_empty() {
+        return Ok(());
+    }
+    let message = format!(
+        "{} of {} units failed:\n{}",
+        failed.len(),
+        outcomes.len(),
+        failed.join("\n")
+    );
+    if table.units_ok == 0 {
+        anyhow::bail!(message);
+    }
+    Err(UnitsFailed(message).into())
+}
+
+/// The terminal summary: one line per unit, then the flags.
+pub fn summary(table: &FleetTable, outcomes: &[UnitOutcome], out: &Path) -> String {
+    let width = table.rows.iter().map(|r| r.unit.len()).max().unwrap_or(4).max(4);
+    let mut text = format!(
+        "{} units: {} calibrated, {} failed, {} flagged\n\n{:<width$}  status  saved             held-out RMS (m/s²)  flagged on\n",
+        table.rows.len(),
+        table.units_ok,
+        table.units_failed,
+        table.flagged_units().len(),
+        "unit"
+    );
+    for row in &table.rows {
+        let flags: Vec<&str> = row.flags.iter().map(|f| f.parameter.as_str()).collect();
+        let _ = writeln!(
+            text,
+            "{:<width$}  {:<6}  {:<16}  {:<19}  {}",
+            row.unit,
+            if row.ok { "ok" } else { "failed" },
+            row.saved.as_deref().unwrap_or("–"),
+            row.held_out_rms_mps2.map_or("–".into(), |v| format!("{v:.4}")),
+            flags.join(", ")
+        );
+    }
+    if !table.outliers.is_empty() {
+        text.push_str("\nflagged:\n");
+        for f in &table.outliers {
+            let _ = writeln!(text, "  {}: {}", f.unit, f.reason);
+        }
+    }
+    let ok = outcomes.iter().filter(|o| o.result.is_ok()).count();
+    let dir = out.display();
+    let _ = writeln!(
+        text,
+        "\nwrote {dir}/fleet.csv, {dir}/fleet.json, {dir}/fleet.html and {ok} unit folder{} ({dir}/<unit>/results.json, report.html, model.json when saved)",
+        if ok == 1 { "" } else { "s" }
+    );
+    text
+}
+
+/// `spincal simulate --fleet N --out DIR`: writes the fleet and says so.
+pub fn simulate(
+    units: usize,
+    dir: &Path,
+    seed: u64,
+    faulty: &[usize],
+    setup_file: Option<&Path>,
+    json: bool,
+) -> anyhow::Result<()> {
+    let campaign = match setup_file {
+        Some(path) => {
+            let text =
+                std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+            serde_json::from_str::<CampaignSetup>(&text)
+                .with_context(|| format!("{}: not a campaign setup", path.display()))?
+        }
+        None => CampaignSetup::default(),
+    };
+    if let Some(bad) = faulty.iter().find(|&&k| k == 0 || k > units) {
+        return Err(UsageError(format!(
+            "--faulty {bad}: units are numbered 1 to {units} (unit-01 is 1)"
+        ))
+        .into());
+    }
+    let setup = FleetSetup {
+        units,
+        campaign,
+        faulty: faulty.iter().map(|k| k - 1).collect(),
+        ..FleetSetup::default()
+    };
+    let fleet = simulate_fleet(&setup, seed).map_err(|e| UsageError(e.to_string()))?;
+    let folders = match fleet.write_folders(dir) {
+        Err(e @ WriteError::Exists { .. }) => return Err(UsageError(e.to_string()).into()),
+        other => other?,
+    };
+    if json {
+        return ui::print_json(&serde_json::json!({
+            "units": folders,
+            "faulty": fleet.units.iter().filter(|u| u.faulty).map(|u| &u.name).collect::<Vec<_>>(),
+            "truth": dir.join("fleet-truth.json"),
+        }));
+    }
+    let faulty_names: Vec<&str> = fleet
+        .units
+        .iter()
+        .filter(|u| u.faulty)
+        .map(|u| u.name.as_str())
+        .collect();
+    ui::print(&format!(
+        "wrote {} unit campaigns into {} ({}), each with its own sensor errors, and {}\n",
+        folders.len(),
+        dir.display(),
+        if faulty_names.is_empty() {
+            "none faulty".to_string()
+        } else {
+            format!("faulty: {}", faulty_names.join(", "))
+        },
+        dir.join("fleet-truth.json").display()
+    ))
+}

@@ -1,0 +1,1051 @@
+//! `spincal._spincal`: the Python extension module. Thin: every function converts its arguments,
+//! calls the library and converts the answer; results travel as JSON text (the library's own
+//! serialisation, the same as results.json) and signals as numpy arrays. The pure-Python package
+//! (`python/spincal`) wraps the JSON in typed result objects and draws progress bars.
+
+use std::path::{Path, PathBuf};
+
+use numpy::ndarray::{Array1, Array2, ArrayView2, Axis as NdAxis};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyBytes;
+
+use spincal::calibrate::{CalibrateSettings, CalibrationOutput, NetworkChoice};
+use spincal::campaign::{Campaign, CampaignOutput, CampaignSettings};
+use spincal::corrector::{Axis, Corrector};
+use spincal::formats::{Format, ReadOptions};
+use spincal::recording::{GyroUnit, TimeUnit};
+use spincal::sysid::{ModelKind, ModelSpec};
+use spincal::turntable::{AxesObjective, DriftMode, FitOptions, RadiusPrior};
+use spincal::{AccelUnit, CorrectorFile, CorrectorModel, Recording};
+
+mod errors;
+mod long;
+
+use errors::usage;
+
+/// JSON text of a serialisable library value.
+fn json<T: serde::Serialize>(value: &T) -> PyResult<String> {
+    serde_json::to_string(value).map_err(|e| errors::Error::new_err(format!("serialising the result: {e}")))
+}
+
+/// A time series of one IMU session in SI units (s, m/s², rad/s), as read or simulated.
+#[pyclass(name = "Recording", module = "spincal._spincal", frozen)]
+struct PyRecording {
+    inner: Recording,
+    notes: Vec<String>,
+    raw_counts: bool,
+}
+
+/// Three columns as one (n, 3) array: one copy into a (3, n) block, returned transposed (a
+/// Fortran-ordered (n, 3) view of it, no second copy).
+fn columns_to_array<'py>(py: Python<'py>, columns: &[Vec<f64>; 3]) -> Bound<'py, PyArray2<f64>> {
+    let n = columns[0].len();
+    let mut flat = Vec::with_capacity(3 * n);
+    for c in columns {
+        flat.extend_from_slice(c);
+    }
+    let block = Array2::from_shape_vec((3, n), flat).expect("three columns of equal length");
+    block.reversed_axes().into_pyarray(py)
+}
+
+/// An (n, 3) array as three columns (any strides).
+fn array_to_columns(view: ArrayView2<'_, f64>, what: &str) -> PyResult<[Vec<f64>; 3]> {
+    if view.ncols() != 3 {
+        return Err(usage(format!(
+            "{what}: expected an (n, 3) array, got shape {:?}",
+            view.shape()
+        )));
+    }
+    Ok(std::array::from_fn(|a| view.column(a).to_vec()))
+}
+
+#[pymethods]
+impl PyRecording {
+    /// Sample times, s (a copy).
+    #[getter]
+    fn time<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.time_s)
+    }
+    /// Accelerometer x, y, z in m/s², shape (n, 3).
+    #[getter]
+    fn accel<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        columns_to_array(py, &self.inner.accel_mps2)
+    }
+    /// Gyroscope x, y, z in rad/s, shape (n, 3), or None when not recorded.
+    #[getter]
+    fn gyro<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        self.inner.gyro_radps.as_ref().map(|g| columns_to_array(py, g))
+    }
+    /// The file name (or what the recording was made from).
+    #[getter]
+    fn name(&self) -> String {
+        self.inner.source.name.clone()
+    }
+    /// The format read (`csv`, `phyphox`, `3dm-gx1`, …).
+    #[getter]
+    fn format(&self) -> String {
+        self.inner.source.format.clone()
+    }
+    /// The columns used, as named in the file (t, ax, ay, az[, gx, gy, gz]).
+    #[getter]
+    fn columns(&self) -> Vec<String> {
+        self.inner.source.columns.clone()
+    }
+    /// Metadata lines skipped before the data.
+    #[getter]
+    fn metadata(&self) -> Vec<String> {
+        self.inner.source.metadata.clone()
+    }
+    /// What the reader wants you to know (synthesised time, dropped gyro counts …).
+    #[getter]
+    fn notes(&self) -> Vec<String> {
+        self.notes.clone()
+    }
+    /// True when the acceleration holds raw counts (no scale was given for a raw-count format).
+    #[getter]
+    fn raw_counts(&self) -> bool {
+        self.raw_counts
+    }
+    /// Mean sample rate, Hz.
+    #[getter]
+    fn sample_rate_hz(&self) -> f64 {
+        self.inner.sample_rate_hz()
+    }
+    /// First to last sample, s.
+    #[getter]
+    fn duration_s(&self) -> f64 {
+        self.inner.duration_s()
+    }
+    fn __len__(&self) -> usize {
+        self.inner.len()
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "Recording(name={:?}, format={:?}, samples={}, duration_s={:.3}, gyro={})",
+            self.inner.source.name,
+            self.inner.source.format,
+            self.inner.len(),
+            self.inner.duration_s(),
+            self.inner.gyro_radps.is_some()
+        )
+    }
+    /// Writes the recording as spincal's CSV (`t_s,ax_g,ay_g,az_g` for unit "g", or m/s²).
+    #[pyo3(signature = (path, unit = "g"))]
+    fn write_csv(&self, path: PathBuf, unit: &str) -> PyResult<()> {
+        let unit =
+            AccelUnit::parse(unit).ok_or_else(|| usage(format!("unit {unit:?}: expected g or mps2")))?;
+        self.inner.write_csv_path(&path, unit).map_err(errors::output)
+    }
+}
+
+fn parse_format(name: Option<&str>) -> PyResult<Option<Format>> {
+    name.map(|f| Format::parse(f).ok_or_else(|| usage(format!("format {f:?} is not one spincal reads"))))
+        .transpose()
+}
+
+/// Builds the library's read options from keyword arguments.
+#[allow(clippy::too_many_arguments)]
+fn read_options(
+    format: Option<&str>,
+    columns: Option<&str>,
+    accel_unit: Option<&str>,
+    time_unit: Option<&str>,
+    gyro_unit: Option<&str>,
+    sample_rate_hz: Option<f64>,
+    accel_scale: Option<f64>,
+    retime: bool,
+) -> PyResult<ReadOptions> {
+    let mut options = ReadOptions {
+        format: parse_format(format)?,
+        sample_rate_hz,
+        accel_scale,
+        retime,
+        ..ReadOptions::default()
+    };
+    if let Some(spec) = columns {
+        options.columns = options.columns.with_columns(spec).map_err(errors::usage_error)?;
+    }
+    options.columns.accel_unit = accel_unit
+        .map(|u| AccelUnit::parse(u).ok_or_else(|| usage(format!("accel_unit {u:?}: expected g or mps2"))))
+        .transpose()?;
+    options.columns.time_unit = time_unit
+        .map(|u| TimeUnit::parse(u).ok_or_else(|| usage(format!("time_unit {u:?}: expected s, ms or us"))))
+        .transpose()?;
+    options.columns.gyro_unit = gyro_unit
+        .map(|u| GyroUnit::parse(u).ok_or_else(|| usage(format!("gyro_unit {u:?}: expected dps or radps"))))
+        .transpose()?;
+    Ok(options)
+}
+
+/// Reads a recording in any supported format from a path or from bytes (`name` names it in errors).
+#[pyfunction]
+#[pyo3(signature = (source, *, name = None, format = None, columns = None, accel_unit = None, time_unit = None,
+    gyro_unit = None, sample_rate_hz = None, accel_scale = None, retime = false))]
+#[allow(clippy::too_many_arguments)]
+fn read(
+    py: Python<'_>,
+    source: &Bound<'_, PyAny>,
+    name: Option<String>,
+    format: Option<&str>,
+    columns: Option<&str>,
+    accel_unit: Option<&str>,
+    time_unit: Option<&str>,
+    gyro_unit: Option<&str>,
+    sample_rate_hz: Option<f64>,
+    accel_scale: Option<f64>,
+    retime: bool,
+) -> PyResult<PyRecording> {
+    let options = read_options(
+        format,
+        columns,
+        accel_unit,
+        time_unit,
+        gyro_unit,
+        sample_rate_hz,
+        accel_scale,
+        retime,
+    )?;
+    let loaded = if let Ok(bytes) = source.cast::<PyBytes>() {
+        let data = bytes.as_bytes();
+        let name = name.unwrap_or_else(|| "<bytes>".to_string());
+        py.detach(|| spincal::formats::read_bytes(data, &name, &options))
+    } else {
+        let path: PathBuf = source.extract()?;
+        py.detach(|| spincal::formats::read_path(&path, &options))
+    }
+    .map_err(errors::format)?;
+    let mut recording = loaded.recording;
+    recording.source.format = loaded.format.name().to_string();
+    Ok(PyRecording {
+        inner: recording,
+        notes: loaded.notes,
+        raw_counts: loaded.raw_counts,
+    })
+}
+
+/// A recording from arrays: time (n,) in s, accel (n, 3) in m/s², gyro (n, 3) in rad/s.
+#[pyfunction]
+#[pyo3(signature = (time, accel, gyro = None, *, name = "array"))]
+fn recording(
+    time: PyReadonlyArray1<'_, f64>,
+    accel: PyReadonlyArray2<'_, f64>,
+    gyro: Option<PyReadonlyArray2<'_, f64>>,
+    name: &str,
+) -> PyResult<PyRecording> {
+    let time_s = time.as_array().to_vec();
+    let accel_mps2 = array_to_columns(accel.as_array(), "accel")?;
+    let gyro_radps = gyro.map(|g| array_to_columns(g.as_array(), "gyro")).transpose()?;
+    let n = time_s.len();
+    if accel_mps2[0].len() != n || gyro_radps.as_ref().is_some_and(|g| g[0].len() != n) {
+        return Err(usage(format!(
+            "{name}: time has {n} samples, accel {} and gyro {}: every array needs one row per time",
+            accel_mps2[0].len(),
+            gyro_radps.as_ref().map_or(n, |g| g[0].len())
+        )));
+    }
+    let columns = ["t", "ax", "ay", "az", "gx", "gy", "gz"];
+    let used = if gyro_radps.is_some() { 7 } else { 4 };
+    let inner = Recording {
+        time_s,
+        accel_mps2,
+        gyro_radps,
+        source: spincal::recording::Source {
+            name: name.to_string(),
+            format: "array".to_string(),
+            columns: columns[..used].iter().map(|c| c.to_string()).collect(),
+            ..Default::default()
+        },
+    };
+    inner.check_time().map_err(errors::format)?;
+    Ok(PyRecording {
+        inner,
+        notes: Vec::new(),
+        raw_counts: false,
+    })
+}
+
+/// Merges a JSON object of overrides into a default value (unknown keys refused by serde).
+fn with_overrides<T: serde::Serialize + serde::de::DeserializeOwned>(
+    default: T,
+    overrides: Option<&str>,
+    what: &str,
+) -> PyResult<T> {
+    let Some(text) = overrides else { return Ok(default) };
+    let mut base = serde_json::to_value(&default).map_err(|e| usage(format!("{what}: {e}")))?;
+    let patch: serde_json::Value = serde_json::from_str(text).map_err(|e| usage(format!("{what}: {e}")))?;
+    let (Some(base_map), Some(patch_map)) = (base.as_object_mut(), patch.as_object()) else {
+        return Err(usage(format!("{what}: expected a dict of settings")));
+    };
+    for (k, v) in patch_map {
+        base_map.insert(k.clone(), v.clone());
+    }
+    serde_json::from_value(base).map_err(|e| usage(format!("{what}: {e}")))
+}
+
+/// Simulates one turntable session; returns the recording and the truth as JSON.
+/// `sensor` and `turntable` are JSON objects overriding the defaults (SensorProfile, TurntableSetup).
+#[pyfunction]
+#[pyo3(signature = (sensor_json = None, turntable_json = None, seed = 7))]
+fn simulate(
+    py: Python<'_>,
+    sensor_json: Option<&str>,
+    turntable_json: Option<&str>,
+    seed: u64,
+) -> PyResult<(PyRecording, String)> {
+    use spincal::simulate::{SensorProfile, TurntableSetup};
+    let sensor = with_overrides(SensorProfile::default(), sensor_json, "sensor")?;
+    let table = with_overrides(TurntableSetup::default(), turntable_json, "turntable")?;
+    let sim = py
+        .detach(|| spincal::simulate::simulate(&sensor, &table, seed))
+        .map_err(errors::usage_error)?;
+    let truth = json(&sim.truth)?;
+    Ok((
+        PyRecording {
+            inner: sim.recording,
+            notes: Vec::new(),
+            raw_counts: false,
+        },
+        truth,
+    ))
+}
+
+/// The defaults of the simulator's settings, as JSON: (sensor, turntable, campaign).
+#[pyfunction]
+fn simulation_defaults() -> PyResult<(String, String, String)> {
+    Ok((
+        json(&spincal::simulate::SensorProfile::default())?,
+        json(&spincal::simulate::TurntableSetup::default())?,
+        json(&spincal::simulate::campaign::CampaignSetup::default())?,
+    ))
+}
+
+/// Simulates a unit's whole campaign into `folder` (campaign.toml, the recordings, their truth);
+/// returns the truth as JSON. Refuses to replace files already there.
+#[pyfunction]
+#[pyo3(signature = (folder, seed = 7, setup_json = None))]
+fn simulate_campaign(
+    py: Python<'_>,
+    folder: PathBuf,
+    seed: u64,
+    setup_json: Option<&str>,
+) -> PyResult<String> {
+    use spincal::simulate::campaign::CampaignSetup;
+    let setup = with_overrides(CampaignSetup::default(), setup_json, "campaign setup")?;
+    let sim = py
+        .detach(|| spincal::simulate::campaign::simulate_campaign(&setup, seed))
+        .map_err(errors::usage_error)?;
+    let mut targets = vec![folder.join("campaign.toml"), folder.join("truth.json")];
+    for r in &sim.recordings {
+        targets.push(folder.join(format!("{}.csv", r.name)));
+        targets.push(folder.join(format!("{}.truth.csv", r.name)));
+    }
+    if let Some(existing) = targets.iter().find(|p| p.exists()) {
+        return Err(usage(format!(
+            "{} already exists: spincal does not replace files in a campaign folder; choose an empty folder",
+            existing.display()
+        )));
+    }
+    std::fs::create_dir_all(&folder)
+        .map_err(|e| errors::OutputError::new_err(format!("{}: cannot create: {e}", folder.display())))?;
+    let truth = serde_json::to_string_pretty(&sim.truth).map_err(|e| usage(e.to_string()))? + "\n";
+    py.detach(|| -> Result<(), spincal::recording::RecordingError> {
+        for (i, r) in sim.recordings.iter().enumerate() {
+            r.recording
+                .write_csv_path(&folder.join(format!("{}.csv", r.name)), AccelUnit::Mps2)?;
+            sim.truth_recording(i)
+                .write_csv_path(&folder.join(format!("{}.truth.csv", r.name)), AccelUnit::Mps2)?;
+        }
+        Ok(())
+    })
+    .map_err(errors::output)?;
+    write_text(&folder.join("truth.json"), &truth)?;
+    write_text(&folder.join("campaign.toml"), &sim.campaign_toml())?;
+    Ok(truth)
+}
+
+fn write_text(path: &Path, text: &str) -> PyResult<()> {
+    spincal::output::write_file(path, |out| std::io::Write::write_all(out, text.as_bytes()))
+        .map_err(errors::output)
+}
+
+/// The turntable fit's options from keyword arguments (the CLI's defaults).
+#[allow(clippy::too_many_arguments)]
+fn fit_options(
+    rpm: Option<f64>,
+    radius_m: Option<f64>,
+    radius_tol_m: f64,
+    objective_axes: &str,
+    drift: bool,
+    fit_offsets: bool,
+    separate_radii: bool,
+    gravity_mps2: f64,
+    range_g: Option<f64>,
+    bounds: Vec<(String, f64, f64)>,
+) -> PyResult<FitOptions> {
+    let axes = match objective_axes {
+        "xyz" => AxesObjective::Xyz,
+        "xy" => AxesObjective::Xy,
+        "x" => AxesObjective::X,
+        other => return Err(usage(format!("objective_axes {other:?}: expected x, xy or xyz"))),
+    };
+    for (name, value) in [("rpm", rpm), ("radius_m", radius_m), ("range_g", range_g)] {
+        if value.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
+            return Err(usage(format!("{name} = {value:?}: must be a positive number")));
+        }
+    }
+    if !(radius_tol_m.is_finite() && radius_tol_m > 0.0 && gravity_mps2.is_finite() && gravity_mps2 > 0.0) {
+        return Err(usage("radius_tol_m and gravity_mps2 must be positive numbers"));
+    }
+    Ok(FitOptions {
+        axes,
+        drift: if drift { DriftMode::Fit } else { DriftMode::Off },
+        gravity_mps2,
+        rpm_hint: rpm,
+        radius: radius_m.map(|value_m| RadiusPrior {
+            value_m,
+            tolerance_m: radius_tol_m,
+        }),
+        shared_radius: !separate_radii,
+        fit_offsets,
+        bounds,
+        range_mps2: range_g.map(|g| g * spincal::STANDARD_GRAVITY),
+        ..FitOptions::default()
+    })
+}
+
+fn inner_recordings(recordings: &[PyRef<'_, PyRecording>]) -> PyResult<Vec<Recording>> {
+    if recordings.is_empty() {
+        return Err(usage("no recordings given: pass at least one recording"));
+    }
+    Ok(recordings.iter().map(|r| r.inner.clone()).collect())
+}
+
+/// Fits the turntable model to recordings; returns the fit as JSON and the reference (the
+/// turntable's physical acceleration, m/s²) per recording as (n, 3) arrays.
+#[pyfunction]
+#[pyo3(signature = (recordings, *, rpm = None, radius_m = None, radius_tol_m = 0.002, objective_axes = "xyz",
+    drift = true, fit_offsets = true, separate_radii = false, gravity_mps2 = spincal::STANDARD_GRAVITY,
+    range_g = None, bounds = Vec::new(), progress = None))]
+#[allow(clippy::too_many_arguments)]
+fn fit_turntable<'py>(
+    py: Python<'py>,
+    recordings: Vec<PyRef<'py, PyRecording>>,
+    rpm: Option<f64>,
+    radius_m: Option<f64>,
+    radius_tol_m: f64,
+    objective_axes: &str,
+    drift: bool,
+    fit_offsets: bool,
+    separate_radii: bool,
+    gravity_mps2: f64,
+    range_g: Option<f64>,
+    bounds: Vec<(String, f64, f64)>,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<(String, Vec<Bound<'py, PyArray2<f64>>>)> {
+    let options = fit_options(
+        rpm,
+        radius_m,
+        radius_tol_m,
+        objective_axes,
+        drift,
+        fit_offsets,
+        separate_radii,
+        gravity_mps2,
+        range_g,
+        bounds,
+    )?;
+    let recordings = inner_recordings(&recordings)?;
+    let (fit, references) = long::run(py, progress.as_ref(), |observer| {
+        let refs: Vec<&Recording> = recordings.iter().collect();
+        let fit = spincal::turntable::fit_turntable(&refs, &options, observer)?;
+        let references: Vec<[Vec<f64>; 3]> = recordings
+            .iter()
+            .enumerate()
+            .map(|(k, r)| fit.reference(k, &r.time_s))
+            .collect();
+        Ok::<_, spincal::turntable::FitError>((fit, references))
+    })?
+    .map_err(errors::fit)?;
+    Ok((
+        json(&fit)?,
+        references.iter().map(|c| columns_to_array(py, c)).collect(),
+    ))
+}
+
+/// A finished calibration: results (JSON), the saved corrector, and the report.
+#[pyclass(name = "Calibration", module = "spincal._spincal", frozen)]
+struct PyCalibration {
+    output: CalibrationOutput,
+    recordings: Vec<Recording>,
+}
+
+#[pymethods]
+impl PyCalibration {
+    /// results.json's content.
+    fn result_json(&self) -> PyResult<String> {
+        json(&self.output.result)
+    }
+    /// The saved corrector (model.json).
+    fn corrector(&self) -> PyCorrector {
+        PyCorrector {
+            file: self.output.saved.clone(),
+        }
+    }
+    /// The reference (turntable physics, m/s²) per recording, (n, 3) each.
+    fn references<'py>(&self, py: Python<'py>) -> Vec<Bound<'py, PyArray2<f64>>> {
+        self.output
+            .references
+            .iter()
+            .map(|r| columns_to_array(py, &r.accel_mps2))
+            .collect()
+    }
+    /// The chosen corrector applied to the first recording, (n, 3) m/s².
+    fn corrected<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        columns_to_array(py, &self.output.corrected)
+    }
+    /// Writes model.json, results.json and report.html into `folder` (created), as the CLI does.
+    fn write(&self, py: Python<'_>, folder: PathBuf) -> PyResult<()> {
+        std::fs::create_dir_all(&folder)
+            .map_err(|e| errors::OutputError::new_err(format!("{}: cannot create: {e}", folder.display())))?;
+        self.output
+            .saved
+            .write_path(&folder.join("model.json"))
+            .map_err(errors::output)?;
+        let results =
+            serde_json::to_string_pretty(&self.output.result).map_err(|e| usage(e.to_string()))? + "\n";
+        write_text(&folder.join("results.json"), &results)?;
+        let html = py
+            .detach(|| spincal::report::render_report(&self.output, &self.recordings))
+            .map_err(|e| errors::Error::new_err(format!("report: {e}")))?;
+        write_text(&folder.join("report.html"), &html)
+    }
+}
+
+fn parse_orders(text: &str, what: &str) -> PyResult<Vec<usize>> {
+    text.split(',')
+        .map(|s| s.trim().parse::<usize>())
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|_| usage(format!("{what} {text:?}: expected orders like 6,8,1")))
+}
+
+/// Calibrates from turntable recordings (SPEC §1): the same settings and defaults as
+/// `spincal calibrate`.
+#[pyfunction]
+#[pyo3(signature = (recordings, *, rpm = None, radius_m = None, radius_tol_m = 0.002, objective_axes = "xyz",
+    drift = true, fit_offsets = true, separate_radii = false, gravity_mps2 = spincal::STANDARD_GRAVITY,
+    range_g = None, sweep = None, hidden = None, restarts = 3,
+    sweep_hessian_samples = spincal::ann::SWEEP_HESSIAN_SAMPLES, correct_axes = "x,y", delays = 0, seed = 1,
+    arx = "6,8,1", bj = "4,4,4,4,1", narx = "2,2,1", hw = "2,3,1", progress = None))]
+#[allow(clippy::too_many_arguments)]
+fn calibrate<'py>(
+    py: Python<'py>,
+    recordings: Vec<PyRef<'py, PyRecording>>,
+    rpm: Option<f64>,
+    radius_m: Option<f64>,
+    radius_tol_m: f64,
+    objective_axes: &str,
+    drift: bool,
+    fit_offsets: bool,
+    separate_radii: bool,
+    gravity_mps2: f64,
+    range_g: Option<f64>,
+    sweep: Option<&str>,
+    hidden: Option<&str>,
+    restarts: usize,
+    sweep_hessian_samples: usize,
+    correct_axes: &str,
+    delays: usize,
+    seed: u64,
+    arx: &str,
+    bj: &str,
+    narx: &str,
+    hw: &str,
+    progress: Option<Bound<'py, PyAny>>,
+) -> PyResult<PyCalibration> {
+    let fit = fit_options(
+        rpm,
+        radius_m,
+        radius_tol_m,
+        objective_axes,
+        drift,
+        fit_offsets,
+        separate_radii,
+        gravity_mps2,
+        range_g,
+        Vec::new(),
+    )?;
+    let sweep_over = |grid| NetworkChoice::Sweep {
+        grid,
+        restarts,
+        hessian_samples: (sweep_hessian_samples > 0).then_some(sweep_hessian_samples),
+    };
+    let network = match (sweep, hidden) {
+        (Some("small" | "full"), Some(_)) => {
+            return Err(usage(
+                "hidden fixes the architecture, so it cannot be combined with sweep='small' or 'full'; drop one of them",
+            ))
+        }
+        (Some("small") | None, None) => sweep_over(spincal::ann::small_grid()),
+        (None | Some("none"), hidden) => NetworkChoice::Fixed {
+            hidden: spincal::ann::parse_hidden_sizes(hidden.unwrap_or("10,6"))
+                .map_err(|e| usage(format!("hidden {e}")))?,
+            restarts,
+        },
+        (Some("full"), None) => sweep_over(spincal::ann::default_grid()),
+        (Some(other), _) => return Err(usage(format!("sweep {other:?}: expected none, small or full"))),
+    };
+    let axes = Axis::parse_list(correct_axes)
+        .ok_or_else(|| usage(format!("correct_axes {correct_axes:?}: expected e.g. x,y")))?;
+    let spec = |kind: ModelKind, text: &str, what: &str| -> PyResult<ModelSpec> {
+        let orders = parse_orders(text, what)?;
+        let mut spec = ModelSpec::new(kind, &orders).map_err(|e| usage(format!("{what}: {e}")))?;
+        spec.seed = seed;
+        Ok(spec)
+    };
+    let settings = CalibrateSettings {
+        fit,
+        axes,
+        network,
+        delays,
+        seed,
+        sysid: vec![
+            spec(ModelKind::Arx, arx, "arx")?,
+            spec(ModelKind::Bj, bj, "bj")?,
+            spec(ModelKind::Narx, narx, "narx")?,
+            spec(ModelKind::Hw, hw, "hw")?,
+        ],
+        ..CalibrateSettings::default()
+    };
+    let recordings = inner_recordings(&recordings)?;
+    let output = long::run(py, progress.as_ref(), |observer| {
+        spincal::calibrate::calibrate(&recordings, &settings, observer)
+    })?
+    .map_err(errors::fit)?;
+    Ok(PyCalibration { output, recordings })
+}
+
+/// A finished campaign calibration.
+#[pyclass(name = "CampaignCalibration", module = "spincal._spincal", frozen)]
+struct PyCampaignCalibration {
+    output: CampaignOutput,
+}
+
+#[pymethods]
+impl PyCampaignCalibration {
+    /// results.json's content.
+    fn result_json(&self) -> PyResult<String> {
+        json(&self.output.result)
+    }
+    /// The saved corrector, or None when no corrector held on every held-out condition.
+    fn corrector(&self) -> Option<PyCorrector> {
+        self.output.saved.clone().map(|file| PyCorrector { file })
+    }
+    /// Writes results.json and (when a corrector was saved) model.json into `folder`.
+    fn write(&self, folder: PathBuf) -> PyResult<()> {
+        std::fs::create_dir_all(&folder)
+            .map_err(|e| errors::OutputError::new_err(format!("{}: cannot create: {e}", folder.display())))?;
+        if let Some(model) = &self.output.saved {
+            model
+                .write_path(&folder.join("model.json"))
+                .map_err(errors::output)?;
+        }
+        let results =
+            serde_json::to_string_pretty(&self.output.result).map_err(|e| usage(e.to_string()))? + "\n";
+        write_text(&folder.join("results.json"), &results)
+    }
+}
+
+/// Calibrates one unit from its campaign file (TOML), as `spincal calibrate --campaign`.
+#[pyfunction]
+#[pyo3(signature = (campaign, *, progress = None))]
+fn calibrate_campaign(
+    py: Python<'_>,
+    campaign: PathBuf,
+    progress: Option<Bound<'_, PyAny>>,
+) -> PyResult<PyCampaignCalibration> {
+    let campaign = Campaign::read_path(&campaign).map_err(errors::format)?;
+    let units = py
+        .detach(|| spincal::campaign::load_campaign(&campaign))
+        .map_err(errors::format)?;
+    let settings = CampaignSettings {
+        joint: spincal::campaign::JointSettings {
+            gravity_mps2: campaign.gravity_mps2,
+            ..Default::default()
+        },
+        ..CampaignSettings::default()
+    };
+    let output = long::run(py, progress.as_ref(), |observer| {
+        spincal::campaign::calibrate_campaign(&campaign.unit, &units, &settings, observer)
+    })?
+    .map_err(errors::fit)?;
+    Ok(PyCampaignCalibration { output })
+}
+
+/// Corrected samples (n, 3), valid (n,), outside the training range (n,).
+type CorrectedArrays<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<bool>>,
+    Bound<'py, PyArray1<bool>>,
+);
+
+/// A saved corrector (model.json) of any kind: ann, linear, static, physical.
+#[pyclass(name = "Corrector", module = "spincal._spincal", frozen)]
+struct PyCorrector {
+    file: CorrectorFile,
+}
+
+#[pymethods]
+impl PyCorrector {
+    /// Loads model.json (refused when invalid or of another format version).
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyCorrector> {
+        let file = py
+            .detach(|| CorrectorFile::read_path(&path))
+            .map_err(errors::model)?;
+        Ok(PyCorrector { file })
+    }
+    /// A corrector from model.json's text (`name` names it in errors).
+    #[staticmethod]
+    #[pyo3(signature = (text, name = "<model>"))]
+    fn from_json(text: &str, name: &str) -> PyResult<PyCorrector> {
+        let file = CorrectorFile::from_json(text, name).map_err(errors::model)?;
+        Ok(PyCorrector { file })
+    }
+    /// model.json's text.
+    fn to_json(&self) -> String {
+        self.file.to_json()
+    }
+    /// Writes model.json.
+    fn save(&self, path: PathBuf) -> PyResult<()> {
+        self.file.write_path(&path).map_err(errors::output)
+    }
+    /// `ann`, `linear`, `static` or `physical`.
+    #[getter]
+    fn kind(&self) -> &'static str {
+        self.file.corrector.kind()
+    }
+    /// The axes it changes (the others pass through).
+    #[getter]
+    fn axes(&self) -> Vec<&'static str> {
+        self.file
+            .corrector
+            .corrected_axes()
+            .iter()
+            .map(|a| a.name())
+            .collect()
+    }
+    /// Samples at the start without a full delay history (returned unchanged, valid = False).
+    #[getter]
+    fn warmup_samples(&self) -> usize {
+        self.file.corrector.warmup_samples()
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "Corrector(kind={:?}, axes={:?}, warmup_samples={})",
+            self.kind(),
+            self.axes(),
+            self.warmup_samples()
+        )
+    }
+    /// Corrects an (n, 3) array of m/s² in time order; returns (corrected (n, 3), valid (n,) bool,
+    /// outside_training_range (n,) bool). The input is read in place (any strides), never copied.
+    fn correct<'py>(
+        &self,
+        py: Python<'py>,
+        accel: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<CorrectedArrays<'py>> {
+        if accel.shape().len() != 2 || accel.shape()[1] != 3 {
+            return Err(usage(format!(
+                "accel: expected an (n, 3) array, got shape {:?}",
+                accel.shape()
+            )));
+        }
+        let view = accel.as_array();
+        let corrector = &self.file.corrector;
+        let (out, valid, outside) = py.detach(|| {
+            let n = view.nrows();
+            let mut out = Array2::<f64>::zeros((n, 3));
+            let mut valid = Array1::<bool>::from_elem(n, false);
+            let mut outside = Array1::<bool>::from_elem(n, false);
+            let mut stream = corrector.stream();
+            for (i, (row, mut target)) in view
+                .axis_iter(NdAxis(0))
+                .zip(out.axis_iter_mut(NdAxis(0)))
+                .enumerate()
+            {
+                let sample = stream.correct_sample([row[0], row[1], row[2]]);
+                target[0] = sample.accel_mps2[0];
+                target[1] = sample.accel_mps2[1];
+                target[2] = sample.accel_mps2[2];
+                valid[i] = sample.valid;
+                outside[i] = sample.outside_training_range;
+            }
+            (out, valid, outside)
+        });
+        Ok((
+            out.into_pyarray(py),
+            valid.into_pyarray(py),
+            outside.into_pyarray(py),
+        ))
+    }
+    /// The static calibration's JSON when this is one (for Allan deviation of calibrated data).
+    fn static_json(&self) -> PyResult<Option<String>> {
+        match &self.file.corrector {
+            CorrectorModel::Static(cal) => Ok(Some(json(cal)?)),
+            _ => Ok(None),
+        }
+    }
+}
+
+/// Classic calibration from still poses: detection (or the file's section labels), then the 6, 9
+/// or 12-parameter fit. Returns (report JSON, the static corrector).
+#[pyfunction]
+#[pyo3(signature = (recording, *, parameters = 9, gravity_mps2 = spincal::STANDARD_GRAVITY, init_s = 2.0,
+    window_s = 1.0, threshold_factor = 3.0, min_interval_s = 2.0))]
+#[allow(clippy::too_many_arguments)]
+fn static_calibration(
+    py: Python<'_>,
+    recording: PyRef<'_, PyRecording>,
+    parameters: usize,
+    gravity_mps2: f64,
+    init_s: f64,
+    window_s: f64,
+    threshold_factor: f64,
+    min_interval_s: f64,
+) -> PyResult<(String, PyCorrector)> {
+    use spincal::static_cal::{fit_static, pose_means, StaticFitOptions, StaticModel};
+    use spincal::static_detect::{detect_static, StaticOptions};
+    let model = StaticModel::from_n_params(parameters)
+        .ok_or_else(|| usage(format!("parameters = {parameters}: expected 6, 9 or 12")))?;
+    let rec = &recording.inner;
+    let options = StaticOptions {
+        init_s,
+        window_s,
+        threshold_factor,
+        min_interval_s,
+    };
+    let raw_counts = recording.raw_counts;
+    let (intervals, fit) = py.detach(|| {
+        let detection = detect_static(&rec.time_s, &rec.accel_mps2, &options).map_err(errors::usage_error)?;
+        let means = pose_means(&detection.intervals);
+        let fit = fit_static(
+            &means,
+            &StaticFitOptions {
+                model,
+                gravity_mps2,
+                input_unit: if raw_counts { "counts" } else { "m/s^2" }.into(),
+            },
+        )
+        .map_err(errors::fit)?;
+        Ok::<_, PyErr>((detection.intervals, fit))
+    })?;
+    let report = serde_json::json!({ "intervals": intervals, "fit": fit });
+    let corrector = PyCorrector {
+        file: CorrectorFile::new(CorrectorModel::Static(Box::new(fit.calibration.clone()))),
+    };
+    Ok((json(&report)?, corrector))
+}
+
+/// Overlapping Allan deviation of an (n, 3) array sampled every `dt_s`; returns JSON with the
+/// curve and the noise parameters (density, bias instability, random walk).
+#[pyfunction]
+#[pyo3(signature = (accel, dt_s, *, per_decade = 10))]
+fn allan(py: Python<'_>, accel: PyReadonlyArray2<'_, f64>, dt_s: f64, per_decade: usize) -> PyResult<String> {
+    if !(dt_s.is_finite() && dt_s > 0.0) {
+        return Err(usage(format!(
+            "dt_s = {dt_s}: must be a positive number of seconds"
+        )));
+    }
+    let axes = array_to_columns(accel.as_array(), "accel")?;
+    let (curve, params) = py.detach(|| {
+        let curve = spincal::allan::allan_deviation(&axes, dt_s, per_decade).map_err(errors::fit)?;
+        let params = spincal::allan::noise_params(&curve);
+        Ok::<_, PyErr>((curve, params))
+    })?;
+    json(&serde_json::json!({ "curve": curve, "noise": params }))
+}
+
+/// The paper's Table 1 at any nominal values: each parameter moved by ±`vary_percent`.
+#[pyfunction]
+#[pyo3(signature = (*, radius_m = 0.10, tilt_deg = 5.0, rpm = 33.3, beta_deg = 0.0,
+    gravity_mps2 = spincal::STANDARD_GRAVITY, vary_percent = 15.0))]
+fn sensitivity(
+    radius_m: f64,
+    tilt_deg: f64,
+    rpm: f64,
+    beta_deg: f64,
+    gravity_mps2: f64,
+    vary_percent: f64,
+) -> PyResult<String> {
+    if !(vary_percent > 0.0 && vary_percent < 100.0) {
+        return Err(usage(format!(
+            "vary_percent = {vary_percent}: expected a percentage in (0, 100)"
+        )));
+    }
+    for (name, v) in [
+        ("radius_m", radius_m),
+        ("rpm", rpm),
+        ("gravity_mps2", gravity_mps2),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(usage(format!("{name} = {v}: must be a positive number")));
+        }
+    }
+    let rows = spincal::turntable::sensitivity::sensitivity_table(
+        &spincal::turntable::sensitivity::SensitivityInput {
+            radius_m,
+            tilt_rad: tilt_deg.to_radians(),
+            omega_radps: rpm * 2.0 * std::f64::consts::PI / 60.0,
+            beta_rad: beta_deg.to_radians(),
+            gravity_mps2,
+            vary: vary_percent / 100.0,
+        },
+    );
+    json(&rows)
+}
+
+/// A fleet error as the right exception: files and campaign entries → FormatError, the
+/// calibration → FitError.
+fn fleet_error(e: spincal::fleet::FleetError) -> PyErr {
+    use spincal::fleet::FleetError as F;
+    match &e {
+        F::NoCampaign { .. } | F::Campaign(_) | F::Load(_) => errors::format(e),
+        F::Calibration { .. } => errors::fit(e),
+        _ => errors::Error::new_err(e.to_string()),
+    }
+}
+
+/// A unit's campaign file and every file it reads (campaign file, recordings, truth files), so a
+/// driver can ship them to a worker: (campaign file, [inputs]).
+#[pyfunction]
+fn campaign_inputs(source: PathBuf) -> PyResult<(PathBuf, Vec<PathBuf>)> {
+    let path = spincal::fleet::campaign_path(&source).map_err(fleet_error)?;
+    let campaign = Campaign::read_path(&path).map_err(errors::format)?;
+    Ok((path, spincal::fleet::campaign_inputs(&campaign)))
+}
+
+/// The unit label of each source, unique in the fleet (a folder's name, …).
+#[pyfunction]
+fn unit_labels(sources: Vec<PathBuf>) -> Vec<String> {
+    spincal::fleet::unit_labels(&sources)
+}
+
+/// Calibrates one unit (a campaign file or a folder holding campaign.toml) on one thread, as
+/// `spincal calibrate --campaign`: returns (unit, results.json text, model.json text or None).
+#[pyfunction]
+#[pyo3(signature = (source, *, progress = None))]
+fn calibrate_unit(
+    py: Python<'_>,
+    source: PathBuf,
+    progress: Option<Bound<'_, PyAny>>,
+) -> PyResult<(String, String, Option<String>)> {
+    let settings = spincal::fleet::FleetSettings::default();
+    let unit = long::run(py, progress.as_ref(), |observer| {
+        spincal::fleet::calibrate_unit(&source, &settings, observer)
+    })?
+    .map_err(fleet_error)?;
+    Ok((unit.unit.clone(), unit.results_json(), unit.model_json()))
+}
+
+/// One unit's outcome as the driver has it: (label, source, results.json or None, model.json or
+/// None, error message or None).
+type OutcomeTuple = (String, PathBuf, Option<String>, Option<String>, Option<String>);
+
+/// The fleet table (every sensor parameter with its standard error per unit, fleet statistics,
+/// outliers) from the units' outcomes; `outliers_json` overrides the library's OutlierSettings.
+/// Returns (table JSON, table CSV, fleet.html).
+#[pyfunction]
+#[pyo3(signature = (outcomes, *, outliers_json = None))]
+fn fleet_table(
+    outcomes: Vec<OutcomeTuple>,
+    outliers_json: Option<&str>,
+) -> PyResult<(String, String, String)> {
+    use spincal::fleet::{OutlierSettings, UnitCalibration, UnitOutcome};
+    let settings = with_overrides(OutlierSettings::default(), outliers_json, "outlier settings")?;
+    let mut units = Vec::with_capacity(outcomes.len());
+    for (label, source, results, model, error) in outcomes {
+        let result = match (results, error) {
+            (Some(text), None) => {
+                let result: spincal::campaign::CampaignResult = serde_json::from_str(&text)
+                    .map_err(|e| usage(format!("{label}: results.json is not a campaign result: {e}")))?;
+                let model = model
+                    .map(|m| CorrectorFile::from_json(&m, &format!("{label}/model.json")))
+                    .transpose()
+                    .map_err(errors::model)?;
+                Ok(UnitCalibration {
+                    unit: result.unit.clone(),
+                    campaign: source.clone(),
+                    inputs: Vec::new(),
+                    result,
+                    model,
+                })
+            }
+            (_, Some(message)) => Err(message),
+            (None, None) => return Err(usage(format!("{label}: neither a result nor an error"))),
+        };
+        units.push(UnitOutcome {
+            unit: label,
+            source,
+            result,
+        });
+    }
+    let table = spincal::fleet::fleet_table(&units, &settings);
+    let html = spincal::report::fleet::fleet_html(&table)
+        .map_err(|e| errors::Error::new_err(format!("drawing fleet.html: {e}")))?;
+    Ok((json(&table)?, table.to_csv(), html))
+}
+
+/// Simulates a fleet (`setup_json` overrides FleetSetup: units, faulty, spread, fault, campaign)
+/// into `folder` (one campaign folder per unit, fleet-truth.json); returns (folders, truth JSON).
+#[pyfunction]
+#[pyo3(signature = (folder, seed = 7, setup_json = None))]
+fn simulate_fleet(
+    py: Python<'_>,
+    folder: PathBuf,
+    seed: u64,
+    setup_json: Option<&str>,
+) -> PyResult<(Vec<PathBuf>, String)> {
+    use spincal::simulate::fleet::FleetSetup;
+    let setup = with_overrides(FleetSetup::default(), setup_json, "fleet setup")?;
+    let fleet = py
+        .detach(|| spincal::simulate::fleet::simulate_fleet(&setup, seed))
+        .map_err(errors::usage_error)?;
+    let folders = py
+        .detach(|| fleet.write_folders(&folder))
+        .map_err(errors::usage_error)?;
+    Ok((folders, json(&fleet.truth())?))
+}
+
+/// The library's version.
+#[pyfunction]
+fn version() -> &'static str {
+    env!("CARGO_PKG_VERSION")
+}
+
+#[pymodule]
+fn _spincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    errors::register(m)?;
+    m.add_class::<PyRecording>()?;
+    m.add_class::<PyCalibration>()?;
+    m.add_class::<PyCampaignCalibration>()?;
+    m.add_class::<PyCorrector>()?;
+    m.add_function(wrap_pyfunction!(read, m)?)?;
+    m.add_function(wrap_pyfunction!(recording, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(simulation_defaults, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate_campaign, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_turntable, m)?)?;
+    m.add_function(wrap_pyfunction!(calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(calibrate_campaign, m)?)?;
+    m.add_function(wrap_pyfunction!(static_calibration, m)?)?;
+    m.add_function(wrap_pyfunction!(allan, m)?)?;
+    m.add_function(wrap_pyfunction!(sensitivity, m)?)?;
+    m.add_function(wrap_pyfunction!(version, m)?)?;
+    m.add_function(wrap_pyfunction!(campaign_inputs, m)?)?;
+    m.add_function(wrap_pyfunction!(unit_labels, m)?)?;
+    m.add_function(wrap_pyfunction!(calibrate_unit, m)?)?;
+    m.add_function(wrap_pyfunction!(fleet_table, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate_fleet, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,138 @@
+"""The Python package gives the CLI's numbers, to the last bit."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+import spincal
+
+
+def _read_corrected(path):
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    return rows
+
+
+def _without_timing(value):
+    if isinstance(value, dict):
+        return {k: _without_timing(v) for k, v in value.items() if not k.startswith("seconds") and k != "stage_seconds"}
+    if isinstance(value, list):
+        return [_without_timing(v) for v in value]
+    return value
+
+
+def test_read_gives_the_simulated_samples_and_dataframes_are_read_by_name(simulated):
+    path, rec, _ = simulated
+    read = spincal.read(path)
+    assert read.format == "csv" and len(read) == len(rec)
+    assert np.array_equal(read.time, rec.time)
+    assert np.array_equal(read.accel, rec.accel)
+    assert read.accel.shape == (len(rec), 3)
+    from_bytes = spincal.read(path.read_bytes(), name="rec.csv")
+    assert np.array_equal(from_bytes.accel, rec.accel)
+    pd = pytest.importorskip("pandas")
+    frame = pd.read_csv(path, float_precision="round_trip")
+    assert list(frame.columns)[:4] == ["t_s", "ax_mps2", "ay_mps2", "az_mps2"]
+    from_frame = spincal.read(frame[["az_mps2", "t_s", "ax_mps2", "ay_mps2"]])
+    assert np.array_equal(from_frame.accel, rec.accel)
+    assert np.array_equal(from_frame.time, rec.time)
+
+
+def test_correcting_an_array_equals_spincal_correct_to_the_last_bit(simulated, calibrated, cli, tmp_path):
+    path, rec, _ = simulated
+    model = calibrated / "model.json"
+    out = tmp_path / "corrected.csv"
+    cli("correct", "--model", model, path, "-o", out)
+    rows = _read_corrected(out)
+    assert len(rows) == len(rec)
+    corrector = spincal.load_corrector(model)
+    assert corrector.kind == "ann"
+    result = corrector.correct(rec.accel)  # a Fortran-ordered view: read in place
+    for axis, name in enumerate(["ax", "ay", "az"]):
+        column = f"{name}_mps2_corrected"
+        if column not in rows[0]:
+            continue
+        cli_values = np.array([float(r[column]) for r in rows])
+        assert np.array_equal(cli_values, result.accel[:, axis]), name
+    assert [r["valid"] == "1" for r in rows] == result.valid.tolist()
+    # The same numbers from a C-ordered copy, a file and a DataFrame.
+    again = spincal.correct(model, np.ascontiguousarray(rec.accel))
+    assert np.array_equal(again.accel, result.accel)
+    assert np.array_equal(spincal.correct(corrector, path).accel, result.accel)
+
+
+def test_calibration_gives_the_clis_results_json(simulated, calibrated):
+    path, _, _ = simulated
+    cal = spincal.calibrate([str(path)], radius_m=0.1, sweep="none", hidden="4", restarts=1)
+    cli_result = json.loads((calibrated / "results.json").read_text())
+    assert _without_timing(cal.to_dict()) == _without_timing(cli_result)
+    assert cal.result.chosen == cli_result["chosen"]
+    assert cal.corrector.to_dict()["corrector"] == json.loads((calibrated / "model.json").read_text())["corrector"]
+
+
+def test_calibration_writes_the_report(simulated, tmp_path):
+    _, rec, _ = simulated
+    cal = spincal.calibrate([rec], radius_m=0.1, sweep="none", hidden="3", restarts=1)
+    cal.write(tmp_path / "out")
+    for name in ["model.json", "results.json", "report.html"]:
+        assert (tmp_path / "out" / name).stat().st_size > 0
+    assert "<html" in (tmp_path / "out" / "report.html").read_text()[:2000].lower()
+    reloaded = spincal.load_corrector(tmp_path / "out" / "model.json")
+    assert np.array_equal(reloaded.correct(rec.accel).accel, cal.corrector.correct(rec.accel).accel)
+
+
+def test_campaign_calibration_gives_the_clis_results_json(tmp_path, cli):
+    unit = tmp_path / "unit"
+    truth = spincal.simulate_campaign(unit, seed=5)
+    cli("calibrate", "--campaign", unit / "campaign.toml", "--out", tmp_path / "cli")
+    cal = spincal.calibrate(unit / "campaign.toml")
+    assert isinstance(cal, spincal.CampaignCalibration)
+    cli_result = json.loads((tmp_path / "cli" / "results.json").read_text())
+    assert _without_timing(cal.to_dict()) == _without_timing(cli_result)
+    names = [p.name for p in cal.result.joint.sensor_params]
+    assert any(n.startswith("bias_x") for n in names)
+    assert truth.sensor.bias_mps2 == truth.to_dict()["sensor"]["bias_mps2"]
+    cal.write(tmp_path / "py")
+    assert json.loads((tmp_path / "py" / "results.json").read_text())["unit"] == cli_result["unit"]
+
+
+def test_fit_and_static_and_allan_and_sensitivity_match_the_cli(simulated, cli):
+    path, rec, truth = simulated
+    fit = spincal.fit_turntable([rec], rpm=33.3)
+    omega = fit.recordings[0].session.omega_radps
+    assert abs(omega / truth.session.omega_radps - 1) < 1e-3
+    assert fit.references[0].shape == (len(rec), 3)
+    rows = spincal.sensitivity(radius_m=0.1, tilt_deg=5, rpm=33.3, vary_percent=15)
+    cli_rows = json.loads(cli("sensitivity", "--radius", "0.1", "--tilt-deg", "5", "--rpm", "33.3", "--vary", "15", "--json").stdout)
+    assert [r.to_dict() for r in rows] == cli_rows
+
+
+def test_static_calibration_recovers_a_bias(tmp_path):
+    # Six still poses, ±g on each axis, with a known bias.
+    bias = np.array([0.05, -0.03, 0.02])
+    g = 9.80665
+    poses = [[g, 0, 0], [-g, 0, 0], [0, g, 0], [0, -g, 0], [0, 0, g], [0, 0, -g]]
+    rng = np.random.default_rng(3)
+    blocks, moves = [], []
+    for k, p in enumerate(poses):
+        blocks.append(np.tile(np.array(p) + bias, (800, 1)) + rng.normal(0, 0.002, (800, 3)))
+        if k < len(poses) - 1:
+            nxt = np.array(poses[k + 1]) + bias
+            moves.append(np.linspace(np.array(p) + bias, nxt, 300) + rng.normal(0, 0.5, (300, 3)))
+    accel = np.vstack([x for pair in zip(blocks, moves + [np.empty((0, 3))]) for x in pair])
+    rec = spincal.recording(np.arange(len(accel)) / 100.0, accel)
+    result, corrector = spincal.static_calibration(rec, parameters=6)
+    assert corrector.kind == "static"
+    assert len(result.intervals) == 6
+    fixed = corrector.correct(np.tile(np.array(poses[4]) + bias, (5, 1))).accel
+    assert np.allclose(fixed[0], poses[4], atol=0.01)
+
+
+def test_allan_of_white_noise():
+    a = np.random.default_rng(1).normal(0, 0.01, (100_000, 3))
+    r = spincal.allan(a, dt_s=0.01)
+    # white noise σ at 100 Hz: density σ·√Δt = 0.001 m/s²/√Hz
+    assert all(abs(d / 0.001 - 1) < 0.1 for d in r.noise.noise_density)
+    assert len(r.curve.tau_s) == len(r.curve.adev[0])

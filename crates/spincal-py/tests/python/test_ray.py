@@ -1,0 +1,121 @@
+"""spincal.ray on a local Ray cluster of 2 CPUs started inside the tests (and torn down after)."""
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+import spincal
+
+ray = pytest.importorskip("ray")
+import spincal.ray as sray  # noqa: E402
+
+# The default campaign with shorter turntable runs (30 s), as the library's fleet test.
+
+def _setup(units, faulty):
+    campaign = spincal.simulation_defaults()["campaign"]
+    for run in campaign["runs"]:
+        run["duration_s"] = 30.0
+    return {"units": units, "faulty": faulty, "campaign": campaign}
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    ray.init(num_cpus=2, include_dashboard=False, object_store_memory=200 * 1024 * 1024, log_to_driver=False)
+    yield
+    ray.shutdown()
+
+
+@pytest.fixture(scope="module")
+def fleet(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("fleet")
+    folders, truths = spincal.simulate_fleet(folder, seed=2026, setup=_setup(8, [5]))
+    return folder, folders, truths
+
+
+def _comparable(results_json):
+    data = json.loads(results_json)
+    data.pop("seconds_total", None)
+    data.pop("stage_seconds", None)
+    return data
+
+
+def test_a_fleet_on_ray_recovers_each_unit_and_flags_the_faulty_one(cluster, fleet, tmp_path):
+    folder, folders, truths = fleet
+    broken = tmp_path / "no-campaign"
+    broken.mkdir()
+    sources = folders[:3] + [str(broken)] + folders[3:]
+    result = sray.calibrate_fleet(sources, progress=True)
+    assert len(result.units) == 9
+    # The broken unit fails alone, with a located message; the eight others are calibrated.
+    bad = result.units[3]
+    assert not bad.ok and "campaign.toml" in bad.error and str(broken) in bad.error
+    good = [u for u in result.units if u.ok]
+    assert [u.label for u in good] == [os.path.basename(f) for f in folders]
+    assert result.failed_units == ["no-campaign"]
+
+    # Each unit's twelve sensor parameters within 3 reported standard errors of its truth (the
+    # library's fleet test criterion: ≥ 6 of 12 per unit, ≥ 90 % over the fleet).
+    inside = total = 0
+    for unit, truth in zip(good, truths):
+        s = truth.truth.sensor
+        true = s.bias_mps2 + s.scale_error + s.misalignment_rad + s.quadratic_per_mps2
+        params = unit.result.joint.sensor_params
+        z = [abs(p.value - t) / p.std_error for p, t in zip(params, true)]
+        assert len(z) == 12
+        unit_inside = sum(v <= 3.0 for v in z)
+        assert unit_inside >= 6, (unit.label, z)
+        inside += unit_inside
+        total += 12
+    assert inside / total >= 0.9
+
+    # The faulty unit (bias x +0.05 g, scale y +3 %) is flagged, and only it.
+    faulty = [t.name for t in truths if t.faulty]
+    assert result.flagged_units == faulty
+    flagged = {o.parameter for o in result.table.outliers}
+    assert any("bias" in p and "x" in p for p in flagged) and any("scale" in p and "y" in p for p in flagged)
+    assert "unit" in result.table_csv.splitlines()[0]
+
+    # The same results as calibrating each unit alone, in this process.
+    for unit, source in zip(good, folders):
+        alone = spincal.calibrate_unit(source)
+        assert _comparable(unit._results_json) == _comparable(json.dumps(alone.result.to_dict()))
+        assert (unit.corrector is None) == (alone.corrector is None)
+        if unit.corrector is not None:
+            assert unit.corrector.to_dict() == alone.corrector.to_dict()
+
+    result.write(tmp_path / "out")
+    assert (tmp_path / "out" / "fleet.csv").exists()
+    assert "<svg" in (tmp_path / "out" / "fleet.html").read_text()
+    assert (tmp_path / "out" / good[0].label / "results.json").exists()
+
+
+def test_a_retried_task_gives_the_same_result(cluster, fleet, tmp_path):
+    _, folders, _ = fleet
+    first = sray.calibrate_fleet(folders[:2], max_in_flight=1)
+    markers = tmp_path / "markers"
+    markers.mkdir()
+    # Every task's first attempt kills its worker, as a lost node would; Ray runs it again.
+    again = sray.calibrate_fleet(
+        folders[:2], runtime_env={"env_vars": {"SPINCAL_RAY_CRASH_ONCE": str(markers)}}, max_retries=2
+    )
+    assert sorted(os.listdir(markers)) == sorted(f"{os.path.basename(f)}.crashed" for f in folders[:2])
+    for a, b in zip(first.units, again.units):
+        assert b.ok, b.error
+        assert _comparable(a._results_json) == _comparable(b._results_json)
+    # Without retries the lost worker is that unit's failure, not the fleet's.
+    markers2 = tmp_path / "markers2"
+    markers2.mkdir()
+    lost = sray.calibrate_fleet(
+        folders[:1], runtime_env={"env_vars": {"SPINCAL_RAY_CRASH_ONCE": str(markers2)}}, max_retries=0
+    )
+    assert not lost.units[0].ok and lost.units[0].error
+
+
+def test_units_are_shipped_as_bytes(fleet):
+    _, folders, _ = fleet
+    root, campaign, files = sray.unit_payload(folders[0])
+    assert campaign == "campaign.toml" and campaign in files
+    assert all(isinstance(v, bytes) for v in files.values())
+    assert len(files) == 1 + 2 * 5  # the campaign, 5 recordings and their truth files
