@@ -39,6 +39,9 @@ pub enum FormatArg {
     /// Microstrain 3DM-GX1 binary stream.
     #[value(name = "3dm-gx1", alias = "gx1")]
     Gx1,
+    /// ROS bag: ROS 2 (MCAP or sqlite3; a file or the bag directory) or ROS 1 (format 2.0).
+    #[value(name = "rosbag", alias = "bag")]
+    RosBag,
 }
 mirror!(FormatArg => Format {
     Csv => Format::Csv,
@@ -47,6 +50,7 @@ mirror!(FormatArg => Format {
     Mpu6050 => Format::Mpu6050,
     Phyphox => Format::Phyphox,
     Gx1 => Format::Gx1,
+    RosBag => Format::RosBag,
 });
 
 /// Units of acceleration in a file.
