@@ -3,8 +3,9 @@
 
 Usage: .venv/bin/python scripts/make_bag_fixtures.py RECORDING.csv OUT_DIR
 
-The CSV has a header `t_s,ax_mps2,ay_mps2,az_mps2[,gx_radps,gy_radps,gz_radps]` (what
-`spincal simulate` and `Recording::write_csv` write). Every sample becomes one message whose
+The CSV has a header `t_s,ax_mps2,ay_mps2,az_mps2[,gx_radps,gy_radps,gz_radps]` or the same
+with `ax_g,ay_g,az_g` (what `Recording::write_csv` and `spincal simulate` write); g is converted
+to m/s² (× 9.80665, REP-103). Every sample becomes one message whose
 header stamp is EPOCH + t (ns, rounded) and whose receive (log) time is 1 ms later; values are
 float64 as in the CSV. Written into OUT_DIR (which must not exist):
 
@@ -28,6 +29,7 @@ from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 from rosbags.typesys import Stores, get_typestore
 
 EPOCH_NS = 1_700_000_000 * 10**9
+STANDARD_GRAVITY = 9.80665
 LATENCY_NS = 1_000_000
 IMU = "sensor_msgs/msg/Imu"
 TEMP = "sensor_msgs/msg/Temperature"
@@ -42,7 +44,11 @@ def read_csv(path):
     out = []
     for r in data:
         t = float(r[cols["t_s"]])
-        a = [float(r[cols[k]]) for k in ("ax_mps2", "ay_mps2", "az_mps2")]
+        if "ax_mps2" in cols:
+            a = [float(r[cols[k]]) for k in ("ax_mps2", "ay_mps2", "az_mps2")]
+        else:
+            # REP-103: m/s² in the message; the same product spincal forms reading `_g` columns.
+            a = [float(r[cols[k]]) * STANDARD_GRAVITY for k in ("ax_g", "ay_g", "az_g")]
         g = [float(r[cols[k]]) for k in ("gx_radps", "gy_radps", "gz_radps")] if "gx_radps" in cols else None
         out.append((t, a, g))
     return out
