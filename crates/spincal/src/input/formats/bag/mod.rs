@@ -742,6 +742,22 @@ mod tests {
     }
 
     #[test]
+    fn detected_by_magic_and_other_versions_refused() {
+        use crate::input::formats::{detect, Format};
+        for head in [&b"\x89MCAP0\r\n\x01"[..], b"SQLite format 3\0xyz", b"#ROSBAG V2.0\n"] {
+            assert_eq!(detect(head).format, Format::RosBag, "{head:?}");
+        }
+        let e = read_bytes(b"#ROSBAG V1.2\n\0\0", "old.bag", None).unwrap_err().to_string();
+        assert!(e.starts_with("old.bag: '#ROSBAG V1.2': only ROS 1 bag format 2.0"), "{e}");
+        let e = read_bytes(b"\x89MCAP0\r\n", "cut.mcap", None).unwrap_err().to_string();
+        assert_eq!(e, "cut.mcap: byte 8: the file ends without a footer record (truncated)");
+        let e = read_bytes(b"#ROSBAG V2.0\n\x05\0\0\0", "cut.bag", None).unwrap_err().to_string();
+        assert!(e.starts_with("cut.bag: byte 13: record header of 5 bytes runs past the end"), "{e}");
+        let e = read_bytes(b"SQLite format 3\0", "x.db3", None).unwrap_err().to_string();
+        assert!(e.starts_with("x.db3: sqlite3 storage"), "{e}");
+    }
+
+    #[test]
     fn merge_takes_equal_stamps_and_interpolates_others() {
         let accel = Timed {
             ns: vec![0, 10, 20, 40],
