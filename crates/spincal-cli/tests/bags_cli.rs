@@ -89,7 +89,12 @@ fn bags_read_inspect_and_fit_like_their_csv() {
     );
     let text = stdout(spincal().arg("inspect").arg(&two).args(["--topic", "/imu_b"]));
     assert!(text.contains("metadata: topic: /imu_b"), "{text}");
-    let out = spincal().arg("inspect").arg(&two).args(["--topic", "/nope"]).output().unwrap();
+    let out = spincal()
+        .arg("inspect")
+        .arg(&two)
+        .args(["--topic", "/nope"])
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no IMU topic '/nope'"));
 }

@@ -60,7 +60,9 @@ fn fixtures() -> Option<&'static Fixtures> {
                 rec.gyro_radps = Some([
                     t.iter().map(|t| 0.003 * (0.7 * t).sin()).collect(),
                     t.iter().map(|t| -0.002 + 1e-4 * t).collect(),
-                    t.iter().map(|t| omega * (1.0 + 0.001 * (1.3 * t).cos())).collect(),
+                    t.iter()
+                        .map(|t| omega * (1.0 + 0.001 * (1.3 * t).cos()))
+                        .collect(),
                 ]);
             }
             let csv_path = dir.join("rec.csv");
@@ -139,7 +141,10 @@ fn every_storage_gives_the_csv_samples_and_rate() {
         assert!(meta.contains(&format!("storage: {storage}")), "{what}: {meta}");
         assert!(meta.contains("topic: /imu (sensor_msgs"), "{what}: {meta}");
         assert!(meta.contains("frame_id: imu_link"), "{what}: {meta}");
-        assert!(meta.contains("time: header stamp from 1700000000.000000000 s"), "{what}: {meta}");
+        assert!(
+            meta.contains("time: header stamp from 1700000000.000000000 s"),
+            "{what}: {meta}"
+        );
         assert_eq!(rec.source.format, "rosbag");
         // Stamps, not receive times (1 ms later), were used: checked by the time comparison above.
         let rate = estimate_rotation_rate(rec, RateSearch::default()).unwrap();
@@ -175,7 +180,11 @@ fn several_imu_topics_are_listed_and_one_is_chosen() {
             matches!(e, FormatError::Bag(BagError::SeveralTopics { count: 2, .. })),
             "{name}: {text}"
         );
-        assert!(text.contains(&format!("/imu (sensor_msgs/msg/Imu, {n} messages)")) || text.contains(&format!("/imu (sensor_msgs/Imu, {n} messages)")), "{text}");
+        assert!(
+            text.contains(&format!("/imu (sensor_msgs/msg/Imu, {n} messages)"))
+                || text.contains(&format!("/imu (sensor_msgs/Imu, {n} messages)")),
+            "{text}"
+        );
         assert!(text.contains("/imu_b (") && text.contains("--topic"), "{text}");
         assert!(text.starts_with(&path.display().to_string()), "{text}");
 
@@ -202,7 +211,10 @@ fn vector3stamped_pairs_are_merged() {
             let loaded = read(&path, topic).unwrap();
             assert_same_samples(&loaded.recording, &fx.csv, name);
             assert!(
-                loaded.notes.iter().any(|n| n.contains(&format!("{} equal, 0 interpolated", fx.csv.len()))),
+                loaded
+                    .notes
+                    .iter()
+                    .any(|n| n.contains(&format!("{} equal, 0 interpolated", fx.csv.len()))),
                 "{:?}",
                 loaded.notes
             );
@@ -219,8 +231,17 @@ fn zero_stamps_fall_back_to_receive_times() {
     let Some(fx) = fixtures() else { return };
     let loaded = read(&fx.dir.join("zero_stamps"), None).unwrap();
     assert_same_samples(&loaded.recording, &fx.csv, "zero_stamps");
-    assert!(loaded.notes.iter().any(|n| n.contains("receive (log) times")), "{:?}", loaded.notes);
-    assert!(loaded.recording.source.metadata.iter().any(|m| m.starts_with("time: receive time")));
+    assert!(
+        loaded.notes.iter().any(|n| n.contains("receive (log) times")),
+        "{:?}",
+        loaded.notes
+    );
+    assert!(loaded
+        .recording
+        .source
+        .metadata
+        .iter()
+        .any(|m| m.starts_with("time: receive time")));
 }
 
 /// Every cut of a bag file is refused with an error naming the file and a place in it.
@@ -236,7 +257,10 @@ fn truncated_bags_give_located_errors() {
         "sqlite3/sqlite3.db3",
     ] {
         let bytes = std::fs::read(fx.dir.join(name)).unwrap();
-        let cuts: Vec<usize> = (1..40).map(|k| bytes.len() * k / 40).chain([bytes.len() - 1, 20]).collect();
+        let cuts: Vec<usize> = (1..40)
+            .map(|k| bytes.len() * k / 40)
+            .chain([bytes.len() - 1, 20])
+            .collect();
         for cut in cuts {
             let r = read_bytes(&bytes[..cut], name, &ReadOptions::default());
             let e = match r {
@@ -252,7 +276,10 @@ fn truncated_bags_give_located_errors() {
             let located = e.contains("byte ") || e.contains("row id") || e.contains("sqlite3 storage");
             assert!(located, "{name} cut at {cut}: {e}");
             if !name.ends_with(".db3") && cut > 100 {
-                assert!(e.contains("truncated") || e.contains("runs past"), "{name} cut at {cut}: {e}");
+                assert!(
+                    e.contains("truncated") || e.contains("runs past"),
+                    "{name} cut at {cut}: {e}"
+                );
             }
         }
     }
@@ -294,7 +321,12 @@ fn damaged_messages_name_topic_index_and_place() {
     let e = read_bytes(&bytes, "damaged.mcap", &ReadOptions::default()).unwrap_err();
     let text = e.to_string();
     match &e {
-        FormatError::Bag(BagError::Message { topic, index, at: place, .. }) => {
+        FormatError::Bag(BagError::Message {
+            topic,
+            index,
+            at: place,
+            ..
+        }) => {
             assert_eq!((topic.as_str(), *index), ("/imu", 1), "{text}");
             assert!(place.contains("in the chunk at byte"), "{text}");
             assert!(place.contains(&format!("data at byte {}", at - 12)), "{text}");

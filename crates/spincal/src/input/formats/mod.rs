@@ -101,10 +101,7 @@ pub fn detect(head: &[u8]) -> Detection {
         reason: reason.to_string(),
     };
     if let Some(storage) = bag::Storage::sniff(head) {
-        return found(
-            Format::RosBag,
-            &format!("{} magic at byte 0", storage.name()),
-        );
+        return found(Format::RosBag, &format!("{} magic at byte 0", storage.name()));
     }
     // Text files have no NUL and no control bytes other than tab/CR/LF; the GX1 stream is full of them.
     let binary = head
@@ -253,8 +250,10 @@ pub enum FormatError {
 pub fn read_path(path: &Path, options: &ReadOptions) -> Result<Loaded, FormatError> {
     let file = path.display().to_string();
     // A ROS 2 bag directory, or a bag file (an sqlite3 bag is opened in place, not copied).
-    if bag::is_bag_dir(path) || options.format == Some(Format::RosBag)
-        || (options.format.is_none() && sniff_bag(path)) {
+    if bag::is_bag_dir(path)
+        || options.format == Some(Format::RosBag)
+        || (options.format.is_none() && sniff_bag(path))
+    {
         check_options(options)?;
         let read = bag::read_path(path, options.topic.as_deref())?;
         let detection = options.format.is_none().then(|| Detection {
@@ -358,7 +357,11 @@ fn check_options(options: &ReadOptions) -> Result<(), FormatError> {
 }
 
 /// What every reader's result goes through: detection kept, scale and offset, re-timing.
-fn finish(mut loaded: Loaded, detection: Option<Detection>, options: &ReadOptions) -> Result<Loaded, FormatError> {
+fn finish(
+    mut loaded: Loaded,
+    detection: Option<Detection>,
+    options: &ReadOptions,
+) -> Result<Loaded, FormatError> {
     loaded.detection = detection;
     loaded.recording.source.format = loaded.format.name().into();
     apply_scale(&mut loaded, options)?;

@@ -62,7 +62,9 @@ pub fn scan(bytes: &[u8], file: &str, c: &mut Collector) -> Result<(), BagError>
                 return Ok(());
             }
             op::CHUNK => chunk(bytes, pos, body, file, &mut state, c)?,
-            _ => record(opcode, body, body_at, file, &mut state, c, &|| format!("byte {pos}"))?,
+            _ => record(opcode, body, body_at, file, &mut state, c, &|| {
+                format!("byte {pos}")
+            })?,
         }
         pos = body_at + body.len();
     }
@@ -114,13 +116,20 @@ fn record(
             let channel = u16::from_le_bytes([body[0], body[1]]);
             let log_time = u64::from_le_bytes(body[6..14].try_into().expect("8 bytes"));
             let Some(&topic) = state.channels.get(&channel) else {
-                return Err(corrupt(file, at(), format!("message on unknown channel {channel}")));
+                return Err(corrupt(
+                    file,
+                    at(),
+                    format!("message on unknown channel {channel}"),
+                ));
             };
             let data_at = body_at + 22;
-            c.message(topic, log_time, &body[22..], &|| format!("{}, data at byte {data_at}", at()));
+            c.message(topic, log_time, &body[22..], &|| {
+                format!("{}, data at byte {data_at}", at())
+            });
         }
         op::SCHEMA | op::CHANNEL => {
-            let parsed = ::mcap::parse_record(opcode, body).map_err(|e| corrupt(file, at(), e.to_string()))?;
+            let parsed =
+                ::mcap::parse_record(opcode, body).map_err(|e| corrupt(file, at(), e.to_string()))?;
             schema_or_channel(parsed, file, state, c, at)?;
         }
         _ => {}
@@ -149,7 +158,10 @@ fn schema_or_channel(
                         return Err(corrupt(
                             file,
                             at(),
-                            format!("channel {} ({}) names unknown schema {}", ch.id, ch.topic, ch.schema_id),
+                            format!(
+                                "channel {} ({}) names unknown schema {}",
+                                ch.id, ch.topic, ch.schema_id
+                            ),
                         ))
                     }
                 }
@@ -162,10 +174,22 @@ fn schema_or_channel(
     Ok(())
 }
 
-fn chunk(bytes: &[u8], pos: usize, body: &[u8], file: &str, state: &mut State, c: &mut Collector) -> Result<(), BagError> {
-    let parsed = ::mcap::parse_record(op::CHUNK, body).map_err(|e| corrupt(file, format!("chunk at byte {pos}"), e.to_string()))?;
+fn chunk(
+    bytes: &[u8],
+    pos: usize,
+    body: &[u8],
+    file: &str,
+    state: &mut State,
+    c: &mut Collector,
+) -> Result<(), BagError> {
+    let parsed = ::mcap::parse_record(op::CHUNK, body)
+        .map_err(|e| corrupt(file, format!("chunk at byte {pos}"), e.to_string()))?;
     let Record::Chunk { header, data } = parsed else {
-        return Err(corrupt(file, format!("byte {pos}"), "chunk record did not parse as a chunk"));
+        return Err(corrupt(
+            file,
+            format!("byte {pos}"),
+            "chunk record did not parse as a chunk",
+        ));
     };
     let records_len = data.len();
     if header.compression.is_empty() {
@@ -188,7 +212,10 @@ fn chunk(bytes: &[u8], pos: usize, body: &[u8], file: &str, state: &mut State, c
                 return Err(corrupt(
                     file,
                     format!("chunk at byte {pos}"),
-                    format!("CRC {crc:08x} does not match the stored {:08x}", header.uncompressed_crc),
+                    format!(
+                        "CRC {crc:08x} does not match the stored {:08x}",
+                        header.uncompressed_crc
+                    ),
                 ));
             }
         }

@@ -188,10 +188,7 @@ impl Collector {
             "ros1" => Some(Encoding::Ros1),
             _ => None,
         };
-        let wanted = self
-            .wanted
-            .as_ref()
-            .is_none_or(|w| w.iter().any(|t| t == name));
+        let wanted = self.wanted.as_ref().is_none_or(|w| w.iter().any(|t| t == name));
         let series = (wanted && info.kind().is_some() && enc.is_some()).then(Series::default);
         self.topics.push(info);
         self.encodings.push(enc);
@@ -264,10 +261,13 @@ fn describe(c: &Collector, choice: &Choice) -> String {
     match choice {
         Choice::Imu(i) => t(*i),
         Choice::Vectors { accel, gyro: None } => t(*accel),
-        Choice::Vectors {
-            accel,
-            gyro: Some(g),
-        } => format!("{},{} = {} + {}", c.topics[*accel].name, c.topics[*g].name, t(*accel), t(*g)),
+        Choice::Vectors { accel, gyro: Some(g) } => format!(
+            "{},{} = {} + {}",
+            c.topics[*accel].name,
+            c.topics[*g].name,
+            t(*accel),
+            t(*g)
+        ),
     }
 }
 
@@ -295,10 +295,7 @@ fn candidates(c: &Collector) -> Vec<Choice> {
             accel: *a,
             gyro: Some(*g),
         }),
-        _ => out.extend(accels.iter().map(|&a| Choice::Vectors {
-            accel: a,
-            gyro: None,
-        })),
+        _ => out.extend(accels.iter().map(|&a| Choice::Vectors { accel: a, gyro: None })),
     }
     out
 }
@@ -330,10 +327,7 @@ fn choose(c: &Collector, topic: Option<&str>) -> Result<Choice, BagError> {
                 [one] => find(one, MsgKind::Imu)
                     .map(Choice::Imu)
                     .or_else(|| {
-                        find(one, MsgKind::Vector3Stamped).map(|a| Choice::Vectors {
-                            accel: a,
-                            gyro: None,
-                        })
+                        find(one, MsgKind::Vector3Stamped).map(|a| Choice::Vectors { accel: a, gyro: None })
                     })
                     .ok_or_else(missing),
                 [a, g] => match (find(a, MsgKind::Vector3Stamped), find(g, MsgKind::Vector3Stamped)) {
@@ -406,7 +400,13 @@ fn timed(c: &mut Collector, i: usize, notes: &mut Vec<String>) -> Result<Timed, 
         notes.push(format!(
             "{name}: every header stamp is zero: receive (log) times used"
         ));
-        (s.log.iter().map(|&t| t.min(i64::MAX as u64) as i64).collect::<Vec<_>>(), "receive time")
+        (
+            s.log
+                .iter()
+                .map(|&t| t.min(i64::MAX as u64) as i64)
+                .collect::<Vec<_>>(),
+            "receive time",
+        )
     } else if zero > 0 {
         let first = s.stamps.iter().position(|&t| t == 0).unwrap_or(0);
         return Err(BagError::Message {
@@ -414,7 +414,9 @@ fn timed(c: &mut Collector, i: usize, notes: &mut Vec<String>) -> Result<Timed, 
             topic: name,
             index: first as u64 + 1,
             at: "header.stamp".into(),
-            what: format!("stamp is zero in {zero} of {n} messages (stamps and receive times would be mixed)"),
+            what: format!(
+                "stamp is zero in {zero} of {n} messages (stamps and receive times would be mixed)"
+            ),
         });
     } else {
         (s.stamps, "header stamp")
@@ -444,7 +446,9 @@ fn timed(c: &mut Collector, i: usize, notes: &mut Vec<String>) -> Result<Timed, 
             *gg = [pick(&gg[0]), pick(&gg[1]), pick(&gg[2])];
         }
         ns = order.iter().map(|&k| ns[k]).collect();
-        notes.push(format!("{name}: messages sorted by {clock} (the bag stores them out of order)"));
+        notes.push(format!(
+            "{name}: messages sorted by {clock} (the bag stores them out of order)"
+        ));
     }
     Ok(Timed { ns, v, g, clock })
 }
@@ -580,7 +584,13 @@ pub fn read_bytes(bytes: &[u8], file: &str, topic: Option<&str>) -> Result<BagRe
     assemble(c, storage, topic)
 }
 
-fn scan(storage: Storage, bytes: &[u8], path: Option<&Path>, file: &str, c: &mut Collector) -> Result<(), BagError> {
+fn scan(
+    storage: Storage,
+    bytes: &[u8],
+    path: Option<&Path>,
+    file: &str,
+    c: &mut Collector,
+) -> Result<(), BagError> {
     match storage {
         Storage::Mcap => mcap::scan(bytes, file, c),
         Storage::Sqlite3 => match path {
@@ -722,9 +732,15 @@ mod tests {
         assert_eq!(choose(&c, None).unwrap(), Choice::Imu(0));
         let c = collector_with(&[("/imu", "sensor_msgs/msg/Imu"), ("/imu2", "sensor_msgs/Imu")]);
         let e = choose(&c, None).unwrap_err().to_string();
-        assert!(e.contains("2 IMU topics") && e.contains("/imu2 (sensor_msgs/Imu, 3 messages)"), "{e}");
+        assert!(
+            e.contains("2 IMU topics") && e.contains("/imu2 (sensor_msgs/Imu, 3 messages)"),
+            "{e}"
+        );
         assert_eq!(choose(&c, Some("/imu2")).unwrap(), Choice::Imu(1));
-        assert!(matches!(choose(&c, Some("/nope")), Err(BagError::NoSuchTopic { .. })));
+        assert!(matches!(
+            choose(&c, Some("/nope")),
+            Err(BagError::NoSuchTopic { .. })
+        ));
         let c = collector_with(&[
             ("/camera/accel/sample", "geometry_msgs/msg/Vector3Stamped"),
             ("/camera/gyro/sample", "geometry_msgs/msg/Vector3Stamped"),
@@ -738,22 +754,46 @@ mod tests {
         );
         let c = collector_with(&[("/cam", "sensor_msgs/msg/Image")]);
         let e = choose(&c, None).unwrap_err().to_string();
-        assert!(e.contains("no IMU topic") && e.contains("/cam (sensor_msgs/msg/Image, 3 messages)"), "{e}");
+        assert!(
+            e.contains("no IMU topic") && e.contains("/cam (sensor_msgs/msg/Image, 3 messages)"),
+            "{e}"
+        );
     }
 
     #[test]
     fn detected_by_magic_and_other_versions_refused() {
         use crate::input::formats::{detect, Format};
-        for head in [&b"\x89MCAP0\r\n\x01"[..], b"SQLite format 3\0xyz", b"#ROSBAG V2.0\n"] {
+        for head in [
+            &b"\x89MCAP0\r\n\x01"[..],
+            b"SQLite format 3\0xyz",
+            b"#ROSBAG V2.0\n",
+        ] {
             assert_eq!(detect(head).format, Format::RosBag, "{head:?}");
         }
-        let e = read_bytes(b"#ROSBAG V1.2\n\0\0", "old.bag", None).unwrap_err().to_string();
-        assert!(e.starts_with("old.bag: '#ROSBAG V1.2': only ROS 1 bag format 2.0"), "{e}");
-        let e = read_bytes(b"\x89MCAP0\r\n", "cut.mcap", None).unwrap_err().to_string();
-        assert_eq!(e, "cut.mcap: byte 8: the file ends without a footer record (truncated)");
-        let e = read_bytes(b"#ROSBAG V2.0\n\x05\0\0\0", "cut.bag", None).unwrap_err().to_string();
-        assert!(e.starts_with("cut.bag: byte 13: record header of 5 bytes runs past the end"), "{e}");
-        let e = read_bytes(b"SQLite format 3\0", "x.db3", None).unwrap_err().to_string();
+        let e = read_bytes(b"#ROSBAG V1.2\n\0\0", "old.bag", None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("old.bag: '#ROSBAG V1.2': only ROS 1 bag format 2.0"),
+            "{e}"
+        );
+        let e = read_bytes(b"\x89MCAP0\r\n", "cut.mcap", None)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "cut.mcap: byte 8: the file ends without a footer record (truncated)"
+        );
+        let e = read_bytes(b"#ROSBAG V2.0\n\x05\0\0\0", "cut.bag", None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("cut.bag: byte 13: record header of 5 bytes runs past the end"),
+            "{e}"
+        );
+        let e = read_bytes(b"SQLite format 3\0", "x.db3", None)
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("x.db3: sqlite3 storage"), "{e}");
     }
 
@@ -775,6 +815,9 @@ mod tests {
         let m = merge(accel, gyro, &mut notes, ("a", "g"));
         assert_eq!(m.ns, [10, 20]);
         assert_eq!(m.g.unwrap()[0], [1.0, 2.0]);
-        assert!(notes[0].contains("1 equal, 1 interpolated, 2 accelerometer samples"), "{notes:?}");
+        assert!(
+            notes[0].contains("1 equal, 1 interpolated, 2 accelerometer samples"),
+            "{notes:?}"
+        );
     }
 }

@@ -199,9 +199,7 @@ pub fn decode(data: &[u8], encoding: Encoding, kind: MsgKind) -> Result<Decoded,
                 (a, b) => {
                     return Err(DecodeError {
                         offset: 0,
-                        what: format!(
-                            "CDR encapsulation {a:02x} {b:02x} is not plain CDR (00 00 or 00 01)"
-                        ),
+                        what: format!("CDR encapsulation {a:02x} {b:02x} is not plain CDR (00 00 or 00 01)"),
                     })
                 }
             };

@@ -78,7 +78,10 @@ impl<'a> Fields<'a> {
     }
 
     fn get(&self, name: &str) -> Option<&'a [u8]> {
-        self.0.iter().find(|(n, _)| *n == name.as_bytes()).map(|(_, v)| *v)
+        self.0
+            .iter()
+            .find(|(n, _)| *n == name.as_bytes())
+            .map(|(_, v)| *v)
     }
 
     fn need(&self, name: &str) -> Result<&'a [u8], String> {
@@ -105,7 +108,10 @@ fn record_at<'a>(buf: &'a [u8], pos: usize) -> Result<(u8, Fields<'a>, &'a [u8],
     let left = buf.len() - pos;
     let len_at = |p: usize, what: &str| -> Result<usize, String> {
         if buf.len() - p < 4 {
-            return Err(format!("the {what} length is cut off ({} bytes left; truncated)", buf.len() - p));
+            return Err(format!(
+                "the {what} length is cut off ({} bytes left; truncated)",
+                buf.len() - p
+            ));
         }
         Ok(u32::from_le_bytes(buf[p..p + 4].try_into().expect("4 bytes")) as usize)
     };
@@ -137,7 +143,9 @@ fn record_at<'a>(buf: &'a [u8], pos: usize) -> Result<(u8, Fields<'a>, &'a [u8],
 /// Reads every message of a ROS 1 bag into `c`.
 pub fn scan(bytes: &[u8], file: &str, c: &mut Collector) -> Result<(), BagError> {
     if !bytes.starts_with(MAGIC) {
-        let line: String = String::from_utf8_lossy(&bytes[..bytes.len().min(13)]).trim().to_string();
+        let line: String = String::from_utf8_lossy(&bytes[..bytes.len().min(13)])
+            .trim()
+            .to_string();
         return Err(BagError::Unsupported {
             file: file.into(),
             what: format!("'{line}': only ROS 1 bag format 2.0 (#ROSBAG V2.0) is read"),
@@ -180,11 +188,27 @@ fn walk(
                     "bz2" | "lz4" => {
                         let name: &'static str = if compression == "bz2" { "bz2" } else { "lz4" };
                         owned = decompress(name, data, size).map_err(fail)?;
-                        (&owned[..], Place::Chunk { at: pos, compression: name }, 0)
+                        (
+                            &owned[..],
+                            Place::Chunk {
+                                at: pos,
+                                compression: name,
+                            },
+                            0,
+                        )
                     }
-                    other => return Err(fail(format!("chunk compression '{other}' is not none, bz2 or lz4"))),
+                    other => {
+                        return Err(fail(format!(
+                            "chunk compression '{other}' is not none, bz2 or lz4"
+                        )))
+                    }
                 };
-                let end = inner_start + if matches!(inner_place, Place::File) { data.len() } else { inner.len() };
+                let end = inner_start
+                    + if matches!(inner_place, Place::File) {
+                        data.len()
+                    } else {
+                        inner.len()
+                    };
                 walk(&inner[..end], inner_start, inner_place, file, conns, c)?;
             }
             OP_CONNECTION => {
@@ -206,7 +230,9 @@ fn walk(
                 let secs = u32::from_le_bytes(time[..4].try_into().expect("4 bytes")) as u64;
                 let nsecs = u32::from_le_bytes(time[4..].try_into().expect("4 bytes")) as u64;
                 let Some(&topic) = conns.get(&id) else {
-                    return Err(fail(format!("message on connection {id}, which no connection record defined before it")));
+                    return Err(fail(format!(
+                        "message on connection {id}, which no connection record defined before it"
+                    )));
                 };
                 c.message(topic, secs * 1_000_000_000 + nsecs, data, &|| {
                     format!("{}, data at {}", place.at(pos), place.at(data_at))
@@ -224,8 +250,12 @@ fn decompress(kind: &str, data: &[u8], size: usize) -> Result<Vec<u8>, String> {
     let mut out = Vec::with_capacity(size.min(64 << 20));
     let limit = size as u64 + 1;
     let result = match kind {
-        "bz2" => bzip2::read::BzDecoder::new(data).take(limit).read_to_end(&mut out),
-        _ => lz4_flex::frame::FrameDecoder::new(data).take(limit).read_to_end(&mut out),
+        "bz2" => bzip2::read::BzDecoder::new(data)
+            .take(limit)
+            .read_to_end(&mut out),
+        _ => lz4_flex::frame::FrameDecoder::new(data)
+            .take(limit)
+            .read_to_end(&mut out),
     };
     result.map_err(|e| format!("{kind} chunk does not decompress: {e}"))?;
     if out.len() != size {

@@ -56,7 +56,9 @@ fn scan_connection(conn: &Connection, file: &str, c: &mut Collector) -> Result<(
             let at = format!("topics row id {id}");
             let name: String = row.get(1).map_err(sql_error(file, &format!("{at}: name")))?;
             let ty: String = row.get(2).map_err(sql_error(file, &format!("{at}: type")))?;
-            let ser: String = row.get(3).map_err(sql_error(file, &format!("{at}: serialization_format")))?;
+            let ser: String = row
+                .get(3)
+                .map_err(sql_error(file, &format!("{at}: serialization_format")))?;
             let t = c.topic(&name, &ty, &ser);
             topics.insert(id, t);
         }
