@@ -335,3 +335,30 @@ fn damaged_messages_name_topic_index_and_place() {
     }
     assert!(text.contains("byte 16 of the message: header.frame_id"), "{text}");
 }
+
+/// Inputs the `bag` fuzz target once crashed on (fuzz/regressions/bag): refused, not aborted.
+/// crash-c9e2…: a zstd chunk whose decompressed records claim a record of 2⁵⁸ bytes (the `mcap`
+/// crate's chunk reader reserved it; chunks are now walked here, lengths checked first).
+#[test]
+fn fuzz_regressions_are_refused() {
+    let dir = Path::new(REPO).join("fuzz/regressions/bag");
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let data = std::fs::read(&path).unwrap();
+        let (&choice, file) = data.split_first().unwrap();
+        let topic = [
+            None,
+            Some("/imu"),
+            Some("/camera/accel/sample,/camera/gyro/sample"),
+            Some("/camera/accel/sample"),
+        ][usize::from(choice) % 4];
+        let e = spincal::formats::bag::read_bytes(file, "regression.bag", topic)
+            .map(|_| ())
+            .unwrap_err();
+        assert!(
+            e.to_string().starts_with("regression.bag"),
+            "{}: {e}",
+            path.display()
+        );
+    }
+}

@@ -1,9 +1,10 @@
 //! ROS 2 bags in MCAP storage.
 //!
-//! The top-level records (opcode u8, length u64, body) are walked here so that every fault has
-//! its byte offset; record bodies are parsed by the `mcap` crate, which also decompresses
-//! compressed chunks (zstd, lz4). Uncompressed chunks are walked in place (offsets stay file
-//! offsets) and their CRC checked. Messages are handed to the [`Collector`] without copying.
+//! The records (opcode u8, length u64, body) are walked here, at the top level and inside chunks,
+//! so that every fault has its byte offset and every length is checked before anything is
+//! allocated; schema, channel and chunk bodies are parsed by the `mcap` crate. Chunks are
+//! uncompressed (walked in place: offsets stay file offsets), zstd or lz4 (decompressed to their
+//! stated size, capped); a non-zero CRC is checked. Messages reach the [`Collector`] uncopied.
 
 use std::collections::HashMap;
 
@@ -182,93 +183,107 @@ fn chunk(
     state: &mut State,
     c: &mut Collector,
 ) -> Result<(), BagError> {
-    let parsed = ::mcap::parse_record(op::CHUNK, body)
-        .map_err(|e| corrupt(file, format!("chunk at byte {pos}"), e.to_string()))?;
+    let here = || format!("chunk at byte {pos}");
+    let parsed = ::mcap::parse_record(op::CHUNK, body).map_err(|e| corrupt(file, here(), e.to_string()))?;
     let Record::Chunk { header, data } = parsed else {
-        return Err(corrupt(
-            file,
-            format!("byte {pos}"),
-            "chunk record did not parse as a chunk",
-        ));
+        return Err(corrupt(file, here(), "chunk record did not parse as a chunk"));
     };
-    let records_len = data.len();
-    if header.compression.is_empty() {
-        // The records start where the body's last `compressed_size` bytes do.
-        let start = pos + 9 + body.len() - records_len;
-        let records = &bytes[start..start + records_len];
-        if header.uncompressed_size != records_len as u64 {
+    // The records follow the chunk header: 3 × u64, u32 CRC, the compression string (u32 length
+    // + bytes), u64 compressed size.
+    let start = pos + 9 + 8 * 3 + 4 + 4 + header.compression.len() + 8;
+    let decompressed;
+    let (records, base): (&[u8], Option<usize>) = match header.compression.as_str() {
+        "" => (&bytes[start..start + data.len()], Some(start)),
+        "zstd" | "lz4" => {
+            // Why a cap: a damaged size must not allocate gigabytes; real chunks are a few MiB.
+            let cap = (1u64 << 30).min(data.len() as u64 * 4096 + (1 << 20));
+            if header.uncompressed_size > cap {
+                return Err(corrupt(
+                    file,
+                    here(),
+                    format!("uncompressed size {} is implausible", header.uncompressed_size),
+                ));
+            }
+            let size = header.uncompressed_size as usize;
+            decompressed =
+                decompress(&header.compression, &data, size).map_err(|w| corrupt(file, here(), w))?;
+            (&decompressed[..], None)
+        }
+        other => {
             return Err(corrupt(
                 file,
-                format!("chunk at byte {pos}"),
+                here(),
+                format!("chunk compression '{other}' is not none, zstd or lz4"),
+            ))
+        }
+    };
+    if header.uncompressed_size != records.len() as u64 {
+        return Err(corrupt(
+            file,
+            here(),
+            format!(
+                "chunk says {} uncompressed bytes but holds {}",
+                header.uncompressed_size,
+                records.len()
+            ),
+        ));
+    }
+    if header.uncompressed_crc != 0 {
+        let crc = crc32fast::hash(records);
+        if crc != header.uncompressed_crc {
+            return Err(corrupt(
+                file,
+                here(),
                 format!(
-                    "uncompressed chunk says {} bytes but holds {records_len}",
-                    header.uncompressed_size
+                    "CRC {crc:08x} does not match the stored {:08x}",
+                    header.uncompressed_crc
                 ),
             ));
         }
-        if header.uncompressed_crc != 0 {
-            let crc = crc32fast::hash(records);
-            if crc != header.uncompressed_crc {
-                return Err(corrupt(
-                    file,
-                    format!("chunk at byte {pos}"),
-                    format!(
-                        "CRC {crc:08x} does not match the stored {:08x}",
-                        header.uncompressed_crc
-                    ),
-                ));
-            }
-        }
-        let mut p = 0usize;
-        while p < records.len() {
-            let (opcode, rbody) = record_at(records, p, file, "record").map_err(|e| match e {
-                BagError::Corrupt { what, .. } => corrupt(
-                    file,
-                    format!("byte {} (in the chunk at byte {pos})", start + p),
-                    what,
-                ),
-                e => e,
-            })?;
-            let at_abs = start + p;
-            if opcode == op::CHUNK {
-                return Err(corrupt(file, format!("byte {at_abs}"), "a chunk inside a chunk"));
-            }
-            record(opcode, rbody, at_abs + 9, file, state, c, &|| {
-                format!("byte {at_abs} (in the chunk at byte {pos})")
-            })?;
-            p += 9 + rbody.len();
-        }
-        return Ok(());
     }
-    // Compressed: the mcap crate decompresses (and checks the CRC); records are counted.
-    // Why a cap: a damaged size must not allocate gigabytes; real chunks are a few MiB.
-    if header.uncompressed_size > (1 << 30).min(records_len as u64 * 4096 + (1 << 20)) {
-        return Err(corrupt(
-            file,
-            format!("chunk at byte {pos}"),
-            format!("uncompressed size {} is implausible", header.uncompressed_size),
-        ));
-    }
-    let compression = header.compression.clone();
-    let reader = ::mcap::read::ChunkReader::new(header, &data)
-        .map_err(|e| corrupt(file, format!("{compression} chunk at byte {pos}"), e.to_string()))?;
-    for (k, rec) in reader.enumerate() {
-        let at = || format!("record {} of the {compression} chunk at byte {pos}", k + 1);
-        let rec = rec.map_err(|e| corrupt(file, at(), e.to_string()))?;
-        match rec {
-            Record::Message { header, data } => {
-                let Some(&topic) = state.channels.get(&header.channel_id) else {
-                    return Err(corrupt(
-                        file,
-                        at(),
-                        format!("message on unknown channel {}", header.channel_id),
-                    ));
-                };
-                c.message(topic, header.log_time, &data, &at);
-            }
-            r @ (Record::Schema { .. } | Record::Channel(_)) => schema_or_channel(r, file, state, c, &at)?,
-            _ => {}
+    // Offsets: file offsets in an uncompressed chunk, offsets in the decompressed data otherwise.
+    let place = |p: usize| match base {
+        Some(b) => format!("byte {} (in the chunk at byte {pos})", b + p),
+        None => format!(
+            "byte {p} of the decompressed {} chunk at byte {pos}",
+            header.compression
+        ),
+    };
+    let mut p = 0usize;
+    while p < records.len() {
+        let (opcode, rbody) = record_at(records, p, file, "record").map_err(|e| match e {
+            BagError::Corrupt { what, .. } => corrupt(file, place(p), what),
+            e => e,
+        })?;
+        if opcode == op::CHUNK {
+            return Err(corrupt(file, place(p), "a chunk inside a chunk"));
         }
+        let body_at = base.map_or(p + 9, |b| b + p + 9);
+        let at = place(p);
+        record(opcode, rbody, body_at, file, state, c, &|| at.clone())?;
+        p += 9 + rbody.len();
     }
     Ok(())
+}
+
+/// A zstd or lz4 (frame) chunk, decompressed to exactly `size` bytes.
+fn decompress(kind: &str, data: &[u8], size: usize) -> Result<Vec<u8>, String> {
+    use std::io::Read;
+    let mut out = Vec::with_capacity(size);
+    let limit = size as u64 + 1;
+    let result = match kind {
+        "zstd" => zstd::stream::read::Decoder::new(data).and_then(|d| d.take(limit).read_to_end(&mut out)),
+        _ => lz4_flex::frame::FrameDecoder::new(data)
+            .take(limit)
+            .read_to_end(&mut out),
+    };
+    result.map_err(|e| format!("{kind} chunk does not decompress: {e}"))?;
+    if out.len() != size {
+        return Err(format!(
+            "{kind} chunk decompresses to {}{} bytes, its header says {size}",
+            out.len().min(size + 1),
+            if out.len() > size { "+" } else { "" }
+        ));
+    }
+    Ok(out)
 }

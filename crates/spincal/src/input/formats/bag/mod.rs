@@ -154,6 +154,7 @@ pub struct Collector {
     wanted: Option<Vec<String>>,
     topics: Vec<TopicInfo>,
     encodings: Vec<Option<Encoding>>,
+    kinds: Vec<Option<MsgKind>>,
     series: Vec<Option<Series>>,
     by_key: HashMap<(String, String), usize>,
 }
@@ -165,6 +166,7 @@ impl Collector {
             wanted: topic.map(|t| t.split(',').map(|s| s.trim().to_string()).collect()),
             topics: Vec::new(),
             encodings: Vec::new(),
+            kinds: Vec::new(),
             series: Vec::new(),
             by_key: HashMap::new(),
         }
@@ -189,9 +191,11 @@ impl Collector {
             _ => None,
         };
         let wanted = self.wanted.as_ref().is_none_or(|w| w.iter().any(|t| t == name));
-        let series = (wanted && info.kind().is_some() && enc.is_some()).then(Series::default);
+        let info_kind = info.kind();
+        let series = (wanted && info_kind.is_some() && enc.is_some()).then(Series::default);
         self.topics.push(info);
         self.encodings.push(enc);
+        self.kinds.push(info_kind);
         self.series.push(series);
         self.by_key.insert(key, self.topics.len() - 1);
         self.topics.len() - 1
@@ -207,7 +211,7 @@ impl Collector {
         if series.error.is_some() {
             return;
         }
-        let (Some(kind), Some(encoding)) = (info.kind(), self.encodings[topic]) else {
+        let (Some(kind), Some(encoding)) = (self.kinds[topic], self.encodings[topic]) else {
             return;
         };
         match msg::decode(data, encoding, kind) {
