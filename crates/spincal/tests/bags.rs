@@ -339,6 +339,8 @@ fn damaged_messages_name_topic_index_and_place() {
 /// Inputs the `bag` fuzz target once crashed on (fuzz/regressions/bag): refused, not aborted.
 /// crash-c9e2…: a zstd chunk whose decompressed records claim a record of 2⁵⁸ bytes (the `mcap`
 /// crate's chunk reader reserved it; chunks are now walked here, lengths checked first).
+/// oom-5e82…: a record string (schema, channel or chunk compression) of 4 GB stated length (the
+/// `mcap` crate's parser allocated it; string lengths are now checked before it parses).
 #[test]
 fn fuzz_regressions_are_refused() {
     let dir = Path::new(REPO).join("fuzz/regressions/bag");

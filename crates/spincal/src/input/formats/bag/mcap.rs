@@ -129,6 +129,7 @@ fn record(
             });
         }
         op::SCHEMA | op::CHANNEL => {
+            check_strings(opcode, body).map_err(|w| corrupt(file, at(), w))?;
             let parsed =
                 ::mcap::parse_record(opcode, body).map_err(|e| corrupt(file, at(), e.to_string()))?;
             schema_or_channel(parsed, file, state, c, at)?;
@@ -184,6 +185,7 @@ fn chunk(
     c: &mut Collector,
 ) -> Result<(), BagError> {
     let here = || format!("chunk at byte {pos}");
+    check_strings(op::CHUNK, body).map_err(|w| corrupt(file, here(), w))?;
     let parsed = ::mcap::parse_record(op::CHUNK, body).map_err(|e| corrupt(file, here(), e.to_string()))?;
     let Record::Chunk { header, data } = parsed else {
         return Err(corrupt(file, here(), "chunk record did not parse as a chunk"));
@@ -286,4 +288,64 @@ fn decompress(kind: &str, data: &[u8], size: usize) -> Result<Vec<u8>, String> {
         ));
     }
     Ok(out)
+}
+
+/// Checks the length of every string in a schema, channel or chunk body before the `mcap` crate
+/// parses it (its parser allocates a string's stated length before reading it).
+fn check_strings(opcode: u8, body: &[u8]) -> Result<(), String> {
+    fn string(body: &[u8], p: &mut usize, end: usize, what: &str) -> Result<(), String> {
+        if end - *p < 4 {
+            return Err(format!("the {what} length at byte {p} of the record is cut off"));
+        }
+        let len = u32::from_le_bytes(body[*p..*p + 4].try_into().expect("4 bytes")) as usize;
+        if len > end - *p - 4 {
+            return Err(format!(
+                "the {what} of {len} bytes at byte {p} of the record runs past its end ({} left)",
+                end - *p - 4
+            ));
+        }
+        *p += 4 + len;
+        Ok(())
+    }
+    let end = body.len();
+    let skip = |n: usize| {
+        if end < n {
+            Err(format!("record of {end} bytes is too short"))
+        } else {
+            Ok(n)
+        }
+    };
+    match opcode {
+        op::SCHEMA => {
+            let mut p = skip(2)?;
+            string(body, &mut p, end, "schema name")?;
+            string(body, &mut p, end, "schema encoding")?;
+        }
+        op::CHANNEL => {
+            let mut p = skip(4)?;
+            string(body, &mut p, end, "topic")?;
+            string(body, &mut p, end, "message encoding")?;
+            if end - p < 4 {
+                return Err("the channel metadata length is cut off".into());
+            }
+            let len = u32::from_le_bytes(body[p..p + 4].try_into().expect("4 bytes")) as usize;
+            if len > end - p - 4 {
+                return Err(format!(
+                    "channel metadata of {len} bytes runs past the record's end"
+                ));
+            }
+            let map_end = p + 4 + len;
+            p += 4;
+            while p < map_end {
+                string(body, &mut p, map_end, "metadata key")?;
+                string(body, &mut p, map_end, "metadata value")?;
+            }
+        }
+        op::CHUNK => {
+            let mut p = skip(28)?;
+            string(body, &mut p, end, "chunk compression")?;
+        }
+        _ => {}
+    }
+    Ok(())
 }
