@@ -47,6 +47,10 @@ pub struct ReadArgs {
     /// or jittered stamps).
     #[arg(long)]
     pub retime: bool,
+    /// ROS bag topic to read: a sensor_msgs/Imu topic, or `ACCEL,GYRO` geometry_msgs/Vector3Stamped
+    /// topics (default: the bag's only IMU topic; several are listed with their message counts).
+    #[arg(long, value_name = "TOPIC")]
+    pub topic: Option<String>,
     /// 3DM-GX1 AccelGainScale (EEPROM 230); default: the EEPROM reply captured in the stream.
     #[arg(long)]
     pub gx1_accel_gain: Option<u16>,
@@ -112,6 +116,7 @@ impl ReadArgs {
                 gyro_gain_scale: self.gx1_gyro_gain,
                 command: None,
             },
+            topic: self.topic.clone(),
             retime: self.retime,
         })
     }
@@ -150,7 +155,7 @@ impl ReadArgs {
 #[derive(Args, Debug)]
 pub struct InputArgs {
     /// Recording to read (CSV, whitespace text, imucal, MPU-6050 logger, phyphox, 3DM-GX1 binary,
-    /// MATLAB v5 MAT-file).
+    /// MATLAB v5 MAT-file, ROS bag file or ROS 2 bag directory).
     pub rec: PathBuf,
     #[command(flatten)]
     pub read: ReadArgs,

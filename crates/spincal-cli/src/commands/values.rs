@@ -42,6 +42,9 @@ pub enum FormatArg {
     /// MATLAB v5 MAT-file (numeric variables as columns).
     #[value(alias = "matlab")]
     Mat,
+    /// ROS bag: ROS 2 (MCAP or sqlite3; a file or the bag directory) or ROS 1 (format 2.0).
+    #[value(name = "rosbag", alias = "bag")]
+    RosBag,
 }
 mirror!(FormatArg => Format {
     Csv => Format::Csv,
@@ -51,6 +54,7 @@ mirror!(FormatArg => Format {
     Phyphox => Format::Phyphox,
     Gx1 => Format::Gx1,
     Mat => Format::Mat,
+    RosBag => Format::RosBag,
 });
 
 /// Units of angular rate in a file.

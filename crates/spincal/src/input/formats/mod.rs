@@ -8,6 +8,7 @@
 // Axis loops index several parallel per-axis arrays at once; iterators would obscure that.
 #![allow(clippy::needless_range_loop)]
 
+pub mod bag;
 pub mod gx1;
 pub mod mat;
 
@@ -38,10 +39,13 @@ pub enum Format {
     Gx1,
     /// MATLAB v5 MAT-file: numeric variables become columns (see [`mat`]).
     Mat,
+    /// ROS bag: ROS 2 (MCAP or sqlite3 storage, file or bag directory) or ROS 1 (format 2.0);
+    /// `sensor_msgs/Imu` or `geometry_msgs/Vector3Stamped` accelerometer (+ gyro) topics.
+    RosBag,
 }
 
 impl Format {
-    pub const ALL: [Format; 7] = [
+    pub const ALL: [Format; 8] = [
         Format::Csv,
         Format::Whitespace,
         Format::Imucal,
@@ -49,6 +53,7 @@ impl Format {
         Format::Phyphox,
         Format::Gx1,
         Format::Mat,
+        Format::RosBag,
     ];
 
     pub fn name(self) -> &'static str {
@@ -60,16 +65,19 @@ impl Format {
             Format::Phyphox => "phyphox",
             Format::Gx1 => "3dm-gx1",
             Format::Mat => "mat",
+            Format::RosBag => "rosbag",
         }
     }
 
-    /// Parses a format name (`csv`, `whitespace`/`imu-tk`, `imucal`, `mpu6050`, `phyphox`, `3dm-gx1`/`gx1`).
+    /// Parses a format name (`csv`, `whitespace`/`imu-tk`, `imucal`, `mpu6050`, `phyphox`, `3dm-gx1`/`gx1`,
+    /// `rosbag`/`bag`).
     pub fn parse(text: &str) -> Option<Format> {
         match text.to_ascii_lowercase().as_str() {
             "imu-tk" | "imu_tk" | "imutk" => Some(Format::Whitespace),
             "gx1" | "3dmgx1" => Some(Format::Gx1),
             "mpu-6050" => Some(Format::Mpu6050),
             "matlab" => Some(Format::Mat),
+            "bag" | "ros" | "ros-bag" | "mcap" | "db3" => Some(Format::RosBag),
             t => Format::ALL.into_iter().find(|f| f.name() == t),
         }
     }
@@ -100,6 +108,9 @@ pub fn detect(head: &[u8]) -> Detection {
     };
     if mat::is_mat(head) {
         return found(Format::Mat, "starts with 'MATLAB 5.0 MAT-file'");
+    }
+    if let Some(storage) = bag::Storage::sniff(head) {
+        return found(Format::RosBag, &format!("{} magic at byte 0", storage.name()));
     }
     // Text files have no NUL and no control bytes other than tab/CR/LF; the GX1 stream is full of them.
     let binary = head
@@ -172,6 +183,9 @@ pub struct ReadOptions {
     /// Sample rate for formats without a time column (overrides `Fs` metadata; imucal: 204.8 Hz).
     pub sample_rate_hz: Option<f64>,
     pub gx1: Gx1Options,
+    /// ROS bags: the topic to read (`accel,gyro` for two `Vector3Stamped` topics); without it a
+    /// bag with one IMU topic is read and one with several is refused with the list.
+    pub topic: Option<String>,
     /// Replace the timestamps by t₀ + i·Δt, Δt from all the timestamps (for coarse, repeated or
     /// jittered stamps). Dropped samples are not restored: use it on recordings without gaps.
     pub retime: bool,
@@ -217,6 +231,8 @@ pub enum FormatError {
     Gx1(#[from] Gx1Error),
     #[error(transparent)]
     Mat(#[from] mat::MatError),
+    #[error(transparent)]
+    Bag(#[from] bag::BagError),
     #[error("{file}: no sample rate: the file has no time column and no `Fs,<Hz>` line; pass --sample-rate")]
     NoSampleRate { file: String },
     #[error("{file}:{line}: sample rate '{text}' is not a positive number")]
@@ -247,6 +263,23 @@ pub enum FormatError {
 /// Reads a file in the given or detected format.
 pub fn read_path(path: &Path, options: &ReadOptions) -> Result<Loaded, FormatError> {
     let file = path.display().to_string();
+    // A ROS 2 bag directory, or a bag file (an sqlite3 bag is opened in place, not copied).
+    if bag::is_bag_dir(path)
+        || options.format == Some(Format::RosBag)
+        || (options.format.is_none() && sniff_bag(path))
+    {
+        check_options(options)?;
+        let read = bag::read_path(path, options.topic.as_deref())?;
+        let detection = options.format.is_none().then(|| Detection {
+            format: Format::RosBag,
+            reason: if path.is_dir() {
+                format!("directory with metadata.yaml ({})", read.storage.name())
+            } else {
+                format!("{} magic at byte 0", read.storage.name())
+            },
+        });
+        return finish(bag_loaded(read), detection, options);
+    }
     let bytes = crate::input::table::read_file(path).map_err(|source| FormatError::Io {
         file: file.clone(),
         source,
@@ -256,24 +289,7 @@ pub fn read_path(path: &Path, options: &ReadOptions) -> Result<Loaded, FormatErr
 
 /// Reads an in-memory file; `file` names it in errors.
 pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
-    if let Some(rate) = options.sample_rate_hz {
-        if !(rate.is_finite() && rate > 0.0) {
-            return Err(FormatError::BadOption {
-                name: "sample_rate_hz",
-                value: rate.to_string(),
-                why: "must be a finite positive rate in Hz",
-            });
-        }
-    }
-    if let Some(offset) = options.accel_offset {
-        if offset.iter().any(|v| !v.is_finite()) {
-            return Err(FormatError::BadOption {
-                name: "accel_offset",
-                value: format!("{offset:?}"),
-                why: "every offset must be finite",
-            });
-        }
-    }
+    check_options(options)?;
     let detection = match options.format {
         Some(_) => None,
         None => Some(detect(bytes)),
@@ -282,7 +298,7 @@ pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loa
         .format
         .or(detection.as_ref().map(|d| d.format))
         .unwrap_or(Format::Csv);
-    let mut loaded = match format {
+    let loaded = match format {
         Format::Csv => {
             let recording =
                 Recording::parse_csv_timed(bytes, file, &options.columns, options.sample_rate_hz)?;
@@ -306,11 +322,66 @@ pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loa
             l
         }
         Format::Mat => read_mat(bytes, file, options)?,
+        Format::RosBag => bag_loaded(bag::read_bytes(bytes, file, options.topic.as_deref())?),
     };
+    finish(loaded, detection, options)
+}
+
+/// Whether the file at `path` starts with a bag's magic.
+fn sniff_bag(path: &Path) -> bool {
+    use std::io::Read;
+    let mut head = [0u8; 16];
+    let Ok(mut f) = std::fs::File::open(path) else {
+        return false;
+    };
+    let mut n = 0;
+    while n < head.len() {
+        match f.read(&mut head[n..]) {
+            Ok(0) | Err(_) => break,
+            Ok(k) => n += k,
+        }
+    }
+    bag::Storage::sniff(&head[..n]).is_some()
+}
+
+fn bag_loaded(read: bag::BagRead) -> Loaded {
+    let mut l = Loaded::new(read.recording, Format::RosBag, false);
+    l.notes = read.notes;
+    l
+}
+
+fn check_options(options: &ReadOptions) -> Result<(), FormatError> {
+    if let Some(rate) = options.sample_rate_hz {
+        if !(rate.is_finite() && rate > 0.0) {
+            return Err(FormatError::BadOption {
+                name: "sample_rate_hz",
+                value: rate.to_string(),
+                why: "must be a finite positive rate in Hz",
+            });
+        }
+    }
+    if let Some(offset) = options.accel_offset {
+        if offset.iter().any(|v| !v.is_finite()) {
+            return Err(FormatError::BadOption {
+                name: "accel_offset",
+                value: format!("{offset:?}"),
+                why: "every offset must be finite",
+            });
+        }
+    }
+    Ok(())
+}
+
+/// What every reader's result goes through: detection kept, scale and offset, re-timing.
+fn finish(
+    mut loaded: Loaded,
+    detection: Option<Detection>,
+    options: &ReadOptions,
+) -> Result<Loaded, FormatError> {
     loaded.detection = detection;
-    loaded.recording.source.format = format.name().into();
+    loaded.recording.source.format = loaded.format.name().into();
     if let (Some(rate), Format::Csv | Format::Whitespace | Format::Phyphox | Format::Mat) =
-        (options.sample_rate_hz, format)
+        (options.sample_rate_hz, loaded.format)
     {
         // The rate given won over the file's time column (a sample index, or a coarse clock).
         let column = loaded

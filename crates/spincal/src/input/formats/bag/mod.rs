@@ -1,0 +1,827 @@
+//! ROS bags: `sensor_msgs/Imu` (or a `geometry_msgs/Vector3Stamped` accelerometer topic with its
+//! gyro topic) read from ROS 2 bags (MCAP or sqlite3 storage) and ROS 1 bags (format 2.0).
+//!
+//! One pass over the bag: every topic is counted, the IMU-shaped topics (or only the one asked
+//! for) are decoded as they come ([`Collector`]); then one topic is chosen ([`choose`]) and turned
+//! into a [`Recording`] (`assemble`). Storage readers (`mcap`, `sqlite`, `ros1`) only walk records
+//! and hand each message with a lazily formatted location to the collector, so a message that
+//! does not decode is reported with the file, the storage location (byte offset, chunk, row id),
+//! the topic and the message's index in it.
+//!
+//! Time: the header stamps (ns), or the receive (log) times when every stamp of the topic is
+//! zero; samples sorted by time (stable); `time_s` counts from the first sample, and the absolute
+//! start is kept in the metadata (epoch seconds in an f64 would lose 0.2 µs). Units are REP-103's
+//! (m/s², rad/s), as the messages carry them.
+
+pub mod mcap;
+pub mod msg;
+pub mod ros1;
+pub mod sqlite;
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use crate::input::recording::{Recording, Source};
+
+pub use msg::{DecodeError, Decoded, Encoding, MsgKind};
+
+/// How a bag stores its messages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Storage {
+    /// ROS 2, MCAP storage (`.mcap`).
+    Mcap,
+    /// ROS 2, sqlite3 storage (`.db3`).
+    Sqlite3,
+    /// ROS 1 bag format 2.0 (`.bag`).
+    Ros1,
+}
+
+impl Storage {
+    pub fn name(self) -> &'static str {
+        match self {
+            Storage::Mcap => "ROS 2 mcap",
+            Storage::Sqlite3 => "ROS 2 sqlite3",
+            Storage::Ros1 => "ROS 1 bag 2.0",
+        }
+    }
+
+    /// The storage a file's first bytes announce, if any.
+    pub fn sniff(head: &[u8]) -> Option<Storage> {
+        if head.starts_with(mcap::MAGIC) {
+            Some(Storage::Mcap)
+        } else if head.starts_with(sqlite::MAGIC) {
+            Some(Storage::Sqlite3)
+        } else if head.starts_with(ros1::MAGIC_PREFIX) {
+            Some(Storage::Ros1)
+        } else {
+            None
+        }
+    }
+}
+
+/// Everything that can go wrong reading a bag. Each names the file, and where inside it.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum BagError {
+    #[error("{file}: cannot read: {source}")]
+    Io {
+        file: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The storage itself is damaged or cut short.
+    #[error("{file}: {at}: {what}")]
+    Corrupt { file: String, at: String, what: String },
+    /// One message does not decode as its type.
+    #[error("{file}: topic {topic}, message {index} ({at}): {what}")]
+    Message {
+        file: String,
+        topic: String,
+        /// 1-based index of the message within its topic.
+        index: u64,
+        at: String,
+        what: String,
+    },
+    #[error("{file}: sqlite3 storage: {what}: {source}")]
+    Sqlite {
+        file: String,
+        what: String,
+        #[source]
+        source: rusqlite::Error,
+    },
+    #[error("{file}: {what}")]
+    Unsupported { file: String, what: String },
+    #[error("{file}: no IMU topic (sensor_msgs/Imu, or geometry_msgs/Vector3Stamped accelerometer [+ gyro]); topics: {topics}")]
+    NoImuTopic { file: String, topics: String },
+    #[error("{file}: {count} IMU topics; choose one with --topic: {topics}")]
+    SeveralTopics {
+        file: String,
+        count: usize,
+        topics: String,
+    },
+    #[error("{file}: no IMU topic '{topic}'; IMU topics: {topics}")]
+    NoSuchTopic {
+        file: String,
+        topic: String,
+        topics: String,
+    },
+    #[error("{file}: topic {topic} has {found} messages; at least 2 are needed")]
+    TooFew {
+        file: String,
+        topic: String,
+        found: usize,
+    },
+}
+
+/// A topic as the bag lists it, with its message count.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TopicInfo {
+    pub name: String,
+    /// Message type as stored (`sensor_msgs/msg/Imu`, `sensor_msgs/Imu`, …).
+    pub msgtype: String,
+    /// Serialisation name as stored (`cdr`, `ros1`, …).
+    pub encoding: String,
+    pub count: u64,
+}
+
+impl TopicInfo {
+    fn kind(&self) -> Option<MsgKind> {
+        MsgKind::from_type(&self.msgtype)
+    }
+    fn looks_like(&self, words: &[&str]) -> bool {
+        let lower = self.name.to_ascii_lowercase();
+        words.iter().any(|w| lower.contains(w))
+    }
+}
+
+/// The decoded messages of one topic.
+#[derive(Debug, Default)]
+struct Series {
+    stamps: Vec<i64>,
+    log: Vec<u64>,
+    v: [Vec<f64>; 3],
+    g: [Vec<f64>; 3],
+    accel_missing: usize,
+    gyro_missing: usize,
+    frame_id: Option<String>,
+    error: Option<BagError>,
+}
+
+/// Counts every topic's messages and decodes the wanted IMU-shaped ones, as the storage reader
+/// hands them over.
+pub struct Collector {
+    file: String,
+    wanted: Option<Vec<String>>,
+    topics: Vec<TopicInfo>,
+    encodings: Vec<Option<Encoding>>,
+    kinds: Vec<Option<MsgKind>>,
+    series: Vec<Option<Series>>,
+    by_key: HashMap<(String, String), usize>,
+}
+
+impl Collector {
+    fn new(file: &str, topic: Option<&str>) -> Collector {
+        Collector {
+            file: file.to_string(),
+            wanted: topic.map(|t| t.split(',').map(|s| s.trim().to_string()).collect()),
+            topics: Vec::new(),
+            encodings: Vec::new(),
+            kinds: Vec::new(),
+            series: Vec::new(),
+            by_key: HashMap::new(),
+        }
+    }
+
+    /// Registers a topic (or finds it again: ROS 1 bags and split ROS 2 bags repeat connections)
+    /// and returns its handle for [`Collector::message`].
+    pub fn topic(&mut self, name: &str, msgtype: &str, encoding: &str) -> usize {
+        let key = (name.to_string(), msgtype.to_string());
+        if let Some(&i) = self.by_key.get(&key) {
+            return i;
+        }
+        let info = TopicInfo {
+            name: name.into(),
+            msgtype: msgtype.into(),
+            encoding: encoding.into(),
+            count: 0,
+        };
+        let enc = match encoding {
+            "cdr" => Some(Encoding::Cdr),
+            "ros1" => Some(Encoding::Ros1),
+            _ => None,
+        };
+        let wanted = self.wanted.as_ref().is_none_or(|w| w.iter().any(|t| t == name));
+        let info_kind = info.kind();
+        let series = (wanted && info_kind.is_some() && enc.is_some()).then(Series::default);
+        self.topics.push(info);
+        self.encodings.push(enc);
+        self.kinds.push(info_kind);
+        self.series.push(series);
+        self.by_key.insert(key, self.topics.len() - 1);
+        self.topics.len() - 1
+    }
+
+    /// One message of topic `topic` received at `log_ns`; `at` says where it is in the file.
+    pub fn message(&mut self, topic: usize, log_ns: u64, data: &[u8], at: &dyn Fn() -> String) {
+        let info = &mut self.topics[topic];
+        info.count += 1;
+        let Some(series) = self.series[topic].as_mut() else {
+            return;
+        };
+        if series.error.is_some() {
+            return;
+        }
+        let (Some(kind), Some(encoding)) = (self.kinds[topic], self.encodings[topic]) else {
+            return;
+        };
+        match msg::decode(data, encoding, kind) {
+            Ok(d) => {
+                series.stamps.push(d.stamp_ns);
+                series.log.push(log_ns);
+                for k in 0..3 {
+                    series.v[k].push(d.vector[k]);
+                }
+                if let Some(w) = d.angular_velocity {
+                    for k in 0..3 {
+                        series.g[k].push(w[k]);
+                    }
+                }
+                series.accel_missing += usize::from(d.accel_cov0 == -1.0);
+                series.gyro_missing += usize::from(d.gyro_cov0 == -1.0);
+                if series.frame_id.is_none() {
+                    series.frame_id = Some(d.frame_id);
+                }
+            }
+            Err(e) => {
+                series.error = Some(BagError::Message {
+                    file: self.file.clone(),
+                    topic: info.name.clone(),
+                    index: info.count,
+                    at: at(),
+                    what: e.to_string(),
+                })
+            }
+        }
+    }
+
+    /// Every topic seen, in the order the bag first named them.
+    pub fn topics(&self) -> &[TopicInfo] {
+        &self.topics
+    }
+}
+
+/// What [`choose`] picked: an `Imu` topic, or accelerometer (+ gyro) `Vector3Stamped` topics.
+#[derive(Debug, Clone, PartialEq)]
+enum Choice {
+    Imu(usize),
+    Vectors { accel: usize, gyro: Option<usize> },
+}
+
+fn describe(c: &Collector, choice: &Choice) -> String {
+    let t = |i: usize| {
+        let info = &c.topics[i];
+        format!("{} ({}, {} messages)", info.name, info.msgtype, info.count)
+    };
+    match choice {
+        Choice::Imu(i) => t(*i),
+        Choice::Vectors { accel, gyro: None } => t(*accel),
+        Choice::Vectors { accel, gyro: Some(g) } => format!(
+            "{},{} = {} + {}",
+            c.topics[*accel].name,
+            c.topics[*g].name,
+            t(*accel),
+            t(*g)
+        ),
+    }
+}
+
+/// The IMU candidates: every `Imu` topic, and the `Vector3Stamped` accelerometer topic paired with
+/// the gyro topic when the names say which is which (one of each).
+fn candidates(c: &Collector) -> Vec<Choice> {
+    let mut out = Vec::new();
+    let mut accels = Vec::new();
+    let mut gyros = Vec::new();
+    for (i, t) in c.topics.iter().enumerate() {
+        match t.kind() {
+            Some(MsgKind::Imu) => out.push(Choice::Imu(i)),
+            Some(MsgKind::Vector3Stamped) => {
+                if t.looks_like(&["gyr", "angular", "ang_vel"]) {
+                    gyros.push(i)
+                } else if t.looks_like(&["acc"]) {
+                    accels.push(i)
+                }
+            }
+            None => {}
+        }
+    }
+    match (accels.as_slice(), gyros.as_slice()) {
+        ([a], [g]) => out.push(Choice::Vectors {
+            accel: *a,
+            gyro: Some(*g),
+        }),
+        _ => out.extend(accels.iter().map(|&a| Choice::Vectors { accel: a, gyro: None })),
+    }
+    out
+}
+
+fn choose(c: &Collector, topic: Option<&str>) -> Result<Choice, BagError> {
+    let file = c.file.clone();
+    let all = candidates(c);
+    let list = |v: &[Choice]| {
+        if v.is_empty() {
+            "none".to_string()
+        } else {
+            v.iter().map(|ch| describe(c, ch)).collect::<Vec<_>>().join("; ")
+        }
+    };
+    let find = |name: &str, kind: MsgKind| {
+        c.topics
+            .iter()
+            .position(|t| t.name == name && t.kind() == Some(kind))
+    };
+    match topic {
+        Some(spec) => {
+            let names: Vec<&str> = spec.split(',').map(str::trim).collect();
+            let missing = || BagError::NoSuchTopic {
+                file: file.clone(),
+                topic: spec.to_string(),
+                topics: list(&all),
+            };
+            match names.as_slice() {
+                [one] => find(one, MsgKind::Imu)
+                    .map(Choice::Imu)
+                    .or_else(|| {
+                        find(one, MsgKind::Vector3Stamped).map(|a| Choice::Vectors { accel: a, gyro: None })
+                    })
+                    .ok_or_else(missing),
+                [a, g] => match (find(a, MsgKind::Vector3Stamped), find(g, MsgKind::Vector3Stamped)) {
+                    (Some(a), Some(g)) => Ok(Choice::Vectors {
+                        accel: a,
+                        gyro: Some(g),
+                    }),
+                    _ => Err(missing()),
+                },
+                _ => Err(missing()),
+            }
+        }
+        None => match all.as_slice() {
+            [one] => Ok(one.clone()),
+            [] => Err(BagError::NoImuTopic {
+                file,
+                topics: if c.topics.is_empty() {
+                    "none".into()
+                } else {
+                    c.topics
+                        .iter()
+                        .map(|t| format!("{} ({}, {} messages)", t.name, t.msgtype, t.count))
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                },
+            }),
+            several => Err(BagError::SeveralTopics {
+                file,
+                count: several.len(),
+                topics: list(several),
+            }),
+        },
+    }
+}
+
+/// A recording read from a bag, with what the reader learned.
+#[derive(Debug)]
+pub struct BagRead {
+    pub recording: Recording,
+    pub storage: Storage,
+    /// The topic read (`accel,gyro` for a pair).
+    pub topic: String,
+    pub notes: Vec<String>,
+}
+
+/// One topic's samples on one clock: (ns, accel, gyro), time-sorted.
+struct Timed {
+    ns: Vec<i64>,
+    v: [Vec<f64>; 3],
+    g: Option<[Vec<f64>; 3]>,
+    clock: &'static str,
+}
+
+fn timed(c: &mut Collector, i: usize, notes: &mut Vec<String>) -> Result<Timed, BagError> {
+    let name = c.topics[i].name.clone();
+    let s = c.series[i].take().expect("a chosen topic was decoded");
+    if let Some(e) = s.error {
+        return Err(e);
+    }
+    let n = s.stamps.len();
+    if n < 2 {
+        return Err(BagError::TooFew {
+            file: c.file.clone(),
+            topic: name,
+            found: n,
+        });
+    }
+    let zero = s.stamps.iter().filter(|&&t| t == 0).count();
+    let (mut ns, clock) = if zero == n {
+        notes.push(format!(
+            "{name}: every header stamp is zero: receive (log) times used"
+        ));
+        (
+            s.log
+                .iter()
+                .map(|&t| t.min(i64::MAX as u64) as i64)
+                .collect::<Vec<_>>(),
+            "receive time",
+        )
+    } else if zero > 0 {
+        let first = s.stamps.iter().position(|&t| t == 0).unwrap_or(0);
+        return Err(BagError::Message {
+            file: c.file.clone(),
+            topic: name,
+            index: first as u64 + 1,
+            at: "header.stamp".into(),
+            what: format!(
+                "stamp is zero in {zero} of {n} messages (stamps and receive times would be mixed)"
+            ),
+        });
+    } else {
+        (s.stamps, "header stamp")
+    };
+    let mut v = s.v;
+    let gyro_present = !s.g[0].is_empty() && s.gyro_missing < n;
+    if !s.g[0].is_empty() && s.gyro_missing == n {
+        notes.push(format!(
+            "{name}: angular_velocity_covariance[0] = −1 in every message (no gyro): gyro not read"
+        ));
+    }
+    let mut g = gyro_present.then_some(s.g);
+    if s.accel_missing == n {
+        return Err(BagError::Unsupported {
+            file: c.file.clone(),
+            what: format!(
+                "topic {name}: linear_acceleration_covariance[0] = −1 in every message (no accelerometer data)"
+            ),
+        });
+    }
+    if ns.windows(2).any(|w| w[1] < w[0]) {
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by_key(|&k| ns[k]);
+        let pick = |x: &Vec<f64>| order.iter().map(|&k| x[k]).collect::<Vec<f64>>();
+        v = [pick(&v[0]), pick(&v[1]), pick(&v[2])];
+        if let Some(gg) = g.as_mut() {
+            *gg = [pick(&gg[0]), pick(&gg[1]), pick(&gg[2])];
+        }
+        ns = order.iter().map(|&k| ns[k]).collect();
+        notes.push(format!(
+            "{name}: messages sorted by {clock} (the bag stores them out of order)"
+        ));
+    }
+    Ok(Timed { ns, v, g, clock })
+}
+
+/// Gyro samples onto the accelerometer's times: equal stamps taken as they are, others linearly
+/// interpolated between the neighbouring gyro samples; accelerometer samples outside the gyro's
+/// time span are dropped.
+fn merge(accel: Timed, gyro: Timed, notes: &mut Vec<String>, names: (&str, &str)) -> Timed {
+    let gv = gyro.v;
+    let mut out = Timed {
+        ns: Vec::new(),
+        v: Default::default(),
+        g: Some(Default::default()),
+        clock: accel.clock,
+    };
+    let (mut exact, mut interpolated, mut dropped) = (0usize, 0usize, 0usize);
+    let mut j = 0usize;
+    for (i, &t) in accel.ns.iter().enumerate() {
+        while j + 1 < gyro.ns.len() && gyro.ns[j + 1] <= t {
+            j += 1;
+        }
+        let w = if gyro.ns[j] == t {
+            exact += 1;
+            [gv[0][j], gv[1][j], gv[2][j]]
+        } else if gyro.ns[j] < t && j + 1 < gyro.ns.len() {
+            interpolated += 1;
+            let f = (t - gyro.ns[j]) as f64 / (gyro.ns[j + 1] - gyro.ns[j]) as f64;
+            [0, 1, 2].map(|k| gv[k][j] + f * (gv[k][j + 1] - gv[k][j]))
+        } else {
+            dropped += 1;
+            continue;
+        };
+        out.ns.push(t);
+        for k in 0..3 {
+            out.v[k].push(accel.v[k][i]);
+            out.g.as_mut().expect("set above")[k].push(w[k]);
+        }
+    }
+    notes.push(format!(
+        "{} + {}: gyro on the accelerometer's stamps: {exact} equal, {interpolated} interpolated, {dropped} accelerometer samples outside the gyro's span dropped",
+        names.0, names.1
+    ));
+    out
+}
+
+fn assemble(mut c: Collector, storage: Storage, topic: Option<&str>) -> Result<BagRead, BagError> {
+    let choice = choose(&c, topic)?;
+    let mut notes = Vec::new();
+    let described = describe(&c, &choice);
+    let (data, msgtype, frame, topic_name) = match choice {
+        Choice::Imu(i) => {
+            let frame = c.series[i].as_ref().and_then(|s| s.frame_id.clone());
+            let t = timed(&mut c, i, &mut notes)?;
+            (t, c.topics[i].msgtype.clone(), frame, c.topics[i].name.clone())
+        }
+        Choice::Vectors { accel, gyro } => {
+            let frame = c.series[accel].as_ref().and_then(|s| s.frame_id.clone());
+            let a = timed(&mut c, accel, &mut notes)?;
+            let (an, at) = (c.topics[accel].name.clone(), c.topics[accel].msgtype.clone());
+            match gyro {
+                Some(g) => {
+                    let gt = timed(&mut c, g, &mut notes)?;
+                    let gn = c.topics[g].name.clone();
+                    let merged = merge(a, gt, &mut notes, (&an, &gn));
+                    if merged.ns.len() < 2 {
+                        return Err(BagError::TooFew {
+                            file: c.file.clone(),
+                            topic: format!("{an},{gn} (accelerometer samples within the gyro's span)"),
+                            found: merged.ns.len(),
+                        });
+                    }
+                    (merged, at, frame, format!("{an},{gn}"))
+                }
+                None => (a, at, frame, an),
+            }
+        }
+    };
+    let t0 = data.ns[0];
+    let time_s: Vec<f64> = data.ns.iter().map(|&t| (t - t0) as f64 * 1e-9).collect();
+    let gyro = data.g.is_some();
+    let mut columns = vec![
+        data.clock.to_string(),
+        "linear_acceleration.x".into(),
+        "linear_acceleration.y".into(),
+        "linear_acceleration.z".into(),
+    ];
+    if msgtype.contains("Vector3Stamped") {
+        columns[1..4].clone_from_slice(&["vector.x".into(), "vector.y".into(), "vector.z".into()]);
+    }
+    if gyro {
+        columns.extend(["angular_velocity.x", "angular_velocity.y", "angular_velocity.z"].map(String::from));
+    }
+    let metadata = vec![
+        format!("storage: {}", storage.name()),
+        format!("topic: {described}"),
+        format!("frame_id: {}", frame.unwrap_or_default()),
+        format!(
+            "time: {} from {}.{:09} s, counted from the first sample",
+            data.clock,
+            t0.div_euclid(1_000_000_000),
+            t0.rem_euclid(1_000_000_000)
+        ),
+    ];
+    let recording = Recording {
+        time_s,
+        accel_mps2: data.v,
+        gyro_radps: data.g,
+        source: Source {
+            name: c.file.clone(),
+            format: "rosbag".into(),
+            columns,
+            metadata,
+            lines: Vec::new(),
+        },
+    };
+    Ok(BagRead {
+        recording,
+        storage,
+        topic: topic_name,
+        notes,
+    })
+}
+
+/// Reads a bag held in memory (one `.mcap`, `.db3` or `.bag` file); `file` names it in errors.
+pub fn read_bytes(bytes: &[u8], file: &str, topic: Option<&str>) -> Result<BagRead, BagError> {
+    let storage = Storage::sniff(bytes).ok_or_else(|| BagError::Corrupt {
+        file: file.into(),
+        at: "byte 0".into(),
+        what: "not a bag: no MCAP, SQLite or ROS 1 bag magic".into(),
+    })?;
+    let mut c = Collector::new(file, topic);
+    scan(storage, bytes, None, file, &mut c)?;
+    assemble(c, storage, topic)
+}
+
+fn scan(
+    storage: Storage,
+    bytes: &[u8],
+    path: Option<&Path>,
+    file: &str,
+    c: &mut Collector,
+) -> Result<(), BagError> {
+    match storage {
+        Storage::Mcap => mcap::scan(bytes, file, c),
+        Storage::Sqlite3 => match path {
+            Some(p) => sqlite::scan_path(p, file, c),
+            None => sqlite::scan_bytes(bytes, file, c),
+        },
+        Storage::Ros1 => ros1::scan(bytes, file, c),
+    }
+}
+
+/// Whether `path` is a ROS 2 bag directory (it holds `metadata.yaml`).
+pub fn is_bag_dir(path: &Path) -> bool {
+    path.is_dir() && path.join("metadata.yaml").is_file()
+}
+
+/// Reads a bag file, or a ROS 2 bag directory (its `metadata.yaml` names the storage files, read
+/// in order as one bag).
+pub fn read_path(path: &Path, topic: Option<&str>) -> Result<BagRead, BagError> {
+    let file = path.display().to_string();
+    let io = |f: &Path, source| BagError::Io {
+        file: f.display().to_string(),
+        source,
+    };
+    let files = if path.is_dir() {
+        dir_files(path)?
+    } else {
+        vec![path.to_path_buf()]
+    };
+    let mut c = Collector::new(&file, topic);
+    let mut storage = None;
+    for f in &files {
+        let name = f.display().to_string();
+        let bytes = crate::input::table::read_file(f).map_err(|e| io(f, e))?;
+        let s = Storage::sniff(&bytes).ok_or_else(|| BagError::Corrupt {
+            file: name.clone(),
+            at: "byte 0".into(),
+            what: "not a bag file: no MCAP, SQLite or ROS 1 bag magic".into(),
+        })?;
+        if storage.is_some_and(|p| p != s) {
+            return Err(BagError::Unsupported {
+                file: name,
+                what: "storage files of different kinds in one bag".into(),
+            });
+        }
+        storage = Some(s);
+        c.file = name.clone();
+        scan(s, &bytes, Some(f), &name, &mut c)?;
+    }
+    c.file = file.clone();
+    let storage = storage.ok_or_else(|| BagError::Unsupported {
+        file: file.clone(),
+        what: "no storage file (.mcap or .db3) in the bag directory".into(),
+    })?;
+    assemble(c, storage, topic)
+}
+
+/// The storage files of a ROS 2 bag directory: `relative_file_paths` from `metadata.yaml`, or
+/// else every `.mcap` / `.db3` file in it, by name.
+fn dir_files(dir: &Path) -> Result<Vec<std::path::PathBuf>, BagError> {
+    let meta_path = dir.join("metadata.yaml");
+    let file = meta_path.display().to_string();
+    let text = std::fs::read_to_string(&meta_path).map_err(|source| BagError::Io {
+        file: file.clone(),
+        source,
+    })?;
+    let mut files = Vec::new();
+    let mut in_list = None::<usize>;
+    for (n, line) in text.lines().enumerate() {
+        let trimmed = line.trim_start();
+        let indent = line.len() - trimmed.len();
+        if let Some(value) = trimmed.strip_prefix("compression_format:") {
+            let v = value.trim().trim_matches(['\'', '"']);
+            if !v.is_empty() {
+                return Err(BagError::Unsupported {
+                    file: format!("{file}:{}", n + 1),
+                    what: format!("compressed ROS 2 bag (compression_format: {v}); decompress it first (ros2 bag convert)"),
+                });
+            }
+        }
+        if trimmed.starts_with("relative_file_paths:") {
+            in_list = Some(indent);
+            continue;
+        }
+        if let Some(list_indent) = in_list {
+            if let Some(item) = trimmed.strip_prefix("- ") {
+                if indent >= list_indent {
+                    let name = item.trim().trim_matches(['\'', '"']);
+                    files.push(dir.join(name));
+                    continue;
+                }
+            }
+            in_list = None;
+        }
+    }
+    if files.is_empty() {
+        let mut found: Vec<_> = std::fs::read_dir(dir)
+            .map_err(|source| BagError::Io {
+                file: dir.display().to_string(),
+                source,
+            })?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "mcap" || x == "db3"))
+            .collect();
+        found.sort();
+        files = found;
+    }
+    Ok(files)
+}
+
+/// Lists a bag's topics with their message counts (reading the whole bag).
+pub fn topics(bytes: &[u8], file: &str) -> Result<Vec<TopicInfo>, BagError> {
+    let storage = Storage::sniff(bytes).ok_or_else(|| BagError::Corrupt {
+        file: file.into(),
+        at: "byte 0".into(),
+        what: "not a bag: no MCAP, SQLite or ROS 1 bag magic".into(),
+    })?;
+    // Decode nothing: want a topic name no bag has.
+    let mut c = Collector::new(file, Some("\u{0}"));
+    scan(storage, bytes, None, file, &mut c)?;
+    Ok(c.topics)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn collector_with(topics: &[(&str, &str)]) -> Collector {
+        let mut c = Collector::new("b", None);
+        for (name, ty) in topics {
+            let i = c.topic(name, ty, "cdr");
+            c.topics[i].count = 3;
+        }
+        c
+    }
+
+    #[test]
+    fn choice_lists_or_picks() {
+        let c = collector_with(&[("/imu", "sensor_msgs/msg/Imu"), ("/cam", "sensor_msgs/msg/Image")]);
+        assert_eq!(choose(&c, None).unwrap(), Choice::Imu(0));
+        let c = collector_with(&[("/imu", "sensor_msgs/msg/Imu"), ("/imu2", "sensor_msgs/Imu")]);
+        let e = choose(&c, None).unwrap_err().to_string();
+        assert!(
+            e.contains("2 IMU topics") && e.contains("/imu2 (sensor_msgs/Imu, 3 messages)"),
+            "{e}"
+        );
+        assert_eq!(choose(&c, Some("/imu2")).unwrap(), Choice::Imu(1));
+        assert!(matches!(
+            choose(&c, Some("/nope")),
+            Err(BagError::NoSuchTopic { .. })
+        ));
+        let c = collector_with(&[
+            ("/camera/accel/sample", "geometry_msgs/msg/Vector3Stamped"),
+            ("/camera/gyro/sample", "geometry_msgs/msg/Vector3Stamped"),
+        ]);
+        assert_eq!(
+            choose(&c, None).unwrap(),
+            Choice::Vectors {
+                accel: 0,
+                gyro: Some(1)
+            }
+        );
+        let c = collector_with(&[("/cam", "sensor_msgs/msg/Image")]);
+        let e = choose(&c, None).unwrap_err().to_string();
+        assert!(
+            e.contains("no IMU topic") && e.contains("/cam (sensor_msgs/msg/Image, 3 messages)"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn detected_by_magic_and_other_versions_refused() {
+        use crate::input::formats::{detect, Format};
+        for head in [
+            &b"\x89MCAP0\r\n\x01"[..],
+            b"SQLite format 3\0xyz",
+            b"#ROSBAG V2.0\n",
+        ] {
+            assert_eq!(detect(head).format, Format::RosBag, "{head:?}");
+        }
+        let e = read_bytes(b"#ROSBAG V1.2\n\0\0", "old.bag", None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("old.bag: '#ROSBAG V1.2': only ROS 1 bag format 2.0"),
+            "{e}"
+        );
+        let e = read_bytes(b"\x89MCAP0\r\n", "cut.mcap", None)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "cut.mcap: byte 8: the file ends without a footer record (truncated)"
+        );
+        let e = read_bytes(b"#ROSBAG V2.0\n\x05\0\0\0", "cut.bag", None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("cut.bag: byte 13: record header of 5 bytes runs past the end"),
+            "{e}"
+        );
+        let e = read_bytes(b"SQLite format 3\0", "x.db3", None)
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("x.db3: sqlite3 storage"), "{e}");
+    }
+
+    #[test]
+    fn merge_takes_equal_stamps_and_interpolates_others() {
+        let accel = Timed {
+            ns: vec![0, 10, 20, 40],
+            v: [vec![1.0; 4], vec![2.0; 4], vec![3.0; 4]],
+            g: None,
+            clock: "header stamp",
+        };
+        let gyro = Timed {
+            ns: vec![5, 10, 30],
+            v: [vec![0.0, 1.0, 3.0], vec![0.0; 3], vec![0.0; 3]],
+            g: None,
+            clock: "header stamp",
+        };
+        let mut notes = Vec::new();
+        let m = merge(accel, gyro, &mut notes, ("a", "g"));
+        assert_eq!(m.ns, [10, 20]);
+        assert_eq!(m.g.unwrap()[0], [1.0, 2.0]);
+        assert!(
+            notes[0].contains("1 equal, 1 interpolated, 2 accelerometer samples"),
+            "{notes:?}"
+        );
+    }
+}
