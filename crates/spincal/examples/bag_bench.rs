@@ -41,8 +41,8 @@ fn main() {
     let r = &loaded.recording;
     let g = r.gyro_radps.as_ref().expect("gyro");
     let mut checksum = r.time_s.iter().sum::<f64>();
-    for k in 0..3 {
-        checksum += r.accel_mps2[k].iter().sum::<f64>() + g[k].iter().sum::<f64>();
+    for (accel, gyro) in r.accel_mps2.iter().zip(g) {
+        checksum += accel.iter().sum::<f64>() + gyro.iter().sum::<f64>();
     }
     let mb = std::fs::metadata(path).expect("size").len() as f64 / 1e6;
     println!(

@@ -272,7 +272,7 @@ pub fn encode(msg: &Decoded, encoding: Encoding, kind: MsgKind, seq: u32) -> Vec
     };
     let align = |out: &mut Vec<u8>, n: usize| {
         if let Some(o) = origin {
-            while (out.len() - o) % n != 0 {
+            while !(out.len() - o).is_multiple_of(n) {
                 out.push(0);
             }
         }
