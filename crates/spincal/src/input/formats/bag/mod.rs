@@ -387,7 +387,11 @@ struct Timed {
 
 fn timed(c: &mut Collector, i: usize, notes: &mut Vec<String>) -> Result<Timed, BagError> {
     let name = c.topics[i].name.clone();
-    let s = c.series[i].take().expect("a chosen topic was decoded");
+    // A topic is taken once; a pair naming the same topic twice finds it gone the second time.
+    let s = c.series[i].take().ok_or_else(|| BagError::Unsupported {
+        file: c.file.clone(),
+        what: format!("topic {name} is chosen twice; an accelerometer and gyro pair needs two topics"),
+    })?;
     if let Some(e) = s.error {
         return Err(e);
     }
