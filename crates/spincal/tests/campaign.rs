@@ -3,24 +3,14 @@
 //! checked on a held-out condition.
 
 use spincal::campaign::joint::{fit_joint, JointSettings, SensorTerms};
-use spincal::campaign::prepare::{prepare, UnitRecording};
+use spincal::campaign::prepare::prepare;
 use spincal::campaign::{calibrate_campaign, CampaignSettings};
 use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
 use spincal::correctors::physical::PhysicalCorrector;
-use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, RunSetup, SimulatedCampaign};
+use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, RunSetup};
 
-fn units(sim: &SimulatedCampaign, with_truth: bool) -> Vec<UnitRecording> {
-    sim.recordings
-        .iter()
-        .map(|r| UnitRecording {
-            name: r.name.clone(),
-            recording: r.recording.clone(),
-            turntable: r.turntable.clone(),
-            truth: with_truth.then(|| r.true_accel_mps2.clone()),
-            floor_mps2: with_truth.then_some(r.floor_mps2),
-        })
-        .collect()
-}
+mod common;
+use common::campaign_units as units;
 
 fn wrapped(d: f64) -> f64 {
     (d + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI) - std::f64::consts::PI

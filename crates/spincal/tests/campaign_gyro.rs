@@ -7,17 +7,10 @@ use spincal::campaign::joint::{fit_joint, JointSettings};
 use spincal::campaign::prepare::{prepare, UnitRecording};
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, SimulatedCampaign};
 
+mod common;
+
 fn units(sim: &SimulatedCampaign) -> Vec<UnitRecording> {
-    sim.recordings
-        .iter()
-        .map(|r| UnitRecording {
-            name: r.name.clone(),
-            recording: r.recording.clone(),
-            turntable: r.turntable.clone(),
-            truth: None,
-            floor_mps2: None,
-        })
-        .collect()
+    common::campaign_units(sim, false)
 }
 
 #[test]

@@ -22,3 +22,21 @@ pub fn shared_data(relative: &str) -> Option<PathBuf> {
         None
     }
 }
+
+/// A simulated campaign's recordings as the calibration takes them, with the true specific force
+/// and the random floor when `with_truth`.
+pub fn campaign_units(
+    sim: &spincal::simulate::campaign::SimulatedCampaign,
+    with_truth: bool,
+) -> Vec<spincal::campaign::prepare::UnitRecording> {
+    sim.recordings
+        .iter()
+        .map(|r| spincal::campaign::prepare::UnitRecording {
+            name: r.name.clone(),
+            recording: r.recording.clone(),
+            turntable: r.turntable.clone(),
+            truth: with_truth.then(|| r.true_accel_mps2.clone()),
+            floor_mps2: with_truth.then_some(r.floor_mps2),
+        })
+        .collect()
+}
