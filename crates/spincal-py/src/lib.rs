@@ -536,7 +536,7 @@ fn parse_orders(text: &str, what: &str) -> PyResult<Vec<usize>> {
     drift = true, fit_offsets = true, separate_radii = false, gravity_mps2 = spincal::STANDARD_GRAVITY,
     range_g = None, sweep = None, hidden = None, restarts = 3,
     sweep_hessian_samples = spincal::ann::SWEEP_HESSIAN_SAMPLES, correct_axes = "x,y", delays = 0, seed = 1,
-    arx = "6,8,1", bj = "4,4,4,4,1", narx = "2,2,1", hw = "2,3,1", progress = None))]
+    arx = "6,8,1", bj = "4,4,4,4,1", narx = "2,2,1", hw = "2,3,1", progress = None, sweep_runner = None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate<'py>(
     py: Python<'py>,
@@ -562,6 +562,7 @@ fn calibrate<'py>(
     narx: &str,
     hw: &str,
     progress: Option<Bound<'py, PyAny>>,
+    sweep_runner: Option<Py<PyAny>>,
 ) -> PyResult<PyCalibration> {
     let fit = fit_options(
         rpm,
@@ -618,11 +619,75 @@ fn calibrate<'py>(
         ..CalibrateSettings::default()
     };
     let recordings = inner_recordings(&recordings)?;
-    let output = long::run(py, progress.as_ref(), |observer| {
-        spincal::calibrate::calibrate(&recordings, &settings, observer)
-    })?
-    .map_err(errors::fit)?;
+    // A Python exception from the sweep runner, raised as itself once the library has stopped.
+    let runner_failure: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
+    let outcome = long::run(py, progress.as_ref(), |observer| match &sweep_runner {
+        None => spincal::calibrate::calibrate(&recordings, &settings, observer),
+        Some(runner) => {
+            let remote = |problem: &spincal::ann::AnnProblem,
+                          sweep: &spincal::ann::SweepSettings,
+                          _: &spincal::progress::Observer| {
+                let jobs = spincal::ann::SweepJobs::new(problem, sweep);
+                call_sweep_runner(runner, &jobs).map_err(|e| {
+                    let message = e.to_string();
+                    if let Ok(mut slot) = runner_failure.lock() {
+                        slot.get_or_insert(e);
+                    }
+                    spincal::ann::AnnError::SweepExchange(format!("the sweep runner failed: {message}"))
+                })
+            };
+            spincal::calibrate::calibrate_with_runner(&recordings, &settings, observer, &remote)
+        }
+    })?;
+    if let Some(e) = runner_failure.into_inner().ok().flatten() {
+        return Err(e);
+    }
+    let output = outcome.map_err(errors::fit)?;
     Ok(PyCalibration { output, recordings })
+}
+
+/// Hands a sweep's jobs to a Python runner, `runner(jobs_json, n_jobs) -> [run_json, ...]`, and
+/// reads its runs back.
+fn call_sweep_runner(
+    runner: &Py<PyAny>,
+    jobs: &spincal::ann::SweepJobs,
+) -> PyResult<Vec<spincal::ann::SweepRun>> {
+    let texts: Vec<String> =
+        Python::attach(|py| runner.call1(py, (jobs.to_json(), jobs.len()))?.extract(py))?;
+    texts
+        .iter()
+        .map(|text| spincal::ann::SweepRun::from_json(text))
+        .collect::<Result<_, _>>()
+        .map_err(errors::fit)
+}
+
+/// A worker's part of a distributed sweep: runs `jobs` (indices) of the sweep `jobs_json` (from
+/// a `sweep_runner` of [`calibrate`]) one after another on this thread; returns each run's JSON.
+/// The runs are those the local sweep makes, bit for bit.
+#[pyfunction]
+#[pyo3(signature = (jobs_json, jobs, *, progress = None))]
+fn run_sweep_jobs(
+    py: Python<'_>,
+    jobs_json: &str,
+    jobs: Vec<usize>,
+    progress: Option<Bound<'_, PyAny>>,
+) -> PyResult<Vec<String>> {
+    let sweep = spincal::ann::SweepJobs::from_json(jobs_json).map_err(errors::usage_error)?;
+    let total = jobs.len();
+    long::run(py, progress.as_ref(), |observer| {
+        let problem = sweep.problem();
+        let mut runs = Vec::with_capacity(total);
+        for (done, &job) in jobs.iter().enumerate() {
+            observer(spincal::progress::Progress::step(
+                "network sweep",
+                done,
+                Some(total),
+            ));
+            runs.push(spincal::ann::run_sweep_job(&problem, &sweep.settings, job)?.to_json());
+        }
+        Ok(runs)
+    })?
+    .map_err(|e: spincal::ann::AnnError| errors::usage_error(e))
 }
 
 /// A finished campaign calibration.
@@ -1037,6 +1102,7 @@ fn _spincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate_campaign, m)?)?;
     m.add_function(wrap_pyfunction!(fit_turntable, m)?)?;
     m.add_function(wrap_pyfunction!(calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(run_sweep_jobs, m)?)?;
     m.add_function(wrap_pyfunction!(calibrate_campaign, m)?)?;
     m.add_function(wrap_pyfunction!(static_calibration, m)?)?;
     m.add_function(wrap_pyfunction!(allan, m)?)?;

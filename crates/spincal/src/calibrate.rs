@@ -14,8 +14,8 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::correctors::ann::{
-    architecture_label, sweep, AnnError, AnnProblem, Division, DivisionMode, LmSettings, SweepRow,
-    SweepSettings,
+    architecture_label, reduce_sweep, run_sweep_locally, AnnError, AnnProblem, Division, DivisionMode,
+    LmSettings, SweepRow, SweepRun, SweepSettings,
 };
 use crate::correctors::corrector::{Axis, Corrected, Corrector};
 use crate::correctors::linear::{LinearError, LinearModel};
@@ -224,11 +224,27 @@ pub struct CalibrationOutput {
     pub corrected: [Vec<f64>; 3],
 }
 
+/// Runs every job of a network sweep and returns each job's run exactly once, in any order:
+/// [`run_sweep_locally`] on this machine's threads, or a runner that ships [`SweepJobs`] to
+/// other processes (the Python package's Ray runner). The result does not depend on which.
+pub type SweepRunner<'a> =
+    dyn Fn(&AnnProblem, &SweepSettings, &Observer) -> Result<Vec<SweepRun>, AnnError> + Sync + 'a;
+
 /// Runs the whole calibration. `observer` hears about every stage and step.
 pub fn calibrate(
     recordings: &[Recording],
     settings: &CalibrateSettings,
     observer: &Observer,
+) -> Result<CalibrationOutput, CalibrateError> {
+    calibrate_with_runner(recordings, settings, observer, &run_sweep_locally)
+}
+
+/// [`calibrate`] with the network sweep's jobs run by `runner`.
+pub fn calibrate_with_runner(
+    recordings: &[Recording],
+    settings: &CalibrateSettings,
+    observer: &Observer,
+    runner: &SweepRunner,
 ) -> Result<CalibrationOutput, CalibrateError> {
     let started = Instant::now();
     let refs: Vec<&Recording> = recordings.iter().collect();
@@ -267,7 +283,8 @@ pub fn calibrate(
                     ..settings.lm.clone()
                 },
             };
-            let rows = sweep(&problem, &sweep_settings, observer)?;
+            let runs = runner(&problem, &sweep_settings, observer)?;
+            let rows = reduce_sweep(&problem, &sweep_settings, runs)?;
             let best = rows
                 .iter()
                 .min_by(|a, b| a.best_validation_mse.total_cmp(&b.best_validation_mse))

@@ -5,7 +5,8 @@ mod common;
 use common::synthetic::turntable_pair;
 use spincal::ann::lm::full_jacobian;
 use spincal::ann::{
-    sweep, AnnProblem, DivisionMode, LmSettings, LmWorkspace, Part, StopReason, SweepSettings,
+    reduce_sweep, run_sweep_job, sweep, AnnError, AnnProblem, DivisionMode, LmSettings, LmWorkspace, Part,
+    StopReason, SweepJobs, SweepRow, SweepRun, SweepSettings,
 };
 use spincal::corrector::{Axis, Corrector};
 use spincal::linear::LinearModel;
@@ -243,6 +244,83 @@ fn weights_are_bit_identical_across_runs_and_thread_counts() {
         summary.report.best_validation_mse().to_bits(),
         one[2].best_validation_mse.to_bits()
     );
+}
+
+/// A sweep's rows without their timings (the only field that depends on where a run ran).
+fn untimed(rows: &[SweepRow]) -> Vec<SweepRow> {
+    rows.iter()
+        .map(|r| SweepRow {
+            seconds: 0.0,
+            ..r.clone()
+        })
+        .collect()
+}
+
+#[test]
+fn a_sweep_run_elsewhere_from_its_exchanged_jobs_equals_the_local_sweep_bit_for_bit() {
+    let (measured, reference) = turntable_pair(1500, 5);
+    let problem = AnnProblem::new(&measured, &reference, &XY, 2, DivisionMode::Contiguous).unwrap();
+    let settings = SweepSettings {
+        grid: vec![vec![3], vec![2, 2], vec![5]],
+        restarts: 2,
+        base_seed: 17,
+        lm: LmSettings {
+            max_epochs: 25,
+            ..LmSettings::default()
+        },
+    };
+    let local = sweep(&problem, &settings, &|_| {}).unwrap();
+
+    // A "worker": only the jobs' JSON reaches it; its runs come back as JSON, in any order.
+    let jobs_text = SweepJobs::new(&problem, &settings).to_json();
+    let jobs = SweepJobs::from_json(&jobs_text).unwrap();
+    assert_eq!(jobs.len(), 6);
+    let remote_problem = jobs.problem();
+    let runs_text: Vec<String> = (0..jobs.len())
+        .rev()
+        .map(|job| {
+            run_sweep_job(&remote_problem, &jobs.settings, job)
+                .unwrap()
+                .to_json()
+        })
+        .collect();
+    let runs: Vec<SweepRun> = runs_text
+        .iter()
+        .map(|t| SweepRun::from_json(t).unwrap())
+        .collect();
+    // A run survives the trip bit for bit, NaN included.
+    let mut odd = runs[0].clone();
+    odd.report.validation_mse[0] = f64::NAN;
+    let back = SweepRun::from_json(&odd.to_json()).unwrap();
+    assert!(back.report.validation_mse[0].is_nan());
+    assert_eq!(back.weights, odd.weights);
+
+    let distributed = reduce_sweep(&problem, &settings, runs.clone()).unwrap();
+    assert_eq!(untimed(&distributed), untimed(&local));
+    for (a, b) in distributed.iter().zip(&local) {
+        assert_eq!(a.best_validation_mse.to_bits(), b.best_validation_mse.to_bits());
+    }
+
+    // Missing, doubled and foreign runs are refused, naming the job.
+    let refused = |runs: Vec<SweepRun>| match reduce_sweep(&problem, &settings, runs) {
+        Err(AnnError::SweepExchange(why)) => why,
+        other => panic!("expected a refusal, got {other:?}"),
+    };
+    assert!(refused(runs[1..].to_vec()).contains("job 5"));
+    let mut doubled = runs.clone();
+    doubled[0] = runs[1].clone();
+    assert!(refused(doubled).contains("twice"));
+    let mut short = runs.clone();
+    short[2].weights.pop();
+    assert!(refused(short).contains("weights"));
+    assert!(run_sweep_job(&problem, &settings, 6).is_err());
+    let newer = jobs_text.replace("\"version\":1", "\"version\":2");
+    assert!(SweepJobs::from_json(&newer)
+        .unwrap_err()
+        .to_string()
+        .contains("version 2"));
+    let cut = &jobs_text[..jobs_text.len() / 2];
+    assert!(SweepJobs::from_json(cut).is_err());
 }
 
 #[test]

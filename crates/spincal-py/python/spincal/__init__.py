@@ -542,6 +542,7 @@ def calibrate(
     narx: str = "2,2,1",
     hw: str = "2,3,1",
     progress: Progress = False,
+    sweep_runner: Optional[Callable[[str, int], Sequence[str]]] = None,
 ) -> Union[Calibration, CampaignCalibration]:
     """Calibrates accelerometer data with the turntable as the reference, as ``spincal calibrate``
     (same arguments, same defaults, same results.json numbers).
@@ -550,6 +551,11 @@ def calibrate(
     sessions), or the path of a campaign file (``*.toml``, then see :func:`calibrate_campaign`).
     ``sweep``: ``"small"`` (default), ``"full"`` (the paper's 165 architectures) or ``"none"``
     with ``hidden="10,6"``. ``progress=True`` shows a tqdm bar; Ctrl-C stops the work.
+    ``sweep_runner``: who runs the network sweep's jobs (architectures × restarts), called as
+    ``sweep_runner(jobs_json, n_jobs)`` and returning every job's run as text, in any order, from
+    ``spincal._spincal.run_sweep_jobs(jobs_json, job_indices)`` wherever that runs;
+    :func:`spincal.ray.sweep_runner` spreads them over a Ray cluster. The result equals the local
+    sweep's, bit for bit (only the timings differ).
 
     Returns a :class:`Calibration` (``.result``, ``.corrector``, ``.write(folder)``).
 
@@ -590,6 +596,7 @@ def calibrate(
             narx=narx,
             hw=hw,
             progress=callback,
+            sweep_runner=sweep_runner,
         )
     return Calibration(inner)
 

@@ -136,7 +136,9 @@ def calibrate(
     narx: str = "2,2,1",
     hw: str = "2,3,1",
     progress: _Progress = None,
+    sweep_runner: Optional[Callable[[str, int], Sequence[str]]] = None,
 ) -> Calibration: ...
+def run_sweep_jobs(jobs_json: str, jobs: Sequence[int], *, progress: _Progress = None) -> List[str]: ...
 def calibrate_campaign(campaign: _Path, *, progress: _Progress = None) -> CampaignCalibration: ...
 def static_calibration(
     recording: Recording,

@@ -34,13 +34,14 @@ import json
 import os
 import tempfile
 import time
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import ray
 
-from . import CampaignResult, Corrector, Error, Result, _spincal
+from . import Calibration, CampaignResult, Corrector, Error, Result, _spincal
+from . import calibrate as _calibrate_locally
 
-__all__ = ["UnitResult", "FleetResult", "calibrate_fleet", "unit_payload"]
+__all__ = ["UnitResult", "FleetResult", "calibrate_fleet", "unit_payload", "calibrate", "sweep_runner"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -302,3 +303,92 @@ def calibrate_fleet(
         outliers_json=None if outliers is None else json.dumps(dict(outliers)),
     )
     return FleetResult(results, Result(json.loads(table_json)), table_csv, html, time.perf_counter() - started)
+
+
+def _run_sweep_jobs(jobs_json: str, jobs: List[int]) -> List[str]:
+    """The task body of a distributed sweep: the given jobs, one after another, on one thread."""
+    _crash_once_for_tests(f"sweep-job-{jobs[0]}")
+    return _spincal.run_sweep_jobs(jobs_json, jobs)
+
+
+_remote_sweep_jobs = ray.remote(_run_sweep_jobs)
+
+
+def sweep_runner(
+    *,
+    jobs_per_task: int = 1,
+    max_retries: int = 3,
+    runtime_env: Optional[Mapping[str, Any]] = None,
+    progress: Union[bool, Any] = False,
+) -> Callable[[str, int], List[str]]:
+    """A ``sweep_runner`` for :func:`spincal.calibrate` that spreads the network sweep over the
+    Ray cluster ``ray.init()`` reached: the sweep's problem (the paired columns and settings, as
+    exact JSON) goes to the object store once, and every ``jobs_per_task`` jobs (an architecture
+    and a restart each) become one task on one CPU and one thread. Each job has its own seed, so
+    the calibration is the local one, bit for bit, and a retried task (a worker lost, up to
+    ``max_retries`` times) gives the same runs. ``progress=True`` shows a tqdm bar over tasks.
+
+    Example::
+
+        >>> runner = spincal.ray.sweep_runner(jobs_per_task=4)                    # doctest: +SKIP
+        >>> cal = spincal.calibrate([rec], sweep="full", sweep_runner=runner)     # doctest: +SKIP
+    """
+    if jobs_per_task < 1:
+        raise _spincal.UsageError(f"jobs_per_task {jobs_per_task}: must be at least 1")
+    env = dict(runtime_env or {})
+    env_vars = dict(env.get("env_vars", {}))
+    env_vars["RAYON_NUM_THREADS"] = "1"
+    env["env_vars"] = env_vars
+
+    def run(jobs_json: str, n_jobs: int) -> List[str]:
+        if not ray.is_initialized():
+            ray.init()
+        task = _remote_sweep_jobs.options(num_cpus=1, max_retries=max_retries, runtime_env=env)
+        shared = ray.put(jobs_json)
+        chunks = [list(range(i, min(i + jobs_per_task, n_jobs))) for i in range(0, n_jobs, jobs_per_task)]
+        pending = {task.remote(shared, chunk): k for k, chunk in enumerate(chunks)}
+        results: Dict[int, List[str]] = {}
+        bar = None
+        if progress:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=len(chunks), desc="network sweep", unit="task")
+        try:
+            while pending:
+                done, _ = ray.wait(list(pending), num_returns=1)
+                for ref in done:
+                    results[pending.pop(ref)] = ray.get(ref)
+                    if bar is not None:
+                        bar.update(1)
+        finally:
+            if bar is not None:
+                bar.close()
+        return [run for k in range(len(chunks)) for run in results[k]]
+
+    return run
+
+
+def calibrate(
+    recordings: Any,
+    *,
+    jobs_per_task: int = 1,
+    max_retries: int = 3,
+    runtime_env: Optional[Mapping[str, Any]] = None,
+    **settings: Any,
+) -> Calibration:
+    """:func:`spincal.calibrate` with its network sweep spread over the Ray cluster (see
+    :func:`sweep_runner`); every other stage runs here. Same arguments, same result bit for bit
+    (only timings differ).
+
+    Example::
+
+        >>> ray.init(num_cpus=2)                                                  # doctest: +SKIP
+        >>> cal = spincal.ray.calibrate([rec], sweep="full", restarts=10)         # doctest: +SKIP
+    """
+    runner = sweep_runner(
+        jobs_per_task=jobs_per_task,
+        max_retries=max_retries,
+        runtime_env=runtime_env,
+        progress=settings.get("progress", False),
+    )
+    return _calibrate_locally(recordings, sweep_runner=runner, **settings)

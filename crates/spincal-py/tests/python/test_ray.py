@@ -119,3 +119,53 @@ def test_units_are_shipped_as_bytes(fleet):
     assert campaign == "campaign.toml" and campaign in files
     assert all(isinstance(v, bytes) for v in files.values())
     assert len(files) == 1 + 2 * 5  # the campaign, 5 recordings and their truth files
+
+
+def _untimed(value):
+    """A result or model as a dict without its timings, the only thing a distributed run changes."""
+    if isinstance(value, dict):
+        return {k: _untimed(v) for k, v in value.items() if "seconds" not in k}
+    if isinstance(value, list):
+        return [_untimed(v) for v in value]
+    return value
+
+
+def test_a_sweep_spread_over_ray_equals_the_local_sweep_bit_for_bit(cluster, tmp_path):
+    rec, _ = spincal.simulate(seed=11, turntable={"duration_s": 40.0})
+    settings = dict(radius_m=0.10, sweep="small", restarts=2, seed=5)
+    local = spincal.calibrate([rec], **settings)
+    markers = tmp_path / "markers"
+    markers.mkdir()
+    # Every task's first attempt kills its worker; the retried tasks give the same runs.
+    spread = sray.calibrate(
+        [rec], jobs_per_task=7, runtime_env={"env_vars": {"SPINCAL_RAY_CRASH_ONCE": str(markers)}}, **settings
+    )
+    n_jobs = len(local.result.sweep) * 2
+    assert len(local.result.sweep) == 20
+    assert sorted(os.listdir(markers)) == sorted(f"sweep-job-{k}.crashed" for k in range(0, n_jobs, 7))
+    a, b = local.result.to_dict(), spread.result.to_dict()
+    assert _untimed(a) == _untimed(b)
+    # Floats compared as text would hide nothing, but check the sweep's MSEs to the bit anyway.
+    for x, y in zip(a["sweep"], b["sweep"]):
+        assert float(x["best_validation_mse"]).hex() == float(y["best_validation_mse"]).hex()
+    assert _untimed(json.loads(local.corrector.to_json())) == _untimed(json.loads(spread.corrector.to_json()))
+    np.testing.assert_array_equal(local.corrected, spread.corrected)
+
+
+def test_a_failing_sweep_runner_raises_its_own_exception():
+    rec, _ = spincal.simulate(seed=12, turntable={"duration_s": 20.0})
+
+    class Lost(RuntimeError):
+        pass
+
+    def runner(jobs_json, n_jobs):
+        raise Lost(f"{n_jobs} jobs lost")
+
+    with pytest.raises(Lost, match="jobs lost"):
+        spincal.calibrate([rec], radius_m=0.10, sweep="small", restarts=1, sweep_runner=runner)
+    # A runner that drops a job is refused, naming it.
+    def short(jobs_json, n_jobs):
+        return spincal._spincal.run_sweep_jobs(jobs_json, list(range(n_jobs - 1)))
+
+    with pytest.raises(spincal.FitError, match=r"job 19 missing"):
+        spincal.calibrate([rec], radius_m=0.10, sweep="small", restarts=1, sweep_runner=short)

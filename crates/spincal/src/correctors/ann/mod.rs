@@ -20,8 +20,9 @@ pub use data::{Dataset, Scaling};
 pub use lm::{JtjConvention, LmSettings, LmWorkspace, StopReason, TrainingReport};
 pub use network::{Layout, Network, MAX_HIDDEN_LAYERS};
 pub use sweep::{
-    architecture_label, default_grid, parse_grid, parse_hidden_sizes, small_grid, sweep, SizesError,
-    SweepRow, SweepSettings, SWEEP_HESSIAN_SAMPLES,
+    architecture_label, default_grid, parse_grid, parse_hidden_sizes, reduce_sweep, run_sweep_job,
+    run_sweep_locally, small_grid, sweep, SizesError, SweepJobs, SweepRow, SweepRun, SweepSettings,
+    SWEEP_HESSIAN_SAMPLES,
 };
 
 use crate::correctors::corrector::{
@@ -53,6 +54,10 @@ pub enum AnnError {
     NoRestarts,
     #[error("{0} delays asked for; at most {MAX_DELAYS} are supported")]
     TooManyDelays(usize),
+    /// A sweep's jobs or runs as exchanged with other processes ([`SweepJobs`], [`SweepRun`])
+    /// that cannot be used.
+    #[error("sweep exchange: {0}")]
+    SweepExchange(String),
 }
 
 /// Largest number of delays a network may use, in training and in a saved file. Each delay adds
@@ -112,8 +117,24 @@ impl AnnProblem {
         let pick = |r: &Recording| -> Vec<Vec<f64>> {
             axes.iter().map(|a| r.accel_mps2[a.index()].clone()).collect()
         };
-        let measured = pick(measured);
-        let reference = pick(reference);
+        Ok(AnnProblem::from_columns(
+            pick(measured),
+            pick(reference),
+            axes,
+            delays,
+            mode,
+        ))
+    }
+
+    /// The problem from columns already paired and checked: one per axis, of equal length.
+    fn from_columns(
+        measured: Vec<Vec<f64>>,
+        reference: Vec<Vec<f64>>,
+        axes: &[Axis],
+        delays: usize,
+        mode: DivisionMode,
+    ) -> AnnProblem {
+        let n = measured[0].len();
         let division = Division::new(n, delays, mode);
         let m: Vec<&[f64]> = measured.iter().map(Vec::as_slice).collect();
         let r: Vec<&[f64]> = reference.iter().map(Vec::as_slice).collect();
@@ -123,7 +144,7 @@ impl AnnProblem {
         let train = build(&division.train);
         let validation = build(&division.validation);
         let test = build(&division.test);
-        Ok(AnnProblem {
+        AnnProblem {
             axes: axes.to_vec(),
             delays,
             division,
@@ -134,7 +155,7 @@ impl AnnProblem {
             test,
             measured,
             reference,
-        })
+        }
     }
 
     /// The network shape for `hidden` on this problem.

@@ -6,7 +6,9 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{best_run, AnnError, AnnProblem, LmSettings, Part, TrainingReport};
+use super::{best_run, AnnError, AnnProblem, Layout, LmSettings, Part, StopReason, TrainingReport};
+use crate::correctors::corrector::Axis;
+use crate::correctors::division::{check_axes, DivisionMode};
 use crate::progress::{Observer, Progress};
 
 /// The paper's grid: one hidden layer of 1–15 units, then two layers of 1–15 × 1–10 units
@@ -120,30 +122,33 @@ pub struct SweepRow {
 
 /// Trains every architecture of the grid `restarts` times on rayon's current thread pool (faer
 /// runs sequentially inside each run). Results, including which restart is kept, do not depend
-/// on the number of threads: every run has its own seed and is reduced in grid order.
+/// on the number of threads: every run has its own seed and is reduced in grid order. The same
+/// runs made elsewhere ([`SweepJobs`], [`run_sweep_job`]) reduce to the same rows.
 pub fn sweep(
     problem: &AnnProblem,
     settings: &SweepSettings,
     observer: &Observer,
 ) -> Result<Vec<SweepRow>, AnnError> {
-    if settings.restarts == 0 {
-        return Err(AnnError::NoRestarts);
-    }
-    let layouts = settings
-        .grid
-        .iter()
-        .map(|hidden| problem.layout(hidden))
-        .collect::<Result<Vec<_>, _>>()?;
+    let runs = run_sweep_locally(problem, settings, observer)?;
+    reduce_sweep(problem, settings, runs)
+}
+
+/// Every job of the sweep on rayon's current thread pool, largest networks first so the last
+/// runs to finish are short ones.
+pub fn run_sweep_locally(
+    problem: &AnnProblem,
+    settings: &SweepSettings,
+    observer: &Observer,
+) -> Result<Vec<SweepRun>, AnnError> {
+    let layouts = sweep_layouts(problem, settings)?;
     let restarts = settings.restarts;
     let total = layouts.len() * restarts;
     let done = AtomicUsize::new(0);
-    // Largest networks first so the last runs to finish are short ones.
     let mut order: Vec<usize> = (0..total).collect();
     order.sort_by_key(|&job| std::cmp::Reverse(layouts[job / restarts].n_params()));
-    let mut runs: Vec<(usize, Vec<f64>, TrainingReport, f64)> = order
+    Ok(order
         .par_iter()
         .map(|&job| {
-            let (arch, restart) = (job / restarts, job % restarts);
             // Reported before each run too, so an observer that stops the work (Ctrl-C in the
             // Python package) is heard before the next run starts rather than after it ends.
             observer(Progress::step(
@@ -151,31 +156,109 @@ pub fn sweep(
                 done.load(Ordering::Relaxed),
                 Some(total),
             ));
-            let started = Instant::now();
-            let (weights, report) =
-                problem.train_once(&layouts[arch], settings.base_seed, restart, &settings.lm);
-            let seconds = started.elapsed().as_secs_f64();
+            let run = train_job(problem, settings, &layouts, job);
             let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
             observer(Progress::step("network sweep", finished, Some(total)));
-            (job, weights, report, seconds)
+            run
         })
-        .collect();
-    runs.sort_by_key(|run| run.0);
+        .collect())
+}
+
+/// One job of the sweep: architecture `job / restarts`, restart `job % restarts`. What a worker
+/// of a distributed sweep runs; the result does not depend on where or when it runs.
+pub fn run_sweep_job(
+    problem: &AnnProblem,
+    settings: &SweepSettings,
+    job: usize,
+) -> Result<SweepRun, AnnError> {
+    let layouts = sweep_layouts(problem, settings)?;
+    let total = layouts.len() * settings.restarts;
+    if job >= total {
+        return Err(AnnError::SweepExchange(format!(
+            "job {job} does not exist: the sweep has {total} jobs (0..{total})"
+        )));
+    }
+    Ok(train_job(problem, settings, &layouts, job))
+}
+
+fn sweep_layouts(problem: &AnnProblem, settings: &SweepSettings) -> Result<Vec<Layout>, AnnError> {
+    if settings.restarts == 0 {
+        return Err(AnnError::NoRestarts);
+    }
+    settings
+        .grid
+        .iter()
+        .map(|hidden| problem.layout(hidden))
+        .collect()
+}
+
+fn train_job(problem: &AnnProblem, settings: &SweepSettings, layouts: &[Layout], job: usize) -> SweepRun {
+    let (arch, restart) = (job / settings.restarts, job % settings.restarts);
+    let started = Instant::now();
+    let (weights, report) = problem.train_once(&layouts[arch], settings.base_seed, restart, &settings.lm);
+    SweepRun {
+        job,
+        weights,
+        report,
+        seconds: started.elapsed().as_secs_f64(),
+    }
+}
+
+/// The sweep's rows from its runs, in any order, wherever they were made: each job must be
+/// there exactly once. Each architecture keeps its best restart on validation.
+pub fn reduce_sweep(
+    problem: &AnnProblem,
+    settings: &SweepSettings,
+    mut runs: Vec<SweepRun>,
+) -> Result<Vec<SweepRow>, AnnError> {
+    let layouts = sweep_layouts(problem, settings)?;
+    let restarts = settings.restarts;
+    let total = layouts.len() * restarts;
+    runs.sort_by_key(|run| run.job);
+    let refuse = |why: String| Err(AnnError::SweepExchange(why));
+    for (i, run) in runs.iter().enumerate() {
+        if run.job >= total {
+            return refuse(format!(
+                "job {} does not exist: the sweep has {total} jobs",
+                run.job
+            ));
+        }
+        if i > 0 && runs[i - 1].job == run.job {
+            return refuse(format!("job {} is there twice", run.job));
+        }
+        let expected = layouts[run.job / restarts].n_params();
+        if run.weights.len() != expected {
+            return refuse(format!(
+                "job {} has {} weights, its architecture {} has {expected}",
+                run.job,
+                run.weights.len(),
+                architecture_label(&settings.grid[run.job / restarts]),
+            ));
+        }
+    }
+    if runs.len() != total {
+        let missing: Vec<String> = (0..total)
+            .filter(|job| runs.binary_search_by_key(job, |run| run.job).is_err())
+            .map(|job| job.to_string())
+            .collect();
+        return refuse(format!("job {} missing", missing.join(", ")));
+    }
     let mut rows = Vec::with_capacity(layouts.len());
     for (arch, chunk) in runs.chunks_exact_mut(restarts).enumerate() {
-        let best = best_run(chunk.iter().map(|run| &run.2));
-        let seconds = chunk.iter().map(|run| run.3).sum();
+        let best = best_run(chunk.iter().map(|run| &run.report));
+        let seconds = chunk.iter().map(|run| run.seconds).sum();
         let hidden = &settings.grid[arch];
-        let (_, weights, report, _) = &mut chunk[best];
+        let run = &mut chunk[best];
         let model = problem.model(
             hidden,
-            std::mem::take(weights),
-            report.clone(),
+            std::mem::take(&mut run.weights),
+            run.report.clone(),
             restarts,
             best,
             settings.base_seed,
             &settings.lm,
         );
+        let report = &run.report;
         let fits = &model.training.as_ref().expect("model() fills the summary").fits;
         rows.push(SweepRow {
             architecture: architecture_label(hidden),
@@ -190,6 +273,203 @@ pub fn sweep(
         });
     }
     Ok(rows)
+}
+
+/// One (architecture, restart) run of a sweep. `job` is its index in grid order:
+/// architecture × restarts + restart.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepRun {
+    pub job: usize,
+    pub weights: Vec<f64>,
+    pub report: TrainingReport,
+    /// Training time (s, one thread).
+    pub seconds: f64,
+}
+
+/// The exchange form of a run: every float as its IEEE-754 bits, so NaN (an MSE without
+/// validation data) and every last bit survive the trip.
+#[derive(Serialize, Deserialize)]
+struct SweepRunExchange {
+    format: String,
+    version: u32,
+    job: usize,
+    weights: Vec<u64>,
+    epochs: usize,
+    stop: StopReason,
+    best_epoch: usize,
+    train_mse: Vec<u64>,
+    validation_mse: Vec<u64>,
+    final_mu: u64,
+    seconds: u64,
+}
+
+const RUN_FORMAT: &str = "spincal-sweep-run";
+const JOBS_FORMAT: &str = "spincal-sweep-jobs";
+const EXCHANGE_VERSION: u32 = 1;
+
+fn bits(values: &[f64]) -> Vec<u64> {
+    values.iter().map(|v| v.to_bits()).collect()
+}
+
+fn floats(bits: &[u64]) -> Vec<f64> {
+    bits.iter().map(|&b| f64::from_bits(b)).collect()
+}
+
+fn check_format(what: &str, format: &str, version: u32, expected: &str) -> Result<(), AnnError> {
+    if format != expected || version != EXCHANGE_VERSION {
+        return Err(AnnError::SweepExchange(format!(
+            "{what} is {format:?} version {version}; this spincal ({}) reads {expected:?} version {EXCHANGE_VERSION}",
+            env!("CARGO_PKG_VERSION")
+        )));
+    }
+    Ok(())
+}
+
+impl SweepRun {
+    /// JSON that [`SweepRun::from_json`] turns back into an equal run, bit for bit.
+    pub fn to_json(&self) -> String {
+        let r = &self.report;
+        serde_json::to_string(&SweepRunExchange {
+            format: RUN_FORMAT.into(),
+            version: EXCHANGE_VERSION,
+            job: self.job,
+            weights: bits(&self.weights),
+            epochs: r.epochs,
+            stop: r.stop,
+            best_epoch: r.best_epoch,
+            train_mse: bits(&r.train_mse),
+            validation_mse: bits(&r.validation_mse),
+            final_mu: r.final_mu.to_bits(),
+            seconds: self.seconds.to_bits(),
+        })
+        .expect("plain numbers serialise")
+    }
+
+    pub fn from_json(text: &str) -> Result<SweepRun, AnnError> {
+        let x: SweepRunExchange = serde_json::from_str(text)
+            .map_err(|e| AnnError::SweepExchange(format!("a run that cannot be read: {e}")))?;
+        check_format("the run", &x.format, x.version, RUN_FORMAT)?;
+        let epochs_seen = x.train_mse.len();
+        if epochs_seen == 0 || x.validation_mse.len() != epochs_seen || x.best_epoch >= epochs_seen {
+            return Err(AnnError::SweepExchange(format!(
+                "run of job {}: {} training and {} validation MSEs with best epoch {}",
+                x.job,
+                epochs_seen,
+                x.validation_mse.len(),
+                x.best_epoch
+            )));
+        }
+        Ok(SweepRun {
+            job: x.job,
+            weights: floats(&x.weights),
+            report: TrainingReport {
+                epochs: x.epochs,
+                stop: x.stop,
+                best_epoch: x.best_epoch,
+                train_mse: floats(&x.train_mse),
+                validation_mse: floats(&x.validation_mse),
+                final_mu: f64::from_bits(x.final_mu),
+            },
+            seconds: f64::from_bits(x.seconds),
+        })
+    }
+}
+
+/// Everything a worker needs to run any job of one sweep in another process or on another
+/// machine: the problem's paired columns and the sweep's settings. Its JSON is exact (floats
+/// round-trip), so a worker's [`AnnProblem`] equals the caller's and its runs are the ones the
+/// local sweep makes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SweepJobs {
+    format: String,
+    version: u32,
+    axes: Vec<Axis>,
+    delays: usize,
+    division: DivisionMode,
+    /// Chosen axes of the measured recording and of its reference, m/s².
+    measured: Vec<Vec<f64>>,
+    reference: Vec<Vec<f64>>,
+    pub settings: SweepSettings,
+}
+
+impl SweepJobs {
+    pub fn new(problem: &AnnProblem, settings: &SweepSettings) -> SweepJobs {
+        SweepJobs {
+            format: JOBS_FORMAT.into(),
+            version: EXCHANGE_VERSION,
+            axes: problem.axes.clone(),
+            delays: problem.delays,
+            division: problem.division.mode,
+            measured: problem.measured.clone(),
+            reference: problem.reference.clone(),
+            settings: settings.clone(),
+        }
+    }
+
+    /// Number of jobs: architectures × restarts.
+    pub fn len(&self) -> usize {
+        self.settings.grid.len() * self.settings.restarts
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).expect("finite numbers serialise")
+    }
+
+    /// Reads jobs made by [`SweepJobs::to_json`], checking what a damaged or foreign text could
+    /// break: the format and version, one column per axis, equal lengths, finite values.
+    pub fn from_json(text: &str) -> Result<SweepJobs, AnnError> {
+        let jobs: SweepJobs = serde_json::from_str(text)
+            .map_err(|e| AnnError::SweepExchange(format!("jobs that cannot be read: {e}")))?;
+        check_format("the jobs", &jobs.format, jobs.version, JOBS_FORMAT)?;
+        check_axes(&jobs.axes)?;
+        let n = jobs.measured.first().map_or(0, Vec::len);
+        let columns_fit = jobs.measured.len() == jobs.axes.len()
+            && jobs.reference.len() == jobs.axes.len()
+            && jobs.measured.iter().chain(&jobs.reference).all(|c| c.len() == n);
+        if !columns_fit {
+            return Err(AnnError::SweepExchange(format!(
+                "{} measured and {} reference columns of unequal lengths for {} axes",
+                jobs.measured.len(),
+                jobs.reference.len(),
+                jobs.axes.len()
+            )));
+        }
+        if jobs
+            .measured
+            .iter()
+            .chain(&jobs.reference)
+            .flatten()
+            .any(|v| !v.is_finite())
+        {
+            return Err(AnnError::SweepExchange("a value that is not finite".into()));
+        }
+        if jobs.delays > super::MAX_DELAYS {
+            return Err(AnnError::TooManyDelays(jobs.delays));
+        }
+        if n < jobs.delays + super::MIN_SAMPLES {
+            return Err(AnnError::TooFewSamples {
+                samples: n,
+                delays: jobs.delays,
+                needed: jobs.delays + super::MIN_SAMPLES,
+            });
+        }
+        Ok(jobs)
+    }
+
+    /// The problem the jobs were made from, rebuilt exactly.
+    pub fn problem(&self) -> AnnProblem {
+        AnnProblem::from_columns(
+            self.measured.clone(),
+            self.reference.clone(),
+            &self.axes,
+            self.delays,
+            self.division,
+        )
+    }
 }
 
 /// "10-6" for two hidden layers of 10 and 6 units; "none" without hidden layers.
