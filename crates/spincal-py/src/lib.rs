@@ -706,19 +706,31 @@ impl PyCampaignCalibration {
     fn corrector(&self) -> Option<PyCorrector> {
         self.output.saved.clone().map(|file| PyCorrector { file })
     }
-    /// Writes results.json and (when a corrector was saved) model.json into `folder`.
-    fn write(&self, folder: PathBuf) -> PyResult<()> {
-        std::fs::create_dir_all(&folder)
-            .map_err(|e| errors::OutputError::new_err(format!("{}: cannot create: {e}", folder.display())))?;
-        if let Some(model) = &self.output.saved {
-            model
-                .write_path(&folder.join("model.json"))
-                .map_err(errors::output)?;
-        }
-        let results =
-            serde_json::to_string_pretty(&self.output.result).map_err(|e| usage(e.to_string()))? + "\n";
-        write_text(&folder.join("results.json"), &results)
-    }
+}
+
+/// Every file `spincal calibrate --campaign` writes, from a campaign's results.json and
+/// model.json texts: [(name, content)] for model.json (when given), results.json, report.html,
+/// imucal.json and imu_tk_*.calib.
+#[pyfunction]
+#[pyo3(signature = (results_json, model_json = None))]
+fn campaign_files(
+    py: Python<'_>,
+    results_json: &str,
+    model_json: Option<&str>,
+) -> PyResult<Vec<(String, String)>> {
+    let result: spincal::campaign::CampaignResult = serde_json::from_str(results_json)
+        .map_err(|e| usage(format!("results.json is not a campaign result: {e}")))?;
+    let model = model_json
+        .map(|m| CorrectorFile::from_json(m, "model.json"))
+        .transpose()
+        .map_err(errors::model)?;
+    let files = py
+        .detach(|| spincal::report::campaign::campaign_files(&result, model.as_ref()))
+        .map_err(|e| errors::Error::new_err(format!("drawing report.html: {e}")))?;
+    Ok(files
+        .into_iter()
+        .map(|(name, text)| (name.to_string(), text))
+        .collect())
 }
 
 /// Calibrates one unit from its campaign file (TOML), as `spincal calibrate --campaign`.
@@ -1104,6 +1116,7 @@ fn _spincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(calibrate, m)?)?;
     m.add_function(wrap_pyfunction!(run_sweep_jobs, m)?)?;
     m.add_function(wrap_pyfunction!(calibrate_campaign, m)?)?;
+    m.add_function(wrap_pyfunction!(campaign_files, m)?)?;
     m.add_function(wrap_pyfunction!(static_calibration, m)?)?;
     m.add_function(wrap_pyfunction!(allan, m)?)?;
     m.add_function(wrap_pyfunction!(sensitivity, m)?)?;

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 use indicatif::ProgressStyle;
-use spincal::campaign::{Campaign, CampaignOutput};
+use spincal::campaign::Campaign;
 use spincal::fleet::{
     calibrate_fleet, campaign_inputs, campaign_path, expand_sources, fleet_table, unit_labels, FleetSettings,
     FleetTable, OutlierSettings, UnitOutcome,
@@ -135,12 +135,15 @@ pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
     for outcome in &outcomes {
         if let Ok(cal) = &outcome.result {
             let dir = args.out.join(&outcome.unit);
-            cal.write(&dir)?;
-            let report = super::campaign::report_html(&CampaignOutput {
-                result: cal.result.clone(),
-                saved: cal.model.clone(),
-            });
-            super::write_text(&dir.join("report.html"), &report)?;
+            let files = spincal::report::campaign::campaign_files(&cal.result, cal.model.as_ref())
+                .context("drawing a unit's report")?;
+            let names: Vec<PathBuf> = files.iter().map(|(name, _)| dir.join(name)).collect();
+            let inputs: Vec<&Path> = cal.inputs.iter().map(PathBuf::as_path).collect();
+            super::check_outputs(&inputs, &names.iter().map(PathBuf::as_path).collect::<Vec<_>>())?;
+            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+            for ((_, text), path) in files.iter().zip(&names) {
+                super::write_text(path, text)?;
+            }
         }
     }
     let table = fleet_table(

@@ -464,39 +464,48 @@ class Calibration:
 
 class CampaignCalibration:
     """A finished campaign calibration: ``result`` (:class:`CampaignResult`), ``corrector`` (or
-    None when no corrector held on every held-out condition) and :meth:`write`."""
+    None when no corrector held on every held-out condition), :meth:`report_html` and
+    :meth:`write`."""
 
-    __slots__ = ("_inner", "result", "corrector")
+    __slots__ = ("result", "corrector", "_results_json", "_model_json")
 
     def __init__(self, inner: Optional["_spincal.CampaignCalibration"]):
-        self._inner = inner
         if inner is not None:
-            self.result = CampaignResult._from_json(inner.result_json())
             saved = inner.corrector()
-            self.corrector = None if saved is None else Corrector(saved)
+            self._set(inner.result_json(), None if saved is None else saved.to_json())
+
+    def _set(self, results: str, model: Optional[str]) -> None:
+        self._results_json = results
+        self._model_json = model
+        self.result = CampaignResult._from_json(results)
+        self.corrector = None if model is None else Corrector(_spincal.Corrector.from_json(model, "model.json"))
 
     @classmethod
     def _from_texts(cls, results: str, model: Optional[str]) -> "CampaignCalibration":
         cal = cls(None)
-        cal.result = CampaignResult._from_json(results)
-        cal.corrector = None if model is None else Corrector(_spincal.Corrector.from_json(model, "model.json"))
+        cal._set(results, model)
         return cal
 
     def to_dict(self) -> Dict[str, Any]:
         """results.json's content."""
         return self.result.to_dict()
 
+    def report_html(self) -> str:
+        """report.html as ``spincal calibrate --campaign`` writes it: the verdict, every
+        corrector on held-out conditions (table and plot), the sensor model, the gyroscope."""
+        return dict(_spincal.campaign_files(self._results_json, self._model_json))["report.html"]
+
     def write(self, folder: PathLike) -> None:
-        """Writes results.json and (when a corrector was saved) model.json into ``folder``."""
-        if self._inner is not None:
-            self._inner.write(os.fspath(folder))
-            return
+        """Writes what ``spincal calibrate --campaign`` writes into ``folder`` (created):
+        model.json (when a corrector was saved), results.json, report.html, imucal.json and the
+        imu_tk ``.calib`` files. Each file is written to a temporary name and renamed."""
         folder = os.fspath(folder)
         os.makedirs(folder, exist_ok=True)
-        with open(os.path.join(folder, "results.json"), "w") as f:
-            f.write(json.dumps(self.result.to_dict(), indent=2) + "\n")
-        if self.corrector is not None:
-            self.corrector.save(os.path.join(folder, "model.json"))
+        for name, text in _spincal.campaign_files(self._results_json, self._model_json):
+            tmp = os.path.join(folder, f".{name}.tmp")
+            with open(tmp, "w") as f:
+                f.write(text)
+            os.replace(tmp, os.path.join(folder, name))
 
     def __repr__(self) -> str:
         return f"CampaignCalibration(unit={self.result.unit!r}, saved={self.result.saved!r})"

@@ -25,7 +25,7 @@ Example::
     ray.init(address="auto")
     fleet = spincal.ray.calibrate_fleet(["units/imu-01", "units/imu-02", ...], progress=True)
     print(fleet.flagged_units)
-    fleet.write("fleet-out")        # per unit results.json / model.json, fleet.json, fleet.csv
+    fleet.write("fleet-out")        # per unit results.json, report.html, model.json …; fleet.json, fleet.csv
 """
 
 from __future__ import annotations
@@ -187,7 +187,8 @@ class FleetResult:
         return {"units": [u.to_dict() for u in self.units], "table": self.table.to_dict(), "seconds": self.seconds}
 
     def write(self, folder: PathLike) -> None:
-        """Writes ``<label>/results.json`` and ``<label>/model.json`` per calibrated unit,
+        """Writes per calibrated unit what ``spincal fleet`` writes into ``<label>/`` (results.json,
+        report.html, model.json when saved, imucal.json, imu_tk ``.calib`` files),
         ``fleet.json`` (the table), ``fleet.csv`` and ``fleet.html`` (each parameter across the
         units, outliers highlighted) into ``folder``."""
         folder = os.fspath(folder)
@@ -197,9 +198,8 @@ class FleetResult:
                 continue
             unit_dir = os.path.join(folder, u.label)
             os.makedirs(unit_dir, exist_ok=True)
-            _write(os.path.join(unit_dir, "results.json"), u._results_json or "")
-            if u._model_json is not None:
-                _write(os.path.join(unit_dir, "model.json"), u._model_json)
+            for name, text in _spincal.campaign_files(u._results_json or "", u._model_json):
+                _write(os.path.join(unit_dir, name), text)
         _write(os.path.join(folder, "fleet.json"), self.table.to_json() + "\n")
         _write(os.path.join(folder, "fleet.csv"), self.table_csv)
         _write(os.path.join(folder, "fleet.html"), self.html)

@@ -96,6 +96,15 @@ def test_campaign_calibration_gives_the_clis_results_json(tmp_path, cli):
     assert truth.sensor.bias_mps2 == truth.to_dict()["sensor"]["bias_mps2"]
     cal.write(tmp_path / "py")
     assert json.loads((tmp_path / "py" / "results.json").read_text())["unit"] == cli_result["unit"]
+    # The same files as the CLI's; all but the timed ones (results.json, report.html) to the byte.
+    written = sorted(p.name for p in (tmp_path / "py").iterdir())
+    assert written == sorted(p.name for p in (tmp_path / "cli").iterdir())
+    assert {"report.html", "imucal.json", "imu_tk_acc.calib", "imu_tk_gyro.calib"} <= set(written)
+    for name in set(written) - {"results.json", "report.html"}:
+        assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
+    html = cal.report_html()
+    assert html == (tmp_path / "py" / "report.html").read_text()
+    assert "Held-out error per condition" in html and "<svg" in html and cal.result.unit in html
 
 
 def test_fit_and_static_and_allan_and_sensitivity_match_the_cli(simulated, cli):

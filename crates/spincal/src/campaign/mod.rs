@@ -19,4 +19,6 @@ pub use gyro::{fit_gyro, GyroFit, GyroModel, GyroSettings};
 pub use joint::{fit_joint, JointFit, JointSettings, PoseInput, RunInput, SensorTerms};
 pub use load::{load_campaign, LoadError};
 pub use prepare::UnitRecording;
-pub use select::{calibrate_campaign, CampaignOutput, CampaignResult, CampaignSettings, CandidateKind};
+pub use select::{
+    calibrate_campaign, CampaignOutput, CampaignResult, CampaignSettings, CandidateKind, HeldOutScore,
+};

@@ -5,6 +5,7 @@
 //! As in the calibration report, every number shown is written as `<span data-json="/pointer"
 //! data-digits="d">`, the place in fleet.json it comes from.
 
+use super::escape;
 use crate::fleet::FleetTable;
 use crate::report::plot::{Figure, Legend, LinePlot, LineStyle, PlotError, Rgb, Series};
 
@@ -14,13 +15,6 @@ const GOOD: Rgb = Rgb(0, 114, 178);
 const CENTRE: Rgb = Rgb(0, 0, 0);
 /// Error bars are drawn for fleets up to this size (beyond it they hide the points).
 const MAX_ERROR_BARS: usize = 200;
-
-fn escape(text: &str) -> String {
-    text.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
 
 fn num(pointer: &str, value: Option<f64>) -> String {
     match value {

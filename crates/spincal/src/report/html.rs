@@ -6,6 +6,7 @@
 //! it comes from (degrees, g) also carries `data-scale="factor"`: the page shows value × factor.
 //! Plots draw the signals behind those numbers.
 
+use super::escape;
 use crate::calibrate::{CalibrationOutput, CalibrationResult, ComparisonRow, NetworkChoice, PartScore};
 use crate::correctors::ann::Part;
 use crate::input::recording::{Recording, STANDARD_GRAVITY};
@@ -47,13 +48,6 @@ fn num_in(pointer: &str, value: f64, scale: Option<f64>, digits: usize) -> Strin
     }
 }
 
-fn escape(text: &str) -> String {
-    text.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
-
 fn g_series(name: &str, time: &[f64], values: &[f64], color: usize) -> Series {
     Series::new(
         name,
@@ -70,7 +64,7 @@ fn window(time: &[f64], t0: f64, t1: f64) -> std::ops::Range<usize> {
     a..b
 }
 
-fn figure(fig: &impl Figure, caption: &str) -> Result<String, PlotError> {
+pub(crate) fn figure(fig: &impl Figure, caption: &str) -> Result<String, PlotError> {
     panels(&[fig], caption)
 }
 

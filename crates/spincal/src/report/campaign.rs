@@ -1,0 +1,258 @@
+//! The campaign report (`spincal calibrate --campaign`, `spincal fleet`, the Python package): the
+//! verdict, every corrector on held-out conditions (table and plot), the sensor model, the
+//! gyroscope, time per stage. Self-contained HTML.
+
+use std::fmt::Write as _;
+
+use super::escape;
+use super::html::figure;
+use super::plot::{Legend, LinePlot, LineStyle, Series};
+use super::plot::{PlotError, Rgb};
+use crate::campaign::CampaignResult;
+use crate::correctors::model_file::CorrectorFile;
+
+/// Every file a campaign calibration writes, by name, with its content: model.json (when a
+/// corrector was saved), results.json, report.html, and the linear part of the calibration in
+/// the files other tools read (imucal.json, imu_tk_acc.calib, imu_tk_gyro.calib; see
+/// [`crate::export`]). The CLI, `spincal fleet` and the Python package write the same files.
+pub fn campaign_files(
+    result: &CampaignResult,
+    saved: Option<&CorrectorFile>,
+) -> Result<Vec<(&'static str, String)>, PlotError> {
+    let mut files = Vec::new();
+    if let Some(model) = saved {
+        files.push(("model.json", model.to_json() + "\n"));
+    }
+    files.push(("results.json", pretty(result)));
+    files.push(("report.html", campaign_report(result)?));
+    let sensor = &result.joint.sensor;
+    let gyro = result.gyro.as_ref().map(|g| &g.model);
+    files.push(("imucal.json", pretty(&crate::export::imucal_json(sensor, gyro))));
+    if let Some((acc, gyr)) = crate::export::imu_tk_calibs(sensor, gyro) {
+        files.push(("imu_tk_acc.calib", acc.to_text()));
+        if let Some(gyr) = gyr {
+            files.push(("imu_tk_gyro.calib", gyr.to_text()));
+        }
+    }
+    Ok(files)
+}
+
+fn pretty<T: serde::Serialize>(value: &T) -> String {
+    serde_json::to_string_pretty(value).expect("results serialise") + "\n"
+}
+
+/// The names [`campaign_files`] may write, to check before any work that none is an input.
+pub const CAMPAIGN_FILE_NAMES: [&str; 6] = [
+    "model.json",
+    "results.json",
+    "report.html",
+    "imucal.json",
+    "imu_tk_acc.calib",
+    "imu_tk_gyro.calib",
+];
+
+/// A self-contained HTML report: the verdict, held-out errors per corrector, the sensor model.
+pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!doctype html><html><head><meta charset=\"utf-8\"><title>spincal campaign: {unit}</title>\
+         <style>body{{font-family:sans-serif;max-width:70em;margin:2em auto}}table{{border-collapse:collapse}}\
+         td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}th{{background:#eee}}.bad{{color:#b00}}</style></head><body>\
+         <h1>Campaign calibration: {unit}</h1><h2>Verdict</h2><p>{verdict}</p>",
+        unit = escape(&r.unit),
+        verdict = escape(&r.verdict)
+    );
+    h.push_str("<h2>Correctors on held-out conditions</h2><table><tr><th>corrector</th><th>what it is</th><th>mean RMS error, m/s²</th><th>worst ratio to uncorrected</th><th>eligible</th><th>why not</th></tr>");
+    for c in &r.candidates {
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            c.candidate,
+            escape(&c.description),
+            c.mean_rms_mps2.map_or("–".into(), |v| format!("{v:.4}")),
+            c.worst_ratio_to_uncorrected
+                .map_or("–".into(), |v| format!("{v:.2}")),
+            if c.eligible { "yes" } else { "no" },
+            escape(c.why_not.as_deref().unwrap_or(""))
+        );
+    }
+    h.push_str("</table><p>Each corrector is trained on every condition but one and scored on the one left out. The error is against the true specific force when the recording carries it (simulations), otherwise against the held-out recording refitted with a perfect sensor.</p>");
+    if let Some(plot) = held_out_plot(r) {
+        h.push_str(&figure(
+            &plot,
+            "RMS error over the three axes on each held-out condition (numbered as in the table below), log scale: each corrector, the uncorrected signal and the random floor.",
+        )?);
+    }
+    h.push_str("<table><tr><th>held out</th><th>corrector</th><th>RMS x</th><th>RMS y</th><th>RMS z</th><th>uncorrected x</th><th>y</th><th>z</th><th>floor x</th><th>y</th><th>z</th><th>against</th></tr>");
+    for s in &r.held_out {
+        let cells = |v: Option<[f64; 3]>| {
+            v.map_or("<td>–</td><td>–</td><td>–</td>".to_string(), |v| {
+                v.iter().map(|x| format!("<td>{x:.4}</td>")).collect()
+            })
+        };
+        let worse = s
+            .rms_mps2
+            .is_some_and(|v| v.iter().sum::<f64>() > s.uncorrected_rms_mps2.iter().sum::<f64>());
+        let _ = write!(
+            h,
+            "<tr{}><td>{}</td><td>{}</td>{}{}{}<td>{}</td></tr>",
+            if worse { " class=\"bad\"" } else { "" },
+            escape(&s.condition),
+            s.candidate,
+            cells(s.rms_mps2),
+            cells(Some(s.uncorrected_rms_mps2)),
+            cells(s.floor_mps2),
+            s.against
+        );
+    }
+    h.push_str("</table><h2>Sensor model (joint fit of every recording)</h2>");
+    let _ = write!(h, "<p>Terms: {}. Standard errors: {}.</p><table><tr><th>parameter</th><th>value</th><th>standard error</th></tr>", r.joint.terms.describe(), escape(&r.joint.covariance));
+    for p in &r.joint.sensor_params {
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{:.6}</td><td>{}</td></tr>",
+            escape(&p.name),
+            p.value,
+            p.std_error.map_or("–".into(), |v| format!("{v:.6}"))
+        );
+    }
+    h.push_str("</table>");
+    if !r.undetermined.is_empty() {
+        h.push_str("<h2>What this campaign does not determine</h2><ul>");
+        for (name, advice) in &r.undetermined {
+            let _ = write!(h, "<li>{}: record {}</li>", escape(name), escape(advice));
+        }
+        h.push_str("</ul>");
+    }
+    if let Some(g) = &r.gyro {
+        let _ = write!(
+            h,
+            "<h2>Gyroscope</h2><p>m = b + K ω, ω in the accelerometer's body frame. Each turntable run's rotation rate, measured by the accelerometer, is the reference about the spindle; still poses give the bias. Standard errors: {}.</p><table><tr><th>parameter</th><th>value</th><th>standard error</th></tr>",
+            escape(&g.covariance)
+        );
+        for p in g.params.iter().chain(&g.session_drift) {
+            let _ = write!(
+                h,
+                "<tr><td>{}</td><td>{:.6e}</td><td>{}</td></tr>",
+                escape(&p.name),
+                p.value,
+                p.std_error.map_or("–".into(), |v| format!("{v:.2e}"))
+            );
+        }
+        h.push_str("</table><h3>Cross-check: the gyro against the accelerometer's rate</h3><table><tr><th>run</th><th>rate from the accelerometer, rad/s</th><th>raw gyro about the spindle</th><th>calibrated gyro</th><th>residual RMS x y z, rad/s</th></tr>");
+        for c in &g.rate_checks {
+            let _ = write!(
+                h,
+                "<tr><td>{}</td><td>{:.6} ± {}</td><td>{:.6}</td><td>{:.6}</td><td>{:.2e} {:.2e} {:.2e}</td></tr>",
+                escape(&c.run),
+                c.accel_rate_radps,
+                c.accel_rate_se_radps.map_or("–".into(), |v| format!("{v:.1e}")),
+                c.raw_gyro_rate_radps,
+                c.calibrated_gyro_rate_radps,
+                c.residual_rms_radps[0],
+                c.residual_rms_radps[1],
+                c.residual_rms_radps[2]
+            );
+        }
+        h.push_str("</table>");
+        if !g.undetermined.is_empty() {
+            h.push_str("<ul>");
+            for (name, advice) in &g.undetermined {
+                let _ = write!(h, "<li>{}: {}</li>", escape(name), escape(advice));
+            }
+            h.push_str("</ul>");
+        }
+    }
+    h.push_str("<h2>Where the time went</h2><table><tr><th>stage</th><th>time (s)</th></tr>");
+    for s in &r.stage_seconds {
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{:.2}</td></tr>",
+            escape(&s.stage),
+            s.seconds
+        );
+    }
+    h.push_str("</table>");
+    h.push_str("<h2>Recordings</h2><ul>");
+    for run in &r.joint.runs {
+        let _ = write!(
+            h,
+            "<li>{} ({}, residual RMS {} m/s²)</li>",
+            escape(&run.name),
+            run.direction.describe(),
+            format!(
+                "{:.4} {:.4} {:.4}",
+                run.residual_rms_mps2[0], run.residual_rms_mps2[1], run.residual_rms_mps2[2]
+            )
+        );
+    }
+    for pose in &r.joint.poses {
+        let _ = write!(h, "<li>{} (still pose)</li>", escape(&pose.name));
+    }
+    h.push_str("</ul></body></html>\n");
+    Ok(h)
+}
+
+/// RMS over the three axes of per-axis RMS errors.
+fn overall(v: &[f64; 3]) -> f64 {
+    (v.iter().map(|x| x * x).sum::<f64>() / 3.0).sqrt()
+}
+
+/// Held-out error per condition for every corrector, with the uncorrected signal and the floor.
+fn held_out_plot(r: &CampaignResult) -> Option<LinePlot> {
+    let mut conditions: Vec<&str> = Vec::new();
+    for s in &r.held_out {
+        if !conditions.contains(&s.condition.as_str()) {
+            conditions.push(&s.condition);
+        }
+    }
+    if conditions.is_empty() {
+        return None;
+    }
+    let index = |c: &str| conditions.iter().position(|&k| k == c).map(|i| i as f64 + 1.0);
+    let per_condition = |value: &dyn Fn(&crate::campaign::HeldOutScore) -> Option<f64>| {
+        let mut y = vec![f64::NAN; conditions.len()];
+        for s in &r.held_out {
+            if let (Some(i), Some(v)) = (index(&s.condition), value(s)) {
+                y[i as usize - 1] = v;
+            }
+        }
+        y
+    };
+    let x: Vec<f64> = (1..=conditions.len()).map(|i| i as f64).collect();
+    let mut plot = LinePlot::new(
+        "Held-out error per condition",
+        "held-out condition",
+        "RMS error, m/s²",
+    )
+    .log_y()
+    .legend(Legend::UpperRight);
+    for (k, c) in r.candidates.iter().enumerate() {
+        let y = per_condition(&|s| {
+            (s.candidate == c.candidate)
+                .then_some(s.rms_mps2.map(|v| overall(&v)))
+                .flatten()
+        });
+        plot = plot.series(
+            Series::new(c.candidate.clone(), x.clone(), y)
+                .color(Rgb::palette(k))
+                .style(LineStyle::Markers),
+        );
+    }
+    let uncorrected = per_condition(&|s| Some(overall(&s.uncorrected_rms_mps2)));
+    plot = plot.series(
+        Series::new("uncorrected", x.clone(), uncorrected)
+            .color(Rgb(0, 0, 0))
+            .style(LineStyle::Dashed),
+    );
+    let floor = per_condition(&|s| s.floor_mps2.map(|v| overall(&v)));
+    if floor.iter().any(|v| v.is_finite()) {
+        plot = plot.series(
+            Series::new("floor", x, floor)
+                .color(Rgb(120, 120, 120))
+                .style(LineStyle::Dashed),
+        );
+    }
+    Some(plot)
+}
