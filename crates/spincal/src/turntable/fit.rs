@@ -9,7 +9,7 @@
 //! Parameters: shared by all recordings: β and the three offsets (the sensor and its mounting);
 //! per recording: r (or one shared r), ω, α, φ and, when fitted, a drift per axis.
 
-use faer::{Mat, MatMut, Side};
+use faer::{Mat, Side};
 use serde::{Deserialize, Serialize};
 
 use std::borrow::Cow;
@@ -18,8 +18,8 @@ use crate::input::inspect::{inspect, saturated_mask, Inspection};
 use crate::input::recording::{Recording, STANDARD_GRAVITY};
 use crate::metrics::fit_percent;
 use crate::optim::{
-    levenberg_marquardt, nelder_mead_bounded, Bounds, BoundsError, LeastSquares, LmOptions, LmReport, LmStop,
-    NelderMeadOptions, NelderMeadReport, Observer,
+    levenberg_marquardt_normal, nelder_mead_bounded, Bounds, BoundsError, LmOptions, LmReport, LmStop,
+    NelderMeadOptions, NelderMeadReport, NormalEquations, Observer,
 };
 use crate::turntable::model::{evaluate, for_each_derivative, for_each_sample, Direction, Mounting, Session};
 use crate::turntable::moments::CostMoments;
@@ -359,53 +359,48 @@ impl Problem<'_> {
     }
 }
 
-impl LeastSquares for Problem<'_> {
+impl Problem<'_> {
+    fn n_residuals(&self) -> usize {
+        (0..self.n_recordings).map(|k| self.rows_of(k)).sum::<usize>() + usize::from(self.prior.is_some())
+    }
+}
+
+/// The normal equations sample by sample: each residual row has at most seven nonzero
+/// derivatives (radius, ω, tilt, phase, β, offset, drift), added into JᵀJ and Jᵀr as they are
+/// made, so the fit's memory does not grow with the recording (the whole Jacobian would take
+/// 8 bytes × parameters per row).
+impl NormalEquations for Problem<'_> {
     fn n_params(&self) -> usize {
         self.defs.len()
     }
 
-    fn n_residuals(&self) -> usize {
-        (0..self.n_recordings).map(|k| self.rows_of(k)).sum::<usize>() + usize::from(self.prior.is_some())
-    }
-
-    fn residuals(&self, p: &[f64], out: &mut [f64]) {
+    fn sse(&self, p: &[f64]) -> f64 {
         let (mounting, sessions) = self.unpack(p);
-        let mut model = [Vec::new(), Vec::new(), Vec::new()];
-        let mut row = 0;
+        let mut total = 0.0;
         for (k, rec) in self.recordings.iter().enumerate() {
-            evaluate(&sessions[k], &mounting, self.gravity, &rec.time_s, &mut model);
-            for &a in self.axes {
-                let w = self.weights[k][a];
-                for (i, m) in model[a].iter().enumerate() {
-                    out[row + i] = w * (m - rec.accel_mps2[a][i]);
+            let w = self.weights[k];
+            for_each_sample(&sessions[k], &mounting, self.gravity, &rec.time_s, |i, m| {
+                for &a in self.axes {
+                    let r = w[a] * (m[a] - rec.accel_mps2[a][i]);
+                    total += r * r;
                 }
-                row += rec.len();
-            }
+            });
         }
         if let Some((index, prior)) = self.prior {
-            out[row] = (p[index] - prior.value_m) / prior.tolerance_m;
+            total += ((p[index] - prior.value_m) / prior.tolerance_m).powi(2);
         }
+        total
     }
 
-    fn jacobian(&self, p: &[f64], out: MatMut<'_, f64>) {
+    fn normal_equations(&self, p: &[f64], jtj: &mut Mat<f64>, jtr: &mut [f64]) -> f64 {
+        let n = self.defs.len();
         let (mounting, sessions) = self.unpack(p);
-        // The LM workspace's Jacobian is column-major: fill each parameter's column as a slice.
-        let mut columns: Vec<&mut [f64]> = out
-            .col_iter_mut()
-            .map(|col| {
-                let col = col
-                    .try_as_col_major_mut()
-                    .expect("LM allocates a column-major Jacobian");
-                let slice = col.as_slice_mut();
-                slice.fill(0.0);
-                slice
-            })
-            .collect();
-        let mut row0 = 0;
+        // Row-major n × n accumulator (upper triangle), mirrored into `jtj` at the end.
+        let mut upper = vec![0.0; n * n];
+        jtr.fill(0.0);
+        let mut total = 0.0;
+        let column = |role: Role| self.defs.iter().position(|d| d.role == role);
         for (k, rec) in self.recordings.iter().enumerate() {
-            let n = rec.len();
-            // Column of each role for this recording (None when not free).
-            let column = |role: Role| self.defs.iter().position(|d| d.role == role);
             let radius_col = column(Role::Radius(Some(k))).or_else(|| column(Role::Radius(None)));
             let role_cols = [
                 radius_col,
@@ -416,29 +411,53 @@ impl LeastSquares for Problem<'_> {
             ];
             let offset_cols = [0, 1, 2].map(|a| column(Role::Offset(a)));
             let drift_cols = [0, 1, 2].map(|a| column(Role::Drift(k, a)));
+            let weights = self.weights[k];
             for_each_derivative(&sessions[k], &mounting, self.gravity, &rec.time_s, |i, d| {
-                for (slot, &a) in self.axes.iter().enumerate() {
-                    let w = self.weights[k][a];
-                    let row = row0 + slot * n + i;
+                for &a in self.axes {
+                    let w = weights[a];
+                    let r = w * (d.value[a] - rec.accel_mps2[a][i]);
+                    total += r * r;
+                    let mut row = [(0usize, 0.0f64); 7];
+                    let mut len = 0;
                     let values = [d.radius[a], d.omega[a], d.tilt[a], d.phase[a], d.beta[a]];
                     for (col, value) in role_cols.iter().zip(values) {
                         if let Some(c) = *col {
-                            columns[c][row] = w * value;
+                            row[len] = (c, w * value);
+                            len += 1;
                         }
                     }
                     if let Some(c) = offset_cols[a] {
-                        columns[c][row] = w;
+                        row[len] = (c, w);
+                        len += 1;
                     }
                     if let Some(c) = drift_cols[a] {
-                        columns[c][row] = w * d.drift;
+                        row[len] = (c, w * d.drift);
+                        len += 1;
+                    }
+                    for (x, &(ci, vi)) in row[..len].iter().enumerate() {
+                        jtr[ci] += vi * r;
+                        for &(cj, vj) in &row[x..len] {
+                            let (lo, hi) = if ci <= cj { (ci, cj) } else { (cj, ci) };
+                            upper[lo * n + hi] += vi * vj;
+                        }
                     }
                 }
             });
-            row0 += self.rows_of(k);
         }
         if let Some((index, prior)) = self.prior {
-            columns[index][row0] = 1.0 / prior.tolerance_m;
+            let r = (p[index] - prior.value_m) / prior.tolerance_m;
+            let j = 1.0 / prior.tolerance_m;
+            total += r * r;
+            jtr[index] += j * r;
+            upper[index * n + index] += j * j;
         }
+        for a in 0..n {
+            for b in a..n {
+                jtj[(a, b)] = upper[a * n + b];
+                jtj[(b, a)] = upper[a * n + b];
+            }
+        }
+        total
     }
 }
 
@@ -866,7 +885,7 @@ fn solve(
         upper: Some(bounds.upper.clone()),
         ..options.lm.clone()
     };
-    let lm = levenberg_marquardt(problem, &nm.params, &lm_options, &|pr| {
+    let lm = levenberg_marquardt_normal(problem, &nm.params, None, &lm_options, &|pr| {
         observer(pr.in_stage("turntable fit: Levenberg–Marquardt"))
     });
     if lm.params.iter().any(|v| !v.is_finite()) {
@@ -1043,4 +1062,101 @@ fn remedy_for(undetermined: &[String], recordings: usize, options: &FitOptions) 
          or hold the offsets at zero (--no-offsets) as the paper does.",
     );
     Some(text)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simulate::{simulate, SensorProfile, TurntableSetup};
+
+    /// The residual vector, as the whole-Jacobian formulation had it (recording, axis, sample).
+    fn residual_vector(problem: &Problem, p: &[f64]) -> Vec<f64> {
+        let (mounting, sessions) = problem.unpack(p);
+        let mut out = Vec::new();
+        for (k, rec) in problem.recordings.iter().enumerate() {
+            let mut model = [Vec::new(), Vec::new(), Vec::new()];
+            evaluate(&sessions[k], &mounting, problem.gravity, &rec.time_s, &mut model);
+            for &a in problem.axes {
+                let w = problem.weights[k][a];
+                out.extend(model[a].iter().zip(&rec.accel_mps2[a]).map(|(m, x)| w * (m - x)));
+            }
+        }
+        if let Some((index, prior)) = problem.prior {
+            out.push((p[index] - prior.value_m) / prior.tolerance_m);
+        }
+        out
+    }
+
+    #[test]
+    fn streamed_normal_equations_equal_those_of_the_whole_jacobian() {
+        let table = TurntableSetup {
+            duration_s: 20.0,
+            ..TurntableSetup::default()
+        };
+        let a = simulate(&SensorProfile::default(), &table, 3).unwrap().recording;
+        let b = simulate(
+            &SensorProfile::default(),
+            &TurntableSetup {
+                rpm: 45.0,
+                ..table.clone()
+            },
+            4,
+        )
+        .unwrap()
+        .recording;
+        let recordings = [&a, &b];
+        let options = FitOptions {
+            radius: Some(RadiusPrior {
+                value_m: 0.1,
+                tolerance_m: 0.002,
+            }),
+            ..FitOptions::default()
+        };
+        let looks: Vec<FirstLook> = recordings
+            .iter()
+            .map(|r| first_look(r, inspect(r, None), &options).unwrap())
+            .collect();
+        let defs = parameter_table(&recordings, &options, &looks).unwrap();
+        let problem = build_problem(&recordings, &options, &looks, defs);
+        let n = problem.defs.len();
+        // Away from the start, so every derivative matters.
+        let p: Vec<f64> = problem
+            .defs
+            .iter()
+            .enumerate()
+            .map(|(i, d)| d.start + 1e-3 * (i as f64 + 1.0) * (d.upper - d.lower).abs().min(1.0))
+            .collect();
+        let mut jtj = Mat::zeros(n, n);
+        let mut jtr = vec![0.0; n];
+        let sse = problem.normal_equations(&p, &mut jtj, &mut jtr);
+        let r = residual_vector(&problem, &p);
+        let expected_sse: f64 = r.iter().map(|v| v * v).sum();
+        assert!((sse / expected_sse - 1.0).abs() < 1e-12);
+        assert!((problem.sse(&p) / expected_sse - 1.0).abs() < 1e-12);
+        // Central differences of the residual vector give the Jacobian column by column.
+        let columns: Vec<Vec<f64>> = (0..n)
+            .map(|k| {
+                let h = 1e-6 * p[k].abs().max(1e-3);
+                let (mut up, mut down) = (p.clone(), p.clone());
+                up[k] += h;
+                down[k] -= h;
+                let (ru, rd) = (residual_vector(&problem, &up), residual_vector(&problem, &down));
+                ru.iter().zip(&rd).map(|(u, d)| (u - d) / (2.0 * h)).collect()
+            })
+            .collect();
+        for i in 0..n {
+            let g: f64 = columns[i].iter().zip(&r).map(|(j, r)| j * r).sum();
+            let scale = jtr[i].abs().max(1.0);
+            assert!((jtr[i] - g).abs() < 1e-5 * scale, "Jᵀr[{i}] {} vs {g}", jtr[i]);
+            for k in 0..n {
+                let h: f64 = columns[i].iter().zip(&columns[k]).map(|(a, b)| a * b).sum();
+                let scale = (jtj[(i, i)] * jtj[(k, k)]).sqrt().max(1e-300);
+                assert!(
+                    (jtj[(i, k)] - h).abs() < 1e-5 * scale,
+                    "JᵀJ[{i},{k}] {} vs {h}",
+                    jtj[(i, k)]
+                );
+            }
+        }
+    }
 }

@@ -78,6 +78,8 @@ pub struct Mounting {
 /// Partial derivatives of (a_x, a_y, a_z) at one sample with respect to each model quantity.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct SampleDerivatives {
+    /// The model itself, a_x, a_y, a_z (m/s²), equal to [`for_each_sample`]'s.
+    pub value: [f64; 3],
     pub radius: [f64; 3],
     pub omega: [f64; 3],
     pub tilt: [f64; 3],
@@ -226,6 +228,8 @@ pub fn for_each_derivative(
     let amplitude = gravity * sin_a;
     let centripetal = w * w * r;
     let offset = session.phase_rad - mounting.beta_rad;
+    let (mean, _) = levels(session, mounting, gravity);
+    let drift = session.drift_mps2_per_s;
     let mut d = SampleDerivatives {
         radius: [w * w * cos_b, w * w * sin_b, 0.0],
         tilt: [0.0, 0.0, -gravity * sin_a],
@@ -247,6 +251,11 @@ pub fn for_each_derivative(
             0.0,
         ];
         d.drift = time_s[i] - t_mid;
+        d.value = [
+            mean[0] + amplitude * sin_u + drift[0] * d.drift,
+            mean[1] + s * amplitude * cos_u + drift[1] * d.drift,
+            mean[2] + drift[2] * d.drift,
+        ];
         f(i, &d);
     });
 }

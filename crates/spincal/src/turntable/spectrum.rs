@@ -34,8 +34,8 @@ pub struct RateEstimate {
     pub omega_radps: f64,
     /// Peak power over the median power in the search band (a detection margin).
     pub peak_to_median: f64,
-    /// One-sided summed x+y power spectrum: frequencies, Hz… (kept in memory for plots, not
-    /// written to JSON)
+    /// One-sided summed x+y power spectrum from 0 to [`SPECTRUM_KEPT_HARMONICS`] × the rotation
+    /// frequency: frequencies, Hz… (kept in memory for plots, not written to JSON)
     #[serde(skip)]
     pub spectrum_hz: Vec<f64>,
     /// …and power (arbitrary units, window-normalised).
@@ -58,6 +58,9 @@ pub enum SpectrumError {
     },
 }
 
+/// How far up the spectrum a [`RateEstimate`] keeps, in multiples of the rotation frequency.
+pub const SPECTRUM_KEPT_HARMONICS: f64 = 8.0;
+
 /// Estimates the rotation rate of a recording from its x and y axes.
 pub fn estimate_rotation_rate(
     recording: &Recording,
@@ -72,12 +75,14 @@ pub fn estimate_rotation_rate(
     }
     let dt = sample_interval(&recording.time_s);
     let rate_hz = 1.0 / dt;
-    let window: Vec<f64> = (0..n)
-        .map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / (n - 1) as f64).cos())
-        .collect();
+    let window = |i: usize| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / (n - 1) as f64).cos();
     let prepared: Vec<Vec<f64>> = recording.accel_mps2[..2]
         .iter()
-        .map(|axis| detrend(axis).iter().zip(&window).map(|(v, w)| v * w).collect())
+        .map(|axis| {
+            let mut x = detrend(axis);
+            x.iter_mut().enumerate().for_each(|(i, v)| *v *= window(i));
+            x
+        })
         .collect();
 
     let padded = (2 * n).next_power_of_two();
@@ -85,7 +90,7 @@ pub fn estimate_rotation_rate(
     let mut input = fft.make_input_vec();
     let mut output = fft.make_output_vec();
     let mut power = vec![0.0; output.len()];
-    let norm = window.iter().map(|w| w * w).sum::<f64>();
+    let norm = (0..n).map(|i| window(i) * window(i)).sum::<f64>();
     for axis in &prepared {
         input[..n].copy_from_slice(axis);
         input[n..].iter_mut().for_each(|v| *v = 0.0);
@@ -95,8 +100,9 @@ pub fn estimate_rotation_rate(
             *p += c.norm_sqr() / norm;
         }
     }
+    drop(input);
+    drop(output);
     let bin_hz = rate_hz / padded as f64;
-    let spectrum_hz: Vec<f64> = (0..power.len()).map(|k| k as f64 * bin_hz).collect();
     let lo = (search.min_rpm / 60.0 / bin_hz).ceil() as usize;
     let hi = ((search.max_rpm / 60.0 / bin_hz).floor() as usize).min(power.len().saturating_sub(2));
     if lo < 1 || lo > hi {
@@ -136,12 +142,18 @@ pub fn estimate_rotation_rate(
         (peak as f64 - 1.0) * bin_hz,
         (peak as f64 + 1.0) * bin_hz,
     );
+    let peak_to_median = power[peak] / median.max(f64::MIN_POSITIVE);
+    // Kept for plots up to a few harmonics only: the whole padded spectrum of a day-long
+    // recording would outweigh the recording itself.
+    let kept = ((SPECTRUM_KEPT_HARMONICS * frequency_hz / bin_hz).ceil() as usize + 1).clamp(2, power.len());
+    power.truncate(kept);
+    power.shrink_to_fit();
     Ok(RateEstimate {
         frequency_hz,
         rpm: frequency_hz * 60.0,
         omega_radps: 2.0 * std::f64::consts::PI * frequency_hz,
-        peak_to_median: power[peak] / median.max(f64::MIN_POSITIVE),
-        spectrum_hz,
+        peak_to_median,
+        spectrum_hz: (0..kept).map(|k| k as f64 * bin_hz).collect(),
         spectrum_power: power,
     })
 }
