@@ -136,7 +136,12 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         None => rec.accel_mps2.clone(),
     };
     let gyro_model = calibration.as_ref().and_then(|(path, file)| Some((*path, file.gyro.as_ref()?)));
-    let gyro_rec = match input::gyro_columns(args.gyro_file.as_deref(), &loaded, &args.input.rec)? {
+    let gyro_rec = match input::gyro_columns(
+        args.gyro_file.as_deref(),
+        &loaded,
+        &args.input.rec,
+        args.input.read.retime,
+    )? {
         Some(columns) => Some(calibrated_gyro(columns, gyro_model)?),
         None => None,
     };

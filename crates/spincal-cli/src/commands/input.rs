@@ -189,13 +189,18 @@ pub struct GyroColumns {
     pub source: String,
 }
 
-/// The gyro of `loaded`: from `gyro_file` when given (sample for sample beside it), else its own
-/// gyro columns; `None` when it has none.
-pub fn gyro_columns(gyro_file: Option<&Path>, loaded: &Loaded, rec_path: &Path) -> anyhow::Result<Option<GyroColumns>> {
+/// The gyro of `loaded`: from `gyro_file` when given (sample for sample beside it, re-timed as
+/// the recording was with `retime`), else its own gyro columns; `None` when it has none.
+pub fn gyro_columns(
+    gyro_file: Option<&Path>,
+    loaded: &Loaded,
+    rec_path: &Path,
+    retime: bool,
+) -> anyhow::Result<Option<GyroColumns>> {
     let rec = &loaded.recording;
     let (values, reader_counts, source) = match gyro_file {
         Some(path) => {
-            let g = read_gyro_file(path, rec)?;
+            let g = read_gyro_file(path, rec, retime)?;
             (g.0, g.1, path.display().to_string())
         }
         None => match &rec.gyro_radps {
@@ -217,8 +222,12 @@ pub fn gyro_columns(gyro_file: Option<&Path>, loaded: &Loaded, rec_path: &Path) 
 /// A gyro recording in its own file (imu_tk's layout: `t gx gy gz`), as the main recording's gyro
 /// columns: the same number of samples at the same times (within half a sample). Returns the
 /// values and whether the reader took them for raw counts.
-fn read_gyro_file(path: &Path, rec: &Recording) -> anyhow::Result<([Vec<f64>; 3], bool)> {
-    let loaded = formats::read_path(path, &ReadOptions::default())
+fn read_gyro_file(path: &Path, rec: &Recording, retime: bool) -> anyhow::Result<([Vec<f64>; 3], bool)> {
+    let options = ReadOptions {
+        retime,
+        ..Default::default()
+    };
+    let loaded = formats::read_path(path, &options)
         .with_context(|| format!("reading {}", path.display()))?;
     let g = loaded.recording;
     if g.len() != rec.len() {

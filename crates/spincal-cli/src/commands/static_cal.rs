@@ -141,7 +141,12 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
             .collect();
         spread_about(&norms, args.gravity)
     });
-    let gyro_columns = input::gyro_columns(args.gyro_file.as_deref(), &loaded, &args.input.rec)?;
+    let gyro_columns = input::gyro_columns(
+        args.gyro_file.as_deref(),
+        &loaded,
+        &args.input.rec,
+        args.input.read.retime,
+    )?;
     let gyro = gyro_columns.as_ref().map(|columns| {
         let options = GyroPoseOptions {
             bias_from: match args.gyro_bias_from {

@@ -11,13 +11,16 @@
 //!    and the rotation must carry the gravity direction measured in the first pose onto the one
 //!    measured in the next. Each step is the exact rotation (quaternion exponential) of the constant
 //!    rate (ωₖ + ωₖ₊₁)/2 over one sample interval, composed in the body frame. The residual of a
-//!    rotation is the predicted direction minus the measured one, in the two directions
-//!    perpendicular to the measured one (two residuals per rotation). Levenberg–Marquardt on the 9
-//!    entries of K, from the best of eight starts K = diag(±s₀) (s₀ from the rotation angles), so
-//!    the sign and size of each axis's scale need not be known (raw counts work).
+//!    rotation is the predicted unit direction minus the measured one (three numbers, as imu_tk;
+//!    its length 2 sin(θ/2) grows with the error angle θ all the way to 180°, which a projection
+//!    onto the tangent plane would not). Levenberg–Marquardt on the 9
+//!    entries of K, from the cheapest starts K = diag(±s) over the eight sign patterns and a grid
+//!    of s about an estimate from the rotation angles, so the sign and size of each axis's scale
+//!    need not be known (raw counts work).
 //!
-//! Standard errors of K are σ²(JᵀJ)⁻¹ with σ² = SSE / (2·rotations − 9): they assume independent
-//! residuals of equal variance, b and the gravity directions known exactly. The bias's are the
+//! Standard errors of K are σ²(JᵀJ)⁻¹ with σ² = SSE / (2·rotations − 9) (a difference of unit
+//! vectors has two degrees of freedom; along the direction it is second order): they assume
+//! independent residuals of equal variance, b and the gravity directions known exactly. The bias's are the
 //! sample standard deviation over √n (white noise; drift and flicker make them optimistic).
 
 // 3×3 algebra reads best with indices.
@@ -127,7 +130,7 @@ pub struct GyroPoseFit {
     pub rotations: Vec<RotationCheck>,
     /// RMS of the rotations' residual angles, deg.
     pub rms_residual_deg: f64,
-    /// The start's scale magnitude and the signs the best start had.
+    /// The scale estimate the start grid is centred on, and the signs of the winning start.
     pub initial_scale: f64,
     pub initial_signs: [f64; 3],
     pub iterations: usize,
@@ -188,8 +191,6 @@ struct Motion {
     increments: Vec<[f64; 3]>,
     up_before: [f64; 3],
     up_after: [f64; 3],
-    /// Two unit vectors perpendicular to `up_after`.
-    tangent: [[f64; 3]; 2],
 }
 
 struct Problem<'a> {
@@ -230,7 +231,7 @@ impl LeastSquares for Problem<'_> {
         9
     }
     fn n_residuals(&self) -> usize {
-        2 * self.motions.len()
+        3 * self.motions.len()
     }
     fn residuals(&self, p: &[f64], out: &mut [f64]) {
         let Some(predicted) = self.predictions(p) else {
@@ -238,9 +239,9 @@ impl LeastSquares for Problem<'_> {
             return;
         };
         for (k, (m, u)) in self.motions.iter().zip(&predicted).enumerate() {
-            let d: [f64; 3] = std::array::from_fn(|i| u[i] - m.up_after[i]);
-            out[2 * k] = dot(&d, &m.tangent[0]);
-            out[2 * k + 1] = dot(&d, &m.tangent[1]);
+            for i in 0..3 {
+                out[3 * k + i] = u[i] - m.up_after[i];
+            }
         }
     }
     fn jacobian(&self, p: &[f64], mut out: MatMut<'_, f64>) {
@@ -358,12 +359,10 @@ pub fn fit_gyro_poses(
         let increments = (first..last)
             .map(|k| std::array::from_fn(|a| (0.5 * (gyro[a][k] + gyro[a][k + 1]) - bias[a]) * dt))
             .collect();
-        let up_after = ups[r + 1];
         motions.push(Motion {
             increments,
             up_before: ups[r],
-            up_after,
-            tangent: tangent_basis(up_after),
+            up_after: ups[r + 1],
         });
     }
     check_span(&motions, options.min_axis_share)?;
@@ -377,14 +376,35 @@ pub fn fit_gyro_poses(
         max_iterations: 200,
         ..Default::default()
     };
-    // Eight starts: each axis's sign is unknown; the lowest cost wins.
-    let mut best: Option<(crate::optim::LmReport, [f64; 3])> = None;
+    // Each axis's sign is unknown and the cost has local minima (a rotation wrong by a turn fits
+    // as well as a right one), so the starts are K = diag(±s) for the eight sign patterns and a
+    // grid of s from a quarter to four times the estimate (and 1 for rad/s); LM runs from the
+    // three cheapest, and the lowest cost wins.
+    let mut scales: Vec<f64> = (0..=32)
+        .map(|k| initial_scale * 16f64.powf(k as f64 / 32.0) / 4.0)
+        .collect();
+    if options.input_unit == GyroInputUnit::RadPerS && options.initial_scale.is_none() {
+        scales.push(1.0);
+    }
+    let mut starts: Vec<(f64, Vec<f64>, [f64; 3])> = Vec::new();
+    let mut r = vec![0.0; problem.n_residuals()];
     for pattern in 0..8 {
         let signs: [f64; 3] = std::array::from_fn(|a| if pattern >> a & 1 == 1 { -1.0 } else { 1.0 });
-        let mut p0 = vec![0.0; 9];
-        for a in 0..3 {
-            p0[4 * a] = signs[a] * initial_scale;
+        for &scale in &scales {
+            let mut p0 = vec![0.0; 9];
+            for a in 0..3 {
+                p0[4 * a] = signs[a] * scale;
+            }
+            problem.residuals(&p0, &mut r);
+            let sse: f64 = r.iter().map(|v| v * v).sum();
+            if sse.is_finite() {
+                starts.push((sse, p0, signs));
+            }
         }
+    }
+    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut best: Option<(crate::optim::LmReport, [f64; 3])> = None;
+    for (_, p0, signs) in starts.into_iter().take(3) {
         let report = levenberg_marquardt(&problem, &p0, &lm, &crate::progress::silent);
         let usable = report.sse.is_finite() && report.params.iter().all(|v| v.is_finite());
         if usable && best.as_ref().is_none_or(|(b, _)| report.sse < b.sse) {
@@ -578,15 +598,6 @@ fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
 fn angle_between(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     let c = cross(a, b);
     dot(&c, &c).sqrt().atan2(dot(a, b))
-}
-
-/// Two unit vectors perpendicular to the unit vector `u` and to each other.
-fn tangent_basis(u: [f64; 3]) -> [[f64; 3]; 2] {
-    let helper = if u[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
-    let e1 = cross(&u, &helper);
-    let n1 = dot(&e1, &e1).sqrt();
-    let e1 = e1.map(|v| v / n1);
-    [e1, cross(&u, &e1)]
 }
 
 /// Hamilton product a ⊗ b (scalar first).
