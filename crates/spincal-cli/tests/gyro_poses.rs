@@ -105,7 +105,10 @@ print(",".join(repr(float(v)) for v in out))
 /// both, the accelerometer near the README's factory values and the gyro with small rotation
 /// residuals; `allan --calibration --still --kalibr` then writes a Kalibr file in SI units whose
 /// keys PyYAML reads and whose noise densities agree with allantools' within 10 % on the same
-/// calibrated samples. Measured when written: see the assertions' comments.
+/// calibrated samples. Measured when written: the initial still period 0.03–51.4 s; noise
+/// densities, spincal against allantools, accel 8.97e-4 / 9.11e-4, 8.81e-4 / 9.08e-4,
+/// 9.07e-4 / 9.36e-4 m/s²/√Hz (−1.5, −3.0, −3.1 %), gyro 5.95e-4 / 5.91e-4, 5.94e-4 / 5.94e-4,
+/// 5.95e-4 / 5.91e-4 rad/s/√Hz (+0.7, −0.1, +0.6 %).
 #[test]
 fn xsens_counts_calibrate_and_give_a_kalibr_file_in_si_units() {
     let (Some(acc), Some(gyr)) = (
@@ -124,8 +127,9 @@ fn xsens_counts_calibrate_and_give_a_kalibr_file_in_si_units() {
         .args(["--gravity", "9.81744", "--json", "-o"])
         .arg(&cal)));
 
-    // The accelerometer against the README's factory values: offsets within 15 counts (0.04 m/s²)
-    // and scales within 1 %. Measured when written: see the printed values.
+    // The accelerometer against the README's factory values: offsets within 10 counts (0.024
+    // m/s²) and scales within 0.5 %. Measured when written: offsets 0.8, 0.8 and 4.5 counts off,
+    // scales 0.14, 0.24 and 0.09 % low.
     let c = &report["fit"]["calibration"];
     let factory_offset = [33123.0, 33276.0, 32360.0];
     let factory_counts_per_mps2 = [415.0, 413.0, 415.0];
@@ -136,11 +140,13 @@ fn xsens_counts_calibrate_and_give_a_kalibr_file_in_si_units() {
             "accel {k}: offset {offset:.1} (factory {}), {counts_per_mps2:.2} counts per m/s² (factory {})",
             factory_offset[k], factory_counts_per_mps2[k]
         );
-        assert!((offset - factory_offset[k]).abs() < 15.0, "offset {k}: {offset}");
-        assert!((counts_per_mps2 / factory_counts_per_mps2[k] - 1.0).abs() < 0.01);
+        assert!((offset - factory_offset[k]).abs() < 10.0, "offset {k}: {offset}");
+        assert!((counts_per_mps2 / factory_counts_per_mps2[k] - 1.0).abs() < 0.005);
     }
 
-    // The gyro: found in counts, every rotation's residual small.
+    // The gyro: found in counts, every rotation's residual small. Measured when written: 38
+    // rotations, residual RMS 0.52°, largest 1.02°; K's diagonal about 4770 counts per rad/s
+    // (SE 4–6), b = [32777, 32460, 32512] counts.
     let g = &report["gyro"];
     assert_eq!(g["input_unit"], "counts", "{g}");
     let fit = &g["fit"];
@@ -156,7 +162,7 @@ fn xsens_counts_calibrate_and_give_a_kalibr_file_in_si_units() {
         fit["model"]["bias_radps"]
     );
     assert!(rotations.len() >= 20, "{}", rotations.len());
-    assert!(rms < 1.0 && worst < 3.0, "residuals {residuals:?}");
+    assert!(rms < 1.0 && worst < 2.0, "residuals {residuals:?}");
     let file: serde_json::Value = json(&std::fs::read_to_string(&cal).unwrap());
     let model: GyroModel = serde_json::from_value(file["gyro"].clone()).unwrap();
     assert_eq!(model.input_unit, GyroInputUnit::Counts);
@@ -326,6 +332,7 @@ fn bad_gyro_input_is_refused_with_its_location() {
     std::fs::create_dir(&few_dir).unwrap();
     let few = PoseSessionSetup {
         poses: 6,
+        still_s: [4.0, 5.0],
         ..setup.clone()
     };
     let (acc_few, gyr_few) = write_session(&few_dir, &few, 3);
