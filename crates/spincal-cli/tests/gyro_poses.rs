@@ -2,6 +2,9 @@
 //! cal.json, and applied by `spincal allan --calibration` so that the Kalibr file of a raw-count
 //! IMU (the Xsens of imu_tk's test data) is in m/s² and rad/s.
 
+// Parallel per-axis arrays read best with indices.
+#![allow(clippy::needless_range_loop)]
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -173,13 +176,18 @@ fn xsens_counts_calibrate_and_give_a_kalibr_file_in_si_units() {
     }
 
     // Without the calibration the gyro counts are refused, saying how to calibrate.
-    let refused = fails(spincal()
-        .arg("allan")
-        .arg(&acc)
-        .arg("--gyro-file")
-        .arg(&gyr)
-        .args(["--accel-scale", "0.0024", "--still"]));
-    assert!(refused.contains("raw counts") && refused.contains("--gyro-file"), "{refused}");
+    let refused = fails(
+        spincal()
+            .arg("allan")
+            .arg(&acc)
+            .arg("--gyro-file")
+            .arg(&gyr)
+            .args(["--accel-scale", "0.0024", "--still"]),
+    );
+    assert!(
+        refused.contains("raw counts") && refused.contains("--gyro-file"),
+        "{refused}"
+    );
 
     let Some(python) = venv_python() else { return };
     let yaml = dir.path().join("imu.yaml");
@@ -212,7 +220,10 @@ print(d["accelerometer_noise_density"], d["gyroscope_noise_density"], d["update_
     assert!((kalibr[2] / rate - 1.0).abs() < 1e-9);
     let span = &report["span_s"];
     println!("still span {} – {} s", span[0], span[1]);
-    assert!(f(&span[1]) - f(&span[0]) > 30.0, "the initial still period: {span}");
+    assert!(
+        f(&span[1]) - f(&span[0]) > 30.0,
+        "the initial still period: {span}"
+    );
     let theirs = run(Command::new(&python)
         .args(["-c", CALIBRATED_ALLANTOOLS_DENSITY])
         .arg(&acc)
@@ -228,7 +239,11 @@ print(d["accelerometer_noise_density"], d["gyroscope_noise_density"], d["update_
         let rel = ours / theirs[k] - 1.0;
         println!(
             "{} {}: spincal {ours:.4e}, allantools {:.4e} ({:+.1} %)",
-            if k < 3 { "accel m/s²/√Hz" } else { "gyro rad/s/√Hz" },
+            if k < 3 {
+                "accel m/s²/√Hz"
+            } else {
+                "gyro rad/s/√Hz"
+            },
             ['x', 'y', 'z'][k % 3],
             theirs[k],
             100.0 * rel
@@ -249,7 +264,10 @@ fn write_session(dir: &Path, setup: &PoseSessionSetup, seed: u64) -> (PathBuf, P
     let write = |name: &str, v: &[Vec<f64>; 3]| {
         let mut text = String::new();
         for i in 0..s.time_s.len() {
-            text += &format!("{:.5} {:.3} {:.3} {:.3}\n", s.time_s[i], v[0][i], v[1][i], v[2][i]);
+            text += &format!(
+                "{:.5} {:.3} {:.3} {:.3}\n",
+                s.time_s[i], v[0][i], v[1][i], v[2][i]
+            );
         }
         let path = dir.join(name);
         std::fs::write(&path, text).unwrap();
@@ -267,7 +285,9 @@ fn simulated_counts_are_calibrated_end_to_end() {
     let scales = [-800.0, 700.0, 900.0];
     setup.gyro = GyroModel {
         bias_radps: [32_768.0, 32_500.0, 33_000.0],
-        sensitivity: std::array::from_fn(|i| std::array::from_fn(|j| setup.gyro.sensitivity[i][j] * scales[i])),
+        sensitivity: std::array::from_fn(|i| {
+            std::array::from_fn(|j| setup.gyro.sensitivity[i][j] * scales[i])
+        }),
         input_unit: GyroInputUnit::Counts,
     };
     let (acc, gyr) = write_session(dir.path(), &setup, 5);
@@ -301,7 +321,10 @@ fn simulated_counts_are_calibrated_end_to_end() {
         .arg("--calibration")
         .arg(&cal)
         .args(["--still", "--json"])));
-    assert!(report["gyro_params"]["noise_density"][0].as_f64().unwrap() < 0.01, "{report}");
+    assert!(
+        report["gyro_params"]["noise_density"][0].as_f64().unwrap() < 0.01,
+        "{report}"
+    );
 }
 
 #[test]
@@ -336,11 +359,13 @@ fn bad_gyro_input_is_refused_with_its_location() {
         ..setup.clone()
     };
     let (acc_few, gyr_few) = write_session(&few_dir, &few, 3);
-    let e = fails(spincal()
-        .arg("static")
-        .arg(&acc_few)
-        .arg("--gyro-file")
-        .arg(&gyr_few)
-        .args(["--model", "6"]));
+    let e = fails(
+        spincal()
+            .arg("static")
+            .arg(&acc_few)
+            .arg("--gyro-file")
+            .arg(&gyr_few)
+            .args(["--model", "6"]),
+    );
     assert!(e.contains("rotations"), "{e}");
 }

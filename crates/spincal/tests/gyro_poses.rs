@@ -2,6 +2,9 @@
 //! simulator put in, in rad/s and in raw counts; it agrees with imu_tk on the T265 recording; and
 //! it refuses bad input by name.
 
+// 3×3 comparisons read best with indices.
+#![allow(clippy::needless_range_loop)]
+
 mod common;
 
 use spincal::correctors::gyro::{GyroInputUnit, GyroModel};
@@ -14,7 +17,12 @@ use spincal::static_detect::{detect_static, StaticOptions};
 
 /// The whole pipeline as `spincal static --gyro-file` runs it: still intervals detected on the
 /// accelerometer, its static fit, then the gyro.
-fn calibrate(time_s: &[f64], accel: &[Vec<f64>; 3], gyro: &[Vec<f64>; 3], options: &GyroPoseOptions) -> GyroPoseFit {
+fn calibrate(
+    time_s: &[f64],
+    accel: &[Vec<f64>; 3],
+    gyro: &[Vec<f64>; 3],
+    options: &GyroPoseOptions,
+) -> GyroPoseFit {
     let detection = detect_static(time_s, accel, &StaticOptions::default()).unwrap();
     let accel_fit = fit_static(
         &pose_means(&detection.intervals),
@@ -82,7 +90,11 @@ fn recovers_simulated_bias_and_sensitivity_within_their_standard_errors() {
         worst_k = worst_k.max(k);
         // A seed's errors stay small whatever its coverage.
         assert!(b < 1e-3 && k < 1e-2, "seed {seed}: bias error {b}, K error {k}");
-        assert!(fit.rms_residual_deg < 1.0, "seed {seed}: {}", fit.rms_residual_deg);
+        assert!(
+            fit.rms_residual_deg < 1.0,
+            "seed {seed}: {}",
+            fit.rms_residual_deg
+        );
     }
     let coverage = inside as f64 / total as f64;
     println!("coverage {inside}/{total} = {coverage:.3}; worst bias error {worst_bias:.2e}, worst K error {worst_k:.2e}");
@@ -115,7 +127,11 @@ fn finds_sign_and_scale_of_a_gyro_in_counts() {
         for i in 0..3 {
             let k = fit.model.sensitivity[i][i];
             let rel = k / truth.sensitivity[i][i] - 1.0;
-            assert!(rel.abs() < 0.005, "seed {seed} axis {i}: {k} vs {}", truth.sensitivity[i][i]);
+            assert!(
+                rel.abs() < 0.005,
+                "seed {seed} axis {i}: {k} vs {}",
+                truth.sensitivity[i][i]
+            );
             assert!((k - truth.sensitivity[i][i]).abs() < 4.0 * fit.sensitivity_se[i][i].max(1e-9));
             assert!((fit.model.bias_radps[i] - truth.bias_radps[i]).abs() < 2.0);
         }
@@ -132,6 +148,7 @@ fn finds_sign_and_scale_of_a_gyro_in_counts() {
 /// - gravity directions from our static fit: its misalignment differs from imu_tk's by a few
 ///   hundredths of a radian (weakly determined by 40 poses), and K's off-diagonal terms, which
 ///   live in the accelerometer's frame, follow it.
+///
 /// Still intervals: 50 s initial period, 0.5 s window, 1 s shortest (imu_tk finds 41 intervals;
 /// the default 1 s window merges poses here), 38 rotations. Measured when written: with imu_tk's
 /// accelerometer, K within 4.4e-3 of imu_tk's entry by entry (1.1 of our SE; SEs 0.0025–0.0054),
@@ -202,7 +219,10 @@ fn t265_gyro_agrees_with_imu_tk() {
         .collect();
     let with_our_accel = still_poses(&detection.intervals, &accel_fit.calibration);
     let mut worst = Vec::new();
-    for (name, poses) in [("imu_tk's accelerometer", &with_tk_accel), ("our accelerometer", &with_our_accel)] {
+    for (name, poses) in [
+        ("imu_tk's accelerometer", &with_tk_accel),
+        ("our accelerometer", &with_our_accel),
+    ] {
         let fit = fit_gyro_poses(&acc.time_s, &gyro, poses, &GyroPoseOptions::default()).unwrap();
         let mut worst_k = 0.0f64;
         let mut worst_se = 0.0f64;
@@ -227,8 +247,16 @@ fn t265_gyro_agrees_with_imu_tk() {
         );
         worst.push((worst_k, worst_bias));
     }
-    assert!(worst[0].0 < 0.01, "K (imu_tk's accelerometer) differs by {}", worst[0].0);
-    assert!(worst[1].0 < 0.05, "K (our accelerometer) differs by {}", worst[1].0);
+    assert!(
+        worst[0].0 < 0.01,
+        "K (imu_tk's accelerometer) differs by {}",
+        worst[0].0
+    );
+    assert!(
+        worst[1].0 < 0.05,
+        "K (our accelerometer) differs by {}",
+        worst[1].0
+    );
     assert!(worst[0].1 < 3e-4 && worst[1].1 < 3e-4, "b differs by {worst:?}");
 }
 
@@ -239,7 +267,8 @@ fn small_session() -> (PoseSession, Vec<StillPose>, PoseSessionSetup) {
         .still
         .iter()
         .map(|&(start, end)| {
-            let mean: [f64; 3] = std::array::from_fn(|k| s.accel[k][start..end].iter().sum::<f64>() / (end - start) as f64);
+            let mean: [f64; 3] =
+                std::array::from_fn(|k| s.accel[k][start..end].iter().sum::<f64>() / (end - start) as f64);
             StillPose {
                 start,
                 end,
@@ -269,7 +298,10 @@ fn bad_input_is_refused_with_its_location() {
     assert!(e.to_string().contains("axis z at sample 4321"), "{e}");
 
     let e = fit_gyro_poses(&s.time_s, &s.gyro, &poses[..4], &options).unwrap_err();
-    assert!(matches!(e, GyroPoseError::TooFewRotations { found: 3, .. }), "{e}");
+    assert!(
+        matches!(e, GyroPoseError::TooFewRotations { found: 3, .. }),
+        "{e}"
+    );
 
     // A gap: samples missing in the middle of rotation 5.
     let (from, to) = (poses[5].end, poses[6].start);
@@ -289,10 +321,7 @@ fn bad_input_is_refused_with_its_location() {
         })
         .collect();
     let e = fit_gyro_poses(&time, &gyro, &shifted, &options).unwrap_err();
-    assert!(
-        matches!(e, GyroPoseError::GapInMotion { rotation: 5, .. }),
-        "{e}"
-    );
+    assert!(matches!(e, GyroPoseError::GapInMotion { rotation: 5, .. }), "{e}");
 
     let mut unordered = poses.clone();
     unordered.swap(2, 3);

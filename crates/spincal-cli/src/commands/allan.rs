@@ -135,7 +135,9 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         }
         None => rec.accel_mps2.clone(),
     };
-    let gyro_model = calibration.as_ref().and_then(|(path, file)| Some((*path, file.gyro.as_ref()?)));
+    let gyro_model = calibration
+        .as_ref()
+        .and_then(|(path, file)| Some((*path, file.gyro.as_ref()?)));
     let gyro_rec = match input::gyro_columns(
         args.gyro_file.as_deref(),
         &loaded,

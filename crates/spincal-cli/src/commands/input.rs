@@ -227,8 +227,7 @@ fn read_gyro_file(path: &Path, rec: &Recording, retime: bool) -> anyhow::Result<
         retime,
         ..Default::default()
     };
-    let loaded = formats::read_path(path, &options)
-        .with_context(|| format!("reading {}", path.display()))?;
+    let loaded = formats::read_path(path, &options).with_context(|| format!("reading {}", path.display()))?;
     let g = loaded.recording;
     if g.len() != rec.len() {
         return Err(UsageError(format!(

@@ -176,7 +176,8 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     });
     let gyro_fit = match &gyro {
         Some((columns, _, Err(e))) if args.gyro_file.is_some() => {
-            return Err(anyhow::anyhow!("{e:#}")).with_context(|| format!("calibrating the gyroscope of {}", columns.source))
+            return Err(anyhow::anyhow!("{e:#}"))
+                .with_context(|| format!("calibrating the gyroscope of {}", columns.source))
         }
         Some((_, _, Ok(g))) => Some(g),
         _ => None,
@@ -270,10 +271,18 @@ fn gyro_text(report: &GyroReport) -> String {
             GyroBiasSource::AllIntervals => "all still intervals",
         }
     );
-    s += &format!("  b [{unit}]: {} ± {}\n", triple(&m.bias_radps), triple(&g.bias_se));
+    s += &format!(
+        "  b [{unit}]: {} ± {}\n",
+        triple(&m.bias_radps),
+        triple(&g.bias_se)
+    );
     s += &format!("  K [{unit} per rad/s], row per gyro axis, ± 1 SE:\n");
     for i in 0..3 {
-        s += &format!("    {} ± {}\n", triple(&m.sensitivity[i]), triple(&g.sensitivity_se[i]));
+        s += &format!(
+            "    {} ± {}\n",
+            triple(&m.sensitivity[i]),
+            triple(&g.sensitivity_se[i])
+        );
     }
     let worst = g.rotations.iter().map(|r| r.residual_deg).fold(0.0, f64::max);
     s += &format!(

@@ -113,7 +113,7 @@ impl GyroModel {
         }
         // Hadamard's ratio: 1 for orthogonal rows, 0 for dependent ones.
         let ratio = determinant(k).abs() / (row_norm(0) * row_norm(1) * row_norm(2));
-        if !(ratio >= 0.1) {
+        if ratio.is_nan() || ratio < 0.1 {
             return Err(ModelError::new(
                 "sensitivity",
                 format!("|det| / product of row norms {ratio}: the axes are nearly dependent"),

@@ -143,7 +143,9 @@ pub struct GyroPoseFit {
 pub enum GyroPoseError {
     #[error("gyro calibration: the gyro has {found} samples, but the recording has {expected}")]
     LengthMismatch { found: usize, expected: usize },
-    #[error("gyro calibration: gyro axis {axis} at sample {sample} ({time_s} s) is {value}, not a finite number")]
+    #[error(
+        "gyro calibration: gyro axis {axis} at sample {sample} ({time_s} s) is {value}, not a finite number"
+    )]
     NonFinite {
         axis: char,
         sample: usize,
@@ -159,7 +161,9 @@ pub enum GyroPoseError {
         end: usize,
         len: usize,
     },
-    #[error("gyro calibration: still pose {index}'s acceleration {accel_mps2:?} m/s² gives no gravity direction")]
+    #[error(
+        "gyro calibration: still pose {index}'s acceleration {accel_mps2:?} m/s² gives no gravity direction"
+    )]
     NoGravity { index: usize, accel_mps2: [f64; 3] },
     #[error("gyro calibration needs {needed} rotations between still poses or more, but found {found}; record more poses")]
     TooFewRotations { needed: usize, found: usize },
@@ -499,7 +503,9 @@ fn estimate_scale(motions: &[Motion]) -> f64 {
 }
 
 fn raw_total(m: &Motion) -> [f64; 3] {
-    m.increments.iter().fold([0.0; 3], |s, d| std::array::from_fn(|a| s[a] + d[a]))
+    m.increments
+        .iter()
+        .fold([0.0; 3], |s, d| std::array::from_fn(|a| s[a] + d[a]))
 }
 
 /// Refuses rotations whose axes (raw gyro frame; an invertible K keeps whether they span) leave a
@@ -511,7 +517,7 @@ fn check_span(motions: &[Motion], min_share: f64) -> Result<(), GyroPoseError> {
     for m in motions {
         let total = raw_total(m);
         let norm = dot(&total, &total).sqrt();
-        if !(norm > 0.0) {
+        if norm.is_nan() || norm <= 0.0 {
             continue;
         }
         let n = total.map(|v| v / norm);
@@ -625,7 +631,10 @@ pub(crate) fn quat_exp(phi: [f64; 3]) -> Quat {
 
 /// q v q*: `v` in the frame `q` maps from into the frame it maps to.
 pub(crate) fn rotate(q: &Quat, v: [f64; 3]) -> [f64; 3] {
-    let p = quat_mul(&quat_mul(q, &[0.0, v[0], v[1], v[2]]), &[q[0], -q[1], -q[2], -q[3]]);
+    let p = quat_mul(
+        &quat_mul(q, &[0.0, v[0], v[1], v[2]]),
+        &[q[0], -q[1], -q[2], -q[3]],
+    );
     [p[1], p[2], p[3]]
 }
 

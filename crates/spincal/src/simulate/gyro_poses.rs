@@ -128,7 +128,10 @@ pub fn simulate_pose_session(setup: &PoseSessionSetup, seed: u64) -> Result<Pose
     ] {
         positive(name, range[0])?;
         if !(range[1] >= range[0] && range[1].is_finite()) {
-            return Err(PoseSessionError::BadSetting { name, value: range[1] });
+            return Err(PoseSessionError::BadSetting {
+                name,
+                value: range[1],
+            });
         }
     }
     for (name, value) in [
@@ -185,7 +188,8 @@ pub fn simulate_pose_session(setup: &PoseSessionSetup, seed: u64) -> Result<Pose
         // Samples at the ends are at rest; the orientation is exact at each sample.
         for k in 1..steps {
             let tau = k as f64 * dt / period;
-            let theta = angle * (tau - (2.0 * std::f64::consts::PI * tau).sin() / (2.0 * std::f64::consts::PI));
+            let theta =
+                angle * (tau - (2.0 * std::f64::consts::PI * tau).sin() / (2.0 * std::f64::consts::PI));
             let rate = angle / period * (1.0 - (2.0 * std::f64::consts::PI * tau).cos());
             q = quat_mul(&start, &quat_exp(axis.map(|v| v * theta)));
             push(&mut session, &mut rng, &q, axis.map(|v| v * rate));
