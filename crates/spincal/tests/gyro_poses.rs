@@ -352,3 +352,36 @@ fn rotations_about_one_axis_are_refused() {
     assert!(matches!(e, GyroPoseError::PoorlySpanned { .. }), "{e}");
     assert!(e.to_string().contains("do not span"), "{e}");
 }
+
+/// A model in counts may have any scale, but its rows must stay dominant and independent; the
+/// unit is written only when it is counts, so earlier files read as before.
+#[test]
+fn models_in_counts_are_checked_and_written_with_their_unit() {
+    let counts = GyroModel {
+        bias_radps: [32_768.0; 3],
+        sensitivity: [[-800.0, 5.0, 0.0], [3.0, 760.0, -4.0], [0.0, 2.0, 830.0]],
+        input_unit: GyroInputUnit::Counts,
+    };
+    counts.validate().unwrap();
+    let text = serde_json::to_string(&counts).unwrap();
+    assert!(text.contains(r#""input_unit":"counts""#), "{text}");
+    assert_eq!(serde_json::from_str::<GyroModel>(&text).unwrap(), counts);
+    // In rad/s the same numbers are refused (an axis's own sensitivity must lie within 0.5–2).
+    let as_radps = GyroModel {
+        input_unit: GyroInputUnit::RadPerS,
+        ..counts.clone()
+    };
+    assert!(as_radps.validate().is_err());
+    let radps_text = serde_json::to_string(&GyroModel::IDEAL).unwrap();
+    assert!(!radps_text.contains("input_unit"), "{radps_text}");
+    // A row led by another axis, and two nearly parallel rows, are refused by field.
+    let mut swapped = counts.clone();
+    swapped.sensitivity[1] = [760.0, 3.0, -4.0];
+    let e = swapped.validate().unwrap_err();
+    assert_eq!(e.field, "sensitivity[1][1]", "{}", e.reason);
+    let mut parallel = counts.clone();
+    parallel.sensitivity[1] = [-780.0, 800.0, 0.0];
+    parallel.sensitivity[0] = [-800.0, 760.0, 0.0];
+    let e = parallel.validate().unwrap_err();
+    assert_eq!(e.field, "sensitivity", "{}", e.reason);
+}
