@@ -312,6 +312,19 @@ fn simulated_counts_are_calibrated_end_to_end() {
             );
         }
     }
+    // Without the calibration allan refuses the gyro counts and says how to calibrate them.
+    let refused = fails(
+        spincal()
+            .arg("allan")
+            .arg(&acc)
+            .arg("--gyro-file")
+            .arg(&gyr)
+            .args(["--accel-scale", "0.0024", "--still"]),
+    );
+    assert!(
+        refused.contains("raw counts") && refused.contains("spincal static ACC --gyro-file GYRO -o cal.json"),
+        "{refused}"
+    );
     // allan applies it: the gyro of the still start reads about zero rad/s.
     let report = json(&run(spincal()
         .arg("allan")
