@@ -9,7 +9,7 @@ mod common;
 
 use spincal::correctors::gyro::{GyroInputUnit, GyroModel};
 use spincal::correctors::gyro_poses::{
-    fit_gyro_poses, still_poses, GyroPoseError, GyroPoseFit, GyroPoseOptions, StillPose,
+    fit_gyro_poses, still_poses, GyroBiasSource, GyroPoseError, GyroPoseFit, GyroPoseOptions, StillPose,
 };
 use spincal::simulate::gyro_poses::{simulate_pose_session, PoseSession, PoseSessionSetup};
 use spincal::static_cal::{fit_static, pose_means, StaticFitOptions, StaticModel};
@@ -281,10 +281,20 @@ fn small_session() -> (PoseSession, Vec<StillPose>, PoseSessionSetup) {
 
 #[test]
 fn bad_input_is_refused_with_its_location() {
-    let (s, poses, _) = small_session();
+    let (s, poses, setup) = small_session();
     let options = GyroPoseOptions::default();
-    // The true poses fit.
-    fit_gyro_poses(&s.time_s, &s.gyro, &poses, &options).unwrap();
+    // The true poses fit; the bias from every still interval has the smaller standard error (the
+    // simulated bias does not drift) and still covers the truth.
+    let first = fit_gyro_poses(&s.time_s, &s.gyro, &poses, &options).unwrap();
+    let all = GyroPoseOptions {
+        bias_from: GyroBiasSource::AllIntervals,
+        ..Default::default()
+    };
+    let all = fit_gyro_poses(&s.time_s, &s.gyro, &poses, &all).unwrap();
+    for i in 0..3 {
+        assert!(all.bias_se[i] < first.bias_se[i]);
+        assert!((all.model.bias_radps[i] - setup.gyro.bias_radps[i]).abs() < 3.0 * all.bias_se[i]);
+    }
 
     let mut short = s.gyro.clone();
     short[1].pop();
