@@ -78,7 +78,8 @@ pub struct GyroPoseOptions {
     /// |K|'s diagonal to start from (readings per rad/s); `None`: estimated from the rotations.
     /// The sign of each axis is found by the fit either way.
     pub initial_scale: Option<f64>,
-    /// Fewest rotations accepted (each gives two residuals; K has 9 entries).
+    /// Fewest rotations accepted, never below 6 (each rotation gives two independent residuals; K
+    /// has 9 entries, and the standard errors need some left over).
     pub min_rotations: usize,
     /// The weakest direction of the rotation axes must hold at least this share of the rotations
     /// (1/3 for axes spread evenly).
@@ -281,12 +282,26 @@ pub fn fit_gyro_poses(
     options: &GyroPoseOptions,
 ) -> Result<GyroPoseFit, GyroPoseError> {
     let n = time_s.len();
-    for (name, value) in [
-        ("min_axis_share", options.min_axis_share),
-        ("max_step_intervals", options.max_step_intervals),
-        ("initial_scale", options.initial_scale.unwrap_or(1.0)),
-    ] {
-        if !(value.is_finite() && value != 0.0) || (name != "initial_scale" && value < 0.0) {
+    // The share may be 0 (no span check); the scale's sign is ignored but 0 would start nowhere.
+    let checks = [
+        (
+            "min_axis_share",
+            options.min_axis_share,
+            options.min_axis_share >= 0.0,
+        ),
+        (
+            "max_step_intervals",
+            options.max_step_intervals,
+            options.max_step_intervals > 0.0,
+        ),
+        (
+            "initial_scale",
+            options.initial_scale.unwrap_or(1.0),
+            options.initial_scale != Some(0.0),
+        ),
+    ];
+    for (name, value, in_range) in checks {
+        if !(value.is_finite() && in_range) {
             return Err(GyroPoseError::BadOption { name, value });
         }
     }
