@@ -42,12 +42,12 @@ enum Command {
     Inspect(commands::inspect::InspectArgs),
     /// Calibrate bias, scale and misalignment from still poses (|a| = g).
     #[command(
-        after_help = "Examples:\n  spincal static xsens_acc.mat --format whitespace --gravity 9.81744 -o cal.json\n  spincal static annotated_session.csv --model 6 --yaml kalibr.yaml\n  spincal static example_data_calibration.csv --model 6 --json"
+        after_help = "Examples:\n  spincal static xsens_acc.mat --format whitespace --gravity 9.81744 -o cal.json\n  spincal static xsens_acc.mat --gyro-file xsens_gyro.mat --gravity 9.81744 -o cal_gyro.json\n  spincal static annotated_session.csv --model 6 --yaml kalibr.yaml\n  spincal static example_data_calibration.csv --model 6 --json"
     )]
     Static(commands::static_cal::StaticArgs),
     /// Allan deviation of a still recording: noise density and bias instability per axis.
     #[command(
-        after_help = "Examples:\n  spincal allan still.csv --plot allan.svg --curve allan.csv --profile sensor.json\n  spincal allan xsens_acc.mat --calibration cal.json --still --json"
+        after_help = "Examples:\n  spincal allan still.csv --plot allan.svg --curve allan.csv --profile sensor.json\n  spincal allan xsens_acc.mat --calibration cal.json --still --json\n  spincal allan xsens_acc.mat --gyro-file xsens_gyro.mat --calibration cal_gyro.json --still --kalibr imu.yaml"
     )]
     Allan(commands::allan::AllanArgs),
     /// Draw a printable stroboscopic disc (SVG, true size) to check a turntable's speed under mains light.

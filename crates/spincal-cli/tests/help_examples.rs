@@ -108,8 +108,9 @@ fn shared_file(relative: &str) -> Option<PathBuf> {
 }
 
 /// Files the examples name that come from ../shared/data.
-const SHARED: [(&str, &str); 5] = [
+const SHARED: [(&str, &str); 6] = [
     ("xsens_acc.mat", "imu/imu_tk_xsens/xsens_acc.mat"),
+    ("xsens_gyro.mat", "imu/imu_tk_xsens/xsens_gyro.mat"),
     ("annotated_session.csv", "imu/imucal/annotated_session.csv"),
     (
         "example_data_calibration.csv",

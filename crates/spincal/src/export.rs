@@ -291,6 +291,7 @@ mod tests {
                 [0.008, 0.992, 0.003],
                 [-0.007, 0.005, 1.006],
             ],
+            input_unit: Default::default(),
         }
     }
 

@@ -33,7 +33,7 @@ pub mod turntable;
 
 // Paths of earlier releases, kept working (CHANGELOG.md lists the moves).
 pub use correctors::model_file::{CorrectorFile, CorrectorModel};
-pub use correctors::{ann, corrector, linear, static_cal, static_detect};
+pub use correctors::{ann, corrector, gyro_poses, linear, static_cal, static_detect};
 pub use input::{formats, inspect, recording, table};
 #[cfg(feature = "plot")]
 pub use report::{plot, strobe};

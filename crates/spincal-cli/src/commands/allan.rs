@@ -11,14 +11,15 @@ use spincal::allan::{
 use spincal::plot::Figure;
 use spincal::static_detect::{detect_static, StaticOptions};
 
-use super::{format_line, InputArgs};
+use super::{format_line, input, InputArgs};
 use crate::ui::{self, UsageError};
 
 #[derive(Args, Debug)]
 pub struct AllanArgs {
     #[command(flatten)]
     pub input: InputArgs,
-    /// Apply this static calibration (from `spincal static -o`) to raw readings first.
+    /// Apply this static calibration (from `spincal static -o`) to raw readings first, and its
+    /// gyro model, when it has one, to the gyro.
     #[arg(long)]
     pub calibration: Option<PathBuf>,
     /// Use only the longest still interval (found as `spincal static` does) instead of the whole file.
@@ -37,8 +38,9 @@ pub struct AllanArgs {
     /// accelerometer and the gyroscope, the rate, the topic). Needs gyro columns.
     #[arg(long)]
     pub kalibr: Option<PathBuf>,
-    /// The gyroscope from a second file (imu_tk's layout: `t gx gy gz`, rad/s), sample for
-    /// sample beside the recording, when the recording has no gyro columns.
+    /// The gyroscope from a second file (imu_tk's layout: `t gx gy gz`), sample for sample beside
+    /// the recording, when the recording has no gyro columns. Raw counts need a --calibration
+    /// with a gyro model (`spincal static ACC --gyro-file GYRO -o cal.json`).
     #[arg(long)]
     pub gyro_file: Option<PathBuf>,
     /// The ROS topic written into the Kalibr file.
@@ -108,9 +110,12 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     super::check_outputs(&inputs, &outputs)?;
     let loaded = args.input.load(ui)?;
     let rec = &loaded.recording;
-    let accel = match &args.calibration {
-        Some(path) => {
-            let file = spincal::CorrectorFile::read_path(path)?;
+    let calibration = match &args.calibration {
+        Some(path) => Some((path, spincal::CorrectorFile::read_path(path)?)),
+        None => None,
+    };
+    let accel = match &calibration {
+        Some((path, file)) => {
             let spincal::CorrectorModel::Static(cal) = &file.corrector else {
                 return Err(UsageError(format!(
                     "{}: a {} corrector, not a static calibration (from `spincal static -o`)",
@@ -129,6 +134,18 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
             .into())
         }
         None => rec.accel_mps2.clone(),
+    };
+    let gyro_model = calibration
+        .as_ref()
+        .and_then(|(path, file)| Some((*path, file.gyro.as_ref()?)));
+    let gyro_rec = match input::gyro_columns(
+        args.gyro_file.as_deref(),
+        &loaded,
+        &args.input.rec,
+        args.input.read.retime,
+    )? {
+        Some(columns) => Some(calibrated_gyro(columns, gyro_model)?),
+        None => None,
     };
     let (start, end) = if args.still {
         let d = detect_static(&rec.time_s, &accel, &StaticOptions::default())
@@ -151,10 +168,6 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         refuse_motion(&part, &curve, &args.input.rec)?;
     }
     let params = noise_params(&curve);
-    let gyro_rec = match &args.gyro_file {
-        Some(path) => Some(read_gyro_file(path, rec)?),
-        None => rec.gyro_radps.clone(),
-    };
     let gyro = match &gyro_rec {
         Some(g) => {
             let part: [Vec<f64>; 3] = std::array::from_fn(|a| g[a][start..end].to_vec());
@@ -257,32 +270,44 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     ui::print(&s)
 }
 
-/// A gyro recording in its own file, as the main recording's gyro columns: the same number of
-/// samples at the same times (within half a sample).
-fn read_gyro_file(path: &std::path::Path, rec: &spincal::Recording) -> anyhow::Result<[Vec<f64>; 3]> {
-    let loaded = spincal::formats::read_path(path, &spincal::formats::ReadOptions::default())
-        .with_context(|| format!("reading {}", path.display()))?;
-    let g = loaded.recording;
-    if g.len() != rec.len() {
+/// The gyro in rad/s: `columns` through the calibration's gyro model when there is one. Raw
+/// counts without one are refused, as are a model and readings in different units.
+fn calibrated_gyro(
+    columns: input::GyroColumns,
+    model: Option<(&PathBuf, &spincal::correctors::gyro::GyroModel)>,
+) -> anyhow::Result<[Vec<f64>; 3]> {
+    use spincal::correctors::gyro::GyroInputUnit;
+    let Some((path, model)) = model else {
+        if columns.counts {
+            return Err(UsageError(format!(
+                "{}: the gyro values are raw counts, not rad/s; calibrate the gyroscope first (`spincal static ACC --gyro-file GYRO -o cal.json`, from still poses joined by rotations) and pass --calibration cal.json",
+                columns.source
+            ))
+            .into());
+        }
+        return Ok(columns.values);
+    };
+    let model_counts = model.input_unit == GyroInputUnit::Counts;
+    if model_counts != columns.counts {
         return Err(UsageError(format!(
-            "{}: {} samples, but the recording has {}; the gyro file must sample beside it",
+            "{}: the gyro calibration takes readings in {}, but {} holds {}",
             path.display(),
-            g.len(),
-            rec.len()
+            model.input_unit.name(),
+            columns.source,
+            if columns.counts { "raw counts" } else { "rad/s" }
         ))
         .into());
     }
-    let half = 0.5 / rec.sample_rate_hz();
-    if let Some(i) = (0..g.len()).find(|&i| (g.time_s[i] - rec.time_s[i]).abs() > half.max(0.011)) {
-        return Err(UsageError(format!(
-            "{}: sample {} is at {} s, the recording's at {} s; the gyro file must sample beside it",
-            path.display(),
-            i + 1,
-            g.time_s[i],
-            rec.time_s[i]
-        ))
-        .into());
+    let corrector = model
+        .corrector()
+        .ok_or_else(|| anyhow::anyhow!("{}: the gyro sensitivity is singular", path.display()))?;
+    let n = columns.values[0].len();
+    let mut out: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::with_capacity(n));
+    for i in 0..n {
+        let w = corrector.correct(std::array::from_fn(|k| columns.values[k][i]));
+        for k in 0..3 {
+            out[k].push(w[k]);
+        }
     }
-    // Its three value columns are rad/s whatever the reader took them for.
-    Ok(g.gyro_radps.unwrap_or(g.accel_mps2))
+    Ok(out)
 }

@@ -175,3 +175,81 @@ pub fn format_line(loaded: &Loaded) -> String {
         None => format!("format: {} (given)", loaded.format),
     }
 }
+
+/// A gyro reading above this (rad/s, mean of an axis over the file) is taken for raw counts: no
+/// handheld or turntable session turns that fast for long.
+const GYRO_COUNTS_RADPS: f64 = 50.0;
+
+/// Gyro readings sampled beside a recording, from a second file or the recording's own columns.
+pub struct GyroColumns {
+    pub values: [Vec<f64>; 3],
+    /// Raw counts rather than rad/s (the reader says so, or the values are far beyond any rate).
+    pub counts: bool,
+    /// Where they came from, for messages.
+    pub source: String,
+}
+
+/// The gyro of `loaded`: from `gyro_file` when given (sample for sample beside it, re-timed as
+/// the recording was with `retime`), else its own gyro columns; `None` when it has none.
+pub fn gyro_columns(
+    gyro_file: Option<&Path>,
+    loaded: &Loaded,
+    rec_path: &Path,
+    retime: bool,
+) -> anyhow::Result<Option<GyroColumns>> {
+    let rec = &loaded.recording;
+    let (values, reader_counts, source) = match gyro_file {
+        Some(path) => {
+            let g = read_gyro_file(path, rec, retime)?;
+            (g.0, g.1, path.display().to_string())
+        }
+        None => match &rec.gyro_radps {
+            Some(values) => (values.clone(), loaded.gyro_counts, rec_path.display().to_string()),
+            None => return Ok(None),
+        },
+    };
+    let looks_like_counts = values.iter().any(|axis| {
+        let mean = axis.iter().sum::<f64>() / axis.len().max(1) as f64;
+        mean.abs() > GYRO_COUNTS_RADPS
+    });
+    Ok(Some(GyroColumns {
+        values,
+        counts: reader_counts || looks_like_counts,
+        source,
+    }))
+}
+
+/// A gyro recording in its own file (imu_tk's layout: `t gx gy gz`), as the main recording's gyro
+/// columns: the same number of samples at the same times (within half a sample). Returns the
+/// values and whether the reader took them for raw counts.
+fn read_gyro_file(path: &Path, rec: &Recording, retime: bool) -> anyhow::Result<([Vec<f64>; 3], bool)> {
+    let options = ReadOptions {
+        retime,
+        ..Default::default()
+    };
+    let loaded = formats::read_path(path, &options).with_context(|| format!("reading {}", path.display()))?;
+    let g = loaded.recording;
+    if g.len() != rec.len() {
+        return Err(UsageError(format!(
+            "{}: {} samples, but the recording has {}; the gyro file must sample beside it",
+            path.display(),
+            g.len(),
+            rec.len()
+        ))
+        .into());
+    }
+    let half = 0.5 / rec.sample_rate_hz();
+    if let Some(i) = (0..g.len()).find(|&i| (g.time_s[i] - rec.time_s[i]).abs() > half.max(0.011)) {
+        return Err(UsageError(format!(
+            "{}: sample {} is at {} s, the recording's at {} s; the gyro file must sample beside it",
+            path.display(),
+            i + 1,
+            g.time_s[i],
+            rec.time_s[i]
+        ))
+        .into());
+    }
+    // Its three value columns are the gyro whatever the reader took them for.
+    let counts = loaded.raw_counts || loaded.gyro_counts;
+    Ok((g.gyro_radps.unwrap_or(g.accel_mps2), counts))
+}

@@ -5,11 +5,13 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
+use spincal::correctors::gyro::GyroInputUnit;
+use spincal::gyro_poses::{fit_gyro_poses, still_poses, GyroBiasSource, GyroPoseFit, GyroPoseOptions};
 use spincal::static_cal::{fit_static, pose_means, spread_about, StaticFit, StaticFitOptions, StaticModel};
 use spincal::static_detect::{detect_static, labelled_intervals, StaticOptions, StillInterval};
 
 use super::values::StaticModelArg;
-use super::{format_line, InputArgs};
+use super::{format_line, input, InputArgs};
 use crate::ui;
 
 #[derive(Args, Debug)]
@@ -46,6 +48,37 @@ pub struct StaticArgs {
     /// Shortest still interval used, s.
     #[arg(long, default_value_t = 2.0, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub min_interval: f64,
+    /// Also calibrate the gyroscope, read from this file (imu_tk's layout `t gx gy gz`, rad/s or
+    /// raw counts) sampled beside the recording, from the still poses and the rotations between
+    /// them. Without it, the recording's own gyro columns are used when it has them.
+    #[arg(long, value_name = "GYRO")]
+    pub gyro_file: Option<PathBuf>,
+    /// Starting guess of the gyro's scale, readings per rad/s (only its size is used: the fit
+    /// finds each axis's sign and scale; default: from the rotation angles).
+    #[arg(long, value_parser = super::values::finite, allow_negative_numbers = true)]
+    pub gyro_scale: Option<f64>,
+    /// Still samples that give the gyro bias.
+    #[arg(long, value_enum, default_value = "first")]
+    pub gyro_bias_from: GyroBiasArg,
+}
+
+/// Which still samples give the gyro bias.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum GyroBiasArg {
+    /// The first still interval (the session's initial still period), as imu_tk does.
+    First,
+    /// Every still interval, weighted by its length.
+    All,
+}
+
+#[derive(Serialize)]
+struct GyroReport<'a> {
+    source: &'a str,
+    input_unit: &'a str,
+    /// The fit, when it succeeded.
+    fit: Option<&'a GyroPoseFit>,
+    /// Why the recording's own gyro columns could not be calibrated.
+    error: Option<String>,
 }
 
 #[derive(Serialize)]
@@ -57,6 +90,8 @@ struct Report<'a> {
     /// RMS of |mean| − g before calibration (only when the input is already m/s²).
     rms_before_mps2: Option<f64>,
     fit: &'a StaticFit,
+    /// The gyroscope's calibration, when there is a gyro.
+    gyro: Option<GyroReport<'a>>,
 }
 
 pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
@@ -66,7 +101,9 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         .chain(&args.yaml)
         .map(|p| p.as_path())
         .collect();
-    super::check_outputs(&[&args.input.rec], &outputs)?;
+    let mut inputs = vec![args.input.rec.as_path()];
+    inputs.extend(args.gyro_file.as_deref());
+    super::check_outputs(&inputs, &outputs)?;
     let model: StaticModel = args.model.into();
     let loaded = args.input.load(ui)?;
     let rec = &loaded.recording;
@@ -104,12 +141,60 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
             .collect();
         spread_about(&norms, args.gravity)
     });
+    let gyro_columns = input::gyro_columns(
+        args.gyro_file.as_deref(),
+        &loaded,
+        &args.input.rec,
+        args.input.read.retime,
+    )?;
+    let gyro = gyro_columns.as_ref().map(|columns| {
+        let options = GyroPoseOptions {
+            bias_from: match args.gyro_bias_from {
+                GyroBiasArg::First => GyroBiasSource::FirstInterval,
+                GyroBiasArg::All => GyroBiasSource::AllIntervals,
+            },
+            initial_scale: args.gyro_scale,
+            input_unit: if columns.counts {
+                GyroInputUnit::Counts
+            } else {
+                GyroInputUnit::RadPerS
+            },
+            ..Default::default()
+        };
+        let poses = still_poses(&intervals, &fit.calibration);
+        let result = fit_gyro_poses(&rec.time_s, &columns.values, &poses, &options)
+            .map_err(anyhow::Error::from)
+            .and_then(|g| match g.model.validate() {
+                Ok(()) => Ok(g),
+                Err(e) => Err(anyhow::anyhow!(
+                    "the fitted gyro model is not usable: {}: {}",
+                    e.field,
+                    e.reason
+                )),
+            });
+        (columns, options.input_unit, result)
+    });
+    let gyro_fit = match &gyro {
+        Some((columns, _, Err(e))) if args.gyro_file.is_some() => {
+            return Err(anyhow::anyhow!("{e:#}"))
+                .with_context(|| format!("calibrating the gyroscope of {}", columns.source))
+        }
+        Some((_, _, Ok(g))) => Some(g),
+        _ => None,
+    };
     if let Some(path) = &args.output {
         // The same versioned corrector file as every other corrector: `spincal correct` applies it.
-        let file =
+        let mut file =
             spincal::CorrectorFile::new(spincal::CorrectorModel::Static(Box::new(fit.calibration.clone())));
+        file.gyro = gyro_fit.map(|g| g.model.clone());
         file.write_path(path)?;
     }
+    let gyro_report = gyro.as_ref().map(|(columns, unit, result)| GyroReport {
+        source: &columns.source,
+        input_unit: unit.name(),
+        fit: result.as_ref().ok(),
+        error: result.as_ref().err().map(|e| format!("{e:#}")),
+    });
     if let Some(path) = &args.yaml {
         let yaml = fit.calibration.to_kalibr_yaml(rec.sample_rate_hz(), None);
         super::write_text(path, &yaml)?;
@@ -122,6 +207,7 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
             intervals: &intervals,
             rms_before_mps2: rms_before,
             fit: &fit,
+            gyro: gyro_report,
         });
     }
     let c = &fit.calibration;
@@ -158,5 +244,58 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         fit.iterations,
         fit.stop.describe()
     );
+    if let Some(report) = &gyro_report {
+        s += &gyro_text(report);
+    }
     ui::print(&s)
+}
+
+/// The gyro's calibration as text: b and K with their standard errors, then each rotation.
+fn gyro_text(report: &GyroReport) -> String {
+    let unit = report.input_unit;
+    let Some(g) = report.fit else {
+        return format!(
+            "gyro ({}): not calibrated: {}\n",
+            report.source,
+            report.error.as_deref().unwrap_or("")
+        );
+    };
+    let m = &g.model;
+    let triple = |v: &[f64; 3]| format!("[{:.6e}, {:.6e}, {:.6e}]", v[0], v[1], v[2]);
+    let mut s = format!(
+        "gyro ({}, {unit}): m = b + K ω from {} rotations between still poses; b from {}\n",
+        report.source,
+        g.rotations.len(),
+        match g.bias_from {
+            GyroBiasSource::FirstInterval => "the first still interval",
+            GyroBiasSource::AllIntervals => "all still intervals",
+        }
+    );
+    s += &format!(
+        "  b [{unit}]: {} ± {}\n",
+        triple(&m.bias_radps),
+        triple(&g.bias_se)
+    );
+    s += &format!("  K [{unit} per rad/s], row per gyro axis, ± 1 SE:\n");
+    for i in 0..3 {
+        s += &format!(
+            "    {} ± {}\n",
+            triple(&m.sensitivity[i]),
+            triple(&g.sensitivity_se[i])
+        );
+    }
+    let worst = g.rotations.iter().map(|r| r.residual_deg).fold(0.0, f64::max);
+    s += &format!(
+        "  rotation residuals: RMS {:.3}°, largest {worst:.3}° ({} iterations, {})\n",
+        g.rms_residual_deg,
+        g.iterations,
+        g.stop.describe()
+    );
+    for r in &g.rotations {
+        s += &format!(
+            "    {:9.3} – {:9.3} s  turned {:7.2}°  gravity moved {:7.2}°  residual {:.3}°\n",
+            r.t_start_s, r.t_end_s, r.angle_deg, r.gravity_angle_deg, r.residual_deg
+        );
+    }
+    s
 }

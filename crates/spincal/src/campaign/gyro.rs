@@ -598,6 +598,7 @@ pub fn fit_gyro(
     let model = GyroModel {
         bias_radps: std::array::from_fn(|k| x[l.axis(k)]),
         sensitivity: std::array::from_fn(|k| std::array::from_fn(|j| x[l.axis(k) + 1 + j])),
+        input_unit: crate::correctors::gyro::GyroInputUnit::RadPerS,
     };
     let se = |i: usize| {
         let v = cov[(i, i)];
@@ -726,6 +727,7 @@ mod tests {
         let model = GyroModel {
             bias_radps: [0.01, -0.02, 0.005],
             sensitivity: [[1.01, 0.004, -0.003], [0.002, 0.99, 0.006], [-0.005, 0.001, 1.02]],
+            input_unit: Default::default(),
         };
         model.validate().unwrap();
         let c = model.corrector().unwrap();

@@ -8,6 +8,7 @@ pub mod ann;
 pub mod corrector;
 pub mod division;
 pub mod gyro;
+pub mod gyro_poses;
 pub mod linear;
 pub mod model_file;
 pub mod physical;

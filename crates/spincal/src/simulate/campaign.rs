@@ -125,6 +125,7 @@ impl GyroProfile {
         GyroModel {
             bias_radps: self.bias_dps.map(f64::to_radians),
             sensitivity: self.sensitivity(),
+            input_unit: crate::correctors::gyro::GyroInputUnit::RadPerS,
         }
     }
 }

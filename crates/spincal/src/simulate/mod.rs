@@ -8,6 +8,7 @@
 
 pub mod campaign;
 pub mod fleet;
+pub mod gyro_poses;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
