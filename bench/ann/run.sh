@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # LM epoch benchmark and pyrenn peer check for spincal's network trainer.
 # Usage: bench/ann/run.sh            (from the repository root; writes bench/out/ann/)
-# Also refreshes the peer-check fixture crates/spincal/tests/fixtures/ann/pyrenn_peer.json.
+# The peer check writes bench/out/ann/pyrenn_peer.json and runs the ann_peer test on it; nothing
+# tracked is written unless ANN_BENCH_UPDATE_FIXTURE=1, which copies it over
+# crates/spincal/tests/fixtures/ann/pyrenn_peer.json (the test's default input).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 out=bench/out/ann
-mkdir -p "$out" crates/spincal/tests/fixtures/ann
+mkdir -p "$out"
 # The venv is shared with the turntable bench: install what this bench needs when it is missing.
 if ! bench/.venv/bin/python -c "import numpy, pyrenn" 2>/dev/null; then
     [ -x bench/.venv/bin/python ] || python3 -m venv bench/.venv
@@ -21,8 +23,11 @@ lscpu | grep -E "Model name|^CPU\(s\)|Thread|MHz" || true
 
 echo "== peer check: pyrenn vs spincal, same data and initial weights"
 $ex export 1000 10,6 3 "$out/peer_export.json"
-$py bench/ann/bench.py peer "$out/peer_export.json" 40 crates/spincal/tests/fixtures/ann/pyrenn_peer.json
-cargo test --release -p spincal --test ann_peer -- --nocapture
+$py bench/ann/bench.py peer "$out/peer_export.json" 40 "$out/pyrenn_peer.json"
+SPINCAL_PYRENN_PEER="$(pwd)/$out/pyrenn_peer.json" cargo test --release -p spincal --test ann_peer -- --nocapture
+if [ "${ANN_BENCH_UPDATE_FIXTURE:-0}" = 1 ]; then
+    cp "$out/pyrenn_peer.json" crates/spincal/tests/fixtures/ann/pyrenn_peer.json
+fi
 
 echo "== seconds per LM epoch, 2-input [10,6] 2-output network"
 $ex dgemm > "$out/faer_dgemm.json"

@@ -14,6 +14,15 @@ import numpy as np
 import spincal
 
 
+def untimed(value):
+    """Results without their timings (the only fields that differ between runs)."""
+    if isinstance(value, dict):
+        return {k: untimed(v) for k, v in value.items() if "seconds" not in k}
+    if isinstance(value, list):
+        return [untimed(v) for v in value]
+    return value
+
+
 def timed(fn, reps):
     fn()  # warm-up
     times = []
@@ -119,11 +128,7 @@ def bench_ray(args):
         for _ in range(reps):
             fleet = sray.calibrate_fleet(folders)
             dist.append(fleet.seconds)
-        same = all(
-            {k: v for k, v in json.loads(u._results_json).items() if k != "seconds_total"}
-            == {k: v for k, v in l.result.to_dict().items() if k != "seconds_total"}
-            for u, l in zip(fleet.units, local)
-        )
+        same = all(untimed(json.loads(u._results_json)) == untimed(l.result.to_dict()) for u, l in zip(fleet.units, local))
         task_seconds = [u.seconds for u in fleet.units]
         results[f"fleet_{units}"] = {
             "reps": reps,
@@ -137,6 +142,33 @@ def bench_ray(args):
             "flagged": fleet.flagged_units,
         }
         print(json.dumps(results[f"fleet_{units}"], indent=2), flush=True)
+
+    # One calibration's network sweep (the small grid, 20 architectures × 3 restarts, on a
+    # 2-minute recording): here on one thread against its 60 jobs as Ray tasks on 2 CPUs.
+    rec, _ = spincal.simulate(seed=3, turntable={"duration_s": 120.0})
+    settings = dict(radius_m=0.10, sweep="small", restarts=3, seed=1)
+    os.sched_setaffinity(0, {args.cpu})
+    local_times, spread_times = [], []
+    for _ in range(args.reps):
+        t = time.perf_counter()
+        local = spincal.calibrate([rec], **settings)
+        local_times.append(time.perf_counter() - t)
+    os.sched_setaffinity(0, set(range(os.cpu_count())))
+    for _ in range(args.reps):
+        t = time.perf_counter()
+        spread = sray.calibrate([rec], jobs_per_task=1, **settings)
+        spread_times.append(time.perf_counter() - t)
+    stage = lambda cal: next(s["seconds"] for s in cal.result.to_dict()["stage_seconds"] if s["stage"] == "network sweep")
+    results["sweep_small_grid"] = {
+        "reps": args.reps,
+        "calibration_one_thread_s": [min(local_times), statistics.median(local_times)],
+        "calibration_ray_2cpu_s": [min(spread_times), statistics.median(spread_times)],
+        "sweep_stage_one_thread_s": stage(local),
+        "sweep_stage_ray_s": stage(spread),
+        "sweep_speedup": stage(local) / stage(spread),
+        "results_equal": untimed(local.result.to_dict()) == untimed(spread.result.to_dict()),
+    }
+    print(json.dumps(results["sweep_small_grid"], indent=2), flush=True)
     ray.shutdown()
     print(json.dumps(results, indent=2))
     return results
