@@ -24,8 +24,9 @@ fn training_mse_matches_or_beats_pyrenn_from_the_same_start() {
     // bench never rewrites the tracked fixture).
     let tracked = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/ann/pyrenn_peer.json");
     let path = std::env::var("SPINCAL_PYRENN_PEER").unwrap_or_else(|_| tracked.to_string());
-    let text = std::fs::read_to_string(&path)
-        .unwrap_or_else(|e| panic!("{path}: {e} (bench/ann/run.sh makes it; ANN_BENCH_UPDATE_FIXTURE=1 copies it here)"));
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| {
+        panic!("{path}: {e} (bench/ann/run.sh makes it; ANN_BENCH_UPDATE_FIXTURE=1 copies it here)")
+    });
     let fixture: Fixture = serde_json::from_str(&text).expect("fixture parses");
     let sizes = &fixture.sizes;
     let layout = Layout::new(sizes[0], &sizes[1..sizes.len() - 1], sizes[sizes.len() - 1]);

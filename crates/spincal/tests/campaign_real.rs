@@ -1,4 +1,5 @@
-//! The physical sensor model fitted on real still poses (../shared/data/imu; skipped when absent),
+//! The physical sensor model fitted on real still poses (../shared/data/imu: MPU-6050, Xsens,
+//! T265; skipped when absent),
 //! judged on poses it never saw: each pose held out in turn, RMS of |a| − g over the held-out
 //! poses, and on the poses it fitted, against the source's own published calibration (which saw
 //! every pose).
@@ -116,5 +117,116 @@ fn mpu6050_held_out_poses_physical_model_against_the_authors() {
         assert!(held_out.is_finite());
         // On the poses both fitted, the physical model explains gravity better than theirs.
         assert!(in_sample < authors_rms, "{in_sample} vs {authors_rms}");
+    }
+}
+
+/// RMS of |calibrate(mean)| − g over the poses.
+fn rms_about_g(intervals: &[StillInterval], g: f64, calibrate: impl Fn([f64; 3]) -> [f64; 3]) -> f64 {
+    let sum: f64 = intervals
+        .iter()
+        .map(|iv| (norm(calibrate(iv.mean)) - g).powi(2))
+        .sum();
+    (sum / intervals.len() as f64).sqrt()
+}
+
+/// In-sample and leave-one-pose-out RMS of the physical model with `terms`.
+fn physical_rms(poses: &[PoseInput], terms: SensorTerms, g: f64) -> (f64, f64) {
+    let settings = JointSettings {
+        gravity_mps2: g,
+        terms,
+        ..JointSettings::default()
+    };
+    let all = fit_joint(&[], poses, &settings, &spincal::progress::silent).unwrap();
+    let in_sample = (poses
+        .iter()
+        .map(|p| (norm(all.sensor.correct(p.mean_mps2).unwrap()) - g).powi(2))
+        .sum::<f64>()
+        / poses.len() as f64)
+        .sqrt();
+    (in_sample, held_out_rms(poses, terms, g))
+}
+
+#[test]
+fn xsens_held_out_poses_physical_model_against_the_factory_calibration() {
+    let Some(path) = common::shared_data("imu/imu_tk_xsens/xsens_acc.mat") else {
+        return;
+    };
+    let loaded = read_path(&path, &ReadOptions::default()).unwrap();
+    let rec = &loaded.recording;
+    assert!(loaded.raw_counts, "the Xsens file holds raw counts");
+    let intervals = detect_static(&rec.time_s, &rec.accel_mps2, &StaticOptions::default())
+        .unwrap()
+        .intervals;
+    assert!(intervals.len() >= 20, "{} still poses", intervals.len());
+    // The data README's factory values and local gravity; the factory never saw these poses.
+    let (offset, scale, g) = ([33123.0, 33276.0, 32360.0], [415.0, 413.0, 415.0], 9.81744);
+    let factory = |raw: [f64; 3]| std::array::from_fn(|k| (raw[k] - offset[k]) / scale[k]);
+    let factory_rms = rms_about_g(&intervals, g, factory);
+    // Raw counts about mid-scale, at the nominal 415 counts per m/s²; the model fits the rest.
+    let poses: Vec<PoseInput> = intervals
+        .iter()
+        .map(|iv| {
+            let mut p = pose(rec, iv, 1.0 / 415.0);
+            p.mean_mps2 = iv.mean.map(|m| (m - 32768.0) / 415.0);
+            p
+        })
+        .collect();
+    for terms in [SensorTerms::BIAS_SCALE, SensorTerms::LINEAR] {
+        let (in_sample, held_out) = physical_rms(&poses, terms, g);
+        eprintln!(
+            "xsens {} ({} poses): RMS |a| − g on poses it fitted {in_sample:.4}, held out one at a time {held_out:.4} m/s² (factory calibration, which saw none: {factory_rms:.4})",
+            terms.describe(),
+            poses.len()
+        );
+        // Held out, the physical model still beats the factory's numbers on these poses.
+        assert!(held_out < factory_rms, "{held_out} vs {factory_rms}");
+    }
+}
+
+#[test]
+fn t265_held_out_poses_physical_model_against_imu_tk() {
+    let (Some(path), Some(calib)) = (
+        common::shared_data("imu/realsense_t265/t265_acc.mat"),
+        common::shared_data("imu/realsense_t265/t265_test_imu_acc.calib"),
+    ) else {
+        return;
+    };
+    let loaded = read_path(&path, &ReadOptions::default()).unwrap();
+    let rec = &loaded.recording;
+    let text = std::fs::read_to_string(&calib).unwrap();
+    let imu_tk = spincal::export::ImuTkCalib::parse(&text, "t265_test_imu_acc.calib").unwrap();
+    // A 50 s initial still period and a 0.5 s window (the default 1 s window merges poses here).
+    let detect = StaticOptions {
+        init_s: 50.0,
+        window_s: 0.5,
+        min_interval_s: 1.0,
+        ..StaticOptions::default()
+    };
+    let intervals = detect_static(&rec.time_s, &rec.accel_mps2, &detect)
+        .unwrap()
+        .intervals;
+    assert!(intervals.len() >= 30, "{} still poses", intervals.len());
+    // The fork's run log does not state its gravity magnitude: take the mean |a| of imu_tk's own
+    // calibration over these poses (its RMS about it is the smallest any g gives it).
+    let norms: Vec<f64> = intervals.iter().map(|iv| norm(imu_tk.apply(iv.mean))).collect();
+    let g = norms.iter().sum::<f64>() / norms.len() as f64;
+    let imu_tk_rms = rms_about_g(&intervals, g, |raw| imu_tk.apply(raw));
+    let poses: Vec<PoseInput> = intervals.iter().map(|iv| pose(rec, iv, 1.0)).collect();
+    for terms in [SensorTerms::BIAS_SCALE, SensorTerms::LINEAR] {
+        let (in_sample, held_out) = physical_rms(&poses, terms, g);
+        eprintln!(
+            "t265 {} ({} poses): RMS |a| − g on poses it fitted {in_sample:.4}, held out one at a time {held_out:.4} m/s² (imu_tk, fitted on every pose: {imu_tk_rms:.4})",
+            terms.describe(),
+            poses.len()
+        );
+        if terms == SensorTerms::LINEAR {
+            // The same model class as imu_tk's (bias, scale, misalignment). imu_tk minimises
+            // this very criterion (|a| − g, every pose alike); the joint fit weights each pose by
+            // its standard error, so in-sample it is slightly above. Held out one pose at a time
+            // (imu_tk has no such number: it fitted every pose) it stays within 15 %. Measured
+            // when written: 0.0060 in-sample, 0.0063 held out, imu_tk 0.0057 (g = 9.8010).
+            assert!(in_sample <= imu_tk_rms * 1.06, "{in_sample} vs {imu_tk_rms}");
+            assert!(held_out < 1.15 * imu_tk_rms, "{held_out} vs {imu_tk_rms}");
+        }
     }
 }
