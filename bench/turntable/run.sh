@@ -1,7 +1,12 @@
 #!/usr/bin/env bash
 # Turntable fit on a 10-minute, 100 Hz recording: spincal against scipy (Nelder–Mead with bounds,
-# then least_squares) on the same file, from the same start and bounds, in one run.
+# then least_squares) on the same file, from the same start and bounds. Both sides pinned to one
+# CPU (taskset), three timed runs each per round, ROUNDS rounds, load printed before each.
+#
+#   bash bench/turntable/run.sh [ROUNDS] [CPU]      (defaults: 3 1)
 set -euo pipefail
+rounds=${1:-3}
+cpu=${2:-1}
 root=$(cd "$(dirname "$0")/../.." && pwd)
 out="$root/bench/out/turntable"
 mkdir -p "$out"
@@ -13,13 +18,16 @@ spincal="$root/target/release/spincal"
 # land on the same point.
 args=(fit "$out/rec600.csv" --no-offsets --quiet)
 "$spincal" "${args[@]}" -o "$out/spincal_fit.json" >/dev/null   # warm the page cache
-# Best of three whole-process runs (the load of a shared machine moves single timings).
-spincal_s=1e9
-for _ in 1 2 3; do
-    start=$(date +%s.%N)
-    "$spincal" "${args[@]}" -o "$out/spincal_fit.json" >/dev/null
-    end=$(date +%s.%N)
-    spincal_s=$(awk -v a="$start" -v b="$end" -v best="$spincal_s" 'BEGIN { s = b - a; print (s < best) ? s : best }')
+echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs); both sides on CPU $cpu"
+for round in $(seq 1 "$rounds"); do
+    echo "== round $round, load average: $(cut -d' ' -f1-3 /proc/loadavg)"
+    times=()
+    for _ in 1 2 3; do
+        start=$(date +%s.%N)
+        taskset -c "$cpu" "$spincal" "${args[@]}" -o "$out/spincal_fit.json" >/dev/null
+        end=$(date +%s.%N)
+        times+=("$(awk -v a="$start" -v b="$end" 'BEGIN { print b - a }')")
+    done
+    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 taskset -c "$cpu" "$root/bench/.venv/bin/python" \
+        "$root/bench/turntable/scipy_fit.py" "$out/rec600.csv" "$out/spincal_fit.json" "$(IFS=,; echo "${times[*]}")"
 done
-echo "load average: $(cut -d' ' -f1-3 /proc/loadavg)"
-"$root/bench/.venv/bin/python" "$root/bench/turntable/scipy_fit.py" "$out/rec600.csv" "$out/spincal_fit.json" "$spincal_s"
