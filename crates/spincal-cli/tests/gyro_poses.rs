@@ -5,67 +5,15 @@
 // Parallel per-axis arrays read best with indices.
 #![allow(clippy::needless_range_loop)]
 
+mod harness;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use harness::{fails, run, shared, spincal, venv_python};
+
 use spincal::correctors::gyro::{GyroInputUnit, GyroModel};
 use spincal::simulate::gyro_poses::{simulate_pose_session, PoseSessionSetup};
-
-fn spincal() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_spincal"))
-}
-
-fn run(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("runs");
-    assert!(
-        out.status.success(),
-        "{:?} failed:\n{}\n{}",
-        cmd,
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-/// Runs a command that must fail; returns its stderr.
-fn fails(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("runs");
-    assert!(!out.status.success(), "{cmd:?} succeeded");
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-/// The test venv's python (scripts/setup.sh makes it). `None` with a printed reason when absent,
-/// unless SPINCAL_REQUIRE_PYTHON=1 (CI), where absence fails.
-fn venv_python() -> Option<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let python = root.join(".venv/bin/python");
-    if python.exists() {
-        return Some(python);
-    }
-    let required = std::env::var("SPINCAL_REQUIRE_PYTHON").is_ok_and(|v| v == "1");
-    assert!(
-        !required,
-        "SPINCAL_REQUIRE_PYTHON=1 but {} is absent: run scripts/setup.sh",
-        python.display()
-    );
-    eprintln!("skipped: {} is absent (run scripts/setup.sh)", python.display());
-    None
-}
-
-fn shared(relative: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(relative);
-    if path.exists() {
-        Some(path)
-    } else {
-        eprintln!(
-            "skipped: {} is absent (../shared/data is not beside this clone)",
-            path.display()
-        );
-        None
-    }
-}
 
 fn json(text: &str) -> serde_json::Value {
     serde_json::from_str(text).unwrap()

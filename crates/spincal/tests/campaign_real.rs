@@ -97,19 +97,7 @@ fn mpu6050_held_out_poses_physical_model_against_the_authors() {
         / intervals.len() as f64)
         .sqrt();
     for terms in [SensorTerms::BIAS_SCALE, SensorTerms::LINEAR] {
-        let held_out = held_out_rms(&poses, terms, g);
-        let settings = JointSettings {
-            gravity_mps2: g,
-            terms,
-            ..JointSettings::default()
-        };
-        let all = fit_joint(&[], &poses, &settings, &spincal::progress::silent).unwrap();
-        let in_sample = (poses
-            .iter()
-            .map(|p| (norm(all.sensor.correct(p.mean_mps2).unwrap()) - g).powi(2))
-            .sum::<f64>()
-            / poses.len() as f64)
-            .sqrt();
+        let (in_sample, held_out) = physical_rms(&poses, terms, g);
         eprintln!(
             "mpu6050 {}: RMS |a| − g on poses it fitted {in_sample:.4}, held out one at a time {held_out:.4} m/s² (authors, fitted on every pose: {authors_rms:.4})",
             terms.describe()

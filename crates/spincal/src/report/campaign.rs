@@ -178,13 +178,12 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
     for run in &r.joint.runs {
         let _ = write!(
             h,
-            "<li>{} ({}, residual RMS {} m/s²)</li>",
+            "<li>{} ({}, residual RMS {:.4} {:.4} {:.4} m/s²)</li>",
             escape(&run.name),
             run.direction.describe(),
-            format!(
-                "{:.4} {:.4} {:.4}",
-                run.residual_rms_mps2[0], run.residual_rms_mps2[1], run.residual_rms_mps2[2]
-            )
+            run.residual_rms_mps2[0],
+            run.residual_rms_mps2[1],
+            run.residual_rms_mps2[2]
         );
     }
     for pose in &r.joint.poses {
