@@ -4,7 +4,7 @@
 
 use spincal::campaign::joint::{fit_joint, JointSettings, SensorTerms};
 use spincal::campaign::prepare::prepare;
-use spincal::campaign::{calibrate_campaign, CampaignSettings};
+use spincal::campaign::{calibrate_campaign, CampaignSettings, CandidateKind};
 use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
 use spincal::correctors::physical::PhysicalCorrector;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, RunSetup};
@@ -196,4 +196,80 @@ fn a_saved_corrector_held_on_every_condition_and_round_trips() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("corrector.sensor.scale_error[1]"), "{e}");
+}
+
+/// The network on top of physics, trained alone: what it saves is the physical correction plus
+/// the network's residual where the network is trusted, and the physical correction alone
+/// (marked) where it is not; its file round-trips and a damaged coverage is refused by name.
+#[test]
+fn the_network_on_top_of_physics_is_trusted_only_where_it_was_trained() {
+    use spincal::correctors::physical_ann::PhysicalAnnCorrector;
+    use spincal::corrector::Corrector;
+    let sim = simulate_campaign(&CampaignSetup::default(), 5).unwrap();
+    let settings = CampaignSettings {
+        candidates: vec![CandidateKind::PhysicalAnn],
+        ..CampaignSettings::default()
+    };
+    let out = calibrate_campaign("u", &units(&sim, true), &settings, &spincal::progress::silent).unwrap();
+    let physical_only = calibrate_campaign(
+        "u",
+        &units(&sim, true),
+        &CampaignSettings {
+            candidates: vec![CandidateKind::Physical],
+            ..CampaignSettings::default()
+        },
+        &spincal::progress::silent,
+    )
+    .unwrap();
+    let summary = &out.result.candidates[0];
+    let physical = &physical_only.result.candidates[0];
+    eprintln!(
+        "held-out mean RMS: physical-ann {:?}, physical {:?}",
+        summary.mean_rms_mps2, physical.mean_rms_mps2
+    );
+    // Where the network is not trusted it changes nothing: held out, it is never far from
+    // the physical model it sits on.
+    let (a, b) = (summary.mean_rms_mps2.unwrap(), physical.mean_rms_mps2.unwrap());
+    assert!(a < 1.25 * b, "{a} vs {b}");
+    let Some(file) = &out.saved else {
+        panic!("nothing saved: {}", out.result.verdict)
+    };
+    let CorrectorModel::PhysicalAnn(model) = &file.corrector else {
+        panic!("saved {}", file.corrector.kind())
+    };
+    let back = CorrectorFile::from_json(&file.to_json(), "model.json").unwrap();
+    assert_eq!(&back, file);
+
+    let mut stream = model.stream();
+    let mut physical_stream = model.physical.stream();
+    let mut network_stream = model.network.stream();
+    let (mut trusted, mut untrusted) = (0, 0);
+    // Readings across the whole sphere of 1 g and beyond: inside the training data's cells the
+    // output is p + n(p); elsewhere p, marked.
+    for i in 0..2000 {
+        let (u, v) = (i as f64 * 0.618_034 % 1.0, i as f64 * 0.414_214 % 1.0);
+        let (theta, phi) = (std::f64::consts::TAU * u, (2.0 * v - 1.0).acos());
+        let r = 9.8 * (1.0 + 0.5 * (i % 3) as f64);
+        let m = [r * phi.sin() * theta.cos(), r * phi.sin() * theta.sin(), r * phi.cos()];
+        let out = stream.correct_sample(m);
+        let p = physical_stream.correct_sample(m);
+        let n = network_stream.correct_sample(p.accel_mps2);
+        if model.coverage.covers(p.accel_mps2) && !out.outside_training_range {
+            trusted += 1;
+            for k in 0..3 {
+                assert_eq!(out.accel_mps2[k], p.accel_mps2[k] + n.accel_mps2[k]);
+            }
+        } else {
+            untrusted += 1;
+            assert!(out.outside_training_range);
+            assert_eq!(out.accel_mps2, p.accel_mps2);
+        }
+    }
+    assert!(trusted > 0 && untrusted > 0, "{trusted} trusted, {untrusted} not");
+
+    let mut damaged: PhysicalAnnCorrector = (**model).clone();
+    damaged.coverage.covered.reverse();
+    let bad = CorrectorFile::new(CorrectorModel::PhysicalAnn(Box::new(damaged)));
+    let e = CorrectorFile::from_json(&bad.to_json(), "m.json").unwrap_err().to_string();
+    assert!(e.contains("corrector.coverage.covered["), "{e}");
 }

@@ -20,10 +20,13 @@ use crate::campaign::joint::{
     fit_joint, fit_joint_from, JointError, JointFit, JointSettings, PoseInput, RunInput, SensorTerms,
 };
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
+use crate::correctors::ann::{AnnProblem, DivisionMode, LmSettings};
 use crate::correctors::corrector::{Axis, Corrector};
 use crate::correctors::linear::LinearModel;
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::correctors::physical::PhysicalCorrector;
+use crate::correctors::physical_ann::{InputCoverage, PhysicalAnnCorrector};
+use crate::input::recording::Recording;
 use crate::progress::{Observer, Progress};
 
 /// The kinds of corrector a campaign compares.
@@ -36,13 +39,16 @@ pub enum CandidateKind {
     PhysicalLinear,
     /// Offset plus a 3 × 3 matrix (12 parameters) from measured to the fitted reference.
     Linear,
+    /// The full inverse sensor model, then a small network on the residual it leaves.
+    PhysicalAnn,
 }
 
 impl CandidateKind {
-    pub const ALL: [CandidateKind; 3] = [
+    pub const ALL: [CandidateKind; 4] = [
         CandidateKind::Physical,
         CandidateKind::PhysicalLinear,
         CandidateKind::Linear,
+        CandidateKind::PhysicalAnn,
     ];
 
     pub fn name(self) -> &'static str {
@@ -50,6 +56,7 @@ impl CandidateKind {
             CandidateKind::Physical => "physical",
             CandidateKind::PhysicalLinear => "physical-linear",
             CandidateKind::Linear => "linear-12",
+            CandidateKind::PhysicalAnn => "physical-ann",
         }
     }
 
@@ -60,6 +67,9 @@ impl CandidateKind {
             }
             CandidateKind::PhysicalLinear => "inverse sensor model: bias, scale, misalignment",
             CandidateKind::Linear => "offset + 3×3 matrix fitted from measured to reference (12 parameters)",
+            CandidateKind::PhysicalAnn => {
+                "inverse sensor model, then a network (3-6-3, tanh) on the residual it leaves; physics alone outside the network's training range"
+            }
         }
     }
 }
@@ -322,11 +332,92 @@ impl Candidate for LinearCandidate {
     }
 }
 
+/// Samples per run pooled for the network on top of physics (evenly spaced).
+const PHYSICAL_ANN_SAMPLES_PER_RUN: usize = 1000;
+/// Each still pose's mean counts as this many samples in the pooled set.
+const PHYSICAL_ANN_POSE_WEIGHT: usize = 50;
+/// The network: one hidden layer of six tanh units, two restarts, a fixed seed.
+const PHYSICAL_ANN_HIDDEN: [usize; 1] = [6];
+const PHYSICAL_ANN_RESTARTS: usize = 2;
+const PHYSICAL_ANN_SEED: u64 = 1;
+
+struct PhysicalAnnCandidate;
+
+impl Candidate for PhysicalAnnCandidate {
+    fn kind(&self) -> CandidateKind {
+        CandidateKind::PhysicalAnn
+    }
+    fn train(&self, t: &Training<'_>, observer: &Observer) -> Result<CorrectorModel, String> {
+        let fit = t.fit(SensorTerms::ALL, observer)?;
+        let physical = PhysicalCorrector {
+            sensor: fit.sensor,
+            gravity_mps2: t.joint.gravity_mps2,
+            input_range_mps2: input_range(&t.runs, &t.poses),
+        };
+        // Pooled samples: the physical correction as input, what it left against the joint
+        // fit's reference as the target. Static (no delays): the samples are not one series.
+        let mut input: [Vec<f64>; 3] = Default::default();
+        let mut residual: [Vec<f64>; 3] = Default::default();
+        let mut add = |m: [f64; 3], reference: [f64; 3]| {
+            if let Some(p) = physical.sensor.correct(m) {
+                for k in 0..3 {
+                    input[k].push(p[k]);
+                    residual[k].push(reference[k] - p[k]);
+                }
+            }
+        };
+        for (i, run) in t.runs.iter().enumerate() {
+            let reference = fit.run_reference(i, &run.time_s);
+            let step = (run.time_s.len() / PHYSICAL_ANN_SAMPLES_PER_RUN).max(1);
+            for s in (0..run.time_s.len()).step_by(step) {
+                if run.keep[s] {
+                    let m = [run.accel_mps2[0][s], run.accel_mps2[1][s], run.accel_mps2[2][s]];
+                    add(m, [reference[0][s], reference[1][s], reference[2][s]]);
+                }
+            }
+        }
+        for (p, pose) in t.poses.iter().enumerate() {
+            for _ in 0..PHYSICAL_ANN_POSE_WEIGHT {
+                add(pose.mean_mps2, fit.poses[p].specific_force_mps2);
+            }
+        }
+        let coverage = InputCoverage::of(&input);
+        let n = input[0].len();
+        let as_recording = |accel: [Vec<f64>; 3]| Recording {
+            time_s: (0..n).map(|i| i as f64).collect(),
+            accel_mps2: accel,
+            gyro_radps: None,
+            source: Default::default(),
+        };
+        let (measured, target) = (as_recording(input), as_recording(residual));
+        // Small interleaved blocks: every run and pose group reaches training and validation.
+        let problem = AnnProblem::new(&measured, &target, &Axis::ALL, 0, DivisionMode::Interleaved { block_len: 20 })
+            .map_err(|e| format!("network on top of physics: {e}"))?;
+        let network = problem
+            .train(
+                &PHYSICAL_ANN_HIDDEN,
+                PHYSICAL_ANN_RESTARTS,
+                PHYSICAL_ANN_SEED,
+                &LmSettings {
+                    max_epochs: 300,
+                    ..LmSettings::default()
+                },
+            )
+            .map_err(|e| format!("network on top of physics: {e}"))?;
+        Ok(CorrectorModel::PhysicalAnn(Box::new(PhysicalAnnCorrector {
+            physical,
+            network,
+            coverage,
+        })))
+    }
+}
+
 fn candidate(kind: CandidateKind) -> Box<dyn Candidate + Sync> {
     match kind {
         CandidateKind::Physical => Box::new(PhysicalCandidate(SensorTerms::ALL, kind)),
         CandidateKind::PhysicalLinear => Box::new(PhysicalCandidate(SensorTerms::LINEAR, kind)),
         CandidateKind::Linear => Box::new(LinearCandidate),
+        CandidateKind::PhysicalAnn => Box::new(PhysicalAnnCandidate),
     }
 }
 

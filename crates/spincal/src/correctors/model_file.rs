@@ -18,6 +18,7 @@ use crate::correctors::ann::AnnModel;
 use crate::correctors::corrector::{join_field, Axis, Corrector, ModelError, SampleCorrector};
 use crate::correctors::linear::LinearModel;
 use crate::correctors::physical::PhysicalCorrector;
+use crate::correctors::physical_ann::PhysicalAnnCorrector;
 use crate::correctors::static_cal::StaticCalibration;
 
 /// The corrector file format this build writes and reads.
@@ -34,6 +35,8 @@ pub enum CorrectorModel {
     Static(Box<StaticCalibration>),
     /// The inverse of a campaign's fitted sensor model (`spincal calibrate --campaign`).
     Physical(Box<PhysicalCorrector>),
+    /// That inverse followed by a network on what it left (`spincal calibrate --campaign`).
+    PhysicalAnn(Box<PhysicalAnnCorrector>),
 }
 
 impl CorrectorModel {
@@ -43,6 +46,7 @@ impl CorrectorModel {
             CorrectorModel::Linear(m) => m.as_ref(),
             CorrectorModel::Static(m) => m.as_ref(),
             CorrectorModel::Physical(m) => m.as_ref(),
+            CorrectorModel::PhysicalAnn(m) => m.as_ref(),
         }
     }
 
@@ -56,6 +60,7 @@ impl CorrectorModel {
             CorrectorModel::Linear(m) => m.validate(),
             CorrectorModel::Static(m) => m.validate(),
             CorrectorModel::Physical(m) => m.validate(),
+            CorrectorModel::PhysicalAnn(m) => m.validate(),
         }
     }
 
@@ -66,6 +71,7 @@ impl CorrectorModel {
             CorrectorModel::Linear(_) => "linear",
             CorrectorModel::Static(_) => "static",
             CorrectorModel::Physical(_) => "physical",
+            CorrectorModel::PhysicalAnn(_) => "physical_ann",
         }
     }
 }
