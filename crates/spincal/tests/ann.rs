@@ -319,6 +319,11 @@ fn a_sweep_run_elsewhere_from_its_exchanged_jobs_equals_the_local_sweep_bit_for_
         .unwrap_err()
         .to_string()
         .contains("version 2"));
+    let greedy = jobs_text.replace("\"restarts\":2", "\"restarts\":99999999");
+    assert!(SweepJobs::from_json(&greedy)
+        .unwrap_err()
+        .to_string()
+        .contains("restarts"));
     let cut = &jobs_text[..jobs_text.len() / 2];
     assert!(SweepJobs::from_json(cut).is_err());
 }

@@ -203,8 +203,8 @@ fn a_saved_corrector_held_on_every_condition_and_round_trips() {
 /// (marked) where it is not; its file round-trips and a damaged coverage is refused by name.
 #[test]
 fn the_network_on_top_of_physics_is_trusted_only_where_it_was_trained() {
-    use spincal::correctors::physical_ann::PhysicalAnnCorrector;
     use spincal::corrector::Corrector;
+    use spincal::correctors::physical_ann::PhysicalAnnCorrector;
     let sim = simulate_campaign(&CampaignSetup::default(), 5).unwrap();
     let settings = CampaignSettings {
         candidates: vec![CandidateKind::PhysicalAnn],
@@ -250,7 +250,11 @@ fn the_network_on_top_of_physics_is_trusted_only_where_it_was_trained() {
         let (u, v) = (i as f64 * 0.618_034 % 1.0, i as f64 * 0.414_214 % 1.0);
         let (theta, phi) = (std::f64::consts::TAU * u, (2.0 * v - 1.0).acos());
         let r = 9.8 * (1.0 + 0.5 * (i % 3) as f64);
-        let m = [r * phi.sin() * theta.cos(), r * phi.sin() * theta.sin(), r * phi.cos()];
+        let m = [
+            r * phi.sin() * theta.cos(),
+            r * phi.sin() * theta.sin(),
+            r * phi.cos(),
+        ];
         let out = stream.correct_sample(m);
         let p = physical_stream.correct_sample(m);
         let n = network_stream.correct_sample(p.accel_mps2);
@@ -270,6 +274,8 @@ fn the_network_on_top_of_physics_is_trusted_only_where_it_was_trained() {
     let mut damaged: PhysicalAnnCorrector = (**model).clone();
     damaged.coverage.covered.reverse();
     let bad = CorrectorFile::new(CorrectorModel::PhysicalAnn(Box::new(damaged)));
-    let e = CorrectorFile::from_json(&bad.to_json(), "m.json").unwrap_err().to_string();
+    let e = CorrectorFile::from_json(&bad.to_json(), "m.json")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("corrector.coverage.covered["), "{e}");
 }

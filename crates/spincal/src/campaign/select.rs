@@ -391,8 +391,14 @@ impl Candidate for PhysicalAnnCandidate {
         };
         let (measured, target) = (as_recording(input), as_recording(residual));
         // Small interleaved blocks: every run and pose group reaches training and validation.
-        let problem = AnnProblem::new(&measured, &target, &Axis::ALL, 0, DivisionMode::Interleaved { block_len: 20 })
-            .map_err(|e| format!("network on top of physics: {e}"))?;
+        let problem = AnnProblem::new(
+            &measured,
+            &target,
+            &Axis::ALL,
+            0,
+            DivisionMode::Interleaved { block_len: 20 },
+        )
+        .map_err(|e| format!("network on top of physics: {e}"))?;
         let network = problem
             .train(
                 &PHYSICAL_ANN_HIDDEN,

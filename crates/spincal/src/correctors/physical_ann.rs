@@ -102,7 +102,10 @@ impl InputCoverage {
 
     pub fn validate(&self) -> Result<(), ModelError> {
         if !(1..=64).contains(&self.cells) {
-            return Err(ModelError::new("cells", format!("{}: must be 1 to 64", self.cells)));
+            return Err(ModelError::new(
+                "cells",
+                format!("{}: must be 1 to 64", self.cells),
+            ));
         }
         for k in 0..3 {
             let (lo, hi) = (self.lower_mps2[k], self.upper_mps2[k]);
@@ -142,7 +145,10 @@ impl PhysicalAnnCorrector {
         if self.network.delays != 0 {
             return Err(ModelError::new(
                 "network.delays",
-                format!("{}: the network on top of physics has no delays", self.network.delays),
+                format!(
+                    "{}: the network on top of physics has no delays",
+                    self.network.delays
+                ),
             ));
         }
         Ok(())
@@ -163,8 +169,8 @@ impl SampleCorrector for PhysicalAnnStream<'_> {
         }
         let residual = self.network.correct_sample(p.accel_mps2);
         let scaling = &self.model.network.output_scaling;
-        let output_in_range =
-            (0..3).all(|c| scaling.apply(c, residual.accel_mps2[c]).abs() <= 1.0 + 2.0 * EXTRAPOLATION_MARGIN);
+        let output_in_range = (0..3)
+            .all(|c| scaling.apply(c, residual.accel_mps2[c]).abs() <= 1.0 + 2.0 * EXTRAPOLATION_MARGIN);
         if residual.outside_training_range
             || !residual.valid
             || !output_in_range

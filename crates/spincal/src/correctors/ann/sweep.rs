@@ -375,6 +375,43 @@ impl SweepRun {
     }
 }
 
+/// Bounds on exchanged settings that keep a damaged or hostile text from asking a worker for
+/// more memory or time than any real sweep does (a refusal, never an abort).
+fn check_exchanged_settings(settings: &SweepSettings) -> Result<(), AnnError> {
+    let refuse = |why: String| Err(AnnError::SweepExchange(why));
+    if settings.restarts == 0 || settings.restarts > 10_000 {
+        return refuse(format!("restarts {}: must be 1 to 10000", settings.restarts));
+    }
+    if settings.grid.is_empty() || settings.grid.len() > 100_000 {
+        return refuse(format!(
+            "{} architectures: must be 1 to 100000",
+            settings.grid.len()
+        ));
+    }
+    if let Some(hidden) = settings
+        .grid
+        .iter()
+        .find(|h| h.iter().any(|&n| n == 0 || n > 10_000))
+    {
+        return refuse(format!(
+            "architecture {}: layer sizes must be 1 to 10000",
+            architecture_label(hidden)
+        ));
+    }
+    let lm = &settings.lm;
+    if lm.block_samples > 1 << 20 || lm.max_epochs > 1_000_000 {
+        return refuse(format!(
+            "block_samples {} (at most 1048576) or max_epochs {} (at most 1000000)",
+            lm.block_samples, lm.max_epochs
+        ));
+    }
+    let positive = [lm.mu_initial, lm.mu_decrease, lm.mu_increase, lm.mu_max];
+    if positive.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+        return refuse("the μ settings must be finite and positive".into());
+    }
+    Ok(())
+}
+
 /// Everything a worker needs to run any job of one sweep in another process or on another
 /// machine: the problem's paired columns and the sweep's settings. Its JSON is exact (floats
 /// round-trip), so a worker's [`AnnProblem`] equals the caller's and its runs are the ones the
@@ -450,6 +487,7 @@ impl SweepJobs {
         if jobs.delays > super::MAX_DELAYS {
             return Err(AnnError::TooManyDelays(jobs.delays));
         }
+        check_exchanged_settings(&jobs.settings)?;
         if n < jobs.delays + super::MIN_SAMPLES {
             return Err(AnnError::TooFewSamples {
                 samples: n,
