@@ -50,7 +50,7 @@ impl InputCoverage {
                 lower[k] = lower[k].min(v);
                 upper[k] = upper[k].max(v);
             }
-            if !(upper[k] > lower[k]) {
+            if !(lower[k].is_finite() && upper[k].is_finite()) || upper[k] <= lower[k] {
                 // One value (or none): a box of width 2 around it.
                 let centre = if lower[k].is_finite() { lower[k] } else { 0.0 };
                 (lower[k], upper[k]) = (centre - 1.0, centre + 1.0);
