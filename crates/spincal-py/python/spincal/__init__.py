@@ -335,7 +335,7 @@ class Corrected(Result):
 
 class Corrector:
     """A saved corrector (model.json) of any kind: ``ann``, ``linear``, ``static``,
-    ``physical``. Load with :func:`load_corrector`; apply with :meth:`correct`.
+    ``physical`` or ``physical_ann``. Load with :func:`load_corrector`; apply with :meth:`correct`.
 
     Example::
 
@@ -352,7 +352,7 @@ class Corrector:
 
     @property
     def kind(self) -> str:
-        """``ann``, ``linear``, ``static`` or ``physical``."""
+        """``ann``, ``linear``, ``static``, ``physical`` or ``physical_ann``."""
         return self._inner.kind
 
     @property
