@@ -725,7 +725,7 @@ fn campaign_files(
         .transpose()
         .map_err(errors::model)?;
     let files = py
-        .detach(|| spincal::report::campaign::campaign_files(&result, model.as_ref()))
+        .detach(|| spincal::export::campaign_files(&result, model.as_ref()))
         .map_err(|e| errors::Error::new_err(format!("drawing report.html: {e}")))?;
     Ok(files
         .into_iter()

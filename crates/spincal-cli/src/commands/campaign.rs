@@ -25,7 +25,7 @@ pub fn calibrate(file: &Path, out: &Path, json: bool, ui: Ui) -> anyhow::Result<
 /// corrector held on every held-out condition) model.json into `out`.
 pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignOutput> {
     let campaign = Campaign::read_path(file).map_err(|e| UsageError(e.to_string()))?;
-    let outputs = spincal::report::campaign::CAMPAIGN_FILE_NAMES.map(|name| out.join(name));
+    let outputs = spincal::export::CAMPAIGN_FILE_NAMES.map(|name| out.join(name));
     let mut inputs: Vec<&Path> = vec![file];
     for entry in &campaign.recordings {
         inputs.push(&entry.file);
@@ -40,7 +40,7 @@ pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignO
         crate::ui::show(&bar, p)
     })?;
     bar.finish_and_clear();
-    let files = spincal::report::campaign::campaign_files(&output.result, output.saved.as_ref())
+    let files = spincal::export::campaign_files(&output.result, output.saved.as_ref())
         .context("drawing the campaign report")?;
     for (name, text) in files {
         super::write_text(&out.join(name), &text)?;

@@ -9,47 +9,6 @@ use super::html::figure;
 use super::plot::{Legend, LinePlot, LineStyle, Series};
 use super::plot::{PlotError, Rgb};
 use crate::campaign::CampaignResult;
-use crate::correctors::model_file::CorrectorFile;
-
-/// Every file a campaign calibration writes, by name, with its content: model.json (when a
-/// corrector was saved), results.json, report.html, and the linear part of the calibration in
-/// the files other tools read (imucal.json, imu_tk_acc.calib, imu_tk_gyro.calib; see
-/// [`crate::export`]). The CLI, `spincal fleet` and the Python package write the same files.
-pub fn campaign_files(
-    result: &CampaignResult,
-    saved: Option<&CorrectorFile>,
-) -> Result<Vec<(&'static str, String)>, PlotError> {
-    let mut files = Vec::new();
-    if let Some(model) = saved {
-        files.push(("model.json", model.to_json() + "\n"));
-    }
-    files.push(("results.json", pretty(result)));
-    files.push(("report.html", campaign_report(result)?));
-    let sensor = &result.joint.sensor;
-    let gyro = result.gyro.as_ref().map(|g| &g.model);
-    files.push(("imucal.json", pretty(&crate::export::imucal_json(sensor, gyro))));
-    if let Some((acc, gyr)) = crate::export::imu_tk_calibs(sensor, gyro) {
-        files.push(("imu_tk_acc.calib", acc.to_text()));
-        if let Some(gyr) = gyr {
-            files.push(("imu_tk_gyro.calib", gyr.to_text()));
-        }
-    }
-    Ok(files)
-}
-
-fn pretty<T: serde::Serialize>(value: &T) -> String {
-    serde_json::to_string_pretty(value).expect("results serialise") + "\n"
-}
-
-/// The names [`campaign_files`] may write, to check before any work that none is an input.
-pub const CAMPAIGN_FILE_NAMES: [&str; 6] = [
-    "model.json",
-    "results.json",
-    "report.html",
-    "imucal.json",
-    "imu_tk_acc.calib",
-    "imu_tk_gyro.calib",
-];
 
 /// A self-contained HTML report: the verdict, held-out errors per corrector, the sensor model.
 pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {

@@ -1067,7 +1067,39 @@ fn remedy_for(undetermined: &[String], recordings: usize, options: &FitOptions) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simulate::{simulate, SensorProfile, TurntableSetup};
+    use crate::turntable::model::Direction;
+
+    /// 20 s at 100 Hz of the model itself plus deterministic pseudo-noise (a hash of the index;
+    /// the simulator lives above this module).
+    fn recording(rpm: f64, phase: f64) -> Recording {
+        let session = Session {
+            radius_m: 0.1,
+            omega_radps: rpm * std::f64::consts::TAU / 60.0,
+            tilt_rad: 0.02,
+            phase_rad: phase,
+            direction: Direction::Cw,
+            drift_mps2_per_s: [1e-4, -2e-4, 5e-5],
+        };
+        let mounting = Mounting {
+            beta_rad: 0.05,
+            offset_mps2: [0.03, -0.02, 0.05],
+        };
+        let time_s: Vec<f64> = (0..2000).map(|i| i as f64 * 0.01).collect();
+        let mut accel = [Vec::new(), Vec::new(), Vec::new()];
+        evaluate(&session, &mounting, STANDARD_GRAVITY, &time_s, &mut accel);
+        for (k, axis) in accel.iter_mut().enumerate() {
+            for (i, v) in axis.iter_mut().enumerate() {
+                let h = ((i * 3 + k) as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 11;
+                *v += 0.02 * (h as f64 / (1u64 << 53) as f64 - 0.5);
+            }
+        }
+        Recording {
+            time_s,
+            accel_mps2: accel,
+            gyro_radps: None,
+            source: Default::default(),
+        }
+    }
 
     /// The residual vector, as the whole-Jacobian formulation had it (recording, axis, sample).
     fn residual_vector(problem: &Problem, p: &[f64]) -> Vec<f64> {
@@ -1089,21 +1121,8 @@ mod tests {
 
     #[test]
     fn streamed_normal_equations_equal_those_of_the_whole_jacobian() {
-        let table = TurntableSetup {
-            duration_s: 20.0,
-            ..TurntableSetup::default()
-        };
-        let a = simulate(&SensorProfile::default(), &table, 3).unwrap().recording;
-        let b = simulate(
-            &SensorProfile::default(),
-            &TurntableSetup {
-                rpm: 45.0,
-                ..table.clone()
-            },
-            4,
-        )
-        .unwrap()
-        .recording;
+        let a = recording(33.333, 0.4);
+        let b = recording(45.0, 1.9);
         let recordings = [&a, &b];
         let options = FitOptions {
             radius: Some(RadiusPrior {
