@@ -109,7 +109,12 @@ impl Default for FitOptions {
                 tol_f: 0.0,
                 max_iterations_per_param: 200,
             },
-            lm: LmOptions::default(),
+            // A relative cost change of 1e-12 moves the parameters by about 1e-6 of their
+            // standard errors; below it the sums' rounding decides, and iterations only churn.
+            lm: LmOptions {
+                cost_tolerance: 1e-12,
+                ..LmOptions::default()
+            },
         }
     }
 }
@@ -365,6 +370,9 @@ impl Problem<'_> {
     }
 }
 
+/// Derivative slots per residual row in [`Problem`]'s normal equations.
+const SLOTS: usize = 7;
+
 /// The normal equations sample by sample: each residual row has at most seven nonzero
 /// derivatives (radius, ω, tilt, phase, β, offset, drift), added into JᵀJ and Jᵀr as they are
 /// made, so the fit's memory does not grow with the recording (the whole Jacobian would take
@@ -412,37 +420,58 @@ impl NormalEquations for Problem<'_> {
             let offset_cols = [0, 1, 2].map(|a| column(Role::Offset(a)));
             let drift_cols = [0, 1, 2].map(|a| column(Role::Drift(k, a)));
             let weights = self.weights[k];
+            // Per axis, the rows' seven derivative slots (radius, ω, tilt, phase, β, offset,
+            // drift) always land in the same columns: accumulate a dense 7 × 7 block per axis
+            // (fixed indices, no branches in the sample loop) and scatter it once.
+            let mut block = [[[0.0f64; SLOTS]; SLOTS]; 3];
+            let mut block_r = [[0.0f64; SLOTS]; 3];
             for_each_derivative(&sessions[k], &mounting, self.gravity, &rec.time_s, |i, d| {
                 for &a in self.axes {
                     let w = weights[a];
                     let r = w * (d.value[a] - rec.accel_mps2[a][i]);
                     total += r * r;
-                    let mut row = [(0usize, 0.0f64); 7];
-                    let mut len = 0;
-                    let values = [d.radius[a], d.omega[a], d.tilt[a], d.phase[a], d.beta[a]];
-                    for (col, value) in role_cols.iter().zip(values) {
-                        if let Some(c) = *col {
-                            row[len] = (c, w * value);
-                            len += 1;
-                        }
-                    }
-                    if let Some(c) = offset_cols[a] {
-                        row[len] = (c, w);
-                        len += 1;
-                    }
-                    if let Some(c) = drift_cols[a] {
-                        row[len] = (c, w * d.drift);
-                        len += 1;
-                    }
-                    for (x, &(ci, vi)) in row[..len].iter().enumerate() {
-                        jtr[ci] += vi * r;
-                        for &(cj, vj) in &row[x..len] {
-                            let (lo, hi) = if ci <= cj { (ci, cj) } else { (cj, ci) };
-                            upper[lo * n + hi] += vi * vj;
+                    let v = [
+                        w * d.radius[a],
+                        w * d.omega[a],
+                        w * d.tilt[a],
+                        w * d.phase[a],
+                        w * d.beta[a],
+                        w,
+                        w * d.drift,
+                    ];
+                    // The full square (fixed bounds unroll and vectorise); the scatter reads
+                    // the upper triangle.
+                    let (b, br) = (&mut block[a], &mut block_r[a]);
+                    for x in 0..SLOTS {
+                        br[x] += v[x] * r;
+                        for y in 0..SLOTS {
+                            b[x][y] += v[x] * v[y];
                         }
                     }
                 }
             });
+            for &a in self.axes {
+                let cols = [
+                    role_cols[0],
+                    role_cols[1],
+                    role_cols[2],
+                    role_cols[3],
+                    role_cols[4],
+                    offset_cols[a],
+                    drift_cols[a],
+                ];
+                for x in 0..SLOTS {
+                    let Some(cx) = cols[x] else { continue };
+                    jtr[cx] += block_r[a][x];
+                    for y in x..SLOTS {
+                        let Some(cy) = cols[y] else { continue };
+                        let (lo, hi) = if cx <= cy { (cx, cy) } else { (cy, cx) };
+                        // Two slots in one column (never, but harmless) add both cross terms.
+                        let factor = if x != y && cx == cy { 2.0 } else { 1.0 };
+                        upper[lo * n + hi] += factor * block[a][x][y];
+                    }
+                }
+            }
         }
         if let Some((index, prior)) = self.prior {
             let r = (p[index] - prior.value_m) / prior.tolerance_m;
