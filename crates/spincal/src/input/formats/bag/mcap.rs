@@ -207,8 +207,8 @@ fn chunk(
                 ));
             }
             let size = header.uncompressed_size as usize;
-            decompressed =
-                decompress(&header.compression, &data, size).map_err(|w| corrupt(file, here(), w))?;
+            decompressed = super::decompress_chunk(&header.compression, &data, size)
+                .map_err(|w| corrupt(file, here(), w))?;
             (&decompressed[..], None)
         }
         other => {
@@ -266,28 +266,6 @@ fn chunk(
         p += 9 + rbody.len();
     }
     Ok(())
-}
-
-/// A zstd or lz4 (frame) chunk, decompressed to exactly `size` bytes.
-fn decompress(kind: &str, data: &[u8], size: usize) -> Result<Vec<u8>, String> {
-    use std::io::Read;
-    let mut out = Vec::with_capacity(size);
-    let limit = size as u64 + 1;
-    let result = match kind {
-        "zstd" => zstd::stream::read::Decoder::new(data).and_then(|d| d.take(limit).read_to_end(&mut out)),
-        _ => lz4_flex::frame::FrameDecoder::new(data)
-            .take(limit)
-            .read_to_end(&mut out),
-    };
-    result.map_err(|e| format!("{kind} chunk does not decompress: {e}"))?;
-    if out.len() != size {
-        return Err(format!(
-            "{kind} chunk decompresses to {}{} bytes, its header says {size}",
-            out.len().min(size + 1),
-            if out.len() > size { "+" } else { "" }
-        ));
-    }
-    Ok(out)
 }
 
 /// Checks the length of every string in a schema, channel or chunk body before the `mcap` crate

@@ -257,6 +257,33 @@ enum Choice {
     Vectors { accel: usize, gyro: Option<usize> },
 }
 
+/// A compressed chunk (MCAP's zstd or lz4, ROS 1's bz2 or lz4; lz4 as frames), decompressed to
+/// exactly `size` bytes, the size its header states. The callers have checked the kind.
+fn decompress_chunk(kind: &str, data: &[u8], size: usize) -> Result<Vec<u8>, String> {
+    use std::io::Read;
+    // Why a cap on the preallocation: `size` comes from the file.
+    let mut out = Vec::with_capacity(size.min(64 << 20));
+    let limit = size as u64 + 1;
+    let result = match kind {
+        "zstd" => zstd::stream::read::Decoder::new(data).and_then(|d| d.take(limit).read_to_end(&mut out)),
+        "bz2" => bzip2::read::BzDecoder::new(data)
+            .take(limit)
+            .read_to_end(&mut out),
+        _ => lz4_flex::frame::FrameDecoder::new(data)
+            .take(limit)
+            .read_to_end(&mut out),
+    };
+    result.map_err(|e| format!("{kind} chunk does not decompress: {e}"))?;
+    if out.len() != size {
+        return Err(format!(
+            "{kind} chunk decompresses to {}{} bytes, its header says {size}",
+            out.len().min(size + 1),
+            if out.len() > size { "+" } else { "" }
+        ));
+    }
+    Ok(out)
+}
+
 fn describe(c: &Collector, choice: &Choice) -> String {
     let t = |i: usize| {
         let info = &c.topics[i];

@@ -9,7 +9,6 @@
 //! come before their messages, inside the chunks, so one linear pass reads the bag.
 
 use std::collections::HashMap;
-use std::io::Read;
 
 use super::{BagError, Collector};
 
@@ -187,7 +186,7 @@ fn walk(
                     }
                     "bz2" | "lz4" => {
                         let name: &'static str = if compression == "bz2" { "bz2" } else { "lz4" };
-                        owned = decompress(name, data, size).map_err(fail)?;
+                        owned = super::decompress_chunk(name, data, size).map_err(fail)?;
                         (
                             &owned[..],
                             Place::Chunk {
@@ -243,27 +242,4 @@ fn walk(
         pos = data_at + data.len();
     }
     Ok(())
-}
-
-fn decompress(kind: &str, data: &[u8], size: usize) -> Result<Vec<u8>, String> {
-    // Why a cap on the preallocation: `size` comes from the file.
-    let mut out = Vec::with_capacity(size.min(64 << 20));
-    let limit = size as u64 + 1;
-    let result = match kind {
-        "bz2" => bzip2::read::BzDecoder::new(data)
-            .take(limit)
-            .read_to_end(&mut out),
-        _ => lz4_flex::frame::FrameDecoder::new(data)
-            .take(limit)
-            .read_to_end(&mut out),
-    };
-    result.map_err(|e| format!("{kind} chunk does not decompress: {e}"))?;
-    if out.len() != size {
-        return Err(format!(
-            "{kind} chunk decompresses to {}{} bytes, its header says {size}",
-            out.len().min(size + 1),
-            if out.len() > size { "+" } else { "" }
-        ));
-    }
-    Ok(out)
 }
