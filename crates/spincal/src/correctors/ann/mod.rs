@@ -74,6 +74,22 @@ const MIN_SAMPLES: usize = 10;
 /// corrected sample is flagged as an extrapolation ([`CorrectedSample::outside_training_range`]).
 pub const EXTRAPOLATION_MARGIN: f64 = 0.1;
 
+/// At most [`MAX_DELAYS`] delays, and enough of `n` samples left after them for a division.
+fn check_size(n: usize, delays: usize) -> Result<(), AnnError> {
+    if delays > MAX_DELAYS {
+        return Err(AnnError::TooManyDelays(delays));
+    }
+    let needed = delays + MIN_SAMPLES;
+    if n < needed {
+        return Err(AnnError::TooFewSamples {
+            samples: n,
+            delays,
+            needed,
+        });
+    }
+    Ok(())
+}
+
 /// Measured and reference data of the chosen axes, divided and scaled, ready for training.
 #[derive(Debug, Clone)]
 pub struct AnnProblem {
@@ -102,18 +118,7 @@ impl AnnProblem {
     ) -> Result<AnnProblem, AnnError> {
         check_axes(axes)?;
         check_pairing(measured, reference)?;
-        if delays > MAX_DELAYS {
-            return Err(AnnError::TooManyDelays(delays));
-        }
-        let n = measured.len();
-        let needed = delays + MIN_SAMPLES;
-        if n < needed {
-            return Err(AnnError::TooFewSamples {
-                samples: n,
-                delays,
-                needed,
-            });
-        }
+        check_size(measured.len(), delays)?;
         let pick = |r: &Recording| -> Vec<Vec<f64>> {
             axes.iter().map(|a| r.accel_mps2[a.index()].clone()).collect()
         };

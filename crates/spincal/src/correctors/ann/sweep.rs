@@ -484,17 +484,8 @@ impl SweepJobs {
         {
             return Err(AnnError::SweepExchange("a value that is not finite".into()));
         }
-        if jobs.delays > super::MAX_DELAYS {
-            return Err(AnnError::TooManyDelays(jobs.delays));
-        }
+        super::check_size(n, jobs.delays)?;
         check_exchanged_settings(&jobs.settings)?;
-        if n < jobs.delays + super::MIN_SAMPLES {
-            return Err(AnnError::TooFewSamples {
-                samples: n,
-                delays: jobs.delays,
-                needed: jobs.delays + super::MIN_SAMPLES,
-            });
-        }
         Ok(jobs)
     }
 
