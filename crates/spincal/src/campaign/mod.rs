@@ -20,5 +20,6 @@ pub use joint::{fit_joint, JointFit, JointSettings, PoseInput, RunInput, SensorT
 pub use load::{load_campaign, LoadError};
 pub use prepare::UnitRecording;
 pub use select::{
-    calibrate_campaign, CampaignOutput, CampaignResult, CampaignSettings, CandidateKind, HeldOutScore,
+    calibrate_campaign, combined, CampaignOutput, CampaignResult, CampaignSettings, CandidateKind,
+    HeldOutScore,
 };

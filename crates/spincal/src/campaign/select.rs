@@ -619,7 +619,8 @@ fn score(
     Ok((rms, floor, against))
 }
 
-fn combined(rms: [f64; 3]) -> f64 {
+/// RMS over the three axes of per-axis RMS errors (what the selection and the report compare).
+pub fn combined(rms: [f64; 3]) -> f64 {
     ((rms[0] * rms[0] + rms[1] * rms[1] + rms[2] * rms[2]) / 3.0).sqrt()
 }
 

@@ -8,7 +8,7 @@ use super::escape;
 use super::html::figure;
 use super::plot::{Legend, LinePlot, LineStyle, Series};
 use super::plot::{PlotError, Rgb};
-use crate::campaign::CampaignResult;
+use crate::campaign::{combined, CampaignResult};
 
 /// A self-contained HTML report: the verdict, held-out errors per corrector, the sensor model.
 pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
@@ -152,11 +152,6 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
     Ok(h)
 }
 
-/// RMS over the three axes of per-axis RMS errors.
-fn overall(v: &[f64; 3]) -> f64 {
-    (v.iter().map(|x| x * x).sum::<f64>() / 3.0).sqrt()
-}
-
 /// Held-out error per condition for every corrector, with the uncorrected signal and the floor.
 fn held_out_plot(r: &CampaignResult) -> Option<LinePlot> {
     let mut conditions: Vec<&str> = Vec::new();
@@ -189,7 +184,7 @@ fn held_out_plot(r: &CampaignResult) -> Option<LinePlot> {
     for (k, c) in r.candidates.iter().enumerate() {
         let y = per_condition(&|s| {
             (s.candidate == c.candidate)
-                .then_some(s.rms_mps2.map(|v| overall(&v)))
+                .then_some(s.rms_mps2.map(combined))
                 .flatten()
         });
         plot = plot.series(
@@ -198,13 +193,13 @@ fn held_out_plot(r: &CampaignResult) -> Option<LinePlot> {
                 .style(LineStyle::Markers),
         );
     }
-    let uncorrected = per_condition(&|s| Some(overall(&s.uncorrected_rms_mps2)));
+    let uncorrected = per_condition(&|s| Some(combined(s.uncorrected_rms_mps2)));
     plot = plot.series(
         Series::new("uncorrected", x.clone(), uncorrected)
             .color(Rgb(0, 0, 0))
             .style(LineStyle::Dashed),
     );
-    let floor = per_condition(&|s| s.floor_mps2.map(|v| overall(&v)));
+    let floor = per_condition(&|s| s.floor_mps2.map(combined));
     if floor.iter().any(|v| v.is_finite()) {
         plot = plot.series(
             Series::new("floor", x, floor)
