@@ -4,15 +4,49 @@
 /// negative. `reference` is y (the target), `estimate` is ŷ. NaN when the reference is constant.
 pub fn fit_percent(reference: &[f64], estimate: &[f64]) -> f64 {
     assert_eq!(reference.len(), estimate.len(), "fit_percent: lengths differ");
-    let n = reference.len() as f64;
-    let mean = reference.iter().sum::<f64>() / n;
-    let mut err = 0.0;
-    let mut spread = 0.0;
+    let mut sums = FitSums::new(reference);
     for (y, e) in reference.iter().zip(estimate) {
-        err += (y - e) * (y - e);
-        spread += (y - mean) * (y - mean);
+        sums.add(*y, *e);
     }
-    100.0 * (1.0 - err.sqrt() / spread.sqrt())
+    sums.fit_percent()
+}
+
+/// The sums behind [`fit_percent`] and [`rmse`], for an estimate made sample by sample and never
+/// stored (a day-long model signal would double a fit's memory). Same sums in the same order as
+/// those functions, so the same bits.
+#[derive(Debug, Clone)]
+pub struct FitSums {
+    mean: f64,
+    samples: usize,
+    err: f64,
+    spread: f64,
+}
+
+impl FitSums {
+    pub fn new(reference: &[f64]) -> FitSums {
+        FitSums {
+            mean: reference.iter().sum::<f64>() / reference.len() as f64,
+            samples: 0,
+            err: 0.0,
+            spread: 0.0,
+        }
+    }
+
+    /// The next sample of the reference and of the estimate.
+    #[inline]
+    pub fn add(&mut self, reference: f64, estimate: f64) {
+        self.err += (reference - estimate) * (reference - estimate);
+        self.spread += (reference - self.mean) * (reference - self.mean);
+        self.samples += 1;
+    }
+
+    pub fn fit_percent(&self) -> f64 {
+        100.0 * (1.0 - self.err.sqrt() / self.spread.sqrt())
+    }
+
+    pub fn rmse(&self) -> f64 {
+        (self.err / self.samples as f64).sqrt()
+    }
 }
 
 /// Root-mean-square of `reference − estimate`.

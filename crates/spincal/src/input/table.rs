@@ -274,7 +274,7 @@ impl Table {
 
 /// The bytes of a file: mapped when it is a large regular file, read whole otherwise.
 pub enum FileBytes {
-    Mapped(memmap2::Mmap),
+    Mapped(MappedFile),
     Read(Vec<u8>),
 }
 
@@ -282,7 +282,7 @@ impl std::ops::Deref for FileBytes {
     type Target = [u8];
     fn deref(&self) -> &[u8] {
         match self {
-            FileBytes::Mapped(map) => map,
+            FileBytes::Mapped(file) => &file.map,
             FileBytes::Read(bytes) => bytes,
         }
     }
@@ -300,13 +300,99 @@ pub fn read_file(path: &Path) -> std::io::Result<FileBytes> {
         // SAFETY: the map is read-only. Another process truncating the file while it is parsed
         // would fault the read (SIGBUS), as in any reader that maps files; spincal's inputs are
         // finished recordings, and the speed of a mapped read is why this is worth it.
-        if let Ok(map) = unsafe { memmap2::MmapOptions::new().populate().map(&file) } {
-            return Ok(FileBytes::Mapped(map));
+        if let Ok(map) = unsafe { memmap2::MmapOptions::new().map(&file) } {
+            return Ok(FileBytes::Mapped(MappedFile::new(map)));
         }
     }
     let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0));
     file.read_to_end(&mut bytes)?;
     Ok(FileBytes::Read(bytes))
+}
+
+/// A mapped file whose pages the parser hands back as it finishes with them, so a file larger
+/// than memory allows can be read and only a window of it is resident at a time. The address
+/// ranges of live maps are kept in [`LIVE_MAPS`]: parsers see plain byte slices.
+pub struct MappedFile {
+    map: memmap2::Mmap,
+}
+
+/// (start, end) addresses of every live [`MappedFile`].
+static LIVE_MAPS: std::sync::Mutex<Vec<(usize, usize)>> = std::sync::Mutex::new(Vec::new());
+
+impl MappedFile {
+    fn new(map: memmap2::Mmap) -> MappedFile {
+        let start = map.as_ptr() as usize;
+        if let Ok(mut live) = LIVE_MAPS.lock() {
+            live.push((start, start + map.len()));
+        }
+        MappedFile { map }
+    }
+}
+
+impl Drop for MappedFile {
+    fn drop(&mut self) {
+        // Forgotten before the map goes, so no released range can outlive it.
+        let start = self.map.as_ptr() as usize;
+        if let Ok(mut live) = LIVE_MAPS.lock() {
+            live.retain(|&(s, _)| s != start);
+        }
+    }
+}
+
+/// What to tell the kernel about a stretch of a mapped file.
+#[derive(Clone, Copy)]
+enum Paging {
+    /// About to be read: fault it in at once.
+    Ahead,
+    /// Read: drop it from this process (the page cache keeps it; touching it again reads it back).
+    Done,
+}
+
+/// Gives `part`'s whole pages the advice when `part` lies in a live [`MappedFile`]; any other
+/// slice (a `Vec`, a test's string) is left alone. Advice only changes residency, never contents.
+fn advise_mapped(part: &[u8], paging: Paging) {
+    #[cfg(unix)]
+    {
+        const PAGE: usize = 4096;
+        let (start, end) = (part.as_ptr() as usize, part.as_ptr() as usize + part.len());
+        let Ok(live) = LIVE_MAPS.lock() else { return };
+        if !live.iter().any(|&(s, e)| s <= start && end <= e) {
+            return;
+        }
+        let (first, last) = match paging {
+            Paging::Ahead => (start & !(PAGE - 1), end),
+            // Only pages wholly inside `part`: its neighbours may still be read.
+            Paging::Done => (start.next_multiple_of(PAGE), end & !(PAGE - 1)),
+        };
+        if first >= last {
+            return;
+        }
+        let advise = |advice: libc::c_int| {
+            // SAFETY: the range lies in a live read-only file map (checked under the lock, which
+            // `MappedFile::drop` takes before unmapping); these advices leave its contents as
+            // they are.
+            unsafe { libc::madvise(first as *mut libc::c_void, last - first, advice) == 0 }
+        };
+        match paging {
+            // Linux 5.14+ maps the pages at once; elsewhere, read-ahead at least.
+            #[cfg(target_os = "linux")]
+            Paging::Ahead => {
+                if !advise(libc::MADV_POPULATE_READ) {
+                    advise(libc::MADV_WILLNEED);
+                }
+            }
+            #[cfg(not(target_os = "linux"))]
+            Paging::Ahead => {
+                advise(libc::MADV_WILLNEED);
+            }
+            Paging::Done => {
+                advise(libc::MADV_DONTNEED);
+            }
+        }
+        drop(live);
+    }
+    #[cfg(not(unix))]
+    let _ = (part, paging);
 }
 
 /// The start of a table held in memory, read line by line like [`RowReader`] does (metadata,
@@ -320,10 +406,8 @@ pub struct TableHead<'a> {
     width: usize,
     /// The first data row's line and values.
     first: (usize, Vec<f64>),
-    /// The bytes after the first data row, up to the first line that is not UTF-8 text.
+    /// The bytes after the first data row.
     rest: &'a [u8],
-    /// That line, when there is one.
-    not_text: Option<usize>,
 }
 
 /// Rows parsed by [`TableHead::rows`]: the chosen columns and the 1-based line of every row.
@@ -335,6 +419,9 @@ pub struct Rows {
 
 /// Below this many bytes per chunk a parallel split costs more than it gains.
 const MIN_CHUNK_BYTES: usize = 1 << 20;
+
+/// Bytes parsed at a time: a mapped file's pages are resident one window at a time.
+const WINDOW_BYTES: usize = 16 << 20;
 
 impl<'a> TableHead<'a> {
     pub fn new(bytes: &'a [u8], file: &str, options: &TableOptions) -> Result<Self, TableError> {
@@ -351,16 +438,6 @@ impl<'a> TableHead<'a> {
         let Some(first) = pending else {
             unreachable!("RowReader::new always holds the first data row")
         };
-        // One UTF-8 check for the whole rest. Rows before a line that is not text are read as
-        // usual, and that line is then the error, as when lines were read one at a time.
-        let (rest, not_text) = match std::str::from_utf8(rest) {
-            Ok(_) => (rest, None),
-            Err(e) => {
-                let cut = memchr::memrchr(b'\n', &rest[..e.valid_up_to()]).map_or(0, |p| p + 1);
-                let line = first.0 + 1 + memchr::memchr_iter(b'\n', &rest[..cut]).count();
-                (&rest[..cut], Some(line))
-            }
-        };
         Ok(TableHead {
             file,
             delimiter,
@@ -369,7 +446,6 @@ impl<'a> TableHead<'a> {
             width,
             first,
             rest,
-            not_text,
         })
     }
 
@@ -381,91 +457,124 @@ impl<'a> TableHead<'a> {
     /// Parses every data row. Output column `k` is file column `targets[k].0` times `targets[k].1`
     /// (units applied while parsing); every cell is checked, chosen or not, so errors are those of
     /// [`Table::read`], except that an empty cell is an error only in a chosen column (after the
-    /// first data row, which fixes the width and must be complete). Large inputs are parsed in chunks in parallel; the result does not depend
-    /// on the thread count.
+    /// first data row, which fixes the width and must be complete). The input is parsed a window
+    /// of [`WINDOW_BYTES`] at a time (a mapped file's pages are given back after each), large
+    /// windows in chunks in parallel; the result does not depend on the thread count.
     pub fn rows(&self, targets: &[(usize, f64)]) -> Result<Rows, TableError> {
         let threads = rayon::current_num_threads();
-        let chunks = if threads > 1 {
-            // A few chunks per thread even out lines of different lengths and a busy core.
-            (self.rest.len() / MIN_CHUNK_BYTES).clamp(1, 4 * threads)
-        } else {
-            1
+        let chunks = |bytes: usize| {
+            if threads > 1 {
+                // A few chunks per thread even out lines of different lengths and a busy core.
+                (bytes / MIN_CHUNK_BYTES).clamp(1, 4 * threads)
+            } else {
+                1
+            }
         };
-        self.rows_in_chunks(targets, chunks)
+        self.rows_in_windows(targets, chunks, WINDOW_BYTES)
     }
 
-    /// [`TableHead::rows`] with the number of chunks given (tests check that it does not matter).
+    /// [`TableHead::rows`] with the number of chunks per window given (tests check that it does
+    /// not matter).
     #[doc(hidden)]
     pub fn rows_in_chunks(&self, targets: &[(usize, f64)], chunks: usize) -> Result<Rows, TableError> {
+        self.rows_in_windows(targets, |_| chunks, WINDOW_BYTES)
+    }
+
+    /// [`TableHead::rows`] with the chunks per window and the window's size given (tests check that
+    /// neither matters).
+    #[doc(hidden)]
+    pub fn rows_in_windows(
+        &self,
+        targets: &[(usize, f64)],
+        chunks: impl Fn(usize) -> usize,
+        window_bytes: usize,
+    ) -> Result<Rows, TableError> {
         let mut used = vec![false; self.width];
         for &(c, _) in targets {
             used[c] = true;
         }
         let used = &used[..];
-        let pieces = split_at_lines(self.rest, chunks.max(1));
         let located = |line: usize, fault: Fault| fault.locate(&self.file, line, &self.header, self.width);
-        let out = if pieces.len() == 1 {
-            // Rows per byte from the first 64 KiB, to allocate the columns once.
-            let sample = &self.rest[..self.rest.len().min(1 << 16)];
-            let per_sample = memchr::memchr_iter(b'\n', sample).count() + 1;
-            let rows = self.rest.len() / sample.len().max(1) * per_sample + per_sample + 1;
-            let mut out = Rows {
-                columns: targets.iter().map(|_| Vec::with_capacity(rows)).collect(),
-                lines: Vec::with_capacity(rows),
-            };
-            for (column, &(c, scale)) in out.columns.iter_mut().zip(targets) {
-                column.push(self.first.1[c] * scale);
-            }
-            out.lines.push(self.first.0);
-            // One chunk writes straight into the result, numbering lines as it goes.
-            self.parse_chunk(self.rest, self.first.0, used, |row, line| {
-                for (column, &(c, scale)) in out.columns.iter_mut().zip(targets) {
-                    column.push(row[c] * scale);
-                }
-                out.lines.push(line);
-            })
-            .map_err(|(line, fault)| located(line, fault))?;
-            out
-        } else {
-            self.rows_in_parallel(&pieces, targets, used)
-                .map_err(|(line, fault)| located(line, fault))?
+        // Rows per byte from the first 64 KiB, to allocate the columns once (capacity that is
+        // never written costs no memory).
+        let sample = &self.rest[..self.rest.len().min(1 << 16)];
+        let per_sample = memchr::memchr_iter(b'\n', sample).count() + 1;
+        let rows = self.rest.len() / sample.len().max(1) * per_sample + per_sample + 1;
+        let mut out = Rows {
+            columns: targets.iter().map(|_| Vec::with_capacity(rows)).collect(),
+            lines: Vec::with_capacity(rows),
         };
-        if let Some(line) = self.not_text {
-            return Err(TableError::NotText {
-                file: self.file.clone(),
-                line,
-            });
+        for (column, &(c, scale)) in out.columns.iter_mut().zip(targets) {
+            column.push(self.first.1[c] * scale);
+        }
+        out.lines.push(self.first.0);
+        let mut base = self.first.0;
+        let mut rest = self.rest;
+        while !rest.is_empty() {
+            let window = &rest[..line_end_after(rest, window_bytes.max(1))];
+            rest = &rest[window.len()..];
+            advise_mapped(window, Paging::Ahead);
+            // One UTF-8 check per window (windows end after a newline, so no character is cut).
+            // Rows before a line that is not text are read as usual, and that line is then the
+            // error, as when lines were read one at a time.
+            let (text, not_text) = match std::str::from_utf8(window) {
+                Ok(_) => (window, false),
+                Err(e) => {
+                    let cut = memchr::memrchr(b'\n', &window[..e.valid_up_to()]).map_or(0, |p| p + 1);
+                    (&window[..cut], true)
+                }
+            };
+            let pieces = split_at_lines(text, chunks(text.len()).max(1));
+            base = if pieces.len() == 1 {
+                // One chunk writes straight into the result, numbering lines as it goes.
+                let n_lines = self
+                    .parse_chunk(text, base, used, |row, line| {
+                        for (column, &(c, scale)) in out.columns.iter_mut().zip(targets) {
+                            column.push(row[c] * scale);
+                        }
+                        out.lines.push(line);
+                    })
+                    .map_err(|(line, fault)| located(line, fault))?;
+                base + n_lines
+            } else {
+                self.append_in_parallel(&pieces, targets, used, base, &mut out)
+                    .map_err(|(line, fault)| located(line, fault))?
+            };
+            if not_text {
+                return Err(TableError::NotText {
+                    file: self.file.clone(),
+                    line: base + 1,
+                });
+            }
+            advise_mapped(window, Paging::Done);
         }
         Ok(out)
     }
 
-    /// Parses the pieces in parallel, each into its own stretch of the result (as long as its
-    /// lines, an upper bound on its rows), then closes the gaps left by blank and comment lines.
-    fn rows_in_parallel(
+    /// Parses the pieces (whole lines after line `base`) in parallel and appends their rows to
+    /// `out`, each piece into its own stretch (as long as its lines, an upper bound on its rows),
+    /// then closes the gaps left by blank and comment lines. Returns the last line read.
+    fn append_in_parallel(
         &self,
         pieces: &[&[u8]],
         targets: &[(usize, f64)],
         used: &[bool],
-    ) -> Result<Rows, (usize, Fault)> {
+        base: usize,
+        out: &mut Rows,
+    ) -> Result<usize, (usize, Fault)> {
         use rayon::prelude::*;
         let counts: Vec<usize> = pieces
             .par_iter()
             .map(|p| memchr::memchr_iter(b'\n', p).count() + usize::from(!p.ends_with(b"\n")))
             .collect();
-        let total = 1 + counts.iter().sum::<usize>();
-        // Zeroed allocations are mapped lazily, so the workers fault in their own stretches.
-        let mut columns: Vec<Vec<f64>> = targets
-            .iter()
-            .map(|&(c, scale)| {
-                let mut column = vec![0.0; total];
-                column[0] = self.first.1[c] * scale;
-                column
-            })
-            .collect();
-        let mut lines = vec![0; total];
-        lines[0] = self.first.0;
-        let mut column_rests: Vec<&mut [f64]> = columns.iter_mut().map(|c| &mut c[1..]).collect();
-        let mut line_rest = &mut lines[1..];
+        let start = out.lines.len();
+        let total = start + counts.iter().sum::<usize>();
+        for column in out.columns.iter_mut() {
+            column.resize(total, 0.0);
+        }
+        out.lines.resize(total, 0);
+        let mut column_rests: Vec<&mut [f64]> = out.columns.iter_mut().map(|c| &mut c[start..]).collect();
+        let mut line_rest = &mut out.lines[start..];
         let mut stretches = Vec::with_capacity(pieces.len());
         for &n in &counts {
             let mut piece_columns = Vec::with_capacity(targets.len());
@@ -495,27 +604,27 @@ impl<'a> TableHead<'a> {
             .collect();
         // In file order: the first piece with a fault holds the file's first fault, and the pieces
         // before it give its line.
-        let (mut base, mut write, mut read) = (self.first.0, 1, 1);
+        let (mut base, mut write, mut read) = (base, start, start);
         for (result, n) in parsed.into_iter().zip(counts) {
             let (n_lines, rows) = result.map_err(|(line, fault)| (base + line, fault))?;
             if read != write {
-                for column in columns.iter_mut() {
+                for column in out.columns.iter_mut() {
                     column.copy_within(read..read + rows, write);
                 }
-                lines.copy_within(read..read + rows, write);
+                out.lines.copy_within(read..read + rows, write);
             }
-            for line in &mut lines[write..write + rows] {
+            for line in &mut out.lines[write..write + rows] {
                 *line += base;
             }
             base += n_lines;
             write += rows;
             read += n;
         }
-        for column in columns.iter_mut() {
+        for column in out.columns.iter_mut() {
             column.truncate(write);
         }
-        lines.truncate(write);
-        Ok(Rows { columns, lines })
+        out.lines.truncate(write);
+        Ok(base)
     }
 
     /// Parses the whole lines in `piece`, numbered from `base + 1`, handing each row and its line to
@@ -561,6 +670,15 @@ impl<'a> TableHead<'a> {
         }
         Ok(line - base)
     }
+}
+
+/// The length of `bytes`' first stretch of about `size` bytes that ends after a newline (or at
+/// the end).
+fn line_end_after(bytes: &[u8], size: usize) -> usize {
+    if bytes.len() <= size {
+        return bytes.len();
+    }
+    memchr::memchr(b'\n', &bytes[size..]).map_or(bytes.len(), |e| size + e + 1)
 }
 
 /// Splits `bytes` into at most `chunks` pieces of about equal size, each ending after a newline
@@ -1335,10 +1453,20 @@ mod tests {
             "{:?}",
             String::from_utf8_lossy(bytes)
         );
-        for chunks in [2, 3, 7, 64] {
+        let windows = [
+            (2, WINDOW_BYTES),
+            (3, WINDOW_BYTES),
+            (7, WINDOW_BYTES),
+            (64, WINDOW_BYTES),
+            (1, 1),
+            (1, 9),
+            (3, 1),
+            (5, 40),
+        ];
+        for (chunks, window) in windows {
             let chunked = TableHead::new(bytes, "test.csv", options).and_then(|head| {
                 let every: Vec<(usize, f64)> = (0..head.width()).map(|c| (c, 1.0)).collect();
-                let rows = head.rows_in_chunks(&every, chunks)?;
+                let rows = head.rows_in_windows(&every, |_| chunks, window)?;
                 Ok(Table {
                     file: "test.csv".into(),
                     delimiter: head.delimiter,
@@ -1351,7 +1479,7 @@ mod tests {
             assert_eq!(
                 outcome(chunked),
                 old,
-                "{chunks} chunks: {:?}",
+                "{chunks} chunks, windows of {window} bytes: {:?}",
                 String::from_utf8_lossy(bytes)
             );
         }
@@ -1601,6 +1729,9 @@ mod tests {
         assert_eq!(one.lines[149_999], 150_001);
         for chunks in [2, 5, 16] {
             assert_eq!(head.rows_in_chunks(&targets, chunks).unwrap(), one);
+            for window in [1 << 12, 100_001] {
+                assert_eq!(head.rows_in_windows(&targets, |_| chunks, window).unwrap(), one);
+            }
         }
         for threads in [1, 2, 4] {
             let pool = rayon::ThreadPoolBuilder::new()
@@ -1610,5 +1741,33 @@ mod tests {
             assert_eq!(pool.install(|| head.rows(&targets)).unwrap(), one);
         }
         agree(text.as_bytes());
+    }
+
+    /// A mapped file read in small windows gives back each window's pages as it goes: the rows are
+    /// those of the same bytes in a `Vec`, and the map still reads as the file afterwards.
+    #[test]
+    fn a_mapped_file_read_in_windows_is_read_whole_and_left_intact() {
+        let text = long_file(40_000) + "# end\n";
+        assert!(
+            text.len() as u64 >= MAP_BYTES,
+            "{} bytes are too few to be mapped",
+            text.len()
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("long.csv");
+        std::fs::write(&path, &text).unwrap();
+        let bytes = read_file(&path).unwrap();
+        assert!(matches!(bytes, FileBytes::Mapped(_)));
+        let targets = [(0, 1.0), (2, 2.0)];
+        let mapped = TableHead::new(&bytes, "long.csv", &TableOptions::default()).unwrap();
+        let copied = TableHead::new(text.as_bytes(), "long.csv", &TableOptions::default()).unwrap();
+        let expected = copied.rows(&targets).unwrap();
+        for chunks in [1, 3] {
+            assert_eq!(
+                mapped.rows_in_windows(&targets, |_| chunks, 5000).unwrap(),
+                expected
+            );
+        }
+        assert!(*bytes == *text.as_bytes());
     }
 }

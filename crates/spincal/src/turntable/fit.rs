@@ -16,7 +16,7 @@ use std::borrow::Cow;
 
 use crate::input::inspect::{inspect, saturated_mask, Inspection};
 use crate::input::recording::{Recording, STANDARD_GRAVITY};
-use crate::metrics::fit_percent;
+use crate::metrics::FitSums;
 use crate::optim::{
     levenberg_marquardt_normal, nelder_mead_bounded, Bounds, BoundsError, LmOptions, LmReport, LmStop,
     NelderMeadOptions, NelderMeadReport, NormalEquations, Observer,
@@ -1005,15 +1005,27 @@ fn recording_fits(
 ) -> Vec<RecordingFit> {
     let mut fits = Vec::new();
     for (k, rec) in problem.recordings.iter().enumerate() {
-        let mut model = [Vec::new(), Vec::new(), Vec::new()];
-        evaluate(&sessions[k], mounting, problem.gravity, &rec.time_s, &mut model);
+        // The model is compared sample by sample, never stored (it would be as large as the
+        // recording).
+        let mut sums = [0, 1, 2].map(|a| FitSums::new(&rec.accel_mps2[a]));
+        for_each_sample(
+            &sessions[k],
+            mounting,
+            problem.gravity,
+            &rec.time_s,
+            |i, model| {
+                for (a, sums) in sums.iter_mut().enumerate() {
+                    sums.add(rec.accel_mps2[a][i], model[a]);
+                }
+            },
+        );
         fits.push(RecordingFit {
             name: rec.source.name.clone(),
             rate: looks[k].rate.clone(),
             inspection: looks[k].inspection.clone(),
             session: sessions[k],
-            fit_percent: [0, 1, 2].map(|a| fit_percent(&rec.accel_mps2[a], &model[a])),
-            residual_rms_mps2: [0, 1, 2].map(|a| crate::metrics::rmse(&rec.accel_mps2[a], &model[a])),
+            fit_percent: sums.clone().map(|s| s.fit_percent()),
+            residual_rms_mps2: sums.map(|s| s.rmse()),
         });
     }
     fits

@@ -2,7 +2,8 @@
 //!
 //! Each horizontal axis is detrended and Hann-windowed; their power spectra (real FFT, zero-padded
 //! to a power of two at least twice the length) are summed; the highest line in the allowed band
-//! is refined below one bin by maximising the windowed DTFT power directly (golden section).
+//! is refined below one bin by maximising the windowed DTFT power directly (Newton on its
+//! derivatives). Long recordings are searched in segments, so memory stays bounded.
 
 use realfft::RealFftPlanner;
 use serde::{Deserialize, Serialize};
@@ -61,10 +62,34 @@ pub enum SpectrumError {
 /// How far up the spectrum a [`RateEstimate`] keeps, in multiples of the rotation frequency.
 pub const SPECTRUM_KEPT_HARMONICS: f64 = 8.0;
 
+/// Recordings up to this many samples get one FFT of the whole (about 90 bytes per sample beside
+/// the recording); longer ones are searched in segments of this length (see
+/// [`estimate_rotation_rate`]). 2²⁰ samples are 2.9 h at 100 Hz.
+pub const WHOLE_SPECTRUM_SAMPLES: usize = 1 << 20;
+
 /// Estimates the rotation rate of a recording from its x and y axes.
+///
+/// Up to [`WHOLE_SPECTRUM_SAMPLES`] samples, the x and y power spectra of the whole recording are
+/// summed and the highest line in the band is refined on the recording's DTFT. A longer recording
+/// would need several times its own memory for that FFT, so its spectrum is the sum over
+/// segments of that length (Bartlett's average: the same line, finer detection statistics, coarser
+/// bins), the line is refined on the first segment's DTFT, then on prefixes four times longer in
+/// turn up to the whole recording, each searched ±4 of its own bins around the last estimate. Both
+/// end on the same maximum of the whole recording's DTFT; the long route holds one Hann window of
+/// the recording's length (8 bytes per sample) at most.
 pub fn estimate_rotation_rate(
     recording: &Recording,
     search: RateSearch,
+) -> Result<RateEstimate, SpectrumError> {
+    estimate_rotation_rate_in_segments(recording, search, WHOLE_SPECTRUM_SAMPLES)
+}
+
+/// [`estimate_rotation_rate`] with the segment length given (tests use short ones).
+#[doc(hidden)]
+pub fn estimate_rotation_rate_in_segments(
+    recording: &Recording,
+    search: RateSearch,
+    segment: usize,
 ) -> Result<RateEstimate, SpectrumError> {
     let n = recording.len();
     if n < 64 {
@@ -75,29 +100,34 @@ pub fn estimate_rotation_rate(
     }
     let dt = sample_interval(&recording.time_s);
     let rate_hz = 1.0 / dt;
-    let window = |i: usize| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / (n - 1) as f64).cos();
-    let prepared: Vec<Vec<f64>> = recording.accel_mps2[..2]
-        .iter()
-        .map(|axis| {
-            let mut x = detrend(axis);
-            x.iter_mut().enumerate().for_each(|(i, v)| *v *= window(i));
-            x
-        })
-        .collect();
-
-    let padded = (2 * n).next_power_of_two();
+    let segment = if n <= segment.max(64) { n } else { segment.max(64) };
+    let segments = n / segment;
+    let padded = (2 * segment).next_power_of_two();
     let fft = RealFftPlanner::<f64>::new().plan_fft_forward(padded);
     let mut input = fft.make_input_vec();
     let mut output = fft.make_output_vec();
     let mut power = vec![0.0; output.len()];
-    let norm = (0..n).map(|i| window(i) * window(i)).sum::<f64>();
-    for axis in &prepared {
-        input[..n].copy_from_slice(axis);
-        input[n..].iter_mut().for_each(|v| *v = 0.0);
-        fft.process(&mut input, &mut output)
-            .expect("buffer sizes come from the planner");
-        for (p, c) in power.iter_mut().zip(&output) {
-            *p += c.norm_sqr() / norm;
+    let mut first_prepared = Vec::new();
+    for k in 0..segments {
+        let range = k * segment..(k + 1) * segment;
+        let prepared = prepare(&recording.accel_mps2[..2], range);
+        let norm = (0..segment)
+            .map(|i| {
+                let w = hann(i, segment);
+                w * w
+            })
+            .sum::<f64>();
+        for axis in &prepared {
+            input[..segment].copy_from_slice(axis);
+            input[segment..].iter_mut().for_each(|v| *v = 0.0);
+            fft.process(&mut input, &mut output)
+                .expect("buffer sizes come from the planner");
+            for (p, c) in power.iter_mut().zip(&output) {
+                *p += c.norm_sqr() / norm;
+            }
+        }
+        if k == 0 {
+            first_prepared = prepared;
         }
     }
     drop(input);
@@ -120,29 +150,20 @@ pub fn estimate_rotation_rate(
     let mut band: Vec<f64> = power[lo..=hi].to_vec();
     let mid = band.len() / 2;
     let median = *band.select_nth_unstable_by(mid, f64::total_cmp).1;
+    drop(band);
 
     // The padded bins are a fine grid of the same DTFT; refine between the neighbours exactly.
-    let t0 = recording.time_s[0];
-    let dtft_power = |f: f64| -> f64 {
-        let w = 2.0 * std::f64::consts::PI * f;
-        prepared
-            .iter()
-            .map(|axis| {
-                let (mut re, mut im) = (0.0, 0.0);
-                crate::turntable::model::for_each_rotation(&recording.time_s, t0, w, 0.0, |i, s, c| {
-                    re += axis[i] * c;
-                    im -= axis[i] * s;
-                });
-                re * re + im * im
-            })
-            .sum()
-    };
-    let (lo_hz, hi_hz) = ((peak as f64 - 1.0) * bin_hz, (peak as f64 + 1.0) * bin_hz);
-    // Newton on the DTFT power's derivatives (one pass each, a few passes); golden section over
-    // the same bracket when Newton leaves it or meets a convex stretch.
-    let derivatives = |f: f64| dtft_power_derivatives(&prepared, &recording.time_s, t0, f);
-    let frequency_hz = newton_max(derivatives, peak as f64 * bin_hz, lo_hz, hi_hz)
-        .unwrap_or_else(|| golden_section_max(dtft_power, lo_hz, hi_hz));
+    let time_s = &recording.time_s[..segment];
+    let t0 = time_s[0];
+    let axes = [&first_prepared[0][..], &first_prepared[1][..]];
+    let sample = |i: usize| [axes[0][i], axes[1][i]];
+    let mut frequency_hz = refine_peak(time_s, t0, &sample, peak as f64 * bin_hz, bin_hz);
+    drop(first_prepared);
+    let mut length = segment;
+    while length < n {
+        length = (4 * length).min(n);
+        frequency_hz = refine_on_prefix(recording, length, frequency_hz, rate_hz / (2 * length) as f64);
+    }
     let peak_to_median = power[peak] / median.max(f64::MIN_POSITIVE);
     // Kept for plots up to a few harmonics only: the whole padded spectrum of a day-long
     // recording would outweigh the recording itself.
@@ -157,6 +178,74 @@ pub fn estimate_rotation_rate(
         spectrum_hz: (0..kept).map(|k| k as f64 * bin_hz).collect(),
         spectrum_power: power,
     })
+}
+
+/// The Hann window of length `n` at sample `i`.
+fn hann(i: usize, n: usize) -> f64 {
+    0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / (n - 1) as f64).cos()
+}
+
+/// The axes over `range`, each detrended and Hann-windowed over that range.
+fn prepare(axes: &[Vec<f64>], range: std::ops::Range<usize>) -> Vec<Vec<f64>> {
+    let len = range.len();
+    axes.iter()
+        .map(|axis| {
+            let mut x = detrend(&axis[range.clone()]);
+            x.iter_mut().enumerate().for_each(|(i, v)| *v *= hann(i, len));
+            x
+        })
+        .collect()
+}
+
+/// The maximum of the x+y DTFT power of `sample` (both axes' prepared values at a sample index)
+/// over `time_s`, from `start` within ± `bin_hz`: Newton on the power's derivatives (one pass
+/// each, a few passes), or golden section over the same bracket when Newton leaves it or meets a
+/// convex stretch.
+fn refine_peak(time_s: &[f64], t0: f64, sample: &impl Fn(usize) -> [f64; 2], start: f64, bin_hz: f64) -> f64 {
+    let derivatives = |f: f64| dtft_power_derivatives(sample, time_s, t0, f);
+    newton_max(derivatives, start, start - bin_hz, start + bin_hz)
+        .unwrap_or_else(|| golden_section_max(|f| derivatives(f).0, start - bin_hz, start + bin_hz))
+}
+
+/// One step of the long route: the DTFT peak of the first `length` samples (detrended and
+/// Hann-windowed over that length, computed as they are read) near `previous`: the best of a grid
+/// of ±4 bins, then refined within a bin of it.
+fn refine_on_prefix(recording: &Recording, length: usize, previous: f64, bin_hz: f64) -> f64 {
+    let time_s = &recording.time_s[..length];
+    let window: Vec<f64> = (0..length).map(|i| hann(i, length)).collect();
+    let [line_x, line_y] = [0, 1].map(|a| straight_line(&recording.accel_mps2[a][..length]));
+    let (x, y) = (&recording.accel_mps2[0], &recording.accel_mps2[1]);
+    let sample = |i: usize| {
+        let at = i as f64;
+        [
+            (x[i] - line_x.0 - line_x.1 * at) * window[i],
+            (y[i] - line_y.0 - line_y.1 * at) * window[i],
+        ]
+    };
+    let t0 = time_s[0];
+    let power = |f: f64| dtft_power_derivatives(&sample, time_s, t0, f).0;
+    let best = (-4..=4)
+        .map(|k| previous + k as f64 * bin_hz)
+        .map(|f| (f, power(f)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .expect("nine candidates")
+        .0;
+    refine_peak(time_s, t0, &sample, best, bin_hz)
+}
+
+/// The least-squares straight line through `x` against the sample index: (value at index 0, slope).
+fn straight_line(x: &[f64]) -> (f64, f64) {
+    let n = x.len() as f64;
+    let mean_i = (n - 1.0) / 2.0;
+    let mean_x = x.iter().sum::<f64>() / n;
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (i, v) in x.iter().enumerate() {
+        let di = i as f64 - mean_i;
+        sxy += di * (v - mean_x);
+        sxx += di * di;
+    }
+    let slope = sxy / sxx;
+    (mean_x - slope * mean_i, slope)
 }
 
 /// Removes the least-squares straight line (drift would otherwise leak into low bins).
@@ -177,16 +266,20 @@ fn detrend(x: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// The summed DTFT power of `axes` at `f` (Hz) and its first two derivatives in f.
-fn dtft_power_derivatives(axes: &[Vec<f64>], time_s: &[f64], t0: f64, f: f64) -> (f64, f64, f64) {
+/// The summed x+y DTFT power of `sample` at `f` (Hz) and its first two derivatives in f.
+fn dtft_power_derivatives(
+    sample: &impl Fn(usize) -> [f64; 2],
+    time_s: &[f64],
+    t0: f64,
+    f: f64,
+) -> (f64, f64, f64) {
     let tau = 2.0 * std::f64::consts::PI;
-    let (mut p, mut dp, mut ddp) = (0.0, 0.0, 0.0);
-    for axis in axes {
-        // S_k = Σ x tᵏ e^{−jωt}: X = S₀, dX/dω = −j S₁, d²X/dω² = −S₂.
-        let mut s = [[0.0f64; 2]; 3];
-        crate::turntable::model::for_each_rotation(time_s, t0, tau * f, 0.0, |i, sin, cos| {
-            let t = time_s[i] - t0;
-            let (x, xt) = (axis[i], axis[i] * t);
+    // Per axis, S_k = Σ x tᵏ e^{−jωt}: X = S₀, dX/dω = −j S₁, d²X/dω² = −S₂.
+    let mut sums = [[[0.0f64; 2]; 3]; 2];
+    crate::turntable::model::for_each_rotation(time_s, t0, tau * f, 0.0, |i, sin, cos| {
+        let t = time_s[i] - t0;
+        for (s, x) in sums.iter_mut().zip(sample(i)) {
+            let xt = x * t;
             let xtt = xt * t;
             s[0][0] += x * cos;
             s[0][1] -= x * sin;
@@ -194,8 +287,10 @@ fn dtft_power_derivatives(axes: &[Vec<f64>], time_s: &[f64], t0: f64, f: f64) ->
             s[1][1] -= xt * sin;
             s[2][0] += xtt * cos;
             s[2][1] -= xtt * sin;
-        });
-        let [[re0, im0], [re1, im1], [re2, im2]] = s;
+        }
+    });
+    let (mut p, mut dp, mut ddp) = (0.0, 0.0, 0.0);
+    for [[re0, im0], [re1, im1], [re2, im2]] in sums {
         p += re0 * re0 + im0 * im0;
         // In ω: P′ = 2 Re(X̄ · (−j S₁)), P″ = 2 (|S₁|² − Re(X̄ S₂)); in f, times 2π and (2π)².
         dp += tau * 2.0 * (re0 * im1 - im0 * re1);
@@ -255,6 +350,9 @@ fn golden_section_max(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::recording::Source;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
 
     /// Newton on the DTFT's derivatives lands where golden section does (on its flat top, to
     /// its tolerance), and both on the frequency of a clean windowed sinusoid.
@@ -262,31 +360,89 @@ mod tests {
     fn newton_and_golden_section_find_the_same_dtft_peak() {
         let (rate, n, f_true) = (100.0, 6000, 0.555_555);
         let time_s: Vec<f64> = (0..n).map(|i| 3.0 + i as f64 / rate).collect();
-        let window = |i: usize| 0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / (n - 1) as f64).cos();
         let axes: Vec<Vec<f64>> = [0.3, 1.4]
             .iter()
             .map(|phase| {
                 (0..n)
-                    .map(|i| (std::f64::consts::TAU * f_true * time_s[i] + phase).sin() * window(i))
+                    .map(|i| (std::f64::consts::TAU * f_true * time_s[i] + phase).sin() * hann(i, n))
                     .collect()
             })
             .collect();
+        let sample = |i: usize| [axes[0][i], axes[1][i]];
         let t0 = time_s[0];
         let bin = rate / (2 * n).next_power_of_two() as f64;
         let start = (f_true / bin).round() * bin;
         let newton = newton_max(
-            |f| dtft_power_derivatives(&axes, &time_s, t0, f),
+            |f| dtft_power_derivatives(&sample, &time_s, t0, f),
             start,
             start - bin,
             start + bin,
         )
         .expect("Newton converges from the nearest bin");
         let golden = golden_section_max(
-            |f| dtft_power_derivatives(&axes, &time_s, t0, f).0,
+            |f| dtft_power_derivatives(&sample, &time_s, t0, f).0,
             start - bin,
             start + bin,
         );
         assert!((newton / f_true - 1.0).abs() < 1e-6, "{newton} vs {f_true}");
         assert!((newton / golden - 1.0).abs() < 1e-9, "{newton} vs {golden}");
+    }
+
+    /// A noisy, drifting turntable-like recording: x and y a quarter turn apart.
+    fn rotating(n: usize, f_hz: f64, noise: f64, seed: u64) -> Recording {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let normal = Normal::new(0.0, noise).unwrap();
+        let time_s: Vec<f64> = (0..n).map(|i| 12.5 + i as f64 / 100.0).collect();
+        let axis = |phase: f64, rng: &mut rand_chacha::ChaCha8Rng| -> Vec<f64> {
+            time_s
+                .iter()
+                .map(|t| {
+                    0.4 * (std::f64::consts::TAU * f_hz * t + phase).sin()
+                        + 0.3
+                        + 1e-4 * t
+                        + normal.sample(rng)
+                })
+                .collect()
+        };
+        let x = axis(0.0, &mut rng);
+        let y = axis(std::f64::consts::FRAC_PI_2, &mut rng);
+        let z = vec![9.8; n];
+        Recording {
+            time_s,
+            accel_mps2: [x, y, z],
+            gyro_radps: None,
+            source: Source {
+                name: "rotating".into(),
+                format: "test".into(),
+                columns: vec![],
+                metadata: vec![],
+                lines: vec![],
+            },
+        }
+    }
+
+    /// The segmented route (Bartlett spectrum, then prefixes four times longer) ends on the same
+    /// DTFT maximum as one FFT of the whole recording, over several seeds and segment lengths
+    /// (one of which leaves a tail shorter than a segment).
+    #[test]
+    fn segments_find_the_whole_recordings_peak() {
+        for seed in 0..4 {
+            let f_true = 0.5 + 0.07 * seed as f64;
+            let rec = rotating(40_000, f_true, 0.05, seed);
+            let whole = estimate_rotation_rate(&rec, RateSearch::default()).unwrap();
+            assert!((whole.frequency_hz / f_true - 1.0).abs() < 1e-5);
+            for segment in [2048, 3000, 9999] {
+                let parts = estimate_rotation_rate_in_segments(&rec, RateSearch::default(), segment).unwrap();
+                let gap = (parts.frequency_hz / whole.frequency_hz - 1.0).abs();
+                assert!(
+                    gap < 1e-10,
+                    "seed {seed}, segment {segment}: {} vs {}",
+                    parts.frequency_hz,
+                    whole.frequency_hz
+                );
+                assert!(parts.peak_to_median > 100.0, "{}", parts.peak_to_median);
+                assert!(parts.spectrum_hz.len() < whole.spectrum_hz.len());
+            }
+        }
     }
 }
