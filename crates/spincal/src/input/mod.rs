@@ -1,6 +1,7 @@
 //! Reading recordings: the delimited-text parser, the `Recording` type (SI units inside), the
 //! file formats, and what is in a file before anything is fitted.
 
+pub mod decimal;
 pub mod formats;
 pub mod inspect;
 pub mod recording;

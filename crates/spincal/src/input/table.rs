@@ -848,7 +848,10 @@ fn fast_fields<const SEP: u8>(input: &[u8], mut p: usize, row: &mut [f64]) -> Fa
         while p < len && pad(input[p]) {
             p += 1;
         }
-        let Ok((value, used)) = fast_float2::parse_partial::<f64, _>(&input[p..]) else {
+        // Plain decimals by our own reader, the rest by fast-float2: both round correctly.
+        let parsed = crate::input::decimal::parse_decimal(&input[p..])
+            .or_else(|| fast_float2::parse_partial::<f64, _>(&input[p..]).ok());
+        let Some((value, used)) = parsed else {
             return Fast::Slow;
         };
         if !value.is_finite() {
