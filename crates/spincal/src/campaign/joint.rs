@@ -1295,6 +1295,9 @@ pub fn fit_joint_from(
         cost_tolerance: 1e-12,
         step_tolerance: 1e-10,
         gradient_tolerance: 0.0,
+        // Residuals are weighted to about unit variance, so these are standard errors: stop
+        // where no Gauss–Newton step would move a parameter by 1e-8 of its own.
+        polish_se_tolerance: 1e-8,
         ..LmOptions::default()
     };
     // First pass with the white-noise weights, then reweight each run by its residual RMS (which

@@ -20,6 +20,11 @@ pub struct LmOptions {
     /// Stop when ‖Jᵀr‖∞ is below this.
     pub gradient_tolerance: f64,
     pub initial_damping: f64,
+    /// After the damped iterations stop, undamped Gauss–Newton steps while one would still move
+    /// some parameter by more than this many standard errors (of unit-weight residuals, from
+    /// (JᵀJ)⁻¹), at most [`POLISH_STEPS`]; 0 turns this off. A cost rule cannot see how far the
+    /// minimum still is (a step of d standard errors changes the cost by about d²), this can.
+    pub polish_se_tolerance: f64,
     /// Optional box: parameters are clipped into [lower, upper].
     pub lower: Option<Vec<f64>>,
     pub upper: Option<Vec<f64>>,
@@ -33,6 +38,7 @@ impl Default for LmOptions {
             step_tolerance: 1e-12,
             gradient_tolerance: 1e-14,
             initial_damping: 1e-3,
+            polish_se_tolerance: 0.0,
             lower: None,
             upper: None,
         }
@@ -153,6 +159,21 @@ pub fn levenberg_marquardt_normal(
         }
     };
     let fixed = |k: usize| free.is_some_and(|f| !f[k]);
+    // Fixed parameters, and those on a bound whose descent direction points out of the box, stay
+    // put.
+    let pinned_at = |p: &[f64], g: &[f64]| -> Vec<bool> {
+        (0..n)
+            .map(|k| {
+                fixed(k)
+                    || match (&options.lower, &options.upper) {
+                        (Some(lo), Some(hi)) => {
+                            (p[k] <= lo[k] && g[k] > 0.0) || (p[k] >= hi[k] && g[k] < 0.0)
+                        }
+                        _ => false,
+                    }
+            })
+            .collect()
+    };
     let mut p = p0.to_vec();
     clip(&mut p);
     let mut jtj = Mat::<f64>::zeros(n, n);
@@ -179,19 +200,7 @@ pub fn levenberg_marquardt_normal(
             }
         }
         iterations += 1;
-        // Fixed parameters, and those on a bound whose descent direction points out of the box,
-        // stay put.
-        let pinned: Vec<bool> = (0..n)
-            .map(|k| {
-                fixed(k)
-                    || match (&options.lower, &options.upper) {
-                        (Some(lo), Some(hi)) => {
-                            (p[k] <= lo[k] && g[k] > 0.0) || (p[k] >= hi[k] && g[k] < 0.0)
-                        }
-                        _ => false,
-                    }
-            })
-            .collect();
+        let pinned = pinned_at(&p, &g);
         let Some(delta) = damped_step(&jtj, &g, mu, &pinned) else {
             mu *= nu;
             nu *= 2.0;
@@ -252,6 +261,32 @@ pub fn levenberg_marquardt_normal(
         }
     }
     sse = problem.normal_equations(&p, &mut jtj, &mut g);
+    if options.polish_se_tolerance > 0.0 && sse.is_finite() {
+        for _ in 0..POLISH_STEPS {
+            let pinned = pinned_at(&p, &g);
+            let Some((delta, variance)) = gauss_newton_step(&jtj, &g, &pinned) else {
+                break;
+            };
+            let largest = (0..n)
+                .filter(|&k| !pinned[k] && variance[k] > 0.0)
+                .fold(0.0f64, |a, k| a.max(delta[k].abs() / variance[k].sqrt()));
+            if largest <= options.polish_se_tolerance {
+                break;
+            }
+            for k in 0..n {
+                trial[k] = p[k] + delta[k];
+            }
+            clip(&mut trial);
+            // At the minimum the cost is flat to rounding: a step may leave it equal, not higher.
+            let sse_trial = problem.sse(&trial);
+            if sse_trial.is_nan() || sse_trial > sse * (1.0 + 4.0 * f64::EPSILON) {
+                break;
+            }
+            p.copy_from_slice(&trial);
+            iterations += 1;
+            sse = problem.normal_equations(&p, &mut jtj, &mut g);
+        }
+    }
     LmReport {
         params: p,
         sse,
@@ -259,6 +294,35 @@ pub fn levenberg_marquardt_normal(
         stop,
         jtj,
     }
+}
+
+/// Most undamped Gauss–Newton steps of [`LmOptions::polish_se_tolerance`].
+pub const POLISH_STEPS: usize = 5;
+
+/// The Gauss–Newton step −(JᵀJ)⁻¹g over the parameters not pinned, and the diagonal of (JᵀJ)⁻¹
+/// (their unit-weight variances); `None` when JᵀJ is not positive definite there.
+fn gauss_newton_step(jtj: &Mat<f64>, g: &[f64], pinned: &[bool]) -> Option<(Vec<f64>, Vec<f64>)> {
+    let n = g.len();
+    let a = Mat::from_fn(n, n, |i, j| {
+        if pinned[i] || pinned[j] {
+            if i == j {
+                1.0
+            } else {
+                0.0
+            }
+        } else {
+            jtj[(i, j)]
+        }
+    });
+    let llt = a.llt(Side::Lower).ok()?;
+    let rhs = Mat::from_fn(n, 1, |i, _| if pinned[i] { 0.0 } else { -g[i] });
+    let x = llt.solve(&rhs);
+    let inverse = llt.solve(Mat::<f64>::identity(n, n));
+    let delta: Vec<f64> = (0..n).map(|i| x[(i, 0)]).collect();
+    let variance: Vec<f64> = (0..n)
+        .map(|i| if pinned[i] { 0.0 } else { inverse[(i, i)] })
+        .collect();
+    (delta.iter().chain(&variance).all(|v| v.is_finite())).then_some((delta, variance))
 }
 
 /// Solves (JᵀJ + μ·diag(JᵀJ)) δ = −g with δ = 0 for pinned parameters; `None` when the damped
@@ -354,5 +418,92 @@ mod tests {
         // Constrained minimum sits on the bound x = 0.5, y = 0.25.
         assert!((report.params[0] - 0.5).abs() < 1e-8, "{:?}", report.params);
         assert!((report.params[1] - 0.25).abs() < 1e-6, "{:?}", report.params);
+    }
+
+    /// y = a e^(−b t) + c with a fixed, noise-like wiggle, so the minimum has residuals.
+    struct Decay {
+        t: Vec<f64>,
+        y: Vec<f64>,
+    }
+
+    impl Decay {
+        fn new() -> Decay {
+            let t: Vec<f64> = (0..200).map(|i| i as f64 * 0.05).collect();
+            let y = t
+                .iter()
+                .enumerate()
+                .map(|(i, t)| 2.0 * (-0.7 * t).exp() + 0.3 + 0.01 * ((i * 7919 % 113) as f64 / 56.0 - 1.0))
+                .collect();
+            Decay { t, y }
+        }
+    }
+
+    impl LeastSquares for Decay {
+        fn n_params(&self) -> usize {
+            3
+        }
+        fn n_residuals(&self) -> usize {
+            self.t.len()
+        }
+        fn residuals(&self, p: &[f64], out: &mut [f64]) {
+            for ((o, t), y) in out.iter_mut().zip(&self.t).zip(&self.y) {
+                *o = p[0] * (-p[1] * t).exp() + p[2] - y;
+            }
+        }
+        fn jacobian(&self, p: &[f64], mut out: MatMut<'_, f64>) {
+            for (i, t) in self.t.iter().enumerate() {
+                let e = (-p[1] * t).exp();
+                out[(i, 0)] = e;
+                out[(i, 1)] = -p[0] * t * e;
+                out[(i, 2)] = 1.0;
+            }
+        }
+    }
+
+    /// A loose cost rule stops short of the minimum; the Gauss–Newton polish then lands on it
+    /// (to 1e-9 of a standard error), where running the damped iterations to exhaustion ends.
+    #[test]
+    fn the_polish_reaches_the_minimum_a_cost_rule_stops_short_of() {
+        let loose = LmOptions {
+            cost_tolerance: 1e-4,
+            ..LmOptions::default()
+        };
+        let exhausted = LmOptions {
+            cost_tolerance: 0.0,
+            step_tolerance: 0.0,
+            gradient_tolerance: 0.0,
+            max_iterations: 1000,
+            ..LmOptions::default()
+        };
+        let polished = LmOptions {
+            polish_se_tolerance: 1e-10,
+            ..loose.clone()
+        };
+        let start = [1.0, 0.2, 0.0];
+        let silent = &crate::progress::silent;
+        let minimum = levenberg_marquardt(&Decay::new(), &start, &exhausted, silent);
+        let short = levenberg_marquardt(&Decay::new(), &start, &loose, silent);
+        let report = levenberg_marquardt(&Decay::new(), &start, &polished, silent);
+        let se: Vec<f64> = {
+            let inverse = minimum
+                .jtj
+                .llt(Side::Lower)
+                .unwrap()
+                .solve(Mat::<f64>::identity(3, 3));
+            let sigma2 = minimum.sse / (200.0 - 3.0);
+            (0..3).map(|k| (sigma2 * inverse[(k, k)]).sqrt()).collect()
+        };
+        let off = |p: &[f64]| (0..3).fold(0.0f64, |a, k| a.max((p[k] - minimum.params[k]).abs() / se[k]));
+        assert!(
+            off(&short.params) > 1e-6,
+            "the loose rule already stopped at the minimum: {}",
+            off(&short.params)
+        );
+        assert!(
+            off(&report.params) < 1e-9,
+            "{} standard errors off",
+            off(&report.params)
+        );
+        assert!(report.iterations > short.iterations);
     }
 }
