@@ -268,7 +268,7 @@ def epoch(rust_times_path, faer_path, rounds, pyrenn_rounds, epochs, exports):
               f"{row['pyrenn_over_spincal_median']:.0f}x spincal's marginal epoch "
               f"(k_max=1 over spincal's one epoch, the old rule: {min(one) / sp_best:.0f}x)")
         print(f"  FLOP bound {bound_s*1e3:.3f} ms at {peak:.1f} GFLOP/s: spincal's one epoch at "
-              f"{row['spincal_over_bound']:.2f}x / {row['spincal_over_bound_median']:.2f}x the bound (goal 1.4x)")
+              f"{row['spincal_over_bound']:.3f}x / {row['spincal_over_bound_median']:.3f}x the bound (goal 1.4x)")
     print(f"DGEMM 2000x2000 one thread (best of 3): faer {faer_gflops:.2f} GFLOP/s, numpy {numpy_gflops:.2f} GFLOP/s")
     print(json.dumps(results))
 

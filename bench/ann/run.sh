@@ -30,7 +30,7 @@ pin=(taskset -c "$cpu")
 "${pin[@]}" cargo build --release --quiet -p spincal --example ann_epoch
 ex=$target/release/examples/ann_epoch
 
-echo "== machine: $(nproc) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs); every timed side on CPU $cpu"
+echo "== machine: $(nproc --all) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs); every timed side on CPU $cpu"
 echo "== $(date -u '+%Y-%m-%d %H:%M:%S UTC'); load before: $(uptime)"
 
 echo "== peer check: pyrenn vs spincal, same data and initial weights"

@@ -33,7 +33,7 @@ u, y = peers.bj_data(5000, seed=13)
 np.savetxt(f"{out}/bj_5000.csv", np.column_stack([u, y]), delimiter=",", header="u,y", comments="", fmt="%.17g")
 PYEOF
 "${pin[@]}" cargo build --release -q -p spincal --example sysid_bench
-echo "machine: $(nproc) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs); every side on CPU $cpu, one thread"
+echo "machine: $(nproc --all) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs); every side on CPU $cpu, one thread"
 echo "$(date -u '+%Y-%m-%d %H:%M:%S UTC'); load before: $(uptime)"
 "${pin[@]}" "$target/release/examples/sysid_bench" "$OUT/arx_1e6.csv" "$OUT/bj_5000.csv" "$runs" | tee "$OUT/spincal.jsonl"
 echo "spincal done; load: $(cut -d' ' -f1-3 /proc/loadavg)"

@@ -28,7 +28,7 @@ spincal="${CARGO_TARGET_DIR:-$root/target}/release/spincal"
 args=(fit "$out/rec600.csv" --no-offsets --quiet)
 "${pin[@]}" "$spincal" "${args[@]}" -o "$out/spincal_fit.json" >/dev/null   # warm-up (and page cache)
 py="$root/bench/.venv/bin/python"
-echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs); both sides on CPU $cpu"
+echo "machine: $(nproc --all) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs); both sides on CPU $cpu"
 echo "$(date -u '+%Y-%m-%d %H:%M:%S UTC'); load before: $(uptime)"
 for round in $(seq 1 "$rounds"); do
     echo "== round $round, load average: $(cut -d' ' -f1-3 /proc/loadavg)"
