@@ -1,4 +1,4 @@
-"""Times numpy lstsq, pysib and SIPPY on the benchmark data written by run.sh; prints one JSON line
+"""Times numpy lstsq, spincal's ARX algorithm in numpy (QR of [Phi | y]), pysib and SIPPY on the benchmark data written by run.sh; prints one JSON line
 per peer and case with the best and median of RUNS timed fits after one warm-up fit (the rule
 spincal's side follows in examples/sysid_bench.rs).
 
@@ -37,6 +37,8 @@ def main(arx_csv, bj_csv, runs):
     u, y = d[:, 0], d[:, 1]
     theta, times = timed(lambda: peers.arx_numpy([u], y, 6, [8], [1]), runs)
     line("numpy-lstsq", "arx", times, theta=np.asarray(theta).tolist())
+    theta, times = timed(lambda: peers.arx_numpy_qr([u], y, 6, [8], [1]), runs)
+    line("numpy-qr", "arx", times, theta=np.asarray(theta).tolist())
     import pysib
 
     (th, _), times = timed(lambda: pysib.arx(u, y, 6, 8, 1), runs)
