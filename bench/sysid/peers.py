@@ -34,6 +34,17 @@ def arx_numpy(u_list, y, na, nb_list, nk_list):
     return theta
 
 
+def arx_numpy_qr(u_list, y, na, nb_list, nk_list):
+    """spincal's algorithm in numpy: Householder QR of [Phi | y] (LAPACK dgeqrf, Phi built whole
+    rather than streamed in blocks), theta from the triangle by back substitution."""
+    from scipy.linalg import solve_triangular
+
+    phi, target = arx_regressors(u_list, y, na, nb_list, nk_list)
+    p = phi.shape[1]
+    r = np.linalg.qr(np.column_stack([phi, target]), mode="r")
+    return solve_triangular(r[:p, :p], r[:p, p])
+
+
 def arx_simulate(theta, u, y, na, nb, nk, n_init):
     """Simulation from the first n_init measured outputs (SISO)."""
     a = theta[:na]

@@ -1,7 +1,9 @@
 //! Rust side of bench/ann: seconds per LM epoch, the epoch's FLOP count, faer's DGEMM rate, and
 //! the data export for the pyrenn peer check.
 //!
-//! `cargo run --release -p spincal --example ann_epoch -- time [N…]` prints one JSON object per N.
+//! `cargo run --release -p spincal --example ann_epoch -- time [--rounds R] [--epochs K] [N…]` prints one
+//! JSON object per N: best and median of R rounds for one epoch, and the marginal epoch
+//! ((K epochs − 1 epoch) / (K − 1)).
 //! `cargo run --release -p spincal --example ann_epoch -- dgemm` prints faer's single-thread rate.
 //! `… -- parts` times the parts of an epoch as the trainer runs them; `… -- csv N PREFIX` writes a synthetic pair.
 //! `cargo run --release -p spincal --example ann_epoch -- export N HIDDEN SEED OUT.json` writes the
@@ -63,13 +65,16 @@ fn cpu_seconds() -> f64 {
         })
 }
 
-fn time_epochs(n: usize, block_samples: usize) -> f64 {
+/// Seconds per `train` call of `epochs` epochs from restart 0's weights, one value per round.
+/// The thread's CPU time advances in scheduler ticks (4 ms here), so a single call cannot be
+/// timed: each round is the mean over ≥ 1 s of back-to-back calls (a tick is < 0.5 % of that).
+fn time_epochs(n: usize, block_samples: usize, epochs: usize, rounds: usize) -> Vec<f64> {
     let p = problem(n);
     let layout = p.layout(&[10, 6]).expect("valid layout");
     let weights = p.initial_weights(&layout, 1, 0);
     let mut ws = LmWorkspace::new(&layout, block_samples);
     let settings = LmSettings {
-        max_epochs: 1,
+        max_epochs: epochs,
         max_validation_failures: usize::MAX,
         min_relative_decrease: 0.0,
         block_samples,
@@ -77,21 +82,36 @@ fn time_epochs(n: usize, block_samples: usize) -> f64 {
     };
     let empty = spincal::ann::Dataset::default();
     // One epoch = normal equations + damped solve + trial evaluation (+ the initial error).
-    // The thread's CPU time advances in scheduler ticks (4 ms here), so a single epoch cannot be
-    // timed: report the mean over ≥ 1 s of epochs (a tick is < 0.5 % of that), best of 3 rounds.
-    let mut best = f64::INFINITY;
-    for _ in 0..3 {
-        let started = cpu_seconds();
-        let mut repeats = 0;
-        while cpu_seconds() - started < 1.0 {
-            let mut w = weights.clone();
-            let report = ws.train(&mut w, &p.train, &empty, &settings);
-            assert_eq!(report.epochs, 1, "one accepted step from Nguyen–Widrow weights");
-            repeats += 1;
-        }
-        best = best.min((cpu_seconds() - started) / repeats as f64);
-    }
-    best
+    // Warm-up: one call outside the timed rounds.
+    let mut w = weights.clone();
+    ws.train(&mut w, &p.train, &empty, &settings);
+    (0..rounds)
+        .map(|_| {
+            let started = cpu_seconds();
+            let mut repeats = 0;
+            while cpu_seconds() - started < 1.0 {
+                let mut w = weights.clone();
+                let report = ws.train(&mut w, &p.train, &empty, &settings);
+                assert_eq!(
+                    report.epochs, epochs,
+                    "every epoch accepts a step from Nguyen–Widrow weights"
+                );
+                repeats += 1;
+            }
+            (cpu_seconds() - started) / repeats as f64
+        })
+        .collect()
+}
+
+fn best(v: &[f64]) -> f64 {
+    v.iter().copied().fold(f64::INFINITY, f64::min)
+}
+
+/// The upper median (the middle value for odd counts), as bench.py takes it.
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[s.len() / 2]
 }
 
 fn dgemm_gflops() -> f64 {
@@ -146,25 +166,42 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("time") => {
-            let sizes: Vec<usize> = if args.len() > 1 {
-                args[1..]
-                    .iter()
-                    .map(|s| s.parse().expect("sample count"))
-                    .collect()
-            } else {
-                vec![3000, 30000]
-            };
+            // time [--rounds R] [--epochs K] [N…]: best and median of R rounds of one-epoch
+            // training calls, and the marginal epoch (K epochs minus one, over K − 1), the same
+            // rule bench.py applies to pyrenn.
+            let mut rounds = 5;
+            let mut epochs = 3;
+            let mut sizes = Vec::new();
+            let mut rest = args[1..].iter();
+            while let Some(a) = rest.next() {
+                match a.as_str() {
+                    "--rounds" => rounds = rest.next().and_then(|v| v.parse().ok()).expect("--rounds R"),
+                    "--epochs" => epochs = rest.next().and_then(|v| v.parse().ok()).expect("--epochs K"),
+                    v => sizes.push(v.parse::<usize>().expect("sample count")),
+                }
+            }
+            assert!(rounds >= 1 && epochs >= 2, "rounds ≥ 1 and epochs ≥ 2");
+            if sizes.is_empty() {
+                sizes = vec![3000, 30000];
+            }
             for n in sizes {
                 let layout = Layout::new(2, &[10, 6], 2);
                 let (syrk, total) = epoch_flops(&layout, n);
                 let mut blocks = Vec::new();
                 for block in [64, 256, 1024, n] {
-                    blocks.push(format!("\"{block}\": {:.6e}", time_epochs(n, block)));
+                    blocks.push(format!("\"{block}\": {:.6e}", best(&time_epochs(n, block, 1, 3))));
                 }
-                let seconds = time_epochs(n, LmSettings::default().block_samples);
+                let default_block = LmSettings::default().block_samples;
+                let one = time_epochs(n, default_block, 1, rounds);
+                let many = time_epochs(n, default_block, epochs, rounds);
+                let marginal = |a: f64, b: f64| (a - b) / (epochs - 1) as f64;
                 println!(
-                    "{{\"n\": {n}, \"params\": {}, \"seconds_per_epoch\": {seconds:.6e}, \"flops\": {total:.6e}, \"syrk_flops\": {syrk:.6e}, \"seconds_by_block_samples\": {{{}}}}}",
+                    "{{\"n\": {n}, \"params\": {}, \"rounds\": {rounds}, \"seconds_per_epoch\": {:.6e}, \"seconds_per_epoch_median\": {:.6e}, \"marginal_epochs\": {epochs}, \"marginal_seconds_per_epoch\": {:.6e}, \"marginal_seconds_per_epoch_median\": {:.6e}, \"flops\": {total:.6e}, \"syrk_flops\": {syrk:.6e}, \"seconds_by_block_samples\": {{{}}}}}",
                     layout.n_params(),
+                    best(&one),
+                    median(&one),
+                    marginal(best(&many), best(&one)),
+                    marginal(median(&many), median(&one)),
                     blocks.join(", ")
                 );
             }
@@ -211,7 +248,7 @@ fn main() {
         }
         _ => {
             eprintln!(
-                "usage: ann_epoch time [N…] | parts | dgemm | csv N PREFIX | export N HIDDEN SEED OUT.json"
+                "usage: ann_epoch time [--rounds R] [--epochs K] [N…] | parts | dgemm | csv N PREFIX | export N HIDDEN SEED OUT.json"
             );
             std::process::exit(2);
         }
