@@ -22,7 +22,7 @@ pub struct LmOptions {
     pub initial_damping: f64,
     /// After the damped iterations stop, undamped Gauss–Newton steps while one would still move
     /// some parameter by more than this many standard errors (of unit-weight residuals, from
-    /// (JᵀJ)⁻¹), at most [`POLISH_STEPS`]; 0 turns this off. A cost rule cannot see how far the
+    /// (JᵀJ)⁻¹), at most [`POLISH_STEPS`] and within `max_iterations`; 0 turns this off. A cost rule cannot see how far the
     /// minimum still is (a step of d standard errors changes the cost by about d²), this can.
     pub polish_se_tolerance: f64,
     /// Optional box: parameters are clipped into [lower, upper].
@@ -262,7 +262,8 @@ pub fn levenberg_marquardt_normal(
     }
     sse = problem.normal_equations(&p, &mut jtj, &mut g);
     if options.polish_se_tolerance > 0.0 && sse.is_finite() {
-        for _ in 0..POLISH_STEPS {
+        // Polish steps count as iterations, so `max_iterations: 0` still means none at all.
+        for _ in 0..POLISH_STEPS.min(options.max_iterations.saturating_sub(iterations)) {
             let pinned = pinned_at(&p, &g);
             let Some((delta, variance)) = gauss_newton_step(&jtj, &g, &pinned) else {
                 break;
