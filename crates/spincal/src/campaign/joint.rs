@@ -1295,9 +1295,6 @@ pub fn fit_joint_from(
         cost_tolerance: 1e-12,
         step_tolerance: 1e-10,
         gradient_tolerance: 0.0,
-        // Residuals are weighted to about unit variance, so these are standard errors: stop
-        // where no Gauss–Newton step would move a parameter by 1e-8 of its own.
-        polish_se_tolerance: 1e-8,
         ..LmOptions::default()
     };
     // First pass with the white-noise weights, then reweight each run by its residual RMS (which
@@ -1343,6 +1340,10 @@ pub fn fit_joint_from(
     // correlated bias, offset and drift directions crawl.
     let second = LmOptions {
         initial_damping: 1e-6,
+        // The residuals are now weighted to about unit variance, so these are standard errors:
+        // stop where no Gauss–Newton step would move a parameter by 1e-8 of its own. (The first
+        // pass only sets the weights, which its last 1e-5 SE hardly move.)
+        polish_se_tolerance: 1e-8,
         ..options.clone()
     };
     let report = levenberg_marquardt_normal(&problem, &p, Some(&free), &second, observer);

@@ -278,9 +278,10 @@ pub fn levenberg_marquardt_normal(
                 trial[k] = p[k] + delta[k];
             }
             clip(&mut trial);
-            // At the minimum the cost is flat to rounding: a step may leave it equal, not higher.
+            // This close to the minimum a step lowers the cost by (d SE)² ≈ 1e-9 for d = 3e-5,
+            // below the rounding of a sum over many residuals; only a real rise stops the polish.
             let sse_trial = problem.sse(&trial);
-            if sse_trial.is_nan() || sse_trial > sse * (1.0 + 4.0 * f64::EPSILON) {
+            if sse_trial.is_nan() || sse_trial > sse * (1.0 + POLISH_COST_SLACK) {
                 break;
             }
             p.copy_from_slice(&trial);
@@ -299,6 +300,10 @@ pub fn levenberg_marquardt_normal(
 
 /// Most undamped Gauss–Newton steps of [`LmOptions::polish_se_tolerance`].
 pub const POLISH_STEPS: usize = 5;
+
+/// Relative rise of the cost a polish step may show (rounding of the cost's sum) and still be
+/// taken.
+const POLISH_COST_SLACK: f64 = 1e-10;
 
 /// The Gauss–Newton step −(JᵀJ)⁻¹g over the parameters not pinned, and the diagonal of (JᵀJ)⁻¹
 /// (their unit-weight variances); `None` when JᵀJ is not positive definite there.
