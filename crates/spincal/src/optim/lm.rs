@@ -309,31 +309,30 @@ const POLISH_COST_SLACK: f64 = 1e-10;
 /// (their unit-weight variances); `None` when JᵀJ is not positive definite there.
 fn gauss_newton_step(jtj: &Mat<f64>, g: &[f64], pinned: &[bool]) -> Option<(Vec<f64>, Vec<f64>)> {
     let n = g.len();
-    let a = Mat::from_fn(n, n, |i, j| {
-        if pinned[i] || pinned[j] {
-            if i == j {
-                1.0
-            } else {
-                0.0
-            }
-        } else {
-            jtj[(i, j)]
-        }
-    });
-    let llt = a.llt(Side::Lower).ok()?;
-    let rhs = Mat::from_fn(n, 1, |i, _| if pinned[i] { 0.0 } else { -g[i] });
-    let x = llt.solve(&rhs);
+    let (llt, delta) = solve_pinned(jtj, g, 0.0, pinned)?;
     let inverse = llt.solve(Mat::<f64>::identity(n, n));
-    let delta: Vec<f64> = (0..n).map(|i| x[(i, 0)]).collect();
     let variance: Vec<f64> = (0..n)
         .map(|i| if pinned[i] { 0.0 } else { inverse[(i, i)] })
         .collect();
-    (delta.iter().chain(&variance).all(|v| v.is_finite())).then_some((delta, variance))
+    variance
+        .iter()
+        .all(|v| v.is_finite())
+        .then_some((delta, variance))
 }
 
 /// Solves (JᵀJ + μ·diag(JᵀJ)) δ = −g with δ = 0 for pinned parameters; `None` when the damped
 /// matrix is not positive definite.
 fn damped_step(jtj: &Mat<f64>, g: &[f64], mu: f64, pinned: &[bool]) -> Option<Vec<f64>> {
+    solve_pinned(jtj, g, mu, pinned).map(|(_, delta)| delta)
+}
+
+/// [`damped_step`]'s system, with its Cholesky factor.
+fn solve_pinned(
+    jtj: &Mat<f64>,
+    g: &[f64],
+    mu: f64,
+    pinned: &[bool],
+) -> Option<(faer::linalg::solvers::Llt<f64>, Vec<f64>)> {
     let n = g.len();
     let max_diag = (0..n).fold(0.0f64, |a, k| a.max(jtj[(k, k)]));
     let floor = max_diag * 1e-15 + f64::MIN_POSITIVE;
@@ -354,7 +353,7 @@ fn damped_step(jtj: &Mat<f64>, g: &[f64], mu: f64, pinned: &[bool]) -> Option<Ve
     let rhs = Mat::from_fn(n, 1, |i, _| if pinned[i] { 0.0 } else { -g[i] });
     let x = llt.solve(&rhs);
     let delta: Vec<f64> = (0..n).map(|i| x[(i, 0)]).collect();
-    delta.iter().all(|d| d.is_finite()).then_some(delta)
+    delta.iter().all(|d| d.is_finite()).then_some((llt, delta))
 }
 
 fn sum_sq(r: &[f64]) -> f64 {

@@ -213,13 +213,12 @@ fn refine_peak(time_s: &[f64], t0: f64, sample: &impl Fn(usize) -> [f64; 2], sta
 fn refine_on_prefix(recording: &Recording, length: usize, previous: f64, bin_hz: f64) -> f64 {
     let time_s = &recording.time_s[..length];
     let window: Vec<f64> = (0..length).map(|i| hann(i, length)).collect();
-    let [line_x, line_y] = [0, 1].map(|a| straight_line(&recording.accel_mps2[a][..length]));
+    let [line_x, line_y] = [0, 1].map(|a| Line::fit(&recording.accel_mps2[a][..length]));
     let (x, y) = (&recording.accel_mps2[0], &recording.accel_mps2[1]);
     let sample = |i: usize| {
-        let at = i as f64;
         [
-            (x[i] - line_x.0 - line_x.1 * at) * window[i],
-            (y[i] - line_y.0 - line_y.1 * at) * window[i],
+            line_x.residual(x[i], i) * window[i],
+            line_y.residual(y[i], i) * window[i],
         ]
     };
     let t0 = time_s[0];
@@ -233,37 +232,42 @@ fn refine_on_prefix(recording: &Recording, length: usize, previous: f64, bin_hz:
     refine_peak(time_s, t0, &sample, best, bin_hz)
 }
 
-/// The least-squares straight line through `x` against the sample index: (value at index 0, slope).
-fn straight_line(x: &[f64]) -> (f64, f64) {
-    let n = x.len() as f64;
-    let mean_i = (n - 1.0) / 2.0;
-    let mean_x = x.iter().sum::<f64>() / n;
-    let (mut sxy, mut sxx) = (0.0, 0.0);
-    for (i, v) in x.iter().enumerate() {
-        let di = i as f64 - mean_i;
-        sxy += di * (v - mean_x);
-        sxx += di * di;
+/// The least-squares straight line through samples against their index.
+struct Line {
+    mean_i: f64,
+    mean_x: f64,
+    slope: f64,
+}
+
+impl Line {
+    fn fit(x: &[f64]) -> Line {
+        let n = x.len() as f64;
+        let mean_i = (n - 1.0) / 2.0;
+        let mean_x = x.iter().sum::<f64>() / n;
+        let (mut sxy, mut sxx) = (0.0, 0.0);
+        for (i, v) in x.iter().enumerate() {
+            let di = i as f64 - mean_i;
+            sxy += di * (v - mean_x);
+            sxx += di * di;
+        }
+        Line {
+            mean_i,
+            mean_x,
+            slope: sxy / sxx,
+        }
     }
-    let slope = sxy / sxx;
-    (mean_x - slope * mean_i, slope)
+
+    /// `v` at index `i` less the line.
+    #[inline(always)]
+    fn residual(&self, v: f64, i: usize) -> f64 {
+        v - self.mean_x - self.slope * (i as f64 - self.mean_i)
+    }
 }
 
 /// Removes the least-squares straight line (drift would otherwise leak into low bins).
 fn detrend(x: &[f64]) -> Vec<f64> {
-    let n = x.len() as f64;
-    let mean_i = (n - 1.0) / 2.0;
-    let mean_x = x.iter().sum::<f64>() / n;
-    let (mut sxy, mut sxx) = (0.0, 0.0);
-    for (i, v) in x.iter().enumerate() {
-        let di = i as f64 - mean_i;
-        sxy += di * (v - mean_x);
-        sxx += di * di;
-    }
-    let slope = sxy / sxx;
-    x.iter()
-        .enumerate()
-        .map(|(i, v)| v - mean_x - slope * (i as f64 - mean_i))
-        .collect()
+    let line = Line::fit(x);
+    x.iter().enumerate().map(|(i, v)| line.residual(*v, i)).collect()
 }
 
 /// The summed x+y DTFT power of `sample` at `f` (Hz) and its first two derivatives in f.
