@@ -36,7 +36,7 @@ use crate::campaign::file::{SignedAxis, TurntableEntry};
 use crate::correctors::physical::{SensorModel, SENSOR_PARAMS, SENSOR_PARAM_NAMES};
 use crate::optim::{levenberg_marquardt_normal, LmOptions, LmStop, NormalEquations};
 use crate::progress::Observer;
-use crate::turntable::model::Direction;
+use crate::turntable::model::{for_each_rotation, Direction};
 
 /// Parameters per turntable run: r, ω, α, ϑ₀, β, ε₁, ε₂, wow (2), δ (3), drift rate (3).
 pub const RUN_PARAMS: usize = 15;
@@ -445,7 +445,9 @@ pub(crate) struct RunGeometry {
     omega: f64,
     sin_tilt: f64,
     cos_tilt: f64,
-    phase: f64,
+    /// sin and cos of the phase ϑ₀.
+    sin_phase: f64,
+    cos_phase: f64,
     wow: [f64; 2],
     direction: f64,
     gravity: f64,
@@ -467,7 +469,8 @@ impl RunGeometry {
             omega: run[1],
             sin_tilt: run[2].sin(),
             cos_tilt: run[2].cos(),
-            phase: run[3],
+            sin_phase: run[3].sin(),
+            cos_phase: run[3].cos(),
             wow: [run[7], run[8]],
             direction,
             gravity,
@@ -485,17 +488,36 @@ impl RunGeometry {
         apply(&self.qr, &self.kinematics(tau).platter)
     }
 
+    /// [`RunGeometry::force`] given sin ωτ and cos ωτ.
+    #[inline(always)]
+    fn force_at(&self, s1: f64, c1: f64) -> [f64; 3] {
+        apply(&self.qr, &self.kinematics_at(s1, c1).platter)
+    }
+
     /// The platter's motion at τ and the specific force in the platter frame.
     fn kinematics(&self, tau: f64) -> Kinematics {
+        let (s1, c1) = (self.omega * tau).sin_cos();
+        self.kinematics_at(s1, c1)
+    }
+
+    /// [`RunGeometry::kinematics`] given sin ωτ and cos ωτ (from a recurrence over the samples).
+    #[inline(always)]
+    fn kinematics_at(&self, s1: f64, c1: f64) -> Kinematics {
         let (g, w, r, sigma) = (self.gravity, self.omega, self.radius, self.direction);
         let [wc, ws] = self.wow;
-        let (s1, c1) = (w * tau).sin_cos();
         let m = wc * c1 + ws * s1;
         let m_quad = -wc * s1 + ws * c1;
         let rate = w * (1.0 + m);
         let rate_dot = w * w * m_quad;
-        let angle = w * tau + wc * s1 - ws * c1;
-        let (s, c) = (self.phase - sigma * angle).sin_cos();
+        // The platter angle ϑ₀ − σ(ωτ + w_c sin ωτ − w_s cos ωτ), from sin ωτ and cos ωτ and a
+        // rotation by the wow term, which is small: no second sine and cosine of a large angle
+        // per sample (they were a fifth of the joint fit's time).
+        let (s0, c0) = (
+            self.sin_phase * c1 - sigma * self.cos_phase * s1,
+            self.cos_phase * c1 + sigma * self.sin_phase * s1,
+        );
+        let (sd, cd) = small_sin_cos(-sigma * (wc * s1 - ws * c1));
+        let (s, c) = (s0 * cd + c0 * sd, c0 * cd - s0 * sd);
         let amplitude = g * self.sin_tilt;
         Kinematics {
             s1,
@@ -515,7 +537,15 @@ impl RunGeometry {
     }
 
     /// f_B and ∂f_B/∂(r, ω, α, ϑ₀, β, ε₁, ε₂, w_c, w_s).
+    #[cfg(test)]
     fn force_and_derivatives(&self, tau: f64) -> ([f64; 3], [[f64; 3]; GEOMETRY]) {
+        let (s1, c1) = (self.omega * tau).sin_cos();
+        self.force_and_derivatives_at(tau, s1, c1)
+    }
+
+    /// [`RunGeometry::force_and_derivatives`] given sin ωτ and cos ωτ.
+    #[inline(always)]
+    fn force_and_derivatives_at(&self, tau: f64, s1: f64, c1: f64) -> ([f64; 3], [[f64; 3]; GEOMETRY]) {
         let (g, w, r, sigma) = (self.gravity, self.omega, self.radius, self.direction);
         let Kinematics {
             s1,
@@ -527,7 +557,7 @@ impl RunGeometry {
             s,
             c,
             platter: fp,
-        } = self.kinematics(tau);
+        } = self.kinematics_at(s1, c1);
         let amplitude = g * self.sin_tilt;
         // ∂/∂ω through the rate, the angle and ω̇.
         let d_rate = (1.0 + m) + w * tau * m_quad;
@@ -563,6 +593,21 @@ impl RunGeometry {
         d[7] = apply(&self.qr, &dp[4]);
         d[8] = apply(&self.qr, &dp[5]);
         (apply(&self.qr, &fp), d)
+    }
+}
+
+/// sin and cos of `x`: by their Taylor series to x⁶ when |x| < 1e-3 (the next terms are below
+/// 1e-22, far under a double's rounding), by `sin_cos` otherwise.
+#[inline(always)]
+fn small_sin_cos(x: f64) -> (f64, f64) {
+    if x.abs() < 1e-3 {
+        let x2 = x * x;
+        (
+            x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0)),
+            1.0 - x2 / 2.0 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0)),
+        )
+    } else {
+        x.sin_cos()
     }
 }
 
@@ -867,22 +912,24 @@ impl JointProblem<'_> {
             let mut row = vec![0.0; index.len()];
             let sigma = self.run_sigma[i];
             let want_rows = !matches!(want, Want::Sse);
-            for (s, &t) in run.time_s.iter().enumerate() {
+            // sin ωτ and cos ωτ by the turntable model's block recurrence (exact sin_cos every 64
+            // samples, or every sample off a uniform grid).
+            for_each_rotation(&run.time_s, mid, geo.omega, 0.0, |s, s1, c1| {
                 if !run.keep[s] {
-                    continue;
+                    return;
                 }
-                let tau = t - mid;
+                let tau = run.time_s[s] - mid;
                 let delta = run_offset_at(p, o, tau);
                 if !want_rows {
-                    let u = sensor.linear_response(geo.force(tau), delta);
+                    let u = sensor.linear_response(geo.force_at(s1, c1), delta);
                     for k in 0..3 {
                         let r = (u[k] + sensor.quadratic_per_mps2[k] * u[k] * u[k] - run.accel_mps2[k][s])
                             / sigma[k];
                         sse += r * r;
                     }
-                    continue;
+                    return;
                 }
-                let (force, d) = geo.force_and_derivatives(tau);
+                let (force, d) = geo.force_and_derivatives_at(tau, s1, c1);
                 let skewed = sensor.skewed(force);
                 let u: [f64; 3] =
                     std::array::from_fn(|k| sensor.bias_mps2[k] + delta[k] + scale[k] * skewed[k]);
@@ -911,7 +958,7 @@ impl JointProblem<'_> {
                     block.fill(0.0);
                     in_block = 0;
                 }
-            }
+            });
             if in_block > 0 {
                 if let Want::Meat(meat) = &mut want {
                     add_outer(meat, &index, &block);
@@ -1475,6 +1522,44 @@ mod tests {
                 assert_eq!(apply(&q, &[1.0, 0.0, 0.0]), o.vector());
                 assert_eq!(apply(&q, &[0.0, 0.0, 1.0]), u.vector());
             }
+        }
+    }
+
+    /// The platter angle's sine and cosine, built from sin ωτ, cos ωτ and the small wow rotation,
+    /// equal a direct `sin_cos` of the whole angle, for small and large wow, both senses and long
+    /// recordings (large ωτ).
+    #[test]
+    fn platter_angle_from_the_rotation_equals_direct_trigonometry() {
+        let q = mounting_matrix(SignedAxis::parse("+x").unwrap(), SignedAxis::parse("+z").unwrap());
+        for (wc, ws) in [(0.0, 0.0), (2e-4, -3e-4), (7e-4, 6e-4), (0.02, -0.01), (0.3, 0.2)] {
+            for sigma in [1.0, -1.0] {
+                for phase in [-2.9, 0.0, 0.4, 3.1] {
+                    let run = [0.1, 4.71, 0.01, phase, 0.0, 0.0, 0.0, wc, ws, 0.0, 0.0, 0.0];
+                    let geo = RunGeometry::new(&q, &run, sigma, 9.81);
+                    for tau in [-3600.0, -61.3, -0.01, 0.0, 0.37, 59.9, 7200.5] {
+                        let k = geo.kinematics(tau);
+                        let w = 4.71;
+                        let (s1, c1) = (w * tau).sin_cos();
+                        let angle = w * tau + wc * s1 - ws * c1;
+                        let (s, c) = (phase - sigma * angle).sin_cos();
+                        // The direct form rounds ωτ (up to 3e4 rad) before its sine: ~1e-12.
+                        let tolerance = 1e-15 * (w * tau).abs().max(1.0) * 4.0;
+                        assert!(
+                            (k.s - s).abs() < tolerance && (k.c - c).abs() < tolerance,
+                            "{wc} {ws} {sigma} {phase} {tau}: {} {} vs {s} {c}",
+                            k.s,
+                            k.c
+                        );
+                    }
+                }
+            }
+        }
+        for x in [-9.99e-4, -1e-5, 0.0, 3e-7, 5e-4, 9.99e-4] {
+            let (s, c) = small_sin_cos(x);
+            assert!(
+                (s - x.sin()).abs() <= 2.3e-16 * x.abs() && (c - x.cos()).abs() <= 2.3e-16,
+                "{x}"
+            );
         }
     }
 
