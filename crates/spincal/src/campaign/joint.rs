@@ -733,44 +733,76 @@ fn sessions(poses: &[PoseInput]) -> usize {
 /// Accumulates rows into a local dense system, then scatters it into the global one.
 struct LocalSystem {
     index: Vec<usize>,
-    gram: Vec<f64>,
+    /// The local JᵀJ, full (both triangles).
+    gram: Mat<f64>,
     grad: Vec<f64>,
     sse: f64,
+    /// Rows not yet added to `gram`: `filled` of [`BATCH_ROWS`].
+    batch: Mat<f64>,
+    residuals: Vec<f64>,
+    filled: usize,
 }
+
+/// Rows are gathered this many at a time and their Gram matrix added by one matrix product
+/// (faer's SIMD kernels): a rank-1 update per row was half of the joint fit's time.
+const BATCH_ROWS: usize = 64;
 
 impl LocalSystem {
     fn new(index: Vec<usize>) -> LocalSystem {
         let n = index.len();
         LocalSystem {
             index,
-            gram: vec![0.0; n * n],
+            gram: Mat::zeros(n, n),
             grad: vec![0.0; n],
             sse: 0.0,
+            batch: Mat::zeros(BATCH_ROWS, n),
+            residuals: vec![0.0; BATCH_ROWS],
+            filled: 0,
         }
     }
 
     fn add_row(&mut self, row: &[f64], residual: f64) {
-        let n = self.index.len();
-        for a in 0..n {
-            let ra = row[a];
-            if ra == 0.0 {
-                continue;
-            }
-            self.grad[a] += ra * residual;
-            let line = &mut self.gram[a * n..a * n + n];
-            for b in a..n {
-                line[b] += ra * row[b];
-            }
+        for (a, v) in row.iter().enumerate() {
+            self.batch[(self.filled, a)] = *v;
         }
+        self.residuals[self.filled] = residual;
+        self.filled += 1;
         self.sse += residual * residual;
+        if self.filled == BATCH_ROWS {
+            self.flush();
+        }
     }
 
-    fn scatter(&self, jtj: &mut Mat<f64>, jtr: &mut [f64]) {
+    /// Adds the gathered rows to JᵀJ and Jᵀr.
+    fn flush(&mut self) {
+        if self.filled == 0 {
+            return;
+        }
+        let rows = self.batch.as_ref().subrows(0, self.filled);
+        faer::linalg::matmul::matmul(
+            self.gram.as_mut(),
+            faer::Accum::Add,
+            rows.transpose(),
+            rows,
+            1.0,
+            faer::Par::Seq,
+        );
+        for (a, g) in self.grad.iter_mut().enumerate() {
+            let column = rows.col(a);
+            *g += (0..self.filled)
+                .map(|i| column[i] * self.residuals[i])
+                .sum::<f64>();
+        }
+        self.filled = 0;
+    }
+
+    fn scatter(&mut self, jtj: &mut Mat<f64>, jtr: &mut [f64]) {
+        self.flush();
         let n = self.index.len();
         for a in 0..n {
             jtr[self.index[a]] += self.grad[a];
             for b in a..n {
-                let v = self.gram[a * n + b];
+                let v = self.gram[(a, b)];
                 let (i, j) = (self.index[a], self.index[b]);
                 jtj[(i, j)] += v;
                 if i != j {
@@ -1144,15 +1176,22 @@ pub(crate) fn demodulate(
         w += step;
     }
     let (_, w0, sigma) = best;
+    // Golden section, each step reusing one inner point (one exact evaluation per step).
     let (mut a, mut b) = (w0 - step, w0 + step);
     let ratio = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut c, mut d) = (b - ratio * (b - a), a + ratio * (b - a));
+    let (mut fc, mut fd) = (amplitude(c, sigma).0, amplitude(d, sigma).0);
     for _ in 0..40 {
-        let c = b - ratio * (b - a);
-        let d = a + ratio * (b - a);
-        if amplitude(c, sigma).0 > amplitude(d, sigma).0 {
+        if fc > fd {
             b = d;
+            (d, fd) = (c, fc);
+            c = b - ratio * (b - a);
+            fc = amplitude(c, sigma).0;
         } else {
             a = c;
+            (c, fc) = (d, fd);
+            d = a + ratio * (b - a);
+            fd = amplitude(d, sigma).0;
         }
     }
     let w = 0.5 * (a + b);
