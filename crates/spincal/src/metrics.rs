@@ -14,7 +14,7 @@ pub fn fit_percent(reference: &[f64], estimate: &[f64]) -> f64 {
 /// The sums behind [`fit_percent`] and [`rmse`], for an estimate made sample by sample and never
 /// stored (a day-long model signal would double a fit's memory). Same sums in the same order as
 /// those functions, so the same bits.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Copy)]
 pub struct FitSums {
     mean: f64,
     samples: usize,

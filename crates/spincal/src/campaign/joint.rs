@@ -34,7 +34,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::campaign::file::{SignedAxis, TurntableEntry};
 use crate::correctors::physical::{SensorModel, SENSOR_PARAMS, SENSOR_PARAM_NAMES};
-use crate::optim::{levenberg_marquardt_normal, LmOptions, LmStop, NormalEquations};
+use crate::optim::{golden_section_max, levenberg_marquardt_normal, LmOptions, LmStop, NormalEquations};
 use crate::progress::Observer;
 use crate::turntable::model::{for_each_rotation, Direction};
 
@@ -1176,25 +1176,7 @@ pub(crate) fn demodulate(
         w += step;
     }
     let (_, w0, sigma) = best;
-    // Golden section, each step reusing one inner point (one exact evaluation per step).
-    let (mut a, mut b) = (w0 - step, w0 + step);
-    let ratio = 0.5 * (5f64.sqrt() - 1.0);
-    let (mut c, mut d) = (b - ratio * (b - a), a + ratio * (b - a));
-    let (mut fc, mut fd) = (amplitude(c, sigma).0, amplitude(d, sigma).0);
-    for _ in 0..40 {
-        if fc > fd {
-            b = d;
-            (d, fd) = (c, fc);
-            c = b - ratio * (b - a);
-            fc = amplitude(c, sigma).0;
-        } else {
-            a = c;
-            (c, fc) = (d, fd);
-            d = a + ratio * (b - a);
-            fd = amplitude(d, sigma).0;
-        }
-    }
-    let w = 0.5 * (a + b);
+    let w = golden_section_max(|w| amplitude(w, sigma).0, w0 - step, w0 + step, 40);
     let (g, psi) = amplitude(w, sigma);
     (w, sigma, g, psi)
 }

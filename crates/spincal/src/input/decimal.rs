@@ -27,10 +27,7 @@ pub fn parse_decimal(bytes: &[u8]) -> Option<(f64, usize)> {
     let mut digits: u64 = 0;
     let int_start = p;
     // Usually one or two digits: a byte at a time.
-    while p < len && bytes[p].is_ascii_digit() {
-        digits = digits.wrapping_mul(10).wrapping_add(u64::from(bytes[p] - b'0'));
-        p += 1;
-    }
+    p = read_digits_bytewise(bytes, p, &mut digits);
     let int_digits = p - int_start;
     let mut frac_digits = 0;
     if p < len && bytes[p] == b'.' {
@@ -103,6 +100,12 @@ fn read_digits(bytes: &[u8], mut p: usize, digits: &mut u64) -> usize {
         }
         return p + run;
     }
+    read_digits_bytewise(bytes, p, digits)
+}
+
+/// [`read_digits`] one byte at a time.
+#[inline(always)]
+fn read_digits_bytewise(bytes: &[u8], mut p: usize, digits: &mut u64) -> usize {
     while p < bytes.len() && bytes[p].is_ascii_digit() {
         *digits = digits.wrapping_mul(10).wrapping_add(u64::from(bytes[p] - b'0'));
         p += 1;

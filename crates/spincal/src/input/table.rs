@@ -688,9 +688,10 @@ fn split_at_lines(bytes: &[u8], chunks: usize) -> Vec<&[u8]> {
     let mut start = 0;
     for k in 1..chunks {
         let target = (bytes.len() * k / chunks).max(start);
-        let Some(end) = memchr::memchr(b'\n', &bytes[target..]).map(|e| target + e + 1) else {
+        let end = start + line_end_after(&bytes[start..], target - start);
+        if end == bytes.len() {
             break;
-        };
+        }
         pieces.push(&bytes[start..end]);
         start = end;
     }

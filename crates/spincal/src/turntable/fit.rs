@@ -1024,7 +1024,7 @@ fn recording_fits(
             rate: looks[k].rate.clone(),
             inspection: looks[k].inspection.clone(),
             session: sessions[k],
-            fit_percent: sums.clone().map(|s| s.fit_percent()),
+            fit_percent: sums.map(|s| s.fit_percent()),
             residual_rms_mps2: sums.map(|s| s.rmse()),
         });
     }

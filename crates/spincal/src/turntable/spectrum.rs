@@ -9,6 +9,10 @@ use realfft::RealFftPlanner;
 use serde::{Deserialize, Serialize};
 
 use crate::input::recording::{sample_interval, Recording};
+use crate::optim::golden_section_max;
+
+/// Most golden-section steps of the fallback refinement (its 1e-12 tolerance ends it first).
+const GOLDEN_STEPS: usize = 80;
 
 /// Where to look for the rotation line.
 #[derive(Debug, Clone, Copy)]
@@ -108,15 +112,12 @@ pub fn estimate_rotation_rate_in_segments(
     let mut output = fft.make_output_vec();
     let mut power = vec![0.0; output.len()];
     let mut first_prepared = Vec::new();
+    // One window for every segment (and both axes), and its power.
+    let window: Vec<f64> = (0..segment).map(|i| hann(i, segment)).collect();
+    let norm = window.iter().map(|w| w * w).sum::<f64>();
     for k in 0..segments {
         let range = k * segment..(k + 1) * segment;
-        let prepared = prepare(&recording.accel_mps2[..2], range);
-        let norm = (0..segment)
-            .map(|i| {
-                let w = hann(i, segment);
-                w * w
-            })
-            .sum::<f64>();
+        let prepared = prepare(&recording.accel_mps2[..2], range, &window);
         for axis in &prepared {
             input[..segment].copy_from_slice(axis);
             input[segment..].iter_mut().for_each(|v| *v = 0.0);
@@ -185,13 +186,12 @@ fn hann(i: usize, n: usize) -> f64 {
     0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / (n - 1) as f64).cos()
 }
 
-/// The axes over `range`, each detrended and Hann-windowed over that range.
-fn prepare(axes: &[Vec<f64>], range: std::ops::Range<usize>) -> Vec<Vec<f64>> {
-    let len = range.len();
+/// The axes over `range`, each detrended and multiplied by `window` (as long as the range).
+fn prepare(axes: &[Vec<f64>], range: std::ops::Range<usize>, window: &[f64]) -> Vec<Vec<f64>> {
     axes.iter()
         .map(|axis| {
             let mut x = detrend(&axis[range.clone()]);
-            x.iter_mut().enumerate().for_each(|(i, v)| *v *= hann(i, len));
+            x.iter_mut().zip(window).for_each(|(v, w)| *v *= w);
             x
         })
         .collect()
@@ -203,8 +203,9 @@ fn prepare(axes: &[Vec<f64>], range: std::ops::Range<usize>) -> Vec<Vec<f64>> {
 /// convex stretch.
 fn refine_peak(time_s: &[f64], t0: f64, sample: &impl Fn(usize) -> [f64; 2], start: f64, bin_hz: f64) -> f64 {
     let derivatives = |f: f64| dtft_power_derivatives(sample, time_s, t0, f);
-    newton_max(derivatives, start, start - bin_hz, start + bin_hz)
-        .unwrap_or_else(|| golden_section_max(|f| derivatives(f).0, start - bin_hz, start + bin_hz))
+    newton_max(derivatives, start, start - bin_hz, start + bin_hz).unwrap_or_else(|| {
+        golden_section_max(|f| derivatives(f).0, start - bin_hz, start + bin_hz, GOLDEN_STEPS)
+    })
 }
 
 /// One step of the long route: the DTFT peak of the first `length` samples (detrended and
@@ -324,33 +325,6 @@ fn newton_max(derivatives: impl Fn(f64) -> (f64, f64, f64), start: f64, lo: f64,
     None
 }
 
-/// Maximiser of a unimodal function on [a, b] to ~1e-10 relative.
-fn golden_section_max(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
-    let ratio = (5f64.sqrt() - 1.0) / 2.0;
-    let mut c = b - ratio * (b - a);
-    let mut d = a + ratio * (b - a);
-    let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..80 {
-        if (b - a).abs() <= 1e-12 * b.abs().max(1e-12) {
-            break;
-        }
-        if fc > fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - ratio * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + ratio * (b - a);
-            fd = f(d);
-        }
-    }
-    0.5 * (a + b)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -387,6 +361,7 @@ mod tests {
             |f| dtft_power_derivatives(&sample, &time_s, t0, f).0,
             start - bin,
             start + bin,
+            GOLDEN_STEPS,
         );
         assert!((newton / f_true - 1.0).abs() < 1e-6, "{newton} vs {f_true}");
         assert!((newton / golden - 1.0).abs() < 1e-9, "{newton} vs {golden}");
