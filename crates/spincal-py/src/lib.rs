@@ -335,32 +335,12 @@ fn simulate_campaign(
     let sim = py
         .detach(|| spincal::simulate::campaign::simulate_campaign(&setup, seed))
         .map_err(errors::usage_error)?;
-    let mut targets = vec![folder.join("campaign.toml"), folder.join("truth.json")];
-    for r in &sim.recordings {
-        targets.push(folder.join(format!("{}.csv", r.name)));
-        targets.push(folder.join(format!("{}.truth.csv", r.name)));
-    }
-    if let Some(existing) = targets.iter().find(|p| p.exists()) {
-        return Err(usage(format!(
-            "{} already exists: spincal does not replace files in a campaign folder; choose an empty folder",
-            existing.display()
-        )));
-    }
-    std::fs::create_dir_all(&folder)
-        .map_err(|e| errors::OutputError::new_err(format!("{}: cannot create: {e}", folder.display())))?;
     let truth = serde_json::to_string_pretty(&sim.truth).map_err(|e| usage(e.to_string()))? + "\n";
-    py.detach(|| -> Result<(), spincal::recording::RecordingError> {
-        for (i, r) in sim.recordings.iter().enumerate() {
-            r.recording
-                .write_csv_path(&folder.join(format!("{}.csv", r.name)), AccelUnit::Mps2)?;
-            sim.truth_recording(i)
-                .write_csv_path(&folder.join(format!("{}.truth.csv", r.name)), AccelUnit::Mps2)?;
-        }
-        Ok(())
-    })
-    .map_err(errors::output)?;
-    write_text(&folder.join("truth.json"), &truth)?;
-    write_text(&folder.join("campaign.toml"), &sim.campaign_toml())?;
+    py.detach(|| sim.write_folder(&folder, false))
+        .map_err(|e| match e {
+            spincal::simulate::fleet::WriteError::Exists { .. } => usage(e.to_string()),
+            e => errors::output(e),
+        })?;
     Ok(truth)
 }
 

@@ -6,33 +6,29 @@
 //! cargo run --release -p spincal --example campaign_accuracy -- 10
 //! ```
 
-use spincal::campaign::prepare::UnitRecording;
 use spincal::campaign::{calibrate_campaign, CampaignSettings};
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 
 fn main() {
     let seeds: u64 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(5);
+    let mut setup = CampaignSetup::default();
+    let mut settings = CampaignSettings::default();
+    if let Ok(v) = std::env::var("POSES") { setup.poses = v.parse().unwrap(); }
+    if let Ok(v) = std::env::var("BIAS_SIGMA") { settings.joint.bias_instability_mps2 = v.parse().unwrap(); }
+    if let Some(drift) = std::env::args().nth(2).and_then(|s| s.parse().ok()) {
+        setup.sensor.bias_drift_g = drift;
+    }
     println!("seed  saved            worst held-out RMS / floor (x y z)   mean RMS per candidate (m/s²)");
     for seed in 0..seeds {
-        let sim = match simulate_campaign(&CampaignSetup::default(), seed) {
+        let sim = match simulate_campaign(&setup, seed) {
             Ok(sim) => sim,
             Err(e) => return eprintln!("{e}"),
         };
-        let units: Vec<UnitRecording> = sim
-            .recordings
-            .iter()
-            .map(|r| UnitRecording {
-                name: r.name.clone(),
-                recording: r.recording.clone(),
-                turntable: r.turntable.clone(),
-                truth: Some(r.true_accel_mps2.clone()),
-                floor_mps2: Some(r.floor_mps2),
-            })
-            .collect();
+        let units = sim.unit_recordings(true);
         let out = match calibrate_campaign(
             "unit",
             &units,
-            &CampaignSettings::default(),
+            &settings,
             &spincal::progress::silent,
         ) {
             Ok(out) => out,
@@ -45,6 +41,13 @@ fn main() {
             if let (Some(rms), Some(floor)) = (h.rms_mps2, h.floor_mps2) {
                 for k in 0..3 {
                     worst[k] = worst[k].max(rms[k] / floor[k]);
+                }
+            }
+        }
+        if std::env::var_os("SPINCAL_DIAG").is_some() {
+            for h in &r.held_out {
+                if let (Some(rms), Some(floor)) = (h.rms_mps2, h.floor_mps2) {
+                    println!("   {:<40} {:<16} {:.2} {:.2} {:.2}", h.condition, h.candidate, rms[0] / floor[0], rms[1] / floor[1], rms[2] / floor[2]);
                 }
             }
         }

@@ -24,7 +24,7 @@ use serde_json::{json, Value};
 use spincal::campaign::joint::{
     difference_noise, fit_joint, mounting_matrix, run_start, JointSettings, RUN_PARAMS,
 };
-use spincal::campaign::prepare::{prepare, UnitRecording};
+use spincal::campaign::prepare::prepare;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 
 fn median(v: &mut [f64]) -> f64 {
@@ -53,17 +53,7 @@ fn main() {
         run.duration_s = 120.0;
     }
     let sim = simulate_campaign(&setup, seed).expect("simulation");
-    let units: Vec<UnitRecording> = sim
-        .recordings
-        .iter()
-        .map(|r| UnitRecording {
-            name: r.name.clone(),
-            recording: r.recording.clone(),
-            turntable: r.turntable.clone(),
-            truth: None,
-            floor_mps2: None,
-        })
-        .collect();
+    let units = sim.unit_recordings(false);
     let prep = prepare(&units).expect("prepare");
     let settings = JointSettings::default();
     let g = settings.gravity_mps2;

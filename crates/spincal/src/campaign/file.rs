@@ -17,8 +17,10 @@
 //! direction = "cw"                # optional: cw or ccw seen from above; found from the data
 //! truth = "t33-r09.truth.csv"     # optional: true specific force per sample (simulations)
 //! ```
-//! Optional per recording: `columns` and `accel_unit` (as the CLI's flags), `truth`, and
-//! `noise_floor_mps2` (the RMS per axis of the error no corrector can remove, when known).
+//! Optional per recording: `columns` and `accel_unit` (as the CLI's flags), `truth`,
+//! `noise_floor_mps2` (the RMS per axis of the error no corrector can remove, when known) and
+//! `random_error` (that error per sample, a file shaped like the recording: t and three axes, m/s²;
+//! the floor of any part of the recording is then its RMS over exactly those samples).
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -101,6 +103,7 @@ pub struct CampaignEntry {
     pub accel_unit: Option<AccelUnit>,
     pub truth: Option<PathBuf>,
     pub noise_floor_mps2: Option<[f64; 3]>,
+    pub random_error: Option<PathBuf>,
 }
 
 /// A parsed campaign file.
@@ -159,6 +162,7 @@ struct RawEntry {
     accel_unit: Option<Spanned<String>>,
     truth: Option<Spanned<String>>,
     noise_floor_mps2: Option<Spanned<Vec<f64>>>,
+    random_error: Option<Spanned<String>>,
 }
 
 /// 1-based line and column of a byte offset.
@@ -411,6 +415,7 @@ impl Campaign {
                 accel_unit,
                 truth: e.truth.as_ref().map(|t| resolve(t.get_ref())),
                 noise_floor_mps2,
+                random_error: e.random_error.as_ref().map(|t| resolve(t.get_ref())),
             });
         }
         Ok(Campaign {

@@ -1,4 +1,4 @@
-//! Reading a campaign's recordings (and their truth files) from disk.
+//! Reading a campaign's recordings (and their truth and random-error files) from disk.
 
 use crate::campaign::file::{Campaign, EntryKind};
 use crate::campaign::prepare::UnitRecording;
@@ -15,18 +15,21 @@ pub enum LoadError {
         #[source]
         source: Box<FormatError>,
     },
-    #[error("{campaign}:{line}: `truth`: {source}")]
-    Truth {
+    /// A companion file (`truth` or `random_error`) that cannot be read.
+    #[error("{campaign}:{line}: `{key}`: {source}")]
+    Companion {
         campaign: String,
         line: usize,
+        key: &'static str,
         #[source]
         source: Box<FormatError>,
     },
-    #[error("{campaign}:{line}: `truth`: {truth} has {found} samples but the recording has {expected}")]
-    TruthLength {
+    #[error("{campaign}:{line}: `{key}`: {file} has {found} samples but the recording has {expected}")]
+    CompanionLength {
         campaign: String,
         line: usize,
-        truth: String,
+        key: &'static str,
+        file: String,
         found: usize,
         expected: usize,
     },
@@ -77,26 +80,31 @@ pub fn load_campaign(campaign: &Campaign) -> Result<Vec<UnitRecording>, LoadErro
             });
         }
         let recording = loaded.recording;
-        let truth = match &entry.truth {
-            None => None,
-            Some(path) => {
-                let t = read_path(path, &ReadOptions::default()).map_err(|source| LoadError::Truth {
+        // A per-sample companion of the recording: its three acceleration columns.
+        let companion = |key: &'static str, path: &Option<std::path::PathBuf>| {
+            let Some(path) = path else {
+                return Ok(None);
+            };
+            let t = read_path(path, &ReadOptions::default()).map_err(|source| LoadError::Companion {
+                campaign: name.clone(),
+                line: entry.line,
+                key,
+                source: Box::new(source),
+            })?;
+            if t.recording.len() != recording.len() {
+                return Err(LoadError::CompanionLength {
                     campaign: name.clone(),
                     line: entry.line,
-                    source: Box::new(source),
-                })?;
-                if t.recording.len() != recording.len() {
-                    return Err(LoadError::TruthLength {
-                        campaign: name.clone(),
-                        line: entry.line,
-                        truth: path.display().to_string(),
-                        found: t.recording.len(),
-                        expected: recording.len(),
-                    });
-                }
-                Some(t.recording.accel_mps2)
+                    key,
+                    file: path.display().to_string(),
+                    found: t.recording.len(),
+                    expected: recording.len(),
+                });
             }
+            Ok(Some(t.recording.accel_mps2))
         };
+        let truth = companion("truth", &entry.truth)?;
+        let random_mps2 = companion("random_error", &entry.random_error)?;
         out.push(UnitRecording {
             name: entry.file.display().to_string(),
             recording,
@@ -106,6 +114,7 @@ pub fn load_campaign(campaign: &Campaign) -> Result<Vec<UnitRecording>, LoadErro
             },
             truth,
             floor_mps2: entry.noise_floor_mps2,
+            random_mps2,
         });
     }
     Ok(out)

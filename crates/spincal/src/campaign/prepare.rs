@@ -21,6 +21,8 @@ pub struct UnitRecording {
     pub truth: Option<[Vec<f64>; 3]>,
     /// RMS per axis of the error no corrector can remove, m/s², when known.
     pub floor_mps2: Option<[f64; 3]>,
+    /// That error per sample, m/s², when known: the floor of any subset of samples.
+    pub random_mps2: Option<[Vec<f64>; 3]>,
 }
 
 /// Where a pose came from.

@@ -473,10 +473,9 @@ pub fn conditions(prepared: &Prepared) -> Vec<Condition> {
     out
 }
 
-/// RMS per axis of `a − b` over the samples where `use_sample` holds.
+/// RMS per axis of `value(axis, sample)` over the samples of `range` where `keep` holds.
 fn rms3(
-    a: &[Vec<f64>; 3],
-    b: &[Vec<f64>; 3],
+    value: impl Fn(usize, usize) -> f64,
     range: std::ops::Range<usize>,
     keep: impl Fn(usize) -> bool,
 ) -> ([f64; 3], usize) {
@@ -487,12 +486,26 @@ fn rms3(
             continue;
         }
         for k in 0..3 {
-            let d = a[k][s] - b[k][s];
+            let d = value(k, s);
             sums[k] += d * d;
         }
         n += 1;
     }
     (sums.map(|v| (v / n.max(1) as f64).sqrt()), n)
+}
+
+/// The random floor over the samples of `range` (offset by `start` in the recording) where `keep`
+/// holds: from the per-sample random error when known, else the recording's own floor.
+fn floor_over(
+    unit: &UnitRecording,
+    start: usize,
+    range: std::ops::Range<usize>,
+    keep: impl Fn(usize) -> bool,
+) -> Option<[f64; 3]> {
+    match &unit.random_mps2 {
+        Some(random) => Some(rms3(|k, s| random[k][start + s], range, keep).0),
+        None => unit.floor_mps2,
+    }
 }
 
 /// The held-out recordings' signals after a corrector (identity for `None`).
@@ -553,8 +566,9 @@ fn score(
         let keep = |s: usize| run.keep[s] && valid[s];
         match &unit.truth {
             Some(truth) => {
-                let (rms, n) = rms3(&corrected, truth, 0..run.time_s.len(), keep);
-                add(rms, n, unit.floor_mps2);
+                let range = 0..run.time_s.len();
+                let (rms, n) = rms3(|k, s| corrected[k][s] - truth[k][s], range.clone(), keep);
+                add(rms, n, floor_over(unit, 0, range, keep));
             }
             None => {
                 against = "refit";
@@ -588,9 +602,10 @@ fn score(
         let len = origin.end - origin.start;
         match &unit.truth {
             Some(truth) => {
-                let t: [Vec<f64>; 3] = std::array::from_fn(|k| truth[k][origin.start..origin.end].to_vec());
-                let (rms, n) = rms3(&corrected, &t, 0..len, |s| valid[s]);
-                add(rms, n, unit.floor_mps2);
+                let keep = |s: usize| valid[s];
+                let error = |k: usize, s: usize| corrected[k][s] - truth[k][origin.start + s];
+                let (rms, n) = rms3(error, 0..len, keep);
+                add(rms, n, floor_over(unit, origin.start, 0..len, keep));
             }
             None => {
                 // The pose's own best explanation: |mean| = g along its fitted direction.

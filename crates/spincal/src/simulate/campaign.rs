@@ -263,6 +263,8 @@ pub struct SimulatedRecording {
     pub true_gyro_radps: Option<[Vec<f64>; 3]>,
     /// RMS per axis of white noise plus bias drift: the error no corrector can predict, m/s².
     pub floor_mps2: [f64; 3],
+    /// That error per sample (drift + white noise, before the nonlinearity), m/s².
+    pub random_mps2: [Vec<f64>; 3],
 }
 
 /// The truth in the joint fit's parametrisation.
@@ -377,6 +379,10 @@ impl SensorProcess<'_> {
         }
         (out, random, saturated)
     }
+}
+
+fn per_axis(values: &[[f64; 3]]) -> [Vec<f64>; 3] {
+    std::array::from_fn(|k| values.iter().map(|v| v[k]).collect())
 }
 
 fn rms_per_axis(values: &[[f64; 3]]) -> [f64; 3] {
@@ -574,6 +580,7 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
             true_accel_mps2: truth,
             true_gyro_radps: gyro_true,
             floor_mps2: rms_per_axis(&random),
+            random_mps2: per_axis(&random),
             name,
         });
         idle(&mut sensor, &mut gyro, &mut rng);
@@ -688,6 +695,7 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
             true_accel_mps2: truth,
             true_gyro_radps: gyro_true,
             floor_mps2: rms_per_axis(&random),
+            random_mps2: per_axis(&random),
             name,
         });
         idle(&mut sensor, &mut gyro, &mut rng);
@@ -799,11 +807,39 @@ impl SimulatedCampaign {
             }
             let f = r.floor_mps2;
             text.push_str(&format!(
-                "truth = \"{}.truth.csv\"\nnoise_floor_mps2 = [{}, {}, {}]\n",
-                r.name, f[0], f[1], f[2]
+                "truth = \"{}.truth.csv\"\nnoise_floor_mps2 = [{}, {}, {}]\nrandom_error = \"{}.random.csv\"\n",
+                r.name, f[0], f[1], f[2], r.name
             ));
         }
         text
+    }
+
+    /// Recording `i`'s unpredictable error per sample (drift + white noise) as a recording (for
+    /// `<name>.random.csv`).
+    pub fn random_recording(&self, i: usize) -> Recording {
+        let r = &self.recordings[i];
+        recording(
+            &format!("{} (random error: bias drift + white noise)", r.name),
+            r.recording.time_s.clone(),
+            r.random_mps2.clone(),
+            None,
+        )
+    }
+
+    /// The recordings as a campaign calibration takes them, with the true specific force and the
+    /// random error when `with_truth`.
+    pub fn unit_recordings(&self, with_truth: bool) -> Vec<crate::campaign::prepare::UnitRecording> {
+        self.recordings
+            .iter()
+            .map(|r| crate::campaign::prepare::UnitRecording {
+                name: r.name.clone(),
+                recording: r.recording.clone(),
+                turntable: r.turntable.clone(),
+                truth: with_truth.then(|| r.true_accel_mps2.clone()),
+                floor_mps2: with_truth.then_some(r.floor_mps2),
+                random_mps2: with_truth.then(|| r.random_mps2.clone()),
+            })
+            .collect()
     }
 
     /// The true specific force of recording `i` as a recording (for `<name>.truth.csv`).

@@ -231,12 +231,13 @@ impl SimulatedCampaign {
         for r in &self.recordings {
             files.push(dir.join(format!("{}.csv", r.name)));
             files.push(dir.join(format!("{}.truth.csv", r.name)));
+            files.push(dir.join(format!("{}.random.csv", r.name)));
         }
         files
     }
 
     /// Writes campaign.toml, one CSV per recording (m/s²), its true specific force
-    /// (`<name>.truth.csv`) and truth.json into `dir`. Refuses to replace a file already there
+    /// (`<name>.truth.csv`), its random error (`<name>.random.csv`) and truth.json into `dir`. Refuses to replace a file already there
     /// unless `replace` (a folder this program made itself, such as the demo's).
     pub fn write_folder(&self, dir: &Path, replace: bool) -> Result<(), WriteError> {
         if !replace {
@@ -255,6 +256,8 @@ impl SimulatedCampaign {
                 .write_csv_path(&dir.join(format!("{}.csv", r.name)), AccelUnit::Mps2)?;
             self.truth_recording(i)
                 .write_csv_path(&dir.join(format!("{}.truth.csv", r.name)), AccelUnit::Mps2)?;
+            self.random_recording(i)
+                .write_csv_path(&dir.join(format!("{}.random.csv", r.name)), AccelUnit::Mps2)?;
         }
         let truth = serde_json::to_string_pretty(&self.truth).expect("the truth serialises") + "\n";
         crate::output::write_bytes(&dir.join("truth.json"), truth.as_bytes())?;

@@ -29,14 +29,5 @@ pub fn campaign_units(
     sim: &spincal::simulate::campaign::SimulatedCampaign,
     with_truth: bool,
 ) -> Vec<spincal::campaign::prepare::UnitRecording> {
-    sim.recordings
-        .iter()
-        .map(|r| spincal::campaign::prepare::UnitRecording {
-            name: r.name.clone(),
-            recording: r.recording.clone(),
-            turntable: r.turntable.clone(),
-            truth: with_truth.then(|| r.true_accel_mps2.clone()),
-            floor_mps2: with_truth.then_some(r.floor_mps2),
-        })
-        .collect()
+    sim.unit_recordings(with_truth)
 }
