@@ -48,6 +48,36 @@ fn simulated_campaign_calibrates_end_to_end() {
     assert_eq!(again.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&again.stderr).contains("already exists"));
     assert_eq!(std::fs::read(&campaign).unwrap(), before);
+
+    // The file names the datasheet and each recording's random error; every held-out floor is
+    // measured from it.
+    let text = String::from_utf8_lossy(&before).into_owned();
+    assert!(text.contains("nonlinearity_pct_fs = 0.2") && text.contains("random_error = "), "{text}");
+    for row in results["held_out"].as_array().unwrap() {
+        assert!(row["floor_mps2"].is_array(), "{row}");
+    }
+    // A random-error file that does not match its recording is named by the campaign's line.
+    let random = std::fs::read_dir(&unit)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.to_string_lossy().ends_with(".random.csv"))
+        .unwrap();
+    let rows = std::fs::read_to_string(&random).unwrap();
+    let half: Vec<&str> = rows.lines().take(rows.lines().count() / 2).collect();
+    std::fs::write(&random, half.join("\n") + "\n").unwrap();
+    let run = spincal()
+        .args(["calibrate", "--campaign"])
+        .arg(&campaign)
+        .arg("--out")
+        .arg(dir.path().join("cal-2"))
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr.contains("`random_error`") && stderr.contains("samples but the recording has"),
+        "{stderr}"
+    );
 }
 
 #[test]

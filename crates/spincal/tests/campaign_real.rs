@@ -28,6 +28,7 @@ fn pose(rec: &spincal::Recording, iv: &StillInterval, to_si: f64) -> PoseInput {
         session: 0,
         gyro_mean_radps: None,
         gyro_sigma_mean_radps: None,
+        wander: None,
     }
 }
 

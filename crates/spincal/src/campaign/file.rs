@@ -3,6 +3,8 @@
 //! ```toml
 //! unit = "imu-07"
 //! gravity_mps2 = 9.80665          # optional, local gravity
+//! range_g = 5                     # optional, with the next: the datasheet's range (± g) and
+//! nonlinearity_pct_fs = 0.2       # nonlinearity (% of full scale), the width of q's prior
 //! [[recording]]
 //! file = "still-1.csv"            # relative to this file
 //! kind = "static"                 # one or more still poses (found in the file)
@@ -113,7 +115,23 @@ pub struct Campaign {
     /// The campaign file itself.
     pub path: PathBuf,
     pub gravity_mps2: f64,
+    /// The datasheet's nonlinearity, when given: it sizes the prior of the quadratic term.
+    pub nonlinearity: Option<DatasheetNonlinearity>,
     pub recordings: Vec<CampaignEntry>,
+}
+
+/// A datasheet's nonlinearity: `pct_fs` % of full scale over ±`range_g`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DatasheetNonlinearity {
+    pub range_g: f64,
+    pub pct_fs: f64,
+}
+
+impl DatasheetNonlinearity {
+    /// The quadratic coefficient it allows, 1/(m/s²).
+    pub fn quadratic_per_mps2(&self) -> f64 {
+        crate::correctors::physical::quadratic_from_datasheet(self.pct_fs, self.range_g)
+    }
 }
 
 /// A campaign file that cannot be used, located.
@@ -143,6 +161,8 @@ pub enum CampaignError {
 struct RawCampaign {
     unit: Option<Spanned<String>>,
     gravity_mps2: Option<Spanned<f64>>,
+    range_g: Option<Spanned<f64>>,
+    nonlinearity_pct_fs: Option<Spanned<f64>>,
     #[serde(default)]
     recording: Vec<Spanned<RawEntry>>,
 }
@@ -260,6 +280,34 @@ impl Campaign {
                 "local gravity lies between 9.7 and 9.9 m/s²",
             )?,
             None => STANDARD_GRAVITY,
+        };
+        // Both datasheet numbers or neither: one alone cannot size the prior.
+        let nonlinearity = match (&raw.range_g, &raw.nonlinearity_pct_fs) {
+            (None, None) => None,
+            (Some(_), None) | (None, Some(_)) => {
+                let (given, span, missing) = match (&raw.range_g, &raw.nonlinearity_pct_fs) {
+                    (Some(r), _) => ("range_g", r.span(), "nonlinearity_pct_fs"),
+                    (_, Some(n)) => ("nonlinearity_pct_fs", n.span(), "range_g"),
+                    _ => unreachable!("one of the two is given"),
+                };
+                return Err(at.at(span, given, format!("needs `{missing}` too: the two size the nonlinearity's prior together")));
+            }
+            (Some(_), Some(_)) => Some(DatasheetNonlinearity {
+                range_g: at.number(
+                    &raw.range_g,
+                    0..0,
+                    "range_g",
+                    |r| r > 0.0 && r <= 1000.0,
+                    "the datasheet range lies above 0 and at most 1000 g",
+                )?,
+                pct_fs: at.number(
+                    &raw.nonlinearity_pct_fs,
+                    0..0,
+                    "nonlinearity_pct_fs",
+                    |n| n > 0.0 && n < 100.0,
+                    "a nonlinearity lies above 0 and below 100 % of full scale",
+                )?,
+            }),
         };
         if raw.recording.is_empty() {
             return Err(CampaignError::Entry {
@@ -422,6 +470,7 @@ impl Campaign {
             unit,
             path: path.to_path_buf(),
             gravity_mps2,
+            nonlinearity,
             recordings,
         })
     }
@@ -494,6 +543,25 @@ up = "-z"
         ];
         for (text, start) in cases {
             let e = parse(&text).unwrap_err().to_string();
+            assert!(e.starts_with(start), "{e} (wanted {start})");
+        }
+    }
+
+    #[test]
+    fn the_datasheet_nonlinearity_needs_both_numbers_in_range() {
+        let with = |extra: &str| GOOD.replace("unit = \"imu-07\"\n", &format!("unit = \"imu-07\"\n{extra}"));
+        let c = parse(&with("range_g = 5\nnonlinearity_pct_fs = 0.2\n")).unwrap();
+        let q = c.nonlinearity.unwrap().quadratic_per_mps2();
+        // 0.2 % of 5 g at the range's end is 1.5 × that over the full scale.
+        assert!((q - 1.5 * 0.002 / (5.0 * STANDARD_GRAVITY)).abs() < 1e-15, "{q}");
+        assert!(parse(GOOD).unwrap().nonlinearity.is_none());
+        for (extra, start) in [
+            ("range_g = 5\n", "runs/c.toml:3: `range_g`: needs `nonlinearity_pct_fs`"),
+            ("nonlinearity_pct_fs = 0.2\n", "runs/c.toml:3: `nonlinearity_pct_fs`: needs `range_g`"),
+            ("range_g = -5\nnonlinearity_pct_fs = 0.2\n", "runs/c.toml:3: `range_g`"),
+            ("range_g = 5\nnonlinearity_pct_fs = 120\n", "runs/c.toml:4: `nonlinearity_pct_fs`"),
+        ] {
+            let e = parse(&with(extra)).unwrap_err().to_string();
             assert!(e.starts_with(start), "{e} (wanted {start})");
         }
     }

@@ -14,12 +14,13 @@
 //! first estimate), m̄ = h(b + δ_s + D (I + M) f_B), δ_s the offset of its session (the still
 //! recording it came from: one sitting, one bias).
 //!
-//! Every residual is divided by its noise (per run and axis; the mean's standard error for a
-//! pose), and priors enter as residuals: (r − r_nominal)/tolerance and δ/σ_bias (bias
+//! Every residual is divided by its noise (per run and axis; for a pose, the mean's standard error
+//! and the bias's wander about its session's line, from the random walk measured within the poses
+//! (`bias_random_walk`), or from what the first pass left, whichever is larger), and priors enter as residuals: (r − r_nominal)/tolerance and δ/σ_bias (bias
 //! instability between recordings), ε/σ_mount (how flat the sensor sits) and, for each free sensor
 //! term, its value over a datasheet-sized width (bias 0.5 m/s², scale 0.02, misalignment 0.02 rad,
-//! nonlinearity 10⁻³ /(m/s²)). The normal equations are accumulated per sample, never a
-//! stored Jacobian, so memory is the recordings plus an n × n matrix.
+//! nonlinearity from the datasheet, about 10⁻⁴ /(m/s²)). The normal equations are accumulated per
+//! sample, never a stored Jacobian, so memory is the recordings plus an n × n matrix.
 //!
 //! Standard errors are the sandwich H⁻¹ S H⁻¹ with S from scores summed over blocks of
 //! consecutive samples (batch-means HAC): residuals coloured by wow, flutter or drift within a
@@ -96,6 +97,43 @@ pub struct PoseInput {
     pub gyro_mean_radps: Option<[f64; 3]>,
     #[serde(default)]
     pub gyro_sigma_mean_radps: Option<[f64; 3]>,
+    /// How the reading moved within the pose, when its samples were seen: the bias's random walk
+    /// between poses is measured from it.
+    #[serde(default)]
+    pub wander: Option<PoseWander>,
+}
+
+/// Within one still pose: its length, the second half's mean minus the first's, and the white
+/// noise per sample (from first differences).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PoseWander {
+    pub duration_s: f64,
+    pub half_difference_mps2: [f64; 3],
+    pub noise_sd_mps2: [f64; 3],
+    pub samples: usize,
+}
+
+/// The bias's random-walk rate, (m/s²)²/s, from the poses' half-to-half differences: for a random
+/// walk of rate D the halves' means of a window of length 2h differ with variance 2Dh/3 (twice the
+/// Allan variance at h), and white noise adds 4σ²/n. Pooled over the three axes (one die's bias
+/// wanders alike on each; 3 differences per pose instead of 1). `None` from fewer than three poses
+/// with their samples.
+pub fn bias_random_walk(poses: &[PoseInput]) -> Option<f64> {
+    let seen: Vec<&PoseWander> = poses.iter().filter_map(|p| p.wander.as_ref()).collect();
+    if seen.len() < 3 {
+        return None;
+    }
+    let span: f64 = seen.iter().map(|w| 3.0 * 2.0 * (0.5 * w.duration_s) / 3.0).sum();
+    if !(span > 0.0) {
+        return None;
+    }
+    let excess: f64 = seen
+        .iter()
+        .flat_map(|w| {
+            (0..3).map(|k| w.half_difference_mps2[k].powi(2) - 4.0 * w.noise_sd_mps2[k].powi(2) / w.samples.max(1) as f64)
+        })
+        .sum();
+    Some((excess / span).max(0.0))
 }
 
 /// Which sensor terms are estimated (the others stay at zero).
@@ -158,7 +196,9 @@ pub struct JointSettings {
     /// Standard deviation of the sensor's tilt on its mount (how flat it sits), rad.
     pub mount_tilt_rad: f64,
     /// Prior standard deviations of the sensor terms about zero: bias (m/s²), scale error,
-    /// misalignment (rad), quadratic nonlinearity (1/(m/s²)).
+    /// misalignment (rad), quadratic nonlinearity (1/(m/s²)). The last is a datasheet's: a
+    /// campaign file's `range_g` and `nonlinearity_pct_fs` set it, else 0.5 % FS over ±8 g
+    /// (about 10⁻⁴). A wider prior lets q trade with the bias drift between poses.
     pub sensor_prior_sd: [f64; 4],
     pub terms: SensorTerms,
     /// Length of the blocks whose scores form the robust covariance, s.
@@ -172,13 +212,26 @@ impl Default for JointSettings {
             gravity_mps2: crate::input::recording::STANDARD_GRAVITY,
             bias_instability_mps2: 0.003 * crate::input::recording::STANDARD_GRAVITY,
             mount_tilt_rad: 2f64.to_radians(),
-            sensor_prior_sd: [0.5, 0.02, 0.02, 1e-3],
+            sensor_prior_sd: [
+                0.5,
+                0.02,
+                0.02,
+                crate::correctors::physical::quadratic_from_datasheet(
+                    DEFAULT_NONLINEARITY_PCT_FS,
+                    DEFAULT_NONLINEARITY_RANGE_G,
+                ),
+            ],
             terms: SensorTerms::ALL,
             block_s: 5.0,
             max_iterations: 100,
         }
     }
 }
+
+/// The nonlinearity prior when the campaign gives no datasheet: a typical MEMS part's 0.5 % of
+/// full scale over ±8 g.
+pub const DEFAULT_NONLINEARITY_PCT_FS: f64 = 0.5;
+pub const DEFAULT_NONLINEARITY_RANGE_G: f64 = 8.0;
 
 /// A fitted parameter with its robust standard error.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -697,6 +750,10 @@ const SCAN_BLOCK: usize = 64;
 
 /// Parameters per still session: bias offset δ (3) and drift rate (3) about its middle.
 const SESSION_PARAMS: usize = 6;
+/// The least share of a pose residual's variance taken as left by the fit (its leverage at most
+/// 0.95), so that a pose the fit nearly interpolates does not inflate the component without bound.
+const MIN_KEPT_VARIANCE: f64 = 0.05;
+
 /// A still session's drift rate has a prior of the bias instability per this many seconds.
 const SESSION_DRIFT_S: f64 = 100.0;
 
@@ -889,6 +946,74 @@ impl JointProblem<'_> {
     }
 
     /// Model − measured mean of pose `i`, m/s².
+    /// The parameters a still pose's residuals depend on: the sensor's, its two angles and its
+    /// session's offset and drift rate (the order of [`JointProblem::pose_rows`]' entries).
+    fn pose_index(&self, pi: usize) -> Vec<usize> {
+        let o = pose_offset(self.runs.len(), pi);
+        let so = session_offset(self.runs.len(), self.poses.len(), self.poses[pi].session);
+        (0..SENSOR_PARAMS)
+            .chain(o..o + POSE_PARAMS)
+            .chain(so..so + SESSION_PARAMS)
+            .collect()
+    }
+
+    /// Pose `pi`'s weighted residual rows, one per axis: `visit(axis, row over pose_index, r)`.
+    fn pose_rows(&self, p: &[f64], sensor: &SensorModel, pi: usize, mut visit: impl FnMut(usize, &[f64], f64)) {
+        let pose = &self.poses[pi];
+        let o = pose_offset(self.runs.len(), pi);
+        let so = session_offset(self.runs.len(), self.poses.len(), pose.session);
+        let (force, d) = self.pose_frames[pi].force(p[o], p[o + 1], self.gravity);
+        let dt = self.pose_tau[pi];
+        let delta: [f64; 3] = std::array::from_fn(|k| p[so + k] + p[so + 3 + k] * dt);
+        let u = sensor.linear_response(force, delta);
+        let mut row = vec![0.0; SENSOR_PARAMS + POSE_PARAMS + SESSION_PARAMS];
+        for k in 0..3 {
+            let q = sensor.quadratic_per_mps2[k];
+            let w = 1.0 / self.pose_sigma[pi][k];
+            let r = (u[k] + q * u[k] * u[k] - pose.mean_mps2[k]) * w;
+            let slope = (1.0 + 2.0 * q * u[k]) * w;
+            model_row(&mut row, k, sensor, slope, w, u[k], &force, &d);
+            row[SENSOR_PARAMS + POSE_PARAMS + k] = slope;
+            row[SENSOR_PARAMS + POSE_PARAMS + 3 + k] = slope * dt;
+            visit(k, &row, r);
+        }
+    }
+
+    /// Leverage of each pose's residual per axis: h = jᵀ (JᵀJ)⁻¹ j over the free parameters, with
+    /// `jtj` the weighted normal matrix at `p`. The share of that residual the fit itself
+    /// absorbs; `None` when `jtj` is singular.
+    fn pose_leverage(&self, p: &[f64], jtj: &Mat<f64>, free: &[bool]) -> Option<Vec<[f64; 3]>> {
+        let index: Vec<usize> = (0..p.len()).filter(|&k| free[k]).collect();
+        let covariance = inverse_on(jtj, &index)?;
+        let position: Vec<Option<usize>> = {
+            let mut position = vec![None; p.len()];
+            for (a, &k) in index.iter().enumerate() {
+                position[k] = Some(a);
+            }
+            position
+        };
+        let sensor = SensorModel::from_params(p);
+        let mut out = Vec::with_capacity(self.poses.len());
+        for pi in 0..self.poses.len() {
+            let columns = self.pose_index(pi);
+            let mut h = [0.0; 3];
+            self.pose_rows(p, &sensor, pi, |k, row, _| {
+                let mut sum = 0.0;
+                for (a, &ka) in columns.iter().enumerate() {
+                    let Some(ia) = position[ka] else { continue };
+                    for (b, &kb) in columns.iter().enumerate() {
+                        if let Some(ib) = position[kb] {
+                            sum += row[a] * covariance[(ia, ib)] * row[b];
+                        }
+                    }
+                }
+                h[k] = sum;
+            });
+            out.push(h);
+        }
+        Some(out)
+    }
+
     pub(crate) fn pose_residual(&self, p: &[f64], i: usize) -> [f64; 3] {
         let sensor = SensorModel::from_params(p);
         let o = pose_offset(self.runs.len(), i);
@@ -1011,38 +1136,25 @@ impl JointProblem<'_> {
         }
         let n_runs = self.runs.len();
         let n_poses = self.poses.len();
-        for (pi, pose) in self.poses.iter().enumerate() {
-            let o = pose_offset(n_runs, pi);
-            let so = session_offset(n_runs, n_poses, pose.session);
-            let (force, d) = self.pose_frames[pi].force(p[o], p[o + 1], self.gravity);
-            let dt = self.pose_tau[pi];
-            let delta: [f64; 3] = std::array::from_fn(|k| p[so + k] + p[so + 3 + k] * dt);
-            let skewed = sensor.skewed(force);
-            let u: [f64; 3] = std::array::from_fn(|k| sensor.bias_mps2[k] + delta[k] + scale[k] * skewed[k]);
-            let index: Vec<usize> = (0..SENSOR_PARAMS)
-                .chain(o..o + POSE_PARAMS)
-                .chain(so..so + SESSION_PARAMS)
-                .collect();
+        for pi in 0..self.poses.len() {
+            if matches!(want, Want::Sse) {
+                sse += self
+                    .pose_residual(p, pi)
+                    .iter()
+                    .zip(&self.pose_sigma[pi])
+                    .map(|(r, sigma)| (r / sigma).powi(2))
+                    .sum::<f64>();
+                continue;
+            }
+            let index = self.pose_index(pi);
             let mut local = LocalSystem::new(index.clone());
             let mut block = vec![0.0; index.len()];
-            let mut row = vec![0.0; index.len()];
-            for k in 0..3 {
-                let q = sensor.quadratic_per_mps2[k];
-                let w = 1.0 / self.pose_sigma[pi][k];
-                let r = (u[k] + q * u[k] * u[k] - pose.mean_mps2[k]) * w;
-                if matches!(want, Want::Sse) {
-                    sse += r * r;
-                    continue;
-                }
-                let slope = (1.0 + 2.0 * q * u[k]) * w;
-                model_row(&mut row, k, &sensor, slope, w, u[k], &force, &d);
-                row[SENSOR_PARAMS + POSE_PARAMS + k] = slope;
-                row[SENSOR_PARAMS + POSE_PARAMS + 3 + k] = slope * dt;
-                local.add_row(&row, r);
-                for (b, v) in block.iter_mut().zip(&row) {
+            self.pose_rows(p, &sensor, pi, |_, row, r| {
+                local.add_row(row, r);
+                for (b, v) in block.iter_mut().zip(row) {
                     *b += v * r;
                 }
-            }
+            });
             match &mut want {
                 Want::Normal(jtj, jtr) => {
                     local.scatter(jtj, jtr);
@@ -1381,8 +1493,11 @@ pub fn fit_joint_from(
         problem.run_sigma[i] = sums.map(|s| (s / n.max(1.0)).sqrt().max(1e-6));
     }
     // Poses scatter by more than their means' noise when the bias wanders between them: a variance
-    // component per session and axis, from the residuals (each pose keeps ~1 of its 3 degrees of
-    // freedom after its two direction angles, hence the factor 3).
+    // component per session and axis, from the residuals divided by the share of their variance
+    // the fit leaves them (1 − leverage; about 1/3 when only a pose's own two angles took theirs,
+    // far less when the poses alone determine the sensor).
+    let leverage = problem.pose_leverage(&p, &first.jtj, &free);
+    let walk = bias_random_walk(poses);
     for session in 0..sessions(poses) {
         let members: Vec<usize> = (0..poses.len())
             .filter(|&i| poses[i].session == session)
@@ -1390,16 +1505,26 @@ pub fn fit_joint_from(
         if members.len() < 2 {
             continue;
         }
+        // A random walk of rate D leaves, about the session's fitted line over its span T, a
+        // mean squared deviation of D·T/15 at the poses.
+        let span = members.iter().map(|&i| poses[i].time_s).fold(f64::NEG_INFINITY, f64::max)
+            - members.iter().map(|&i| poses[i].time_s).fold(f64::INFINITY, f64::min);
+        let walked = walk.map_or(0.0, |d| d * span / 15.0);
         let mut extra = [0.0f64; 3];
         for &i in &members {
             let r = problem.pose_residual(&p, i);
             for k in 0..3 {
-                extra[k] += 3.0 * r[k] * r[k] - poses[i].sigma_mean_mps2[k].powi(2);
+                // A residual keeps 1 − h of its variance; the rest went into the fit.
+                let kept = match &leverage {
+                    Some(h) => (1.0 - h[i][k]).max(MIN_KEPT_VARIANCE),
+                    None => 1.0 / 3.0,
+                };
+                extra[k] += r[k] * r[k] / kept - poses[i].sigma_mean_mps2[k].powi(2);
             }
         }
         for &i in &members {
             for k in 0..3 {
-                let component = (extra[k] / members.len() as f64).max(0.0);
+                let component = (extra[k] / members.len() as f64).max(walked);
                 problem.pose_sigma[i][k] = (poses[i].sigma_mean_mps2[k].powi(2) + component).sqrt();
             }
         }
@@ -1493,8 +1618,13 @@ pub fn fit_joint_from(
         iterations: first.iterations + report.iterations,
         stop: report.stop,
         covariance: format!(
-            "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run, each still pose and each prior a block of its own (batch-means HAC)",
-            settings.block_s, blocks
+            "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run, each still pose and each prior a block of its own (batch-means HAC); each pose weighted by its mean's error and the bias's wander between poses ({})",
+            settings.block_s,
+            blocks,
+            match walk {
+                Some(d) => format!("random walk {d:.2e} (m/s²)²/s, measured within the poses"),
+                None => "from the first pass's pose residuals".into(),
+            }
         ),
         state: FitState {
             params: p,
@@ -1511,16 +1641,23 @@ pub fn fit_joint_from(
 /// are many); `None` when H is singular there.
 fn sandwich(h: &Mat<f64>, s: &Mat<f64>, index: &[usize]) -> Option<Mat<f64>> {
     let n = index.len();
-    let hs = Mat::from_fn(n, n, |a, b| h[(index[a], index[b])]);
     let ss = Mat::from_fn(n, n, |a, b| s[(index[a], index[b])]);
+    let h_inv = inverse_on(h, index)?;
+    let left = &h_inv * &ss;
+    Some(&left * &h_inv)
+}
+
+/// The inverse of the symmetric positive definite `h` restricted to `index` (rows and columns);
+/// `None` when it is singular.
+fn inverse_on(h: &Mat<f64>, index: &[usize]) -> Option<Mat<f64>> {
+    let n = index.len();
+    let hs = Mat::from_fn(n, n, |a, b| h[(index[a], index[b])]);
     // Scale to unit diagonal for a well-conditioned factorisation.
     let d: Vec<f64> = (0..n).map(|a| hs[(a, a)].max(f64::MIN_POSITIVE).sqrt()).collect();
     let scaled = Mat::from_fn(n, n, |a, b| hs[(a, b)] / (d[a] * d[b]));
     let llt = scaled.llt(Side::Lower).ok()?;
     let inv = llt.solve(Mat::<f64>::identity(n, n));
-    let h_inv = Mat::from_fn(n, n, |a, b| inv[(a, b)] / (d[a] * d[b]));
-    let left = &h_inv * &ss;
-    Some(&left * &h_inv)
+    Some(Mat::from_fn(n, n, |a, b| inv[(a, b)] / (d[a] * d[b])))
 }
 
 #[cfg(test)]

@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::campaign::file::TurntableEntry;
-use crate::campaign::joint::{PoseInput, RunInput};
+use crate::campaign::joint::{PoseInput, PoseWander, RunInput};
 use crate::correctors::static_detect::{detect_static, StaticOptions, StillInterval};
 use crate::input::inspect::saturated_mask;
 use crate::input::recording::Recording;
@@ -107,6 +107,26 @@ fn mean_and_error(axes: &[Vec<f64>; 3], start: usize, end: usize, floor: f64) ->
     (mean, sigma)
 }
 
+/// The reading's movement within `[start, end)`: halves' means and first-difference noise.
+fn wander(rec: &Recording, start: usize, end: usize) -> PoseWander {
+    let n = end - start;
+    let half = start + n / 2;
+    let mean = |xs: &[f64]| xs.iter().sum::<f64>() / xs.len().max(1) as f64;
+    PoseWander {
+        duration_s: rec.time_s[end - 1] - rec.time_s[start],
+        half_difference_mps2: std::array::from_fn(|k| {
+            let a = &rec.accel_mps2[k];
+            mean(&a[half..end]) - mean(&a[start..half])
+        }),
+        noise_sd_mps2: std::array::from_fn(|k| {
+            let xs = &rec.accel_mps2[k][start..end];
+            let diff = xs.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>();
+            (diff / (2.0 * (n.max(2) - 1) as f64)).sqrt()
+        }),
+        samples: n,
+    }
+}
+
 fn pose_input(rec: &Recording, name: String, start: usize, end: usize, next_session: usize) -> PoseInput {
     let (mean, sigma) = mean_and_error(&rec.accel_mps2, start, end, 1e-6);
     let gyro = rec
@@ -122,6 +142,7 @@ fn pose_input(rec: &Recording, name: String, start: usize, end: usize, next_sess
         session: next_session - 1,
         gyro_mean_radps: gyro.map(|g| g.0),
         gyro_sigma_mean_radps: gyro.map(|g| g.1),
+        wander: Some(wander(rec, start, end)),
     }
 }
 

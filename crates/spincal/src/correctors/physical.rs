@@ -60,6 +60,14 @@ impl Default for SensorModel {
     }
 }
 
+/// The quadratic coefficient q (1/(m/s²)) of a datasheet nonlinearity of `pct_fs` % of full scale
+/// over ±`range_g`: q·u² then departs from its least-squares straight line over the range by at
+/// most that fraction of full scale (at the ends), which q = 1.5 · NL / FS gives. The simulator's
+/// sensor and the joint fit's prior use this one conversion.
+pub fn quadratic_from_datasheet(pct_fs: f64, range_g: f64) -> f64 {
+    1.5 * pct_fs / 100.0 / (range_g * crate::input::recording::STANDARD_GRAVITY)
+}
+
 impl SensorModel {
     /// A perfect sensor.
     pub const IDEAL: SensorModel = SensorModel {

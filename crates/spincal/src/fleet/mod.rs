@@ -243,10 +243,14 @@ pub fn expand_sources(paths: &[PathBuf]) -> Vec<PathBuf> {
     out
 }
 
-/// The settings a campaign file is calibrated with: `base` with the file's own gravity.
+/// The settings a campaign file is calibrated with: `base` with the file's own gravity and, when it
+/// gives the datasheet's, the nonlinearity prior.
 pub fn settings_for(campaign: &Campaign, base: &CampaignSettings) -> CampaignSettings {
     let mut settings = base.clone();
     settings.joint.gravity_mps2 = campaign.gravity_mps2;
+    if let Some(datasheet) = campaign.nonlinearity {
+        settings.joint.sensor_prior_sd[3] = datasheet.quadratic_per_mps2();
+    }
     settings
 }
 

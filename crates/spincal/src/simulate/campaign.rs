@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 use crate::campaign::file::{SignedAxis, TurntableEntry};
 use crate::campaign::joint::{mounting_matrix, RUN_PARAMS};
 use crate::correctors::gyro::GyroModel;
-use crate::correctors::physical::SensorModel;
+use crate::correctors::physical::{quadratic_from_datasheet, SensorModel};
 use crate::input::recording::{Recording, Source, STANDARD_GRAVITY};
 use crate::simulate::{modulated_rotation, SensorProfile, SimulationError};
 use crate::turntable::model::Direction;
@@ -317,7 +317,7 @@ pub fn profile_sensor_model(profile: &SensorProfile) -> SensorModel {
         q[k] = v.map(|x| x / norm);
     }
     let g = STANDARD_GRAVITY;
-    let quadratic = 1.5 * profile.nonlinearity_pct_fs / 100.0 / (profile.range_g * g);
+    let quadratic = quadratic_from_datasheet(profile.nonlinearity_pct_fs, profile.range_g);
     SensorModel {
         bias_mps2: profile.bias_g.map(|b| b * g),
         scale_error: [l[0][0] - 1.0, l[1][1] - 1.0, l[2][2] - 1.0],
@@ -789,8 +789,12 @@ impl SimulatedCampaign {
     /// The campaign file for these recordings, with files named `<name>.csv` beside it.
     pub fn campaign_toml(&self) -> String {
         let mut text = format!(
-            "# A simulated campaign (spincal simulate --campaign, seed {}).\nunit = \"{}\"\ngravity_mps2 = {}\n",
-            self.truth.seed, self.truth.setup.unit, self.truth.setup.gravity_mps2
+            "# A simulated campaign (spincal simulate --campaign, seed {}).\nunit = \"{}\"\ngravity_mps2 = {}\n# The sensor's datasheet: range (± g) and nonlinearity (% of full scale).\nrange_g = {}\nnonlinearity_pct_fs = {}\n",
+            self.truth.seed,
+            self.truth.setup.unit,
+            self.truth.setup.gravity_mps2,
+            self.truth.setup.sensor.range_g,
+            self.truth.setup.sensor.nonlinearity_pct_fs
         );
         for r in &self.recordings {
             text.push_str(&format!("\n[[recording]]\nfile = \"{}.csv\"\n", r.name));

@@ -290,7 +290,8 @@ pub fn simulate(
         [scale[2] * mis[4], scale[2] * mis[5], scale[2]],
     ];
     let full_scale = sensor.range_g * G;
-    let quadratic = 1.5 * sensor.nonlinearity_pct_fs / 100.0 / full_scale;
+    let quadratic =
+        crate::correctors::physical::quadratic_from_datasheet(sensor.nonlinearity_pct_fs, sensor.range_g);
     let lsb = 2.0 * full_scale / 2f64.powi(sensor.bits as i32);
     let max_code = 2f64.powi(sensor.bits as i32 - 1) - 1.0;
     let drift_bound = sensor.bias_drift_g * G;
