@@ -52,7 +52,10 @@ fn simulated_campaign_calibrates_end_to_end() {
     // The file names the datasheet and each recording's random error; every held-out floor is
     // measured from it.
     let text = String::from_utf8_lossy(&before).into_owned();
-    assert!(text.contains("nonlinearity_pct_fs = 0.2") && text.contains("random_error = "), "{text}");
+    assert!(
+        text.contains("nonlinearity_pct_fs = 0.2") && text.contains("random_error = "),
+        "{text}"
+    );
     for row in results["held_out"].as_array().unwrap() {
         assert!(row["floor_mps2"].is_array(), "{row}");
     }

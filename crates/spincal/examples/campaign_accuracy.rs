@@ -13,28 +13,32 @@ fn main() {
     let seeds: u64 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(5);
     let mut setup = CampaignSetup::default();
     let mut settings = CampaignSettings::default();
-    if let Ok(v) = std::env::var("POSES") { setup.poses = v.parse().unwrap(); }
-    if let Ok(v) = std::env::var("Q_SD") { settings.joint.sensor_prior_sd[3] = v.parse().unwrap(); }
-    if let Ok(v) = std::env::var("BIAS_SIGMA") { settings.joint.bias_instability_mps2 = v.parse().unwrap(); }
+    if let Ok(v) = std::env::var("POSES") {
+        setup.poses = v.parse().unwrap();
+    }
+    if let Ok(v) = std::env::var("Q_SD") {
+        settings.joint.sensor_prior_sd[3] = v.parse().unwrap();
+    }
+    if let Ok(v) = std::env::var("BIAS_SIGMA") {
+        settings.joint.bias_instability_mps2 = v.parse().unwrap();
+    }
     if let Some(drift) = std::env::args().nth(2).and_then(|s| s.parse().ok()) {
         setup.sensor.bias_drift_g = drift;
     }
     println!(
         "seed  saved            RMS / floor, x y z: worst condition | pooled | uncorrected pooled   mean RMS per candidate (m/s²)"
     );
-    let first: u64 = std::env::var("FIRST_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(0);
+    let first: u64 = std::env::var("FIRST_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
     for seed in first..first + seeds {
         let sim = match simulate_campaign(&setup, seed) {
             Ok(sim) => sim,
             Err(e) => return eprintln!("{e}"),
         };
         let units = sim.unit_recordings(true);
-        let out = match calibrate_campaign(
-            "unit",
-            &units,
-            &settings,
-            &spincal::progress::silent,
-        ) {
+        let out = match calibrate_campaign("unit", &units, &settings, &spincal::progress::silent) {
             Ok(out) => out,
             Err(e) => return eprintln!("seed {seed}: {e}"),
         };
@@ -57,7 +61,14 @@ fn main() {
         if std::env::var_os("SPINCAL_DIAG").is_some() {
             for h in &r.held_out {
                 if let (Some(rms), Some(floor)) = (h.rms_mps2, h.floor_mps2) {
-                    println!("   {:<40} {:<16} {:.2} {:.2} {:.2}", h.condition, h.candidate, rms[0] / floor[0], rms[1] / floor[1], rms[2] / floor[2]);
+                    println!(
+                        "   {:<40} {:<16} {:.2} {:.2} {:.2}",
+                        h.condition,
+                        h.candidate,
+                        rms[0] / floor[0],
+                        rms[1] / floor[1],
+                        rms[2] / floor[2]
+                    );
                 }
             }
         }

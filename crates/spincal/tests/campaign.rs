@@ -314,3 +314,28 @@ fn the_physical_model_with_nonlinearity_beats_the_linear_map_on_held_out_conditi
     println!("physical beats linear-12 in {wins}/{seeds}");
     assert!(wins * 10 >= seeds as usize * 8, "{wins}/{seeds}");
 }
+
+/// Six still poses (the faces alone) with a drifting bias: a held-out pose group can defeat every
+/// corrector (seed 2024, the demo's), and then the verdict says to record more poses.
+#[test]
+fn six_poses_that_defeat_every_corrector_ask_for_more_poses() {
+    let setup = CampaignSetup {
+        poses: 6,
+        ..CampaignSetup::default()
+    };
+    let sim = simulate_campaign(&setup, 2024).unwrap();
+    let out = calibrate_campaign(
+        "u",
+        &units(&sim, true),
+        &CampaignSettings::default(),
+        &spincal::progress::silent,
+    )
+    .unwrap();
+    let verdict = &out.result.verdict;
+    assert!(out.saved.is_none(), "{verdict}");
+    assert!(verdict.contains("on \"poses "), "{verdict}");
+    assert!(
+        verdict.contains("Record next: more still poses (6 now"),
+        "{verdict}"
+    );
+}

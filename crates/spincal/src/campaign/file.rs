@@ -290,7 +290,11 @@ impl Campaign {
                     (_, Some(n)) => ("nonlinearity_pct_fs", n.span(), "range_g"),
                     _ => unreachable!("one of the two is given"),
                 };
-                return Err(at.at(span, given, format!("needs `{missing}` too: the two size the nonlinearity's prior together")));
+                return Err(at.at(
+                    span,
+                    given,
+                    format!("needs `{missing}` too: the two size the nonlinearity's prior together"),
+                ));
             }
             (Some(_), Some(_)) => Some(DatasheetNonlinearity {
                 range_g: at.number(
@@ -556,10 +560,22 @@ up = "-z"
         assert!((q - 1.5 * 0.002 / (5.0 * STANDARD_GRAVITY)).abs() < 1e-15, "{q}");
         assert!(parse(GOOD).unwrap().nonlinearity.is_none());
         for (extra, start) in [
-            ("range_g = 5\n", "runs/c.toml:3: `range_g`: needs `nonlinearity_pct_fs`"),
-            ("nonlinearity_pct_fs = 0.2\n", "runs/c.toml:3: `nonlinearity_pct_fs`: needs `range_g`"),
-            ("range_g = -5\nnonlinearity_pct_fs = 0.2\n", "runs/c.toml:3: `range_g`"),
-            ("range_g = 5\nnonlinearity_pct_fs = 120\n", "runs/c.toml:4: `nonlinearity_pct_fs`"),
+            (
+                "range_g = 5\n",
+                "runs/c.toml:3: `range_g`: needs `nonlinearity_pct_fs`",
+            ),
+            (
+                "nonlinearity_pct_fs = 0.2\n",
+                "runs/c.toml:3: `nonlinearity_pct_fs`: needs `range_g`",
+            ),
+            (
+                "range_g = -5\nnonlinearity_pct_fs = 0.2\n",
+                "runs/c.toml:3: `range_g`",
+            ),
+            (
+                "range_g = 5\nnonlinearity_pct_fs = 120\n",
+                "runs/c.toml:4: `nonlinearity_pct_fs`",
+            ),
         ] {
             let e = parse(&with(extra)).unwrap_err().to_string();
             assert!(e.starts_with(start), "{e} (wanted {start})");

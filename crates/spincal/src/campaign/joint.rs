@@ -130,7 +130,9 @@ pub fn bias_random_walk(poses: &[PoseInput]) -> Option<f64> {
     let excess: f64 = seen
         .iter()
         .flat_map(|w| {
-            (0..3).map(|k| w.half_difference_mps2[k].powi(2) - 4.0 * w.noise_sd_mps2[k].powi(2) / w.samples.max(1) as f64)
+            (0..3).map(|k| {
+                w.half_difference_mps2[k].powi(2) - 4.0 * w.noise_sd_mps2[k].powi(2) / w.samples.max(1) as f64
+            })
         })
         .sum();
     Some((excess / span).max(0.0))
@@ -958,7 +960,13 @@ impl JointProblem<'_> {
     }
 
     /// Pose `pi`'s weighted residual rows, one per axis: `visit(axis, row over pose_index, r)`.
-    fn pose_rows(&self, p: &[f64], sensor: &SensorModel, pi: usize, mut visit: impl FnMut(usize, &[f64], f64)) {
+    fn pose_rows(
+        &self,
+        p: &[f64],
+        sensor: &SensorModel,
+        pi: usize,
+        mut visit: impl FnMut(usize, &[f64], f64),
+    ) {
         let pose = &self.poses[pi];
         let o = pose_offset(self.runs.len(), pi);
         let so = session_offset(self.runs.len(), self.poses.len(), pose.session);
@@ -1507,8 +1515,14 @@ pub fn fit_joint_from(
         }
         // A random walk of rate D leaves, about the session's fitted line over its span T, a
         // mean squared deviation of D·T/15 at the poses.
-        let span = members.iter().map(|&i| poses[i].time_s).fold(f64::NEG_INFINITY, f64::max)
-            - members.iter().map(|&i| poses[i].time_s).fold(f64::INFINITY, f64::min);
+        let span = members
+            .iter()
+            .map(|&i| poses[i].time_s)
+            .fold(f64::NEG_INFINITY, f64::max)
+            - members
+                .iter()
+                .map(|&i| poses[i].time_s)
+                .fold(f64::INFINITY, f64::min);
         let walked = walk.map_or(0.0, |d| d * span / 15.0);
         let mut extra = [0.0f64; 3];
         for &i in &members {

@@ -797,21 +797,37 @@ pub fn calibrate_campaign(
                         .filter(|m| m.validate().is_ok());
                     (Some(file), verdict)
                 }
-                Err(e) => (None, format!("Nothing saved: the final training of {} failed: {e}", kind.name())),
+                Err(e) => (
+                    None,
+                    format!("Nothing saved: the final training of {} failed: {e}", kind.name()),
+                ),
             }
         }
         None if conditions.is_empty() => (None, no_conditions_verdict(&prepared, &undetermined)),
-        None => (
-            None,
-            format!(
-                "Nothing saved: every candidate is worse than no correction on at least one held-out condition ({}).",
-                summaries
-                    .iter()
-                    .map(|s| format!("{}: {}", s.candidate, s.why_not.as_deref().unwrap_or("?")))
-                    .collect::<Vec<_>>()
-                    .join("; ")
-            ),
-        ),
+        None => {
+            let reasons: Vec<String> = summaries
+                .iter()
+                .map(|s| format!("{}: {}", s.candidate, s.why_not.as_deref().unwrap_or("?")))
+                .collect();
+            // A held-out group of poses that defeats every corrector: the rest could not pin the
+            // sensor down without it.
+            let poses_failed = reasons.iter().any(|r| r.contains("on \"poses "));
+            let next = if poses_failed {
+                format!(
+                    " Record next: more still poses ({} now; twelve, the six faces and six edges, leave each held-out third determined).",
+                    prepared.poses.len()
+                )
+            } else {
+                String::new()
+            };
+            (
+                None,
+                format!(
+                    "Nothing saved: every candidate is worse than no correction on at least one held-out condition ({}).{next}",
+                    reasons.join("; ")
+                ),
+            )
+        }
     };
     lap("final training", &mut stages);
     let saved_name = saved.as_ref().and(best).map(|b| b.candidate.clone());
