@@ -124,7 +124,7 @@ pub fn bias_random_walk(poses: &[PoseInput]) -> Option<f64> {
         return None;
     }
     let span: f64 = seen.iter().map(|w| 3.0 * 2.0 * (0.5 * w.duration_s) / 3.0).sum();
-    if !(span > 0.0) {
+    if span.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     let excess: f64 = seen
