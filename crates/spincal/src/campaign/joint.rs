@@ -123,8 +123,9 @@ pub fn bias_random_walk(poses: &[PoseInput]) -> Option<f64> {
     if seen.len() < 3 {
         return None;
     }
-    let span: f64 = seen.iter().map(|w| 3.0 * 2.0 * (0.5 * w.duration_s) / 3.0).sum();
-    if span.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+    // Each pose adds 2h/3 per axis with h half its length: its whole length over the three axes.
+    let weight: f64 = seen.iter().map(|w| w.duration_s).sum();
+    if !weight.is_finite() || weight <= 0.0 {
         return None;
     }
     let excess: f64 = seen
@@ -135,7 +136,7 @@ pub fn bias_random_walk(poses: &[PoseInput]) -> Option<f64> {
             })
         })
         .sum();
-    Some((excess / span).max(0.0))
+    Some((excess / weight).max(0.0))
 }
 
 /// Which sensor terms are estimated (the others stay at zero).
