@@ -214,3 +214,48 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::campaign::joint::bias_random_walk;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+
+    /// The random-walk rate measured within still poses recovers the simulated one, with white
+    /// noise ten times the walk's step on top.
+    #[test]
+    fn the_bias_random_walk_is_recovered_from_the_poses() {
+        let (rate_hz, samples, noise): (f64, usize, f64) = (100.0, 400, 0.02);
+        for (seed, d) in [(1u64, 1e-5f64), (2, 3e-6), (3, 0.0)] {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let step = (d / rate_hz).sqrt();
+            let poses: Vec<PoseInput> = (0..120)
+                .map(|p| {
+                    let time_s: Vec<f64> = (0..samples).map(|s| s as f64 / rate_hz).collect();
+                    let mut walk = [0.0f64; 3];
+                    let mut accel: [Vec<f64>; 3] = Default::default();
+                    for _ in 0..samples {
+                        for k in 0..3 {
+                            let z: f64 = StandardNormal.sample(&mut rng);
+                            walk[k] += step * z;
+                            let e: f64 = StandardNormal.sample(&mut rng);
+                            accel[k].push(9.8 * f64::from(k == 2) + walk[k] + noise * e);
+                        }
+                    }
+                    let rec = Recording {
+                        time_s,
+                        accel_mps2: accel,
+                        gyro_radps: None,
+                        source: Default::default(),
+                    };
+                    pose_input(&rec, format!("pose {p}"), 0, samples, 1)
+                })
+                .collect();
+            let estimate = bias_random_walk(&poses).unwrap();
+            // 360 differences: about ±10 % (one standard error) on the walk's share.
+            let tolerance = 0.3 * d + 2e-7;
+            assert!((estimate - d).abs() < tolerance, "seed {seed}: {estimate} vs {d}");
+        }
+    }
+}
