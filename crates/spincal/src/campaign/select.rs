@@ -41,15 +41,24 @@ pub enum CandidateKind {
     Linear,
     /// The full inverse sensor model, then a small network on the residual it leaves.
     PhysicalAnn,
+    /// A dynamic ARX model per axis from the three measured axes and a constant to the reference:
+    /// scored on held-out conditions, never saved (no corrector file holds a dynamic model).
+    Arx,
 }
 
 impl CandidateKind {
-    pub const ALL: [CandidateKind; 4] = [
+    pub const ALL: [CandidateKind; 5] = [
         CandidateKind::Physical,
         CandidateKind::PhysicalLinear,
         CandidateKind::Linear,
         CandidateKind::PhysicalAnn,
+        CandidateKind::Arx,
     ];
+
+    /// Whether a trained corrector of this kind can be saved and applied by `correct`.
+    pub fn savable(self) -> bool {
+        !matches!(self, CandidateKind::Arx)
+    }
 
     pub fn name(self) -> &'static str {
         match self {
@@ -57,6 +66,7 @@ impl CandidateKind {
             CandidateKind::PhysicalLinear => "physical-linear",
             CandidateKind::Linear => "linear-12",
             CandidateKind::PhysicalAnn => "physical-ann",
+            CandidateKind::Arx => "arx",
         }
     }
 
@@ -69,6 +79,9 @@ impl CandidateKind {
             CandidateKind::Linear => "offset + 3×3 matrix fitted from measured to reference (12 parameters)",
             CandidateKind::PhysicalAnn => {
                 "inverse sensor model, then a network (3-6-3, tanh) on the residual it leaves; physics alone outside the network's training range"
+            }
+            CandidateKind::Arx => {
+                "ARX [na nb nk] = [2 2 0] per axis from the three measured axes and a constant to the reference, fitted on the pooled training runs, simulated from rest; scored only (never saved)"
             }
         }
     }
@@ -224,7 +237,36 @@ impl<'a> Training<'a> {
 /// A corrector kind: trained on a set of runs and poses.
 trait Candidate {
     fn kind(&self) -> CandidateKind;
-    fn train(&self, training: &Training<'_>, observer: &Observer) -> Result<CorrectorModel, String>;
+    fn train(&self, training: &Training<'_>, observer: &Observer) -> Result<Trained, String>;
+}
+
+/// What a candidate's training gives: a corrector that can be saved, or a dynamic model per axis
+/// that can only be scored.
+enum Trained {
+    Corrector(CorrectorModel),
+    Dynamic(Box<[crate::sysid::SysidModel; 3]>),
+}
+
+impl Trained {
+    /// The held-out recording's signals after the correction, and which samples it could correct.
+    fn apply(&self, accel: &[Vec<f64>; 3]) -> Result<([Vec<f64>; 3], Vec<bool>), String> {
+        match self {
+            Trained::Corrector(c) => Ok(apply_corrector(Some(c), accel)),
+            Trained::Dynamic(models) => {
+                let n = accel[0].len();
+                let ones = vec![1.0; n];
+                let inputs: [&[f64]; 4] = [&accel[0], &accel[1], &accel[2], &ones];
+                let mut out: [Vec<f64>; 3] = Default::default();
+                for k in 0..3 {
+                    out[k] = models[k]
+                        .simulate(&inputs, crate::sysid::SimInit::Zero)
+                        .map_err(|e| e.to_string())?;
+                }
+                let valid = (0..n).map(|s| (0..3).all(|k| out[k][s].is_finite())).collect();
+                Ok((out, valid))
+            }
+        }
+    }
 }
 
 fn input_range(runs: &[RunInput], poses: &[PoseInput]) -> [[f64; 2]; 3] {
@@ -254,13 +296,15 @@ impl Candidate for PhysicalCandidate {
     fn kind(&self) -> CandidateKind {
         self.1
     }
-    fn train(&self, t: &Training<'_>, observer: &Observer) -> Result<CorrectorModel, String> {
+    fn train(&self, t: &Training<'_>, observer: &Observer) -> Result<Trained, String> {
         let fit = t.fit(self.0, observer)?;
-        Ok(CorrectorModel::Physical(Box::new(PhysicalCorrector {
-            sensor: fit.sensor,
-            gravity_mps2: t.joint.gravity_mps2,
-            input_range_mps2: input_range(&t.runs, &t.poses),
-        })))
+        Ok(Trained::Corrector(CorrectorModel::Physical(Box::new(
+            PhysicalCorrector {
+                sensor: fit.sensor,
+                gravity_mps2: t.joint.gravity_mps2,
+                input_range_mps2: input_range(&t.runs, &t.poses),
+            },
+        ))))
     }
 }
 
@@ -273,7 +317,7 @@ impl Candidate for LinearCandidate {
     fn kind(&self) -> CandidateKind {
         CandidateKind::Linear
     }
-    fn train(&self, t: &Training<'_>, observer: &Observer) -> Result<CorrectorModel, String> {
+    fn train(&self, t: &Training<'_>, observer: &Observer) -> Result<Trained, String> {
         // The reference is the full physical fit's specific force.
         let fit = t.fit(t.joint.terms, observer)?;
         // Normal equations of f_k = c_k + Σ_j A_kj m_j, rows weighted equally per sample; a
@@ -323,12 +367,14 @@ impl Candidate for LinearCandidate {
                     .into(),
             );
         }
-        Ok(CorrectorModel::Linear(Box::new(LinearModel {
-            axes: Axis::ALL.to_vec(),
-            offset_mps2: offset,
-            matrix,
-            training: None,
-        })))
+        Ok(Trained::Corrector(CorrectorModel::Linear(Box::new(
+            LinearModel {
+                axes: Axis::ALL.to_vec(),
+                offset_mps2: offset,
+                matrix,
+                training: None,
+            },
+        ))))
     }
 }
 
@@ -347,7 +393,7 @@ impl Candidate for PhysicalAnnCandidate {
     fn kind(&self) -> CandidateKind {
         CandidateKind::PhysicalAnn
     }
-    fn train(&self, t: &Training<'_>, observer: &Observer) -> Result<CorrectorModel, String> {
+    fn train(&self, t: &Training<'_>, observer: &Observer) -> Result<Trained, String> {
         let fit = t.fit(SensorTerms::ALL, observer)?;
         let physical = PhysicalCorrector {
             sensor: fit.sensor,
@@ -410,11 +456,62 @@ impl Candidate for PhysicalAnnCandidate {
                 },
             )
             .map_err(|e| format!("network on top of physics: {e}"))?;
-        Ok(CorrectorModel::PhysicalAnn(Box::new(PhysicalAnnCorrector {
-            physical,
-            network,
-            coverage,
-        })))
+        Ok(Trained::Corrector(CorrectorModel::PhysicalAnn(Box::new(
+            PhysicalAnnCorrector {
+                physical,
+                network,
+                coverage,
+            },
+        ))))
+    }
+}
+
+/// ARX orders of the dynamic candidate: two past outputs, the current and previous sample of each
+/// measured axis, and a constant.
+const ARX_NA: usize = 2;
+const ARX_NB: usize = 2;
+
+struct ArxCandidate;
+
+impl Candidate for ArxCandidate {
+    fn kind(&self) -> CandidateKind {
+        CandidateKind::Arx
+    }
+    fn train(&self, t: &Training<'_>, observer: &Observer) -> Result<Trained, String> {
+        let fit = t.fit(t.joint.terms, observer)?;
+        if t.runs.is_empty() {
+            return Err("no turntable run to train a dynamic model on".into());
+        }
+        // The training runs end to end (their few joint samples are part of the fit), the kept
+        // samples only: measured axes and a constant in, the joint fit's reference out.
+        let mut inputs: [Vec<f64>; 4] = Default::default();
+        let mut target: [Vec<f64>; 3] = Default::default();
+        for (i, run) in t.runs.iter().enumerate() {
+            let reference = fit.run_reference(i, &run.time_s);
+            for s in (0..run.time_s.len()).filter(|&s| run.keep[s]) {
+                for k in 0..3 {
+                    inputs[k].push(run.accel_mps2[k][s]);
+                    target[k].push(reference[k][s]);
+                }
+                inputs[3].push(1.0);
+            }
+        }
+        let u: Vec<&[f64]> = inputs.iter().map(Vec::as_slice).collect();
+        let params = crate::sysid::ArxParams {
+            na: ARX_NA,
+            nb: vec![ARX_NB, ARX_NB, ARX_NB, 1],
+            nk: vec![0; 4],
+        };
+        let mut models = Vec::with_capacity(3);
+        for k in 0..3 {
+            let arx = params
+                .fit(&u, &target[k])
+                .map_err(|e| format!("ARX on axis {k}: {e}"))?;
+            models.push(crate::sysid::SysidModel::Poly(arx.model));
+        }
+        let models: [crate::sysid::SysidModel; 3] =
+            models.try_into().map_err(|_| "three axes".to_string())?;
+        Ok(Trained::Dynamic(Box::new(models)))
     }
 }
 
@@ -424,6 +521,7 @@ fn candidate(kind: CandidateKind) -> Box<dyn Candidate + Sync> {
         CandidateKind::PhysicalLinear => Box::new(PhysicalCandidate(SensorTerms::LINEAR, kind)),
         CandidateKind::Linear => Box::new(LinearCandidate),
         CandidateKind::PhysicalAnn => Box::new(PhysicalAnnCandidate),
+        CandidateKind::Arx => Box::new(ArxCandidate),
     }
 }
 
@@ -534,7 +632,7 @@ type Scored = ([f64; 3], Option<[f64; 3]>, &'static str);
 
 /// Error of a corrector (or none) on the held-out condition, per axis, with the floor when known.
 fn score(
-    corrector: Option<&CorrectorModel>,
+    corrector: Option<&Trained>,
     condition: &Condition,
     prepared: &Prepared,
     units: &[UnitRecording],
@@ -562,7 +660,10 @@ fn score(
     for &i in &condition.runs {
         let run = &prepared.runs[i];
         let unit = &units[prepared.run_origin[i]];
-        let (corrected, valid) = apply_corrector(corrector, &run.accel_mps2);
+        let (corrected, valid) = match corrector {
+            Some(c) => c.apply(&run.accel_mps2)?,
+            None => apply_corrector(None, &run.accel_mps2),
+        };
         let keep = |s: usize| run.keep[s] && valid[s];
         match &unit.truth {
             Some(truth) => {
@@ -598,7 +699,10 @@ fn score(
         let unit = &units[origin.recording];
         let accel = &unit.recording.accel_mps2;
         let window: [Vec<f64>; 3] = std::array::from_fn(|k| accel[k][origin.start..origin.end].to_vec());
-        let (corrected, valid) = apply_corrector(corrector, &window);
+        let (corrected, valid) = match corrector {
+            Some(c) => c.apply(&window)?,
+            None => apply_corrector(None, &window),
+        };
         let len = origin.end - origin.start;
         match &unit.truth {
             Some(truth) => {
@@ -781,7 +885,11 @@ pub fn calibrate_campaign(
             let _ = training.full_fit.set(Ok(joint.clone()));
             observer(Progress::step("final training", 0, Some(1)));
             match candidate(kind).train(&training, observer) {
-                Ok(model) => {
+                Ok(Trained::Dynamic(_)) => (
+                    None,
+                    format!("Nothing saved: {} cannot be saved as a corrector", kind.name()),
+                ),
+                Ok(Trained::Corrector(model)) => {
                     let verdict = format!(
                         "Saved {} ({}): the lowest error on held-out conditions ({:.4} m/s² mean RMS over {} conditions, at worst {:.2}× the uncorrected error), trained on every recording of the campaign.",
                         kind.name(),
@@ -897,6 +1005,9 @@ fn summarise(kind: CandidateKind, held_out: &[HeldOutScore], n_conditions: usize
         rows.len() == n_conditions && n_conditions > 0 && rows.iter().all(|r| r.rms_mps2.is_some());
     if n_conditions == 0 {
         why_not = Some("no held-out condition".into());
+    }
+    if !kind.savable() {
+        why_not = Some("scored only: no corrector file holds a dynamic model".into());
     }
     CandidateSummary {
         candidate: kind.name().to_string(),
