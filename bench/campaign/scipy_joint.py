@@ -10,7 +10,9 @@ what fit_joint does after its starting values:
   pass 1: weights = each run's first-difference noise per axis, each pose's standard error of
           the mean; solve;
   reweight: each run by its residual RMS per axis, each still session's poses by a variance
-          component (3 r² − σ², averaged over the session's poses, floored at 0);
+          component: the larger of r²/(1 − h) − σ² averaged over the session's poses (h the
+          pose row's leverage under the pass-1 weights) and the bias random walk's D·T/15 over
+          the session's span T (D from the poses' half-to-half differences, pooled over axes);
   pass 2: solve again from pass 1's solution.
 
 Both fits start from the example's starting vector (checked there to equal fit_joint's own).
@@ -38,6 +40,7 @@ SENSOR = 12
 RUN = 15
 POSE = 2
 SESSION = 6
+MIN_KEPT_VARIANCE = 0.05  # the least share of a pose residual's variance the fit leaves it
 # A still session's drift rate has a prior of the bias instability per this many seconds
 # (campaign/joint.rs SESSION_DRIFT_S, a private constant: not in the exported settings).
 SESSION_DRIFT_S = 100.0
@@ -92,6 +95,8 @@ class Problem:
         self.pose_sem = np.array([p["sigma_mean_mps2"] for p in poses], float)
         self.pose_session = np.array([p["session"] for p in poses], int)
         times = np.array([p["time_s"] for p in poses], float)
+        self.pose_time = times
+        self.walk = random_walk(poses)
         self.pose_tau = np.empty(self.n_poses)
         for s in range(self.n_sessions):
             m = self.pose_session == s
@@ -305,15 +310,41 @@ class Problem:
             run_sigma.append(np.maximum(np.sqrt(np.mean(r * r, axis=1)), 1e-6))
         pose_sigma = self.pose_sem.copy()
         rp = self.pose_residual(p)
+        # Leverage of each pose row under the pass-1 weights: h = j (J^T J)^-1 j^T.
+        J = self.jacobian(p)
+        cov = np.linalg.inv(J.T @ J)
+        first = self.m - 3 * self.n_poses - 6 * self.n_runs - 6 * self.n_sessions - int(self.sensor_free.sum())
+        rows = J[first:first + 3 * self.n_poses]
+        lev = np.einsum("ij,jk,ik->i", rows, cov, rows).reshape(self.n_poses, 3)
+        kept = np.maximum(1.0 - lev, MIN_KEPT_VARIANCE)
         for s in range(self.n_sessions):
             mem = np.flatnonzero(self.pose_session == s)
             if len(mem) < 2:
                 continue
-            extra = np.sum(3 * rp[mem] ** 2 - self.pose_sem[mem] ** 2, axis=0)
-            comp = np.maximum(extra / len(mem), 0.0)
+            span = self.pose_time[mem].max() - self.pose_time[mem].min()
+            walked = self.walk * span / 15.0 if self.walk is not None else 0.0
+            extra = np.sum(rp[mem] ** 2 / kept[mem] - self.pose_sem[mem] ** 2, axis=0)
+            comp = np.maximum(extra / len(mem), walked)
             pose_sigma[mem] = np.sqrt(self.pose_sem[mem] ** 2 + comp)
         self.set_weights(run_sigma, pose_sigma)
         return run_sigma, pose_sigma
+
+
+def random_walk(poses):
+    """The bias's random-walk rate from the poses' half-to-half differences, pooled over axes:
+    sum(d^2 - 4 sigma^2 / n) / sum(duration), floored at 0; None from fewer than three poses."""
+    seen = [p["wander"] for p in poses if p.get("wander")]
+    if len(seen) < 3:
+        return None
+    weight = sum(w["duration_s"] for w in seen)
+    if not weight > 0:
+        return None
+    excess = sum(
+        d * d - 4.0 * n * n / w["samples"]
+        for w in seen
+        for d, n in zip(w["half_difference_mps2"], w["noise_sd_mps2"])
+    )
+    return max(excess / weight, 0.0)
 
 
 # --- starting values, as fit_joint forms them (timed, for the same work both sides) ---------

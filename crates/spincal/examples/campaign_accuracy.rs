@@ -1,37 +1,53 @@
 //! Measures campaign calibration against truth over several simulated units: for each seed, the
-//! saved corrector's held-out RMS error per axis over the random floor (white noise + bias drift),
-//! and each candidate's mean held-out error.
+//! saved corrector's held-out RMS error per axis over the random floor (white noise + bias drift)
+//! on the same samples, at worst over the held-out conditions and pooled over them, the
+//! uncorrected error pooled the same way, and each candidate's mean held-out error.
 //!
 //! ```text
 //! cargo run --release -p spincal --example campaign_accuracy -- 10
+//! cargo run --release -p spincal --example campaign_accuracy -- 10 --drift-g 0 --bias-instability 0.001
 //! ```
+//! Options: `--first-seed N`, `--poses N` (still poses), `--drift-g X` (the sensor's bias drift
+//! bound), `--bias-instability X` (the fit's, m/s²), `--q-prior X` (the nonlinearity prior's
+//! width, 1/(m/s²)), `--detail` (every held-out row).
 
 use spincal::campaign::{calibrate_campaign, CampaignSettings};
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 
 fn main() {
-    let seeds: u64 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(5);
     let mut setup = CampaignSetup::default();
     let mut settings = CampaignSettings::default();
-    if let Ok(v) = std::env::var("POSES") {
-        setup.poses = v.parse().unwrap();
-    }
-    if let Ok(v) = std::env::var("Q_SD") {
-        settings.joint.sensor_prior_sd[3] = v.parse().unwrap();
-    }
-    if let Ok(v) = std::env::var("BIAS_SIGMA") {
-        settings.joint.bias_instability_mps2 = v.parse().unwrap();
-    }
-    if let Some(drift) = std::env::args().nth(2).and_then(|s| s.parse().ok()) {
-        setup.sensor.bias_drift_g = drift;
+    let (mut seeds, mut first, mut detail) = (5u64, 0u64, false);
+    let mut args = std::env::args().skip(1);
+    while let Some(arg) = args.next() {
+        let mut value = |name: &str| -> f64 {
+            match args.next().map(|v| v.parse::<f64>()) {
+                Some(Ok(v)) if v.is_finite() && v >= 0.0 => v,
+                _ => {
+                    eprintln!("{name} needs a non-negative number");
+                    std::process::exit(2)
+                }
+            }
+        };
+        match arg.as_str() {
+            "--first-seed" => first = value("--first-seed") as u64,
+            "--poses" => setup.poses = value("--poses") as usize,
+            "--drift-g" => setup.sensor.bias_drift_g = value("--drift-g"),
+            "--bias-instability" => settings.joint.bias_instability_mps2 = value("--bias-instability"),
+            "--q-prior" => settings.joint.sensor_prior_sd[3] = value("--q-prior"),
+            "--detail" => detail = true,
+            n => match n.parse() {
+                Ok(n) => seeds = n,
+                Err(_) => {
+                    eprintln!("unknown argument {n:?}");
+                    std::process::exit(2)
+                }
+            },
+        }
     }
     println!(
         "seed  saved            RMS / floor, x y z: worst condition | pooled | uncorrected pooled   mean RMS per candidate (m/s²)"
     );
-    let first: u64 = std::env::var("FIRST_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(0);
     for seed in first..first + seeds {
         let sim = match simulate_campaign(&setup, seed) {
             Ok(sim) => sim,
@@ -58,7 +74,7 @@ fn main() {
         }
         let pooled: [f64; 3] = std::array::from_fn(|k| (error_sq[k] / floor_sq[k]).sqrt());
         let raw: [f64; 3] = std::array::from_fn(|k| (raw_sq[k] / floor_sq[k]).sqrt());
-        if std::env::var_os("SPINCAL_DIAG").is_some() {
+        if detail {
             for h in &r.held_out {
                 if let (Some(rms), Some(floor)) = (h.rms_mps2, h.floor_mps2) {
                     println!(

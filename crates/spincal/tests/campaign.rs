@@ -349,3 +349,32 @@ fn six_poses_that_defeat_every_corrector_ask_for_more_poses() {
         "{verdict}"
     );
 }
+
+/// Without bias drift (the floor is then the white noise, and the fit is told the bias is stable),
+/// the saved corrector's RMS error against the true specific force is within 1.25× the floor on
+/// every held-out condition and axis. With the default drift (0.01 g bound, 300 s correlation, over
+/// a campaign of about 7 minutes) no static corrector can: the bias the campaign can estimate is
+/// the drift's own average, whose error is as large as the drift (see the closing measurements in
+/// CHANGELOG.md).
+#[test]
+fn without_drift_the_saved_corrector_reaches_the_floor_on_every_held_out_condition() {
+    let mut setup = CampaignSetup::default();
+    setup.sensor.bias_drift_g = 0.0;
+    let mut settings = CampaignSettings::default();
+    settings.joint.bias_instability_mps2 = 0.001;
+    for seed in [0, 7] {
+        let sim = simulate_campaign(&setup, seed).unwrap();
+        let out = calibrate_campaign("u", &units(&sim, true), &settings, &spincal::progress::silent).unwrap();
+        let saved = out.result.saved.clone().expect("a corrector is saved");
+        let mut worst = [0.0f64; 3];
+        for h in out.result.held_out.iter().filter(|h| h.candidate == saved) {
+            let (rms, floor) = (h.rms_mps2.unwrap(), h.floor_mps2.unwrap());
+            for k in 0..3 {
+                worst[k] = worst[k].max(rms[k] / floor[k]);
+            }
+            assert!(h.uncorrected_rms_mps2.iter().zip(&floor).all(|(u, f)| u > f));
+        }
+        println!("seed {seed}: saved {saved}, worst held-out RMS / floor {worst:.3?}");
+        assert!(worst.iter().all(|&w| w > 0.9 && w <= 1.25), "seed {seed}: {worst:?}");
+    }
+}
