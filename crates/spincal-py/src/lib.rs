@@ -725,13 +725,8 @@ fn calibrate_campaign(
     let units = py
         .detach(|| spincal::campaign::load_campaign(&campaign))
         .map_err(errors::format)?;
-    let settings = CampaignSettings {
-        joint: spincal::campaign::JointSettings {
-            gravity_mps2: campaign.gravity_mps2,
-            ..Default::default()
-        },
-        ..CampaignSettings::default()
-    };
+    // The CLI's settings for this file (its gravity and datasheet nonlinearity).
+    let settings = spincal::fleet::settings_for(&campaign, &CampaignSettings::default());
     let output = long::run(py, progress.as_ref(), |observer| {
         spincal::campaign::calibrate_campaign(&campaign.unit, &units, &settings, observer)
     })?

@@ -12,6 +12,16 @@ use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, RunSetup};
 mod common;
 use common::campaign_units as units;
 
+/// Simulates the campaign with `seed` and calibrates it (truth attached) with `settings`.
+fn calibrated(
+    setup: &CampaignSetup,
+    seed: u64,
+    settings: &CampaignSettings,
+) -> spincal::campaign::CampaignOutput {
+    let sim = simulate_campaign(setup, seed).unwrap();
+    calibrate_campaign("u", &units(&sim, true), settings, &spincal::progress::silent).unwrap()
+}
+
 fn wrapped(d: f64) -> f64 {
     (d + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI) - std::f64::consts::PI
 }
@@ -124,14 +134,7 @@ fn a_single_recording_saves_nothing_and_says_what_to_record() {
         runs: vec![RunSetup::default()],
         ..CampaignSetup::default()
     };
-    let sim = simulate_campaign(&setup, 5).unwrap();
-    let out = calibrate_campaign(
-        "one",
-        &units(&sim, true),
-        &CampaignSettings::default(),
-        &spincal::progress::silent,
-    )
-    .unwrap();
+    let out = calibrated(&setup, 5, &CampaignSettings::default());
     assert!(out.saved.is_none());
     assert!(out.result.saved.is_none());
     assert!(
@@ -151,14 +154,7 @@ fn a_single_recording_saves_nothing_and_says_what_to_record() {
 /// physical corrector survives the model file.
 #[test]
 fn a_saved_corrector_held_on_every_condition_and_round_trips() {
-    let sim = simulate_campaign(&CampaignSetup::default(), 11).unwrap();
-    let out = calibrate_campaign(
-        "u",
-        &units(&sim, true),
-        &CampaignSettings::default(),
-        &spincal::progress::silent,
-    )
-    .unwrap();
+    let out = calibrated(&CampaignSetup::default(), 11, &CampaignSettings::default());
     assert!(!out.result.conditions.is_empty());
     for summary in &out.result.candidates {
         let rows: Vec<_> = out
@@ -307,8 +303,7 @@ fn the_physical_model_with_nonlinearity_beats_the_linear_map_on_held_out_conditi
     let mut wins = 0;
     let seeds = 20;
     for seed in 0..seeds {
-        let sim = simulate_campaign(&setup, seed).unwrap();
-        let out = calibrate_campaign("u", &units(&sim, true), &settings, &spincal::progress::silent).unwrap();
+        let out = calibrated(&setup, seed, &settings);
         let mean = |name: &str| {
             out.result
                 .candidates
@@ -333,14 +328,7 @@ fn six_poses_that_defeat_every_corrector_ask_for_more_poses() {
         poses: 6,
         ..CampaignSetup::default()
     };
-    let sim = simulate_campaign(&setup, 2024).unwrap();
-    let out = calibrate_campaign(
-        "u",
-        &units(&sim, true),
-        &CampaignSettings::default(),
-        &spincal::progress::silent,
-    )
-    .unwrap();
+    let out = calibrated(&setup, 2024, &CampaignSettings::default());
     let verdict = &out.result.verdict;
     assert!(out.saved.is_none(), "{verdict}");
     assert!(verdict.contains("on \"poses "), "{verdict}");
@@ -363,8 +351,7 @@ fn without_drift_the_saved_corrector_reaches_the_floor_on_every_held_out_conditi
     let mut settings = CampaignSettings::default();
     settings.joint.bias_instability_mps2 = 0.001;
     for seed in [0, 7] {
-        let sim = simulate_campaign(&setup, seed).unwrap();
-        let out = calibrate_campaign("u", &units(&sim, true), &settings, &spincal::progress::silent).unwrap();
+        let out = calibrated(&setup, seed, &settings);
         let saved = out.result.saved.clone().expect("a corrector is saved");
         let mut worst = [0.0f64; 3];
         for h in out.result.held_out.iter().filter(|h| h.candidate == saved) {
@@ -375,6 +362,9 @@ fn without_drift_the_saved_corrector_reaches_the_floor_on_every_held_out_conditi
             assert!(h.uncorrected_rms_mps2.iter().zip(&floor).all(|(u, f)| u > f));
         }
         println!("seed {seed}: saved {saved}, worst held-out RMS / floor {worst:.3?}");
-        assert!(worst.iter().all(|&w| w > 0.9 && w <= 1.25), "seed {seed}: {worst:?}");
+        assert!(
+            worst.iter().all(|&w| w > 0.9 && w <= 1.25),
+            "seed {seed}: {worst:?}"
+        );
     }
 }

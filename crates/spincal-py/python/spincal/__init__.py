@@ -250,7 +250,8 @@ def simulate_campaign(
     folder: PathLike, *, seed: int = 7, setup: Optional[Mapping[str, Any]] = None
 ) -> Truth:
     """Writes a simulated unit's campaign into ``folder`` (``campaign.toml``, the recordings in
-    m/s², ``*.truth.csv`` and ``truth.json``), as ``spincal simulate --campaign``; ``setup``
+    m/s², ``*.truth.csv``, ``*.random.csv`` (drift + white noise per sample) and ``truth.json``),
+    as ``spincal simulate --campaign``; ``setup``
     changes the defaults (``simulation_defaults()["campaign"]``, e.g. ``{"sensor": {...}}``).
     Refuses to replace files (:class:`UsageError`). Returns the :class:`Truth`.
 

@@ -16,11 +16,12 @@
 //!
 //! Every residual is divided by its noise (per run and axis; for a pose, the mean's standard error
 //! and the bias's wander about its session's line, from the random walk measured within the poses
-//! (`bias_random_walk`), or from what the first pass left, whichever is larger), and priors enter as residuals: (r − r_nominal)/tolerance and δ/σ_bias (bias
-//! instability between recordings), ε/σ_mount (how flat the sensor sits) and, for each free sensor
-//! term, its value over a datasheet-sized width (bias 0.5 m/s², scale 0.02, misalignment 0.02 rad,
-//! nonlinearity from the datasheet, about 10⁻⁴ /(m/s²)). The normal equations are accumulated per
-//! sample, never a stored Jacobian, so memory is the recordings plus an n × n matrix.
+//! (`bias_random_walk`) or from what the first pass left, whichever is larger), and priors enter
+//! as residuals: (r − r_nominal)/tolerance and δ/σ_bias (bias instability between recordings),
+//! ε/σ_mount (how flat the sensor sits) and, for each free sensor term, its value over a
+//! datasheet-sized width (bias 0.5 m/s², scale 0.02, misalignment 0.02 rad, nonlinearity from the
+//! datasheet, about 10⁻⁴ /(m/s²)). The normal equations are accumulated per sample, never a
+//! stored Jacobian, so memory is the recordings plus an n × n matrix.
 //!
 //! Standard errors are the sandwich H⁻¹ S H⁻¹ with S from scores summed over blocks of
 //! consecutive samples (batch-means HAC): residuals coloured by wow, flutter or drift within a
@@ -948,7 +949,6 @@ impl JointProblem<'_> {
         )
     }
 
-    /// Model − measured mean of pose `i`, m/s².
     /// The parameters a still pose's residuals depend on: the sensor's, its two angles and its
     /// session's offset and drift rate (the order of [`JointProblem::pose_rows`]' entries).
     fn pose_index(&self, pi: usize) -> Vec<usize> {
@@ -1023,6 +1023,7 @@ impl JointProblem<'_> {
         Some(out)
     }
 
+    /// Model − measured mean of pose `i`, m/s².
     pub(crate) fn pose_residual(&self, p: &[f64], i: usize) -> [f64; 3] {
         let sensor = SensorModel::from_params(p);
         let o = pose_offset(self.runs.len(), i);
