@@ -80,7 +80,7 @@ pub struct UnitCalibration {
     pub unit: String,
     /// The campaign file.
     pub campaign: PathBuf,
-    /// Every file read: the campaign file, its recordings and their truth files.
+    /// Every file read: the campaign file, its recordings and their truth and random-error files.
     pub inputs: Vec<PathBuf>,
     /// results.json: the joint fit (sensor parameters with robust standard errors), held-out
     /// scores of every candidate, the saved corrector's name and the verdict.
@@ -156,14 +156,13 @@ pub struct UnitOutcome {
     pub result: Result<UnitCalibration, String>,
 }
 
-/// Every file a campaign reads: the campaign file, its recordings and their truth files.
+/// Every file a campaign reads: the campaign file, its recordings and their truth and
+/// random-error files.
 pub fn campaign_inputs(campaign: &Campaign) -> Vec<PathBuf> {
     let mut inputs = vec![campaign.path.clone()];
     for entry in &campaign.recordings {
         inputs.push(entry.file.clone());
-        if let Some(t) = &entry.truth {
-            inputs.push(t.clone());
-        }
+        inputs.extend(entry.truth.iter().chain(&entry.random_error).cloned());
     }
     inputs
 }
