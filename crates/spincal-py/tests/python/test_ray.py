@@ -119,7 +119,7 @@ def test_units_are_shipped_as_bytes(fleet):
     root, campaign, files = sray.unit_payload(folders[0])
     assert campaign == "campaign.toml" and campaign in files
     assert all(isinstance(v, bytes) for v in files.values())
-    assert len(files) == 1 + 2 * 5  # the campaign, 5 recordings and their truth files
+    assert len(files) == 1 + 3 * 5  # the campaign, 5 recordings, their truth and random-error files
 
 
 def _untimed(value):
