@@ -397,6 +397,25 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_campaigns_inputs_include_its_truth_and_random_error_files() {
+        let text = "unit = \"u\"\n[[recording]]\nfile = \"still.csv\"\nkind = \"static\"\ntruth = \"still.truth.csv\"\nrandom_error = \"still.random.csv\"\n";
+        let campaign = Campaign::parse(text, Path::new("d/c.toml")).unwrap();
+        let names: Vec<String> = campaign_inputs(&campaign)
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "d/c.toml",
+                "d/still.csv",
+                "d/still.truth.csv",
+                "d/still.random.csv"
+            ]
+        );
+    }
+
+    #[test]
     fn labels_come_from_folders_and_files_and_are_unique() {
         let dir = tempfile::tempdir().unwrap();
         let a = dir.path().join("imu-7");
