@@ -117,7 +117,7 @@ fn the_fitted_sensor_model_corrects_an_unseen_run() {
                 raw += (m[k] - unseen.true_accel_mps2[k][s]).powi(2);
             }
         }
-        let floor = unseen.floor_mps2.iter().map(|f| f * f).sum::<f64>();
+        let floor = unseen.floor_mps2().iter().map(|f| f * f).sum::<f64>();
         let n = unseen.recording.len() as f64;
         let (corrected, raw, floor) = ((corrected / n).sqrt(), (raw / n).sqrt(), floor.sqrt());
         println!("seed {seed}: corrected {corrected:.4}, uncorrected {raw:.4}, floor {floor:.4} m/s²");

@@ -282,20 +282,17 @@ impl Campaign {
             None => STANDARD_GRAVITY,
         };
         // Both datasheet numbers or neither: one alone cannot size the prior.
+        let alone = |span, given: &str, missing: &str| {
+            at.at(
+                span,
+                given,
+                format!("needs `{missing}` too: the two size the nonlinearity's prior together"),
+            )
+        };
         let nonlinearity = match (&raw.range_g, &raw.nonlinearity_pct_fs) {
             (None, None) => None,
-            (Some(_), None) | (None, Some(_)) => {
-                let (given, span, missing) = match (&raw.range_g, &raw.nonlinearity_pct_fs) {
-                    (Some(r), _) => ("range_g", r.span(), "nonlinearity_pct_fs"),
-                    (_, Some(n)) => ("nonlinearity_pct_fs", n.span(), "range_g"),
-                    _ => unreachable!("one of the two is given"),
-                };
-                return Err(at.at(
-                    span,
-                    given,
-                    format!("needs `{missing}` too: the two size the nonlinearity's prior together"),
-                ));
-            }
+            (Some(r), None) => return Err(alone(r.span(), "range_g", "nonlinearity_pct_fs")),
+            (None, Some(n)) => return Err(alone(n.span(), "nonlinearity_pct_fs", "range_g")),
             (Some(_), Some(_)) => Some(DatasheetNonlinearity {
                 range_g: at.number(
                     &raw.range_g,

@@ -101,10 +101,15 @@ fn mean_and_error(axes: &[Vec<f64>; 3], start: usize, end: usize, floor: f64) ->
             .collect();
         let m = means.len().max(2) as f64;
         let between = means.iter().map(|v| (v - mean[k]).powi(2)).sum::<f64>() / (m - 1.0) / m;
-        let diff = xs.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (n.max(2) - 1) as f64);
+        let diff = difference_variance(xs);
         sigma[k] = between.sqrt().max((diff / n as f64).sqrt()).max(floor);
     }
     (mean, sigma)
+}
+
+/// White-noise variance per sample from first differences (a slow drift hardly moves it).
+fn difference_variance(xs: &[f64]) -> f64 {
+    xs.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (2.0 * (xs.len().max(2) - 1) as f64)
 }
 
 /// The reading's movement within `[start, end)`: halves' means and first-difference noise.
@@ -118,11 +123,7 @@ fn wander(rec: &Recording, start: usize, end: usize) -> PoseWander {
             let a = &rec.accel_mps2[k];
             mean(&a[half..end]) - mean(&a[start..half])
         }),
-        noise_sd_mps2: std::array::from_fn(|k| {
-            let xs = &rec.accel_mps2[k][start..end];
-            let diff = xs.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>();
-            (diff / (2.0 * (n.max(2) - 1) as f64)).sqrt()
-        }),
+        noise_sd_mps2: std::array::from_fn(|k| difference_variance(&rec.accel_mps2[k][start..end]).sqrt()),
         samples: n,
     }
 }

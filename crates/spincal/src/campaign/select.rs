@@ -247,28 +247,6 @@ enum Trained {
     Dynamic(Box<[crate::sysid::SysidModel; 3]>),
 }
 
-impl Trained {
-    /// The held-out recording's signals after the correction, and which samples it could correct.
-    fn apply(&self, accel: &[Vec<f64>; 3]) -> Result<([Vec<f64>; 3], Vec<bool>), String> {
-        match self {
-            Trained::Corrector(c) => Ok(apply_corrector(Some(c), accel)),
-            Trained::Dynamic(models) => {
-                let n = accel[0].len();
-                let ones = vec![1.0; n];
-                let inputs: [&[f64]; 4] = [&accel[0], &accel[1], &accel[2], &ones];
-                let mut out: [Vec<f64>; 3] = Default::default();
-                for k in 0..3 {
-                    out[k] = models[k]
-                        .simulate(&inputs, crate::sysid::SimInit::Zero)
-                        .map_err(|e| e.to_string())?;
-                }
-                let valid = (0..n).map(|s| (0..3).all(|k| out[k][s].is_finite())).collect();
-                Ok((out, valid))
-            }
-        }
-    }
-}
-
 fn input_range(runs: &[RunInput], poses: &[PoseInput]) -> [[f64; 2]; 3] {
     let mut range = [[f64::INFINITY, f64::NEG_INFINITY]; 3];
     for run in runs {
@@ -606,12 +584,16 @@ fn floor_over(
     }
 }
 
-/// The held-out recordings' signals after a corrector (identity for `None`).
-fn apply_corrector(corrector: Option<&CorrectorModel>, accel: &[Vec<f64>; 3]) -> ([Vec<f64>; 3], Vec<bool>) {
+/// The held-out recording's signals after a trained candidate (identity for `None`), and which
+/// samples it could correct.
+fn apply_trained(
+    trained: Option<&Trained>,
+    accel: &[Vec<f64>; 3],
+) -> Result<([Vec<f64>; 3], Vec<bool>), String> {
     let n = accel[0].len();
-    match corrector {
-        None => (accel.clone(), vec![true; n]),
-        Some(c) => {
+    match trained {
+        None => Ok((accel.clone(), vec![true; n])),
+        Some(Trained::Corrector(c)) => {
             let mut stream = c.stream();
             let mut out = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
             let mut valid = vec![true; n];
@@ -622,7 +604,19 @@ fn apply_corrector(corrector: Option<&CorrectorModel>, accel: &[Vec<f64>; 3]) ->
                 }
                 valid[s] = r.valid;
             }
-            (out, valid)
+            Ok((out, valid))
+        }
+        Some(Trained::Dynamic(models)) => {
+            let ones = vec![1.0; n];
+            let inputs: [&[f64]; 4] = [&accel[0], &accel[1], &accel[2], &ones];
+            let mut out: [Vec<f64>; 3] = Default::default();
+            for k in 0..3 {
+                out[k] = models[k]
+                    .simulate(&inputs, crate::sysid::SimInit::Zero)
+                    .map_err(|e| e.to_string())?;
+            }
+            let valid = (0..n).map(|s| (0..3).all(|k| out[k][s].is_finite())).collect();
+            Ok((out, valid))
         }
     }
 }
@@ -660,10 +654,7 @@ fn score(
     for &i in &condition.runs {
         let run = &prepared.runs[i];
         let unit = &units[prepared.run_origin[i]];
-        let (corrected, valid) = match corrector {
-            Some(c) => c.apply(&run.accel_mps2)?,
-            None => apply_corrector(None, &run.accel_mps2),
-        };
+        let (corrected, valid) = apply_trained(corrector, &run.accel_mps2)?;
         let keep = |s: usize| run.keep[s] && valid[s];
         match &unit.truth {
             Some(truth) => {
@@ -699,10 +690,7 @@ fn score(
         let unit = &units[origin.recording];
         let accel = &unit.recording.accel_mps2;
         let window: [Vec<f64>; 3] = std::array::from_fn(|k| accel[k][origin.start..origin.end].to_vec());
-        let (corrected, valid) = match corrector {
-            Some(c) => c.apply(&window)?,
-            None => apply_corrector(None, &window),
-        };
+        let (corrected, valid) = apply_trained(corrector, &window)?;
         let len = origin.end - origin.start;
         match &unit.truth {
             Some(truth) => {

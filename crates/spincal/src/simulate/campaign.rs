@@ -261,10 +261,18 @@ pub struct SimulatedRecording {
     pub true_accel_mps2: [Vec<f64>; 3],
     /// The true angular rate per sample, body frame, rad/s (when the gyroscope is recorded).
     pub true_gyro_radps: Option<[Vec<f64>; 3]>,
-    /// RMS per axis of white noise plus bias drift: the error no corrector can predict, m/s².
-    pub floor_mps2: [f64; 3],
-    /// That error per sample (drift + white noise, before the nonlinearity), m/s².
+    /// White noise plus bias drift per sample (before the nonlinearity): the error no corrector
+    /// can predict, m/s².
     pub random_mps2: [Vec<f64>; 3],
+}
+
+impl SimulatedRecording {
+    /// RMS per axis of the random error: the floor, m/s².
+    pub fn floor_mps2(&self) -> [f64; 3] {
+        self.random_mps2
+            .each_ref()
+            .map(|xs| (xs.iter().map(|v| v * v).sum::<f64>() / xs.len().max(1) as f64).sqrt())
+    }
 }
 
 /// The truth in the joint fit's parametrisation.
@@ -383,12 +391,6 @@ impl SensorProcess<'_> {
 
 fn per_axis(values: &[[f64; 3]]) -> [Vec<f64>; 3] {
     std::array::from_fn(|k| values.iter().map(|v| v[k]).collect())
-}
-
-fn rms_per_axis(values: &[[f64; 3]]) -> [f64; 3] {
-    std::array::from_fn(|k| {
-        (values.iter().map(|v| v[k] * v[k]).sum::<f64>() / values.len().max(1) as f64).sqrt()
-    })
 }
 
 fn recording(name: &str, time_s: Vec<f64>, accel: [Vec<f64>; 3], gyro: Option<[Vec<f64>; 3]>) -> Recording {
@@ -579,7 +581,6 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
             recording: recording(&name, (0..n).map(|s| s as f64 * dt).collect(), accel, gyro_read),
             true_accel_mps2: truth,
             true_gyro_radps: gyro_true,
-            floor_mps2: rms_per_axis(&random),
             random_mps2: per_axis(&random),
             name,
         });
@@ -694,7 +695,6 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
             recording: recording(&name, time_s, accel, gyro_read),
             true_accel_mps2: truth,
             true_gyro_radps: gyro_true,
-            floor_mps2: rms_per_axis(&random),
             random_mps2: per_axis(&random),
             name,
         });
@@ -809,7 +809,7 @@ impl SimulatedCampaign {
                     t.up.name()
                 )),
             }
-            let f = r.floor_mps2;
+            let f = r.floor_mps2();
             text.push_str(&format!(
                 "truth = \"{}.truth.csv\"\nnoise_floor_mps2 = [{}, {}, {}]\nrandom_error = \"{}.random.csv\"\n",
                 r.name, f[0], f[1], f[2], r.name
@@ -840,7 +840,7 @@ impl SimulatedCampaign {
                 recording: r.recording.clone(),
                 turntable: r.turntable.clone(),
                 truth: with_truth.then(|| r.true_accel_mps2.clone()),
-                floor_mps2: with_truth.then_some(r.floor_mps2),
+                floor_mps2: with_truth.then(|| r.floor_mps2()),
                 random_mps2: with_truth.then(|| r.random_mps2.clone()),
             })
             .collect()
