@@ -28,13 +28,26 @@ pub fn parse_decimal(bytes: &[u8]) -> Option<(f64, usize)> {
 #[cfg(target_arch = "x86_64")]
 const PLAIN_BYTES: usize = 1 + 32;
 
-/// The shape that fills recordings, `[-]d{1,3}.d{1,18}` with at most 19 digits in all and no
-/// exponent, read with SSE2 (every x86-64 has it) and no branch that depends on the digits: a
-/// mispredicted branch costs as much as the conversion, and in a recording the sign and the number
-/// of digits change at random from field to field. The digits' extent comes from one compare of 32
-/// bytes, the first 16 digits after the point are converted together (pairs, fours, eights by
-/// multiply-adds), and the value always goes through Eisel–Lemire. `None` for any other shape, for
-/// [`parse_general`] to decide; needs [`PLAIN_BYTES`] bytes.
+/// Sixteen bytes of ones then sixteen of zeros: the 16 bytes from `16 − k` select the first `k`.
+#[cfg(target_arch = "x86_64")]
+static FIRST_BYTES: [u8; 32] = {
+    let mut bytes = [0u8; 32];
+    let mut k = 0;
+    while k < 16 {
+        bytes[k] = 0xFF;
+        k += 1;
+    }
+    bytes
+};
+
+/// The shape that fills recordings, `[-]d{1,15}.d+` with at most 19 digits in all and no exponent,
+/// read with SSE2 (every x86-64 has it) and no branch that depends on the digits: a mispredicted
+/// branch costs as much as the conversion, and in a recording the sign and the number of digits
+/// change at random from field to field. One compare of 32 bytes gives the digits' extent; the
+/// point is squeezed out (the bytes after it moved down one), and the first 16 digits are
+/// converted together by multiply-adds (pairs, fours, eights); the value then always goes through
+/// Eisel–Lemire. `None` for any other shape, for [`parse_general`] to decide; needs [`PLAIN_BYTES`]
+/// bytes.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn parse_plain(bytes: &[u8]) -> Option<(f64, usize)> {
@@ -42,25 +55,39 @@ fn parse_plain(bytes: &[u8]) -> Option<(f64, usize)> {
     let negative = bytes[0] == b'-';
     let p = usize::from(negative);
     let s: &[u8; 32] = bytes[p..p + 32].try_into().expect("32 bytes");
-    // SAFETY: SSE2 is part of every x86-64 target, and each load reads 16 bytes inside `s`.
-    let (mask, frac16) = unsafe {
+    // SAFETY (all loads below): SSE2 is part of every x86-64 target, and each load reads 16 bytes
+    // inside `s` or `FIRST_BYTES`.
+    let first_bytes = |k: usize| unsafe { _mm_loadu_si128(FIRST_BYTES[16 - k..].as_ptr().cast()) };
+    let load = |at: usize| unsafe { _mm_loadu_si128(s[at..].as_ptr().cast()) };
+    let (head, tail) = (load(0), load(16));
+    let mask = unsafe {
         let is_digit = |v: __m128i| {
             let above = _mm_cmpgt_epi8(v, _mm_set1_epi8(b'0' as i8 - 1));
-            _mm_movemask_epi8(_mm_and_si128(above, _mm_cmplt_epi8(v, _mm_set1_epi8(b'9' as i8 + 1)))) as u32
+            let below = _mm_cmplt_epi8(v, _mm_set1_epi8(b'9' as i8 + 1));
+            _mm_movemask_epi8(_mm_and_si128(above, below)) as u32
         };
-        let mask = is_digit(_mm_loadu_si128(s.as_ptr().cast())) | (is_digit(_mm_loadu_si128(s[16..].as_ptr().cast())) << 16);
-        let int_digits = (!mask).trailing_zeros() as usize;
-        // Read ahead of the checks below (any 16 bytes of `s` are safe to load); unused if they fail.
-        let f = (int_digits + 1).min(16);
-        let frac_digits = (!(mask >> f)).trailing_zeros() as usize;
-        let index = _mm_setr_epi8(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-        let keep = _mm_cmplt_epi8(index, _mm_set1_epi8(frac_digits.min(16) as i8));
-        let digits = _mm_and_si128(_mm_sub_epi8(_mm_loadu_si128(s[f..].as_ptr().cast()), _mm_set1_epi8(b'0' as i8)), keep);
+        is_digit(head) | (is_digit(tail) << 16)
+    };
+    let int_digits = (!mask).trailing_zeros() as usize;
+    if int_digits == 0 || int_digits > 15 || s[int_digits] != b'.' {
+        return None;
+    }
+    let frac_digits = (!(mask >> (int_digits + 1))).trailing_zeros() as usize;
+    let digits = int_digits + frac_digits;
+    let end = digits + 1;
+    if frac_digits == 0 || digits > 19 || s[end] | 0x20 == b'e' {
+        return None;
+    }
+    // The digits without the point, the first 16 of them, with zeros after them.
+    let first16 = unsafe {
+        let before_point = first_bytes(int_digits);
+        let joined = _mm_or_si128(_mm_and_si128(before_point, head), _mm_andnot_si128(before_point, load(1)));
+        let values = _mm_and_si128(_mm_sub_epi8(joined, _mm_set1_epi8(b'0' as i8)), first_bytes(digits.min(16)));
         let zero = _mm_setzero_si128();
         let tens = _mm_setr_epi16(10, 1, 10, 1, 10, 1, 10, 1);
         let pairs = _mm_packs_epi32(
-            _mm_madd_epi16(_mm_unpacklo_epi8(digits, zero), tens),
-            _mm_madd_epi16(_mm_unpackhi_epi8(digits, zero), tens),
+            _mm_madd_epi16(_mm_unpacklo_epi8(values, zero), tens),
+            _mm_madd_epi16(_mm_unpackhi_epi8(values, zero), tens),
         );
         let fours = _mm_madd_epi16(pairs, _mm_setr_epi16(100, 1, 100, 1, 100, 1, 100, 1));
         let eights = _mm_madd_epi16(
@@ -68,32 +95,19 @@ fn parse_plain(bytes: &[u8]) -> Option<(f64, usize)> {
             _mm_setr_epi16(10_000, 1, 10_000, 1, 10_000, 1, 10_000, 1),
         );
         let both = _mm_cvtsi128_si64(eights) as u64;
-        (mask, (both & 0xFFFF_FFFF) * 100_000_000 + (both >> 32))
+        (both & 0xFFFF_FFFF) * 100_000_000 + (both >> 32)
     };
-    let int_digits = (!mask).trailing_zeros() as usize;
-    if int_digits == 0 || int_digits > 3 || s[int_digits] != b'.' {
-        return None;
-    }
-    let frac_digits = (!(mask >> (int_digits + 1))).trailing_zeros() as usize;
-    let end = int_digits + 1 + frac_digits;
-    if frac_digits == 0 || int_digits + frac_digits > 19 || s[end] | 0x20 == b'e' {
-        return None;
-    }
-    // Up to three digits as a number, from the low bytes of `x` (ASCII digits less '0').
-    let three = |x: u32| u64::from(x & 0xff) * 100 + u64::from((x >> 8) & 0xff) * 10 + u64::from((x >> 16) & 0xff);
-    let low_bytes = |n: usize| ((1u64 << (8 * n)) - 1) as u32;
-    let word = |at: usize| u32::from_le_bytes(s[at..at + 4].try_into().expect("four bytes")).wrapping_sub(0x3030_3030);
-    // The integer part with zeros after it to three digits, i.e. int × 10^(3 − int_digits).
-    let int_000 = three(word(0) & low_bytes(int_digits));
-    // Past 16 fraction digits, the rest (at most three), as a number of that many digits.
-    let extra_digits = frac_digits.saturating_sub(16);
-    let extra = three(((u64::from(word(int_digits + 17) & low_bytes(extra_digits))) << (8 * (3 - extra_digits))) as u32);
-    // The digits with zeros after them to 16 fraction digits, then the extra ones: below 10^19.
-    let w = (int_000 * POWERS_OF_TEN_19[13 + int_digits] + frac16) * POWERS_OF_TEN_19[extra_digits] + extra;
+    // Digits past the 16th (at most three; with the point before them they start at byte 17).
+    let extra_digits = digits.saturating_sub(16);
+    let word = u32::from_le_bytes(s[17..21].try_into().expect("four bytes")).wrapping_sub(0x3030_3030);
+    let extra = ((u64::from(word) & ((1 << (8 * extra_digits)) - 1)) << (8 * (3 - extra_digits))) as u32;
+    let extra = u64::from(extra & 0xff) * 100 + u64::from((extra >> 8) & 0xff) * 10 + u64::from((extra >> 16) & 0xff);
+    // Below 10^19: all the digits, with zeros after them up to 16.
+    let w = first16 * POWERS_OF_TEN_19[extra_digits] + extra;
     let magnitude = if w == 0 {
         0.0
     } else {
-        eisel_lemire(w, -16 - extra_digits as i64)
+        eisel_lemire(w, int_digits as i64 - 16 - extra_digits as i64)
     };
     Some((if negative { -magnitude } else { magnitude }, p + end))
 }
