@@ -304,7 +304,7 @@ fn to_double(w: u64, q: i64) -> Option<f64> {
 const PRECISION_MASK: u64 = u64::MAX >> (52 + 3);
 
 /// Eisel–Lemire for a normal result (true for every `w ≥ 1` and `q` within ±27).
-#[inline]
+#[inline(always)]
 fn eisel_lemire(w: u64, q: i64) -> f64 {
     let (high5, low5) = POWERS_OF_FIVE[(q - MIN_Q) as usize];
     let shift = w.leading_zeros();
