@@ -11,8 +11,9 @@
 //! product always decides the rounding, so no slow path is needed.
 
 /// Parses the number at the start of `bytes`: `[-]digits[.digits][(e|E)[+-]digits]`, with digits
-/// on both sides of a point. Returns the value and the bytes it used, or `None` when the number is
-/// not of that simple kind (the caller's general parser then decides).
+/// on both sides of a point. Returns the value (always finite: below 10⁴⁷) and the bytes it used,
+/// or `None` when the number is not of that simple kind (the caller's general parser then
+/// decides).
 #[inline]
 pub fn parse_decimal(bytes: &[u8]) -> Option<(f64, usize)> {
     #[cfg(target_arch = "x86_64")]
@@ -399,6 +400,7 @@ mod tests {
         match parse_decimal(line.as_bytes()) {
             Some((value, used)) => {
                 assert_eq!(used, text.len(), "{text}");
+                assert!(value.is_finite(), "{text}");
                 assert_eq!(
                     value.to_bits(),
                     expected.to_bits(),

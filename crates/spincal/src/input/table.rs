@@ -864,18 +864,22 @@ fn fast_fields<const SEP: u8>(input: &[u8], mut p: usize, row: &mut [f64]) -> Fa
     let len = input.len();
     let last = row.len() - 1;
     for (c, slot) in row.iter_mut().enumerate() {
-        while p < len && pad(input[p]) {
-            p += 1;
-        }
-        // Plain decimals by our own reader, the rest by fast-float2: both round correctly.
-        let parsed = crate::input::decimal::parse_decimal(&input[p..])
-            .or_else(|| fast_float2::parse_partial::<f64, _>(&input[p..]).ok());
-        let Some((value, used)) = parsed else {
-            return Fast::Slow;
+        // Plain decimals by our own reader (its values are finite, and it takes no padding); then
+        // padding, and numbers of other forms by fast-float2. Both round correctly.
+        let (value, used) = match crate::input::decimal::parse_decimal(&input[p..]) {
+            Some(parsed) => parsed,
+            None => {
+                while p < len && pad(input[p]) {
+                    p += 1;
+                }
+                let parsed = crate::input::decimal::parse_decimal(&input[p..])
+                    .or_else(|| fast_float2::parse_partial::<f64, _>(&input[p..]).ok());
+                match parsed {
+                    Some((value, used)) if value.is_finite() => (value, used),
+                    _ => return Fast::Slow,
+                }
+            }
         };
-        if !value.is_finite() {
-            return Fast::Slow;
-        }
         *slot = value;
         p += used;
         if c < last {
@@ -884,6 +888,8 @@ fn fast_fields<const SEP: u8>(input: &[u8], mut p: usize, row: &mut [f64]) -> Fa
                 if p >= len || !is_space(input[p]) {
                     return Fast::Slow;
                 }
+            } else if p < len && input[p] == SEP {
+                p += 1;
             } else {
                 while p < len && pad(input[p]) {
                     p += 1;
