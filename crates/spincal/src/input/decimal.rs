@@ -98,17 +98,17 @@ fn parse_plain(bytes: &[u8]) -> Option<(f64, usize)> {
         let both = _mm_cvtsi128_si64(eights) as u64;
         (both & 0xFFFF_FFFF) * 100_000_000 + (both >> 32)
     };
-    // Digits past the 16th (at most three; with the point before them they start at byte 17).
+    // Digits 17 to 19 (with the point before them they start at byte 17), zeros where there are
+    // none: W is then every digit with zeros after them up to 19, below 10^19.
     let extra_digits = digits.saturating_sub(16);
     let word = u32::from_le_bytes(s[17..21].try_into().expect("four bytes")).wrapping_sub(0x3030_3030);
-    let extra = ((u64::from(word) & ((1 << (8 * extra_digits)) - 1)) << (8 * (3 - extra_digits))) as u32;
-    let extra = u64::from(extra & 0xff) * 100 + u64::from((extra >> 8) & 0xff) * 10 + u64::from((extra >> 16) & 0xff);
-    // Below 10^19: all the digits, with zeros after them up to 16.
-    let w = first16 * POWERS_OF_TEN_19[extra_digits] + extra;
+    let extra = word & ((1 << (8 * extra_digits)) - 1);
+    let extra = u64::from(extra & 0xff) * 100 + u64::from((extra >> 8) & 0xff) * 10 + u64::from(extra >> 16);
+    let w = first16 * 1000 + extra;
     let magnitude = if w == 0 {
         0.0
     } else {
-        eisel_lemire(w, int_digits as i64 - 16 - extra_digits as i64)
+        eisel_lemire(w, int_digits as i64 - 19)
     };
     Some((if negative { -magnitude } else { magnitude }, p + end))
 }
@@ -213,17 +213,6 @@ fn read_digits_bytewise(bytes: &[u8], mut p: usize, digits: &mut u64) -> usize {
     }
     p
 }
-
-/// 10^k for k < 20.
-const POWERS_OF_TEN_19: [u64; 20] = {
-    let mut table = [1u64; 20];
-    let mut k = 1;
-    while k < 20 {
-        table[k] = table[k - 1] * 10;
-        k += 1;
-    }
-    table
-};
 
 /// 10^k for k < 9.
 const POWERS_OF_TEN_U64: [u64; 9] = [
