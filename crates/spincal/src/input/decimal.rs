@@ -25,9 +25,9 @@ pub fn parse_decimal(bytes: &[u8]) -> Option<(f64, usize)> {
     parse_general(bytes)
 }
 
-/// Bytes [`parse_plain`] looks at: a sign and 32 more.
+/// Bytes [`parse_plain`] looks at.
 #[cfg(target_arch = "x86_64")]
-const PLAIN_BYTES: usize = 1 + 32;
+const PLAIN_BYTES: usize = 32;
 
 /// Sixteen bytes of ones then sixteen of zeros: the 16 bytes from `16 − k` select the first `k`.
 #[cfg(target_arch = "x86_64")]
@@ -41,49 +41,60 @@ static FIRST_BYTES: [u8; 32] = {
     bytes
 };
 
-/// The shape that fills recordings, `[-]d{1,15}.d+` with at most 19 digits in all and no exponent,
-/// read with SSE2 (every x86-64 has it) and no branch that depends on the digits: a mispredicted
-/// branch costs as much as the conversion, and in a recording the sign and the number of digits
-/// change at random from field to field. One compare of 32 bytes gives the digits' extent; the
-/// point is squeezed out (the bytes after it moved down one), and the first 16 digits are
-/// converted together by multiply-adds (pairs, fours, eights); the value then always goes through
-/// Eisel–Lemire. `None` for any other shape, for [`parse_general`] to decide; needs [`PLAIN_BYTES`]
-/// bytes.
+/// The shape that fills recordings, `[-]d{1,15}.d+` with at most 19 digits in all (a minus sign
+/// counts as one) and no exponent, read with SSE2 (every x86-64 has it) and no branch that
+/// depends on the digits: a mispredicted branch costs as much as the conversion, and in a
+/// recording the sign and the number of digits change at random from field to field.
+///
+/// The number's end, which the next field waits for, comes straight from one compare of 32 bytes
+/// (digits and points, and a sign in the first place). The sign is read as a leading zero digit,
+/// so nothing but the result's sign depends on it. The point is squeezed out (the bytes after it
+/// moved down one), the first 16 digits are converted together by multiply-adds (pairs, fours,
+/// eights), and the value always goes through Eisel–Lemire. `None` for any other shape, for
+/// [`parse_general`] to decide; needs [`PLAIN_BYTES`] bytes.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn parse_plain(bytes: &[u8]) -> Option<(f64, usize)> {
     use std::arch::x86_64::*;
-    let negative = bytes[0] == b'-';
-    let p = usize::from(negative);
-    let s: &[u8; 32] = bytes[p..p + 32].try_into().expect("32 bytes");
+    let s: &[u8; 32] = bytes[..32].try_into().expect("32 bytes");
+    let negative = s[0] == b'-';
     // SAFETY (all loads below): SSE2 is part of every x86-64 target, and each load reads 16 bytes
     // inside `s` or `FIRST_BYTES`.
     let first_bytes = |k: usize| unsafe { _mm_loadu_si128(FIRST_BYTES[16 - k..].as_ptr().cast()) };
     let load = |at: usize| unsafe { _mm_loadu_si128(s[at..].as_ptr().cast()) };
     let (head, tail) = (load(0), load(16));
-    let mask = unsafe {
-        let is_digit = |v: __m128i| {
+    // Bit k: byte k is a digit or a point; and is a point.
+    let (number, points) = unsafe {
+        let masks = |v: __m128i| {
             let above = _mm_cmpgt_epi8(v, _mm_set1_epi8(b'0' as i8 - 1));
             let below = _mm_cmplt_epi8(v, _mm_set1_epi8(b'9' as i8 + 1));
-            _mm_movemask_epi8(_mm_and_si128(above, below)) as u32
+            let point = _mm_cmpeq_epi8(v, _mm_set1_epi8(b'.' as i8));
+            let digit_or_point = _mm_or_si128(_mm_and_si128(above, below), point);
+            (_mm_movemask_epi8(digit_or_point) as u32, _mm_movemask_epi8(point) as u32)
         };
-        is_digit(head) | (is_digit(tail) << 16)
+        let ((number_head, points_head), (number_tail, points_tail)) = (masks(head), masks(tail));
+        (number_head | (number_tail << 16), points_head | (points_tail << 16))
     };
-    let int_digits = (!mask).trailing_zeros() as usize;
-    if int_digits == 0 || int_digits > 15 || s[int_digits] != b'.' {
+    let end = (!(number | u32::from(negative))).trailing_zeros() as usize;
+    // Digit places before the point, the sign's included.
+    let int_places = points.trailing_zeros() as usize;
+    let places = end.saturating_sub(1);
+    let run = ((1u64 << end) - 1) as u32;
+    if int_places <= usize::from(negative)
+        || int_places > 15
+        || int_places + 1 >= end
+        || places > 19
+        || points & run != 1 << int_places
+        || s[end] | 0x20 == b'e'
+    {
         return None;
     }
-    let frac_digits = (!(mask >> (int_digits + 1))).trailing_zeros() as usize;
-    let digits = int_digits + frac_digits;
-    let end = digits + 1;
-    if frac_digits == 0 || digits > 19 || s[end] | 0x20 == b'e' {
-        return None;
-    }
-    // The digits without the point, the first 16 of them, with zeros after them.
+    // The places without the point, the first 16 of them, with zeros after them (and for a sign).
     let first16 = unsafe {
-        let before_point = first_bytes(int_digits);
+        let before_point = first_bytes(int_places);
         let joined = _mm_or_si128(_mm_and_si128(before_point, head), _mm_andnot_si128(before_point, load(1)));
-        let values = _mm_and_si128(_mm_sub_epi8(joined, _mm_set1_epi8(b'0' as i8)), first_bytes(digits.min(16)));
+        // Saturating: '-' less '0' is zero.
+        let values = _mm_and_si128(_mm_subs_epu8(joined, _mm_set1_epi8(b'0' as i8)), first_bytes(places.min(16)));
         let zero = _mm_setzero_si128();
         let tens = _mm_setr_epi16(10, 1, 10, 1, 10, 1, 10, 1);
         let pairs = _mm_packs_epi32(
@@ -98,19 +109,19 @@ fn parse_plain(bytes: &[u8]) -> Option<(f64, usize)> {
         let both = _mm_cvtsi128_si64(eights) as u64;
         (both & 0xFFFF_FFFF) * 100_000_000 + (both >> 32)
     };
-    // Digits 17 to 19 (with the point before them they start at byte 17), zeros where there are
-    // none: W is then every digit with zeros after them up to 19, below 10^19.
-    let extra_digits = digits.saturating_sub(16);
+    // Places 17 to 19 (with the point before them they start at byte 17), zeros where there are
+    // none: W is then every digit with zeros after them up to 19 places, below 10^19.
+    let extra_places = places.saturating_sub(16);
     let word = u32::from_le_bytes(s[17..21].try_into().expect("four bytes")).wrapping_sub(0x3030_3030);
-    let extra = word & ((1 << (8 * extra_digits)) - 1);
+    let extra = word & ((1 << (8 * extra_places)) - 1);
     let extra = u64::from(extra & 0xff) * 100 + u64::from((extra >> 8) & 0xff) * 10 + u64::from(extra >> 16);
     let w = first16 * 1000 + extra;
     let magnitude = if w == 0 {
         0.0
     } else {
-        eisel_lemire(w, int_digits as i64 - 19)
+        eisel_lemire(w, int_places as i64 - 19)
     };
-    Some((if negative { -magnitude } else { magnitude }, p + end))
+    Some((if negative { -magnitude } else { magnitude }, end))
 }
 
 /// The reader for every simple decimal, one branch per stretch of digits.
