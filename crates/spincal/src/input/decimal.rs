@@ -450,6 +450,54 @@ mod tests {
         }
     }
 
+    /// Wherever the SSE2 path takes a number it reads what the general reader reads, to the bit
+    /// and the byte: random runs of signs, digits, points, exponents and separators, placed so
+    /// numbers end anywhere in the 32 bytes looked at (and past them).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn plain_path_agrees_with_the_general_reader() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let mut taken = 0;
+        for _ in 0..2_000_000 {
+            let mut text = Vec::new();
+            while text.len() < 40 {
+                match rng.gen_range(0..10) {
+                    0 => text.push(b'-'),
+                    1 => text.push(b'.'),
+                    2 => text.push([b'e', b'E', b'+'][rng.gen_range(0..3)]),
+                    3 => text.push([b',', b' ', b'\n', b'\r', b'x'][rng.gen_range(0..5)]),
+                    _ => {
+                        for _ in 0..rng.gen_range(1..=12) {
+                            text.push(b'0' + rng.gen_range(0..10u8));
+                        }
+                    }
+                }
+            }
+            // Most of the time, the shape a recording has.
+            if rng.gen_bool(0.5) {
+                let (int_width, frac_width) = (rng.gen_range(1..6), rng.gen_range(1..19));
+                let number = format!(
+                    "{}{}.{:0frac_width$}",
+                    if rng.gen_bool(0.5) { "-" } else { "" },
+                    rng.gen_range(0..10u64.pow(int_width)),
+                    rng.gen_range(0..10u64.pow(frac_width as u32)),
+                );
+                text.splice(0..0, number.bytes());
+            }
+            if let Some((value, used)) = parse_plain(&text) {
+                taken += 1;
+                let general = parse_general(&text);
+                assert_eq!(
+                    general.map(|(v, u)| (v.to_bits(), u)),
+                    Some((value.to_bits(), used)),
+                    "{}",
+                    String::from_utf8_lossy(&text)
+                );
+            }
+        }
+        assert!(taken > 200_000, "the plain path took only {taken}");
+    }
+
     #[test]
     fn agrees_with_str_parse_on_simple_and_awkward_numbers() {
         for text in [
