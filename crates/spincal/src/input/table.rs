@@ -396,7 +396,7 @@ fn advise_mapped(part: &[u8], paging: Paging) {
 }
 
 /// Asks for transparent huge pages under `v`'s unused capacity (Linux): a column of a large
-/// file is then faulted in 2 MiB at a time instead of 4 KiB, which took a tenth of the read.
+/// file is then faulted in 2 MiB at a time instead of 4 KiB (about a sixth as many faults per read).
 fn advise_huge_pages<T>(v: &mut Vec<T>) {
     #[cfg(target_os = "linux")]
     {
@@ -826,8 +826,8 @@ fn is_space(b: u8) -> bool {
 }
 
 /// Reads one line of plain ASCII numbers straight from bytes into `row` (`row.len()` fields), or
-/// recognises a blank or comment line (a comment must be UTF-8). Anything else (non-ASCII, a bad or non-finite number, a wrong
-/// field count) is `Slow`, for [`check_row`] to decide. fast-float2 reads the same decimal syntax
+/// recognises a blank or comment line (a comment must be UTF-8). Anything else (non-ASCII, a bad
+/// or non-finite number, a wrong field count) is `Slow`, for [`check_row`] to decide. fast-float2 reads the same decimal syntax
 /// as `str::parse` and rounds correctly too, so the values are the same bits.
 #[inline]
 fn fast_row(input: &[u8], delimiter: Delimiter, row: &mut [f64]) -> Fast {
