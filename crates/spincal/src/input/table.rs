@@ -827,8 +827,9 @@ fn is_space(b: u8) -> bool {
 
 /// Reads one line of plain ASCII numbers straight from bytes into `row` (`row.len()` fields), or
 /// recognises a blank or comment line (a comment must be UTF-8). Anything else (non-ASCII, a bad
-/// or non-finite number, a wrong field count) is `Slow`, for [`check_row`] to decide. fast-float2 reads the same decimal syntax
-/// as `str::parse` and rounds correctly too, so the values are the same bits.
+/// or non-finite number, a wrong field count) is `Slow`, for [`check_row`] to decide. fast-float2
+/// reads the same decimal syntax as `str::parse` and rounds correctly too, so the values are the
+/// same bits.
 #[inline]
 fn fast_row(input: &[u8], delimiter: Delimiter, row: &mut [f64]) -> Fast {
     let mut p = 0;
@@ -869,10 +870,14 @@ fn fast_fields<const SEP: u8>(input: &[u8], mut p: usize, row: &mut [f64]) -> Fa
         let (value, used) = match crate::input::decimal::parse_decimal(&input[p..]) {
             Some(parsed) => parsed,
             None => {
+                let start = p;
                 while p < len && pad(input[p]) {
                     p += 1;
                 }
-                let parsed = crate::input::decimal::parse_decimal(&input[p..])
+                // Our reader again only if there was padding to skip.
+                let parsed = (p > start)
+                    .then(|| crate::input::decimal::parse_decimal(&input[p..]))
+                    .flatten()
                     .or_else(|| fast_float2::parse_partial::<f64, _>(&input[p..]).ok());
                 match parsed {
                     Some((value, used)) if value.is_finite() => (value, used),
