@@ -867,26 +867,15 @@ fn fast_fields<const SEP: u8>(input: &[u8], mut p: usize, row: &mut [f64]) -> Fa
     for (c, slot) in row.iter_mut().enumerate() {
         // Plain decimals by our own reader (its values are finite, and it takes no padding); then
         // padding, and numbers of other forms by fast-float2. Both round correctly.
-        let (value, used) = match crate::input::decimal::parse_decimal(&input[p..]) {
-            Some(parsed) => parsed,
-            None => {
-                let start = p;
-                while p < len && pad(input[p]) {
-                    p += 1;
-                }
-                // Our reader again only if there was padding to skip.
-                let parsed = (p > start)
-                    .then(|| crate::input::decimal::parse_decimal(&input[p..]))
-                    .flatten()
-                    .or_else(|| fast_float2::parse_partial::<f64, _>(&input[p..]).ok());
-                match parsed {
-                    Some((value, used)) if value.is_finite() => (value, used),
-                    _ => return Fast::Slow,
-                }
-            }
+        let (value, end) = match crate::input::decimal::parse_decimal(&input[p..]) {
+            Some((value, used)) => (value, p + used),
+            None => match padded_number::<SEP>(input, p) {
+                Some(parsed) => parsed,
+                None => return Fast::Slow,
+            },
         };
         *slot = value;
-        p += used;
+        p = end;
         if c < last {
             if SEP == 0 {
                 // The spaces after it are the next field's padding.
@@ -921,6 +910,24 @@ fn fast_fields<const SEP: u8>(input: &[u8], mut p: usize, row: &mut [f64]) -> Fa
         Some(b'\n') => Fast::Row(p + 1),
         _ => Fast::Slow,
     }
+}
+
+/// The finite number at `p` after any padding, read by our reader or by fast-float2, and where it
+/// ends; `None` when there is none. Off the common path, and out of line so that `p` stays in a
+/// register in [`fast_fields`].
+#[cold]
+#[inline(never)]
+fn padded_number<const SEP: u8>(input: &[u8], mut p: usize) -> Option<(f64, usize)> {
+    let start = p;
+    while p < input.len() && is_space(input[p]) && input[p] != SEP {
+        p += 1;
+    }
+    // Our reader again only if there was padding to skip.
+    let (value, used) = (p > start)
+        .then(|| crate::input::decimal::parse_decimal(&input[p..]))
+        .flatten()
+        .or_else(|| fast_float2::parse_partial::<f64, _>(&input[p..]).ok())?;
+    value.is_finite().then_some((value, p + used))
 }
 
 /// A numeric table with one text column of labels (e.g. imucal's `part`), read by
