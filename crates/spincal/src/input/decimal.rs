@@ -140,14 +140,9 @@ fn parse_plain(bytes: &[u8]) -> Option<(f64, usize)> {
 #[inline]
 fn parse_general(bytes: &[u8]) -> Option<(f64, usize)> {
     let len = bytes.len();
-    let mut p = 0;
-    let negative = match bytes.first() {
-        Some(b'-') => {
-            p = 1;
-            true
-        }
-        _ => false,
-    };
+    // The sign skipped without a branch (see `with_sign`).
+    let negative = bytes.first() == Some(&b'-');
+    let mut p = usize::from(negative);
     let mut digits: u64 = 0;
     let int_start = p;
     // Usually one or two digits: a byte at a time.
