@@ -913,8 +913,7 @@ fn fast_fields<const SEP: u8>(input: &[u8], mut p: usize, row: &mut [f64]) -> Fa
 }
 
 /// The finite number at `p` after any padding, read by our reader or by fast-float2, and where it
-/// ends; `None` when there is none. Off the common path, and out of line so that `p` stays in a
-/// register in [`fast_fields`].
+/// ends; `None` when there is none. Off the common path, so kept out of [`fast_fields`]'s loop.
 #[cold]
 #[inline(never)]
 fn padded_number<const SEP: u8>(input: &[u8], mut p: usize) -> Option<(f64, usize)> {
