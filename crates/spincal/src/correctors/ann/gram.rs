@@ -5,11 +5,12 @@
 //! here; this one reads the Jacobian's columns where they are (no packing: each is a contiguous
 //! run of samples) and computes a 3×4 tile of dot products at a time, 12 running sums of 4 lanes
 //! that stay in the 16 AVX registers. [`dispatch`] runs an operation with AVX2+FMA vectors where
-//! the CPU has them (checked at run time) and with plain `f64` lanes elsewhere.
+//! the CPU has them (checked at run time) and with plain `f64` lanes elsewhere; on Intel CPUs with
+//! AVX-512F the full tile runs two dot products to a 512-bit register ([`Avx512`]).
 //!
 //! Summation order is fixed: row r of a column pair goes into lane r mod 4 with a fused
-//! multiply-add, and the lanes are added as (l0 + l1) + (l2 + l3). Both paths do exactly this, so
-//! the result does not depend on the machine.
+//! multiply-add, and the lanes are added as (l0 + l1) + (l2 + l3). Every path does exactly this,
+//! so the result does not depend on the machine.
 
 use std::array::from_fn;
 
@@ -26,6 +27,13 @@ pub(crate) trait Fma4: Copy {
             let l = self.lanes(v);
             (l[0] + l[1]) + (l[2] + l[3])
         })
+    }
+
+    /// The full tile of [`AddLower`], where nearly all its time goes; wider registers override
+    /// it, with the same sums in the same order.
+    #[inline(always)]
+    fn full_tile(self, a: [&[f64]; MR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; MR] {
+        dot_tile::<Self, MR, NR>(self, a, b, len)
     }
 }
 
@@ -84,6 +92,140 @@ impl Fma4 for pulp::x86::V3 {
     }
 }
 
+/// AVX2 lanes on an Intel CPU that also has AVX-512F: the full tile then runs in 512-bit
+/// registers, two dot products to a register (the low four lanes for one column of `b`, the high
+/// four for the next), so that each sum takes the same fused multiply-adds in the same order as
+/// with four lanes and the result stays the same to the bit on every machine. AMD's Zen 4 runs a
+/// 512-bit operation as two 256-bit halves, so there the extra inserts would only cost; it keeps
+/// the four-lane tile.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+pub(crate) struct Avx512(pulp::x86::V3);
+
+#[cfg(target_arch = "x86_64")]
+impl Avx512 {
+    pub(crate) fn try_new(v3: pulp::x86::V3) -> Option<Avx512> {
+        (std::arch::is_x86_feature_detected!("avx512f") && is_intel()).then_some(Avx512(v3))
+    }
+}
+
+/// Whether the CPU's vendor string is Intel's (asked once: `cpuid` exits to the hypervisor in a
+/// virtual machine).
+#[cfg(target_arch = "x86_64")]
+fn is_intel() -> bool {
+    static INTEL: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *INTEL.get_or_init(|| {
+        let vendor = std::arch::x86_64::__cpuid(0);
+        // "GenuineIntel" as cpuid returns it, in EBX, EDX, ECX.
+        (vendor.ebx, vendor.edx, vendor.ecx) == (0x756e_6547, 0x4965_6e69, 0x6c65_746e)
+    })
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Fma4 for Avx512 {
+    type V = pulp::f64x4;
+
+    #[inline(always)]
+    fn load(self, x: [f64; 4]) -> pulp::f64x4 {
+        <pulp::x86::V3 as Fma4>::load(self.0, x)
+    }
+
+    #[inline(always)]
+    fn mul_add(self, a: pulp::f64x4, b: pulp::f64x4, c: pulp::f64x4) -> pulp::f64x4 {
+        <pulp::x86::V3 as Fma4>::mul_add(self.0, a, b, c)
+    }
+
+    #[inline(always)]
+    fn lanes(self, v: pulp::f64x4) -> [f64; 4] {
+        <pulp::x86::V3 as Fma4>::lanes(self.0, v)
+    }
+
+    #[inline(always)]
+    fn sums(self, v: [pulp::f64x4; 4]) -> [f64; 4] {
+        <pulp::x86::V3 as Fma4>::sums(self.0, v)
+    }
+
+    #[inline(always)]
+    fn full_tile(self, a: [&[f64]; MR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; MR] {
+        // SAFETY: an `Avx512` is made only where the CPU has AVX-512F (`Avx512::try_new`) and
+        // x86-64-v3 (it holds a `V3`).
+        unsafe { full_tile_avx512(a, b, len) }
+    }
+}
+
+/// [`dot_tile`]'s full tile in 512-bit registers: row r of a column pair goes into lane r mod 4
+/// with a fused multiply-add (the last step zero-padded), and each sum's lanes are added as
+/// (l0 + l1) + (l2 + l3), exactly as with four lanes. Plain loops and no closures, so that every
+/// intrinsic inlines here.
+///
+/// # Safety
+/// The CPU must have AVX-512F and x86-64-v3.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
+unsafe fn full_tile_avx512(a: [&[f64]; MR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; MR] {
+    use std::arch::x86_64::*;
+    let quads = len / 4;
+    let columns: [&[f64]; MR + NR] = [a[0], a[1], a[2], b[0], b[1], b[2], b[3]];
+    let mut starts = [std::ptr::null::<f64>(); MR + NR];
+    for k in 0..MR + NR {
+        assert!(columns[k].len() >= len);
+        starts[k] = columns[k].as_ptr();
+    }
+    let mut acc = [[_mm512_setzero_pd(); 2]; MR];
+    for q in 0..quads {
+        fma_step(&mut acc, &starts, q * 4);
+    }
+    if quads * 4 < len {
+        // The last rows as one zero-padded step.
+        let mut padded = [[0.0f64; 4]; MR + NR];
+        for k in 0..MR + NR {
+            for r in quads * 4..len {
+                padded[k][r - quads * 4] = columns[k][r];
+            }
+            starts[k] = padded[k].as_ptr();
+        }
+        fma_step(&mut acc, &starts, 0);
+    }
+    let mut sums = [[0.0; NR]; MR];
+    for i in 0..MR {
+        for p in 0..2 {
+            let mut lanes = [0.0; 8];
+            _mm512_storeu_pd(lanes.as_mut_ptr(), acc[i][p]);
+            for half in 0..2 {
+                let l = &lanes[4 * half..4 * half + 4];
+                sums[i][2 * p + half] = (l[0] + l[1]) + (l[2] + l[3]);
+            }
+        }
+    }
+    sums
+}
+
+/// One step of [`full_tile_avx512`]: rows `at..at + 4` of every column (`starts`: a's three, then
+/// b's four).
+///
+/// # Safety
+/// AVX-512F, and four readable values from `at` in every column.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
+#[inline]
+unsafe fn fma_step(
+    acc: &mut [[std::arch::x86_64::__m512d; 2]; MR],
+    starts: &[*const f64; MR + NR],
+    at: usize,
+) {
+    use std::arch::x86_64::*;
+    let quad = |k: usize| _mm256_loadu_pd(starts[k].add(at));
+    let pairs = [
+        _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(MR)), quad(MR + 1)),
+        _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(MR + 2)), quad(MR + 3)),
+    ];
+    for i in 0..MR {
+        let both = _mm512_broadcast_f64x4(quad(i));
+        acc[i][0] = _mm512_fmadd_pd(both, pairs[0], acc[i][0]);
+        acc[i][1] = _mm512_fmadd_pd(both, pairs[1], acc[i][1]);
+    }
+}
+
 /// An operation generic over the lanes, for [`dispatch`].
 pub(crate) trait Fma4Op {
     type Output;
@@ -96,18 +238,28 @@ pub(crate) trait Fma4Op {
 pub(crate) fn dispatch<Op: Fma4Op>(op: Op) -> Op::Output {
     #[cfg(target_arch = "x86_64")]
     if let Some(v3) = pulp::x86::V3::try_new() {
-        struct Run<Op>(Op, pulp::x86::V3);
-        impl<Op: Fma4Op> pulp::NullaryFnOnce for Run<Op> {
-            type Output = Op::Output;
-
-            #[inline(always)]
-            fn call(self) -> Op::Output {
-                self.0.run(self.1)
-            }
-        }
-        return v3.vectorize(Run(op, v3));
+        return match Avx512::try_new(v3) {
+            Some(wide) => vectorized(v3, op, wide),
+            None => vectorized(v3, op, v3),
+        };
     }
     op.run(Portable)
+}
+
+/// Runs `op` with `lanes`, compiled for x86-64-v3 (AVX2, FMA) so that everything it inlines is
+/// vectorised.
+#[cfg(target_arch = "x86_64")]
+fn vectorized<Op: Fma4Op, F: Fma4>(v3: pulp::x86::V3, op: Op, lanes: F) -> Op::Output {
+    struct Run<Op, F>(Op, F);
+    impl<Op: Fma4Op, F: Fma4> pulp::NullaryFnOnce for Run<Op, F> {
+        type Output = Op::Output;
+
+        #[inline(always)]
+        fn call(self) -> Op::Output {
+            self.0.run(self.1)
+        }
+    }
+    v3.vectorize(Run(op, lanes))
 }
 
 /// Tile of the product: MR columns of A (rows of AᵀA) by NR columns (its columns); each MR
@@ -165,7 +317,7 @@ impl Fma4Op for AddLower<'_> {
                     for (p, b) in b.iter().enumerate().take(panels) {
                         let jp = j0 + p * NR;
                         if i0 + MR > jp {
-                            add_tile(gram, d, i0, jp, dot_tile::<F, MR, NR>(f, a, *b, len));
+                            add_tile(gram, d, i0, jp, f.full_tile(a, *b, len));
                         }
                     }
                     i0 += MR;
@@ -264,9 +416,25 @@ mod tests {
     use super::*;
 
     #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn intel_is_read_from_the_vendor_string() {
+        let vendor = std::arch::x86_64::__cpuid(0);
+        let mut name = Vec::new();
+        for register in [vendor.ebx, vendor.edx, vendor.ecx] {
+            name.extend_from_slice(&register.to_le_bytes());
+        }
+        assert_eq!(
+            is_intel(),
+            name == b"GenuineIntel",
+            "{}",
+            String::from_utf8_lossy(&name)
+        );
+    }
+
+    #[test]
     fn lower_triangle_of_the_gram_matrix() {
         // Odd sizes: partial tiles in both directions and a row tail.
-        for (n_cols, len) in [(1, 1), (2, 3), (7, 9), (11, 37), (13, 64)] {
+        for (n_cols, len) in [(1, 1), (2, 3), (7, 9), (11, 37), (13, 64), (24, 255)] {
             let stride = len + 5;
             let data: Vec<f64> = (0..stride * (n_cols + 2))
                 .map(|v| ((v * 37 % 101) as f64 - 50.0) / 7.0)
@@ -274,19 +442,37 @@ mod tests {
             // Skip column 1 and read from row 2 on, as the trainer does for one output.
             let cols: Vec<usize> = (0..n_cols + 1).filter(|&c| c != 1).collect();
             let d = cols.len();
-            let mut gram = vec![0.5; d * d];
-            let add = |gram| AddLower {
-                data: &data,
-                cols: &cols,
-                stride,
-                first: 2,
-                len,
-                gram,
+            // Each lower triangle starts from 0.5 everywhere, to show the upper one is untouched.
+            let added = |run: &dyn Fn(AddLower<'_>)| {
+                let mut gram = vec![0.5; d * d];
+                run(AddLower {
+                    data: &data,
+                    cols: &cols,
+                    stride,
+                    first: 2,
+                    len,
+                    gram: &mut gram,
+                });
+                gram
             };
-            add(&mut gram).run(Portable);
-            let mut fast = vec![0.5; d * d];
-            add(&mut fast).dispatched();
-            assert_eq!(fast, gram, "dispatched and portable lanes differ");
+            let gram = added(&|op| op.run(Portable));
+            assert_eq!(
+                added(&|op| op.dispatched()),
+                gram,
+                "dispatched and portable lanes differ"
+            );
+            // Each vector width this CPU has, whichever `dispatched` chose.
+            #[cfg(target_arch = "x86_64")]
+            {
+                if let Some(v3) = pulp::x86::V3::try_new() {
+                    let avx2 = added(&|op| vectorized(v3, op, v3));
+                    assert_eq!(avx2, gram, "AVX2 and portable lanes differ");
+                    if let Some(wide) = Avx512::try_new(v3) {
+                        let avx512 = added(&|op| vectorized(v3, op, wide));
+                        assert_eq!(avx512, gram, "AVX-512 and portable lanes differ");
+                    }
+                }
+            }
             for i in 0..d {
                 for j in 0..d {
                     let got = gram[i * d + j];
