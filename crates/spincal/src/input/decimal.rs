@@ -197,7 +197,7 @@ fn parse_general(bytes: &[u8]) -> Option<(f64, usize)> {
 }
 
 /// `-magnitude` when `negative`, as a bit rather than a branch: signs in a recording are a coin
-/// toss, and a compiled `if negative` was mispredicted on half the fields (13 % of the reading
+/// toss, and a compiled `if negative` was mispredicted on half the fields (14 % of the reading
 /// time).
 #[inline(always)]
 fn with_sign(magnitude: f64, negative: bool) -> f64 {
