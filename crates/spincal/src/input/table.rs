@@ -825,6 +825,12 @@ fn is_space(b: u8) -> bool {
     matches!(b, b' ' | b'\t' | b'\r' | 0x0b | 0x0c)
 }
 
+/// Spacing around a field that is not itself the separator `SEP` (0 for runs of spaces).
+#[inline(always)]
+fn is_padding<const SEP: u8>(b: u8) -> bool {
+    is_space(b) && b != SEP
+}
+
 /// Reads one line of plain ASCII numbers straight from bytes into `row` (`row.len()` fields), or
 /// recognises a blank or comment line (a comment must be UTF-8). Anything else (non-ASCII, a bad
 /// or non-finite number, a wrong field count) is `Slow`, for [`check_row`] to decide. fast-float2
@@ -861,7 +867,7 @@ fn fast_row(input: &[u8], delimiter: Delimiter, row: &mut [f64]) -> Fast {
 /// The fields of [`fast_row`]; `SEP` is the separator byte, 0 for runs of spaces.
 #[inline(always)]
 fn fast_fields<const SEP: u8>(input: &[u8], mut p: usize, row: &mut [f64]) -> Fast {
-    let pad = |b: u8| is_space(b) && b != SEP;
+    let pad = is_padding::<SEP>;
     let len = input.len();
     let last = row.len() - 1;
     for (c, slot) in row.iter_mut().enumerate() {
@@ -918,7 +924,7 @@ fn fast_fields<const SEP: u8>(input: &[u8], mut p: usize, row: &mut [f64]) -> Fa
 #[inline(never)]
 fn padded_number<const SEP: u8>(input: &[u8], mut p: usize) -> Option<(f64, usize)> {
     let start = p;
-    while p < input.len() && is_space(input[p]) && input[p] != SEP {
+    while p < input.len() && is_padding::<SEP>(input[p]) {
         p += 1;
     }
     // Our reader again only if there was padding to skip.

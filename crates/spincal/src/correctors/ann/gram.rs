@@ -186,16 +186,14 @@ unsafe fn full_tile_avx512(a: [&[f64]; MR], b: [&[f64]; NR], len: usize) -> [[f6
         }
         fma_step(&mut acc, &starts, 0);
     }
+    // Column j's four lanes of each row, summed by the one definition of that sum.
     let mut sums = [[0.0; NR]; MR];
     for i in 0..MR {
+        let mut lanes = [[0.0; 4]; NR];
         for p in 0..2 {
-            let mut lanes = [0.0; 8];
-            _mm512_storeu_pd(lanes.as_mut_ptr(), acc[i][p]);
-            for half in 0..2 {
-                let l = &lanes[4 * half..4 * half + 4];
-                sums[i][2 * p + half] = (l[0] + l[1]) + (l[2] + l[3]);
-            }
+            _mm512_storeu_pd(lanes[2 * p..].as_mut_ptr().cast(), acc[i][p]);
         }
+        sums[i] = Portable.sums(lanes);
     }
     sums
 }
