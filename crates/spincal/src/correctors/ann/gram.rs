@@ -35,6 +35,23 @@ pub(crate) trait Fma4: Copy {
     fn full_tile(self, a: [&[f64]; MR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; MR] {
         dot_tile::<Self, MR, NR>(self, a, b, len)
     }
+
+    /// 2·MR columns of A by JB: four [`Fma4::full_tile`]s, or one kernel where the registers
+    /// hold them all (fewer loads and lane sums per multiply-add).
+    #[inline(always)]
+    fn wide_tile(self, a: [&[f64]; WMR], b: [&[f64]; JB], len: usize) -> [[f64; JB]; WMR] {
+        let mut tile = [[0.0; JB]; WMR];
+        for (half, rows) in tile.chunks_exact_mut(MR).enumerate() {
+            let a: [&[f64]; MR] = from_fn(|i| a[half * MR + i]);
+            for p in 0..JB / NR {
+                let part = self.full_tile(a, from_fn(|j| b[p * NR + j]), len);
+                for (row, part) in rows.iter_mut().zip(part) {
+                    row[p * NR..(p + 1) * NR].copy_from_slice(&part);
+                }
+            }
+        }
+        tile
+    }
 }
 
 /// Lanes as plain `f64`s (any machine).
@@ -146,81 +163,89 @@ impl Fma4 for Avx512 {
     }
 
     #[inline(always)]
-    fn full_tile(self, a: [&[f64]; MR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; MR] {
+    fn wide_tile(self, a: [&[f64]; WMR], b: [&[f64]; JB], len: usize) -> [[f64; JB]; WMR] {
         // SAFETY: an `Avx512` is made only where the CPU has AVX-512F (`Avx512::try_new`) and
         // x86-64-v3 (it holds a `V3`).
-        unsafe { full_tile_avx512(a, b, len) }
+        unsafe { wide_tile_avx512(a, b, len) }
     }
 }
 
-/// [`dot_tile`]'s full tile in 512-bit registers: row r of a column pair goes into lane r mod 4
-/// with a fused multiply-add (the last step zero-padded), and each sum's lanes are added as
-/// (l0 + l1) + (l2 + l3), exactly as with four lanes. Plain loops and no closures, so that every
-/// intrinsic inlines here.
+/// [`Fma4::wide_tile`] in 512-bit registers: 6 × 8 dot products in 24 registers, each holding
+/// two of them (the low four lanes for one column of `b`, the high four for the next). Row r of
+/// a column pair goes into lane r mod 4 with a fused multiply-add (the last step zero-padded), and
+/// each sum's lanes are added as (l0 + l1) + (l2 + l3), exactly as with four lanes. Plain loops
+/// and no closures, so that every intrinsic inlines here.
 ///
 /// # Safety
 /// The CPU must have AVX-512F and x86-64-v3.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
-unsafe fn full_tile_avx512(a: [&[f64]; MR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; MR] {
+unsafe fn wide_tile_avx512(a: [&[f64]; WMR], b: [&[f64]; JB], len: usize) -> [[f64; JB]; WMR] {
     use std::arch::x86_64::*;
     let quads = len / 4;
-    let columns: [&[f64]; MR + NR] = [a[0], a[1], a[2], b[0], b[1], b[2], b[3]];
-    let mut starts = [std::ptr::null::<f64>(); MR + NR];
-    for k in 0..MR + NR {
+    let mut columns: [&[f64]; WMR + JB] = [&[]; WMR + JB];
+    columns[..WMR].copy_from_slice(&a);
+    columns[WMR..].copy_from_slice(&b);
+    let mut starts = [std::ptr::null::<f64>(); WMR + JB];
+    for k in 0..WMR + JB {
         assert!(columns[k].len() >= len);
         starts[k] = columns[k].as_ptr();
     }
-    let mut acc = [[_mm512_setzero_pd(); 2]; MR];
+    let mut acc = [[_mm512_setzero_pd(); JB / 2]; WMR];
     for q in 0..quads {
-        fma_step(&mut acc, &starts, q * 4);
+        wide_step(&mut acc, &starts, q * 4);
     }
     if quads * 4 < len {
         // The last rows as one zero-padded step.
-        let mut padded = [[0.0f64; 4]; MR + NR];
-        for k in 0..MR + NR {
+        let mut padded = [[0.0f64; 4]; WMR + JB];
+        for k in 0..WMR + JB {
             for r in quads * 4..len {
                 padded[k][r - quads * 4] = columns[k][r];
             }
             starts[k] = padded[k].as_ptr();
         }
-        fma_step(&mut acc, &starts, 0);
+        wide_step(&mut acc, &starts, 0);
     }
     // Column j's four lanes of each row, summed by the one definition of that sum.
-    let mut sums = [[0.0; NR]; MR];
-    for i in 0..MR {
-        let mut lanes = [[0.0; 4]; NR];
-        for p in 0..2 {
+    let mut sums = [[0.0; JB]; WMR];
+    for i in 0..WMR {
+        let mut lanes = [[0.0; 4]; JB];
+        for p in 0..JB / 2 {
             _mm512_storeu_pd(lanes[2 * p..].as_mut_ptr().cast(), acc[i][p]);
         }
-        sums[i] = Portable.sums(lanes);
+        for half in 0..JB / 4 {
+            let quad = [lanes[4 * half], lanes[4 * half + 1], lanes[4 * half + 2], lanes[4 * half + 3]];
+            sums[i][4 * half..4 * half + 4].copy_from_slice(&Portable.sums(quad));
+        }
     }
     sums
 }
 
-/// One step of [`full_tile_avx512`]: rows `at..at + 4` of every column (`starts`: a's three, then
-/// b's four).
+/// One step of [`wide_tile_avx512`]: rows `at..at + 4` of every column (`starts`: a's six, then
+/// b's eight).
 ///
 /// # Safety
 /// AVX-512F, and four readable values from `at` in every column.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
 #[inline]
-unsafe fn fma_step(
-    acc: &mut [[std::arch::x86_64::__m512d; 2]; MR],
-    starts: &[*const f64; MR + NR],
+unsafe fn wide_step(
+    acc: &mut [[std::arch::x86_64::__m512d; JB / 2]; WMR],
+    starts: &[*const f64; WMR + JB],
     at: usize,
 ) {
     use std::arch::x86_64::*;
-    let quad = |k: usize| _mm256_loadu_pd(starts[k].add(at));
-    let pairs = [
-        _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(MR)), quad(MR + 1)),
-        _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(MR + 2)), quad(MR + 3)),
-    ];
-    for i in 0..MR {
-        let both = _mm512_broadcast_f64x4(quad(i));
-        acc[i][0] = _mm512_fmadd_pd(both, pairs[0], acc[i][0]);
-        acc[i][1] = _mm512_fmadd_pd(both, pairs[1], acc[i][1]);
+    let mut pairs = [_mm512_setzero_pd(); JB / 2];
+    for (p, pair) in pairs.iter_mut().enumerate() {
+        let low = _mm256_loadu_pd(starts[WMR + 2 * p].add(at));
+        let high = _mm256_loadu_pd(starts[WMR + 2 * p + 1].add(at));
+        *pair = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(low), high);
+    }
+    for i in 0..WMR {
+        let both = _mm512_broadcast_f64x4(_mm256_loadu_pd(starts[i].add(at)));
+        for p in 0..JB / 2 {
+            acc[i][p] = _mm512_fmadd_pd(both, pairs[p], acc[i][p]);
+        }
     }
 }
 
@@ -266,6 +291,8 @@ fn vectorized<Op: Fma4Op, F: Fma4>(v3: pulp::x86::V3, op: Op, lanes: F) -> Op::O
 const MR: usize = 3;
 const NR: usize = 4;
 const JB: usize = 2 * NR;
+/// Rows of a [`Fma4::wide_tile`].
+const WMR: usize = 2 * MR;
 
 /// Adds the lower triangle of AᵀA to `gram` (d×d, row-major, d = `cols.len()`; only entries with
 /// j ≤ i are touched), where column q of A is `data[cols[q] * stride + first..][..len]`.
@@ -310,7 +337,13 @@ impl Fma4Op for AddLower<'_> {
             // Rows from j0 on (the first tiles straddle the diagonal; their upper entries are dropped).
             let mut i0 = j0;
             while i0 < d {
-                if i0 + MR <= d {
+                // A wide tile once every one of its four full tiles reaches below the diagonal.
+                if panels == 2 && i0 + WMR <= d && i0 + MR > j0 + NR {
+                    let a: [&[f64]; WMR] = from_fn(|i| col(i0 + i));
+                    let b: [&[f64]; JB] = from_fn(|j| b[j / NR][j % NR]);
+                    add_tile(gram, d, i0, j0, f.wide_tile(a, b, len));
+                    i0 += WMR;
+                } else if i0 + MR <= d {
                     let a: [&[f64]; MR] = from_fn(|i| col(i0 + i));
                     for (p, b) in b.iter().enumerate().take(panels) {
                         let jp = j0 + p * NR;
@@ -432,7 +465,7 @@ mod tests {
     #[test]
     fn lower_triangle_of_the_gram_matrix() {
         // Odd sizes: partial tiles in both directions and a row tail.
-        for (n_cols, len) in [(1, 1), (2, 3), (7, 9), (11, 37), (13, 64), (24, 255)] {
+        for (n_cols, len) in [(1, 1), (2, 3), (7, 9), (11, 37), (13, 64), (24, 255), (41, 130)] {
             let stride = len + 5;
             let data: Vec<f64> = (0..stride * (n_cols + 2))
                 .map(|v| ((v * 37 % 101) as f64 - 50.0) / 7.0)
