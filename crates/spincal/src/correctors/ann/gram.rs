@@ -20,6 +20,9 @@ pub(crate) trait Fma4: Copy {
     fn load(self, x: [f64; 4]) -> Self::V;
     fn mul_add(self, a: Self::V, b: Self::V, c: Self::V) -> Self::V;
     fn lanes(self, v: Self::V) -> [f64; 4];
+    /// Whether [`Fma4::wide_tile`] is one kernel, so worth running even where part of it lies
+    /// above the diagonal.
+    const WIDE: bool = false;
     /// (l0 + l1) + (l2 + l3) of each of four vectors.
     #[inline(always)]
     fn sums(self, v: [Self::V; 4]) -> [f64; 4] {
@@ -141,6 +144,7 @@ fn is_intel() -> bool {
 #[cfg(target_arch = "x86_64")]
 impl Fma4 for Avx512 {
     type V = pulp::f64x4;
+    const WIDE: bool = true;
 
     #[inline(always)]
     fn load(self, x: [f64; 4]) -> pulp::f64x4 {
@@ -214,7 +218,12 @@ unsafe fn wide_tile_avx512(a: [&[f64]; WMR], b: [&[f64]; JB], len: usize) -> [[f
             _mm512_storeu_pd(lanes[2 * p..].as_mut_ptr().cast(), acc[i][p]);
         }
         for half in 0..JB / 4 {
-            let quad = [lanes[4 * half], lanes[4 * half + 1], lanes[4 * half + 2], lanes[4 * half + 3]];
+            let quad = [
+                lanes[4 * half],
+                lanes[4 * half + 1],
+                lanes[4 * half + 2],
+                lanes[4 * half + 3],
+            ];
             sums[i][4 * half..4 * half + 4].copy_from_slice(&Portable.sums(quad));
         }
     }
@@ -335,32 +344,36 @@ impl Fma4Op for AddLower<'_> {
             let panels = if j0 + JB <= d { 2 } else { 1 };
             let b: [[&[f64]; NR]; 2] = from_fn(|p| from_fn(|j| col((j0 + p * NR + j).min(d - 1))));
             // Rows from j0 on (the first tiles straddle the diagonal; their upper entries are dropped).
+            // Wide tiles end at the last row; the rows above them, nearest the diagonal, go by
+            // three, two or one.
+            let top = if panels == 2 { j0 + (d - j0) % WMR } else { d };
             let mut i0 = j0;
             while i0 < d {
-                // A wide tile once every one of its four full tiles reaches below the diagonal.
-                if panels == 2 && i0 + WMR <= d && i0 + MR > j0 + NR {
+                if i0 >= top && (d - i0).is_multiple_of(WMR) && (F::WIDE || i0 + MR > j0 + NR) {
                     let a: [&[f64]; WMR] = from_fn(|i| col(i0 + i));
                     let b: [&[f64]; JB] = from_fn(|j| b[j / NR][j % NR]);
                     add_tile(gram, d, i0, j0, f.wide_tile(a, b, len));
                     i0 += WMR;
-                } else if i0 + MR <= d {
-                    let a: [&[f64]; MR] = from_fn(|i| col(i0 + i));
-                    for (p, b) in b.iter().enumerate().take(panels) {
-                        let jp = j0 + p * NR;
-                        if i0 + MR > jp {
-                            add_tile(gram, d, i0, jp, f.full_tile(a, *b, len));
-                        }
-                    }
-                    i0 += MR;
-                } else {
-                    for (p, b) in b.iter().enumerate().take(panels) {
-                        let jp = j0 + p * NR;
-                        if i0 + 1 > jp {
-                            add_tile(gram, d, i0, jp, dot_tile::<F, 1, NR>(f, [col(i0)], *b, len));
-                        }
-                    }
-                    i0 += 1;
+                    continue;
                 }
+                let rows = if i0 < top { (top - i0).min(MR) } else { MR };
+                for (p, b) in b.iter().enumerate().take(panels) {
+                    let jp = j0 + p * NR;
+                    if i0 + rows > jp {
+                        match rows {
+                            MR => add_tile(gram, d, i0, jp, f.full_tile(from_fn(|i| col(i0 + i)), *b, len)),
+                            2 => add_tile(
+                                gram,
+                                d,
+                                i0,
+                                jp,
+                                dot_tile::<F, 2, NR>(f, [col(i0), col(i0 + 1)], *b, len),
+                            ),
+                            _ => add_tile(gram, d, i0, jp, dot_tile::<F, 1, NR>(f, [col(i0)], *b, len)),
+                        }
+                    }
+                }
+                i0 += rows;
             }
             j0 += panels * NR;
         }
