@@ -167,6 +167,36 @@ fn a_subsampled_gauss_newton_matrix_trains_about_as_well() {
 }
 
 #[test]
+fn keeping_the_accepted_trial_pass_changes_no_bit_of_training() {
+    let (measured, reference) = turntable_pair(2500, 6);
+    let problem = AnnProblem::new(&measured, &reference, &XY, 1, DivisionMode::Contiguous).unwrap();
+    let layout = problem.layout(&[7, 4]).unwrap();
+    // A last block shorter than the others, and a subsampled Gauss–Newton matrix too.
+    for (block, hessian_samples) in [(96, None), (96, Some(500)), (10_000, None)] {
+        let settings = LmSettings {
+            max_epochs: 25,
+            block_samples: block,
+            hessian_samples,
+            ..LmSettings::default()
+        };
+        let run = |budget: usize| {
+            let mut workspace = LmWorkspace::new(&layout, block);
+            workspace.set_activation_budget(budget);
+            let mut weights = problem.initial_weights(&layout, 3, 1);
+            let report = workspace.train(&mut weights, &problem.train, &problem.validation, &settings);
+            (weights, report)
+        };
+        let (kept_weights, kept) = run(usize::MAX);
+        let (fresh_weights, fresh) = run(0);
+        assert!(kept.epochs > 5, "{kept:?}");
+        assert_eq!(kept.train_mse, fresh.train_mse, "block {block}, {hessian_samples:?}");
+        assert_eq!(kept.validation_mse, fresh.validation_mse);
+        assert_eq!(kept.stop, fresh.stop);
+        assert_eq!(kept_weights, fresh_weights);
+    }
+}
+
+#[test]
 fn training_lowers_the_error_every_epoch_and_keeps_the_best_validation_epoch() {
     let (measured, reference) = turntable_pair(3000, 3);
     let problem = AnnProblem::new(&measured, &reference, &XY, 0, DivisionMode::Contiguous).unwrap();

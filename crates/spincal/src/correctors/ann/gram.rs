@@ -129,6 +129,13 @@ impl Avx512 {
     }
 }
 
+/// Whether the wide kernels run here: AVX-512F on an Intel CPU, with x86-64-v3 (asked once).
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn has_avx512() -> bool {
+    static WIDE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *WIDE.get_or_init(|| pulp::x86::V3::try_new().and_then(Avx512::try_new).is_some())
+}
+
 /// Whether the CPU's vendor string is Intel's (asked once: `cpuid` exits to the hypervisor in a
 /// virtual machine).
 #[cfg(target_arch = "x86_64")]

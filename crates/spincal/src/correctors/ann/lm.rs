@@ -148,6 +148,10 @@ fn hessian_subsample(n: usize, block: usize, target: Option<usize>) -> (usize, f
     (stride, n as f64 / used as f64)
 }
 
+/// The most memory a workspace keeps for a trial pass's activations (64 MiB: a 2-[10, 6]-2
+/// network's for 400,000 samples); larger training sets recompute the forward pass.
+pub const ACTIVATION_CACHE_BYTES: usize = 64 << 20;
+
 /// Every buffer an LM run needs, sized for one network shape and block length.
 pub struct LmWorkspace {
     layout: Layout,
@@ -166,6 +170,12 @@ pub struct LmWorkspace {
     /// Per output: Jᵀe over the blocks left out of a subsampled JᵀJ (parameter columns only).
     gradient: Vec<Vec<f64>>,
     activations: Vec<f64>,
+    /// Every unit's values over the whole training set, block after block (each laid out as
+    /// [`Layout::forward_block`] writes it), from the last trial pass that ran to the end. An
+    /// accepted step's trial pass is the next epoch's forward pass, so it is kept instead of
+    /// recomputed; empty when the training set would need more than `activation_budget` bytes.
+    trial_activations: Vec<f64>,
+    activation_budget: usize,
     /// The errors of one block, output after output.
     errors: Vec<f64>,
     delta: Vec<f64>,
@@ -208,6 +218,8 @@ impl LmWorkspace {
             gradient: gram_columns.iter().map(|c| vec![0.0; c.len() - 1]).collect(),
             gram_columns,
             activations: vec![0.0; layout.n_activations() * block_samples],
+            trial_activations: Vec::new(),
+            activation_budget: ACTIVATION_CACHE_BYTES,
             errors: vec![0.0; layout.outputs() * block_samples],
             delta: vec![0.0; layout.n_delta_block(block_samples)],
             jtj: Mat::zeros(n_p, n_p),
@@ -228,6 +240,18 @@ impl LmWorkspace {
         data: &Dataset,
         hessian_samples: Option<usize>,
     ) -> f64 {
+        self.normal_equations_from(weights, data, hessian_samples, false)
+    }
+
+    /// [`LmWorkspace::normal_equations`]; with `reuse_trial`, the forward pass is read from
+    /// `trial_activations`, which the caller knows to hold `weights` over `data`.
+    fn normal_equations_from(
+        &mut self,
+        weights: &[f64],
+        data: &Dataset,
+        hessian_samples: Option<usize>,
+        reuse_trial: bool,
+    ) -> f64 {
         for g in &mut self.gram {
             g.fill(0.0);
         }
@@ -241,6 +265,7 @@ impl LmWorkspace {
             weights,
             data,
             hessian_stride,
+            reuse_trial,
         });
         // Each output's rows only reach its own output-layer columns: add the per-output Gram
         // matrices into JᵀJ (scaled when it came from a subsample) and Jᵀe (the error column's
@@ -266,10 +291,17 @@ impl LmWorkspace {
     /// The block loop of [`LmWorkspace::normal_equations`], inlined into [`Blocks`]: every
     /// `hessian_stride`-th block adds to the Gram matrices, the others only to Jᵀe.
     #[inline(always)]
-    fn accumulate_blocks(&mut self, weights: &[f64], data: &Dataset, hessian_stride: usize) -> f64 {
+    fn accumulate_blocks(
+        &mut self,
+        weights: &[f64],
+        data: &Dataset,
+        hessian_stride: usize,
+        reuse_trial: bool,
+    ) -> f64 {
         let layout = &self.layout;
         let (n_p, n_in, n_out) = (layout.n_params(), layout.inputs(), layout.outputs());
-        let out_at = layout.n_activations() - n_out;
+        let n_act = layout.n_activations();
+        let out_at = n_act - n_out;
         let block = self.block_samples;
         let mut sse = 0.0;
         let n = data.len();
@@ -277,13 +309,18 @@ impl LmWorkspace {
         let stride = self.stride;
         while start < n {
             let count = block.min(n - start);
-            layout.forward_block(
-                weights,
-                &data.inputs[start * n_in..(start + count) * n_in],
-                count,
-                &mut self.activations,
-            );
-            let outputs = &self.activations[out_at * count..(out_at + n_out) * count];
+            let activations: &[f64] = if reuse_trial {
+                &self.trial_activations[start * n_act..(start + count) * n_act]
+            } else {
+                layout.forward_block(
+                    weights,
+                    &data.inputs[start * n_in..(start + count) * n_in],
+                    count,
+                    &mut self.activations,
+                );
+                &self.activations
+            };
+            let outputs = &activations[out_at * count..(out_at + n_out) * count];
             let errors = &mut self.errors;
             add_block_errors(data, outputs, start, count, &mut sse, |at, e| errors[at] = e);
             let in_hessian = (start / block).is_multiple_of(hessian_stride);
@@ -301,7 +338,7 @@ impl LmWorkspace {
                 error_column[..count].copy_from_slice(&self.errors[k * count..(k + 1) * count]);
                 layout.jacobian_block_output(
                     weights,
-                    &self.activations,
+                    activations,
                     count,
                     k,
                     stride,
@@ -332,6 +369,13 @@ impl LmWorkspace {
             start += count;
         }
         sse
+    }
+
+    /// At most `bytes` kept for a trial pass's activations ([`ACTIVATION_CACHE_BYTES`] by
+    /// default; 0 recomputes every forward pass). Results do not depend on it, bit for bit.
+    pub fn set_activation_budget(&mut self, bytes: usize) {
+        self.activation_budget = bytes;
+        self.trial_activations = Vec::new();
     }
 
     /// JᵀJ's lower triangle and Jᵀe from the last [`LmWorkspace::normal_equations`].
@@ -389,6 +433,15 @@ impl LmWorkspace {
         let mut validation_mse = Vec::with_capacity(settings.max_epochs + 1);
         let has_validation = !validation.is_empty();
         let mut mu = settings.mu_initial;
+        // Room to keep a trial pass's activations, when they fit the budget (once per workspace
+        // and training-set size: epochs allocate nothing).
+        let kept = train.len() * self.layout.n_activations();
+        if kept * std::mem::size_of::<f64>() <= self.activation_budget {
+            self.trial_activations.resize(kept, 0.0);
+        } else {
+            self.trial_activations.clear();
+        }
+        let reuse_trial = !self.trial_activations.is_empty();
 
         let mut sse = self.normal_equations(weights, train, settings.hessian_samples);
         train_mse.push(sse / elements);
@@ -417,11 +470,16 @@ impl LmWorkspace {
                         *t = w + self.step[(i, 0)];
                     }
                     // A rejected step's error is not used: stop summing once it reaches `sse`.
+                    let activations = if reuse_trial {
+                        &mut self.trial_activations
+                    } else {
+                        &mut self.activations
+                    };
                     let trial_sse = sse_of(
                         &self.layout,
                         &self.trial,
                         train,
-                        &mut self.activations,
+                        activations,
                         self.block_samples,
                         sse,
                     );
@@ -460,7 +518,9 @@ impl LmWorkspace {
             if epoch >= settings.max_epochs {
                 break StopReason::MaxEpochs;
             }
-            sse = self.normal_equations(weights, train, settings.hessian_samples);
+            // The accepted trial pass ran over every block (its sum stayed below `sse`), so its
+            // activations are these weights' forward pass.
+            sse = self.normal_equations_from(weights, train, settings.hessian_samples, reuse_trial);
         };
         weights.copy_from_slice(&self.best);
         TrainingReport {
@@ -494,10 +554,11 @@ impl LmWorkspace {
     }
 }
 
-/// Sum of squared errors of the network over `data`, `block` samples at a time (`activations`
-/// holds `n_activations() × block` values); the same sum, bit for bit, as per-sample
-/// [`Layout::forward`] calls. Stops after the block where the sum reaches `limit` (the sum only
-/// grows), returning that partial sum.
+/// Sum of squared errors of the network over `data`, `block` samples at a time; the same sum, bit
+/// for bit, as per-sample [`Layout::forward`] calls. `activations` holds `n_activations() × block`
+/// values, reused for every block, or `n_activations()` values per sample of `data`, which then
+/// keeps every block's. Stops after the block where the sum reaches `limit` (the sum only grows),
+/// returning that partial sum.
 fn sse_of(
     layout: &Layout,
     weights: &[f64],
@@ -523,6 +584,7 @@ struct Blocks<'a> {
     weights: &'a [f64],
     data: &'a Dataset,
     hessian_stride: usize,
+    reuse_trial: bool,
 }
 
 impl WithSimd for Blocks<'_> {
@@ -531,7 +593,7 @@ impl WithSimd for Blocks<'_> {
     #[inline(always)]
     fn with_simd<S: Simd>(self, _simd: S) -> f64 {
         self.workspace
-            .accumulate_blocks(self.weights, self.data, self.hessian_stride)
+            .accumulate_blocks(self.weights, self.data, self.hessian_stride, self.reuse_trial)
     }
 }
 
@@ -558,13 +620,19 @@ impl WithSimd for TrialError<'_> {
             block,
             limit,
         } = self;
-        let (n_in, n_out) = (layout.inputs(), layout.outputs());
-        let out_at = layout.n_activations() - n_out;
+        let (n_in, n_out, n_act) = (layout.inputs(), layout.outputs(), layout.n_activations());
+        let out_at = n_act - n_out;
         let mut sse = 0.0;
         let n = data.len();
+        let keep = activations.len() >= n * n_act;
         let mut start = 0;
         while start < n {
             let count = block.min(n - start);
+            let activations = if keep {
+                &mut activations[start * n_act..(start + count) * n_act]
+            } else {
+                &mut *activations
+            };
             layout.forward_block(
                 weights,
                 &data.inputs[start * n_in..(start + count) * n_in],

@@ -29,6 +29,27 @@ pub fn tanh(x: f64) -> f64 {
 /// [`tanh`] of every element, in place (vectorised).
 #[inline(always)]
 pub fn tanh_in_place(values: &mut [f64]) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::correctors::ann::gram::has_avx512() {
+        // SAFETY: checked just above.
+        unsafe { tanh_in_place_avx512(values) };
+        return;
+    }
+    tanh_chunks(values);
+}
+
+/// [`tanh_in_place`] in 512-bit registers: the same operations, so the same bits.
+///
+/// # Safety
+/// The CPU must have AVX-512F and x86-64-v3.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
+unsafe fn tanh_in_place_avx512(values: &mut [f64]) {
+    tanh_chunks(values);
+}
+
+#[inline(always)]
+fn tanh_chunks(values: &mut [f64]) {
     let (chunks, rest) = values.as_chunks_mut::<8>();
     for chunk in chunks {
         *chunk = tanh_lanes(*chunk);
