@@ -189,7 +189,10 @@ fn keeping_the_accepted_trial_pass_changes_no_bit_of_training() {
         let (kept_weights, kept) = run(usize::MAX);
         let (fresh_weights, fresh) = run(0);
         assert!(kept.epochs > 5, "{kept:?}");
-        assert_eq!(kept.train_mse, fresh.train_mse, "block {block}, {hessian_samples:?}");
+        assert_eq!(
+            kept.train_mse, fresh.train_mse,
+            "block {block}, {hessian_samples:?}"
+        );
         assert_eq!(kept.validation_mse, fresh.validation_mse);
         assert_eq!(kept.stop, fresh.stop);
         assert_eq!(kept_weights, fresh_weights);
