@@ -5,8 +5,9 @@
 //! here; this one reads the Jacobian's columns where they are (no packing: each is a contiguous
 //! run of samples) and computes a 3×4 tile of dot products at a time, 12 running sums of 4 lanes
 //! that stay in the 16 AVX registers. [`dispatch`] runs an operation with AVX2+FMA vectors where
-//! the CPU has them (checked at run time) and with plain `f64` lanes elsewhere; on Intel CPUs with
-//! AVX-512F the full tile runs two dot products to a 512-bit register ([`Avx512`]).
+//! the CPU has them (checked at run time) and with plain `f64` lanes elsewhere. On Intel CPUs with
+//! AVX-512F, 6×8 wide tiles run in 24 of the 32 512-bit registers, two dot products to a
+//! register ([`Avx512`]); elsewhere a wide tile is four 3×4 tiles.
 //!
 //! Summation order is fixed: row r of a column pair goes into lane r mod 4 with a fused
 //! multiply-add, and the lanes are added as (l0 + l1) + (l2 + l3). Every path does exactly this,
@@ -112,12 +113,12 @@ impl Fma4 for pulp::x86::V3 {
     }
 }
 
-/// AVX2 lanes on an Intel CPU that also has AVX-512F: the full tile then runs in 512-bit
+/// AVX2 lanes on an Intel CPU that also has AVX-512F: the wide tile then runs in 512-bit
 /// registers, two dot products to a register (the low four lanes for one column of `b`, the high
 /// four for the next), so that each sum takes the same fused multiply-adds in the same order as
 /// with four lanes and the result stays the same to the bit on every machine. AMD's Zen 4 runs a
-/// 512-bit operation as two 256-bit halves, so there the extra inserts would only cost; it keeps
-/// the four-lane tile.
+/// 512-bit operation as two 256-bit halves, so there the inserts would only cost; it keeps the
+/// four-lane tiles.
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
 pub(crate) struct Avx512(pulp::x86::V3);
@@ -350,9 +351,9 @@ impl Fma4Op for AddLower<'_> {
         while j0 + NR <= d {
             let panels = if j0 + JB <= d { 2 } else { 1 };
             let b: [[&[f64]; NR]; 2] = from_fn(|p| from_fn(|j| col((j0 + p * NR + j).min(d - 1))));
-            // Rows from j0 on (the first tiles straddle the diagonal; their upper entries are dropped).
-            // Wide tiles end at the last row; the rows above them, nearest the diagonal, go by
-            // three, two or one.
+            // Rows from j0 on; tiles that straddle the diagonal drop their upper entries. Wide
+            // tiles end at the last row, and the rows above them, by the diagonal, go by three,
+            // two or one.
             let top = if panels == 2 { j0 + (d - j0) % WMR } else { d };
             let mut i0 = j0;
             while i0 < d {
