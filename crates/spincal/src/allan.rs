@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct AllanCurve {
     pub tau_s: Vec<f64>,
-    /// adev[axis][k] at tau_s[k], signal units.
+    /// `adev[axis][k]` at `tau_s[k]`, signal units.
     pub adev: [Vec<f64>; 3],
 }
 

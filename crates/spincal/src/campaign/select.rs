@@ -2,8 +2,8 @@
 //! but one and scored on the one left out, for each condition in turn. The saved corrector is the
 //! best on held-out conditions and never worse than no correction on any of them.
 //!
-//! Each candidate has one shape ([`Candidate::train`]: a training set in, a corrector out) and
-//! every one is scored by the same function ([`score`]): against the true specific force where the
+//! Each candidate has one shape (`Candidate::train`: a training set in, a corrector out) and
+//! every one is scored by the same function (`score`): against the true specific force where the
 //! recording carries it, otherwise against the held-out recording's own best explanation (its
 //! geometry refitted with the sensor taken as perfect: the residual a correct calibration leaves).
 

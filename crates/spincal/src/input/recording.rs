@@ -484,7 +484,7 @@ impl Recording {
     }
 }
 
-/// The sampling interval from all the timestamps: the median of (t[i+k] − t[i]) / k over
+/// The sampling interval from all the timestamps: the median of (t\[i+k\] − t\[i\]) / k over
 /// non-overlapping windows of k steps (k up to 64). Unlike the median step it is right for
 /// quantised clocks, whose steps alternate between whole ticks (a 3DM-GX1 at 1 or 2 ticks of
 /// 6.5536 ms), and for coarse timestamps that repeat; a gap or a backward step spoils only the one

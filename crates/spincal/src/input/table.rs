@@ -33,7 +33,7 @@ impl Delimiter {
         }
     }
 
-    /// The separator written by [`Delimiter::join`]-style writers.
+    /// The separator written by `Delimiter::join`-style writers.
     pub fn as_char(self) -> char {
         match self {
             Delimiter::Comma => ',',
@@ -311,7 +311,7 @@ pub fn read_file(path: &Path) -> std::io::Result<FileBytes> {
 
 /// A mapped file whose pages the parser hands back as it finishes with them, so a file larger
 /// than memory allows can be read and only a window of it is resident at a time. The address
-/// ranges of live maps are kept in [`LIVE_MAPS`]: parsers see plain byte slices.
+/// ranges of live maps are kept in `LIVE_MAPS`: parsers see plain byte slices.
 pub struct MappedFile {
     map: memmap2::Mmap,
 }
@@ -480,7 +480,7 @@ impl<'a> TableHead<'a> {
     /// (units applied while parsing); every cell is checked, chosen or not, so errors are those of
     /// [`Table::read`], except that an empty cell is an error only in a chosen column (after the
     /// first data row, which fixes the width and must be complete). The input is parsed a window
-    /// of [`WINDOW_BYTES`] at a time (a mapped file's pages are given back after each), large
+    /// of `WINDOW_BYTES` at a time (a mapped file's pages are given back after each), large
     /// windows in chunks in parallel; the result does not depend on the thread count.
     pub fn rows(&self, targets: &[(usize, f64)]) -> Result<Rows, TableError> {
         let threads = rayon::current_num_threads();

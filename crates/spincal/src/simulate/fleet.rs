@@ -1,7 +1,7 @@
 //! A fleet of simulated units: each unit is the campaign of [`super::campaign`] with its own
 //! sensor, drawn around a nominal sensor, and a few units made deliberately faulty.
 //!
-//! Unit `i`'s sensor is the nominal [`SensorProfile`] with, independently per axis (and per
+//! Unit `i`'s sensor is the nominal [`SensorProfile`](crate::simulate::SensorProfile) with, independently per axis (and per
 //! misalignment angle), a normal draw added: bias sd `bias_sd_g`, scale error sd
 //! `scale_sd_pct`, misalignment sd `misalignment_sd_deg` ([`UnitSpread`]). A faulty unit has
 //! [`FaultSetup`] added on top (by default +0.1 g bias on x and +5 % scale error on y: about

@@ -3,7 +3,7 @@
 //! Each epoch forms the normal equations at the current weights from Jacobian rows computed by
 //! backpropagation, a block of samples at a time (forward and backward passes a layer at a time
 //! over the whole block, with a vectorised tanh): JᵀJ and Jᵀe grow by a rank-k update of each
-//! block ([`gram`], lower triangle only, skipping the columns that are zero for an output), so J
+//! block (`gram`, lower triangle only, skipping the columns that are zero for an output), so J
 //! is never stored whole. Then (JᵀJ + μI)·Δ = Jᵀe is solved by Cholesky, retrying with μ×10 until the training
 //! error falls. All buffers live in [`LmWorkspace`]: an epoch allocates nothing.
 //!

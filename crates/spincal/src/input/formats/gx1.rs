@@ -9,7 +9,7 @@
 //! - 0x28 (read EEPROM with checksum), 7 bytes: cmd, value (u16), timer (u16), checksum; the value
 //!   at address 230 is AccelGainScale, at 130 GyroGainScale.
 //!
-//! accel [g] = raw / (32768000 / AccelGainScale); rate [rad/s] = raw / (32768000 / GyroGainScale);
+//! accel \[g\] = raw / (32768000 / AccelGainScale); rate [rad/s] = raw / (32768000 / GyroGainScale);
 //! the timer counts 6.5536 ms ticks and wraps at 2¹⁶ (every 429.5 s); it is unwrapped into time.
 //!
 //! Corrupt or truncated packets are skipped byte by byte until a packet with a known header and a

@@ -2,7 +2,7 @@
 //! gyro topic) read from ROS 2 bags (MCAP or sqlite3 storage) and ROS 1 bags (format 2.0).
 //!
 //! One pass over the bag: every topic is counted, the IMU-shaped topics (or only the one asked
-//! for) are decoded as they come ([`Collector`]); then one topic is chosen ([`choose`]) and turned
+//! for) are decoded as they come ([`Collector`]); then one topic is chosen (`choose`) and turned
 //! into a [`Recording`] (`assemble`). Storage readers (`mcap`, `sqlite`, `ros1`) only walk records
 //! and hand each message with a lazily formatted location to the collector, so a message that
 //! does not decode is reported with the file, the storage location (byte offset, chunk, row id),
