@@ -350,7 +350,8 @@ impl Fma4Op for AddLower<'_> {
         let mut j0 = 0;
         while j0 + NR <= d {
             let panels = if j0 + JB <= d { 2 } else { 1 };
-            let b: [[&[f64]; NR]; 2] = from_fn(|p| from_fn(|j| col((j0 + p * NR + j).min(d - 1))));
+            let wide_b: [&[f64]; JB] = from_fn(|j| col((j0 + j).min(d - 1)));
+            let b: [[&[f64]; NR]; 2] = from_fn(|p| from_fn(|j| wide_b[p * NR + j]));
             // Rows from j0 on; tiles that straddle the diagonal drop their upper entries. Wide
             // tiles end at the last row, and the rows above them, by the diagonal, go by three,
             // two or one.
@@ -359,8 +360,7 @@ impl Fma4Op for AddLower<'_> {
             while i0 < d {
                 if i0 >= top && (d - i0).is_multiple_of(WMR) && (F::WIDE || i0 + MR > j0 + NR) {
                     let a: [&[f64]; WMR] = from_fn(|i| col(i0 + i));
-                    let b: [&[f64]; JB] = from_fn(|j| b[j / NR][j % NR]);
-                    add_tile(gram, d, i0, j0, f.wide_tile(a, b, len));
+                    add_tile(gram, d, i0, j0, f.wide_tile(a, wide_b, len));
                     i0 += WMR;
                     continue;
                 }

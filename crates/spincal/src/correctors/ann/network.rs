@@ -150,7 +150,6 @@ const TANH_C: [f64; 12] = [
 /// values, which waits on each chain). Every lane does the same operations as the scalar call.
 #[inline(always)]
 fn tanh_lanes<const N: usize>(x: [f64; N]) -> [f64; N] {
-    const C: [f64; 12] = TANH_C;
     // Clamped so that a NaN passes through (`f64::min` would turn it into 20): every step
     // below then yields NaN without a select, which LLVM would make a slow masked store.
     let y: [f64; N] = from_fn(|i| {
@@ -165,7 +164,7 @@ fn tanh_lanes<const N: usize>(x: [f64; N]) -> [f64; N] {
     // per-sample prediction).
     let r2: [f64; N] = from_fn(|i| r[i] * r[i]);
     let r4: [f64; N] = from_fn(|i| r2[i] * r2[i]);
-    let pair = |j: usize| -> [f64; N] { from_fn(|i| C[j] + C[j + 1] * r[i]) };
+    let pair = |j: usize| -> [f64; N] { from_fn(|i| TANH_C[j] + TANH_C[j + 1] * r[i]) };
     let (p0, p2, p4, p6, p8, p10) = (pair(0), pair(2), pair(4), pair(6), pair(8), pair(10));
     let low: [f64; N] = from_fn(|i| (p0[i] + p2[i] * r2[i]) + (p4[i] + p6[i] * r2[i]) * r4[i]);
     let high: [f64; N] = from_fn(|i| p8[i] + p10[i] * r2[i]);
