@@ -57,46 +57,56 @@ fn jacobian_with_delays_matches_finite_differences() {
 #[test]
 fn blocked_normal_equations_equal_the_full_jacobian_products() {
     let (measured, reference) = turntable_pair(500, 2);
-    let problem = AnnProblem::new(&measured, &reference, &XY, 1, DivisionMode::Contiguous).unwrap();
-    let layout = problem.layout(&[6, 4]).unwrap();
-    let weights = problem.initial_weights(&layout, 3, 1);
-    // 37 does not divide the 299 training samples: the last block is partial.
-    let mut workspace = LmWorkspace::new(&layout, 37);
-    let sse = workspace.normal_equations(&weights, &problem.train, None);
-    let jacobian = full_jacobian(&layout, &weights, &problem.train);
-    let jtj = jacobian.transpose() * &jacobian;
-    let n_out = problem.train.n_outputs;
-    let mut expected_sse = 0.0;
-    let mut errors = vec![0.0; jacobian.nrows()];
-    let mut activations = vec![0.0; layout.n_activations()];
-    let out_at = layout.n_activations() - n_out;
-    for row in 0..problem.train.len() {
-        let n_in = layout.inputs();
-        layout.forward(
-            &weights,
-            &problem.train.inputs[row * n_in..(row + 1) * n_in],
-            &mut activations,
-        );
-        for k in 0..n_out {
-            let e = problem.train.targets[row * n_out + k] - activations[out_at + k];
-            errors[row * n_out + k] = e;
-            expected_sse += e * e;
+    // No hidden layer, one, two and three; one output and two.
+    for (axes, hidden) in [
+        (&XY[..], vec![6, 4]),
+        (&XY[..], vec![10, 6]),
+        (&XY[..], vec![]),
+        (&XY[..1], vec![5]),
+        (&XY[..], vec![3, 2, 2]),
+    ] {
+        let problem = AnnProblem::new(&measured, &reference, axes, 1, DivisionMode::Contiguous).unwrap();
+        let layout = problem.layout(&hidden).unwrap();
+        let weights = problem.initial_weights(&layout, 3, 1);
+        // 37 does not divide the 299 training samples: the last block is partial.
+        let mut workspace = LmWorkspace::new(&layout, 37);
+        let sse = workspace.normal_equations(&weights, &problem.train, None);
+        let jacobian = full_jacobian(&layout, &weights, &problem.train);
+        let jtj = jacobian.transpose() * &jacobian;
+        let n_out = problem.train.n_outputs;
+        let mut expected_sse = 0.0;
+        let mut errors = vec![0.0; jacobian.nrows()];
+        let mut activations = vec![0.0; layout.n_activations()];
+        let out_at = layout.n_activations() - n_out;
+        for row in 0..problem.train.len() {
+            let n_in = layout.inputs();
+            layout.forward(
+                &weights,
+                &problem.train.inputs[row * n_in..(row + 1) * n_in],
+                &mut activations,
+            );
+            for k in 0..n_out {
+                let e = problem.train.targets[row * n_out + k] - activations[out_at + k];
+                errors[row * n_out + k] = e;
+                expected_sse += e * e;
+            }
         }
-    }
-    assert!((sse - expected_sse).abs() <= 1e-10 * expected_sse);
-    for j in 0..layout.n_params() {
-        for i in j..layout.n_params() {
-            let got = workspace.jtj()[(i, j)];
+        assert!((sse - expected_sse).abs() <= 1e-10 * expected_sse);
+        for j in 0..layout.n_params() {
+            for i in j..layout.n_params() {
+                let got = workspace.jtj()[(i, j)];
+                assert!(
+                    (got - jtj[(i, j)]).abs() <= 1e-9 * (1.0 + jtj[(i, j)].abs()),
+                    "{hidden:?}: JᵀJ[{i},{j}] {got} vs {}",
+                    jtj[(i, j)]
+                );
+            }
+            let jte: f64 = (0..jacobian.nrows()).map(|r| jacobian[(r, j)] * errors[r]).sum();
             assert!(
-                (got - jtj[(i, j)]).abs() <= 1e-9 * (1.0 + jtj[(i, j)].abs()),
-                "JᵀJ[{i},{j}]"
+                (workspace.jte()[(j, 0)] - jte).abs() <= 1e-9 * (1.0 + jte.abs()),
+                "{hidden:?}: Jᵀe[{j}]"
             );
         }
-        let jte: f64 = (0..jacobian.nrows()).map(|r| jacobian[(r, j)] * errors[r]).sum();
-        assert!(
-            (workspace.jte()[(j, 0)] - jte).abs() <= 1e-9 * (1.0 + jte.abs()),
-            "Jᵀe[{j}]"
-        );
     }
 }
 

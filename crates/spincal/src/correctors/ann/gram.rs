@@ -21,9 +21,6 @@ pub(crate) trait Fma4: Copy {
     fn load(self, x: [f64; 4]) -> Self::V;
     fn mul_add(self, a: Self::V, b: Self::V, c: Self::V) -> Self::V;
     fn lanes(self, v: Self::V) -> [f64; 4];
-    /// Whether [`Fma4::wide_tile`] is one kernel, so worth running even where part of it lies
-    /// above the diagonal.
-    const WIDE: bool = false;
     /// (l0 + l1) + (l2 + l3) of each of four vectors.
     #[inline(always)]
     fn sums(self, v: [Self::V; 4]) -> [f64; 4] {
@@ -33,8 +30,8 @@ pub(crate) trait Fma4: Copy {
         })
     }
 
-    /// The full tile of [`AddLower`], where nearly all its time goes; wider registers override
-    /// it, with the same sums in the same order.
+    /// The narrow tile of [`AddProduct`]; wider registers override it, with the same sums in
+    /// the same order.
     #[inline(always)]
     fn full_tile(self, a: [&[f64]; MR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; MR] {
         dot_tile::<Self, MR, NR>(self, a, b, len)
@@ -152,7 +149,6 @@ fn is_intel() -> bool {
 #[cfg(target_arch = "x86_64")]
 impl Fma4 for Avx512 {
     type V = pulp::f64x4;
-    const WIDE: bool = true;
 
     #[inline(always)]
     fn load(self, x: [f64; 4]) -> pulp::f64x4 {
@@ -302,27 +298,40 @@ fn vectorized<Op: Fma4Op, F: Fma4>(v3: pulp::x86::V3, op: Op, lanes: F) -> Op::O
     v3.vectorize(Run(op, lanes))
 }
 
-/// Tile of the product: MR columns of A (rows of AᵀA) by NR columns (its columns); each MR
-/// columns are read once for two such tiles (JB = 2·NR columns of AᵀA), so that streaming them
-/// from L2 takes half the bandwidth.
+/// Tile of the product: MR columns of A (rows of AᵀB) by NR columns of B (its columns).
 const MR: usize = 3;
 const NR: usize = 4;
+/// Columns of B in a [`Fma4::wide_tile`]: each MR columns of A are read once for two NR tiles,
+/// so that streaming them from L2 takes half the bandwidth.
 const JB: usize = 2 * NR;
 /// Rows of a [`Fma4::wide_tile`].
 const WMR: usize = 2 * MR;
 
-/// Adds the lower triangle of AᵀA to `gram` (d×d, row-major, d = `cols.len()`; only entries with
-/// j ≤ i are touched), where column q of A is `data[cols[q] * stride + first..][..len]`.
-pub(crate) struct AddLower<'a> {
-    pub data: &'a [f64],
-    pub cols: &'a [usize],
-    pub stride: usize,
-    pub first: usize,
-    pub len: usize,
-    pub gram: &'a mut [f64],
+/// How many columns of A and of B [`AddProduct`] takes for `rows` and `cols` columns: rows in
+/// wide tiles (a multiple of 6), columns in wide tiles and at most one narrow one (a multiple of
+/// 8, or of 4 when that leaves the last tile narrow). The extra columns must be zero.
+pub(crate) fn padded_shape(rows: usize, cols: usize) -> (usize, usize) {
+    let cols = if cols.is_multiple_of(JB) || cols % JB > NR {
+        cols.next_multiple_of(JB)
+    } else {
+        cols.next_multiple_of(NR)
+    };
+    (rows.next_multiple_of(WMR), cols)
 }
 
-impl AddLower<'_> {
+/// Adds AᵀB to `product` (row-major, `rows.len() × cols.len()`), where column q of A is
+/// `data[rows[q] * stride..][..len]` and column q of B is `data[cols[q] * stride..][..len]`.
+/// The counts must be as [`padded_shape`] gives them.
+pub(crate) struct AddProduct<'a> {
+    pub data: &'a [f64],
+    pub rows: &'a [usize],
+    pub cols: &'a [usize],
+    pub stride: usize,
+    pub len: usize,
+    pub product: &'a mut [f64],
+}
+
+impl AddProduct<'_> {
     /// Runs by [`dispatch`] in a function of its own: the kernel's code generation then does not
     /// depend on what its caller inlines around it (forward and backward passes).
     #[inline(never)]
@@ -331,75 +340,42 @@ impl AddLower<'_> {
     }
 }
 
-impl Fma4Op for AddLower<'_> {
+impl Fma4Op for AddProduct<'_> {
     type Output = ();
 
     #[inline(always)]
     fn run<F: Fma4>(self, f: F) {
-        let AddLower {
+        let AddProduct {
             data,
+            rows,
             cols,
             stride,
-            first,
             len,
-            gram,
+            product,
         } = self;
-        let d = cols.len();
-        assert!(gram.len() >= d * d);
-        let col = |q: usize| &data[cols[q] * stride + first..][..len];
-        let mut j0 = 0;
-        while j0 + NR <= d {
-            let panels = if j0 + JB <= d { 2 } else { 1 };
-            let wide_b: [&[f64]; JB] = from_fn(|j| col((j0 + j).min(d - 1)));
-            let b: [[&[f64]; NR]; 2] = from_fn(|p| from_fn(|j| wide_b[p * NR + j]));
-            // Rows from j0 on; tiles that straddle the diagonal drop their upper entries. Wide
-            // tiles end at the last row, and the rows above them, by the diagonal, go by three,
-            // two or one.
-            let top = if panels == 2 { j0 + (d - j0) % WMR } else { d };
-            let mut i0 = j0;
-            while i0 < d {
-                if i0 >= top && (d - i0).is_multiple_of(WMR) && (F::WIDE || i0 + MR > j0 + NR) {
-                    let a: [&[f64]; WMR] = from_fn(|i| col(i0 + i));
-                    add_tile(gram, d, i0, j0, f.wide_tile(a, wide_b, len));
-                    i0 += WMR;
-                    continue;
-                }
-                let rows = if i0 < top { (top - i0).min(MR) } else { MR };
-                for (p, b) in b.iter().enumerate().take(panels) {
-                    let jp = j0 + p * NR;
-                    if i0 + rows > jp {
-                        match rows {
-                            MR => add_tile(gram, d, i0, jp, f.full_tile(from_fn(|i| col(i0 + i)), *b, len)),
-                            2 => add_tile(
-                                gram,
-                                d,
-                                i0,
-                                jp,
-                                dot_tile::<F, 2, NR>(f, [col(i0), col(i0 + 1)], *b, len),
-                            ),
-                            _ => add_tile(gram, d, i0, jp, dot_tile::<F, 1, NR>(f, [col(i0)], *b, len)),
-                        }
-                    }
-                }
-                i0 += rows;
-            }
-            j0 += panels * NR;
-        }
-        for j in j0..d {
-            let b = [col(j)];
-            let mut i0 = j;
-            while i0 + MR <= d {
+        let (m, n) = (rows.len(), cols.len());
+        assert_eq!((m, n), padded_shape(m, n), "unpadded product");
+        assert!(product.len() >= m * n);
+        let col = |q: usize| &data[q * stride..][..len];
+        for i0 in (0..m).step_by(WMR) {
+            let a: [&[f64]; WMR] = from_fn(|i| col(rows[i0 + i]));
+            let mut j0 = 0;
+            while j0 + JB <= n {
                 add_tile(
-                    gram,
-                    d,
+                    product,
+                    n,
                     i0,
-                    j,
-                    dot_tile::<F, MR, 1>(f, from_fn(|i| col(i0 + i)), b, len),
+                    j0,
+                    f.wide_tile(a, from_fn(|j| col(cols[j0 + j])), len),
                 );
-                i0 += MR;
+                j0 += JB;
             }
-            for i in i0..d {
-                add_tile(gram, d, i, j, dot_tile::<F, 1, 1>(f, [col(i)], b, len));
+            if j0 < n {
+                let b: [&[f64]; NR] = from_fn(|j| col(cols[j0 + j]));
+                for half in 0..2 {
+                    let a: [&[f64]; MR] = from_fn(|i| a[half * MR + i]);
+                    add_tile(product, n, i0 + half * MR, j0, f.full_tile(a, b, len));
+                }
             }
         }
     }
@@ -407,16 +383,15 @@ impl Fma4Op for AddLower<'_> {
 
 #[inline(always)]
 fn add_tile<const M: usize, const N: usize>(
-    gram: &mut [f64],
-    d: usize,
+    product: &mut [f64],
+    width: usize,
     i0: usize,
     j0: usize,
     tile: [[f64; N]; M],
 ) {
     for (i, row) in tile.iter().enumerate() {
-        let at = (i0 + i) * d + j0;
-        let lower = (i0 + i + 1).saturating_sub(j0).min(N);
-        for (g, v) in gram[at..at + lower].iter_mut().zip(row) {
+        let at = (i0 + i) * width + j0;
+        for (g, v) in product[at..at + N].iter_mut().zip(row) {
             *g += v;
         }
     }
@@ -484,33 +459,58 @@ mod tests {
     }
 
     #[test]
-    fn lower_triangle_of_the_gram_matrix() {
-        // Odd sizes: partial tiles in both directions and a row tail.
-        for (n_cols, len) in [(1, 1), (2, 3), (7, 9), (11, 37), (13, 64), (24, 255), (41, 130)] {
+    fn padded_shapes_are_whole_tiles() {
+        assert_eq!(padded_shape(1, 1), (6, 4));
+        assert_eq!(padded_shape(6, 8), (6, 8));
+        assert_eq!(padded_shape(7, 12), (12, 12));
+        assert_eq!(padded_shape(13, 13), (18, 16));
+        assert_eq!(padded_shape(55, 6), (60, 8));
+    }
+
+    #[test]
+    fn product_of_column_sets() {
+        // Odd sizes: padded tiles in both directions and a row tail.
+        for (m, n, len) in [
+            (1, 1, 1),
+            (2, 3, 3),
+            (7, 9, 9),
+            (11, 4, 37),
+            (13, 21, 64),
+            (24, 33, 255),
+            (41, 20, 130),
+        ] {
             let stride = len + 5;
-            let data: Vec<f64> = (0..stride * (n_cols + 2))
+            let data: Vec<f64> = (0..stride * (m + n + 2))
                 .map(|v| ((v * 37 % 101) as f64 - 50.0) / 7.0)
                 .collect();
-            // Skip column 1 and read from row 2 on, as the trainer does for one output.
-            let cols: Vec<usize> = (0..n_cols + 1).filter(|&c| c != 1).collect();
-            let d = cols.len();
-            // Each lower triangle starts from 0.5 everywhere, to show the upper one is untouched.
-            let added = |run: &dyn Fn(AddLower<'_>)| {
-                let mut gram = vec![0.5; d * d];
-                run(AddLower {
+            let (pm, pn) = padded_shape(m, n);
+            // Columns in any order, some used twice; the padding points at a zero column.
+            let zero = m + n + 1;
+            let mut data = data;
+            data[zero * stride..(zero + 1) * stride].fill(0.0);
+            let rows: Vec<usize> = (0..pm)
+                .map(|i| if i < m { (i * 5) % (m + n) } else { zero })
+                .collect();
+            let cols: Vec<usize> = (0..pn)
+                .map(|j| if j < n { (j * 3 + 1) % (m + n + 1) } else { zero })
+                .collect();
+            // Each product starts from 0.5 everywhere, to show the sums are added.
+            let added = |run: &dyn Fn(AddProduct<'_>)| {
+                let mut product = vec![0.5; pm * pn];
+                run(AddProduct {
                     data: &data,
+                    rows: &rows,
                     cols: &cols,
                     stride,
-                    first: 2,
                     len,
-                    gram: &mut gram,
+                    product: &mut product,
                 });
-                gram
+                product
             };
-            let gram = added(&|op| op.run(Portable));
+            let product = added(&|op| op.run(Portable));
             assert_eq!(
                 added(&|op| op.dispatched()),
-                gram,
+                product,
                 "dispatched and portable lanes differ"
             );
             // Each vector width this CPU has, whichever `dispatched` chose.
@@ -518,25 +518,21 @@ mod tests {
             {
                 if let Some(v3) = pulp::x86::V3::try_new() {
                     let avx2 = added(&|op| vectorized(v3, op, v3));
-                    assert_eq!(avx2, gram, "AVX2 and portable lanes differ");
+                    assert_eq!(avx2, product, "AVX2 and portable lanes differ");
                     if let Some(wide) = Avx512::try_new(v3) {
                         let avx512 = added(&|op| vectorized(v3, op, wide));
-                        assert_eq!(avx512, gram, "AVX-512 and portable lanes differ");
+                        assert_eq!(avx512, product, "AVX-512 and portable lanes differ");
                     }
                 }
             }
-            for i in 0..d {
-                for j in 0..d {
-                    let got = gram[i * d + j];
-                    if j > i {
-                        assert_eq!(got, 0.5, "upper entry ({i},{j}) touched");
-                        continue;
-                    }
-                    let at = |c: usize, r: usize| data[cols[c] * stride + 2 + r];
-                    let expected = 0.5 + (0..len).map(|r| at(i, r) * at(j, r)).sum::<f64>();
+            let at = |c: usize, r: usize| data[c * stride + r];
+            for i in 0..pm {
+                for j in 0..pn {
+                    let got = product[i * pn + j];
+                    let expected = 0.5 + (0..len).map(|r| at(rows[i], r) * at(cols[j], r)).sum::<f64>();
                     assert!(
                         (got - expected).abs() <= 1e-12 * (1.0 + expected.abs()),
-                        "({i},{j}) of {d}x{d}, len {len}: {got} vs {expected}"
+                        "({i},{j}) of {m}x{n}, len {len}: {got} vs {expected}"
                     );
                 }
             }

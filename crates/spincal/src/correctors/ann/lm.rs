@@ -15,12 +15,12 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::{factor, solve};
-use faer::{Mat, MatMut, MatRef, Par};
+use faer::{Auto, Mat, MatMut, MatRef, Par};
 use pulp::{Arch, Simd, WithSimd};
 use serde::{Deserialize, Serialize};
 
 use super::data::Dataset;
-use super::gram;
+use super::factored::{BlockValues, FactoredPlan};
 use super::network::Layout;
 
 /// Whether JᵀJ and Jᵀe are sums or means over the error elements (see the module docs).
@@ -156,19 +156,18 @@ pub const ACTIVATION_CACHE_BYTES: usize = 64 << 20;
 pub struct LmWorkspace {
     layout: Layout,
     block_samples: usize,
-    /// One output's rows of J for one block: block samples × `n_params`, column-major, then one
-    /// more column: that output's errors e. Starts at `jacobian_at` (32-byte
-    /// aligned, for whole-vector loads); columns are `stride` apart, a multiple of 4 values but
-    /// not of 512 (4 KiB), so that a tile's columns do not share L1 cache sets.
-    jacobian: Vec<f64>,
-    jacobian_at: usize,
+    /// How JᵀJ and Jᵀe are formed from factor products, and the products' sums over the blocks.
+    plan: FactoredPlan,
+    sums: Vec<f64>,
+    /// One block's factor columns: `plan.scratch_columns()` columns of block samples, the first
+    /// zero. Starts at `factors_at` (32-byte aligned, for whole-vector loads); columns are
+    /// `stride` apart, a multiple of 4 values but not of 512 (4 KiB), so that a tile's columns
+    /// do not share L1 cache sets.
+    factors: Vec<f64>,
+    factors_at: usize,
     stride: usize,
-    /// Per output: the columns its rows can be non-zero in (the error column last), and the lower
-    /// triangle of [J e]ᵀ[J e] over those columns, accumulated over the blocks.
-    gram_columns: Vec<Vec<usize>>,
-    gram: Vec<Vec<f64>>,
-    /// Per output: Jᵀe over the blocks left out of a subsampled JᵀJ (parameter columns only).
-    gradient: Vec<Vec<f64>>,
+    /// Every output's sensitivities to the hidden units over one block, output after output.
+    sensitivities: Vec<f64>,
     activations: Vec<f64>,
     /// Every unit's values over the whole training set, block after block (each laid out as
     /// [`Layout::forward_block`] writes it), from the last trial pass that ran to the end. An
@@ -178,7 +177,6 @@ pub struct LmWorkspace {
     activation_budget: usize,
     /// The errors of one block, output after output.
     errors: Vec<f64>,
-    delta: Vec<f64>,
     jtj: Mat<f64>,
     jte: Mat<f64>,
     factor: Mat<f64>,
@@ -194,34 +192,24 @@ impl LmWorkspace {
         let block_samples = block_samples.max(1);
         let req = factor::cholesky_in_place_scratch::<f64>(n_p, Par::Seq, Default::default())
             .or(solve::solve_in_place_scratch::<f64>(n_p, 1, Par::Seq));
-        let gram_columns: Vec<Vec<usize>> = (0..layout.outputs())
-            .map(|k| {
-                let mut columns = layout.output_params(k);
-                columns.push(n_p);
-                columns
-            })
-            .collect();
+        let plan = FactoredPlan::new(layout);
         let stride = block_samples.next_multiple_of(4);
         let stride = stride + if stride.is_multiple_of(512) { 4 } else { 0 };
-        let jacobian = vec![0.0; (n_p + 1) * stride + 3];
-        let jacobian_at = (32 - jacobian.as_ptr() as usize % 32) % 32 / 8;
+        let factors = vec![0.0; plan.scratch_columns() * stride + 3];
+        let factors_at = (32 - factors.as_ptr() as usize % 32) % 32 / 8;
         LmWorkspace {
             layout: layout.clone(),
             block_samples,
-            jacobian,
-            jacobian_at,
+            sums: vec![0.0; plan.sums_len()],
+            plan,
+            factors,
+            factors_at,
             stride,
-            gram: gram_columns
-                .iter()
-                .map(|c| vec![0.0; c.len() * c.len()])
-                .collect(),
-            gradient: gram_columns.iter().map(|c| vec![0.0; c.len() - 1]).collect(),
-            gram_columns,
+            sensitivities: vec![0.0; layout.outputs() * layout.n_delta_block(block_samples)],
             activations: vec![0.0; layout.n_activations() * block_samples],
             trial_activations: Vec::new(),
             activation_budget: ACTIVATION_CACHE_BYTES,
             errors: vec![0.0; layout.outputs() * block_samples],
-            delta: vec![0.0; layout.n_delta_block(block_samples)],
             jtj: Mat::zeros(n_p, n_p),
             jte: Mat::zeros(n_p, 1),
             factor: Mat::zeros(n_p, n_p),
@@ -252,12 +240,7 @@ impl LmWorkspace {
         hessian_samples: Option<usize>,
         reuse_trial: bool,
     ) -> f64 {
-        for g in &mut self.gram {
-            g.fill(0.0);
-        }
-        for g in &mut self.gradient {
-            g.fill(0.0);
-        }
+        self.sums.fill(0.0);
         let (hessian_stride, hessian_scale) =
             hessian_subsample(data.len(), self.block_samples, hessian_samples);
         let sse = Arch::new().dispatch(Blocks {
@@ -267,24 +250,8 @@ impl LmWorkspace {
             hessian_stride,
             reuse_trial,
         });
-        // Each output's rows only reach its own output-layer columns: add the per-output Gram
-        // matrices into JᵀJ (scaled when it came from a subsample) and Jᵀe (the error column's
-        // row, plus the blocks left out of JᵀJ) in output order.
-        self.jtj.fill(0.0);
-        self.jte.fill(0.0);
-        for ((columns, gram), gradient) in self.gram_columns.iter().zip(&self.gram).zip(&self.gradient) {
-            let d = columns.len();
-            for i in 0..d {
-                for j in 0..=i {
-                    let v = gram[i * d + j];
-                    if i + 1 < d {
-                        self.jtj[(columns[i], columns[j])] += hessian_scale * v;
-                    } else if j + 1 < d {
-                        self.jte[(columns[j], 0)] += v + gradient[j];
-                    }
-                }
-            }
-        }
+        self.plan
+            .unpack(&self.sums, hessian_scale, &mut self.jtj, &mut self.jte);
         sse
     }
 
@@ -299,7 +266,7 @@ impl LmWorkspace {
         reuse_trial: bool,
     ) -> f64 {
         let layout = &self.layout;
-        let (n_p, n_in, n_out) = (layout.n_params(), layout.inputs(), layout.outputs());
+        let (n_in, n_out) = (layout.inputs(), layout.outputs());
         let n_act = layout.n_activations();
         let out_at = n_act - n_out;
         let block = self.block_samples;
@@ -324,48 +291,23 @@ impl LmWorkspace {
             let errors = &mut self.errors;
             add_block_errors(data, outputs, start, count, &mut sse, |at, e| errors[at] = e);
             let in_hessian = (start / block).is_multiple_of(hessian_stride);
-            // One output at a time: its rows of J (and its errors as the last column) are
-            // formed and at once reduced, while they are still in cache.
-            for (k, ((columns, gram), gradient)) in self
-                .gram_columns
-                .iter()
-                .zip(&mut self.gram)
-                .zip(&mut self.gradient)
-                .enumerate()
-            {
-                let block_jacobian = &mut self.jacobian[self.jacobian_at..][..(n_p + 1) * stride];
-                let (jacobian, error_column) = block_jacobian.split_at_mut(n_p * stride);
-                error_column[..count].copy_from_slice(&self.errors[k * count..(k + 1) * count]);
-                layout.jacobian_block_output(
-                    weights,
-                    activations,
-                    count,
-                    k,
-                    stride,
-                    0,
-                    jacobian,
-                    &mut self.delta,
-                );
-                let block_jacobian = &self.jacobian[self.jacobian_at..];
-                if in_hessian {
-                    gram::AddLower {
-                        data: block_jacobian,
-                        cols: columns,
-                        stride,
-                        first: 0,
-                        len: count,
-                        gram,
-                    }
-                    .dispatched();
-                } else {
-                    let (params, error) = columns.split_at(columns.len() - 1);
-                    let e = &block_jacobian[error[0] * stride..][..count];
-                    for (g, &c) in gradient.iter_mut().zip(params) {
-                        let column = &block_jacobian[c * stride..][..count];
-                        *g += column.iter().zip(e).map(|(j, e)| j * e).sum::<f64>();
-                    }
+            let hidden_units = layout.hidden_units();
+            let sensitivities = &mut self.sensitivities[..n_out * hidden_units * count];
+            if hidden_units > 0 {
+                for (k, sensitivities) in sensitivities.chunks_exact_mut(hidden_units * count).enumerate() {
+                    layout.sensitivities_block(weights, activations, count, k, sensitivities);
                 }
             }
+            let values = BlockValues {
+                count,
+                activations,
+                sensitivities,
+                hidden_units,
+                errors: &self.errors[..n_out * count],
+            };
+            let factors = &mut self.factors[self.factors_at..][..self.plan.scratch_columns() * stride];
+            self.plan
+                .add_block(values, in_hessian, factors, stride, &mut self.sums);
             start += count;
         }
         sse
@@ -376,6 +318,12 @@ impl LmWorkspace {
     pub fn set_activation_budget(&mut self, bytes: usize) {
         self.activation_budget = bytes;
         self.trial_activations = Vec::new();
+    }
+
+    /// Multiply-adds per sample in the factor products that form JᵀJ and Jᵀe: as run (tiles
+    /// padded with zero columns) and without the padding.
+    pub fn multiply_adds_per_sample(&self) -> (usize, usize) {
+        self.plan.multiply_adds_per_sample()
     }
 
     /// JᵀJ's lower triangle and Jᵀe from the last [`LmWorkspace::normal_equations`].
@@ -398,12 +346,19 @@ impl LmWorkspace {
             self.factor[(j, j)] += mu;
         }
         let stack = MemStack::new(&mut self.scratch);
+        // Unblocked: the blocked factorisation's matrix products read their packing buffers'
+        // uninitialised padding, and where that memory last held small integers (subnormal as
+        // f64) each epoch ran up to 30 % slower, depending on the allocation history.
+        let unblocked = factor::LltParams {
+            recursion_threshold: usize::MAX,
+            ..Auto::<f64>::auto()
+        };
         let factored = factor::cholesky_in_place(
             self.factor.as_mut(),
             Default::default(),
             Par::Seq,
             stack,
-            Default::default(),
+            unblocked.into(),
         );
         if factored.is_err() {
             return false;

@@ -6,6 +6,7 @@
 //! [`sweep`] trains a grid of architectures in parallel.
 
 pub mod data;
+mod factored;
 mod gram;
 pub mod lm;
 pub mod network;

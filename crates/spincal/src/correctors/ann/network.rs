@@ -234,7 +234,7 @@ impl Layout {
     }
 
     /// Start of layer `l`'s weight matrix (`l` from 1) and of its biases.
-    fn layer_offsets(&self, l: usize) -> (usize, usize) {
+    pub(crate) fn layer_offsets(&self, l: usize) -> (usize, usize) {
         let w = self.offsets[l - 1];
         (w, w + self.sizes[l] * self.sizes[l - 1])
     }
@@ -447,7 +447,8 @@ impl Layout {
 
     /// Output `k`'s rows of [`Layout::jacobian_block`]: column `p` of them at
     /// `p·stride + first_row ..` (`count` values), except the columns of the other outputs'
-    /// weights and biases, which are zero and left untouched.
+    /// weights and biases, which are zero and left untouched. Each column is a sensitivity from
+    /// [`Layout::sensitivities_block`] times a layer input (or 1 for a bias).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(crate) fn jacobian_block_output(
@@ -463,36 +464,24 @@ impl Layout {
     ) {
         debug_assert!(stride >= first_row + count);
         let last = self.n_layers();
-        let widest = *self.sizes.iter().max().expect("non-empty");
-        let (delta_here, delta_below) = delta.split_at_mut(widest * count);
         let starts = self.activation_starts();
         let layer_values = |l: usize, n: usize| &activations[starts[l] * count..(starts[l] + n) * count];
         let column = |p: usize| p * stride + first_row..p * stride + first_row + count;
         let n_in = self.sizes[last - 1];
         let (w_at, b_at) = self.layer_offsets(last);
-        let a_in = layer_values(last - 1, n_in);
-        for (j, a) in a_in.chunks_exact(count).enumerate() {
+        for (j, a) in layer_values(last - 1, n_in).chunks_exact(count).enumerate() {
             jacobian[column(w_at + k * n_in + j)].copy_from_slice(a);
         }
         jacobian[column(b_at + k)].fill(1.0);
-        if last == 1 {
-            return;
-        }
-        let row_k = &weights[w_at + k * n_in..w_at + (k + 1) * n_in];
-        for ((d, a), w) in delta_here
-            .chunks_exact_mut(count)
-            .zip(a_in.chunks_exact(count))
-            .zip(row_k)
-        {
-            for (d, a) in d.iter_mut().zip(a) {
-                *d = w * (1.0 - a * a);
-            }
-        }
-        for l in (1..last).rev() {
+        let sensitivities = &mut delta[..self.hidden_units() * count];
+        self.sensitivities_block(weights, activations, count, k, sensitivities);
+        let mut first_unit = 0;
+        for l in 1..last {
             let (n_in, n_out) = (self.sizes[l - 1], self.sizes[l]);
             let (w_at, b_at) = self.layer_offsets(l);
             let a_in = layer_values(l - 1, n_in);
-            for (i, d) in delta_here[..n_out * count].chunks_exact(count).enumerate() {
+            let layer = &sensitivities[first_unit * count..(first_unit + n_out) * count];
+            for (i, d) in layer.chunks_exact(count).enumerate() {
                 for (j, a) in a_in.chunks_exact(count).enumerate() {
                     let col = &mut jacobian[column(w_at + i * n_in + j)];
                     for ((g, d), a) in col.iter_mut().zip(d).zip(a) {
@@ -501,33 +490,78 @@ impl Layout {
                 }
                 jacobian[column(b_at + i)].copy_from_slice(d);
             }
-            if l > 1 {
-                let below = &mut delta_below[..n_in * count];
-                below.fill(0.0);
-                for (i, d) in delta_here[..n_out * count].chunks_exact(count).enumerate() {
-                    let row = &weights[w_at + i * n_in..w_at + (i + 1) * n_in];
-                    for (s, w) in below.chunks_exact_mut(count).zip(row) {
-                        for (s, d) in s.iter_mut().zip(d) {
-                            *s += d * w;
-                        }
+            first_unit += n_out;
+        }
+    }
+
+    /// The derivatives of output `k` with respect to every hidden unit's pre-activation over a
+    /// block of `count` samples from [`Layout::forward_block`] (backpropagation): hidden unit `u`
+    /// (counted from the first hidden layer's first unit) at `u·count ..` of `sensitivities`
+    /// ([`Layout::hidden_units`]` × count` values).
+    #[inline(always)]
+    pub(crate) fn sensitivities_block(
+        &self,
+        weights: &[f64],
+        activations: &[f64],
+        count: usize,
+        k: usize,
+        sensitivities: &mut [f64],
+    ) {
+        let last = self.n_layers();
+        if last == 1 {
+            return;
+        }
+        let starts = self.activation_starts();
+        let layer_values = |l: usize, n: usize| &activations[starts[l] * count..(starts[l] + n) * count];
+        // Hidden layer l's units start at unit starts[l] − inputs.
+        let unit_range =
+            |l: usize| (starts[l] - self.sizes[0]) * count..(starts[l + 1] - self.sizes[0]) * count;
+        let n_in = self.sizes[last - 1];
+        let (w_at, _) = self.layer_offsets(last);
+        let row_k = &weights[w_at + k * n_in..w_at + (k + 1) * n_in];
+        for ((d, a), w) in sensitivities[unit_range(last - 1)]
+            .chunks_exact_mut(count)
+            .zip(layer_values(last - 1, n_in).chunks_exact(count))
+            .zip(row_k)
+        {
+            for (d, a) in d.iter_mut().zip(a) {
+                *d = w * (1.0 - a * a);
+            }
+        }
+        for l in (2..last).rev() {
+            let (n_in, n_out) = (self.sizes[l - 1], self.sizes[l]);
+            let (w_at, _) = self.layer_offsets(l);
+            let (lower, upper) = sensitivities.split_at_mut(unit_range(l).start);
+            let here = &upper[..n_out * count];
+            let below = &mut lower[unit_range(l - 1)];
+            below.fill(0.0);
+            for (i, d) in here.chunks_exact(count).enumerate() {
+                let row = &weights[w_at + i * n_in..w_at + (i + 1) * n_in];
+                for (s, w) in below.chunks_exact_mut(count).zip(row) {
+                    for (s, d) in s.iter_mut().zip(d) {
+                        *s += d * w;
                     }
                 }
-                for ((d, s), a) in delta_here
-                    .chunks_exact_mut(count)
-                    .zip(below.chunks_exact(count))
-                    .zip(a_in.chunks_exact(count))
-                {
-                    for ((d, s), a) in d.iter_mut().zip(s).zip(a) {
-                        *d = s * (1.0 - a * a);
-                    }
+            }
+            for (s, a) in below
+                .chunks_exact_mut(count)
+                .zip(layer_values(l - 1, n_in).chunks_exact(count))
+            {
+                for (s, a) in s.iter_mut().zip(a) {
+                    *s *= 1.0 - a * a;
                 }
             }
         }
     }
 
+    /// Number of hidden units over all hidden layers.
+    pub fn hidden_units(&self) -> usize {
+        self.hidden().iter().sum()
+    }
+
     /// Scratch length for [`Layout::jacobian_block`]'s `delta` with `count` samples.
     pub fn n_delta_block(&self, count: usize) -> usize {
-        self.n_delta() * count
+        self.hidden_units() * count
     }
 
     /// Scratch length for [`Layout::output_gradients`]'s `delta`.

@@ -1,0 +1,377 @@
+//! JᵀJ and Jᵀe of a layered network from Kronecker factors, without forming J.
+//!
+//! The derivative of output o by the weight from input j to unit i of layer l is
+//! δ(l, o, i)·ã(l−1, j): the unit's sensitivity (1 or 0 for the linear output layer) times its
+//! input (1 for a bias). So the block of JᵀJ between layers l ≥ m is
+//!
+//!   G[(i, j), (k, q)] = Σ_s D(s)[(i, k)] · A(s)[(j, q)],
+//!   D(s)[(i, k)] = Σ_o δ(l, o, i) δ(m, o, k),   A(s)[(j, q)] = ã(l−1, j) ã(m−1, q),
+//!
+//! a product of two small factor matrices over the samples: one multiply-add per entry and
+//! sample, where the Jacobian's rows take one per entry, sample *and output*. Within a layer
+//! (l = m) both factors are symmetric, so only i ≥ k and j ≥ q are formed, a quarter of the block.
+//! Jᵀe is the same with e_o in place of δ(m, o, k) and 1 for ã(m−1, q). For a 2-[10, 6]-2
+//! network that is 2.1 times fewer multiply-adds than JᵀJ over the rows of J.
+//!
+//! [`FactoredPlan`] lists, for one layout, every factor column as a sum of products of block
+//! values, the products to take ([`gram::AddProduct`], padded to whole tiles), and where each
+//! entry of JᵀJ's lower triangle and of Jᵀe lies among their sums.
+
+use super::gram;
+use super::network::Layout;
+
+/// A value of a block that factor columns multiply: one sample after another.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Source {
+    One,
+    /// Output `output`'s sensitivity to hidden unit `unit` (counted over all hidden layers).
+    Sensitivity {
+        output: usize,
+        unit: usize,
+    },
+    /// Row `at` of the forward pass's activations (an input or a hidden unit's value).
+    Activation {
+        at: usize,
+    },
+    /// Output `output`'s error.
+    Error {
+        output: usize,
+    },
+}
+
+/// One product of two factor matrices: a block of JᵀJ (two layers) or of Jᵀe (one layer).
+#[derive(Debug, Clone)]
+struct Product {
+    /// The factor columns, each the sum of its terms' products; the D factor's, then the A
+    /// factor's. Column c is written to scratch column c + 1 (column 0 stays zero, the padding).
+    columns: Vec<Vec<(Source, Source)>>,
+    /// Scratch columns of the product's two sides, padded with column 0 ([`gram::padded_shape`]).
+    rows: Vec<usize>,
+    cols: Vec<usize>,
+    /// Where its sums start (row-major, `rows.len() × cols.len()`).
+    at: usize,
+    /// Whether it is part of JᵀJ (else of Jᵀe).
+    hessian: bool,
+}
+
+/// A factor column of a product: its (row, column) index within the block (the unit pair for D,
+/// the input pair for A; the second 0 for Jᵀe) and the terms whose products it sums.
+type FactorTerms = Vec<((usize, usize), Vec<(Source, Source)>)>;
+
+/// Index of an entry that is structurally zero.
+const ZERO: u32 = u32::MAX;
+
+/// How one layout's JᵀJ and Jᵀe are formed from factor products (see the module docs).
+#[derive(Debug, Clone)]
+pub(crate) struct FactoredPlan {
+    products: Vec<Product>,
+    /// For entry (p, r) of JᵀJ with r ≤ p, at p(p+1)/2 + r: the index of its sum, or [`ZERO`].
+    jtj_at: Vec<u32>,
+    /// For every parameter: the index of its Jᵀe sum.
+    jte_at: Vec<u32>,
+    sums: usize,
+    /// The most factor columns of any product, the zero column included.
+    scratch_columns: usize,
+    /// Multiply-adds per sample: in the products as run (padding included), and in their
+    /// unpadded parts.
+    multiply_adds: (usize, usize),
+}
+
+/// Layer `l`'s parameter for unit `i` and input `j` (`j` = the layer's input count: the bias).
+fn parameter(layout: &Layout, l: usize, i: usize, j: usize) -> usize {
+    let (w_at, b_at) = layout.layer_offsets(l);
+    let n_in = layout.sizes[l - 1];
+    if j < n_in {
+        w_at + i * n_in + j
+    } else {
+        b_at + i
+    }
+}
+
+/// The layer, unit and input of parameter `p` (the inverse of [`parameter`]).
+fn decode(layout: &Layout, p: usize) -> (usize, usize, usize) {
+    let l = (1..=layout.n_layers())
+        .rev()
+        .find(|&l| layout.layer_offsets(l).0 <= p)
+        .expect("parameter 0 is layer 1's");
+    let (w_at, b_at) = layout.layer_offsets(l);
+    let n_in = layout.sizes[l - 1];
+    if p < b_at {
+        (l, (p - w_at) / n_in, (p - w_at) % n_in)
+    } else {
+        (l, p - b_at, n_in)
+    }
+}
+
+impl FactoredPlan {
+    pub(crate) fn new(layout: &Layout) -> FactoredPlan {
+        let last = layout.n_layers();
+        let outputs = layout.outputs();
+        let sizes = &layout.sizes;
+        let first_unit = |l: usize| sizes[1..l].iter().sum::<usize>();
+        let first_activation = |l: usize| sizes[..l].iter().sum::<usize>();
+        // Output o's sensitivity to unit i of layer l; None where it is zero.
+        let sensitivity = |l: usize, o: usize, i: usize| -> Option<Source> {
+            if l == last {
+                (i == o).then_some(Source::One)
+            } else {
+                Some(Source::Sensitivity {
+                    output: o,
+                    unit: first_unit(l) + i,
+                })
+            }
+        };
+        let input = |l: usize, j: usize| {
+            if j < sizes[l - 1] {
+                Source::Activation {
+                    at: first_activation(l - 1) + j,
+                }
+            } else {
+                Source::One
+            }
+        };
+        let mut products = Vec::new();
+        let mut sums = 0;
+        let mut scratch_columns = 1;
+        let mut multiply_adds = (0, 0);
+        // Where the sum of each (layer pair or layer's Jᵀe, D index, A index) lies.
+        let mut sum_index = std::collections::HashMap::new();
+        let mut add_product = |key: (usize, Option<usize>), d: FactorTerms, a: FactorTerms| {
+            let (nd, na) = (d.len(), a.len());
+            let (d_rows, d_cols) = gram::padded_shape(nd, na);
+            let (a_rows, a_cols) = gram::padded_shape(na, nd);
+            let d_is_rows = d_rows * d_cols <= a_rows * a_cols;
+            let padded = |count: usize, to: usize, first: usize| -> Vec<usize> {
+                (0..to).map(|c| if c < count { first + c } else { 0 }).collect()
+            };
+            let (rows, cols) = if d_is_rows {
+                (padded(nd, d_rows, 1), padded(na, d_cols, 1 + nd))
+            } else {
+                (padded(na, a_rows, 1 + nd), padded(nd, a_cols, 1))
+            };
+            let width = cols.len();
+            for (di, (ik, _)) in d.iter().enumerate() {
+                for (ai, (jq, _)) in a.iter().enumerate() {
+                    let at = if d_is_rows {
+                        di * width + ai
+                    } else {
+                        ai * width + di
+                    };
+                    sum_index.insert((key, *ik, *jq), (sums + at) as u32);
+                }
+            }
+            multiply_adds.0 += rows.len() * cols.len();
+            multiply_adds.1 += nd * na;
+            scratch_columns = scratch_columns.max(1 + nd + na);
+            let columns = d.into_iter().chain(a).map(|(_, terms)| terms).collect();
+            let at = sums;
+            sums += rows.len() * width;
+            products.push(Product {
+                columns,
+                at,
+                hessian: key.1.is_some(),
+                rows,
+                cols,
+            });
+        };
+        for l in 1..=last {
+            for m in 1..=l {
+                let mut d = Vec::new();
+                for i in 0..sizes[l] {
+                    for k in 0..if l == m { i + 1 } else { sizes[m] } {
+                        let terms: Vec<(Source, Source)> = (0..outputs)
+                            .filter_map(|o| Some((sensitivity(l, o, i)?, sensitivity(m, o, k)?)))
+                            .collect();
+                        if !terms.is_empty() {
+                            d.push(((i, k), terms));
+                        }
+                    }
+                }
+                let mut a = Vec::new();
+                for j in 0..=sizes[l - 1] {
+                    for q in 0..if l == m { j + 1 } else { sizes[m - 1] + 1 } {
+                        a.push(((j, q), vec![(input(l, j), input(m, q))]));
+                    }
+                }
+                add_product((l, Some(m)), d, a);
+            }
+            let d: FactorTerms = (0..sizes[l])
+                .map(|i| {
+                    let terms = (0..outputs)
+                        .filter_map(|o| Some((sensitivity(l, o, i)?, Source::Error { output: o })))
+                        .collect();
+                    ((i, 0), terms)
+                })
+                .collect();
+            let a = (0..=sizes[l - 1])
+                .map(|j| ((j, 0), vec![(input(l, j), Source::One)]))
+                .collect();
+            add_product((l, None), d, a);
+        }
+        let n_p = layout.n_params();
+        let mut jtj_at = Vec::with_capacity(n_p * (n_p + 1) / 2);
+        for p in 0..n_p {
+            let (l, i1, j1) = decode(layout, p);
+            for r in 0..=p {
+                let (m, i2, j2) = decode(layout, r);
+                let (ik, jq) = if l == m {
+                    ((i1.max(i2), i1.min(i2)), (j1.max(j2), j1.min(j2)))
+                } else {
+                    ((i1, i2), (j1, j2))
+                };
+                jtj_at.push(sum_index.get(&((l, Some(m)), ik, jq)).copied().unwrap_or(ZERO));
+            }
+        }
+        let jte_at = (0..n_p)
+            .map(|p| {
+                let (l, i, j) = decode(layout, p);
+                sum_index[&((l, None), (i, 0), (j, 0))]
+            })
+            .collect();
+        debug_assert!((0..n_p).all(|p| {
+            let (l, i, j) = decode(layout, p);
+            parameter(layout, l, i, j) == p
+        }));
+        FactoredPlan {
+            products,
+            jtj_at,
+            jte_at,
+            sums,
+            scratch_columns,
+            multiply_adds,
+        }
+    }
+
+    /// Length of the sums the products accumulate into.
+    pub(crate) fn sums_len(&self) -> usize {
+        self.sums
+    }
+
+    /// Factor columns a block needs at most, the zero column included.
+    pub(crate) fn scratch_columns(&self) -> usize {
+        self.scratch_columns
+    }
+
+    /// Multiply-adds per sample in the products: as run (tiles padded) and unpadded.
+    pub(crate) fn multiply_adds_per_sample(&self) -> (usize, usize) {
+        self.multiply_adds
+    }
+
+    /// Adds one block's products to `sums`: JᵀJ's and Jᵀe's when `hessian`, else Jᵀe's only.
+    /// `activations` are the block's as [`Layout::forward_block`] writes them, `sensitivities`
+    /// output after output as [`Layout::sensitivities_block`] writes them, `errors` output after
+    /// output; `scratch` holds [`FactoredPlan::scratch_columns`] columns `stride` apart, the
+    /// first of them zero over the block.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(crate) fn add_block(
+        &self,
+        values: BlockValues<'_>,
+        hessian: bool,
+        scratch: &mut [f64],
+        stride: usize,
+        sums: &mut [f64],
+    ) {
+        let count = values.count;
+        for product in self.products.iter().filter(|p| hessian || !p.hessian) {
+            for (c, terms) in product.columns.iter().enumerate() {
+                let column = &mut scratch[(c + 1) * stride..][..count];
+                write_column(column, terms, &values);
+            }
+            gram::AddProduct {
+                data: scratch,
+                rows: &product.rows,
+                cols: &product.cols,
+                stride,
+                len: count,
+                product: &mut sums[product.at..product.at + product.rows.len() * product.cols.len()],
+            }
+            .dispatched();
+        }
+    }
+
+    /// Writes JᵀJ's lower triangle (times `hessian_scale`) and Jᵀe from the products' sums.
+    pub(crate) fn unpack(
+        &self,
+        sums: &[f64],
+        hessian_scale: f64,
+        jtj: &mut faer::Mat<f64>,
+        jte: &mut faer::Mat<f64>,
+    ) {
+        let mut at = self.jtj_at.iter();
+        for p in 0..jtj.nrows() {
+            for r in 0..=p {
+                let index = *at.next().expect("one index per lower entry");
+                jtj[(p, r)] = if index == ZERO {
+                    0.0
+                } else {
+                    hessian_scale * sums[index as usize]
+                };
+            }
+            jte[(p, 0)] = sums[self.jte_at[p] as usize];
+        }
+    }
+}
+
+/// One block's values that factor columns are made of.
+pub(crate) struct BlockValues<'a> {
+    pub count: usize,
+    pub activations: &'a [f64],
+    /// `hidden_units` values per output, `count` each.
+    pub sensitivities: &'a [f64],
+    pub hidden_units: usize,
+    pub errors: &'a [f64],
+}
+
+impl BlockValues<'_> {
+    /// The source's values over the block; None for [`Source::One`].
+    #[inline(always)]
+    fn column(&self, source: Source) -> Option<&[f64]> {
+        let count = self.count;
+        let at = match source {
+            Source::One => return None,
+            Source::Sensitivity { output, unit } => {
+                return Some(&self.sensitivities[(output * self.hidden_units + unit) * count..][..count])
+            }
+            Source::Activation { at } => at,
+            Source::Error { output } => return Some(&self.errors[output * count..][..count]),
+        };
+        Some(&self.activations[at * count..][..count])
+    }
+}
+
+/// `column` = the sum of the terms' products, term after term (plain multiplies and adds, so the
+/// same on every machine).
+#[inline(always)]
+fn write_column(column: &mut [f64], terms: &[(Source, Source)], values: &BlockValues<'_>) {
+    for (t, &(x, y)) in terms.iter().enumerate() {
+        let first = t == 0;
+        match (values.column(x), values.column(y)) {
+            (None, None) => {
+                if first {
+                    column.fill(1.0);
+                } else {
+                    column.iter_mut().for_each(|c| *c += 1.0);
+                }
+            }
+            (Some(v), None) | (None, Some(v)) => {
+                if first {
+                    column.copy_from_slice(v);
+                } else {
+                    column.iter_mut().zip(v).for_each(|(c, v)| *c += v);
+                }
+            }
+            (Some(u), Some(v)) => {
+                if first {
+                    column.iter_mut().zip(u).zip(v).for_each(|((c, u), v)| *c = u * v);
+                } else {
+                    column
+                        .iter_mut()
+                        .zip(u)
+                        .zip(v)
+                        .for_each(|((c, u), v)| *c += u * v);
+                }
+            }
+        }
+    }
+}
