@@ -13,12 +13,11 @@
 //! Menhaj 1994) and pyrenn; [`JtjConvention::Mean`] divides both by the number of error elements,
 //! as recent MATLAB versions do, which is the same as multiplying μ by that number.
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::llt::{factor, solve};
-use faer::{Auto, Mat, MatMut, MatRef, Par};
+use faer::{Mat, MatMut, MatRef};
 use pulp::{Arch, Simd, WithSimd};
 use serde::{Deserialize, Serialize};
 
+use super::cholesky::Cholesky;
 use super::data::Dataset;
 use super::factored::{BlockValues, FactoredPlan};
 use super::network::Layout;
@@ -179,19 +178,16 @@ pub struct LmWorkspace {
     errors: Vec<f64>,
     jtj: Mat<f64>,
     jte: Mat<f64>,
-    factor: Mat<f64>,
-    step: Mat<f64>,
+    cholesky: Cholesky,
+    step: Vec<f64>,
     trial: Vec<f64>,
     best: Vec<f64>,
-    scratch: MemBuffer,
 }
 
 impl LmWorkspace {
     pub fn new(layout: &Layout, block_samples: usize) -> LmWorkspace {
         let n_p = layout.n_params();
         let block_samples = block_samples.max(1);
-        let req = factor::cholesky_in_place_scratch::<f64>(n_p, Par::Seq, Default::default())
-            .or(solve::solve_in_place_scratch::<f64>(n_p, 1, Par::Seq));
         let plan = FactoredPlan::new(layout);
         let stride = block_samples.next_multiple_of(4);
         let stride = stride + if stride.is_multiple_of(512) { 4 } else { 0 };
@@ -212,11 +208,10 @@ impl LmWorkspace {
             errors: vec![0.0; layout.outputs() * block_samples],
             jtj: Mat::zeros(n_p, n_p),
             jte: Mat::zeros(n_p, 1),
-            factor: Mat::zeros(n_p, n_p),
-            step: Mat::zeros(n_p, 1),
+            cholesky: Cholesky::new(n_p),
+            step: vec![0.0; n_p],
             trial: vec![0.0; n_p],
             best: vec![0.0; n_p],
-            scratch: MemBuffer::new(req),
         }
     }
 
@@ -338,34 +333,15 @@ impl LmWorkspace {
     /// Solves (JᵀJ + μI)·step = Jᵀe into `self.step`; false when the matrix is not positive
     /// definite at this μ.
     fn solve_damped(&mut self, mu: f64) -> bool {
-        let n_p = self.layout.n_params();
-        for j in 0..n_p {
-            for i in j..n_p {
-                self.factor[(i, j)] = self.jtj[(i, j)];
-            }
-            self.factor[(j, j)] += mu;
-        }
-        let stack = MemStack::new(&mut self.scratch);
-        // Unblocked: the blocked factorisation's matrix products read their packing buffers'
-        // uninitialised padding, and where that memory last held small integers (subnormal as
-        // f64) each epoch ran up to 30 % slower, depending on the allocation history.
-        let unblocked = factor::LltParams {
-            recursion_threshold: usize::MAX,
-            ..Auto::<f64>::auto()
-        };
-        let factored = factor::cholesky_in_place(
-            self.factor.as_mut(),
-            Default::default(),
-            Par::Seq,
-            stack,
-            unblocked.into(),
-        );
-        if factored.is_err() {
+        let jtj = &self.jtj;
+        if !self.cholesky.factor(|i, j| jtj[(i, j)], mu) {
             return false;
         }
-        self.step.copy_from(&self.jte);
-        solve::solve_in_place(self.factor.as_ref(), self.step.as_mut(), Par::Seq, stack);
-        (0..n_p).all(|i| self.step[(i, 0)].is_finite())
+        for (s, g) in self.step.iter_mut().zip(self.jte.col(0).iter()) {
+            *s = *g;
+        }
+        self.cholesky.solve_in_place(&mut self.step);
+        self.step.iter().all(|s| s.is_finite())
     }
 
     /// Trains from `weights` and leaves there the weights of the best validation epoch (or the
@@ -422,7 +398,7 @@ impl LmWorkspace {
             while mu <= settings.mu_max {
                 if self.solve_damped(mu * mu_scale) {
                     for (i, (t, w)) in self.trial.iter_mut().zip(weights.iter()).enumerate() {
-                        *t = w + self.step[(i, 0)];
+                        *t = w + self.step[i];
                     }
                     // A rejected step's error is not used: stop summing once it reaches `sse`.
                     let activations = if reuse_trial {

@@ -5,6 +5,7 @@
 //! architecture with restarts and returns an [`AnnModel`] (a [`crate::correctors::corrector::Corrector`]);
 //! [`sweep`] trains a grid of architectures in parallel.
 
+mod cholesky;
 pub mod data;
 mod factored;
 mod gram;
