@@ -1,11 +1,12 @@
-//! The rank-k update of LM's normal equations, AᵀA over the columns of one Jacobian block, for
-//! the small widths of these networks (tens to a few hundred columns).
+//! The products of LM's normal equations, AᵀB over two sets of columns of one block of samples,
+//! for the small widths of these networks (a few to about a hundred columns a side): the
+//! Kronecker factors of [`super::factored`].
 //!
 //! A general matrix-multiply kernel is tuned for large products and reaches only part of its rate
-//! here; this one reads the Jacobian's columns where they are (no packing: each is a contiguous
-//! run of samples) and computes a 3×4 tile of dot products at a time, 12 running sums of 4 lanes
-//! that stay in the 16 AVX registers. [`dispatch`] runs an operation with AVX2+FMA vectors where
-//! the CPU has them (checked at run time) and with plain `f64` lanes elsewhere. On Intel CPUs with
+//! here; this one reads the columns where they are (no packing: each is a contiguous run of
+//! samples) and computes a 3×4 tile of dot products at a time, 12 running sums of 4 lanes that
+//! stay in the 16 AVX registers. [`dispatch`] runs an operation with AVX2+FMA vectors where the
+//! CPU has them (checked at run time) and with plain `f64` lanes elsewhere. On Intel CPUs with
 //! AVX-512F, 6×8 wide tiles run in 24 of the 32 512-bit registers, two dot products to a
 //! register ([`Avx512`]); elsewhere a wide tile is four 3×4 tiles.
 //!

@@ -1,11 +1,12 @@
 //! Levenberg–Marquardt training with MATLAB `trainlm`'s rules.
 //!
-//! Each epoch forms the normal equations at the current weights from Jacobian rows computed by
-//! backpropagation, a block of samples at a time (forward and backward passes a layer at a time
-//! over the whole block, with a vectorised tanh): JᵀJ and Jᵀe grow by a rank-k update of each
-//! block (`gram`, lower triangle only, skipping the columns that are zero for an output), so J
-//! is never stored whole. Then (JᵀJ + μI)·Δ = Jᵀe is solved by Cholesky, retrying with μ×10 until the training
-//! error falls. All buffers live in [`LmWorkspace`]: an epoch allocates nothing.
+//! Each epoch forms the normal equations at the current weights a block of samples at a time:
+//! a forward pass and the outputs' sensitivities by backpropagation, a layer at a time over the
+//! whole block (with a vectorised tanh), then JᵀJ and Jᵀe from their Kronecker factors
+//! ([`super::factored`]: one small matrix product per pair of layers, [`super::gram`]), so J is
+//! never formed. Then (JᵀJ + μI)·Δ = Jᵀe is solved by Cholesky ([`super::cholesky`]), retrying
+//! with μ×10 until the training error falls. All buffers live in [`LmWorkspace`]: an epoch
+//! allocates nothing.
 //!
 //! Convention: J is the derivative of the network outputs (scaled to [−1, 1]) with respect to the
 //! weights and e = target − output, over every training sample and output. By default
