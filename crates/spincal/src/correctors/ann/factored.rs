@@ -258,11 +258,8 @@ impl FactoredPlan {
     }
 
     /// Adds one block's products to `sums`: JᵀJ's and Jᵀe's when `hessian`, else Jᵀe's only.
-    /// `activations` are the block's as [`Layout::forward_block`] writes them, `sensitivities`
-    /// output after output as [`Layout::sensitivities_block`] writes them, `errors` output after
-    /// output; `scratch` holds [`FactoredPlan::scratch_columns`] columns `stride` apart, the
-    /// first of them zero over the block.
-    #[allow(clippy::too_many_arguments)]
+    /// `scratch` holds [`FactoredPlan::scratch_columns`] columns `stride` apart, the first of
+    /// them zero over the block.
     #[inline(always)]
     pub(crate) fn add_block(
         &self,
@@ -313,11 +310,13 @@ impl FactoredPlan {
     }
 }
 
-/// One block's values that factor columns are made of.
+/// One block's values that factor columns are made of, each a run of `count` samples:
+/// `activations` as [`Layout::forward_block`] writes them, `sensitivities` output after output as
+/// [`Layout::sensitivities_block`] writes them (`hidden_units` runs per output), `errors` output
+/// after output.
 pub(crate) struct BlockValues<'a> {
     pub count: usize,
     pub activations: &'a [f64],
-    /// `hidden_units` values per output, `count` each.
     pub sensitivities: &'a [f64],
     pub hidden_units: usize,
     pub errors: &'a [f64],
@@ -327,16 +326,13 @@ impl BlockValues<'_> {
     /// The source's values over the block; None for [`Source::One`].
     #[inline(always)]
     fn column(&self, source: Source) -> Option<&[f64]> {
-        let count = self.count;
-        let at = match source {
+        let (values, at) = match source {
             Source::One => return None,
-            Source::Sensitivity { output, unit } => {
-                return Some(&self.sensitivities[(output * self.hidden_units + unit) * count..][..count])
-            }
-            Source::Activation { at } => at,
-            Source::Error { output } => return Some(&self.errors[output * count..][..count]),
+            Source::Sensitivity { output, unit } => (self.sensitivities, output * self.hidden_units + unit),
+            Source::Activation { at } => (self.activations, at),
+            Source::Error { output } => (self.errors, output),
         };
-        Some(&self.activations[at * count..][..count])
+        Some(&values[at * self.count..][..self.count])
     }
 }
 

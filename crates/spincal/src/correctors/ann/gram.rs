@@ -31,11 +31,11 @@ pub(crate) trait Fma4: Copy {
         })
     }
 
-    /// The narrow tile of [`AddProduct`]; wider registers override it, with the same sums in
-    /// the same order.
+    /// The narrow tile of [`AddProduct`], and the part [`Fma4::wide_tile`] is made of where the
+    /// registers do not hold a wide one.
     #[inline(always)]
     fn full_tile(self, a: [&[f64]; MR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; MR] {
-        dot_tile::<Self, MR, NR>(self, a, b, len)
+        dot_tile(self, a, b, len)
     }
 
     /// 2·MR columns of A by JB: four [`Fma4::full_tile`]s, or one kernel where the registers
@@ -398,22 +398,18 @@ fn add_tile<const M: usize, const N: usize>(
     }
 }
 
-/// Dot products of every column in `a` with every column in `b`, all of length `len`.
+/// Dot products of every column in `a` with every column in `b`, all of length `len`: the
+/// MR × NR tile every path shares.
 #[inline(always)]
-fn dot_tile<F: Fma4, const M: usize, const N: usize>(
-    f: F,
-    a: [&[f64]; M],
-    b: [&[f64]; N],
-    len: usize,
-) -> [[f64; N]; M] {
+fn dot_tile<F: Fma4>(f: F, a: [&[f64]; MR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; MR] {
     let quads = len / 4;
-    let a4: [&[[f64; 4]]; M] = a.map(|s| &s[..len].as_chunks::<4>().0[..quads]);
-    let b4: [&[[f64; 4]]; N] = b.map(|s| &s[..len].as_chunks::<4>().0[..quads]);
+    let a4: [&[[f64; 4]]; MR] = a.map(|s| &s[..len].as_chunks::<4>().0[..quads]);
+    let b4: [&[[f64; 4]]; NR] = b.map(|s| &s[..len].as_chunks::<4>().0[..quads]);
     let zero = f.load([0.0; 4]);
-    let mut acc = [[zero; N]; M];
-    let mut step = |av: [F::V; M], bv: [F::V; N]| {
-        for j in 0..N {
-            for i in 0..M {
+    let mut acc = [[zero; NR]; MR];
+    let mut step = |av: [F::V; MR], bv: [F::V; NR]| {
+        for j in 0..NR {
+            for i in 0..MR {
                 acc[i][j] = f.mul_add(av[i], bv[j], acc[i][j]);
             }
         }
@@ -426,17 +422,7 @@ fn dot_tile<F: Fma4, const M: usize, const N: usize>(
         let tail = |s: &[f64]| f.load(from_fn(|l| s.get(quads * 4 + l).copied().unwrap_or(0.0)));
         step(a.map(|s| tail(&s[..len])), b.map(|s| tail(&s[..len])));
     }
-    from_fn(|i| {
-        if N == 4 {
-            let s = f.sums(from_fn(|j| acc[i][j % N]));
-            from_fn(|j| s[j])
-        } else {
-            from_fn(|j| {
-                let s = f.lanes(acc[i][j]);
-                (s[0] + s[1]) + (s[2] + s[3])
-            })
-        }
-    })
+    from_fn(|i| f.sums(acc[i]))
 }
 
 #[cfg(test)]

@@ -3,8 +3,8 @@
 //! Each epoch forms the normal equations at the current weights a block of samples at a time:
 //! a forward pass and the outputs' sensitivities by backpropagation, a layer at a time over the
 //! whole block (with a vectorised tanh), then JᵀJ and Jᵀe from their Kronecker factors
-//! ([`super::factored`]: one small matrix product per pair of layers, [`super::gram`]), so J is
-//! never formed. Then (JᵀJ + μI)·Δ = Jᵀe is solved by Cholesky ([`super::cholesky`]), retrying
+//! (`factored`: one small matrix product per pair of layers, run by `gram`), so J is
+//! never formed. Then (JᵀJ + μI)·Δ = Jᵀe is solved by Cholesky (`cholesky`), retrying
 //! with μ×10 until the training error falls. All buffers live in [`LmWorkspace`]: an epoch
 //! allocates nothing.
 //!

@@ -335,18 +335,6 @@ impl Layout {
         }
     }
 
-    /// The parameters that output `k` depends on, ascending: every hidden layer's, then output
-    /// `k`'s own row and bias (its derivative by any other output-layer parameter is zero).
-    pub fn output_params(&self, k: usize) -> Vec<usize> {
-        let last = self.n_layers();
-        let n_in = self.sizes[last - 1];
-        let (w_at, b_at) = self.layer_offsets(last);
-        let mut params: Vec<usize> = (0..w_at).collect();
-        params.extend(w_at + k * n_in..w_at + (k + 1) * n_in);
-        params.push(b_at + k);
-        params
-    }
-
     /// Start of every layer's values in the activation buffer (layer 0 = the inputs).
     fn activation_starts(&self) -> [usize; MAX_HIDDEN_LAYERS + 3] {
         let mut starts = [0usize; MAX_HIDDEN_LAYERS + 3];
