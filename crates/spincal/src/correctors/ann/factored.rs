@@ -15,7 +15,11 @@
 //!
 //! [`FactoredPlan`] lists, for one layout, every factor column as a sum of products of block
 //! values, the products to take ([`gram::AddProduct`], padded to whole tiles), and where each
-//! entry of JᵀJ's lower triangle and of Jᵀe lies among their sums.
+//! entry of JᵀJ's lower triangle and of Jᵀe lies among their sums. The products read one block
+//! buffer ([`BlockColumns`]): a zero and a ones column, the forward pass, the sensitivities and
+//! the errors where the passes wrote them, then the factor columns formed for the product at
+//! hand. A factor column that is one of those values (a product with a bias input or a linear
+//! output's sensitivity: about a quarter of them) is read where it is, not copied.
 
 use super::gram;
 use super::network::Layout;
@@ -39,13 +43,29 @@ enum Source {
     },
 }
 
+/// Where each kind of value sits in one block's buffer, in columns of the block's sample count.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct BlockColumns {
+    /// Column 0 is zero (the padding of the products), column 1 is ones.
+    pub activations: usize,
+    pub sensitivities: usize,
+    pub errors: usize,
+    /// The first column of the factor columns formed for one product.
+    pub formed: usize,
+    /// Columns in all, the most any product forms included.
+    pub total: usize,
+}
+
+const ZERO_COLUMN: usize = 0;
+const ONES_COLUMN: usize = 1;
+
 /// One product of two factor matrices: a block of JᵀJ (two layers) or of Jᵀe (one layer).
 #[derive(Debug, Clone)]
 struct Product {
-    /// The factor columns, each the sum of its terms' products; the D factor's, then the A
-    /// factor's. Column c is written to scratch column c + 1 (column 0 stays zero, the padding).
-    columns: Vec<Vec<(Source, Source)>>,
-    /// Scratch columns of the product's two sides, padded with column 0 ([`gram::padded_shape`]).
+    /// The factor columns to form, each the sum of its terms' products, and its buffer column.
+    formed: Vec<(usize, Vec<(Source, Source)>)>,
+    /// Buffer columns of the product's two sides (the D factor's and the A factor's, whichever
+    /// takes fewer padding columns as rows), padded with the zero column ([`gram::padded_shape`]).
     rows: Vec<usize>,
     cols: Vec<usize>,
     /// Where its sums start (row-major, `rows.len() × cols.len()`).
@@ -65,13 +85,13 @@ const ZERO: u32 = u32::MAX;
 #[derive(Debug, Clone)]
 pub(crate) struct FactoredPlan {
     products: Vec<Product>,
+    hidden_units: usize,
     /// For entry (p, r) of JᵀJ with r ≤ p, at p(p+1)/2 + r: the index of its sum, or [`ZERO`].
     jtj_at: Vec<u32>,
     /// For every parameter: the index of its Jᵀe sum.
     jte_at: Vec<u32>,
     sums: usize,
-    /// The most factor columns of any product, the zero column included.
-    scratch_columns: usize,
+    columns: BlockColumns,
     /// Multiply-adds per sample: in the products as run (padding included), and in their
     /// unpadded parts.
     multiply_adds: (usize, usize),
@@ -130,28 +150,66 @@ impl FactoredPlan {
                 Source::One
             }
         };
+        let n_act = layout.n_activations();
+        let hidden_units = layout.hidden_units();
+        let mut columns = BlockColumns {
+            activations: 2,
+            sensitivities: 2 + n_act,
+            errors: 2 + n_act + outputs * hidden_units,
+            formed: 2 + n_act + outputs * hidden_units + outputs,
+            total: 0,
+        };
+        columns.total = columns.formed;
+        // The buffer column of a factor column that is one block value (times one), if it is.
+        let value_column = move |terms: &[(Source, Source)]| -> Option<usize> {
+            let [(x, y)] = terms else { return None };
+            let value = match (x, y) {
+                (Source::One, v) | (v, Source::One) => *v,
+                _ => return None,
+            };
+            Some(match value {
+                Source::One => ONES_COLUMN,
+                Source::Activation { at } => columns.activations + at,
+                Source::Sensitivity { output, unit } => columns.sensitivities + output * hidden_units + unit,
+                Source::Error { output } => columns.errors + output,
+            })
+        };
         let mut products = Vec::new();
         let mut sums = 0;
-        let mut scratch_columns = 1;
         let mut multiply_adds = (0, 0);
         // Where the sum of each (layer pair or layer's Jᵀe, D index, A index) lies.
         let mut sum_index = std::collections::HashMap::new();
         let mut add_product = |key: (usize, Option<usize>), d: FactorTerms, a: FactorTerms| {
             let (nd, na) = (d.len(), a.len());
+            let d_keys: Vec<(usize, usize)> = d.iter().map(|(key, _)| *key).collect();
+            let a_keys: Vec<(usize, usize)> = a.iter().map(|(key, _)| *key).collect();
             let (d_rows, d_cols) = gram::padded_shape(nd, na);
             let (a_rows, a_cols) = gram::padded_shape(na, nd);
             let d_is_rows = d_rows * d_cols <= a_rows * a_cols;
-            let padded = |count: usize, to: usize, first: usize| -> Vec<usize> {
-                (0..to).map(|c| if c < count { first + c } else { 0 }).collect()
+            // Each factor column's buffer column: the value's own, or the next formed one.
+            let mut formed = Vec::new();
+            let mut at_column = |terms: Vec<(Source, Source)>| {
+                value_column(&terms).unwrap_or_else(|| {
+                    let column = columns.formed + formed.len();
+                    formed.push((column, terms));
+                    column
+                })
+            };
+            let d_columns: Vec<usize> = d.into_iter().map(|(_, terms)| at_column(terms)).collect();
+            let a_columns: Vec<usize> = a.into_iter().map(|(_, terms)| at_column(terms)).collect();
+            let padded = |side: &[usize], to: usize| -> Vec<usize> {
+                (0..to)
+                    .map(|c| side.get(c).copied().unwrap_or(ZERO_COLUMN))
+                    .collect()
             };
             let (rows, cols) = if d_is_rows {
-                (padded(nd, d_rows, 1), padded(na, d_cols, 1 + nd))
+                (padded(&d_columns, d_rows), padded(&a_columns, d_cols))
             } else {
-                (padded(na, a_rows, 1 + nd), padded(nd, a_cols, 1))
+                (padded(&a_columns, a_rows), padded(&d_columns, a_cols))
             };
             let width = cols.len();
-            for (di, (ik, _)) in d.iter().enumerate() {
-                for (ai, (jq, _)) in a.iter().enumerate() {
+            for (di, ik) in d_keys.iter().enumerate() {
+                for (ai, jq) in a_keys.iter().enumerate() {
                     let at = if d_is_rows {
                         di * width + ai
                     } else {
@@ -162,12 +220,11 @@ impl FactoredPlan {
             }
             multiply_adds.0 += rows.len() * cols.len();
             multiply_adds.1 += nd * na;
-            scratch_columns = scratch_columns.max(1 + nd + na);
-            let columns = d.into_iter().chain(a).map(|(_, terms)| terms).collect();
+            columns.total = columns.total.max(columns.formed + formed.len());
             let at = sums;
             sums += rows.len() * width;
             products.push(Product {
-                columns,
+                formed,
                 at,
                 hessian: key.1.is_some(),
                 rows,
@@ -234,10 +291,11 @@ impl FactoredPlan {
         }));
         FactoredPlan {
             products,
+            hidden_units,
             jtj_at,
             jte_at,
             sums,
-            scratch_columns,
+            columns,
             multiply_adds,
         }
     }
@@ -247,9 +305,9 @@ impl FactoredPlan {
         self.sums
     }
 
-    /// Factor columns a block needs at most, the zero column included.
-    pub(crate) fn scratch_columns(&self) -> usize {
-        self.scratch_columns
+    /// Where the values of a block go in its buffer, and how many columns it needs.
+    pub(crate) fn block_columns(&self) -> BlockColumns {
+        self.columns
     }
 
     /// Multiply-adds per sample in the products: as run (tiles padded) and unpadded.
@@ -258,28 +316,28 @@ impl FactoredPlan {
     }
 
     /// Adds one block's products to `sums`: JᵀJ's and Jᵀe's when `hessian`, else Jᵀe's only.
-    /// `scratch` holds [`FactoredPlan::scratch_columns`] columns `stride` apart, the first of
-    /// them zero over the block.
+    /// `buffer` holds the block's [`FactoredPlan::block_columns`], `count` values each, with the
+    /// zero and ones columns, the activations, sensitivities and errors in place.
     #[inline(always)]
-    pub(crate) fn add_block(
-        &self,
-        values: BlockValues<'_>,
-        hessian: bool,
-        scratch: &mut [f64],
-        stride: usize,
-        sums: &mut [f64],
-    ) {
-        let count = values.count;
+    pub(crate) fn add_block(&self, buffer: &mut [f64], count: usize, hessian: bool, sums: &mut [f64]) {
+        let buffer = &mut buffer[..self.columns.total * count];
         for product in self.products.iter().filter(|p| hessian || !p.hessian) {
-            for (c, terms) in product.columns.iter().enumerate() {
-                let column = &mut scratch[(c + 1) * stride..][..count];
+            let (values, formed) = buffer.split_at_mut(self.columns.formed * count);
+            let values = BlockValues {
+                count,
+                buffer: values,
+                columns: self.columns,
+                hidden_units: self.hidden_units,
+            };
+            for (column, terms) in &product.formed {
+                let column = &mut formed[(column - self.columns.formed) * count..][..count];
                 write_column(column, terms, &values);
             }
             gram::AddProduct {
-                data: scratch,
+                data: buffer,
                 rows: &product.rows,
                 cols: &product.cols,
-                stride,
+                stride: count,
                 len: count,
                 product: &mut sums[product.at..product.at + product.rows.len() * product.cols.len()],
             }
@@ -310,29 +368,28 @@ impl FactoredPlan {
     }
 }
 
-/// One block's values that factor columns are made of, each a run of `count` samples:
-/// `activations` as [`Layout::forward_block`] writes them, `sensitivities` output after output as
-/// [`Layout::sensitivities_block`] writes them (`hidden_units` runs per output), `errors` output
-/// after output.
-pub(crate) struct BlockValues<'a> {
-    pub count: usize,
-    pub activations: &'a [f64],
-    pub sensitivities: &'a [f64],
-    pub hidden_units: usize,
-    pub errors: &'a [f64],
+/// The values of one block that factor columns are made of: the buffer up to the formed
+/// columns, `count` samples a column.
+struct BlockValues<'a> {
+    count: usize,
+    buffer: &'a [f64],
+    columns: BlockColumns,
+    hidden_units: usize,
 }
 
 impl BlockValues<'_> {
     /// The source's values over the block; None for [`Source::One`].
     #[inline(always)]
     fn column(&self, source: Source) -> Option<&[f64]> {
-        let (values, at) = match source {
+        let at = match source {
             Source::One => return None,
-            Source::Sensitivity { output, unit } => (self.sensitivities, output * self.hidden_units + unit),
-            Source::Activation { at } => (self.activations, at),
-            Source::Error { output } => (self.errors, output),
+            Source::Sensitivity { output, unit } => {
+                self.columns.sensitivities + output * self.hidden_units + unit
+            }
+            Source::Activation { at } => self.columns.activations + at,
+            Source::Error { output } => self.columns.errors + output,
         };
-        Some(&values[at * self.count..][..self.count])
+        Some(&self.buffer[at * self.count..][..self.count])
     }
 }
 

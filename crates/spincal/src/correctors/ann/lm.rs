@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use super::cholesky::Cholesky;
 use super::data::Dataset;
-use super::factored::{BlockValues, FactoredPlan};
+use super::factored::FactoredPlan;
 use super::network::Layout;
 
 /// Whether JᵀJ and Jᵀe are sums or means over the error elements (see the module docs).
@@ -159,15 +159,12 @@ pub struct LmWorkspace {
     /// How JᵀJ and Jᵀe are formed from factor products, and the products' sums over the blocks.
     plan: FactoredPlan,
     sums: Vec<f64>,
-    /// One block's factor columns: `plan.scratch_columns()` columns of block samples, the first
-    /// zero. Starts at `factors_at` (32-byte aligned, for whole-vector loads); columns are
-    /// `stride` apart, a multiple of 4 values but not of 512 (4 KiB), so that a tile's columns
-    /// do not share L1 cache sets.
-    factors: Vec<f64>,
-    factors_at: usize,
-    stride: usize,
-    /// Every output's sensitivities to the hidden units over one block, output after output.
-    sensitivities: Vec<f64>,
+    /// One block's buffer of `plan.block_columns()` columns of its sample count: the values the
+    /// products read (forward pass, sensitivities, errors) and the factor columns formed from
+    /// them. Starts at `block_at` (32-byte aligned, for whole-vector loads).
+    block: Vec<f64>,
+    block_at: usize,
+    /// A trial pass's activations when they are not kept for the whole training set.
     activations: Vec<f64>,
     /// Every unit's values over the whole training set, block after block (each laid out as
     /// [`Layout::forward_block`] writes it), from the last trial pass that ran to the end. An
@@ -175,8 +172,6 @@ pub struct LmWorkspace {
     /// recomputed; empty when the training set would need more than `activation_budget` bytes.
     trial_activations: Vec<f64>,
     activation_budget: usize,
-    /// The errors of one block, output after output.
-    errors: Vec<f64>,
     jtj: Mat<f64>,
     jte: Mat<f64>,
     cholesky: Cholesky,
@@ -190,23 +185,18 @@ impl LmWorkspace {
         let n_p = layout.n_params();
         let block_samples = block_samples.max(1);
         let plan = FactoredPlan::new(layout);
-        let stride = block_samples.next_multiple_of(4);
-        let stride = stride + if stride.is_multiple_of(512) { 4 } else { 0 };
-        let factors = vec![0.0; plan.scratch_columns() * stride + 3];
-        let factors_at = (32 - factors.as_ptr() as usize % 32) % 32 / 8;
+        let block = vec![0.0; plan.block_columns().total * block_samples + 3];
+        let block_at = (32 - block.as_ptr() as usize % 32) % 32 / 8;
         LmWorkspace {
             layout: layout.clone(),
             block_samples,
             sums: vec![0.0; plan.sums_len()],
             plan,
-            factors,
-            factors_at,
-            stride,
-            sensitivities: vec![0.0; layout.outputs() * layout.n_delta_block(block_samples)],
+            block,
+            block_at,
             activations: vec![0.0; layout.n_activations() * block_samples],
             trial_activations: Vec::new(),
             activation_budget: ACTIVATION_CACHE_BYTES,
-            errors: vec![0.0; layout.outputs() * block_samples],
             jtj: Mat::zeros(n_p, n_p),
             jte: Mat::zeros(n_p, 1),
             cholesky: Cholesky::new(n_p),
@@ -266,44 +256,41 @@ impl LmWorkspace {
         let n_act = layout.n_activations();
         let out_at = n_act - n_out;
         let block = self.block_samples;
+        let columns = self.plan.block_columns();
+        let hidden_units = layout.hidden_units();
         let mut sse = 0.0;
         let n = data.len();
         let mut start = 0;
-        let stride = self.stride;
         while start < n {
             let count = block.min(n - start);
-            let activations: &[f64] = if reuse_trial {
-                &self.trial_activations[start * n_act..(start + count) * n_act]
+            let buffer = &mut self.block[self.block_at..][..columns.total * count];
+            // Each region is `count` values a column, where the products read it.
+            let (constants, rest) = buffer.split_at_mut(columns.activations * count);
+            let (activations, rest) = rest.split_at_mut(n_act * count);
+            let (sensitivities, rest) = rest.split_at_mut(n_out * hidden_units * count);
+            let errors = &mut rest[..n_out * count];
+            let (zeros, ones) = constants.split_at_mut(count);
+            zeros.fill(0.0);
+            ones.fill(1.0);
+            if reuse_trial {
+                activations.copy_from_slice(&self.trial_activations[start * n_act..(start + count) * n_act]);
             } else {
                 layout.forward_block(
                     weights,
                     &data.inputs[start * n_in..(start + count) * n_in],
                     count,
-                    &mut self.activations,
+                    activations,
                 );
-                &self.activations
-            };
+            }
             let outputs = &activations[out_at * count..(out_at + n_out) * count];
-            let errors = &mut self.errors;
             add_block_errors(data, outputs, start, count, &mut sse, |at, e| errors[at] = e);
-            let in_hessian = (start / block).is_multiple_of(hessian_stride);
-            let hidden_units = layout.hidden_units();
-            let sensitivities = &mut self.sensitivities[..n_out * hidden_units * count];
             if hidden_units > 0 {
                 for (k, sensitivities) in sensitivities.chunks_exact_mut(hidden_units * count).enumerate() {
                     layout.sensitivities_block(weights, activations, count, k, sensitivities);
                 }
             }
-            let values = BlockValues {
-                count,
-                activations,
-                sensitivities,
-                hidden_units,
-                errors: &self.errors[..n_out * count],
-            };
-            let factors = &mut self.factors[self.factors_at..][..self.plan.scratch_columns() * stride];
-            self.plan
-                .add_block(values, in_hessian, factors, stride, &mut self.sums);
+            let in_hessian = (start / block).is_multiple_of(hessian_stride);
+            self.plan.add_block(buffer, count, in_hessian, &mut self.sums);
             start += count;
         }
         sse
