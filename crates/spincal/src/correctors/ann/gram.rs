@@ -38,6 +38,17 @@ pub(crate) trait Fma4: Copy {
         dot_tile(self, a, b, len)
     }
 
+    /// 2·MR columns of A by NR, the last columns of a product whose width is not a multiple of
+    /// JB: two [`Fma4::full_tile`]s, or one kernel where the registers hold them.
+    #[inline(always)]
+    fn wide_edge_tile(self, a: [&[f64]; WMR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; WMR] {
+        let mut tile = [[0.0; NR]; WMR];
+        for (half, rows) in tile.chunks_exact_mut(MR).enumerate() {
+            rows.copy_from_slice(&self.full_tile(from_fn(|i| a[half * MR + i]), b, len));
+        }
+        tile
+    }
+
     /// 2·MR columns of A by JB: four [`Fma4::full_tile`]s, or one kernel where the registers
     /// hold them all (fewer loads and lane sums per multiply-add).
     #[inline(always)]
@@ -175,39 +186,51 @@ impl Fma4 for Avx512 {
     fn wide_tile(self, a: [&[f64]; WMR], b: [&[f64]; JB], len: usize) -> [[f64; JB]; WMR] {
         // SAFETY: an `Avx512` is made only where the CPU has AVX-512F (`Avx512::try_new`) and
         // x86-64-v3 (it holds a `V3`).
-        unsafe { wide_tile_avx512(a, b, len) }
+        unsafe { wide_tile_avx512::<JB, { JB / 2 }>(a, b, len) }
+    }
+
+    #[inline(always)]
+    fn wide_edge_tile(self, a: [&[f64]; WMR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; WMR] {
+        // SAFETY: as for `wide_tile`.
+        unsafe { wide_tile_avx512::<NR, { NR / 2 }>(a, b, len) }
     }
 }
 
-/// [`Fma4::wide_tile`] in 512-bit registers: 6 × 8 dot products in 24 registers, each holding
-/// two of them (the low four lanes for one column of `b`, the high four for the next). Row r of
-/// a column pair goes into lane r mod 4 with a fused multiply-add (the last step zero-padded), and
-/// each sum's lanes are added as (l0 + l1) + (l2 + l3), exactly as with four lanes. Plain loops
-/// and no closures, so that every intrinsic inlines here.
+/// [`Fma4::wide_tile`] (J = 8) and [`Fma4::wide_edge_tile`] (J = 4) in 512-bit registers: 6 × J
+/// dot products in 3·J registers (P = J / 2 a row), each holding two of them (the low four lanes
+/// for one column of `b`, the high four for the next). Row r of a column pair goes into lane
+/// r mod 4 with a fused multiply-add (the last step zero-padded), and each sum's lanes are added
+/// as (l0 + l1) + (l2 + l3), exactly as with four lanes. Plain loops and no closures, so that
+/// every intrinsic inlines here.
 ///
 /// # Safety
 /// The CPU must have AVX-512F and x86-64-v3.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
-unsafe fn wide_tile_avx512(a: [&[f64]; WMR], b: [&[f64]; JB], len: usize) -> [[f64; JB]; WMR] {
+unsafe fn wide_tile_avx512<const J: usize, const P: usize>(
+    a: [&[f64]; WMR],
+    b: [&[f64]; J],
+    len: usize,
+) -> [[f64; J]; WMR] {
     use std::arch::x86_64::*;
+    const { assert!(2 * P == J && J.is_multiple_of(NR)) };
     let quads = len / 4;
-    let mut columns: [&[f64]; WMR + JB] = [&[]; WMR + JB];
+    let mut columns = [&[][..]; WMR + JB];
     columns[..WMR].copy_from_slice(&a);
-    columns[WMR..].copy_from_slice(&b);
+    columns[WMR..WMR + J].copy_from_slice(&b);
     let mut starts = [std::ptr::null::<f64>(); WMR + JB];
-    for k in 0..WMR + JB {
+    for k in 0..WMR + J {
         assert!(columns[k].len() >= len);
         starts[k] = columns[k].as_ptr();
     }
-    let mut acc = [[_mm512_setzero_pd(); JB / 2]; WMR];
+    let mut acc = [[_mm512_setzero_pd(); P]; WMR];
     for q in 0..quads {
         wide_step(&mut acc, &starts, q * 4);
     }
     if quads * 4 < len {
         // The last rows as one zero-padded step.
         let mut padded = [[0.0f64; 4]; WMR + JB];
-        for k in 0..WMR + JB {
+        for k in 0..WMR + J {
             for r in quads * 4..len {
                 padded[k][r - quads * 4] = columns[k][r];
             }
@@ -216,13 +239,13 @@ unsafe fn wide_tile_avx512(a: [&[f64]; WMR], b: [&[f64]; JB], len: usize) -> [[f
         wide_step(&mut acc, &starts, 0);
     }
     // Column j's four lanes of each row, summed by the one definition of that sum.
-    let mut sums = [[0.0; JB]; WMR];
+    let mut sums = [[0.0; J]; WMR];
     for i in 0..WMR {
-        let mut lanes = [[0.0; 4]; JB];
-        for p in 0..JB / 2 {
+        let mut lanes = [[0.0; 4]; J];
+        for p in 0..P {
             _mm512_storeu_pd(lanes[2 * p..].as_mut_ptr().cast(), acc[i][p]);
         }
-        for half in 0..JB / 4 {
+        for half in 0..J / 4 {
             let quad = [
                 lanes[4 * half],
                 lanes[4 * half + 1],
@@ -236,20 +259,20 @@ unsafe fn wide_tile_avx512(a: [&[f64]; WMR], b: [&[f64]; JB], len: usize) -> [[f
 }
 
 /// One step of [`wide_tile_avx512`]: rows `at..at + 4` of every column (`starts`: a's six, then
-/// b's eight).
+/// b's 2·P).
 ///
 /// # Safety
 /// AVX-512F, and four readable values from `at` in every column.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
 #[inline]
-unsafe fn wide_step(
-    acc: &mut [[std::arch::x86_64::__m512d; JB / 2]; WMR],
+unsafe fn wide_step<const P: usize>(
+    acc: &mut [[std::arch::x86_64::__m512d; P]; WMR],
     starts: &[*const f64; WMR + JB],
     at: usize,
 ) {
     use std::arch::x86_64::*;
-    let mut pairs = [_mm512_setzero_pd(); JB / 2];
+    let mut pairs = [_mm512_setzero_pd(); P];
     for (p, pair) in pairs.iter_mut().enumerate() {
         let low = _mm256_loadu_pd(starts[WMR + 2 * p].add(at));
         let high = _mm256_loadu_pd(starts[WMR + 2 * p + 1].add(at));
@@ -257,7 +280,7 @@ unsafe fn wide_step(
     }
     for i in 0..WMR {
         let both = _mm512_broadcast_f64x4(_mm256_loadu_pd(starts[i].add(at)));
-        for p in 0..JB / 2 {
+        for p in 0..P {
             acc[i][p] = _mm512_fmadd_pd(both, pairs[p], acc[i][p]);
         }
     }
@@ -373,10 +396,7 @@ impl Fma4Op for AddProduct<'_> {
             }
             if j0 < n {
                 let b: [&[f64]; NR] = from_fn(|j| col(cols[j0 + j]));
-                for half in 0..2 {
-                    let a: [&[f64]; MR] = from_fn(|i| a[half * MR + i]);
-                    add_tile(product, n, i0 + half * MR, j0, f.full_tile(a, b, len));
-                }
+                add_tile(product, n, i0, j0, f.wide_edge_tile(a, b, len));
             }
         }
     }
