@@ -49,6 +49,20 @@ pub(crate) trait Fma4: Copy {
         tile
     }
 
+    /// MR columns of A by JB, the last rows of a product whose height is not a multiple of
+    /// 2·MR: two [`Fma4::full_tile`]s, or one kernel where the registers hold them.
+    #[inline(always)]
+    fn edge_rows_tile(self, a: [&[f64]; MR], b: [&[f64]; JB], len: usize) -> [[f64; JB]; MR] {
+        let mut tile = [[0.0; JB]; MR];
+        for p in 0..JB / NR {
+            let part = self.full_tile(a, from_fn(|j| b[p * NR + j]), len);
+            for (row, part) in tile.iter_mut().zip(part) {
+                row[p * NR..(p + 1) * NR].copy_from_slice(&part);
+            }
+        }
+        tile
+    }
+
     /// 2·MR columns of A by JB: four [`Fma4::full_tile`]s, or one kernel where the registers
     /// hold them all (fewer loads and lane sums per multiply-add).
     #[inline(always)]
@@ -186,13 +200,19 @@ impl Fma4 for Avx512 {
     fn wide_tile(self, a: [&[f64]; WMR], b: [&[f64]; JB], len: usize) -> [[f64; JB]; WMR] {
         // SAFETY: an `Avx512` is made only where the CPU has AVX-512F (`Avx512::try_new`) and
         // x86-64-v3 (it holds a `V3`).
-        unsafe { wide_tile_avx512::<JB, { JB / 2 }>(a, b, len) }
+        unsafe { wide_tile_avx512::<WMR, JB, { JB / 2 }>(a, b, len) }
     }
 
     #[inline(always)]
     fn wide_edge_tile(self, a: [&[f64]; WMR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; WMR] {
         // SAFETY: as for `wide_tile`.
-        unsafe { wide_tile_avx512::<NR, { NR / 2 }>(a, b, len) }
+        unsafe { wide_tile_avx512::<WMR, NR, { NR / 2 }>(a, b, len) }
+    }
+
+    #[inline(always)]
+    fn edge_rows_tile(self, a: [&[f64]; MR], b: [&[f64]; JB], len: usize) -> [[f64; JB]; MR] {
+        // SAFETY: as for `wide_tile`.
+        unsafe { wide_tile_avx512::<MR, JB, { JB / 2 }>(a, b, len) }
     }
 }
 
@@ -207,30 +227,32 @@ impl Fma4 for Avx512 {
 /// The CPU must have AVX-512F and x86-64-v3.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
-unsafe fn wide_tile_avx512<const J: usize, const P: usize>(
-    a: [&[f64]; WMR],
+unsafe fn wide_tile_avx512<const R: usize, const J: usize, const P: usize>(
+    a: [&[f64]; R],
     b: [&[f64]; J],
     len: usize,
-) -> [[f64; J]; WMR] {
+) -> [[f64; J]; R] {
     use std::arch::x86_64::*;
-    const { assert!(2 * P == J && J.is_multiple_of(NR)) };
+    const { assert!(2 * P == J && J.is_multiple_of(NR) && R <= WMR) };
     let quads = len / 4;
+    // a's columns first, b's from WMR on.
     let mut columns = [&[][..]; WMR + JB];
-    columns[..WMR].copy_from_slice(&a);
+    columns[..R].copy_from_slice(&a);
     columns[WMR..WMR + J].copy_from_slice(&b);
+    let used = |k: usize| k < R || (WMR..WMR + J).contains(&k);
     let mut starts = [std::ptr::null::<f64>(); WMR + JB];
-    for k in 0..WMR + J {
+    for k in (0..WMR + JB).filter(|&k| used(k)) {
         assert!(columns[k].len() >= len);
         starts[k] = columns[k].as_ptr();
     }
-    let mut acc = [[_mm512_setzero_pd(); P]; WMR];
+    let mut acc = [[_mm512_setzero_pd(); P]; R];
     for q in 0..quads {
         wide_step(&mut acc, &starts, q * 4);
     }
     if quads * 4 < len {
         // The last rows as one zero-padded step.
         let mut padded = [[0.0f64; 4]; WMR + JB];
-        for k in 0..WMR + J {
+        for k in (0..WMR + JB).filter(|&k| used(k)) {
             for r in quads * 4..len {
                 padded[k][r - quads * 4] = columns[k][r];
             }
@@ -239,8 +261,8 @@ unsafe fn wide_tile_avx512<const J: usize, const P: usize>(
         wide_step(&mut acc, &starts, 0);
     }
     // Column j's four lanes of each row, summed by the one definition of that sum.
-    let mut sums = [[0.0; J]; WMR];
-    for i in 0..WMR {
+    let mut sums = [[0.0; J]; R];
+    for i in 0..R {
         let mut lanes = [[0.0; 4]; J];
         for p in 0..P {
             _mm512_storeu_pd(lanes[2 * p..].as_mut_ptr().cast(), acc[i][p]);
@@ -266,8 +288,8 @@ unsafe fn wide_tile_avx512<const J: usize, const P: usize>(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
 #[inline]
-unsafe fn wide_step<const P: usize>(
-    acc: &mut [[std::arch::x86_64::__m512d; P]; WMR],
+unsafe fn wide_step<const R: usize, const P: usize>(
+    acc: &mut [[std::arch::x86_64::__m512d; P]; R],
     starts: &[*const f64; WMR + JB],
     at: usize,
 ) {
@@ -278,7 +300,7 @@ unsafe fn wide_step<const P: usize>(
         let high = _mm256_loadu_pd(starts[WMR + 2 * p + 1].add(at));
         *pair = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(low), high);
     }
-    for i in 0..WMR {
+    for i in 0..R {
         let both = _mm512_broadcast_f64x4(_mm256_loadu_pd(starts[i].add(at)));
         for p in 0..P {
             acc[i][p] = _mm512_fmadd_pd(both, pairs[p], acc[i][p]);
@@ -331,16 +353,11 @@ const JB: usize = 2 * NR;
 /// Rows of a [`Fma4::wide_tile`].
 const WMR: usize = 2 * MR;
 
-/// How many columns of A and of B [`AddProduct`] takes for `rows` and `cols` columns: rows in
-/// wide tiles (a multiple of 6), columns in wide tiles and at most one narrow one (a multiple of
-/// 8, or of 4 when that leaves the last tile narrow). The extra columns must be zero.
+/// How many columns of A and of B [`AddProduct`] takes for `rows` and `cols` columns: each side
+/// in wide tiles and at most one narrow one, rows a multiple of 3 (6 a wide tile), columns of 4
+/// (8 a wide tile). The extra columns must be zero.
 pub(crate) fn padded_shape(rows: usize, cols: usize) -> (usize, usize) {
-    let cols = if cols.is_multiple_of(JB) || cols % JB > NR {
-        cols.next_multiple_of(JB)
-    } else {
-        cols.next_multiple_of(NR)
-    };
-    (rows.next_multiple_of(WMR), cols)
+    (rows.next_multiple_of(MR), cols.next_multiple_of(NR))
 }
 
 /// Adds AᵀB to `product` (row-major, `rows.len() × cols.len()`), where column q of A is
@@ -381,7 +398,8 @@ impl Fma4Op for AddProduct<'_> {
         assert_eq!((m, n), padded_shape(m, n), "unpadded product");
         assert!(product.len() >= m * n);
         let col = |q: usize| &data[q * stride..][..len];
-        for i0 in (0..m).step_by(WMR) {
+        let wide_rows = m - m % WMR;
+        for i0 in (0..wide_rows).step_by(WMR) {
             let a: [&[f64]; WMR] = from_fn(|i| col(rows[i0 + i]));
             let mut j0 = 0;
             while j0 + JB <= n {
@@ -397,6 +415,25 @@ impl Fma4Op for AddProduct<'_> {
             if j0 < n {
                 let b: [&[f64]; NR] = from_fn(|j| col(cols[j0 + j]));
                 add_tile(product, n, i0, j0, f.wide_edge_tile(a, b, len));
+            }
+        }
+        if wide_rows < m {
+            let i0 = wide_rows;
+            let a: [&[f64]; MR] = from_fn(|i| col(rows[i0 + i]));
+            let mut j0 = 0;
+            while j0 + JB <= n {
+                add_tile(
+                    product,
+                    n,
+                    i0,
+                    j0,
+                    f.edge_rows_tile(a, from_fn(|j| col(cols[j0 + j])), len),
+                );
+                j0 += JB;
+            }
+            if j0 < n {
+                let b: [&[f64]; NR] = from_fn(|j| col(cols[j0 + j]));
+                add_tile(product, n, i0, j0, f.full_tile(a, b, len));
             }
         }
     }
@@ -427,22 +464,37 @@ fn dot_tile<F: Fma4>(f: F, a: [&[f64]; MR], b: [&[f64]; NR], len: usize) -> [[f6
     let b4: [&[[f64; 4]]; NR] = b.map(|s| &s[..len].as_chunks::<4>().0[..quads]);
     let zero = f.load([0.0; 4]);
     let mut acc = [[zero; NR]; MR];
-    let mut step = |av: [F::V; MR], bv: [F::V; NR]| {
-        for j in 0..NR {
-            for i in 0..MR {
-                acc[i][j] = f.mul_add(av[i], bv[j], acc[i][j]);
-            }
-        }
-    };
     for q in 0..quads {
-        step(from_fn(|i| f.load(a4[i][q])), from_fn(|j| f.load(b4[j][q])));
+        dot_step(
+            f,
+            &mut acc,
+            from_fn(|i| f.load(a4[i][q])),
+            from_fn(|j| f.load(b4[j][q])),
+        );
     }
     // The last rows as one zero-padded step.
     if quads * 4 < len {
         let tail = |s: &[f64]| f.load(from_fn(|l| s.get(quads * 4 + l).copied().unwrap_or(0.0)));
-        step(a.map(|s| tail(&s[..len])), b.map(|s| tail(&s[..len])));
+        dot_step(
+            f,
+            &mut acc,
+            a.map(|s| tail(&s[..len])),
+            b.map(|s| tail(&s[..len])),
+        );
     }
     from_fn(|i| f.sums(acc[i]))
+}
+
+/// One step of [`dot_tile`]: four rows of every column pair into their sums' lanes. A function
+/// of its own, not a closure, so that it always inlines (a closure that did not took every
+/// multiply-add out of the vector context).
+#[inline(always)]
+fn dot_step<F: Fma4>(f: F, acc: &mut [[F::V; NR]; MR], av: [F::V; MR], bv: [F::V; NR]) {
+    for j in 0..NR {
+        for i in 0..MR {
+            acc[i][j] = f.mul_add(av[i], bv[j], acc[i][j]);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -467,11 +519,11 @@ mod tests {
 
     #[test]
     fn padded_shapes_are_whole_tiles() {
-        assert_eq!(padded_shape(1, 1), (6, 4));
+        assert_eq!(padded_shape(1, 1), (3, 4));
         assert_eq!(padded_shape(6, 8), (6, 8));
-        assert_eq!(padded_shape(7, 12), (12, 12));
-        assert_eq!(padded_shape(13, 13), (18, 16));
-        assert_eq!(padded_shape(55, 6), (60, 8));
+        assert_eq!(padded_shape(7, 12), (9, 12));
+        assert_eq!(padded_shape(13, 13), (15, 16));
+        assert_eq!(padded_shape(55, 6), (57, 8));
     }
 
     #[test]
