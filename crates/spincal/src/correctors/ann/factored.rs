@@ -397,6 +397,21 @@ impl BlockValues<'_> {
 /// same on every machine).
 #[inline(always)]
 fn write_column(column: &mut [f64], terms: &[(Source, Source)], values: &BlockValues<'_>) {
+    // Two products (a sum over two outputs, the common case) in one pass: the same operations,
+    // with one store instead of a store, a reload and a second store.
+    if let [(x0, y0), (x1, y1)] = *terms {
+        if let (Some(u0), Some(v0), Some(u1), Some(v1)) = (
+            values.column(x0),
+            values.column(y0),
+            values.column(x1),
+            values.column(y1),
+        ) {
+            for ((((c, u0), v0), u1), v1) in column.iter_mut().zip(u0).zip(v0).zip(u1).zip(v1) {
+                *c = u0 * v0 + u1 * v1;
+            }
+            return;
+        }
+    }
     for (t, &(x, y)) in terms.iter().enumerate() {
         let first = t == 0;
         match (values.column(x), values.column(y)) {
