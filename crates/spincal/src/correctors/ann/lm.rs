@@ -322,7 +322,7 @@ impl LmWorkspace {
     /// definite at this μ.
     fn solve_damped(&mut self, mu: f64) -> bool {
         let jtj = &self.jtj;
-        if !self.cholesky.factor(|i, j| jtj[(i, j)], mu) {
+        if !self.cholesky.factor(|j| jtj.col_as_slice(j), mu) {
             return false;
         }
         for (s, g) in self.step.iter_mut().zip(self.jte.col(0).iter()) {
