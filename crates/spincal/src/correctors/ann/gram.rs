@@ -8,7 +8,8 @@
 //! stay in the 16 AVX registers. [`dispatch`] runs an operation with AVX2+FMA vectors where the
 //! CPU has them (checked at run time) and with plain `f64` lanes elsewhere. On Intel CPUs with
 //! AVX-512F, 6×8 wide tiles run in 24 of the 32 512-bit registers, two dot products to a
-//! register ([`Avx512`]); elsewhere a wide tile is four 3×4 tiles.
+//! register ([`Avx512`]), and so do a product's edges: its last four columns as 6×4, its last
+//! three rows as 3×8. Elsewhere those are made of 3×4 tiles.
 //!
 //! Summation order is fixed: row r of a column pair goes into lane r mod 4 with a fused
 //! multiply-add, and the lanes are added as (l0 + l1) + (l2 + l3). Every path does exactly this,
