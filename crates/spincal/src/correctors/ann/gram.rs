@@ -9,7 +9,8 @@
 //! CPU has them (checked at run time) and with plain `f64` lanes elsewhere. On Intel CPUs with
 //! AVX-512F, 6×8 wide tiles run in 24 of the 32 512-bit registers, two dot products to a
 //! register ([`Avx512`]), and so do a product's edges: its last four columns as 6×4, its last
-//! three rows as 3×8. Elsewhere those are made of 3×4 tiles.
+//! three rows as 3×8, the corner as 3×4 ([`Fma4::tile`]). Elsewhere every tile is made of 3×4
+//! ones.
 //!
 //! Summation order is fixed: row r of a column pair goes into lane r mod 4 with a fused
 //! multiply-add, and the lanes are added as (l0 + l1) + (l2 + l3). Every path does exactly this,
@@ -32,46 +33,25 @@ pub(crate) trait Fma4: Copy {
         })
     }
 
-    /// The narrow tile of [`AddProduct`], and the part [`Fma4::wide_tile`] is made of where the
-    /// registers do not hold a wide one.
+    /// The MR × NR tile every other is made of where the registers do not hold a larger one.
     #[inline(always)]
     fn full_tile(self, a: [&[f64]; MR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; MR] {
         dot_tile(self, a, b, len)
     }
 
-    /// 2·MR columns of A by NR, the last columns of a product whose width is not a multiple of
-    /// JB: two [`Fma4::full_tile`]s, or one kernel where the registers hold them.
+    /// R columns of A (MR or 2·MR) by J of B (NR or 2·NR): [`Fma4::full_tile`]s, or one kernel
+    /// where the registers hold the whole tile (fewer loads and lane sums per multiply-add).
     #[inline(always)]
-    fn wide_edge_tile(self, a: [&[f64]; WMR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; WMR] {
-        let mut tile = [[0.0; NR]; WMR];
-        for (half, rows) in tile.chunks_exact_mut(MR).enumerate() {
-            rows.copy_from_slice(&self.full_tile(from_fn(|i| a[half * MR + i]), b, len));
-        }
-        tile
-    }
-
-    /// MR columns of A by JB, the last rows of a product whose height is not a multiple of
-    /// 2·MR: two [`Fma4::full_tile`]s, or one kernel where the registers hold them.
-    #[inline(always)]
-    fn edge_rows_tile(self, a: [&[f64]; MR], b: [&[f64]; JB], len: usize) -> [[f64; JB]; MR] {
-        let mut tile = [[0.0; JB]; MR];
-        for p in 0..JB / NR {
-            let part = self.full_tile(a, from_fn(|j| b[p * NR + j]), len);
-            for (row, part) in tile.iter_mut().zip(part) {
-                row[p * NR..(p + 1) * NR].copy_from_slice(&part);
-            }
-        }
-        tile
-    }
-
-    /// 2·MR columns of A by JB: four [`Fma4::full_tile`]s, or one kernel where the registers
-    /// hold them all (fewer loads and lane sums per multiply-add).
-    #[inline(always)]
-    fn wide_tile(self, a: [&[f64]; WMR], b: [&[f64]; JB], len: usize) -> [[f64; JB]; WMR] {
-        let mut tile = [[0.0; JB]; WMR];
-        for (half, rows) in tile.chunks_exact_mut(MR).enumerate() {
-            let a: [&[f64]; MR] = from_fn(|i| a[half * MR + i]);
-            for p in 0..JB / NR {
+    fn tile<const R: usize, const J: usize>(
+        self,
+        a: [&[f64]; R],
+        b: [&[f64]; J],
+        len: usize,
+    ) -> [[f64; J]; R] {
+        let mut tile = [[0.0; J]; R];
+        for (part_rows, rows) in tile.chunks_exact_mut(MR).enumerate() {
+            let a: [&[f64]; MR] = from_fn(|i| a[part_rows * MR + i]);
+            for p in 0..J / NR {
                 let part = self.full_tile(a, from_fn(|j| b[p * NR + j]), len);
                 for (row, part) in rows.iter_mut().zip(part) {
                     row[p * NR..(p + 1) * NR].copy_from_slice(&part);
@@ -198,28 +178,20 @@ impl Fma4 for Avx512 {
     }
 
     #[inline(always)]
-    fn wide_tile(self, a: [&[f64]; WMR], b: [&[f64]; JB], len: usize) -> [[f64; JB]; WMR] {
+    fn tile<const R: usize, const J: usize>(
+        self,
+        a: [&[f64]; R],
+        b: [&[f64]; J],
+        len: usize,
+    ) -> [[f64; J]; R] {
         // SAFETY: an `Avx512` is made only where the CPU has AVX-512F (`Avx512::try_new`) and
         // x86-64-v3 (it holds a `V3`).
-        unsafe { wide_tile_avx512::<WMR, JB, { JB / 2 }>(a, b, len) }
-    }
-
-    #[inline(always)]
-    fn wide_edge_tile(self, a: [&[f64]; WMR], b: [&[f64]; NR], len: usize) -> [[f64; NR]; WMR] {
-        // SAFETY: as for `wide_tile`.
-        unsafe { wide_tile_avx512::<WMR, NR, { NR / 2 }>(a, b, len) }
-    }
-
-    #[inline(always)]
-    fn edge_rows_tile(self, a: [&[f64]; MR], b: [&[f64]; JB], len: usize) -> [[f64; JB]; MR] {
-        // SAFETY: as for `wide_tile`.
-        unsafe { wide_tile_avx512::<MR, JB, { JB / 2 }>(a, b, len) }
+        unsafe { tile_avx512(a, b, len) }
     }
 }
 
-/// [`Fma4::wide_tile`] (J = 8) and [`Fma4::wide_edge_tile`] (J = 4) in 512-bit registers: 6 × J
-/// dot products in 3·J registers (P = J / 2 a row), each holding two of them (the low four lanes
-/// for one column of `b`, the high four for the next). Row r of a column pair goes into lane
+/// [`Fma4::tile`] in 512-bit registers: R × J dot products in R·J / 2 registers, each holding
+/// two of them (the low four lanes for one column of `b`, the high four for the next). Row r of a column pair goes into lane
 /// r mod 4 with a fused multiply-add (the last step zero-padded), and each sum's lanes are added
 /// as (l0 + l1) + (l2 + l3), exactly as with four lanes. Plain loops and no closures, so that
 /// every intrinsic inlines here.
@@ -228,13 +200,13 @@ impl Fma4 for Avx512 {
 /// The CPU must have AVX-512F and x86-64-v3.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
-unsafe fn wide_tile_avx512<const R: usize, const J: usize, const P: usize>(
+unsafe fn tile_avx512<const R: usize, const J: usize>(
     a: [&[f64]; R],
     b: [&[f64]; J],
     len: usize,
 ) -> [[f64; J]; R] {
     use std::arch::x86_64::*;
-    const { assert!(2 * P == J && J.is_multiple_of(NR) && R <= WMR) };
+    const { assert!(J.is_multiple_of(NR) && J <= JB && R <= WMR) };
     let quads = len / 4;
     // a's columns first, b's from WMR on.
     let mut columns = [&[][..]; WMR + JB];
@@ -246,9 +218,10 @@ unsafe fn wide_tile_avx512<const R: usize, const J: usize, const P: usize>(
         assert!(columns[k].len() >= len);
         starts[k] = columns[k].as_ptr();
     }
-    let mut acc = [[_mm512_setzero_pd(); P]; R];
+    // J / 2 pairs of sums a row (the rest of the array stays unused for J < JB).
+    let mut acc = [[_mm512_setzero_pd(); JB / 2]; R];
     for q in 0..quads {
-        wide_step(&mut acc, &starts, q * 4);
+        tile_step::<R, J>(&mut acc, &starts, q * 4);
     }
     if quads * 4 < len {
         // The last rows as one zero-padded step.
@@ -259,13 +232,13 @@ unsafe fn wide_tile_avx512<const R: usize, const J: usize, const P: usize>(
             }
             starts[k] = padded[k].as_ptr();
         }
-        wide_step(&mut acc, &starts, 0);
+        tile_step::<R, J>(&mut acc, &starts, 0);
     }
     // Column j's four lanes of each row, summed by the one definition of that sum.
     let mut sums = [[0.0; J]; R];
     for i in 0..R {
         let mut lanes = [[0.0; 4]; J];
-        for p in 0..P {
+        for p in 0..J / 2 {
             _mm512_storeu_pd(lanes[2 * p..].as_mut_ptr().cast(), acc[i][p]);
         }
         for half in 0..J / 4 {
@@ -281,29 +254,29 @@ unsafe fn wide_tile_avx512<const R: usize, const J: usize, const P: usize>(
     sums
 }
 
-/// One step of [`wide_tile_avx512`]: rows `at..at + 4` of every column (`starts`: a's six, then
-/// b's 2·P).
+/// One step of [`tile_avx512`]: rows `at..at + 4` of every column (`starts`: a's R from 0, then
+/// b's J from WMR).
 ///
 /// # Safety
 /// AVX-512F, and four readable values from `at` in every column.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
 #[inline]
-unsafe fn wide_step<const R: usize, const P: usize>(
-    acc: &mut [[std::arch::x86_64::__m512d; P]; R],
+unsafe fn tile_step<const R: usize, const J: usize>(
+    acc: &mut [[std::arch::x86_64::__m512d; JB / 2]; R],
     starts: &[*const f64; WMR + JB],
     at: usize,
 ) {
     use std::arch::x86_64::*;
-    let mut pairs = [_mm512_setzero_pd(); P];
-    for (p, pair) in pairs.iter_mut().enumerate() {
+    let mut pairs = [_mm512_setzero_pd(); JB / 2];
+    for (p, pair) in pairs.iter_mut().enumerate().take(J / 2) {
         let low = _mm256_loadu_pd(starts[WMR + 2 * p].add(at));
         let high = _mm256_loadu_pd(starts[WMR + 2 * p + 1].add(at));
         *pair = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(low), high);
     }
     for i in 0..R {
         let both = _mm512_broadcast_f64x4(_mm256_loadu_pd(starts[i].add(at)));
-        for p in 0..P {
+        for p in 0..J / 2 {
             acc[i][p] = _mm512_fmadd_pd(both, pairs[p], acc[i][p]);
         }
     }
@@ -348,10 +321,10 @@ fn vectorized<Op: Fma4Op, F: Fma4>(v3: pulp::x86::V3, op: Op, lanes: F) -> Op::O
 /// Tile of the product: MR columns of A (rows of AᵀB) by NR columns of B (its columns).
 const MR: usize = 3;
 const NR: usize = 4;
-/// Columns of B in a [`Fma4::wide_tile`]: each MR columns of A are read once for two NR tiles,
+/// Columns of B in a wide [`Fma4::tile`]: each MR columns of A are read once for two NR tiles,
 /// so that streaming them from L2 takes half the bandwidth.
 const JB: usize = 2 * NR;
-/// Rows of a [`Fma4::wide_tile`].
+/// Rows of a wide [`Fma4::tile`].
 const WMR: usize = 2 * MR;
 
 /// How many columns of A and of B [`AddProduct`] takes for `rows` and `cols` columns: each side
@@ -386,56 +359,38 @@ impl Fma4Op for AddProduct<'_> {
     type Output = ();
 
     #[inline(always)]
-    fn run<F: Fma4>(self, f: F) {
-        let AddProduct {
-            data,
-            rows,
-            cols,
-            stride,
-            len,
-            product,
-        } = self;
-        let (m, n) = (rows.len(), cols.len());
+    fn run<F: Fma4>(mut self, f: F) {
+        let (m, n) = (self.rows.len(), self.cols.len());
         assert_eq!((m, n), padded_shape(m, n), "unpadded product");
-        assert!(product.len() >= m * n);
-        let col = |q: usize| &data[q * stride..][..len];
+        assert!(self.product.len() >= m * n);
         let wide_rows = m - m % WMR;
         for i0 in (0..wide_rows).step_by(WMR) {
-            let a: [&[f64]; WMR] = from_fn(|i| col(rows[i0 + i]));
-            let mut j0 = 0;
-            while j0 + JB <= n {
-                add_tile(
-                    product,
-                    n,
-                    i0,
-                    j0,
-                    f.wide_tile(a, from_fn(|j| col(cols[j0 + j])), len),
-                );
-                j0 += JB;
-            }
-            if j0 < n {
-                let b: [&[f64]; NR] = from_fn(|j| col(cols[j0 + j]));
-                add_tile(product, n, i0, j0, f.wide_edge_tile(a, b, len));
-            }
+            self.add_rows::<F, WMR>(f, i0);
         }
         if wide_rows < m {
-            let i0 = wide_rows;
-            let a: [&[f64]; MR] = from_fn(|i| col(rows[i0 + i]));
-            let mut j0 = 0;
-            while j0 + JB <= n {
-                add_tile(
-                    product,
-                    n,
-                    i0,
-                    j0,
-                    f.edge_rows_tile(a, from_fn(|j| col(cols[j0 + j])), len),
-                );
-                j0 += JB;
-            }
-            if j0 < n {
-                let b: [&[f64]; NR] = from_fn(|j| col(cols[j0 + j]));
-                add_tile(product, n, i0, j0, f.full_tile(a, b, len));
-            }
+            self.add_rows::<F, MR>(f, wide_rows);
+        }
+    }
+}
+
+impl AddProduct<'_> {
+    /// Adds the tiles of rows `i0..i0 + R` (R = MR or WMR): JB columns at a time, then the last
+    /// NR where the width leaves them.
+    #[inline(always)]
+    fn add_rows<F: Fma4, const R: usize>(&mut self, f: F, i0: usize) {
+        let (data, stride, len) = (self.data, self.stride, self.len);
+        let n = self.cols.len();
+        let col = |q: usize| &data[q * stride..][..len];
+        let a: [&[f64]; R] = from_fn(|i| col(self.rows[i0 + i]));
+        let mut j0 = 0;
+        while j0 + JB <= n {
+            let b: [&[f64]; JB] = from_fn(|j| col(self.cols[j0 + j]));
+            add_tile(self.product, n, i0, j0, f.tile(a, b, len));
+            j0 += JB;
+        }
+        if j0 < n {
+            let b: [&[f64]; NR] = from_fn(|j| col(self.cols[j0 + j]));
+            add_tile(self.product, n, i0, j0, f.tile(a, b, len));
         }
     }
 }
