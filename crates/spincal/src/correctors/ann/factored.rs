@@ -54,10 +54,25 @@ pub(crate) struct BlockColumns {
     pub formed: usize,
     /// Columns in all, the most any product forms included.
     pub total: usize,
+    /// Sensitivity columns per output.
+    hidden_units: usize,
 }
 
 const ZERO_COLUMN: usize = 0;
 const ONES_COLUMN: usize = 1;
+
+impl BlockColumns {
+    /// The column that holds `source`'s values.
+    #[inline(always)]
+    fn of(&self, source: Source) -> usize {
+        match source {
+            Source::One => ONES_COLUMN,
+            Source::Activation { at } => self.activations + at,
+            Source::Sensitivity { output, unit } => self.sensitivities + output * self.hidden_units + unit,
+            Source::Error { output } => self.errors + output,
+        }
+    }
+}
 
 /// One product of two factor matrices: a block of JᵀJ (two layers) or of Jᵀe (one layer).
 #[derive(Debug, Clone)]
@@ -85,7 +100,6 @@ const ZERO: u32 = u32::MAX;
 #[derive(Debug, Clone)]
 pub(crate) struct FactoredPlan {
     products: Vec<Product>,
-    hidden_units: usize,
     /// For entry (p, r) of JᵀJ with r ≤ p, at p(p+1)/2 + r: the index of its sum, or [`ZERO`].
     jtj_at: Vec<u32>,
     /// For every parameter: the index of its Jᵀe sum.
@@ -158,21 +172,16 @@ impl FactoredPlan {
             errors: 2 + n_act + outputs * hidden_units,
             formed: 2 + n_act + outputs * hidden_units + outputs,
             total: 0,
+            hidden_units,
         };
         columns.total = columns.formed;
         // The buffer column of a factor column that is one block value (times one), if it is.
         let value_column = move |terms: &[(Source, Source)]| -> Option<usize> {
             let [(x, y)] = terms else { return None };
-            let value = match (x, y) {
-                (Source::One, v) | (v, Source::One) => *v,
-                _ => return None,
-            };
-            Some(match value {
-                Source::One => ONES_COLUMN,
-                Source::Activation { at } => columns.activations + at,
-                Source::Sensitivity { output, unit } => columns.sensitivities + output * hidden_units + unit,
-                Source::Error { output } => columns.errors + output,
-            })
+            match (x, y) {
+                (Source::One, v) | (v, Source::One) => Some(columns.of(*v)),
+                _ => None,
+            }
         };
         let mut products = Vec::new();
         let mut sums = 0;
@@ -291,7 +300,6 @@ impl FactoredPlan {
         }));
         FactoredPlan {
             products,
-            hidden_units,
             jtj_at,
             jte_at,
             sums,
@@ -327,7 +335,6 @@ impl FactoredPlan {
                 count,
                 buffer: values,
                 columns: self.columns,
-                hidden_units: self.hidden_units,
             };
             for (column, terms) in &product.formed {
                 let column = &mut formed[(column - self.columns.formed) * count..][..count];
@@ -374,21 +381,13 @@ struct BlockValues<'a> {
     count: usize,
     buffer: &'a [f64],
     columns: BlockColumns,
-    hidden_units: usize,
 }
 
 impl BlockValues<'_> {
-    /// The source's values over the block; None for [`Source::One`].
+    /// The source's values over the block; None for [`Source::One`] (its products are copies).
     #[inline(always)]
     fn column(&self, source: Source) -> Option<&[f64]> {
-        let at = match source {
-            Source::One => return None,
-            Source::Sensitivity { output, unit } => {
-                self.columns.sensitivities + output * self.hidden_units + unit
-            }
-            Source::Activation { at } => self.columns.activations + at,
-            Source::Error { output } => self.columns.errors + output,
-        };
+        let at = (source != Source::One).then(|| self.columns.of(source))?;
         Some(&self.buffer[at * self.count..][..self.count])
     }
 }
