@@ -81,6 +81,15 @@ Examples:
   cat new.csv | spincal correct --model linear.json - > out.csv"
     )]
     Correct(commands::correct::CorrectArgs),
+    /// A saved corrector as firmware source: C99 (float, double), no_std Rust, x-io Fusion's values.
+    #[command(after_help = "Writes NAME_f32.h/.c and NAME_f64.h/.c (C99, no dynamic memory, only <math.h>),
+NAME_model.rs (statics for the no_std crate spincal-embedded) and fusion.txt (x-io Fusion's
+misalignment, sensitivity and offset, with what Fusion cannot hold and its largest effect).
+
+Examples:
+  spincal export --model ann.json --out firmware
+  spincal export --model linear.json --out firmware-float --precision float --name imu")]
+    Export(commands::export::ExportArgs),
 }
 
 fn main() {
@@ -109,6 +118,7 @@ fn main() {
         Command::Train(args) => commands::train::run(args, ui),
         Command::Sweep(args) => commands::sweep::run(args, ui),
         Command::Correct(args) => commands::correct::run(args, ui),
+        Command::Export(args) => commands::export::run(args),
     };
     std::process::exit(ui::exit_code(result));
 }

@@ -19,6 +19,7 @@ pub mod calibrate;
 pub mod campaign;
 pub mod correctors;
 pub mod export;
+pub mod firmware;
 pub mod fleet;
 pub mod input;
 pub mod metrics;

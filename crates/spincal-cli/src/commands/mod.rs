@@ -6,6 +6,7 @@ pub mod campaign;
 pub mod compare;
 pub mod correct;
 pub mod demo;
+pub mod export;
 pub mod fit;
 pub mod fleet;
 pub mod input;

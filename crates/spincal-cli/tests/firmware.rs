@@ -1,0 +1,744 @@
+//! `spincal export` end to end: every corrector kind trained on a simulated recording, exported
+//! by the binary, the C compiled with the host compiler (`-std=c99 -Wall -Wextra -Werror
+//! -pedantic`) and the Rust linked from a `#![no_std]` staticlib (with its own panic handler, so
+//! a std anywhere below it would not link), both run on held-out recordings and compared with
+//! the library's correction: double within 1e-9 relative, float within 2e-6 of full scale, the
+//! flags (valid, outside the training range, gyro) equal. The same float C built for a
+//! Cortex-M4F and run under QEMU gives the host float build's outputs. And the Fusion values,
+//! put through Fusion's formula written out here, give the physical-linear correction.
+//!
+//! `SPINCAL_FIRMWARE_KEEP=DIR` keeps the exports and the check library in DIR (bench/embedded
+//! measures them).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use spincal::ann::{AnnProblem, LmSettings};
+use spincal::corrector::{Axis, Corrector};
+use spincal::correctors::division::DivisionMode;
+use spincal::correctors::gyro::{GyroInputUnit, GyroModel};
+use spincal::correctors::physical::{PhysicalCorrector, SensorModel};
+use spincal::correctors::physical_ann::{InputCoverage, PhysicalAnnCorrector};
+use spincal::firmware::fusion_values;
+use spincal::linear::LinearModel;
+use spincal::recording::{Recording, STANDARD_GRAVITY};
+use spincal::simulate::campaign::profile_sensor_model;
+use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
+use spincal::static_cal::{StaticCalibration, StaticModel};
+use spincal::{CorrectorFile, CorrectorModel};
+
+/// The kinds, by the name their files and symbols get.
+const KINDS: [&str; 6] = [
+    "physical",
+    "physical_linear",
+    "linear",
+    "static",
+    "ann",
+    "physical_ann",
+];
+
+/// Held-out samples run through every build.
+struct Samples {
+    accel: Vec<[f64; 3]>,
+    gyro: Vec<[f64; 3]>,
+}
+
+fn setup(seed_shift: f64, duration_s: f64) -> TurntableSetup {
+    TurntableSetup {
+        duration_s,
+        radius_m: 0.10 + seed_shift,
+        beta_deg: 3.0 + 100.0 * seed_shift,
+        ..TurntableSetup::default()
+    }
+}
+
+/// The gyroscope's calibration every exported model carries.
+fn gyro_model() -> GyroModel {
+    GyroModel {
+        bias_radps: [0.012, -0.008, 0.004],
+        sensitivity: [
+            [1.004, 0.003, -0.002],
+            [0.001, 0.996, 0.004],
+            [-0.003, 0.002, 1.002],
+        ],
+        input_unit: GyroInputUnit::RadPerS,
+    }
+}
+
+/// Every kind trained on one simulated recording (small networks, few epochs: a test of the
+/// export, not of training), and held-out samples from two other recordings (one like the
+/// training run, one at another radius and mounting) plus readings beyond the training range.
+fn models_and_samples() -> (Vec<(&'static str, CorrectorFile)>, Samples, f64) {
+    let profile = SensorProfile::default();
+    let train = simulate(&profile, &setup(0.0, 20.0), 11).unwrap();
+    let measured = &train.recording;
+    let reference = Recording {
+        accel_mps2: train.true_accel_mps2.clone(),
+        ..measured.clone()
+    };
+    let range: [[f64; 2]; 3] = std::array::from_fn(|k| {
+        let v = &measured.accel_mps2[k];
+        [
+            v.iter().copied().fold(f64::INFINITY, f64::min),
+            v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        ]
+    });
+    let sensor = profile_sensor_model(&profile);
+    let physical = PhysicalCorrector {
+        sensor,
+        gravity_mps2: STANDARD_GRAVITY,
+        input_range_mps2: range,
+    };
+    let physical_linear = PhysicalCorrector {
+        sensor: SensorModel {
+            quadratic_per_mps2: [0.0; 3],
+            ..sensor
+        },
+        ..physical.clone()
+    };
+    let linear = LinearModel::fit(measured, &reference, &Axis::ALL, DivisionMode::Contiguous).unwrap();
+    let settings = LmSettings {
+        max_epochs: 40,
+        ..LmSettings::default()
+    };
+    let ann = AnnProblem::new(
+        measured,
+        &reference,
+        &[Axis::X, Axis::Y],
+        2,
+        DivisionMode::Contiguous,
+    )
+    .unwrap()
+    .train(&[5], 1, 7, &settings)
+    .unwrap();
+    // The network on top of physics, trained as the campaign does: physical correction in,
+    // what it left against the reference out.
+    let mut input: [Vec<f64>; 3] = Default::default();
+    let mut residual: [Vec<f64>; 3] = Default::default();
+    for i in 0..measured.len() {
+        let m = [0, 1, 2].map(|k| measured.accel_mps2[k][i]);
+        if let Some(p) = physical.sensor.correct(m) {
+            for k in 0..3 {
+                input[k].push(p[k]);
+                residual[k].push(reference.accel_mps2[k][i] - p[k]);
+            }
+        }
+    }
+    let coverage = InputCoverage::of(&input);
+    let as_recording = |columns: [Vec<f64>; 3]| Recording {
+        time_s: (0..columns[0].len()).map(|i| i as f64).collect(),
+        accel_mps2: columns,
+        gyro_radps: None,
+        source: Default::default(),
+    };
+    let network = AnnProblem::new(
+        &as_recording(input),
+        &as_recording(residual),
+        &Axis::ALL,
+        0,
+        DivisionMode::Interleaved { block_len: 20 },
+    )
+    .unwrap()
+    .train(&[6], 1, 5, &settings)
+    .unwrap();
+    let physical_ann = PhysicalAnnCorrector {
+        physical: physical.clone(),
+        network,
+        coverage,
+    };
+    let still = StaticCalibration {
+        model: StaticModel::Nonlinear,
+        bias: [0.05, -0.03, 0.08],
+        scale: [1.003, 0.997, 1.001],
+        misalignment: [0.004, -0.002, 0.003],
+        nonlinearity: [2e-4, -3e-4, 1e-4],
+        gravity_mps2: STANDARD_GRAVITY,
+        input_unit: "m/s^2".into(),
+    };
+    let with_gyro = |model: CorrectorModel| {
+        let mut file = CorrectorFile::new(model);
+        file.gyro = Some(gyro_model());
+        file
+    };
+    let models = vec![
+        (
+            "physical",
+            with_gyro(CorrectorModel::Physical(Box::new(physical))),
+        ),
+        (
+            "physical_linear",
+            with_gyro(CorrectorModel::Physical(Box::new(physical_linear))),
+        ),
+        ("linear", with_gyro(CorrectorModel::Linear(Box::new(linear)))),
+        ("static", with_gyro(CorrectorModel::Static(Box::new(still)))),
+        ("ann", with_gyro(CorrectorModel::Ann(Box::new(ann)))),
+        (
+            "physical_ann",
+            with_gyro(CorrectorModel::PhysicalAnn(Box::new(physical_ann))),
+        ),
+    ];
+
+    let like_training = simulate(&profile, &setup(0.0, 6.0), 12).unwrap();
+    let elsewhere = simulate(&profile, &setup(0.03, 6.0), 13).unwrap();
+    let mut accel = Vec::new();
+    for rec in [&like_training.recording, &elsewhere.recording] {
+        for i in 0..rec.len() {
+            accel.push([0, 1, 2].map(|k| rec.accel_mps2[k][i]));
+        }
+    }
+    // Beyond the training range, and past the quadratic's turning point (z = −g/(4q) region).
+    for i in 0..40 {
+        let s = 1.0 + i as f64 * 0.1;
+        accel.push([3.0 * s, -2.5 * s, 9.0 + s]);
+    }
+    accel.push([
+        0.0,
+        0.0,
+        -1.0 / (4.0 * sensor.quadratic_per_mps2[2].max(1e-6)) - 50.0,
+    ]);
+    let gyro = (0..accel.len())
+        .map(|i| {
+            let t = i as f64 * 0.01;
+            [
+                0.3 * (t * 1.3).sin(),
+                -0.2 * (t * 0.7).cos(),
+                3.49 + 0.01 * t.sin(),
+            ]
+        })
+        .collect();
+    let full_scale = profile.range_g * STANDARD_GRAVITY;
+    (models, Samples { accel, gyro }, full_scale)
+}
+
+/// This test's own folder (`name`), its exports from an earlier run removed.
+fn work_dir(name: &str) -> PathBuf {
+    let base = match std::env::var_os("SPINCAL_FIRMWARE_KEEP") {
+        Some(dir) => PathBuf::from(dir),
+        None => Path::new(env!("CARGO_TARGET_TMPDIR")).join("firmware"),
+    };
+    let dir = base.join(name);
+    let _ = std::fs::remove_dir_all(dir.join("exports"));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn run(cmd: &mut Command) -> String {
+    let out = cmd.output().unwrap_or_else(|e| panic!("{cmd:?}: {e}"));
+    assert!(
+        out.status.success(),
+        "{cmd:?} failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// Each kind's model file exported by the binary into `dir/exports/KIND`.
+fn export_all(dir: &Path, models: &[(&str, CorrectorFile)]) {
+    for (kind, file) in models {
+        let model = dir.join(format!("{kind}.json"));
+        file.write_path(&model).unwrap();
+        let out = dir.join("exports").join(kind);
+        let printed = run(Command::new(env!("CARGO_BIN_EXE_spincal")).args([
+            "export",
+            "--model",
+            model.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--name",
+            kind,
+        ]));
+        assert!(printed.contains("x-io Fusion"), "{printed}");
+        for suffix in ["f32.h", "f32.c", "f64.h", "f64.c", "model.rs"] {
+            assert!(out.join(format!("{kind}_{suffix}")).is_file(), "{kind}_{suffix}");
+        }
+    }
+}
+
+/// The `#![no_std]` staticlib holding every kind's Rust export: one `KIND_rs_f32` and
+/// `KIND_rs_f64` per kind correcting n samples from a fresh state. Returns the library's path.
+fn build_no_std_library(dir: &Path) -> PathBuf {
+    let project = dir.join("no-std-check");
+    std::fs::create_dir_all(project.join("src")).unwrap();
+    let embedded = Path::new(env!("CARGO_MANIFEST_DIR")).join("../spincal-embedded");
+    std::fs::write(
+        project.join("Cargo.toml"),
+        format!(
+            "[package]\nname = \"no-std-check\"\nversion = \"0.0.0\"\nedition = \"2021\"\n\n\
+             [lib]\ncrate-type = [\"staticlib\"]\n\n\
+             [dependencies]\nspincal-embedded = {{ path = {:?} }}\n\n\
+             [profile.release]\npanic = \"abort\"\n\n[profile.dev]\npanic = \"abort\"\n\n[workspace]\n",
+            embedded.canonicalize().unwrap()
+        ),
+    )
+    .unwrap();
+    let lock = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../Cargo.lock");
+    std::fs::copy(lock, project.join("Cargo.lock")).unwrap();
+    let mut lib = String::from(
+        "#![no_std]\n\
+         // No std anywhere below: a second panic handler (std's) would not link.\n\
+         #[panic_handler]\nfn panic(_: &core::panic::PanicInfo) -> ! {\n    loop {}\n}\n\n\
+         // The host's precompiled core refers to it even with panic = abort; never called.\n\
+         #[no_mangle]\npub extern \"C\" fn rust_eh_personality() {}\n\n",
+    );
+    for kind in KINDS {
+        let source = dir.join("exports").join(kind).join(format!("{kind}_model.rs"));
+        lib.push_str(&format!(
+            "#[allow(dead_code)]\nmod m_{kind} {{\n    include!({:?});\n}}\n",
+            source.canonicalize().unwrap()
+        ));
+        for (t, upper) in [("f32", "F32"), ("f64", "F64")] {
+            lib.push_str(&format!(
+                "/// # Safety\n/// n samples of 3 values at accel and gyro, 6 n values at out, n at flags.\n\
+                 #[no_mangle]\npub unsafe extern \"C\" fn {kind}_rs_{t}(n: usize, accel: *const {t}, gyro: *const {t}, out: *mut {t}, flags: *mut u32) {{\n    \
+                 let (accel, gyro) = (core::slice::from_raw_parts(accel, 3 * n), core::slice::from_raw_parts(gyro, 3 * n));\n    \
+                 let (out, flags) = (core::slice::from_raw_parts_mut(out, 6 * n), core::slice::from_raw_parts_mut(flags, n));\n    \
+                 let mut state = m_{kind}::State{upper}::new();\n    \
+                 for i in 0..n {{\n        \
+                 let a = [accel[3 * i], accel[3 * i + 1], accel[3 * i + 2]];\n        \
+                 let g = [gyro[3 * i], gyro[3 * i + 1], gyro[3 * i + 2]];\n        \
+                 let c = m_{kind}::MODEL_{upper}.correct(&mut state, a, Some(g));\n        \
+                 out[6 * i..6 * i + 3].copy_from_slice(&c.accel);\n        \
+                 out[6 * i + 3..6 * i + 6].copy_from_slice(&c.gyro.unwrap_or(g));\n        \
+                 flags[i] = u32::from(c.valid) | u32::from(c.outside_training_range) << 1 | u32::from(c.gyro.is_some()) << 2;\n    \
+                 }}\n}}\n\n"
+            ));
+        }
+    }
+    std::fs::write(project.join("src/lib.rs"), lib).unwrap();
+    let target = project.join("target");
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let build = |offline: bool| {
+        let mut cmd = Command::new(&cargo);
+        cmd.current_dir(&project)
+            .env("CARGO_TARGET_DIR", &target)
+            .env_remove("RUSTFLAGS")
+            .env_remove("CARGO_ENCODED_RUSTFLAGS")
+            .args(["build", "--release", "--quiet"]);
+        if offline {
+            cmd.arg("--offline");
+        }
+        cmd.output().unwrap()
+    };
+    let out = build(true);
+    let out = if out.status.success() { out } else { build(false) };
+    assert!(
+        out.status.success(),
+        "the no_std check library does not build:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    target.join("release/libno_std_check.a")
+}
+
+/// The C driver: reads `n` then n lines of accel and gyro, runs the float and double C exports
+/// and the Rust exports, prints per sample `flags a0 a1 a2 g0 g1 g2` for each of the four.
+fn driver(kind: &str) -> String {
+    format!(
+        "#include <stdio.h>\n#include <stdlib.h>\n#include \"{kind}_f32.h\"\n#include \"{kind}_f64.h\"\n\
+         void {kind}_rs_f32(size_t n, const float *accel, const float *gyro, float *out, unsigned *flags);\n\
+         void {kind}_rs_f64(size_t n, const double *accel, const double *gyro, double *out, unsigned *flags);\n\
+         int main(void)\n{{\n    size_t n, i;\n    int k;\n    double *a, *g, *o64;\n    float *a32, *g32, *o32;\n    unsigned *f32, *f64;\n    \
+         {kind}_f32_state s32;\n    {kind}_f64_state s64;\n    \
+         if (scanf(\"%lu\", (unsigned long *)&n) != 1) {{\n        return 2;\n    }}\n    \
+         a = malloc(3 * n * sizeof *a);\n    g = malloc(3 * n * sizeof *g);\n    o64 = malloc(6 * n * sizeof *o64);\n    \
+         a32 = malloc(3 * n * sizeof *a32);\n    g32 = malloc(3 * n * sizeof *g32);\n    o32 = malloc(6 * n * sizeof *o32);\n    \
+         f32 = malloc(n * sizeof *f32);\n    f64 = malloc(n * sizeof *f64);\n    \
+         for (i = 0; i < 3 * n; i += 3) {{\n        \
+         if (scanf(\"%lf %lf %lf %lf %lf %lf\", &a[i], &a[i + 1], &a[i + 2], &g[i], &g[i + 1], &g[i + 2]) != 6) {{\n            return 3;\n        }}\n        \
+         for (k = 0; k < 3; ++k) {{\n            a32[i + k] = (float)a[i + k];\n            g32[i + k] = (float)g[i + k];\n        }}\n    }}\n    \
+         {kind}_f32_init(&s32);\n    {kind}_f64_init(&s64);\n    \
+         for (i = 0; i < n; ++i) {{\n        float ao[3], go[3] = {{0, 0, 0}};\n        double bo[3], ho[3] = {{0, 0, 0}};\n        \
+         unsigned c32 = {kind}_f32_correct(&{kind}_f32_model, &s32, &a32[3 * i], &g32[3 * i], ao, go);\n        \
+         unsigned c64 = {kind}_f64_correct(&{kind}_f64_model, &s64, &a[3 * i], &g[3 * i], bo, ho);\n        \
+         printf(\"%u %.9g %.9g %.9g %.9g %.9g %.9g \", c32, ao[0], ao[1], ao[2], go[0], go[1], go[2]);\n        \
+         printf(\"%u %.17g %.17g %.17g %.17g %.17g %.17g\\n\", c64, bo[0], bo[1], bo[2], ho[0], ho[1], ho[2]);\n    }}\n    \
+         {kind}_rs_f32(n, a32, g32, o32, f32);\n    {kind}_rs_f64(n, a, g, o64, f64);\n    \
+         for (i = 0; i < n; ++i) {{\n        \
+         printf(\"%u %.9g %.9g %.9g %.9g %.9g %.9g \", f32[i], o32[6 * i], o32[6 * i + 1], o32[6 * i + 2], o32[6 * i + 3], o32[6 * i + 4], o32[6 * i + 5]);\n        \
+         printf(\"%u %.17g %.17g %.17g %.17g %.17g %.17g\\n\", f64[i], o64[6 * i], o64[6 * i + 1], o64[6 * i + 2], o64[6 * i + 3], o64[6 * i + 4], o64[6 * i + 5]);\n    }}\n    \
+         free(a);\n    free(g);\n    free(o64);\n    free(a32);\n    free(g32);\n    free(o32);\n    free(f32);\n    free(f64);\n    return 0;\n}}\n"
+    )
+}
+
+/// One build's output for one sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Out {
+    flags: u32,
+    accel: [f64; 3],
+    gyro: [f64; 3],
+}
+
+fn parse(fields: &[&str]) -> Out {
+    let v: Vec<f64> = fields[1..7].iter().map(|t| t.parse().unwrap()).collect();
+    Out {
+        flags: fields[0].parse().unwrap(),
+        accel: [v[0], v[1], v[2]],
+        gyro: [v[3], v[4], v[5]],
+    }
+}
+
+/// The library's correction of the samples, sample by sample through the corrector's stream:
+/// what `spincal correct` writes (values, `valid`, `extrapolated`) and its gyro correction.
+fn library(file: &CorrectorFile, samples: &Samples) -> Vec<Out> {
+    let mut stream = file.corrector.stream();
+    let gyro = file
+        .gyro
+        .as_ref()
+        .and_then(|g| g.corrector())
+        .expect("a gyro model");
+    samples
+        .accel
+        .iter()
+        .zip(&samples.gyro)
+        .map(|(&a, &w)| {
+            let c = stream.correct_sample(a);
+            Out {
+                flags: u32::from(c.valid) | u32::from(c.outside_training_range) << 1 | 4,
+                accel: c.accel_mps2,
+                gyro: gyro.correct(w),
+            }
+        })
+        .collect()
+}
+
+const C_FLAGS: [&str; 7] = [
+    "-std=c99",
+    "-Wall",
+    "-Wextra",
+    "-Werror",
+    "-pedantic",
+    "-O2",
+    "-ffp-contract=off",
+];
+
+#[test]
+fn every_kind_exported_to_c_and_no_std_rust_matches_the_library() {
+    let dir = work_dir("host");
+    let (models, samples, full_scale) = models_and_samples();
+    export_all(&dir, &models);
+    let library_a = build_no_std_library(&dir);
+    let gyro_scale = samples.gyro.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    let mut input = format!("{}\n", samples.accel.len());
+    for (a, g) in samples.accel.iter().zip(&samples.gyro) {
+        input.push_str(&format!(
+            "{:?} {:?} {:?} {:?} {:?} {:?}\n",
+            a[0], a[1], a[2], g[0], g[1], g[2]
+        ));
+    }
+    let input_file = dir.join("held_out.txt");
+    std::fs::write(&input_file, &input).unwrap();
+    println!("kind             double: max rel. diff (C, Rust)   float accel: max diff / full scale (C, Rust)   float gyro (C, Rust)   outside");
+    for (kind, file) in &models {
+        let exports = dir.join("exports").join(kind);
+        std::fs::write(exports.join("driver.c"), driver(kind)).unwrap();
+        let binary = exports.join("driver");
+        run(Command::new("cc")
+            .current_dir(&exports)
+            .args(C_FLAGS)
+            .args(["driver.c", &format!("{kind}_f32.c"), &format!("{kind}_f64.c")])
+            .arg(&library_a)
+            .args(["-lm", "-o"])
+            .arg(&binary));
+        let printed = run(Command::new("sh").arg("-c").arg(format!(
+            "{:?} < {:?}",
+            binary.display().to_string(),
+            input_file.display().to_string()
+        )));
+        let lines: Vec<&str> = printed.lines().collect();
+        let n = samples.accel.len();
+        assert_eq!(
+            lines.len(),
+            2 * n,
+            "{kind}: {} lines for {n} samples",
+            lines.len()
+        );
+        let expected = library(file, &samples);
+        let mut worst_double = [0.0f64; 2];
+        let mut worst_float = [0.0f64; 2];
+        let mut worst_gyro = [0.0f64; 2];
+        let mut outside = 0;
+        for i in 0..n {
+            let e = expected[i];
+            outside += usize::from(e.flags & 2 != 0);
+            for (b, line) in [lines[i], lines[n + i]].iter().enumerate() {
+                let fields: Vec<&str> = line.split_whitespace().collect();
+                let (single, double) = (parse(&fields[..7]), parse(&fields[7..]));
+                let language = ["C", "Rust"][b];
+                assert_eq!(
+                    double.flags, e.flags,
+                    "{kind} {language} double, sample {i}: flags"
+                );
+                assert_eq!(
+                    single.flags, e.flags,
+                    "{kind} {language} float, sample {i}: flags"
+                );
+                let scale = e.accel.iter().fold(1e-3f64, |m, v| m.max(v.abs()));
+                let gscale = e.gyro.iter().fold(1e-3f64, |m, v| m.max(v.abs()));
+                for k in 0..3 {
+                    let rel = ((double.accel[k] - e.accel[k]) / scale)
+                        .abs()
+                        .max(((double.gyro[k] - e.gyro[k]) / gscale).abs());
+                    worst_double[b] = worst_double[b].max(rel);
+                    // Readings beyond full scale (the test's extremes) count relative to themselves.
+                    let fs = ((single.accel[k] - e.accel[k]) / full_scale.max(e.accel[k].abs())).abs();
+                    worst_float[b] = worst_float[b].max(fs);
+                    worst_gyro[b] = worst_gyro[b].max(((single.gyro[k] - e.gyro[k]) / gyro_scale).abs());
+                }
+            }
+        }
+        println!(
+            "{kind:16} {:9.2e} {:9.2e}                 {:9.2e} {:9.2e}                              {:9.2e} {:9.2e}    {outside}/{n}",
+            worst_double[0], worst_double[1], worst_float[0], worst_float[1], worst_gyro[0], worst_gyro[1]
+        );
+        for b in 0..2 {
+            let language = ["C", "Rust"][b];
+            assert!(
+                worst_double[b] <= 1e-9,
+                "{kind}: double {language} off by {:e} relative",
+                worst_double[b]
+            );
+            assert!(
+                worst_float[b] <= 2e-6,
+                "{kind}: float {language} off by {:e} of full scale",
+                worst_float[b]
+            );
+            assert!(
+                worst_gyro[b] <= 2e-6,
+                "{kind}: float {language} gyro off by {:e} of full scale",
+                worst_gyro[b]
+            );
+        }
+        if *kind == "physical_ann" || *kind == "ann" {
+            // Both sides of the envelope were exercised.
+            assert!(
+                outside > 0 && outside < n,
+                "{kind}: {outside} of {n} samples outside"
+            );
+        }
+    }
+}
+
+/// Fusion's inertial calibration as its documentation defines it:
+/// calibrated = M · ((uncalibrated − offset) ⊙ sensitivity), in g.
+fn fusion(m: [[f64; 3]; 3], sensitivity: [f64; 3], offset: [f64; 3], u: [f64; 3]) -> [f64; 3] {
+    let v = [
+        (u[0] - offset[0]) * sensitivity[0],
+        (u[1] - offset[1]) * sensitivity[1],
+        (u[2] - offset[2]) * sensitivity[2],
+    ];
+    [
+        m[0][0] * v[0] + m[0][1] * v[1] + m[0][2] * v[2],
+        m[1][0] * v[0] + m[1][1] * v[1] + m[1][2] * v[2],
+        m[2][0] * v[0] + m[2][1] * v[1] + m[2][2] * v[2],
+    ]
+}
+
+#[test]
+fn fusion_values_reproduce_the_physical_linear_correction() {
+    let g = STANDARD_GRAVITY;
+    let sensor = SensorModel {
+        bias_mps2: [0.04, -0.06, 0.08],
+        scale_error: [0.004, -0.006, 0.003],
+        misalignment_rad: [0.005, -0.003, 0.004],
+        quadratic_per_mps2: [0.0; 3],
+    };
+    let physical = PhysicalCorrector {
+        sensor,
+        gravity_mps2: g,
+        input_range_mps2: [[-15.0, 15.0]; 3],
+    };
+    let mut file = CorrectorFile::new(CorrectorModel::Physical(Box::new(physical.clone())));
+    file.gyro = Some(gyro_model());
+    let values = fusion_values(&file);
+    let acc = values.accelerometer.as_ref().expect("accelerometer values");
+    assert_eq!(acc.input_unit, "g");
+    assert!(
+        values.not_held.is_empty(),
+        "physical-linear is affine: {:?}",
+        values.not_held
+    );
+    let mut worst = 0.0f64;
+    for i in 0..200 {
+        let t = i as f64 * 0.37;
+        let m = [
+            12.0 * t.sin(),
+            -9.0 * (1.3 * t).cos(),
+            9.8 + 3.0 * (0.7 * t).sin(),
+        ];
+        let ours = sensor.correct(m).unwrap();
+        let theirs = fusion(acc.misalignment, acc.sensitivity, acc.offset, m.map(|v| v / g)).map(|v| v * g);
+        for k in 0..3 {
+            worst = worst.max((ours[k] - theirs[k]).abs());
+        }
+    }
+    assert!(
+        worst < 1e-6,
+        "Fusion's formula is {worst:e} m/s² from physical-linear"
+    );
+
+    // The gyroscope in deg/s.
+    let gyro = values.gyroscope.as_ref().expect("gyroscope values");
+    let corrector = gyro_model().corrector().unwrap();
+    let deg = 180.0 / std::f64::consts::PI;
+    let w = [0.3, -1.2, 3.4];
+    let ours = corrector.correct(w).map(|v| v * deg);
+    let theirs = fusion(
+        gyro.misalignment,
+        gyro.sensitivity,
+        gyro.offset,
+        w.map(|v| v * deg),
+    );
+    for k in 0..3 {
+        assert!((ours[k] - theirs[k]).abs() < 1e-9, "{ours:?} {theirs:?}");
+    }
+
+    // With the quadratic term, Fusion's values are the linear part and the term's effect is
+    // stated: at least what it does at the range's ends.
+    let mut quadratic = physical;
+    quadratic.sensor.quadratic_per_mps2 = [6e-4, -6e-4, 3e-4];
+    let values = fusion_values(&CorrectorFile::new(CorrectorModel::Physical(Box::new(
+        quadratic.clone(),
+    ))));
+    let effect = values.not_held[0].max_effect_mps2;
+    let at_end = (quadratic.sensor.correct([15.0, 0.0, 0.0]).unwrap()[0]
+        - sensor.correct([15.0, 0.0, 0.0]).unwrap()[0])
+        .abs();
+    assert!(
+        effect[0] >= at_end * 0.999 && at_end > 0.1,
+        "{effect:?} vs {at_end}"
+    );
+}
+
+/// The ARM toolchain and QEMU, or why not.
+fn arm_tools() -> Result<(), String> {
+    for tool in ["arm-none-eabi-gcc", "qemu-system-arm"] {
+        match Command::new(tool).arg("--version").output() {
+            Ok(out) if out.status.success() => {}
+            _ => {
+                return Err(format!(
+                    "{tool} is not installed (bash scripts/setup.sh installs it)"
+                ))
+            }
+        }
+    }
+    let newlib = Command::new("arm-none-eabi-gcc")
+        .args([
+            "-mcpu=cortex-m4",
+            "-mthumb",
+            "-mfloat-abi=hard",
+            "-mfpu=fpv4-sp-d16",
+        ])
+        .arg("-print-file-name=librdimon.a")
+        .output()
+        .ok()
+        .map(|out| PathBuf::from(String::from_utf8_lossy(&out.stdout).trim()));
+    if !newlib.is_some_and(|path| path.is_absolute() && path.is_file()) {
+        return Err("newlib's semihosting library (libnewlib-arm-none-eabi) is not installed".into());
+    }
+    Ok(())
+}
+
+/// A reset handler that enables the FPU before newlib's start-up, and the vector table.
+const STARTUP: &str = "extern void _start(void);\n\
+static void reset(void)\n{\n    *(volatile unsigned long *)0xE000ED88UL |= 0xFUL << 20; /* CPACR: CP10, CP11 */\n    \
+__asm volatile(\"dsb\\n\\tisb\");\n    _start();\n    for (;;) {\n    }\n}\n\
+static void fault(void)\n{\n    for (;;) {\n    }\n}\n\
+__attribute__((section(\".vectors\"), used)) static void (*const vectors[16])(void) = {\n    \
+(void (*)(void))0x20010000UL, reset, fault, fault, fault, fault, fault, 0, 0, 0, 0, fault, fault, 0, fault, fault,\n};\n";
+
+/// A driver with the samples compiled in (no file system on the target): prints the float
+/// export's `flags a0 a1 a2 g0 g1 g2` per sample.
+fn embedded_driver(kind: &str, samples: &Samples, n: usize) -> String {
+    let mut data = String::new();
+    for i in 0..n {
+        let (a, g) = (samples.accel[i], samples.gyro[i]);
+        data.push_str(&format!(
+            "    {{{:?}f, {:?}f, {:?}f, {:?}f, {:?}f, {:?}f}},\n",
+            a[0] as f32, a[1] as f32, a[2] as f32, g[0] as f32, g[1] as f32, g[2] as f32
+        ));
+    }
+    format!(
+        "#include <stdio.h>\n#include <stdint.h>\n#include \"{kind}_f32.h\"\nstatic const float samples[{n}][6] = {{\n{data}}};\n\
+         /* The bits of a float (newlib's printf has no %a). */\n\
+         static unsigned long bits(float x)\n{{\n    union {{\n        float f;\n        uint32_t u;\n    }} v;\n    v.f = x;\n    return (unsigned long)v.u;\n}}\n\
+         int main(void)\n{{\n    {kind}_f32_state s;\n    int i;\n    {kind}_f32_init(&s);\n    \
+         for (i = 0; i < {n}; ++i) {{\n        float a[3], g[3];\n        \
+         unsigned f = {kind}_f32_correct(&{kind}_f32_model, &s, &samples[i][0], &samples[i][3], a, g);\n        \
+         printf(\"%u %08lx %08lx %08lx %08lx %08lx %08lx\\n\", f, bits(a[0]), bits(a[1]), bits(a[2]), bits(g[0]), bits(g[1]), bits(g[2]));\n    }}\n    \
+         return 0;\n}}\n"
+    )
+}
+
+#[test]
+fn float_export_on_a_cortex_m4f_under_qemu_matches_the_host() {
+    if let Err(why) = arm_tools() {
+        if std::env::var_os("SPINCAL_REQUIRE_ARM").is_some() {
+            panic!("SPINCAL_REQUIRE_ARM is set, but {why}");
+        }
+        println!("skipped: {why}");
+        return;
+    }
+    let dir = work_dir("cortex-m4");
+    let (models, samples, _) = models_and_samples();
+    export_all(&dir, &models);
+    let n = 300.min(samples.accel.len());
+    // The held-out recordings' first samples, and the ones beyond the training range at the end.
+    let picked = Samples {
+        accel: samples.accel[..n - 41]
+            .iter()
+            .chain(&samples.accel[samples.accel.len() - 41..])
+            .copied()
+            .collect(),
+        gyro: samples.gyro[..n].to_vec(),
+    };
+    std::fs::write(dir.join("startup.c"), STARTUP).unwrap();
+    for (kind, _) in &models {
+        let exports = dir.join("exports").join(kind);
+        std::fs::write(exports.join("main.c"), embedded_driver(kind, &picked, n)).unwrap();
+        let host = exports.join("host");
+        run(Command::new("cc")
+            .current_dir(&exports)
+            .args(C_FLAGS)
+            .args(["main.c", &format!("{kind}_f32.c"), "-lm", "-o"])
+            .arg(&host));
+        let elf = exports.join("m4.elf");
+        run(Command::new("arm-none-eabi-gcc")
+            .current_dir(&exports)
+            .args(C_FLAGS)
+            .args([
+                "-mcpu=cortex-m4",
+                "-mthumb",
+                "-mfloat-abi=hard",
+                "-mfpu=fpv4-sp-d16",
+                "--specs=rdimon.specs",
+            ])
+            .args(["main.c", &format!("{kind}_f32.c")])
+            .arg(dir.join("startup.c"))
+            .args(["-Wl,--section-start=.vectors=0", "-lm", "-o"])
+            .arg(&elf));
+        let on_host = run(&mut Command::new(&host));
+        let on_m4 = run(Command::new("timeout")
+            .args(["60", "qemu-system-arm", "-M", "mps2-an386", "-cpu", "cortex-m4"])
+            .args([
+                "-semihosting",
+                "-nographic",
+                "-monitor",
+                "none",
+                "-serial",
+                "none",
+                "-kernel",
+            ])
+            .arg(&elf));
+        assert_eq!(on_m4.lines().count(), n, "{kind}: QEMU printed:\n{on_m4}");
+        // The floats' bits: equal text is equal bits.
+        let differing = on_host.lines().zip(on_m4.lines()).filter(|(h, m)| h != m).count();
+        println!(
+            "{kind}: Cortex-M4F under QEMU and the host agree bit for bit on {} of {n} samples",
+            n - differing
+        );
+        assert_eq!(
+            differing, 0,
+            "{kind}: {differing} of {n} samples differ between the host and the Cortex-M4F"
+        );
+    }
+}
