@@ -466,11 +466,10 @@ impl PyCalibration {
     fn result_json(&self) -> PyResult<String> {
         json(&self.output.result)
     }
-    /// The saved corrector (model.json).
-    fn corrector(&self) -> PyCorrector {
-        PyCorrector {
-            file: self.output.saved.clone(),
-        }
+    /// The saved corrector (model.json), or None when every corrector was worse than uncorrected
+    /// on another recording (the verdict says why).
+    fn corrector(&self) -> Option<PyCorrector> {
+        self.output.saved.clone().map(|file| PyCorrector { file })
     }
     /// The reference (turntable physics, m/s²) per recording, (n, 3) each.
     fn references<'py>(&self, py: Python<'py>) -> Vec<Bound<'py, PyArray2<f64>>> {
@@ -488,10 +487,11 @@ impl PyCalibration {
     fn write(&self, py: Python<'_>, folder: PathBuf) -> PyResult<()> {
         std::fs::create_dir_all(&folder)
             .map_err(|e| errors::OutputError::new_err(format!("{}: cannot create: {e}", folder.display())))?;
-        self.output
-            .saved
-            .write_path(&folder.join("model.json"))
-            .map_err(errors::output)?;
+        if let Some(saved) = &self.output.saved {
+            saved
+                .write_path(&folder.join("model.json"))
+                .map_err(errors::output)?;
+        }
         let results =
             serde_json::to_string_pretty(&self.output.result).map_err(|e| usage(e.to_string()))? + "\n";
         write_text(&folder.join("results.json"), &results)?;

@@ -63,12 +63,13 @@ fn main() {
         let mut worst = [0.0f64; 3];
         let (mut error_sq, mut floor_sq, mut raw_sq) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
         for h in r.held_out.iter().filter(|h| h.candidate == saved) {
-            if let (Some(rms), Some(floor)) = (h.rms_mps2, h.floor_mps2) {
+            if let (Some(truth), Some(floor)) = (&h.truth, h.floor_mps2) {
+                let rms = truth.rms_mps2;
                 for k in 0..3 {
                     worst[k] = worst[k].max(rms[k] / floor[k]);
                     error_sq[k] += rms[k] * rms[k];
                     floor_sq[k] += floor[k] * floor[k];
-                    raw_sq[k] += h.uncorrected_rms_mps2[k].powi(2);
+                    raw_sq[k] += truth.uncorrected_rms_mps2[k].powi(2);
                 }
             }
         }
@@ -76,7 +77,7 @@ fn main() {
         let raw: [f64; 3] = std::array::from_fn(|k| (raw_sq[k] / floor_sq[k]).sqrt());
         if detail {
             for h in &r.held_out {
-                if let (Some(rms), Some(floor)) = (h.rms_mps2, h.floor_mps2) {
+                if let (Some(rms), Some(floor)) = (h.truth.as_ref().map(|t| t.rms_mps2), h.floor_mps2) {
                     println!(
                         "   {:<40} {:<16} {:.2} {:.2} {:.2}",
                         h.condition,
@@ -91,7 +92,7 @@ fn main() {
         let means: Vec<String> = r
             .candidates
             .iter()
-            .map(|c| format!("{} {:.4}", c.candidate, c.mean_rms_mps2.unwrap_or(f64::NAN)))
+            .map(|c| format!("{} {:.4}", c.candidate, c.mean_truth_rms_mps2.unwrap_or(f64::NAN)))
             .collect();
         println!(
             "{seed:<5} {saved:<16} {:.2} {:.2} {:.2}   {:.2} {:.2} {:.2}   {:.1} {:.1} {:.1}   {}",

@@ -200,8 +200,13 @@ pub struct CalibrationResult {
     pub network_architecture: String,
     pub comparison: Vec<ComparisonRow>,
     pub cross_condition: Vec<CrossRow>,
-    /// The corrector saved (best validation fit % among savable correctors).
+    /// The corrector saved (best validation fit % among savable correctors that are no worse than
+    /// uncorrected on any other recording), or "none".
     pub chosen: String,
+    /// Whether the saved corrector was checked on a recording it was not trained on.
+    pub validated_off_training_condition: bool,
+    /// What was saved and how far it can be trusted, first in the report and on the terminal.
+    pub verdict: String,
     /// The best on validation overall (may be a compare-only model), among rows without warnings.
     pub best_overall: String,
     pub seconds_total: f64,
@@ -215,7 +220,8 @@ pub struct CalibrationResult {
 #[derive(Debug, Clone)]
 pub struct CalibrationOutput {
     pub result: CalibrationResult,
-    pub saved: CorrectorFile,
+    /// `None` when every savable corrector was worse than uncorrected on another recording.
+    pub saved: Option<CorrectorFile>,
     /// Reference (the turntable's physical acceleration, without sensor offsets) per recording.
     pub references: Vec<Recording>,
     /// The fitted model including offsets and drift (what the sensor should read) per recording.
@@ -445,15 +451,6 @@ pub fn calibrate_with_runner(
     };
     let best_overall = best_of(&mut comparison.iter().filter(|r| r.warnings.is_empty()));
     let chosen = best_of(&mut comparison.iter().filter(|r| r.savable));
-    let saved_model = if chosen == "ANN" {
-        CorrectorModel::Ann(Box::new(network.clone()))
-    } else {
-        CorrectorModel::Linear(Box::new(linear.clone()))
-    };
-    let saved = CorrectorFile::new(saved_model);
-    let chosen_corrector: &dyn Corrector = if chosen == "ANN" { &network } else { &linear };
-    let corrected_all = chosen_corrector.correct(measured).accel_mps2;
-
     // Each corrector's own time, as its comparison row has it.
     for row in comparison.iter().filter(|r| r.seconds > 0.0) {
         stages.push(StageTime {
@@ -526,6 +523,61 @@ pub fn calibrate_with_runner(
         }
     }
 
+    // What is saved: the best on validation unless another recording shows it worse than no
+    // correction; then the other static corrector if that one held; else nothing.
+    let worse_elsewhere = |model: &str| -> Option<String> {
+        cross_condition.iter().filter(|r| r.model == model).find_map(|r| {
+            let raw = cross_condition
+                .iter()
+                .find(|u| u.model == "uncorrected" && u.tested_on == r.tested_on)?;
+            let held = r.score.rmse_mps2_mean <= raw.score.rmse_mps2_mean;
+            (!held).then(|| {
+                format!(
+                    "{model} makes {} worse than uncorrected ({:.4} against {:.4} m/s² RMS)",
+                    r.tested_on, r.score.rmse_mps2_mean, raw.score.rmse_mps2_mean
+                )
+            })
+        })
+    };
+    let other = if chosen == "ANN" { "linear" } else { "ANN" };
+    let validated = recordings.len() > 1;
+    let (chosen, verdict) = match (worse_elsewhere(&chosen), worse_elsewhere(other)) {
+        (None, _) if validated => (
+            chosen.clone(),
+            format!(
+                "Saved {chosen}: the best on validation, and no worse than uncorrected on the {} other recording(s) it never trained on.",
+                recordings.len() - 1
+            ),
+        ),
+        (None, _) => (
+            chosen.clone(),
+            format!(
+                "Saved {chosen}, NOT validated off its training condition: with one recording, nothing shows it holds at another speed, radius or mounting (a network extrapolates outside its training range). Record a second session at another speed or radius and calibrate both, or calibrate a campaign (`spincal calibrate --campaign`)."
+            ),
+        ),
+        (Some(why), None) => (
+            other.to_string(),
+            format!("Saved {other}, not {chosen}: {why}; {other} is no worse than uncorrected on every other recording."),
+        ),
+        (Some(why), Some(why_other)) => (
+            "none".to_string(),
+            format!(
+                "Nothing saved: {why}; {why_other}. A corrector trained on one condition does not carry to the others: calibrate a campaign (`spincal calibrate --campaign`) with still poses and runs at several speeds and radii."
+            ),
+        ),
+    };
+    let saved = match chosen.as_str() {
+        "ANN" => Some(CorrectorModel::Ann(Box::new(network.clone()))),
+        "linear" => Some(CorrectorModel::Linear(Box::new(linear.clone()))),
+        _ => None,
+    }
+    .map(CorrectorFile::new);
+    let corrected_all = match chosen.as_str() {
+        "ANN" => network.correct(measured).accel_mps2,
+        "linear" => linear.correct(measured).accel_mps2,
+        _ => measured.accel_mps2.clone(),
+    };
+
     let first = &turntable.recordings[0];
     let sensitivity = sensitivity_table(&SensitivityInput {
         radius_m: first.session.radius_m,
@@ -569,6 +621,8 @@ pub fn calibrate_with_runner(
         comparison,
         cross_condition,
         chosen,
+        validated_off_training_condition: validated && saved.is_some(),
+        verdict,
         best_overall,
         seconds_total: started.elapsed().as_secs_f64(),
         stage_seconds: stages,

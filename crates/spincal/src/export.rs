@@ -285,6 +285,10 @@ pub fn campaign_files(
     }
     files.push(("results.json", pretty(result)));
     files.push(("report.html", crate::report::campaign::campaign_report(result)?));
+    // Other tools' files only for a calibration that held on held-out conditions.
+    if saved.is_none() {
+        return Ok(files);
+    }
     let sensor = &result.joint.sensor;
     let gyro = result.gyro.as_ref().map(|g| &g.model);
     files.push(("imucal.json", pretty(&imucal_json(sensor, gyro))));

@@ -189,6 +189,32 @@ pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     write_file(path, |out| out.write_all(bytes))
 }
 
+/// Moves the files `names` in `folder` that this run does not write (`written`) aside, to
+/// `<name>.stale` (or `<name>.stale-2`, … when taken), so that a folder never holds a model or an
+/// export beside results that contradict it. Returns each move (from, to).
+pub fn set_aside_stale(
+    folder: &Path,
+    names: &[&str],
+    written: &[&str],
+) -> std::io::Result<Vec<(std::path::PathBuf, std::path::PathBuf)>> {
+    let mut moved = Vec::new();
+    for name in names.iter().filter(|n| !written.contains(n)) {
+        let from = folder.join(name);
+        if !from.is_file() {
+            continue;
+        }
+        let mut to = folder.join(format!("{name}.stale"));
+        let mut k = 2;
+        while to.exists() {
+            to = folder.join(format!("{name}.stale-{k}"));
+            k += 1;
+        }
+        std::fs::rename(&from, &to)?;
+        moved.push((from, to));
+    }
+    Ok(moved)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -156,7 +156,10 @@ pub fn run_calibration(
     if let Some(seconds) = read_seconds {
         output.result.stage_seconds.insert(0, stage("read", seconds));
     }
-    output.saved.write_path(&out.join("model.json"))?;
+    match &output.saved {
+        Some(file) => file.write_path(&out.join("model.json"))?,
+        None => super::set_aside_stale(out, &["model.json"], &[])?,
+    }
     let clock = std::time::Instant::now();
     let html = render_report(&output, recordings)?;
     // The report lists the stages before it; its own time goes into results.json.
@@ -173,7 +176,8 @@ pub fn run_calibration(
 /// A short summary for the terminal.
 pub fn summary(output: &CalibrationOutput, out: &Path) -> String {
     let r = &output.result;
-    let mut text = String::from(
+    let mut text = format!("{}\n\n", r.verdict);
+    text.push_str(
         "model        train fit %  validation fit %  test fit %   (simulation for dynamic models)\n",
     );
     for row in &r.comparison {
@@ -186,9 +190,11 @@ pub fn summary(output: &CalibrationOutput, out: &Path) -> String {
     text.push_str(&super::tables::cross_condition_text(&r.cross_condition));
     let dir = out.display();
     text.push_str(&format!(
-        "\nchosen: {} (best on validation among savable correctors; best overall without warnings: {})\n\
-         wrote {dir}/model.json, {dir}/results.json, {dir}/report.html\n",
-        r.chosen, r.best_overall,
+        "\nchosen: {} (best on validation among savable correctors no worse than uncorrected on another recording; best overall without warnings: {})\n\
+         wrote {}{dir}/results.json, {dir}/report.html\n",
+        r.chosen,
+        r.best_overall,
+        if output.saved.is_some() { format!("{dir}/model.json, ") } else { String::new() },
     ));
     text
 }

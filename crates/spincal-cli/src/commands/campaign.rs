@@ -42,6 +42,8 @@ pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignO
     bar.finish_and_clear();
     let files = spincal::export::campaign_files(&output.result, output.saved.as_ref())
         .context("drawing the campaign report")?;
+    let written: Vec<&str> = files.iter().map(|(name, _)| *name).collect();
+    super::set_aside_stale(out, &spincal::export::CAMPAIGN_FILE_NAMES, &written)?;
     for (name, text) in files {
         super::write_text(&out.join(name), &text)?;
     }
@@ -56,19 +58,29 @@ fn fmt3(v: &[f64; 3]) -> String {
 pub fn summary(output: &CampaignOutput, out: &Path) -> String {
     let r = &output.result;
     let mut text = format!("unit {}: {}\n\n", r.unit, r.verdict);
-    text.push_str("held-out condition            corrector        RMS error x y z (m/s²)   uncorrected              against\n");
+    text.push_str("held-out condition            corrector        residual vs physics x y z (m/s²)  uncorrected              ratio        vs truth\n");
     for h in &r.held_out {
-        let rms = h
-            .rms_mps2
-            .map_or_else(|| h.note.clone().unwrap_or_default(), |v| fmt3(&v));
+        let (rms, uncorrected, ratio) = match &h.physics {
+            Some(p) => (
+                fmt3(&p.rms_mps2),
+                fmt3(&p.uncorrected_rms_mps2),
+                format!(
+                    "{:.2} ± {:.2}{}",
+                    p.ratio,
+                    p.ratio_se,
+                    if p.worse { " worse" } else { "" }
+                ),
+            ),
+            None => (h.note.clone().unwrap_or_default(), String::new(), String::new()),
+        };
+        let truth = h
+            .truth
+            .as_ref()
+            .map_or(String::new(), |t| format!("{:.2}", t.ratio));
         let _ = writeln!(
             text,
-            "{:<29} {:<16} {:<24} {:<24} {}",
-            h.condition,
-            h.candidate,
-            rms,
-            fmt3(&h.uncorrected_rms_mps2),
-            h.against
+            "{:<29} {:<16} {:<33} {:<24} {:<12} {}",
+            h.condition, h.candidate, rms, uncorrected, ratio, truth
         );
     }
     if !r.undetermined.is_empty() {

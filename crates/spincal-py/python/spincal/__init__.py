@@ -431,7 +431,8 @@ def correct(model: Union[Corrector, PathLike], data: Any, **read_options: Any) -
 
 class Calibration:
     """A finished calibration: ``result`` (results.json as a :class:`CalibrationResult`),
-    ``corrector`` (the saved :class:`Corrector`), ``references`` and ``corrected`` arrays, and
+    ``corrector`` (the saved :class:`Corrector`, or None when every corrector was worse than
+    uncorrected on another recording; ``result.verdict`` says why), ``references`` and ``corrected`` arrays, and
     :meth:`write` for model.json, results.json and report.html."""
 
     __slots__ = ("_inner", "result", "corrector")
@@ -439,7 +440,8 @@ class Calibration:
     def __init__(self, inner: "_spincal.Calibration"):
         self._inner = inner
         self.result = CalibrationResult._from_json(inner.result_json())
-        self.corrector = Corrector(inner.corrector())
+        saved = inner.corrector()
+        self.corrector = None if saved is None else Corrector(saved)
 
     @property
     def references(self) -> List[np.ndarray]:

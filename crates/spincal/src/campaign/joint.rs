@@ -259,6 +259,9 @@ pub struct RunFit {
     pub samples_used: usize,
 }
 
+/// The covariance of the sensor parameters, in `SensorModel::params` order.
+pub type SensorCovariance = [[f64; SENSOR_PARAMS]; SENSOR_PARAMS];
+
 /// One pose's fit.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct PoseFit {
@@ -347,6 +350,21 @@ impl JointFit {
     fn geometry_of(&self, i: usize, run: &[f64]) -> RunGeometry {
         let st = &self.state;
         RunGeometry::new(&st.mountings[i], run, st.directions[i], st.gravity)
+    }
+
+    /// The robust covariance of the sensor parameters (`SensorModel::params` order), zero for
+    /// those held fixed; `None` when the fit had no covariance.
+    pub fn sensor_covariance(&self) -> Option<SensorCovariance> {
+        let cov = self.state.covariance.as_ref()?;
+        let pos: Vec<Option<usize>> = (0..SENSOR_PARAMS)
+            .map(|k| self.state.free_index.iter().position(|&i| i == k))
+            .collect();
+        Some(std::array::from_fn(|a| {
+            std::array::from_fn(|b| match (pos[a], pos[b]) {
+                (Some(a), Some(b)) => cov[(a, b)],
+                _ => 0.0,
+            })
+        }))
     }
 
     /// The robust covariance of run `i`'s parameters `params` (indices into the run's own), zero
@@ -1382,6 +1400,36 @@ pub fn fit_joint_from(
     start: Option<&JointFit>,
     observer: &Observer,
 ) -> Result<JointFit, JointError> {
+    fit_joint_with(runs, poses, settings, start, true, observer)
+}
+
+/// One run's geometry alone, as a rigid platter would move a perfect sensor: radius within its
+/// tolerance, rate, platter tilt, mount rotation within its prior, wow, and no bias offset or
+/// drift (held at zero). What this fit cannot explain is a sensor error it could not absorb:
+/// the truth-free check of a corrected run.
+pub(crate) fn fit_run_geometry(run: &RunInput, settings: &JointSettings) -> Result<JointFit, JointError> {
+    let settings = JointSettings {
+        terms: SensorTerms::NONE,
+        ..settings.clone()
+    };
+    fit_joint_with(
+        std::slice::from_ref(run),
+        &[],
+        &settings,
+        None,
+        false,
+        &crate::progress::silent,
+    )
+}
+
+fn fit_joint_with(
+    runs: &[RunInput],
+    poses: &[PoseInput],
+    settings: &JointSettings,
+    start: Option<&JointFit>,
+    run_offsets_free: bool,
+    observer: &Observer,
+) -> Result<JointFit, JointError> {
     if runs.is_empty() && poses.is_empty() {
         return Err(JointError::Empty);
     }
@@ -1477,8 +1525,18 @@ pub fn fit_joint_from(
             .collect(),
         block_samples,
     };
+    let run_params_end = run_offset(runs.len());
+    let is_run_offset = |k: usize| {
+        (SENSOR_PARAMS..run_params_end).contains(&k) && (k - SENSOR_PARAMS) % RUN_PARAMS >= GEOMETRY
+    };
     let free: Vec<bool> = (0..p.len())
-        .map(|k| k >= SENSOR_PARAMS || settings.terms.free(k))
+        .map(|k| {
+            if k < SENSOR_PARAMS {
+                settings.terms.free(k)
+            } else {
+                run_offsets_free || !is_run_offset(k)
+            }
+        })
         .collect();
     let options = LmOptions {
         max_iterations: settings.max_iterations,

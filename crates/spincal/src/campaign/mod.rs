@@ -2,16 +2,20 @@
 //! one physical sensor model fitted jointly with every run, and correctors chosen on conditions
 //! they never trained on.
 //!
-//! `file` reads the campaign file, `prepare` cuts recordings into runs and poses, `joint` fits
-//! the sensor model (`correctors::physical`) jointly with them, and `select` trains and scores the
-//! candidate correctors on held-out conditions.
+//! `file` reads the campaign file, `prepare` cuts recordings into runs and poses, `checks` holds
+//! them against physics before any fit, `joint` fits
+//! the sensor model (`correctors::physical`) jointly with them, `select` trains the candidate
+//! correctors on all conditions but one, and `verdict` judges each on the one held out by physics
+//! alone (and, in simulations, against truth too).
 
+pub mod checks;
 pub mod file;
 pub mod gyro;
 pub mod joint;
 pub mod load;
 pub mod prepare;
 pub mod select;
+pub mod verdict;
 
 pub use crate::correctors::physical::{PhysicalCorrector, SensorModel};
 pub use file::{Campaign, CampaignEntry, CampaignError, EntryKind, SignedAxis, TurntableEntry};
@@ -20,6 +24,7 @@ pub use joint::{fit_joint, JointFit, JointSettings, PoseInput, RunInput, SensorT
 pub use load::{load_campaign, LoadError};
 pub use prepare::UnitRecording;
 pub use select::{
-    calibrate_campaign, combined, CampaignOutput, CampaignResult, CampaignSettings, CandidateKind,
-    HeldOutScore,
+    calibrate_campaign, CampaignOutput, CampaignResult, CampaignSettings, CandidateKind, HeldOutScore,
+    TruthCheck,
 };
+pub use verdict::{combined, Comparison};

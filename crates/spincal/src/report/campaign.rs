@@ -22,47 +22,61 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
         unit = escape(&r.unit),
         verdict = escape(&r.verdict)
     );
-    h.push_str("<h2>Correctors on held-out conditions</h2><table><tr><th>corrector</th><th>what it is</th><th>mean RMS error, m/s²</th><th>worst ratio to uncorrected</th><th>eligible</th><th>why not</th></tr>");
+    h.push_str("<h2>Correctors on held-out conditions</h2><table><tr><th>corrector</th><th>what it is</th><th>mean residual RMS against physics, m/s²</th><th>worst ratio to uncorrected</th><th>mean RMS against truth, m/s²</th><th>eligible</th><th>why not</th></tr>");
+    let value = |v: Option<f64>, digits: usize| v.map_or("–".into(), |v| format!("{v:.digits$}"));
     for c in &r.candidates {
         let _ = write!(
             h,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             c.candidate,
             escape(&c.description),
-            c.mean_rms_mps2.map_or("–".into(), |v| format!("{v:.4}")),
-            c.worst_ratio_to_uncorrected
-                .map_or("–".into(), |v| format!("{v:.2}")),
+            value(c.mean_rms_mps2, 4),
+            value(c.worst_ratio_to_uncorrected, 2),
+            value(c.mean_truth_rms_mps2, 4),
             if c.eligible { "yes" } else { "no" },
             escape(c.why_not.as_deref().unwrap_or(""))
         );
     }
-    h.push_str("</table><p>Each corrector is trained on every condition but one and scored on the one left out. The error is against the true specific force when the recording carries it (simulations), otherwise against the held-out recording refitted with a perfect sensor.</p>");
-    if let Some(plot) = held_out_plot(r) {
+    h.push_str("</table><p>Each corrector is trained on every condition but one and judged on the one left out, by physics alone: a still pose's specific force must have gravity's magnitude; a turntable run must move as a rigid platter moves a perfect sensor (rate measured from the data, radius within the ruler's tolerance, platter tilt, mount rotation within its prior, no bias, scale or drift freedom). The uncorrected signal gets the same check on the same samples; <em>ratio</em> is the corrector's residual RMS over the uncorrected one's, and a corrector is <em>significantly worse</em> when its excess mean square exceeds Student's t at one-sided 0.1 % times its batch-means standard error. Against truth (simulations only) is the same on the true specific force, which the verdict never uses. The <em>floor</em> is the RMS of the error no static corrector can remove (white noise and bias drift) on those samples.</p>");
+    if let Some(plot) = held_out_plot(r, false) {
         h.push_str(&figure(
             &plot,
-            "RMS error over the three axes on each held-out condition (numbered as in the table below), log scale: each corrector, the uncorrected signal and the random floor.",
+            "Residual RMS against physics over the three axes on each held-out condition (numbered as in the table below): each corrector and the uncorrected signal.",
         )?);
     }
-    h.push_str("<table><tr><th>held out</th><th>corrector</th><th>RMS x</th><th>RMS y</th><th>RMS z</th><th>uncorrected x</th><th>y</th><th>z</th><th>floor x</th><th>y</th><th>z</th><th>against</th></tr>");
+    if let Some(plot) = held_out_plot(r, true) {
+        h.push_str(&figure(
+            &plot,
+            "RMS error against the simulation's truth on the same samples: each corrector, the uncorrected signal and the floor.",
+        )?);
+    }
+    h.push_str("<table><tr><th>#</th><th>held out</th><th>corrector</th><th>RMS x</th><th>RMS y</th><th>RMS z</th><th>uncorrected x</th><th>y</th><th>z</th><th>ratio</th><th>truth ratio</th><th>floor x</th><th>y</th><th>z</th><th>note</th></tr>");
+    let mut labels: Vec<&str> = Vec::new();
     for s in &r.held_out {
+        if !labels.contains(&s.condition.as_str()) {
+            labels.push(&s.condition);
+        }
         let cells = |v: Option<[f64; 3]>| {
             v.map_or("<td>–</td><td>–</td><td>–</td>".to_string(), |v| {
                 v.iter().map(|x| format!("<td>{x:.4}</td>")).collect()
             })
         };
-        let worse = s
-            .rms_mps2
-            .is_some_and(|v| v.iter().sum::<f64>() > s.uncorrected_rms_mps2.iter().sum::<f64>());
+        let worse = s.physics.as_ref().is_some_and(|p| p.worse);
         let _ = write!(
             h,
-            "<tr{}><td>{}</td><td>{}</td>{}{}{}<td>{}</td></tr>",
+            "<tr{}><td>{}</td><td>{}</td><td>{}</td>{}{}<td>{}</td><td>{}</td>{}<td>{}</td></tr>",
             if worse { " class=\"bad\"" } else { "" },
+            labels.len(),
             escape(&s.condition),
             s.candidate,
-            cells(s.rms_mps2),
-            cells(Some(s.uncorrected_rms_mps2)),
+            cells(s.physics.as_ref().map(|p| p.rms_mps2)),
+            cells(s.physics.as_ref().map(|p| p.uncorrected_rms_mps2)),
+            s.physics
+                .as_ref()
+                .map_or("–".into(), |p| format!("{:.2} ± {:.2}", p.ratio, p.ratio_se)),
+            value(s.truth.as_ref().map(|t| t.ratio), 2),
             cells(s.floor_mps2),
-            s.against
+            escape(s.note.as_deref().unwrap_or(""))
         );
     }
     h.push_str("</table><h2>Sensor model (joint fit of every recording)</h2>");
@@ -152,39 +166,50 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
     Ok(h)
 }
 
-/// Held-out error per condition for every corrector, with the uncorrected signal and the floor.
-fn held_out_plot(r: &CampaignResult) -> Option<LinePlot> {
+/// Held-out error per condition for every corrector with the uncorrected signal: against physics,
+/// or against truth with the floor (`None` without truth).
+fn held_out_plot(r: &CampaignResult, against_truth: bool) -> Option<LinePlot> {
     let mut conditions: Vec<&str> = Vec::new();
     for s in &r.held_out {
         if !conditions.contains(&s.condition.as_str()) {
             conditions.push(&s.condition);
         }
     }
-    if conditions.is_empty() {
+    if conditions.is_empty() || (against_truth && r.held_out.iter().all(|s| s.truth.is_none())) {
         return None;
     }
-    let index = |c: &str| conditions.iter().position(|&k| k == c).map(|i| i as f64 + 1.0);
+    let comparison = |s: &crate::campaign::HeldOutScore| {
+        if against_truth {
+            s.truth.clone()
+        } else {
+            s.physics.clone()
+        }
+    };
+    let index = |c: &str| conditions.iter().position(|&k| k == c);
     let per_condition = |value: &dyn Fn(&crate::campaign::HeldOutScore) -> Option<f64>| {
         let mut y = vec![f64::NAN; conditions.len()];
         for s in &r.held_out {
             if let (Some(i), Some(v)) = (index(&s.condition), value(s)) {
-                y[i as usize - 1] = v;
+                y[i] = v;
             }
         }
         y
     };
     let x: Vec<f64> = (1..=conditions.len()).map(|i| i as f64).collect();
     let mut plot = LinePlot::new(
-        "Held-out error per condition",
-        "held-out condition",
-        "RMS error, m/s²",
+        if against_truth {
+            "Held-out error against truth"
+        } else {
+            "Held-out residual against physics"
+        },
+        "held-out condition (#)",
+        "RMS over x, y, z, m/s²",
     )
-    .log_y()
     .legend(Legend::UpperRight);
     for (k, c) in r.candidates.iter().enumerate() {
         let y = per_condition(&|s| {
             (s.candidate == c.candidate)
-                .then_some(s.rms_mps2.map(combined))
+                .then(|| comparison(s).map(|p| combined(p.rms_mps2)))
                 .flatten()
         });
         plot = plot.series(
@@ -193,14 +218,14 @@ fn held_out_plot(r: &CampaignResult) -> Option<LinePlot> {
                 .style(LineStyle::Markers),
         );
     }
-    let uncorrected = per_condition(&|s| Some(combined(s.uncorrected_rms_mps2)));
+    let uncorrected = per_condition(&|s| comparison(s).map(|p| combined(p.uncorrected_rms_mps2)));
     plot = plot.series(
         Series::new("uncorrected", x.clone(), uncorrected)
             .color(Rgb(0, 0, 0))
             .style(LineStyle::Dashed),
     );
     let floor = per_condition(&|s| s.floor_mps2.map(combined));
-    if floor.iter().any(|v| v.is_finite()) {
+    if against_truth && floor.iter().any(|v| v.is_finite()) {
         plot = plot.series(
             Series::new("floor", x, floor)
                 .color(Rgb(120, 120, 120))

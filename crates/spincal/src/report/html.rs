@@ -108,7 +108,7 @@ pub fn render_report(output: &CalibrationOutput, recordings: &[Recording]) -> Re
         sweep_section(r)?,
         comparison_section(r),
         corrected_section(output, recordings)?,
-        how_to_apply_section(),
+        how_to_apply_section(output.saved.is_some()),
         "</body></html>\n".to_string(),
     ]
     .concat())
@@ -127,8 +127,12 @@ fn title_section(r: &CalibrationResult) -> String {
         "<h1>spincal calibration report</h1>\n"
     ));
     html.push_str(&format!(
+        "<h2>Verdict</h2>\n<p><b>{}</b></p>\n",
+        escape(&r.verdict)
+    ));
+    html.push_str(&format!(
         "<p>spincal {} · seed {} · corrected axes {} · total time {} s. Chosen corrector: <b>{}</b> \
-         (best validation fit among correctors that can be saved); best on validation among all models without warnings (section 8): <b>{}</b>.</p>\n",
+         (best validation fit among correctors that can be saved and are no worse than uncorrected on another recording); best on validation among all models without warnings (section 8): <b>{}</b>.</p>\n",
         escape(&r.spincal_version),
         num("/seed", r.seed as f64, 0),
         escape(&r.axes.iter().map(|a| a.name()).collect::<Vec<_>>().join(", ")),
@@ -635,7 +639,12 @@ fn corrected_section(output: &CalibrationOutput, recordings: &[Recording]) -> Re
 }
 
 /// 10. How to apply the saved corrector to new data.
-fn how_to_apply_section() -> String {
+fn how_to_apply_section(saved: bool) -> String {
+    if !saved {
+        return "<h2>10. Applying the corrector</h2>\n<p>Nothing was saved (see the verdict): no corrector \
+                held on the recordings it did not train on.</p>\n"
+            .to_string();
+    }
     concat!(
         "<h2>10. Applying the corrector</h2>\n<p>The chosen corrector is saved as <code>model.json</code> ",
         "(a versioned corrector file). Apply it to new recordings, streaming, row by row:</p>\n",

@@ -1,0 +1,194 @@
+//! A campaign's recordings checked against physics before any fit, so that a wrong key gives an
+//! error that names the recording, the key and the fix instead of a fit that believes it:
+//! - a still pose must read gravity's magnitude in the declared unit (`accel_unit`);
+//! - a turntable run must read gravity along its declared `up` and its constant magnitude in the
+//!   declared unit;
+//! - a `static` recording must not turn (its gyro, where it has one);
+//! - a turntable run's measured rotation rate must be within [`RPM_TOLERANCE`] of its nominal `rpm`;
+//! - no recording may be listed twice (the same samples under two entries).
+
+use crate::campaign::joint::{mounting_matrix, RunInput};
+use crate::campaign::prepare::{Prepared, UnitRecording};
+use crate::input::recording::{Recording, STANDARD_GRAVITY};
+use crate::turntable::spectrum::{estimate_rotation_rate, RateSearch};
+
+/// A reading's magnitude may differ from what physics requires by this fraction before it is
+/// refused (far beyond any accelerometer's scale error, far below a unit mix-up's factor 9.8).
+pub const MAGNITUDE_TOLERANCE: f64 = 0.1;
+/// The angle between the mean reading of a run and its declared `up`, deg, beyond which the
+/// mounting is refused (sensors sit within a few degrees of how they are declared).
+pub const UP_TOLERANCE_DEG: f64 = 30.0;
+/// A still recording whose gyro reads more than this, deg/s, is turning (MEMS gyro biases stay
+/// within ±20 °/s).
+pub const STILL_GYRO_DPS: f64 = 30.0;
+/// The largest relative difference between a run's nominal and measured rate.
+pub const RPM_TOLERANCE: f64 = 0.05;
+
+/// One input that physics contradicts.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{recording}: `{key}`: {why}")]
+pub struct InputError {
+    pub recording: String,
+    /// The campaign key at fault.
+    pub key: &'static str,
+    /// What the data show and the fix.
+    pub why: String,
+}
+
+/// The checks on whole recordings (before they are cut into poses): duplicates, and a `static`
+/// recording whose gyro turns.
+pub fn check_recordings(units: &[UnitRecording]) -> Result<(), InputError> {
+    check_duplicates(units)?;
+    for unit in units.iter().filter(|u| u.turntable.is_none()) {
+        let Some(gyro) = &unit.recording.gyro_radps else {
+            continue;
+        };
+        let mut magnitudes: Vec<f64> = (0..gyro[0].len())
+            .map(|s| norm([gyro[0][s], gyro[1][s], gyro[2][s]]))
+            .filter(|v| v.is_finite())
+            .collect();
+        if magnitudes.is_empty() {
+            continue;
+        }
+        let middle = magnitudes.len() / 2;
+        let median = *magnitudes.select_nth_unstable_by(middle, f64::total_cmp).1;
+        let dps = median.to_degrees();
+        if dps > STILL_GYRO_DPS {
+            return Err(InputError {
+                recording: unit.name.clone(),
+                key: "kind",
+                why: format!(
+                    "listed as `static`, but its gyro reads {dps:.1} °/s ({:.1} rpm) for most of the recording: if it is a turntable run, give kind = \"turntable\" with its rpm, radius_m, out and up",
+                    dps / 6.0
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The checks on the poses and runs cut from the recordings; the first failure is returned.
+pub fn check_prepared(prepared: &Prepared, gravity: f64) -> Result<(), InputError> {
+    for pose in &prepared.poses {
+        check_magnitude(&pose.name, norm(pose.mean_mps2), gravity, "still pose")?;
+    }
+    for run in &prepared.runs {
+        check_run(run, gravity)?;
+    }
+    Ok(())
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+fn check_magnitude(name: &str, magnitude: f64, expected: f64, what: &str) -> Result<(), InputError> {
+    let ratio = magnitude / expected;
+    if (ratio - 1.0).abs() <= MAGNITUDE_TOLERANCE {
+        return Ok(());
+    }
+    let fix = if (ratio * STANDARD_GRAVITY - 1.0).abs() < 0.15 {
+        "the values look like g read as m/s²: give accel_unit = \"g\"".to_string()
+    } else if (ratio / STANDARD_GRAVITY - 1.0).abs() < 0.15 {
+        "the values look like m/s² read as g: remove accel_unit = \"g\"".to_string()
+    } else {
+        "check the unit (accel_unit) and the columns (columns)".to_string()
+    };
+    Err(InputError {
+        recording: name.to_string(),
+        key: "accel_unit",
+        why: format!(
+            "the {what} reads {magnitude:.4} m/s² where physics requires {expected:.4} m/s² ({ratio:.3}×): {fix}"
+        ),
+    })
+}
+
+/// A run: gravity along `up`, the constant magnitude √(g² + (ω²r)²) (tilt aside), and the rate.
+fn check_run(run: &RunInput, gravity: f64) -> Result<(), InputError> {
+    let kept: Vec<usize> = (0..run.time_s.len()).filter(|&s| run.keep[s]).collect();
+    if kept.is_empty() {
+        return Ok(());
+    }
+    let n = kept.len() as f64;
+    let mean: [f64; 3] = std::array::from_fn(|k| kept.iter().map(|&s| run.accel_mps2[k][s]).sum::<f64>() / n);
+    let entry = &run.entry;
+    let q = mounting_matrix(entry.out, entry.up);
+    let up: [f64; 3] = std::array::from_fn(|r| q[r][2]);
+    let along = (0..3).map(|k| mean[k] * up[k]).sum::<f64>();
+    let magnitude = norm(mean);
+    let omega = entry.rpm * std::f64::consts::PI / 30.0;
+    let expected = (gravity * gravity + (omega * omega * entry.radius_m).powi(2)).sqrt();
+    check_magnitude(&run.name, magnitude, expected, "turntable run's mean")?;
+    let angle = (along / magnitude.max(f64::MIN_POSITIVE))
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees();
+    if angle > UP_TOLERANCE_DEG {
+        let axis = (0..3)
+            .max_by(|&a, &b| mean[a].abs().total_cmp(&mean[b].abs()))
+            .unwrap_or(2);
+        let sign = if mean[axis] >= 0.0 { "+" } else { "-" };
+        return Err(InputError {
+            recording: run.name.clone(),
+            key: "up",
+            why: format!(
+                "gravity lies {angle:.0}° from the declared up = \"{}\"; the mean reading points along {sign}{}: give up = \"{sign}{}\" (and an `out` across it)",
+                entry.up.name(),
+                ["x", "y", "z"][axis],
+                ["x", "y", "z"][axis]
+            ),
+        });
+    }
+    // The rate from the readings across the spindle (the declared mounting's out and up × out).
+    let across: [Vec<f64>; 2] = std::array::from_fn(|c| {
+        (0..run.time_s.len())
+            .map(|s| (0..3).map(|r| q[r][c] * run.accel_mps2[r][s]).sum())
+            .collect()
+    });
+    let flat = Recording {
+        time_s: run.time_s.clone(),
+        accel_mps2: [across[0].clone(), across[1].clone(), vec![0.0; run.time_s.len()]],
+        gyro_radps: None,
+        source: Default::default(),
+    };
+    if let Ok(rate) = estimate_rotation_rate(&flat, RateSearch::default()) {
+        let off = rate.rpm / entry.rpm - 1.0;
+        if off.abs() > RPM_TOLERANCE && rate.peak_to_median > 100.0 {
+            return Err(InputError {
+                recording: run.name.clone(),
+                key: "rpm",
+                why: format!(
+                    "the platter turns at {:.2} rpm (measured from the readings), {:+.0} % from the nominal {:.2} rpm: give rpm = {:.2}",
+                    rate.rpm,
+                    100.0 * off,
+                    entry.rpm,
+                    rate.rpm
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The same samples under two entries would count one recording twice (and shrink the standard
+/// errors by √2).
+fn check_duplicates(units: &[UnitRecording]) -> Result<(), InputError> {
+    for (i, a) in units.iter().enumerate() {
+        for b in &units[..i] {
+            let same = a.recording.len() == b.recording.len()
+                && a.recording.time_s == b.recording.time_s
+                && a.recording.accel_mps2 == b.recording.accel_mps2;
+            if same {
+                return Err(InputError {
+                    recording: a.name.clone(),
+                    key: "file",
+                    why: format!(
+                        "holds the same samples as {}: each recording may be listed once",
+                        b.name
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
+}
