@@ -71,8 +71,10 @@ enum Command {
     /// Apply a saved corrector to a recording, streaming, row by row.
     #[command(
         after_help = "Every input row comes out, in place, with its original columns, the corrected axes added, a
-`valid` column (0 for the first rows without full delay history) and a `status` column: ok,
-extrapolated (outside a network's training range) or `refused: line N: reason` for a row that
+`valid` column (0 for the first rows without full delay history and for rows a network cannot
+correct) and a `status` column: ok, physics-only (outside the training range, a physical model
+corrects it alone), outside-range (outside a network's training range: the reading unchanged,
+valid 0) or `refused: line N: reason` for a row that
 cannot be read or whose time goes backwards (its corrected columns are empty). Exit code 3 says
 rows were refused. The output is written to a temporary file and renamed when complete.
 
@@ -82,13 +84,15 @@ Examples:
     )]
     Correct(commands::correct::CorrectArgs),
     /// A saved corrector as firmware source: C99 (float, double), no_std Rust, x-io Fusion's values.
-    #[command(after_help = "Writes NAME_f32.h/.c and NAME_f64.h/.c (C99, no dynamic memory, only <math.h>),
+    #[command(
+        after_help = "Writes NAME_f32.h/.c and NAME_f64.h/.c (C99, no dynamic memory, only <math.h>),
 NAME_model.rs (statics for the no_std crate spincal-embedded) and fusion.txt (x-io Fusion's
 misalignment, sensitivity and offset, with what Fusion cannot hold and its largest effect).
 
 Examples:
   spincal export --model ann.json --out firmware
-  spincal export --model linear.json --out firmware-float --precision float --name imu")]
+  spincal export --model linear.json --out firmware-float --precision float --name imu"
+    )]
     Export(commands::export::ExportArgs),
 }
 

@@ -251,6 +251,7 @@ impl<T: Real> Model<'_, T> {
     /// Corrects one sample: `accel` in the model's input unit (m/s², or the static calibration's
     /// raw unit), sensor frame; `gyro` in the gyro model's input unit (rad/s or counts). Samples
     /// of one stream must arrive in time order through the same `state`.
+    #[inline]
     pub fn correct<const H: usize>(
         &self,
         state: &mut State<T, H>,
@@ -266,6 +267,7 @@ impl<T: Real> Model<'_, T> {
     }
 
     /// The accelerometer alone (`gyro` of the result is `None`).
+    #[inline]
     pub fn correct_accel<const H: usize>(&self, state: &mut State<T, H>, m: [T; 3]) -> Corrected<T> {
         match &self.accel {
             Accel::Physical(p) => p.sample(m),
@@ -376,10 +378,16 @@ impl<T: Real> Network<'_, T> {
             for i in 0..n_out {
                 let row = &self.weights[at + i * n_in..at + (i + 1) * n_in];
                 let mut z = self.weights[biases + i];
-                for j in 0..n_in {
-                    z = z + row[j] * a_in[j];
+                for (&w, &a) in row.iter().zip(&a_in[..n_in]) {
+                    z = z + w * a;
                 }
-                a_out[i] = if l == last { z } else { z.tanh() };
+                a_out[i] = z;
+            }
+            // The tanh in a loop of its own: independent lanes the compiler can interleave.
+            if l != last {
+                for v in &mut a_out[..n_out] {
+                    *v = v.tanh();
+                }
             }
             at = biases + n_out;
         }
@@ -398,7 +406,7 @@ impl<T: Real> Network<'_, T> {
     }
 
     /// One sample of the `ann` stream: the history shifts, the network runs once the history
-    /// is full.
+    /// is full and every input lies within the training range.
     fn stream_sample(&self, history: &mut [T], seen: &mut usize, m: [T; 3]) -> Corrected<T> {
         let invalid = Corrected {
             accel: m,
@@ -413,14 +421,17 @@ impl<T: Real> Network<'_, T> {
         let mut outside = false;
         for c in 0..self.n_axes {
             let row = &mut history[c * lags..(c + 1) * lags];
-            row.copy_within(0..lags - 1, 1);
+            if lags > 1 {
+                row.copy_within(0..lags - 1, 1);
+            }
             row[0] = self.input_gain[c] * m[self.axes[c]] + self.input_offset[c];
             outside |= row[0].abs() > self.limit;
         }
         *seen = seen.saturating_add(1);
         let mut out = Corrected {
             outside_training_range: outside,
-            valid: *seen > self.delays,
+            // Outside its training range the network is not applied (as spincal's `correct`).
+            valid: *seen > self.delays && !outside,
             ..invalid
         };
         if out.valid {
@@ -509,6 +520,7 @@ mod tests {
         for x in [1e-30f32, 1e-8, 3e-4, 0.1234567, 19.99, 25.0, f32::MAX] {
             worst = worst.max(ulps32(tanh_f32(x), (f64::from(x)).tanh() as f32));
         }
+        std::println!("tanh_f32: at most {worst} ulps from the correctly rounded tanh");
         assert!(worst <= 3, "tanh_f32 is {worst} ulps off");
         assert!(tanh_f32(f32::NAN).is_nan());
         assert_eq!(tanh_f32(-0.0).to_bits(), (-0.0f32).to_bits());

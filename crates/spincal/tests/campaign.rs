@@ -525,3 +525,48 @@ fn inputs_that_physics_contradicts_are_refused_with_the_key() {
     )
     .is_ok());
 }
+
+/// The advice for an undetermined bias or scale never asks for poses the campaign already holds:
+/// with twelve poses (every face up) it names what limits them instead; with the z-up poses alone
+/// it asks for the missing ones.
+#[test]
+fn undetermined_advice_knows_the_poses_the_campaign_holds() {
+    let setup = CampaignSetup {
+        runs: vec![RunSetup::default()],
+        ..CampaignSetup::default()
+    };
+    let sim = simulate_campaign(&setup, 2).unwrap();
+    let prepared = prepare(&units(&sim, false)).unwrap();
+    let fit = fit_joint(
+        &prepared.runs,
+        &prepared.poses,
+        &JointSettings::default(),
+        &spincal::progress::silent,
+    )
+    .unwrap();
+    let g = spincal::input::recording::STANDARD_GRAVITY;
+    // A tolerance no standard error meets: every parameter is listed, with its advice.
+    let all = fit.undetermined(g, 1e-12, &prepared.poses);
+    for (name, advice) in all
+        .iter()
+        .filter(|(n, _)| n.starts_with("bias") || n.starts_with("scale"))
+    {
+        assert!(
+            advice.starts_with("the campaign already holds poses"),
+            "{name}: {advice}"
+        );
+    }
+    let z_up: Vec<_> = prepared
+        .poses
+        .iter()
+        .filter(|p| p.mean_mps2[2] > 0.9 * g)
+        .cloned()
+        .collect();
+    assert!(!z_up.is_empty());
+    let asked = fit.undetermined(g, 1e-12, &z_up);
+    let bias_x = asked.iter().find(|(n, _)| n.starts_with("bias_x")).unwrap();
+    assert!(
+        bias_x.1.contains("x axis up and down") && !bias_x.1.starts_with("the campaign"),
+        "{bias_x:?}"
+    );
+}

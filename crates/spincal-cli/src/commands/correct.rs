@@ -3,7 +3,9 @@
 //! Every input data row comes out, in place, with its original columns, one corrected column per
 //! corrected axis (in the input's acceleration unit), `valid` (0 for the first rows that lack a full
 //! delay history, whose corrected values are the measured ones, and for refused rows) and `status`:
-//! `ok`, `extrapolated` (an input lies well outside a network's training range), or `refused:` with
+//! `ok`, `physics-only` (an input lies well outside the training range: a physical model corrects it,
+//! a network on top of it is not applied), `outside-range` (the same for a network alone: the reading
+//! goes through unchanged with `valid` 0), or `refused:` with
 //! the line and the reason for a row that cannot be read or whose time goes backwards; its
 //! corrected columns are empty. The summary on standard error names the first refused lines, and
 //! the exit code is 3 when rows were refused. The output file is written through a temporary file
@@ -202,7 +204,7 @@ struct StreamSummary {
 }
 
 impl StreamSummary {
-    /// Warns about extrapolated rows; refused rows make the result an error (exit code 3).
+    /// Warns about rows outside the training range; refused rows make the result an error (exit code 3).
     fn finish(&self, name: &str) -> anyhow::Result<()> {
         if self.gyro_uncorrected {
             eprintln!(
@@ -212,7 +214,9 @@ impl StreamSummary {
         if let Some(line) = self.first_outside_line {
             eprintln!(
                 "warning: {name}: {} of {} rows ({:.1} %) have an input more than {:.0} % of the training \
-                 range outside it (first at line {line}); the network extrapolates there",
+                 range outside it (first at line {line}): a network is not applied there (status \
+                 `outside-range`, valid 0, the reading unchanged; `physics-only` where a physical \
+                 model corrects it alone)",
                 self.outside_training_range,
                 self.rows,
                 100.0 * self.outside_training_range as f64 / self.rows.max(1) as f64,
@@ -395,10 +399,10 @@ fn stream(
                 write!(out, "{sep}{}", w / columns.gyro_to_radps)?;
             }
         }
-        let status = if sample.outside_training_range {
-            "extrapolated"
-        } else {
-            "ok"
+        let status = match (sample.valid, sample.outside_training_range) {
+            (_, false) => "ok",
+            (true, true) => "physics-only",
+            (false, true) => "outside-range",
         };
         writeln!(out, "{sep}{}{sep}{status}", u8::from(sample.valid))?;
     }

@@ -315,8 +315,9 @@ def fit_turntable(
 
 class Corrected(Result):
     """Corrected samples: ``accel`` (n, 3) m/s², ``valid`` (n,) bool (False for the first samples
-    without a full delay history, which are passed through), ``outside_training_range`` (n,) bool
-    (a network extrapolates there)."""
+    without a full delay history and for samples outside a network's training range, both passed
+    through), ``outside_training_range`` (n,) bool (a network is not applied there; a physical
+    model still corrects)."""
 
     __slots__ = ("accel", "valid", "outside_training_range")
 

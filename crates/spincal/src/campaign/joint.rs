@@ -391,9 +391,24 @@ impl JointFit {
     }
 
     /// Free sensor parameters whose uncertainty matters: one standard error moves a reading at
-    /// 1 g by more than `tolerance_mps2`. Each comes with the recording that would determine it.
-    pub fn undetermined(&self, gravity: f64, tolerance_mps2: f64) -> Vec<(String, String)> {
+    /// 1 g by more than `tolerance_mps2`. Each comes with the recording that would determine it;
+    /// where the campaign already holds those poses (`poses`: their mean readings), the advice
+    /// says so and names what limits them instead.
+    pub fn undetermined(
+        &self,
+        gravity: f64,
+        tolerance_mps2: f64,
+        poses: &[PoseInput],
+    ) -> Vec<(String, String)> {
         let axis = ["x", "y", "z"];
+        // Whether some pose holds axis k within about 25° of up (sign +1) or down (−1).
+        let held = |k: usize, sign: f64| {
+            poses.iter().any(|p| {
+                let m = p.mean_mps2;
+                let norm = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+                norm > 0.0 && sign * m[k] / norm > 0.9
+            })
+        };
         let mut out = Vec::new();
         for (k, p) in self.sensor_params.iter().enumerate() {
             if !p.free {
@@ -411,6 +426,10 @@ impl JointFit {
                 continue;
             }
             let advice = match k {
+                0..=5 if held(k % 3, 1.0) && held(k % 3, -1.0) => format!(
+                    "the campaign already holds poses with the {} axis up and down; what limits it is the bias wandering between them and between recordings: hold each pose longer, take the up and down poses one after the other, or repeat them",
+                    axis[k % 3]
+                ),
                 0..=5 => format!(
                     "still poses with the {} axis up and down",
                     axis[k % 3]

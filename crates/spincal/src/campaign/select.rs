@@ -733,7 +733,7 @@ pub fn calibrate_campaign(
     let joint = fit_joint(&prepared.runs, &prepared.poses, &settings.joint, observer)?;
     lap("joint fit", &mut stages);
     let g = settings.joint.gravity_mps2;
-    let undetermined = joint.undetermined(g, settings.determined_tolerance_mps2);
+    let undetermined = joint.undetermined(g, settings.determined_tolerance_mps2, &prepared.poses);
     // The gyroscope rides on the joint fit's rates; its failure costs the accelerometer nothing.
     let (gyro, gyro_error) = match fit_gyro(&prepared.runs, &prepared.poses, &joint, &settings.gyro) {
         Ok(fit) => (fit, None),

@@ -94,7 +94,12 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
     if !r.undetermined.is_empty() {
         h.push_str("<h2>What this campaign does not determine</h2><ul>");
         for (name, advice) in &r.undetermined {
-            let _ = write!(h, "<li>{}: record {}</li>", escape(name), escape(advice));
+            let verb = if advice.starts_with("the campaign already") {
+                ""
+            } else {
+                "record "
+            };
+            let _ = write!(h, "<li>{}: {verb}{}</li>", escape(name), escape(advice));
         }
         h.push_str("</ul>");
     }

@@ -542,9 +542,12 @@ impl SampleCorrector for AnnStream<'_> {
             outside |= row[0].abs() > 1.0 + 2.0 * EXTRAPOLATION_MARGIN;
         }
         self.seen += 1;
+        // Outside its training range a network extrapolates: the reading goes through
+        // uncorrected and the sample is marked invalid, so a network never makes data it did
+        // not see worse than no correction.
         let mut out = CorrectedSample {
             accel_mps2,
-            valid: self.seen > model.delays,
+            valid: self.seen > model.delays && !outside,
             outside_training_range: outside,
         };
         if out.valid {
