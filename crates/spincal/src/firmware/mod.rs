@@ -8,10 +8,11 @@
 //! - the `double` C and the `f64` Rust give `spincal correct`'s corrections (tested to 1e-9
 //!   relative on held-out recordings; the tests find them equal bit for bit);
 //! - the `float` C and the `f32` Rust do the same operations in single precision (tested within
-//!   2e-6 of full scale); their tanh is a degree-8 version of the library's, within 3 ulps;
-//! - a network keeps its training envelope: `ann` marks samples outside its input range,
-//!   `physical_ann` falls back to the physical correction outside its input range, its covered
-//!   cells or its output range, as `correct` does.
+//!   2e-6 of full scale; they equal each other bit for bit); their tanh is a degree-8 version
+//!   of the library's, within 2 ulps of the correctly rounded tanh;
+//! - a network keeps its training envelope as `correct` does: outside its input range `ann`
+//!   passes the reading through uncorrected and marks it invalid, `physical_ann` falls back to
+//!   the physical correction outside its input range, its covered cells or its output range.
 
 mod c_source;
 pub mod fusion;
