@@ -19,7 +19,7 @@ use spincal::correctors::division::DivisionMode;
 use spincal::correctors::gyro::{GyroInputUnit, GyroModel};
 use spincal::correctors::physical::{PhysicalCorrector, SensorModel};
 use spincal::correctors::physical_ann::{InputCoverage, PhysicalAnnCorrector};
-use spincal::firmware::fusion_values;
+use spincal::firmware::{export_firmware, fusion_values, ExportOptions};
 use spincal::linear::LinearModel;
 use spincal::recording::{Recording, STANDARD_GRAVITY};
 use spincal::simulate::campaign::profile_sensor_model;
@@ -249,6 +249,7 @@ fn export_all(dir: &Path, models: &[(&str, CorrectorFile)]) {
             kind,
         ]));
         assert!(printed.contains("x-io Fusion"), "{printed}");
+        assert!(printed.contains("float export: at most"), "{printed}");
         for suffix in ["f32.h", "f32.c", "f64.h", "f64.c", "model.rs"] {
             assert!(out.join(format!("{kind}_{suffix}")).is_file(), "{kind}_{suffix}");
         }
@@ -515,6 +516,17 @@ fn every_kind_exported_to_c_and_no_std_rust_matches_the_library() {
                 worst_gyro[b]
             );
         }
+        // The error the export states for its float build, measured on its training range.
+        let stated = export_firmware(file, kind, &ExportOptions::default())
+            .unwrap()
+            .float_error;
+        let worst_stated = stated.max_abs_mps2.iter().fold(0.0f64, |m, v| m.max(*v));
+        println!(
+            "{kind:16} stated float error {worst_stated:.2e} m/s² over {} grid points ({} flagged differently)",
+            stated.points, stated.flags_differ
+        );
+        assert!(stated.points > 100, "{kind}: {stated:?}");
+        assert!(worst_stated <= 2e-6 * full_scale, "{kind}: {stated:?}");
         if *kind == "physical_ann" || *kind == "ann" {
             // Both sides of the envelope were exercised.
             assert!(

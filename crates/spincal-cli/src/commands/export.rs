@@ -57,7 +57,8 @@ pub fn run(args: ExportArgs) -> anyhow::Result<()> {
     for path in &written {
         text.push_str(&format!("  {}\n", path.display()));
     }
-    text.push('\n');
+    text.push_str(&export.float_error_text());
+    text.push_str("\n\n");
     text.push_str(&spincal::firmware::fusion_text(&export.fusion));
     ui::print(&text)
 }

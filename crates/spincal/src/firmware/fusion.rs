@@ -267,7 +267,7 @@ pub fn fusion_values(file: &CorrectorFile) -> FusionValues {
 }
 
 /// The grid over `range`: GRID points per axis, ends included.
-fn grid(range: &[[f64; 2]; 3]) -> impl Iterator<Item = [f64; 3]> + '_ {
+pub(crate) fn grid(range: &[[f64; 2]; 3]) -> impl Iterator<Item = [f64; 3]> + '_ {
     let at =
         move |k: usize, i: usize| range[k][0] + (range[k][1] - range[k][0]) * i as f64 / (GRID - 1) as f64;
     (0..GRID * GRID * GRID).map(move |n| {

@@ -16,12 +16,14 @@
 
 mod c_source;
 pub mod fusion;
+mod numerics;
 mod plan;
 mod rust_source;
 
 use std::path::{Path, PathBuf};
 
 pub use fusion::{fusion_text, fusion_values, FusionCalibration, FusionValues, NotHeld};
+pub use numerics::FloatError;
 pub use plan::MAX_UNITS;
 
 use crate::correctors::model_file::CorrectorFile;
@@ -130,6 +132,29 @@ pub struct FirmwareExport {
     /// (file name, text).
     pub files: Vec<(String, String)>,
     pub fusion: FusionValues,
+    /// How far the float export lands from the double correction over the training range
+    /// (measured whether or not float was exported).
+    pub float_error: FloatError,
+}
+
+impl FirmwareExport {
+    /// The float export's error in words (one line).
+    pub fn float_error_text(&self) -> String {
+        let e = &self.float_error;
+        let m = e.max_abs_mps2;
+        let mut text = format!(
+            "float export: at most {:.2e}, {:.2e}, {:.2e} m/s² (x, y, z) from the double correction over {} ({} grid points",
+            m[0], m[1], m[2], e.over, e.points
+        );
+        if e.flags_differ > 0 {
+            text.push_str(&format!(
+                "; {} more within rounding of an envelope's edge, flagged differently",
+                e.flags_differ
+            ));
+        }
+        text.push(')');
+        text
+    }
 }
 
 /// The firmware sources of `model`; `source` names the model in errors and in the files'
@@ -161,6 +186,7 @@ pub fn export_firmware(
     let mut precisions = options.precisions.clone();
     precisions.sort_by_key(|p| p.suffix());
     precisions.dedup();
+    let float_error = numerics::float_error(&plan, &model.corrector);
     let mut files = Vec::new();
     for &precision in &precisions {
         files.extend(c_source::files(&plan, name, precision, &provenance));
@@ -171,11 +197,22 @@ pub fn export_firmware(
     ));
     let fusion = fusion_values(model);
     files.push(("fusion.txt".into(), fusion_text(&fusion)));
-    Ok(FirmwareExport {
+    let mut export = FirmwareExport {
         kind: plan.kind,
         files,
         fusion,
-    })
+        float_error,
+    };
+    // The float header states its own error.
+    let note = export.float_error_text().replace("*/", "* /");
+    let header = format!("{name}_f32.h");
+    if let Some((_, text)) = export.files.iter_mut().find(|(n, _)| *n == header) {
+        *text = format!(
+            "/* {note} */
+{text}"
+        );
+    }
+    Ok(export)
 }
 
 /// Writes every file of `export` into `dir` (created if missing), each through a temporary file
