@@ -195,7 +195,8 @@ fn a_saved_corrector_held_on_every_condition_and_round_trips() {
             // the error against truth.
             for h in &rows {
                 let (p, t) = (h.physics.as_ref().unwrap(), h.truth.as_ref().unwrap());
-                assert!(p.ratio < 0.9 && t.ratio < 0.9, "{h:?}");
+                let figure = h.predicted.as_ref().map_or(p.ratio, |x| x.ratio);
+                assert!(p.ratio < 1.0 && figure < 0.9 && t.ratio < 0.9, "{h:?}");
             }
         }
     }
@@ -337,22 +338,26 @@ fn the_physical_model_with_nonlinearity_beats_the_linear_map_on_held_out_conditi
     assert!(wins * 10 >= seeds as usize * 8, "{wins}/{seeds}");
 }
 
-/// Six still poses (the faces alone) with a drifting bias: a held-out pose group can defeat every
-/// corrector (seed 2024, the demo's), and then the verdict says to record more poses.
+/// Six still poses (the faces alone) with a drifting bias (seed 2024, the demo's): a held-out pose
+/// group pins little down. The verdict agrees with what truth would have chosen, and when it saves
+/// nothing it asks for more poses.
 #[test]
-fn six_poses_that_defeat_every_corrector_ask_for_more_poses() {
+fn six_poses_give_the_choice_truth_would_make_or_ask_for_more_poses() {
     let setup = CampaignSetup {
         poses: 6,
         ..CampaignSetup::default()
     };
     let out = calibrated(&setup, 2024, &CampaignSettings::default());
     let verdict = &out.result.verdict;
-    assert!(out.saved.is_none(), "{verdict}");
-    assert!(verdict.contains("on \"poses "), "{verdict}");
-    assert!(
-        verdict.contains("Record next: more still poses (6 now"),
-        "{verdict}"
-    );
+    println!("{verdict}");
+    assert!(out.result.truth_check.as_ref().unwrap().agrees, "{verdict}");
+    if out.saved.is_none() {
+        assert!(verdict.contains("on \"poses "), "{verdict}");
+        assert!(
+            verdict.contains("Record next: more still poses (6 now"),
+            "{verdict}"
+        );
+    }
 }
 
 /// Without bias drift (the floor is then the white noise, and the fit is told the bias is stable),
@@ -569,4 +574,39 @@ fn undetermined_advice_knows_the_poses_the_campaign_holds() {
         bias_x.1.contains("x axis up and down") && !bias_x.1.starts_with("the campaign"),
         "{bias_x:?}"
     );
+}
+
+/// A ±2 g part with 0.8 % FS nonlinearity (q·g² about 0.04 m/s², inside its datasheet) and no
+/// datasheet keys in the campaign: the default prior (0.5 % FS over ±8 g) would hold q near zero
+/// and let the biases absorb q·g². The campaign's poses determine q, so the data decide it and the
+/// true q lies within 3 standard errors (five seeds, three axes: at least 13 of 15).
+#[test]
+fn the_data_decide_the_nonlinearity_when_the_campaign_determines_it() {
+    let mut setup = CampaignSetup::default();
+    setup.sensor.range_g = 2.0;
+    setup.sensor.nonlinearity_pct_fs = 0.8;
+    let settings = CampaignSettings {
+        candidates: vec![CandidateKind::Physical],
+        ..CampaignSettings::default()
+    };
+    let (mut inside, mut total) = (0, 0);
+    for seed in 0..5 {
+        let sim = simulate_campaign(&setup, seed).unwrap();
+        let out =
+            calibrate_campaign("u", &units(&sim, false), &settings, &spincal::progress::silent).unwrap();
+        let r = &out.result;
+        assert_eq!(r.nonlinearity.decided_by, "data", "{:?}", r.nonlinearity);
+        let truth = sim.truth.sensor.params();
+        for k in 9..12 {
+            let p = &r.joint.sensor_params[k];
+            let se = p.std_error.unwrap();
+            println!(
+                "seed {seed} {}: {:.2e} ± {:.1e} (true {:.2e})",
+                p.name, p.value, se, truth[k]
+            );
+            total += 1;
+            inside += usize::from((p.value - truth[k]).abs() <= 3.0 * se);
+        }
+    }
+    assert!(inside >= 13, "{inside}/{total}");
 }

@@ -130,6 +130,90 @@ pub enum CampaignCalError {
     Setting { name: &'static str, why: String },
 }
 
+/// The prior on q of the first, data-only fit, 1/(m/s²): far beyond any datasheet, so that it
+/// regularises only what the campaign cannot see at all.
+pub const DATA_ONLY_Q_PRIOR_SD: f64 = 1e-2;
+
+/// Who decided the nonlinearity q (results.json).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct NonlinearitySource {
+    /// "data" (the campaign showed a nonlinearity wider than the prior, which then takes the
+    /// width the data show), "prior" (the datasheet's or the default prior holds q), or "not
+    /// fitted".
+    pub decided_by: String,
+    /// The prior's standard deviation used, 1/(m/s²).
+    pub prior_sd: f64,
+    /// q's standard errors with the data-only prior, 1/(m/s²), where that fit was made.
+    pub data_only_se: Option<[f64; 3]>,
+    /// The rule, in words.
+    pub rule: String,
+}
+
+/// The joint fit with q's prior width decided by the data where they can: fitted first with the
+/// wide prior [`DATA_ONLY_Q_PRIOR_SD`], the spread of q over the axes is estimated as
+/// w² = mean over axes of (q̂² − se²) (the method of moments for a prior's variance). When w
+/// exceeds the settings' prior, the data have shown a nonlinearity the prior would suppress: the fit
+/// is made with w as the prior ("data"). Otherwise the settings' prior stands ("prior").
+fn fit_with_nonlinearity_rule(
+    prepared: &Prepared,
+    settings: &CampaignSettings,
+    observer: &Observer,
+) -> Result<(JointFit, JointSettings, NonlinearitySource), CampaignCalError> {
+    let prior = settings.joint.sensor_prior_sd[3];
+    let rule = format!(
+        "q is first fitted with a prior of {DATA_ONLY_Q_PRIOR_SD:e} /(m/s²); the spread its estimates show beyond their standard errors, w² = mean(q̂² − se²), replaces the prior of {prior:.2e} /(m/s²) (the datasheet's, or 0.5 % FS over ±8 g) when larger"
+    );
+    let source = |decided_by: &str, prior_sd: f64, data_only_se: Option<[f64; 3]>| NonlinearitySource {
+        decided_by: decided_by.into(),
+        prior_sd,
+        data_only_se,
+        rule: rule.clone(),
+    };
+    if !settings.joint.terms.nonlinearity {
+        let joint = fit_joint(&prepared.runs, &prepared.poses, &settings.joint, observer)?;
+        return Ok((joint, settings.joint.clone(), source("not fitted", prior, None)));
+    }
+    let mut wide = settings.joint.clone();
+    wide.sensor_prior_sd[3] = prior.max(DATA_ONLY_Q_PRIOR_SD);
+    let data_only = fit_joint(&prepared.runs, &prepared.poses, &wide, observer)?;
+    let q: [(f64, f64); 3] = std::array::from_fn(|k| {
+        let p = &data_only.sensor_params[9 + k];
+        (p.value, p.std_error.unwrap_or(f64::INFINITY))
+    });
+    let se = q.map(|(_, se)| se);
+    let spread = q.iter().map(|(v, se)| v * v - se * se).sum::<f64>() / 3.0;
+    let width = spread.max(0.0).sqrt();
+    let chosen = if width.is_finite() && width > prior {
+        JointSettings {
+            sensor_prior_sd: {
+                let mut sd = settings.joint.sensor_prior_sd;
+                sd[3] = width;
+                sd
+            },
+            ..settings.joint.clone()
+        }
+    } else {
+        settings.joint.clone()
+    };
+    let joint = fit_joint_from(
+        &prepared.runs,
+        &prepared.poses,
+        &chosen,
+        Some(&data_only),
+        observer,
+    )?;
+    let by = if chosen.sensor_prior_sd[3] > prior {
+        "data"
+    } else {
+        "prior"
+    };
+    Ok((
+        joint,
+        chosen.clone(),
+        source(by, chosen.sensor_prior_sd[3], Some(se)),
+    ))
+}
+
 /// A group of recordings that share one condition, held out together.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Condition {
@@ -192,6 +276,8 @@ pub struct CampaignResult {
     pub joint: JointFit,
     /// Sensor parameters the campaign does not determine, with what would.
     pub undetermined: Vec<(String, String)>,
+    /// Whether the data or the prior decided the nonlinearity q.
+    pub nonlinearity: NonlinearitySource,
     /// The gyroscope's calibration, when the runs carry gyro columns.
     pub gyro: Option<GyroFit>,
     /// Why the gyroscope could not be calibrated, when it could not.
@@ -730,7 +816,11 @@ pub fn calibrate_campaign(
         });
         clock = Instant::now();
     };
-    let joint = fit_joint(&prepared.runs, &prepared.poses, &settings.joint, observer)?;
+    let (joint, joint_settings, nonlinearity) = fit_with_nonlinearity_rule(&prepared, settings, observer)?;
+    let settings = &CampaignSettings {
+        joint: joint_settings,
+        ..settings.clone()
+    };
     lap("joint fit", &mut stages);
     let g = settings.joint.gravity_mps2;
     let undetermined = joint.undetermined(g, settings.determined_tolerance_mps2, &prepared.poses);
@@ -912,6 +1002,7 @@ pub fn calibrate_campaign(
             recordings: units.iter().map(|u| u.name.clone()).collect(),
             joint,
             undetermined,
+            nonlinearity,
             gyro,
             gyro_error,
             conditions,

@@ -25,8 +25,8 @@
 //! its squared residual minus the uncorrected one's exceeds Student's t quantile at one-sided
 //! probability [`WORSE_FALSE_ALARM`] (blocks − 1 degrees of freedom) times that difference's
 //! standard error. The standard error has two parts: batch means (the difference summed per block
-//! of `block_s` seconds of a run; a still pose is a block), which account for residuals correlated
-//! within a block by wow or noise; and the recording's bias offset, which no block sees because it
+//! of `block_s` seconds of a run, of one second of a still pose), which account for residuals
+//! correlated within a block by wow or noise; and the recording's bias offset, which no block sees because it
 //! is constant over a recording: an offset δ moves the difference by (2/3) Σ_k δ_k Δ_k, with Δ_k the
 //! mean residual difference on axis k and δ_k of the standard deviation the joint fit measured
 //! between its recordings' offsets (or the prior `bias_instability_mps2`, whichever is larger).
@@ -40,6 +40,10 @@ use crate::campaign::joint::{fit_run_geometry, JointSettings, SensorCovariance};
 use crate::campaign::prepare::{Prepared, UnitRecording};
 use crate::correctors::physical::{SensorModel, SENSOR_PARAMS};
 use crate::metrics::student_t_quantile;
+
+/// Length of a block within a still pose, s: a pose's noise is nearly white, and what moves it as
+/// a whole (the bias between poses) is the offset term's.
+const POSE_BLOCK_S: f64 = 1.0;
 
 /// One-sided false-alarm probability of "worse than uncorrected" on one condition.
 pub const WORSE_FALSE_ALARM: f64 = 1e-3;
@@ -100,8 +104,12 @@ pub(crate) fn condition_samples(
     for &p in poses {
         let origin = &prepared.pose_origin[p];
         let unit = &units[origin.recording];
-        block.extend(std::iter::repeat_n(next, origin.end - origin.start));
-        next += 1;
+        let len = origin.end - origin.start;
+        let time = &unit.recording.time_s[origin.start..origin.end];
+        let dt = crate::input::recording::sample_interval(time);
+        let per_block = ((POSE_BLOCK_S / dt).round() as usize).max(10);
+        block.extend((0..len).map(|s| next + s / per_block));
+        next += len.div_ceil(per_block);
         random = match (random, &unit.random_mps2) {
             (Some(mut r), Some(u)) => {
                 r.extend((origin.start..origin.end).map(|s| [u[0][s], u[1][s], u[2][s]]));

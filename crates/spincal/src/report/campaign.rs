@@ -80,6 +80,12 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
         );
     }
     h.push_str("</table><h2>Sensor model (joint fit of every recording)</h2>");
+    let _ = write!(
+        h,
+        "<p>The nonlinearity q was decided by the {}: {}.</p>",
+        escape(&r.nonlinearity.decided_by),
+        escape(&r.nonlinearity.rule)
+    );
     let _ = write!(h, "<p>Terms: {}. Standard errors: {}.</p><table><tr><th>parameter</th><th>value</th><th>standard error</th></tr>", r.joint.terms.describe(), escape(&r.joint.covariance));
     for p in &r.joint.sensor_params {
         let _ = write!(
