@@ -597,8 +597,7 @@ fn the_data_decide_the_nonlinearity_when_the_campaign_determines_it() {
         let r = &out.result;
         assert_eq!(r.nonlinearity.decided_by, "data", "{:?}", r.nonlinearity);
         let truth = sim.truth.sensor.params();
-        for k in 9..12 {
-            let p = &r.joint.sensor_params[k];
+        for (k, p) in r.joint.sensor_params.iter().enumerate().skip(9) {
             let se = p.std_error.unwrap();
             println!(
                 "seed {seed} {}: {:.2e} ± {:.1e} (true {:.2e})",
