@@ -104,7 +104,7 @@ def test_campaign_calibration_gives_the_clis_results_json(tmp_path, cli):
         assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
     html = cal.report_html()
     assert html == (tmp_path / "py" / "report.html").read_text()
-    assert "Held-out error per condition" in html and "<svg" in html and cal.result.unit in html
+    assert "Held-out residual against physics" in html and "<svg" in html and cal.result.unit in html
 
 
 def test_fit_and_static_and_allan_and_sensitivity_match_the_cli(simulated, cli):

@@ -89,7 +89,7 @@ def test_a_fleet_on_ray_recovers_each_unit_and_flags_the_faulty_one(cluster, fle
     assert (tmp_path / "out" / "fleet.csv").exists()
     assert "<svg" in (tmp_path / "out" / "fleet.html").read_text()
     assert (tmp_path / "out" / good[0].label / "results.json").exists()
-    assert "Held-out error per condition" in (tmp_path / "out" / good[0].label / "report.html").read_text()
+    assert "Held-out residual against physics" in (tmp_path / "out" / good[0].label / "report.html").read_text()
 
 
 def test_a_retried_task_gives_the_same_result(cluster, fleet, tmp_path):
