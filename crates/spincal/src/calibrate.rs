@@ -542,13 +542,34 @@ pub fn calibrate_with_runner(
     let other = if chosen == "ANN" { "linear" } else { "ANN" };
     let validated = recordings.len() > 1;
     let (chosen, verdict) = match (worse_elsewhere(&chosen), worse_elsewhere(other)) {
-        (None, _) if validated => (
-            chosen.clone(),
-            format!(
-                "Saved {chosen}: the best on validation, and no worse than uncorrected on the {} other recording(s) it never trained on.",
-                recordings.len() - 1
-            ),
-        ),
+        (None, _) if validated => {
+            // Where a network was not applied (outside its training range), "no worse" is only
+            // "unchanged": say how much of the other recordings that was.
+            let outside: Vec<String> = cross_condition
+                .iter()
+                .filter(|r| r.model == chosen)
+                .filter_map(|r| {
+                    r.outside_training_range_percent
+                        .filter(|&p| p > 0.0)
+                        .map(|p| format!("{p:.0} % of {}", r.tested_on))
+                })
+                .collect();
+            let caveat = if outside.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " It was not applied outside its training range ({}): those readings pass through uncorrected; a campaign (`spincal calibrate --campaign`) calibrates what one speed cannot.",
+                    outside.join(", ")
+                )
+            };
+            (
+                chosen.clone(),
+                format!(
+                    "Saved {chosen}: the best on validation, and no worse than uncorrected on the {} other recording(s) it never trained on.{caveat}",
+                    recordings.len() - 1
+                ),
+            )
+        }
         (None, _) => (
             chosen.clone(),
             format!(

@@ -58,7 +58,7 @@ fn fmt3(v: &[f64; 3]) -> String {
 pub fn summary(output: &CampaignOutput, out: &Path) -> String {
     let r = &output.result;
     let mut text = format!("unit {}: {}\n\n", r.unit, r.verdict);
-    text.push_str("held-out condition            corrector        residual vs physics x y z (m/s²)  uncorrected              ratio        vs truth\n");
+    text.push_str("held-out condition            corrector        residual vs physics x y z (m/s²)  uncorrected              ratio        predicted  vs truth\n");
     for h in &r.held_out {
         let (rms, uncorrected, ratio) = match &h.physics {
             Some(p) => (
@@ -73,14 +73,18 @@ pub fn summary(output: &CampaignOutput, out: &Path) -> String {
             ),
             None => (h.note.clone().unwrap_or_default(), String::new(), String::new()),
         };
+        let predicted = h
+            .predicted
+            .as_ref()
+            .map_or(String::new(), |p| format!("{:.2}", p.ratio));
         let truth = h
             .truth
             .as_ref()
             .map_or(String::new(), |t| format!("{:.2}", t.ratio));
         let _ = writeln!(
             text,
-            "{:<29} {:<16} {:<33} {:<24} {:<12} {}",
-            h.condition, h.candidate, rms, uncorrected, ratio, truth
+            "{:<29} {:<16} {:<33} {:<24} {:<12} {:<10} {}",
+            h.condition, h.candidate, rms, uncorrected, ratio, predicted, truth
         );
     }
     if !r.undetermined.is_empty() {

@@ -37,7 +37,7 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
             escape(c.why_not.as_deref().unwrap_or(""))
         );
     }
-    h.push_str("</table><p>Each corrector is trained on every condition but one and judged on the one left out, by physics alone: a still pose's specific force must have gravity's magnitude; a turntable run must move as a rigid platter moves a perfect sensor (rate measured from the data, radius within the ruler's tolerance, platter tilt, mount rotation within its prior, no bias, scale or drift freedom). The uncorrected signal gets the same check on the same samples; <em>ratio</em> is the corrector's residual RMS over the uncorrected one's, and a corrector is <em>significantly worse</em> when its excess mean square exceeds Student's t at one-sided 0.1 % times its batch-means standard error. Against truth (simulations only) is the same on the true specific force, which the verdict never uses. The <em>floor</em> is the RMS of the error no static corrector can remove (white noise and bias drift) on those samples.</p>");
+    h.push_str("</table><p>Each corrector is trained on every condition but one and judged on the one left out, by physics alone: a still pose's specific force must have gravity's magnitude; a turntable run must move as a rigid platter moves a perfect sensor (rate measured from the data, radius within the ruler's tolerance, platter tilt, mount rotation within its prior, no bias, scale or drift freedom). The uncorrected signal gets the same check on the same samples; <em>ratio</em> is the corrector's residual RMS over the uncorrected one's; <em>predicted</em> (the physical model only) adds the error its parameters' covariance predicts and measures the uncorrected signal against the corrected one's physics reference, the figure comparable with the truth ratio; and a corrector is <em>significantly worse</em> when its excess mean square exceeds Student's t at one-sided 0.1 % times its batch-means standard error. Against truth (simulations only) is the same on the true specific force, which the verdict never uses. The <em>floor</em> is the RMS of the error no static corrector can remove (white noise and bias drift) on those samples.</p>");
     if let Some(plot) = held_out_plot(r, false) {
         h.push_str(&figure(
             &plot,
@@ -50,7 +50,7 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
             "RMS error against the simulation's truth on the same samples: each corrector, the uncorrected signal and the floor.",
         )?);
     }
-    h.push_str("<table><tr><th>#</th><th>held out</th><th>corrector</th><th>RMS x</th><th>RMS y</th><th>RMS z</th><th>uncorrected x</th><th>y</th><th>z</th><th>ratio</th><th>truth ratio</th><th>floor x</th><th>y</th><th>z</th><th>note</th></tr>");
+    h.push_str("<table><tr><th>#</th><th>held out</th><th>corrector</th><th>RMS x</th><th>RMS y</th><th>RMS z</th><th>uncorrected x</th><th>y</th><th>z</th><th>ratio</th><th>predicted</th><th>truth ratio</th><th>floor x</th><th>y</th><th>z</th><th>note</th></tr>");
     let mut labels: Vec<&str> = Vec::new();
     for s in &r.held_out {
         if !labels.contains(&s.condition.as_str()) {
@@ -64,7 +64,7 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
         let worse = s.physics.as_ref().is_some_and(|p| p.worse);
         let _ = write!(
             h,
-            "<tr{}><td>{}</td><td>{}</td><td>{}</td>{}{}<td>{}</td><td>{}</td>{}<td>{}</td></tr>",
+            "<tr{}><td>{}</td><td>{}</td><td>{}</td>{}{}<td>{}</td><td>{}</td><td>{}</td>{}<td>{}</td></tr>",
             if worse { " class=\"bad\"" } else { "" },
             labels.len(),
             escape(&s.condition),
@@ -74,6 +74,7 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
             s.physics
                 .as_ref()
                 .map_or("–".into(), |p| format!("{:.2} ± {:.2}", p.ratio, p.ratio_se)),
+            value(s.predicted.as_ref().map(|p| p.ratio), 2),
             value(s.truth.as_ref().map(|t| t.ratio), 2),
             cells(s.floor_mps2),
             escape(s.note.as_deref().unwrap_or(""))
