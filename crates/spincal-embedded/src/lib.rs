@@ -40,6 +40,8 @@
 mod real;
 
 pub use real::{tanh_f32, tanh_f64, Real};
+/// The tanh's constants, which the C export writes out so that its tanh does the same operations.
+pub use real::{LN2_HI, LN2_HI_F, LN2_LO, LN2_LO_F, ROUNDER, ROUNDER_F, TANH_C, TANH_C_F};
 
 /// Widest layer (hidden or output) a [`Network`] may have: two buffers of this many values sit
 /// on the stack during a correction. `spincal export` refuses wider networks.

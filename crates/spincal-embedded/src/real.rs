@@ -102,12 +102,12 @@ impl Real for f32 {
 }
 
 // ln 2 split so that k·LN2_HI is exact for the k that occur (|k| ≤ 58).
-const LN2_HI: f64 = f64::from_bits(0x3fe6_2e42_fee0_0000);
-const LN2_LO: f64 = f64::from_bits(0x3dea_39ef_3579_3c76);
+pub const LN2_HI: f64 = f64::from_bits(0x3fe6_2e42_fee0_0000);
+pub const LN2_LO: f64 = f64::from_bits(0x3dea_39ef_3579_3c76);
 // 1.5·2^52: adding it rounds to an integer, which then sits in the low mantissa bits.
-const ROUNDER: f64 = 6_755_399_441_055_744.0;
+pub const ROUNDER: f64 = 6_755_399_441_055_744.0;
 /// 1/2! … 1/13!: (expm1(r) − r)/r² by Taylor's series.
-const TANH_C: [f64; 12] = [
+pub const TANH_C: [f64; 12] = [
     0.5,
     1.666_666_666_666_666_6e-1,
     4.166_666_666_666_666_4e-2,
@@ -147,12 +147,12 @@ pub fn tanh_f64(x: f64) -> f64 {
     (-u / (2.0 + u)).copysign(x)
 }
 
-const LN2_HI_F: f32 = f32::from_bits(0x3f31_7200);
-const LN2_LO_F: f32 = f32::from_bits(0x35bf_be8e);
+pub const LN2_HI_F: f32 = f32::from_bits(0x3f31_7200);
+pub const LN2_LO_F: f32 = f32::from_bits(0x35bf_be8e);
 // 1.5·2^23.
-const ROUNDER_F: f32 = 12_582_912.0;
+pub const ROUNDER_F: f32 = 12_582_912.0;
 /// 1/2! … 1/8!.
-const TANH_C_F: [f32; 7] = [
+pub const TANH_C_F: [f32; 7] = [
     0.5,
     1.666_666_7e-1,
     4.166_666_8e-2,

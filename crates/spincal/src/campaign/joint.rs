@@ -43,7 +43,7 @@ use crate::turntable::model::{for_each_rotation, Direction};
 /// Parameters per turntable run: r, ω, α, ϑ₀, β, ε₁, ε₂, wow (2), δ (3), drift rate (3).
 pub const RUN_PARAMS: usize = 15;
 /// Geometric parameters per run (all but the offsets), which come first.
-const GEOMETRY: usize = 9;
+pub(crate) const GEOMETRY: usize = 9;
 /// Names and units of a run's parameters.
 pub const RUN_PARAM_NAMES: [&str; RUN_PARAMS] = [
     "radius (m)",

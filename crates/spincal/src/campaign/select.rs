@@ -20,7 +20,7 @@ use crate::campaign::checks::{check_prepared, check_recordings, InputError};
 use crate::campaign::gyro::{fit_gyro, GyroFit, GyroSettings};
 use crate::campaign::joint::{
     fit_joint, fit_joint_from, JointError, JointFit, JointSettings, PoseInput, RunInput, SensorCovariance,
-    SensorTerms,
+    SensorTerms, GEOMETRY,
 };
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
 use crate::campaign::verdict::{
@@ -1040,7 +1040,7 @@ fn no_conditions_verdict(prepared: &Prepared, undetermined: &[(String, String)])
 /// The RMS over runs and axes of the joint fit's per-run bias offsets (at each run's middle), m/s².
 fn offset_spread(joint: &JointFit, runs: usize) -> f64 {
     let offsets: Vec<f64> = (0..runs)
-        .flat_map(|i| joint.run_params(i)[9..12].to_vec())
+        .flat_map(|i| joint.run_params(i)[GEOMETRY..GEOMETRY + 3].to_vec())
         .collect();
     (offsets.iter().map(|v| v * v).sum::<f64>() / offsets.len().max(1) as f64).sqrt()
 }

@@ -231,36 +231,8 @@ pub fn write_export(export: &FirmwareExport, dir: &Path) -> Result<Vec<PathBuf>,
     Ok(written)
 }
 
-// The network's tanh constants (see `correctors::ann::network` and `spincal_embedded`).
-const LN2_HI: f64 = f64::from_bits(0x3fe6_2e42_fee0_0000);
-const LN2_LO: f64 = f64::from_bits(0x3dea_39ef_3579_3c76);
-const ROUNDER: f64 = 6_755_399_441_055_744.0;
-const TANH_C: [f64; 12] = [
-    0.5,
-    1.666_666_666_666_666_6e-1,
-    4.166_666_666_666_666_4e-2,
-    8.333_333_333_333_333e-3,
-    1.388_888_888_888_889e-3,
-    1.984_126_984_126_984e-4,
-    2.480_158_730_158_73e-5,
-    2.755_731_922_398_589_3e-6,
-    2.755_731_922_398_589e-7,
-    2.505_210_838_544_172e-8,
-    2.087_675_698_786_81e-9,
-    1.605_904_383_682_161_3e-10,
-];
-const LN2_HI_F: f32 = f32::from_bits(0x3f31_7200);
-const LN2_LO_F: f32 = f32::from_bits(0x35bf_be8e);
-const ROUNDER_F: f32 = 12_582_912.0;
-const TANH_C_F: [f32; 7] = [
-    0.5,
-    1.666_666_7e-1,
-    4.166_666_8e-2,
-    8.333_334e-3,
-    1.388_888_9e-3,
-    1.984_127e-4,
-    2.480_158_7e-5,
-];
+// The network's tanh constants, one copy (the no_std crate's), written out by the C export.
+use spincal_embedded::{LN2_HI, LN2_HI_F, LN2_LO, LN2_LO_F, ROUNDER, ROUNDER_F, TANH_C, TANH_C_F};
 
 #[cfg(test)]
 mod tests {
