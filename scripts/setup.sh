@@ -1,8 +1,15 @@
 #!/usr/bin/env bash
-# Installs what the test suite needs beyond the Rust toolchain. Safe to run repeatedly.
+# Installs what the test suite needs beyond the Rust toolchain, and builds the tests. Safe to run
+# repeatedly.
 # - chromium (Debian package): the headless browser that renders the HTML report and figures in tests.
 # - gcc-arm-none-eabi, libnewlib-arm-none-eabi, qemu-system-arm: the firmware export on a Cortex-M4F.
+# - the test venv (.venv) and the Python package's wheel: scripts/python_env.sh.
+# The Debian packages and the venv's downloads are mostly waiting on the network, so they run in the
+# background while cargo builds the workspace's tests (the CPU's work); the wheel, which needs the
+# venv's maturin and shares the library's artifacts with that build, comes last.
 set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+logs=$(mktemp -d "${TMPDIR:-/tmp}/spincal-setup.XXXXXX")
 
 as_root() {
     if [ "$(id -u)" -eq 0 ]; then
@@ -15,28 +22,56 @@ as_root() {
     fi
 }
 
+packages=()
 if [ -x /usr/bin/chromium ]; then
     echo "spincal setup: chromium present ($(/usr/bin/chromium --version 2>/dev/null || echo 'version unknown'))"
 else
-    echo "spincal setup: installing chromium (headless browser tests)"
-    export DEBIAN_FRONTEND=noninteractive
-    as_root env DEBIAN_FRONTEND=noninteractive apt-get update -q
-    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends chromium fonts-dejavu-core
-    /usr/bin/chromium --version
+    packages+=(chromium fonts-dejavu-core)
 fi
-
-# The Cortex-M4F toolchain and emulator (Debian packages): the firmware export's float C is
-# built for a Cortex-M4F and run under QEMU (crates/spincal-cli/tests/firmware.rs).
+# The Cortex-M4F toolchain and emulator: the firmware export's float C is built for a Cortex-M4F
+# and run under QEMU (crates/spincal-cli/tests/firmware.rs).
 if command -v arm-none-eabi-gcc >/dev/null 2>&1 && command -v qemu-system-arm >/dev/null 2>&1 \
     && [ -f /usr/lib/arm-none-eabi/newlib/thumb/v7e-m+fp/hard/librdimon.a ]; then
     echo "spincal setup: arm-none-eabi-gcc and qemu-system-arm present ($(arm-none-eabi-gcc -dumpversion))"
 else
-    echo "spincal setup: installing gcc-arm-none-eabi, libnewlib-arm-none-eabi, qemu-system-arm (Cortex-M4F test)"
-    as_root env DEBIAN_FRONTEND=noninteractive apt-get update -q
-    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends \
-        gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm
+    packages+=(gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)
+fi
+
+pids=()
+names=()
+if [ ${#packages[@]} -gt 0 ]; then
+    echo "spincal setup: installing ${packages[*]} (Debian) in the background"
+    (
+        as_root env DEBIAN_FRONTEND=noninteractive apt-get update -q
+        as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${packages[@]}"
+    ) >"$logs/apt.log" 2>&1 &
+    pids+=($!)
+    names+=(apt)
+fi
+bash "$root/scripts/python_env.sh" venv >"$logs/venv.log" 2>&1 &
+pids+=($!)
+names+=(venv)
+
+echo "spincal setup: building the workspace's tests (release) meanwhile"
+build_status=0
+(cd "$root" && cargo test --release --workspace --no-run) || build_status=$?
+
+failed=0
+for i in "${!pids[@]}"; do
+    if wait "${pids[$i]}"; then
+        grep '^spincal setup' "$logs/${names[$i]}.log" || true
+    else
+        echo "spincal setup: ${names[$i]} failed; its log ($logs/${names[$i]}.log):" >&2
+        cat "$logs/${names[$i]}.log" >&2
+        failed=1
+    fi
+done
+[ "$build_status" -eq 0 ] || { echo "spincal setup: the test build failed" >&2; exit "$build_status"; }
+[ "$failed" -eq 0 ] || exit 1
+if [ ${#packages[@]} -gt 0 ]; then
+    /usr/bin/chromium --version
     arm-none-eabi-gcc --version | head -n 1
 fi
 
-# The test venv (.venv): Python peers and fixture writers the tests call.
-bash "$(dirname "$0")/python_env.sh"
+bash "$root/scripts/python_env.sh" wheel
+rm -rf "$logs"

@@ -1,8 +1,6 @@
 //! `spincal train` / `correct` end to end through the real binary.
 
-mod common;
-
-use common::write_pair;
+use crate::common::write_pair;
 use std::path::Path;
 
 use assert_cmd::Command;

@@ -1,7 +1,7 @@
 //! The strobe disc, inlined in an HTML page, renders in a real browser: no console errors, no empty
 //! `<svg>`, and bars on the screenshot. Skips when Chromium is absent unless SPINCAL_REQUIRE_BROWSER=1.
 
-mod support;
+use crate::support;
 
 use assert_cmd::Command;
 

@@ -1,24 +1,20 @@
 //! `spincal demo` end to end: the files, the numbers in results.json, the report in a real browser,
 //! and every number shown in the report equal to the one in results.json.
 
-mod support;
+use crate::support;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use assert_cmd::Command;
 use serde_json::Value;
 
-fn run_demo(dir: &Path) -> Value {
-    let out = Command::cargo_bin("spincal")
-        .unwrap()
-        .args(["demo", "--quiet", "--out"])
-        .arg(dir)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let stdout = String::from_utf8(out.stdout).unwrap();
+/// The suite's one demo run (`support::demo`): its output folder and results.json.
+fn run_demo() -> (PathBuf, Value) {
+    let (dir, stdout) = support::demo();
     assert!(stdout.contains("report.html"), "{stdout}");
-    serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap()
+    let dir = dir.join("spincal-demo");
+    let results = serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap();
+    (dir, results)
 }
 
 fn param(results: &Value, name: &str) -> (f64, f64) {
@@ -46,9 +42,8 @@ fn row<'a>(results: &'a Value, table: &str, model: &str) -> &'a Value {
 /// One demo run serves all checks (it is the expensive part).
 #[test]
 fn demo_writes_model_results_and_a_report_that_renders() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let results = run_demo(d);
+    let (dir, results) = run_demo();
+    let d = dir.as_path();
     for file in [
         "model.json",
         "results.json",

@@ -3,12 +3,10 @@
 //! density; imu_tk's `.calib` is checked against the files imu_tk itself wrote. The gyroscope
 //! calibration is applied by `correct` to the gyro columns.
 
-mod harness;
-
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use harness::{run, shared, spincal, venv_python};
+use crate::harness::{run, shared, spincal, venv_python};
 
 fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
     let text = std::fs::read_to_string(path).unwrap();

@@ -5,12 +5,10 @@
 // Parallel per-axis arrays read best with indices.
 #![allow(clippy::needless_range_loop)]
 
-mod harness;
-
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use harness::{fails, run, shared, spincal, venv_python};
+use crate::harness::{fails, run, shared, spincal, venv_python};
 
 use spincal::correctors::gyro::{GyroInputUnit, GyroModel};
 use spincal::simulate::gyro_poses::{simulate_pose_session, PoseSessionSetup};

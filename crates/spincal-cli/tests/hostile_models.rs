@@ -2,9 +2,7 @@
 //! exit code 1 and an error naming the field; no output file appears, and neither the model nor
 //! the input is touched.
 
-mod common;
-
-use common::write_pair;
+use crate::common::write_pair;
 use std::path::Path;
 
 use assert_cmd::Command;

@@ -1,8 +1,6 @@
 //! The network corrector end to end on synthetic turntable data.
 
-mod common;
-
-use common::synthetic::turntable_pair;
+use crate::common::synthetic::turntable_pair;
 use spincal::ann::lm::full_jacobian;
 use spincal::ann::{
     reduce_sweep, run_sweep_job, sweep, AnnError, AnnProblem, DivisionMode, LmSettings, LmWorkspace, Part,

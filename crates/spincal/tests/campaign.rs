@@ -9,8 +9,7 @@ use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
 use spincal::correctors::physical::{quadratic_from_datasheet, PhysicalCorrector};
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, RunSetup};
 
-mod common;
-use common::campaign_units as units;
+use crate::common::campaign_units as units;
 
 /// Simulates the campaign with `seed` and calibrates it (truth attached) with `settings`.
 fn calibrated(

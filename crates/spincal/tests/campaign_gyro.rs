@@ -7,7 +7,7 @@ use spincal::campaign::joint::{fit_joint, JointSettings};
 use spincal::campaign::prepare::{prepare, UnitRecording};
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, SimulatedCampaign};
 
-mod common;
+use crate::common;
 
 fn units(sim: &SimulatedCampaign) -> Vec<UnitRecording> {
     common::campaign_units(sim, false)

@@ -7,7 +7,7 @@
 // Axis loops index several parallel per-axis arrays at once.
 #![allow(clippy::needless_range_loop)]
 
-mod common;
+use crate::common;
 
 use spincal::campaign::joint::{fit_joint, JointSettings, PoseInput, SensorTerms};
 use spincal::formats::{read_path, Format, ReadOptions};

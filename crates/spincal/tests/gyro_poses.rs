@@ -5,7 +5,7 @@
 // 3×3 comparisons read best with indices.
 #![allow(clippy::needless_range_loop)]
 
-mod common;
+use crate::common;
 
 use spincal::correctors::gyro::{GyroInputUnit, GyroModel};
 use spincal::correctors::gyro_poses::{

@@ -2,11 +2,9 @@
 //! is refused with an error that names the file and the field, never a panic, and a file that
 //! loads can be applied without panicking.
 
-mod common;
-
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use common::synthetic::turntable_pair;
+use crate::common::synthetic::turntable_pair;
 use serde_json::{json, Value};
 use spincal::ann::{AnnError, AnnProblem, DivisionMode, LmSettings, MAX_DELAYS};
 use spincal::corrector::{Axis, Corrector};

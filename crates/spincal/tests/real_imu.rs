@@ -4,7 +4,7 @@
 // Axis loops index several parallel per-axis arrays at once.
 #![allow(clippy::needless_range_loop)]
 
-mod common;
+use crate::common;
 
 use spincal::formats::{read_path, Format, Loaded, ReadOptions};
 use spincal::static_cal::{fit_static, pose_means, spread_about, StaticFitOptions, StaticModel};

@@ -8,7 +8,7 @@
 // Axis loops index several parallel per-axis arrays at once.
 #![allow(clippy::needless_range_loop)]
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};

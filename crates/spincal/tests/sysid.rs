@@ -1,7 +1,7 @@
 //! System identification against known truth, numpy, the peers (pysib, SIPPY) and the real
 //! benchmarks. Fixtures come from bench/sysid/make_fixtures.py.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -9,7 +9,7 @@
 //! training output's mean). The share is 0.5 where a linear model is known to explain most of the
 //! output (Silverbox, WH2009) and 0.6 for the tanks, whose overflow a low-order model misses.
 
-mod common;
+use crate::common;
 
 use spincal::formats::read_table;
 use spincal::metrics::rmse;

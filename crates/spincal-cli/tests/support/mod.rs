@@ -163,3 +163,27 @@ pub fn count_empty_svgs(dom: &str) -> usize {
         })
         .count()
 }
+
+/// `spincal demo --out spincal-demo --quiet`, run once for the whole suite in a folder of its own
+/// (the demo test checks its files; the help-example test counts it as its `demo` example): the
+/// folder holding `spincal-demo`, and the command's stdout. Panics when the demo fails.
+pub fn demo() -> &'static (PathBuf, String) {
+    static DEMO: std::sync::OnceLock<(PathBuf, String)> = std::sync::OnceLock::new();
+    DEMO.get_or_init(|| {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("demo-run");
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_spincal"))
+            .current_dir(&dir)
+            .args(["demo", "--out", "spincal-demo", "--quiet"])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "`spincal demo --out spincal-demo` exited with {:?}:\n{}",
+            out.status.code(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        (dir, String::from_utf8(out.stdout).unwrap())
+    })
+}

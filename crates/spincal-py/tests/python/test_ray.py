@@ -41,12 +41,19 @@ def _comparable(results_json):
     return data
 
 
-def test_a_fleet_on_ray_recovers_each_unit_and_flags_the_faulty_one(cluster, fleet, tmp_path):
-    folder, folders, truths = fleet
-    broken = tmp_path / "no-campaign"
+@pytest.fixture(scope="module")
+def ray_fleet(cluster, fleet, tmp_path_factory):
+    """The fleet calibrated on Ray once, with a folder holding no campaign fourth in the list."""
+    _, folders, _ = fleet
+    broken = tmp_path_factory.mktemp("broken") / "no-campaign"
     broken.mkdir()
     sources = folders[:3] + [str(broken)] + folders[3:]
-    result = sray.calibrate_fleet(sources, progress=True)
+    return broken, sray.calibrate_fleet(sources, progress=True)
+
+
+def test_a_fleet_on_ray_recovers_each_unit_and_flags_the_faulty_one(ray_fleet, fleet, tmp_path):
+    folder, folders, truths = fleet
+    broken, result = ray_fleet
     assert len(result.units) == 9
     # The broken unit fails alone, with a located message; the eight others are calibrated.
     bad = result.units[3]
@@ -77,8 +84,11 @@ def test_a_fleet_on_ray_recovers_each_unit_and_flags_the_faulty_one(cluster, fle
     assert any("bias" in p and "x" in p for p in flagged) and any("scale" in p and "y" in p for p in flagged)
     assert "unit" in result.table_csv.splitlines()[0]
 
-    # The same results as calibrating each unit alone, in this process.
-    for unit, source in zip(good, folders):
+    # The same results as calibrating a unit alone, in this process: the faulty unit and the first
+    # (every unit travels the same way; the library's fleet test covers all eight's statistics).
+    faulty_index = next(i for i, t in enumerate(truths) if t.faulty)
+    for i in sorted({0, faulty_index}):
+        unit, source = good[i], folders[i]
         alone = spincal.calibrate_unit(source)
         assert _comparable(unit._results_json) == _comparable(json.dumps(alone.result.to_dict()))
         assert (unit.corrector is None) == (alone.corrector is None)
@@ -92,19 +102,18 @@ def test_a_fleet_on_ray_recovers_each_unit_and_flags_the_faulty_one(cluster, fle
     assert "Held-out residual against physics" in (tmp_path / "out" / good[0].label / "report.html").read_text()
 
 
-def test_a_retried_task_gives_the_same_result(cluster, fleet, tmp_path):
+def test_a_retried_task_gives_the_same_result(ray_fleet, fleet, tmp_path):
     _, folders, _ = fleet
-    first = sray.calibrate_fleet(folders[:2], max_in_flight=1)
+    _, first = ray_fleet
     markers = tmp_path / "markers"
     markers.mkdir()
     # Every task's first attempt kills its worker, as a lost node would; Ray runs it again.
     again = sray.calibrate_fleet(
-        folders[:2], runtime_env={"env_vars": {"SPINCAL_RAY_CRASH_ONCE": str(markers)}}, max_retries=2
+        folders[:1], runtime_env={"env_vars": {"SPINCAL_RAY_CRASH_ONCE": str(markers)}}, max_retries=2
     )
-    assert sorted(os.listdir(markers)) == sorted(f"{os.path.basename(f)}.crashed" for f in folders[:2])
-    for a, b in zip(first.units, again.units):
-        assert b.ok, b.error
-        assert _comparable(a._results_json) == _comparable(b._results_json)
+    assert os.listdir(markers) == [f"{os.path.basename(folders[0])}.crashed"]
+    assert again.units[0].ok, again.units[0].error
+    assert _comparable(first.units[0]._results_json) == _comparable(again.units[0]._results_json)
     # Without retries the lost worker is that unit's failure, not the fleet's.
     markers2 = tmp_path / "markers2"
     markers2.mkdir()

@@ -67,7 +67,9 @@ pub const RUN_PARAM_NAMES: [&str; RUN_PARAMS] = [
 pub const POSE_PARAMS: usize = 2;
 const POSE_PARAM_NAMES: [&str; POSE_PARAMS] = ["direction_1 (rad)", "direction_2 (rad)"];
 
-/// One turntable run, ready for the fit.
+/// One turntable run, ready for the fit. Made by [`RunInput::new`]; its readings are not edited
+/// afterwards (a corrected copy is [`RunInput::with_readings`]), because every fit of the run
+/// shares the demodulation of those readings.
 #[derive(Debug, Clone)]
 pub struct RunInput {
     pub name: String,
@@ -79,6 +81,95 @@ pub struct RunInput {
     pub entry: TurntableEntry,
     /// Gyro x, y, z, rad/s, when recorded (`campaign::gyro` calibrates it; this fit ignores it).
     pub gyro_radps: Option<[Vec<f64>; 3]>,
+    /// The demodulation behind the run's starting geometry, found by its first fit (a campaign's
+    /// held-out folds fit each run many times).
+    demodulated: std::sync::OnceLock<Demodulated>,
+}
+
+impl RunInput {
+    pub fn new(
+        name: String,
+        time_s: Vec<f64>,
+        accel_mps2: [Vec<f64>; 3],
+        keep: Vec<bool>,
+        entry: TurntableEntry,
+        gyro_radps: Option<[Vec<f64>; 3]>,
+    ) -> RunInput {
+        RunInput {
+            name,
+            time_s,
+            accel_mps2,
+            keep,
+            entry,
+            gyro_radps,
+            demodulated: std::sync::OnceLock::new(),
+        }
+    }
+
+    /// The same run with other readings and samples kept (a corrector's output, say).
+    pub fn with_readings(&self, accel_mps2: [Vec<f64>; 3], keep: Vec<bool>) -> RunInput {
+        RunInput::new(
+            self.name.clone(),
+            self.time_s.clone(),
+            accel_mps2,
+            keep,
+            self.entry.clone(),
+            self.gyro_radps.clone(),
+        )
+    }
+
+    /// The run's demodulation in the mounting frame of its entry, found once.
+    fn demodulated(&self) -> Demodulated {
+        let key = (self.entry.out, self.entry.up, self.entry.rpm.to_bits());
+        match self.demodulated.get() {
+            Some(found) if found.key == key => *found,
+            Some(_) => Demodulated::of(self, key),
+            None => *self.demodulated.get_or_init(|| Demodulated::of(self, key)),
+        }
+    }
+}
+
+/// What demodulating a run's horizontal readings (in its mounting frame) finds: the rate, the
+/// rotation sense, the rotating part's amplitude and phase, and the constant part. `key`: the
+/// entry's mounting and nominal rpm it was found with.
+#[derive(Debug, Clone, Copy)]
+struct Demodulated {
+    key: (SignedAxis, SignedAxis, u64),
+    rate_radps: f64,
+    sigma: f64,
+    amplitude: f64,
+    phase: f64,
+    constant: [f64; 2],
+}
+
+impl Demodulated {
+    fn of(run: &RunInput, key: (SignedAxis, SignedAxis, u64)) -> Demodulated {
+        let q = mounting_matrix(run.entry.out, run.entry.up);
+        let mut time = Vec::with_capacity(run.time_s.len());
+        let mut horizontal = Vec::with_capacity(run.time_s.len());
+        for (s, &t) in run.time_s.iter().enumerate() {
+            if !run.keep[s] {
+                continue;
+            }
+            let a = [run.accel_mps2[0][s], run.accel_mps2[1][s], run.accel_mps2[2][s]];
+            // Qᵀ a: the readings along out, up × out and up.
+            let m: [f64; 3] = std::array::from_fn(|c| (0..3).map(|r| q[r][c] * a[r]).sum());
+            time.push(t);
+            horizontal.push([m[0], m[1]]);
+        }
+        let nominal = run.entry.rpm * 2.0 * std::f64::consts::PI / 60.0;
+        let (rate_radps, sigma, amplitude, phase) = demodulate(&time, &horizontal, nominal);
+        let n = horizontal.len().max(1) as f64;
+        let constant = [0, 1].map(|c| horizontal.iter().map(|h| h[c]).sum::<f64>() / n);
+        Demodulated {
+            key,
+            rate_radps,
+            sigma,
+            amplitude,
+            phase,
+            constant,
+        }
+    }
 }
 
 /// One still pose, ready for the fit.
@@ -1340,28 +1431,13 @@ pub(crate) fn demodulate(
     (w, sigma, g, psi)
 }
 
-/// Starting values of a run's geometry from its readings in the mounting frame (`q`: the
-/// mounting matrix), and the rotation sense σ (given, or found by demodulation).
-pub fn run_start(run: &RunInput, q: &M3, gravity: f64) -> ([f64; RUN_PARAMS], f64) {
-    let mut time = Vec::with_capacity(run.time_s.len());
-    let mut horizontal = Vec::with_capacity(run.time_s.len());
-    for (s, &t) in run.time_s.iter().enumerate() {
-        if !run.keep[s] {
-            continue;
-        }
-        let a = [run.accel_mps2[0][s], run.accel_mps2[1][s], run.accel_mps2[2][s]];
-        // Qᵀ a: the readings along out, up × out and up.
-        let m: [f64; 3] = std::array::from_fn(|c| (0..3).map(|r| q[r][c] * a[r]).sum());
-        time.push(t);
-        horizontal.push([m[0], m[1]]);
-    }
-    let nominal = run.entry.rpm * 2.0 * std::f64::consts::PI / 60.0;
-    let (w, found_sigma, amplitude, psi) = demodulate(&time, &horizontal, nominal);
-    let sigma = run.entry.direction.map_or(found_sigma, Direction::sign);
-    let n = horizontal.len().max(1) as f64;
-    let cx = horizontal.iter().map(|h| h[0]).sum::<f64>() / n;
-    let cy = horizontal.iter().map(|h| h[1]).sum::<f64>() / n;
-    let tilt = (amplitude / gravity).clamp(0.0, 0.5).asin();
+/// Starting values of a run's geometry from its readings in its mounting frame, and the rotation
+/// sense σ (given, or found by demodulation).
+pub fn run_start(run: &RunInput, gravity: f64) -> ([f64; RUN_PARAMS], f64) {
+    let found = run.demodulated();
+    let sigma = run.entry.direction.map_or(found.sigma, Direction::sign);
+    let [cx, cy] = found.constant;
+    let tilt = (found.amplitude / gravity).clamp(0.0, 0.5).asin();
     // The constant is −ω² r turned by β; with no centripetal level β is left at 0.
     let beta = if (cx * cx + cy * cy).sqrt() > 1e-3 {
         (-cy).atan2(-cx)
@@ -1370,9 +1446,9 @@ pub fn run_start(run: &RunInput, q: &M3, gravity: f64) -> ([f64; RUN_PARAMS], f6
     };
     let mut start = [0.0; RUN_PARAMS];
     start[0] = run.entry.radius_m;
-    start[1] = w;
+    start[1] = found.rate_radps;
     start[2] = tilt.max(1e-4);
-    start[3] = psi - beta;
+    start[3] = found.phase - beta;
     start[4] = beta;
     (start, sigma)
 }
@@ -1504,18 +1580,20 @@ fn fit_joint_with(
             + SESSION_PARAMS * sessions(poses)
     ];
     let mut directions = Vec::with_capacity(runs.len());
-    for (i, run) in runs.iter().enumerate() {
-        let (start, direction) = run_start(run, &mountings[i], g);
-        p[run_offset(i)..run_offset(i) + RUN_PARAMS].copy_from_slice(&start);
-        directions.push(direction);
-    }
     if let Some(previous) = start.filter(|f| f.state.params.len() == p.len()) {
+        // A nested model starts where the full one ended (the runs' own starts are not needed).
         p.copy_from_slice(&previous.state.params);
         directions.clone_from(&previous.state.directions);
         for k in 0..SENSOR_PARAMS {
             if !settings.terms.free(k) {
                 p[k] = 0.0;
             }
+        }
+    } else {
+        for (i, run) in runs.iter().enumerate() {
+            let (start, direction) = run_start(run, g);
+            p[run_offset(i)..run_offset(i) + RUN_PARAMS].copy_from_slice(&start);
+            directions.push(direction);
         }
     }
     let block_samples = runs

@@ -168,14 +168,14 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
                     });
                 }
                 let keep = saturated_mask(rec, None).iter().map(|s| !s).collect();
-                out.runs.push(RunInput {
-                    name: unit.name.clone(),
-                    time_s: rec.time_s.clone(),
-                    accel_mps2: rec.accel_mps2.clone(),
+                out.runs.push(RunInput::new(
+                    unit.name.clone(),
+                    rec.time_s.clone(),
+                    rec.accel_mps2.clone(),
                     keep,
-                    entry: entry.clone(),
-                    gyro_radps: rec.gyro_radps.clone(),
-                });
+                    entry.clone(),
+                    rec.gyro_radps.clone(),
+                ));
                 out.run_origin.push(index);
             }
             None => {

@@ -139,11 +139,7 @@ pub(crate) fn sample_errors(
         let run = &prepared.runs[i];
         let unit = &units[prepared.run_origin[i]];
         let keep = |s: usize| run.keep[s] && signal.valid[s];
-        let mut seen = run.clone();
-        seen.accel_mps2 = signal.accel.clone();
-        for s in 0..seen.keep.len() {
-            seen.keep[s] = keep(s);
-        }
+        let seen = run.with_readings(signal.accel.clone(), (0..run.keep.len()).map(keep).collect());
         let fit = fit_run_geometry(&seen, joint).map_err(|e| format!("{}: {e}", run.name))?;
         let reference = fit.run_reference(0, &run.time_s);
         physics.extend(
