@@ -10,10 +10,11 @@ use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2,
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
-use spincal::calibrate::{CalibrateSettings, CalibrationOutput, NetworkChoice};
-use spincal::campaign::{Campaign, CampaignOutput, CampaignSettings};
+use spincal::calibrate::CalibrationOutput;
+use spincal::campaign::{Campaign, CampaignOutput};
 use spincal::corrector::{Axis, Corrector};
 use spincal::formats::{Format, ReadOptions};
+use spincal::params::{NetworkChoice, Params};
 use spincal::recording::{GyroUnit, TimeUnit};
 use spincal::sysid::{ModelKind, ModelSpec};
 use spincal::turntable::{AxesObjective, DriftMode, FitOptions, RadiusPrior};
@@ -580,13 +581,12 @@ fn calibrate<'py>(
         .ok_or_else(|| usage(format!("correct_axes {correct_axes:?}: expected e.g. x,y")))?;
     let spec = |kind: ModelKind, text: &str, what: &str| -> PyResult<ModelSpec> {
         let orders = parse_orders(text, what)?;
-        let mut spec = ModelSpec::new(kind, &orders).map_err(|e| usage(format!("{what}: {e}")))?;
-        spec.seed = seed;
-        Ok(spec)
+        ModelSpec::new(kind, &orders).map_err(|e| usage(format!("{what}: {e}")))
     };
-    let settings = CalibrateSettings {
+    // The library's defaults with what the keywords name (nothing else is decided here).
+    let settings = Params {
         fit,
-        axes,
+        correct_axes: axes,
         network,
         delays,
         seed,
@@ -596,7 +596,7 @@ fn calibrate<'py>(
             spec(ModelKind::Narx, narx, "narx")?,
             spec(ModelKind::Hw, hw, "hw")?,
         ],
-        ..CalibrateSettings::default()
+        ..Params::default()
     };
     let recordings = inner_recordings(&recordings)?;
     // A Python exception from the sweep runner, raised as itself once the library has stopped.
@@ -726,7 +726,7 @@ fn calibrate_campaign(
         .detach(|| spincal::campaign::load_campaign(&campaign))
         .map_err(errors::format)?;
     // The CLI's settings for this file (its gravity and datasheet nonlinearity).
-    let settings = spincal::fleet::settings_for(&campaign, &CampaignSettings::default());
+    let settings = spincal::fleet::params_for(&campaign, &Params::default());
     let output = long::run(py, progress.as_ref(), |observer| {
         spincal::campaign::calibrate_campaign(&campaign.unit, &units, &settings, observer)
     })?

@@ -11,12 +11,13 @@
 //! bound), `--bias-instability X` (the fit's, m/s²), `--q-prior X` (the nonlinearity prior's
 //! width, 1/(m/s²)), `--detail` (every held-out row).
 
-use spincal::campaign::{calibrate_campaign, CampaignSettings};
+use spincal::campaign::calibrate_campaign;
+use spincal::params::Params;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 
 fn main() {
     let mut setup = CampaignSetup::default();
-    let mut settings = CampaignSettings::default();
+    let mut settings = Params::default();
     let (mut seeds, mut first, mut detail) = (5u64, 0u64, false);
     let mut args = std::env::args().skip(1);
     while let Some(arg) = args.next() {

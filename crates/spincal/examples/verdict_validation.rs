@@ -25,7 +25,8 @@
 use rand::{Rng, SeedableRng};
 use spincal::campaign::prepare::prepare;
 use spincal::campaign::select::conditions;
-use spincal::campaign::{calibrate_campaign, combined, CampaignSettings};
+use spincal::campaign::{calibrate_campaign, combined};
+use spincal::params::Params;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, RunSetup, SimulatedCampaign};
 
 /// An independently drawn unit: 7 poses and 4 runs (two speeds, two radii, z up and x up).
@@ -116,7 +117,7 @@ fn main() {
             },
         }
     }
-    let settings = CampaignSettings::default();
+    let settings = Params::default();
     let (mut agree, mut campaigns) = (0usize, 0usize);
     let (mut within, mut figures) = (0usize, 0usize);
     let (mut owed, mut owed_saved, mut owed_near_oracle) = (0usize, 0usize, 0usize);

@@ -14,80 +14,23 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::correctors::ann::{
-    architecture_label, reduce_sweep, run_sweep_locally, AnnError, AnnProblem, Division, DivisionMode,
-    LmSettings, SweepRow, SweepRun, SweepSettings,
+    architecture_label, reduce_sweep, run_sweep_locally, AnnError, AnnProblem, Division, LmSettings,
+    SweepRow, SweepRun, SweepSettings,
 };
 use crate::correctors::corrector::{Axis, Corrected, Corrector};
 use crate::correctors::linear::{LinearError, LinearModel};
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::input::recording::Recording;
 use crate::metrics::{fit_percent, rmse};
+use crate::params::{NetworkChoice, ParamError, Params};
 use crate::progress::{Observer, Progress};
-use crate::sysid::{fit_and_score, score, ModelKind, ModelSpec, Scores, SysidError, SysidModel};
-use crate::turntable::fit::{FitError, FitOptions, TurntableFit};
+use crate::sysid::{fit_and_score, score, ModelSpec, Scores, SysidError, SysidModel};
+use crate::turntable::fit::{FitError, TurntableFit};
 use crate::turntable::fit_turntable;
 use crate::turntable::sensitivity::{sensitivity_table, SensitivityInput, SensitivityRow};
 
 /// Version of the `results.json` layout.
 pub const RESULTS_VERSION: u32 = 1;
-
-/// How the network is chosen.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(tag = "mode", rename_all = "snake_case")]
-pub enum NetworkChoice {
-    /// Train every architecture of the grid; keep the best on validation. The sweep forms each
-    /// epoch's JᵀJ from `hessian_samples` training samples (`None`: all; see
-    /// [`LmSettings::hessian_samples`]); the chosen architecture is then trained exactly.
-    Sweep {
-        grid: Vec<Vec<usize>>,
-        restarts: usize,
-        hessian_samples: Option<usize>,
-    },
-    /// One architecture.
-    Fixed { hidden: Vec<usize>, restarts: usize },
-}
-
-/// Every setting of a calibration.
-#[derive(Debug, Clone)]
-pub struct CalibrateSettings {
-    pub fit: FitOptions,
-    /// Axes to correct (MIMO network and linear map over them; one SISO model per axis for sysid).
-    pub axes: Vec<Axis>,
-    pub network: NetworkChoice,
-    /// Previous samples of each axis fed to the network.
-    pub delays: usize,
-    pub seed: u64,
-    pub lm: LmSettings,
-    pub division: DivisionMode,
-    pub sysid: Vec<ModelSpec>,
-    /// Measured outputs used to start sysid simulations.
-    pub init_samples: usize,
-}
-
-impl Default for CalibrateSettings {
-    fn default() -> Self {
-        let spec = |kind: ModelKind| {
-            ModelSpec::new(kind, kind.default_orders()).expect("default orders fit the kind")
-        };
-        CalibrateSettings {
-            fit: FitOptions::default(),
-            axes: vec![Axis::X, Axis::Y],
-            network: NetworkChoice::Fixed {
-                hidden: vec![10, 6],
-                restarts: 10,
-            },
-            delays: 0,
-            seed: 1,
-            lm: LmSettings::default(),
-            division: DivisionMode::Contiguous,
-            sysid: [ModelKind::Arx, ModelKind::Bj, ModelKind::Narx, ModelKind::Hw]
-                .into_iter()
-                .map(spec)
-                .collect(),
-            init_samples: 10,
-        }
-    }
-}
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -104,10 +47,8 @@ pub enum CalibrateError {
         #[source]
         source: SysidError,
     },
-    #[error(
-        "system-identification models need the contiguous division (interleaved blocks break their dynamics)"
-    )]
-    SysidNeedsContiguous,
+    #[error(transparent)]
+    Params(#[from] ParamError),
 }
 
 /// Fit % and RMSE of one prediction kind on one part, per corrected axis and their mean.
@@ -239,7 +180,7 @@ pub type SweepRunner<'a> =
 /// Runs the whole calibration. `observer` hears about every stage and step.
 pub fn calibrate(
     recordings: &[Recording],
-    settings: &CalibrateSettings,
+    settings: &Params,
     observer: &Observer,
 ) -> Result<CalibrationOutput, CalibrateError> {
     calibrate_with_runner(recordings, settings, observer, &run_sweep_locally)
@@ -248,10 +189,11 @@ pub fn calibrate(
 /// [`calibrate`] with the network sweep's jobs run by `runner`.
 pub fn calibrate_with_runner(
     recordings: &[Recording],
-    settings: &CalibrateSettings,
+    settings: &Params,
     observer: &Observer,
     runner: &SweepRunner,
 ) -> Result<CalibrationOutput, CalibrateError> {
+    settings.check()?;
     let started = Instant::now();
     let refs: Vec<&Recording> = recordings.iter().collect();
     observer(Progress::step("turntable fit", 0, Some(1)));
@@ -268,7 +210,7 @@ pub fn calibrate_with_runner(
     let problem = AnnProblem::new(
         measured,
         reference,
-        &settings.axes,
+        &settings.correct_axes,
         settings.delays,
         settings.division,
     )?;
@@ -313,7 +255,7 @@ pub fn calibrate_with_runner(
 
     observer(Progress::step("linear", 0, Some(1)));
     let clock = Instant::now();
-    let linear = LinearModel::fit(measured, reference, &settings.axes, settings.division)?;
+    let linear = LinearModel::fit(measured, reference, &settings.correct_axes, settings.division)?;
     let linear_seconds = clock.elapsed().as_secs_f64();
 
     let division = problem.division.clone();
@@ -324,7 +266,7 @@ pub fn calibrate_with_runner(
         part_rows(&division.validation),
         part_rows(&division.test),
     ];
-    let axes_idx: Vec<usize> = settings.axes.iter().map(|a| a.index()).collect();
+    let axes_idx: Vec<usize> = settings.correct_axes.iter().map(|a| a.index()).collect();
     // Scores of a full-length estimate (per corrected axis) on the three parts.
     let score_static = |estimate: &[Vec<f64>]| -> [PartScore; 3] {
         let part = |rows: &[usize]| {
@@ -371,9 +313,9 @@ pub fn calibrate_with_runner(
     ));
     let network_label = format!(
         "{}-input [{}] {}-output, {} delays, {} restarts",
-        settings.axes.len() * (settings.delays + 1),
+        settings.correct_axes.len() * (settings.delays + 1),
         architecture_label(&hidden),
-        settings.axes.len(),
+        settings.correct_axes.len(),
         settings.delays,
         restarts
     );
@@ -386,18 +328,20 @@ pub fn calibrate_with_runner(
     ));
     comparison.push(static_row(
         "linear",
-        format!("offset + {0}×{0} matrix", settings.axes.len()),
+        format!("offset + {0}×{0} matrix", settings.correct_axes.len()),
         &corrected_axes(&linear, measured),
         linear_seconds,
         true,
     ));
 
-    // System identification, one SISO model per axis.
-    if !settings.sysid.is_empty() && !matches!(settings.division, DivisionMode::Contiguous) {
-        return Err(CalibrateError::SysidNeedsContiguous);
-    }
+    // System identification, one SISO model per axis, each started from the seed of every
+    // random choice.
     let mut sysid_models = Vec::new();
     for (m, spec) in settings.sysid.iter().enumerate() {
+        let spec = &ModelSpec {
+            seed: settings.seed,
+            ..spec.clone()
+        };
         observer(Progress::step(
             "system identification",
             m,
@@ -631,7 +575,7 @@ pub fn calibrate_with_runner(
         results_version: RESULTS_VERSION,
         spincal_version: env!("CARGO_PKG_VERSION").to_string(),
         seed: settings.seed,
-        axes: settings.axes.clone(),
+        axes: settings.correct_axes.clone(),
         recordings: summaries,
         turntable,
         sensitivity,

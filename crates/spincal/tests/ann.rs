@@ -503,10 +503,11 @@ fn streaming_correction_matches_batch_application() {
 /// validated off its training condition; five seeds.
 #[test]
 fn a_single_speed_calibration_never_makes_another_speed_worse() {
-    use spincal::calibrate::{calibrate, CalibrateSettings, NetworkChoice};
+    use spincal::calibrate::calibrate;
+    use spincal::params::{NetworkChoice, Params};
     use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
     use spincal::turntable::{FitOptions, RadiusPrior};
-    let settings = CalibrateSettings {
+    let settings = Params {
         fit: FitOptions {
             radius: Some(RadiusPrior {
                 value_m: 0.10,
@@ -519,7 +520,7 @@ fn a_single_speed_calibration_never_makes_another_speed_worse() {
             restarts: 2,
         },
         sysid: Vec::new(),
-        ..CalibrateSettings::default()
+        ..Params::default()
     };
     let sensor = SensorProfile::default();
     for seed in 0..5 {

@@ -4,19 +4,16 @@
 
 use spincal::campaign::joint::{fit_joint, JointSettings, SensorTerms};
 use spincal::campaign::prepare::prepare;
-use spincal::campaign::{calibrate_campaign, CampaignSettings, CandidateKind};
+use spincal::campaign::{calibrate_campaign, CandidateKind};
 use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
 use spincal::correctors::physical::{quadratic_from_datasheet, PhysicalCorrector};
+use spincal::params::Params;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, RunSetup};
 
 use crate::common::campaign_units as units;
 
 /// Simulates the campaign with `seed` and calibrates it (truth attached) with `settings`.
-fn calibrated(
-    setup: &CampaignSetup,
-    seed: u64,
-    settings: &CampaignSettings,
-) -> spincal::campaign::CampaignOutput {
+fn calibrated(setup: &CampaignSetup, seed: u64, settings: &Params) -> spincal::campaign::CampaignOutput {
     let sim = simulate_campaign(setup, seed).unwrap();
     calibrate_campaign("u", &units(&sim, true), settings, &spincal::progress::silent).unwrap()
 }
@@ -133,7 +130,7 @@ fn a_single_recording_saves_nothing_and_says_what_to_record() {
         runs: vec![RunSetup::default()],
         ..CampaignSetup::default()
     };
-    let out = calibrated(&setup, 5, &CampaignSettings::default());
+    let out = calibrated(&setup, 5, &Params::default());
     assert!(out.saved.is_none());
     assert!(out.result.saved.is_none());
     assert!(
@@ -154,7 +151,7 @@ fn a_single_recording_saves_nothing_and_says_what_to_record() {
 /// agrees with the choice, and a saved physical corrector survives the model file.
 #[test]
 fn a_saved_corrector_held_on_every_condition_and_round_trips() {
-    let out = calibrated(&CampaignSetup::default(), 11, &CampaignSettings::default());
+    let out = calibrated(&CampaignSetup::default(), 11, &Params::default());
     assert!(!out.result.conditions.is_empty());
     let saved = out
         .result
@@ -226,17 +223,17 @@ fn the_network_on_top_of_physics_is_trusted_only_where_it_was_trained() {
     use spincal::corrector::Corrector;
     use spincal::correctors::physical_ann::PhysicalAnnCorrector;
     let sim = simulate_campaign(&CampaignSetup::default(), 5).unwrap();
-    let settings = CampaignSettings {
+    let settings = Params {
         candidates: vec![CandidateKind::PhysicalAnn],
-        ..CampaignSettings::default()
+        ..Params::default()
     };
     let out = calibrate_campaign("u", &units(&sim, true), &settings, &spincal::progress::silent).unwrap();
     let physical_only = calibrate_campaign(
         "u",
         &units(&sim, true),
-        &CampaignSettings {
+        &Params {
             candidates: vec![CandidateKind::Physical],
-            ..CampaignSettings::default()
+            ..Params::default()
         },
         &spincal::progress::silent,
     )
@@ -312,7 +309,7 @@ fn six_poses_give_the_choice_truth_would_make_or_ask_for_more_poses() {
         poses: 6,
         ..CampaignSetup::default()
     };
-    let out = calibrated(&setup, 2024, &CampaignSettings::default());
+    let out = calibrated(&setup, 2024, &Params::default());
     let verdict = &out.result.verdict;
     println!("{verdict}");
     assert!(out.result.truth_check.as_ref().unwrap().agrees, "{verdict}");
@@ -335,7 +332,7 @@ fn six_poses_give_the_choice_truth_would_make_or_ask_for_more_poses() {
 fn without_drift_the_saved_corrector_reaches_the_floor_on_every_held_out_condition() {
     let mut setup = CampaignSetup::default();
     setup.sensor.bias_drift_g = 0.0;
-    let mut settings = CampaignSettings::default();
+    let mut settings = Params::default();
     settings.joint.bias_instability_mps2 = 0.001;
     for seed in [0, 7] {
         let out = calibrated(&setup, seed, &settings);
@@ -366,9 +363,9 @@ fn the_verdict_is_the_same_without_truth_files() {
         ..CampaignSetup::default()
     };
     setup.runs.truncate(3);
-    let settings = CampaignSettings {
+    let settings = Params {
         candidates: vec![CandidateKind::Physical, CandidateKind::Linear],
-        ..CampaignSettings::default()
+        ..Params::default()
     };
     let sim = simulate_campaign(&setup, 3).unwrap();
     let with = calibrate_campaign("u", &units(&sim, true), &settings, &spincal::progress::silent).unwrap();
@@ -399,13 +396,13 @@ fn twenty_campaigns() -> &'static [spincal::campaign::CampaignOutput] {
     static OUTPUTS: std::sync::OnceLock<Vec<spincal::campaign::CampaignOutput>> = std::sync::OnceLock::new();
     OUTPUTS.get_or_init(|| {
         let setup = CampaignSetup::default();
-        let mut settings = CampaignSettings {
+        let mut settings = Params {
             candidates: vec![
                 CandidateKind::Physical,
                 CandidateKind::PhysicalLinear,
                 CandidateKind::Linear,
             ],
-            ..CampaignSettings::default()
+            ..Params::default()
         };
         settings.joint.sensor_prior_sd[3] =
             quadratic_from_datasheet(setup.sensor.nonlinearity_pct_fs, setup.sensor.range_g);
@@ -475,7 +472,7 @@ fn inputs_that_physics_contradicts_are_refused_with_the_key() {
     };
     setup.runs.truncate(2);
     let sim = simulate_campaign(&setup, 1).unwrap();
-    let settings = CampaignSettings::default();
+    let settings = Params::default();
     let refused = |units: Vec<spincal::campaign::UnitRecording>| -> (String, String) {
         match calibrate_campaign("u", &units, &settings, &spincal::progress::silent) {
             Err(CampaignCalError::Input(e)) => (e.key.to_string(), e.to_string()),
@@ -528,9 +525,9 @@ fn inputs_that_physics_contradicts_are_refused_with_the_key() {
     assert!(calibrate_campaign(
         "u",
         &good,
-        &CampaignSettings {
+        &Params {
             candidates: vec![CandidateKind::Physical],
-            ..CampaignSettings::default()
+            ..Params::default()
         },
         &spincal::progress::silent
     )
@@ -591,9 +588,9 @@ fn the_data_decide_the_nonlinearity_when_the_campaign_determines_it() {
     let mut setup = CampaignSetup::default();
     setup.sensor.range_g = 2.0;
     setup.sensor.nonlinearity_pct_fs = 0.8;
-    let settings = CampaignSettings {
+    let settings = Params {
         candidates: vec![CandidateKind::Physical],
-        ..CampaignSettings::default()
+        ..Params::default()
     };
     let (mut inside, mut total) = (0, 0);
     for seed in 0..5 {

@@ -184,7 +184,7 @@ fn a_fleet_recovers_each_unit_flags_the_faulty_one_and_reports_broken_ones() {
         let campaign = spincal::campaign::Campaign::read_path(&outcome.source.join("campaign.toml")).unwrap();
         let alone = calibrate_campaign_file(
             &campaign,
-            &FleetSettings::default().campaign,
+            &FleetSettings::default().params,
             &spincal::progress::silent,
         )
         .unwrap();

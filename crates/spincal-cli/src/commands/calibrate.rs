@@ -5,8 +5,9 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 use spincal::ann::{default_grid, small_grid};
-use spincal::calibrate::{calibrate, CalibrateSettings, CalibrationOutput, NetworkChoice};
+use spincal::calibrate::{calibrate, CalibrationOutput};
 use spincal::corrector::Axis;
+use spincal::params::{NetworkChoice, Params};
 use spincal::report::render_report;
 use spincal::sysid::{ModelKind, ModelSpec};
 use spincal::Recording;
@@ -79,13 +80,15 @@ fn parse_orders(text: &str, flag: &str) -> Result<Vec<usize>, UsageError> {
 }
 
 impl CalibrateArgs {
-    pub fn settings(&self) -> anyhow::Result<CalibrateSettings> {
+    /// The library's defaults with what the flags name changed (nothing else is decided here).
+    pub fn params(&self) -> anyhow::Result<Params> {
+        let mut params = Params::default();
         let sweep_over = |grid| NetworkChoice::Sweep {
             grid,
             restarts: self.restarts,
             hessian_samples: all_if_zero(self.sweep_hessian_samples),
         };
-        let network = match (self.sweep, &self.hidden) {
+        params.network = match (self.sweep, &self.hidden) {
             (Some(SweepArg::Small | SweepArg::Full), Some(_)) => {
                 return Err(UsageError(
                     "--hidden fixes the architecture, so it cannot be combined with --sweep small or full; drop one of them".into(),
@@ -99,35 +102,29 @@ impl CalibrateArgs {
             },
             (Some(SweepArg::Full), None) => sweep_over(default_grid()),
         };
-        let axes = Axis::parse_list(&self.correct_axes)
+        params.correct_axes = Axis::parse_list(&self.correct_axes)
             .ok_or_else(|| UsageError(format!("--correct-axes {}: expected e.g. x,y", self.correct_axes)))?;
         let spec = |kind: ModelKind, text: &str, flag: &str| -> anyhow::Result<ModelSpec> {
             let orders = parse_orders(text, flag)?;
-            let mut spec = ModelSpec::new(kind, &orders).map_err(|e| UsageError(format!("--{flag}: {e}")))?;
-            spec.seed = self.seed;
-            Ok(spec)
+            Ok(ModelSpec::new(kind, &orders).map_err(|e| UsageError(format!("--{flag}: {e}")))?)
         };
-        Ok(CalibrateSettings {
-            fit: self.fit.options()?,
-            axes,
-            network,
-            delays: self.delays,
-            seed: self.seed,
-            sysid: vec![
-                spec(ModelKind::Arx, &self.arx, "arx")?,
-                spec(ModelKind::Bj, &self.bj, "bj")?,
-                spec(ModelKind::Narx, &self.narx, "narx")?,
-                spec(ModelKind::Hw, &self.hw, "hw")?,
-            ],
-            ..CalibrateSettings::default()
-        })
+        params.sysid = vec![
+            spec(ModelKind::Arx, &self.arx, "arx")?,
+            spec(ModelKind::Bj, &self.bj, "bj")?,
+            spec(ModelKind::Narx, &self.narx, "narx")?,
+            spec(ModelKind::Hw, &self.hw, "hw")?,
+        ];
+        params.fit = self.fit.options()?;
+        params.delays = self.delays;
+        params.seed = self.seed;
+        Ok(params)
     }
 }
 
 /// Runs the library's calibration with a progress bar that names each stage.
 pub fn calibrate_with_progress(
     recordings: &[Recording],
-    settings: &CalibrateSettings,
+    settings: &Params,
     ui: Ui,
     label: &str,
 ) -> anyhow::Result<CalibrationOutput> {
@@ -142,7 +139,7 @@ pub fn calibrate_with_progress(
 /// own in results.json).
 pub fn run_calibration(
     recordings: &[Recording],
-    settings: &CalibrateSettings,
+    settings: &Params,
     out: &Path,
     read_seconds: Option<f64>,
     ui: Ui,
@@ -204,7 +201,7 @@ pub fn run(args: CalibrateArgs, ui: Ui) -> anyhow::Result<()> {
         return super::campaign::calibrate(file, &args.out, args.fit.json, ui);
     }
     super::fit::require_recordings(&args.fit.recordings)?;
-    let settings = args.settings()?;
+    let settings = args.params()?;
     let inputs: Vec<&Path> = args.fit.recordings.iter().map(PathBuf::as_path).collect();
     let outputs = ["model.json", "results.json", "report.html"].map(|name| args.out.join(name));
     super::check_outputs(&inputs, &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>())?;
@@ -221,4 +218,39 @@ pub fn run(args: CalibrateArgs, ui: Ui) -> anyhow::Result<()> {
         return ui::print_json(&output.result);
     }
     ui::print(&summary(&output, &args.out))
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::*;
+
+    #[derive(Parser)]
+    struct Command {
+        #[command(flatten)]
+        args: CalibrateArgs,
+    }
+
+    fn params_of(words: &[&str]) -> Params {
+        let line = std::iter::once("calibrate").chain(words.iter().copied());
+        Command::try_parse_from(line).unwrap().args.params().unwrap()
+    }
+
+    /// `spincal calibrate REC` runs exactly what a Rust caller gets from `Params::default()`.
+    #[test]
+    fn the_commands_defaults_are_the_librarys() {
+        let json = |p: &Params| serde_json::to_value(p).unwrap();
+        assert_eq!(json(&params_of(&["rec.csv"])), json(&Params::default()));
+        // And a flag changes only its own parameter.
+        let expected = Params {
+            seed: 9,
+            delays: 2,
+            ..Params::default()
+        };
+        assert_eq!(
+            json(&params_of(&["rec.csv", "--seed", "9", "--delays", "2"])),
+            json(&expected)
+        );
+    }
 }

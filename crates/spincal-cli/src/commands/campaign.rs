@@ -6,7 +6,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use spincal::campaign::{Campaign, CampaignOutput, CampaignSettings};
+use spincal::campaign::{Campaign, CampaignOutput};
+use spincal::params::Params;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 use spincal::simulate::fleet::WriteError;
 
@@ -36,7 +37,7 @@ pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignO
     super::check_outputs(&inputs, &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>())?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let bar = ui.progress(1, "calibrating the campaign");
-    let output = spincal::fleet::calibrate_campaign_file(&campaign, &CampaignSettings::default(), &|p| {
+    let output = spincal::fleet::calibrate_campaign_file(&campaign, &Params::default(), &|p| {
         crate::ui::show(&bar, p)
     })?;
     bar.finish_and_clear();

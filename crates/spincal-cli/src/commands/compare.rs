@@ -38,7 +38,7 @@ pub fn run(args: CompareArgs, ui: Ui) -> anyhow::Result<()> {
         .collect();
     let outputs: Vec<&std::path::Path> = args.csv.iter().map(|p| p.as_path()).collect();
     super::check_outputs(&inputs, &outputs)?;
-    let settings = args.calibrate.settings()?;
+    let settings = args.calibrate.params()?;
     let fit = &args.calibrate.fit;
     let recordings = fit
         .recordings

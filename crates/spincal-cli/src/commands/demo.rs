@@ -6,14 +6,13 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
-use spincal::calibrate::{CalibrateSettings, NetworkChoice};
+use spincal::params::Params;
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
 use spincal::turntable::{FitOptions, RadiusPrior};
 use spincal::AccelUnit;
 
 use super::calibrate::{run_calibration, summary};
 use crate::ui::{self, Ui};
-use spincal::ann::small_grid;
 
 #[derive(Args, Debug)]
 #[command(after_help = "Example:\n  spincal demo --out spincal-demo && xdg-open spincal-demo/report.html")]
@@ -80,7 +79,7 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
         recording.source.name = name;
         recordings.push(recording);
     }
-    let settings = CalibrateSettings {
+    let settings = Params {
         fit: FitOptions {
             radius: Some(RadiusPrior {
                 value_m: 0.10,
@@ -88,13 +87,8 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
             }),
             ..FitOptions::default()
         },
-        network: NetworkChoice::Sweep {
-            grid: small_grid(),
-            restarts: 3,
-            hessian_samples: Some(spincal::ann::SWEEP_HESSIAN_SAMPLES),
-        },
         seed: args.seed,
-        ..CalibrateSettings::default()
+        ..Params::default()
     };
     let output = run_calibration(&recordings, &settings, &args.out, None, ui)?;
     if args.json {

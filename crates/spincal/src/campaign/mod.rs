@@ -24,7 +24,6 @@ pub use joint::{fit_joint, JointFit, JointSettings, PoseInput, RunInput, SensorT
 pub use load::{load_campaign, LoadError};
 pub use prepare::UnitRecording;
 pub use select::{
-    calibrate_campaign, CampaignOutput, CampaignResult, CampaignSettings, CandidateKind, HeldOutScore,
-    TruthCheck,
+    calibrate_campaign, CampaignOutput, CampaignResult, CandidateKind, HeldOutScore, TruthCheck,
 };
 pub use verdict::{combined, Comparison};

@@ -16,8 +16,10 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::params::{ParamError, Params};
+
 use crate::campaign::checks::{check_prepared, check_recordings, InputError};
-use crate::campaign::gyro::{fit_gyro, GyroFit, GyroSettings};
+use crate::campaign::gyro::{fit_gyro, GyroFit};
 use crate::campaign::joint::{
     fit_joint, fit_joint_from, JointError, JointFit, JointSettings, PoseInput, RunInput, SensorCovariance,
     SensorTerms, GEOMETRY,
@@ -94,29 +96,6 @@ impl CandidateKind {
     }
 }
 
-/// Settings of a campaign calibration, checked before any work starts.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct CampaignSettings {
-    pub joint: JointSettings,
-    pub candidates: Vec<CandidateKind>,
-    /// A sensor parameter is "determined" when one standard error moves a 1 g reading by at most
-    /// this, m/s².
-    pub determined_tolerance_mps2: f64,
-    #[serde(default)]
-    pub gyro: GyroSettings,
-}
-
-impl Default for CampaignSettings {
-    fn default() -> Self {
-        CampaignSettings {
-            joint: JointSettings::default(),
-            gyro: GyroSettings::default(),
-            candidates: CandidateKind::ALL.to_vec(),
-            determined_tolerance_mps2: 0.02,
-        }
-    }
-}
-
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum CampaignCalError {
@@ -126,8 +105,8 @@ pub enum CampaignCalError {
     Joint(#[from] JointError),
     #[error(transparent)]
     Input(#[from] InputError),
-    #[error("campaign setting {name}: {why}")]
-    Setting { name: &'static str, why: String },
+    #[error(transparent)]
+    Params(#[from] ParamError),
 }
 
 /// The prior on q of the first, data-only fit, 1/(m/s²): far beyond any datasheet, so that it
@@ -156,7 +135,7 @@ pub struct NonlinearitySource {
 /// is made with w as the prior ("data"). Otherwise the settings' prior stands ("prior").
 fn fit_with_nonlinearity_rule(
     prepared: &Prepared,
-    settings: &CampaignSettings,
+    settings: &Params,
     observer: &Observer,
 ) -> Result<(JointFit, JointSettings, NonlinearitySource), CampaignCalError> {
     let prior = settings.joint.sensor_prior_sd[3];
@@ -763,46 +742,15 @@ fn subset<T: Clone>(items: &[T], skip: &[usize]) -> Vec<T> {
         .collect()
 }
 
-fn check_settings(settings: &CampaignSettings) -> Result<(), CampaignCalError> {
-    if settings.candidates.is_empty() {
-        return Err(CampaignCalError::Setting {
-            name: "candidates",
-            why: "at least one corrector kind must be compared".into(),
-        });
-    }
-    let t = settings.determined_tolerance_mps2;
-    if !(t.is_finite() && t > 0.0) {
-        return Err(CampaignCalError::Setting {
-            name: "determined_tolerance_mps2",
-            why: format!("{t}: must be positive"),
-        });
-    }
-    let j = &settings.joint;
-    for (name, v) in [
-        ("gravity_mps2", j.gravity_mps2),
-        ("bias_instability_mps2", j.bias_instability_mps2),
-        ("mount_tilt_rad", j.mount_tilt_rad),
-        ("block_s", j.block_s),
-    ] {
-        if !(v.is_finite() && v > 0.0) {
-            return Err(CampaignCalError::Setting {
-                name,
-                why: format!("{v}: must be positive"),
-            });
-        }
-    }
-    Ok(())
-}
-
 /// Calibrates a unit from its recordings.
 pub fn calibrate_campaign(
     unit: &str,
     units: &[UnitRecording],
-    settings: &CampaignSettings,
+    settings: &Params,
     observer: &Observer,
 ) -> Result<CampaignOutput, CampaignCalError> {
     let started = Instant::now();
-    check_settings(settings)?;
+    settings.check()?;
     check_recordings(units)?;
     let prepared = prepare(units)?;
     check_prepared(&prepared, settings.joint.gravity_mps2)?;
@@ -817,7 +765,7 @@ pub fn calibrate_campaign(
         clock = Instant::now();
     };
     let (joint, joint_settings, nonlinearity) = fit_with_nonlinearity_rule(&prepared, settings, observer)?;
-    let settings = &CampaignSettings {
+    let settings = &Params {
         joint: joint_settings,
         ..settings.clone()
     };

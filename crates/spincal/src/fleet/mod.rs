@@ -23,11 +23,13 @@ use std::sync::Mutex;
 
 use serde::{Deserialize, Serialize};
 
+use crate::params::Params;
+
 use crate::campaign::file::{Campaign, CampaignError};
 use crate::campaign::joint::JointParam;
 use crate::campaign::load::{load_campaign, LoadError};
 use crate::campaign::select::{
-    calibrate_campaign, CampaignCalError, CampaignOutput, CampaignResult, CampaignSettings, HeldOutScore,
+    calibrate_campaign, CampaignCalError, CampaignOutput, CampaignResult, HeldOutScore,
 };
 use crate::correctors::model_file::CorrectorFile;
 use crate::output::OutputError;
@@ -44,7 +46,7 @@ pub const CAMPAIGN_FILE: &str = "campaign.toml";
 pub struct FleetSettings {
     /// The campaign calibration of every unit. `joint.gravity_mps2` is replaced by each campaign
     /// file's own `gravity_mps2` (as `spincal calibrate --campaign` does).
-    pub campaign: CampaignSettings,
+    pub params: Params,
     /// Units calibrated at once by [`calibrate_fleet`]; `None`: the machine's available cores.
     pub threads: Option<usize>,
 }
@@ -244,7 +246,7 @@ pub fn expand_sources(paths: &[PathBuf]) -> Vec<PathBuf> {
 
 /// The settings a campaign file is calibrated with: `base` with the file's own gravity and, when it
 /// gives the datasheet's, the nonlinearity prior.
-pub fn settings_for(campaign: &Campaign, base: &CampaignSettings) -> CampaignSettings {
+pub fn params_for(campaign: &Campaign, base: &Params) -> Params {
     let mut settings = base.clone();
     settings.joint.gravity_mps2 = campaign.gravity_mps2;
     if let Some(datasheet) = campaign.nonlinearity {
@@ -253,23 +255,18 @@ pub fn settings_for(campaign: &Campaign, base: &CampaignSettings) -> CampaignSet
     settings
 }
 
-/// Loads a read campaign's recordings and calibrates the unit with [`settings_for`]: the one
+/// Loads a read campaign's recordings and calibrates the unit with [`params_for`]: the one
 /// path of both `spincal calibrate --campaign` and the fleet. Runs on the caller's rayon pool.
 pub fn calibrate_campaign_file(
     campaign: &Campaign,
-    base: &CampaignSettings,
+    base: &Params,
     observer: &Observer,
 ) -> Result<CampaignOutput, FleetError> {
     let clock = std::time::Instant::now();
     let recordings = load_campaign(campaign)?;
     let read_seconds = clock.elapsed().as_secs_f64();
-    let mut output = calibrate_campaign(
-        &campaign.unit,
-        &recordings,
-        &settings_for(campaign, base),
-        observer,
-    )
-    .map_err(|source| FleetError::Calibration {
+    let mut output = calibrate_campaign(&campaign.unit, &recordings, &params_for(campaign, base), observer)
+        .map_err(|source| FleetError::Calibration {
         campaign: campaign.path.display().to_string(),
         source,
     })?;
@@ -312,7 +309,7 @@ pub fn calibrate_unit(
         })?;
     let run = || {
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            calibrate_campaign_file(&campaign, &settings.campaign, observer)
+            calibrate_campaign_file(&campaign, &settings.params, observer)
         }))
     };
     let output = pool.install(run).map_err(|payload| FleetError::Panic {

@@ -10,7 +10,7 @@ use faer::{Accum, Mat, Par, Side};
 use super::{LeastSquares, Observer, Progress};
 
 /// Stopping and damping settings.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct LmOptions {
     pub max_iterations: usize,
     /// Stop when the relative decrease of the cost in an accepted step is below this.

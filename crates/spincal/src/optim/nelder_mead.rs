@@ -64,7 +64,7 @@ impl Bounds {
 }
 
 /// Settings (defaults are fminsearch's, with the iteration limits scaled by the free dimension).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct NelderMeadOptions {
     /// Stop when the simplex spans at most this in every transformed coordinate…
     pub tol_x: f64,

@@ -7,9 +7,10 @@
 //! Plots draw the signals behind those numbers.
 
 use super::escape;
-use crate::calibrate::{CalibrationOutput, CalibrationResult, ComparisonRow, NetworkChoice, PartScore};
+use crate::calibrate::{CalibrationOutput, CalibrationResult, ComparisonRow, PartScore};
 use crate::correctors::ann::Part;
 use crate::input::recording::{Recording, STANDARD_GRAVITY};
+use crate::params::NetworkChoice;
 use crate::report::plot::{Figure, HeatMap, LinePlot, PlotError, Rgb, Series};
 use crate::turntable::fit::FittedParam;
 use crate::turntable::{Direction, TurntableFit};

@@ -70,7 +70,7 @@ pub struct RadiusPrior {
 }
 
 /// Everything that can be set about a fit.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct FitOptions {
     pub axes: AxesObjective,
     pub drift: DriftMode,
