@@ -42,6 +42,17 @@ fn simulated_campaign_calibrates_end_to_end() {
     assert!(results["truth_check"]["agrees"].is_boolean(), "{results}");
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("Verdict"));
+    // The pictures: held-out errors against physics and truth, the sensor parameters with their
+    // intervals, each run's residual, the gyro against the accelerometer's rate.
+    for title in [
+        "Held-out residual against physics",
+        "Held-out error against truth",
+        "Sensor parameters",
+        "Joint fit residual per run",
+        "Gyro against the accelerometer",
+    ] {
+        assert!(html.contains(title), "the report lacks the figure {title:?}");
+    }
 
     // A second simulation into the same folder refuses, and leaves the first untouched.
     let before = std::fs::read(&campaign).unwrap();

@@ -98,6 +98,18 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
         );
     }
     h.push_str("</table>");
+    if let Some(plot) = sensor_plot(r) {
+        h.push_str(&figure(
+            &plot,
+            "Each sensor parameter's effect on a 1 g reading (bias as fitted; scale and misalignment × g; nonlinearity q × g²) with its 95 % interval (± 1.96 standard errors): 1–3 bias x, y, z; 4–6 scale x, y, z; 7–9 misalignment; 10–12 nonlinearity q. An interval that spans zero is an error this campaign cannot tell from none.",
+        )?);
+    }
+    if let Some(plot) = run_residual_plot(r) {
+        h.push_str(&figure(
+            &plot,
+            "What the joint fit leaves on each turntable run, per axis (numbered as in the list of recordings at the end): a run far above the others holds something the model does not (a loose mount, a wobble, a temperature change).",
+        )?);
+    }
     if !r.undetermined.is_empty() {
         h.push_str("<h2>What this campaign does not determine</h2><ul>");
         for (name, advice) in &r.undetermined {
@@ -141,6 +153,12 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
             );
         }
         h.push_str("</table>");
+        if let Some(plot) = gyro_rate_plot(g) {
+            h.push_str(&figure(
+                &plot,
+                "The gyroscope about the spindle minus the rate the accelerometer measured, per run: raw and calibrated, with the accelerometer rate's 95 % interval around zero. A calibrated gyro sits on zero within that interval.",
+            )?);
+        }
         if !g.undetermined.is_empty() {
             h.push_str("<ul>");
             for (name, advice) in &g.undetermined {
@@ -159,7 +177,7 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
         );
     }
     h.push_str("</table>");
-    h.push_str("<h2>Recordings</h2><ul>");
+    h.push_str("<h2>Recordings</h2><ol>");
     for run in &r.joint.runs {
         let _ = write!(
             h,
@@ -171,6 +189,7 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
             run.residual_rms_mps2[2]
         );
     }
+    h.push_str("</ol><ul>");
     for pose in &r.joint.poses {
         let _ = write!(h, "<li>{} (still pose)</li>", escape(&pose.name));
     }
@@ -245,4 +264,136 @@ fn held_out_plot(r: &CampaignResult, against_truth: bool) -> Option<LinePlot> {
         );
     }
     Some(plot)
+}
+
+/// Vertical intervals as one series: each (x, low, high) a segment, NaN between them.
+fn intervals(name: &str, x: &[f64], low: &[f64], high: &[f64], color: Rgb) -> Series {
+    let mut xs = Vec::with_capacity(3 * x.len());
+    let mut ys = Vec::with_capacity(3 * x.len());
+    for i in 0..x.len() {
+        xs.extend([x[i], x[i], f64::NAN]);
+        ys.extend([low[i], high[i], f64::NAN]);
+    }
+    Series::new(name, xs, ys).color(color).style(LineStyle::Solid)
+}
+
+/// The twelve sensor parameters as their effect on a 1 g reading, m/s², with 95 % intervals.
+fn sensor_plot(r: &CampaignResult) -> Option<LinePlot> {
+    let params = &r.joint.sensor_params;
+    if params.len() != crate::correctors::physical::SENSOR_PARAMS {
+        return None;
+    }
+    let g = crate::input::recording::STANDARD_GRAVITY;
+    let per_g = |k: usize| match k {
+        0..=2 => 1.0,
+        3..=8 => g,
+        _ => g * g,
+    };
+    let x: Vec<f64> = (1..=params.len()).map(|k| k as f64).collect();
+    let value: Vec<f64> = params
+        .iter()
+        .enumerate()
+        .map(|(k, p)| p.value * per_g(k))
+        .collect();
+    let half: Vec<f64> = params
+        .iter()
+        .enumerate()
+        .map(|(k, p)| p.std_error.map_or(f64::NAN, |se| 1.96 * se * per_g(k)))
+        .collect();
+    let low: Vec<f64> = value.iter().zip(&half).map(|(v, h)| v - h).collect();
+    let high: Vec<f64> = value.iter().zip(&half).map(|(v, h)| v + h).collect();
+    Some(
+        LinePlot::new(
+            "Sensor parameters",
+            "parameter (#)",
+            "effect on a 1 g reading, m/s²",
+        )
+        .series(intervals("95 % interval", &x, &low, &high, Rgb::palette(0)))
+        .series(
+            Series::new("fitted", x.clone(), value)
+                .color(Rgb::palette(0))
+                .style(LineStyle::Markers),
+        )
+        .series(
+            Series::new("", vec![0.5, params.len() as f64 + 0.5], vec![0.0, 0.0])
+                .color(Rgb(120, 120, 120))
+                .style(LineStyle::Dashed),
+        )
+        .x_range(0.5, params.len() as f64 + 0.5)
+        .legend(Legend::UpperRight),
+    )
+}
+
+/// The joint fit's residual RMS per run and axis.
+fn run_residual_plot(r: &CampaignResult) -> Option<LinePlot> {
+    let runs = &r.joint.runs;
+    if runs.is_empty() {
+        return None;
+    }
+    let x: Vec<f64> = (1..=runs.len()).map(|i| i as f64).collect();
+    let mut plot = LinePlot::new(
+        "Joint fit residual per run",
+        "turntable run (#)",
+        "residual RMS, m/s²",
+    )
+    .x_range(0.5, runs.len() as f64 + 0.5)
+    .legend(Legend::UpperRight);
+    for (k, axis) in ["x", "y", "z"].into_iter().enumerate() {
+        let y = runs.iter().map(|run| run.residual_rms_mps2[k]).collect();
+        plot = plot.series(
+            Series::new(axis, x.clone(), y)
+                .color(Rgb::palette(k))
+                .style(LineStyle::Markers),
+        );
+    }
+    Some(plot)
+}
+
+/// Gyro minus accelerometer rate about the spindle per run, raw and calibrated, °/s.
+fn gyro_rate_plot(g: &crate::campaign::gyro::GyroFit) -> Option<LinePlot> {
+    let checks = &g.rate_checks;
+    if checks.is_empty() {
+        return None;
+    }
+    let deg = 180.0 / std::f64::consts::PI;
+    let x: Vec<f64> = (1..=checks.len()).map(|i| i as f64).collect();
+    let raw = checks
+        .iter()
+        .map(|c| (c.raw_gyro_rate_radps - c.accel_rate_radps) * deg)
+        .collect();
+    let calibrated = checks
+        .iter()
+        .map(|c| (c.calibrated_gyro_rate_radps - c.accel_rate_radps) * deg)
+        .collect();
+    let half: Vec<f64> = checks
+        .iter()
+        .map(|c| c.accel_rate_se_radps.map_or(f64::NAN, |se| 1.96 * se * deg))
+        .collect();
+    let low: Vec<f64> = half.iter().map(|h| -h).collect();
+    Some(
+        LinePlot::new(
+            "Gyro against the accelerometer's rate",
+            "turntable run (#)",
+            "gyro − accelerometer rate, °/s",
+        )
+        .series(intervals(
+            "accelerometer rate, 95 %",
+            &x,
+            &low,
+            &half,
+            Rgb(120, 120, 120),
+        ))
+        .series(
+            Series::new("raw gyro", x.clone(), raw)
+                .color(Rgb::palette(1))
+                .style(LineStyle::Markers),
+        )
+        .series(
+            Series::new("calibrated gyro", x, calibrated)
+                .color(Rgb::palette(0))
+                .style(LineStyle::Markers),
+        )
+        .x_range(0.5, checks.len() as f64 + 0.5)
+        .legend(Legend::UpperRight),
+    )
 }
