@@ -1,7 +1,7 @@
 //! Every example in every `spincal <command> --help` runs, on files made here (or, for the
 //! real-data examples, the files in ../shared/data; those skip with a reason where it is absent).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use assert_cmd::Command;
 use spincal::formats::gx1::{encode, Gx1EncodeOptions};
@@ -98,13 +98,6 @@ fn split_words(line: &str) -> Vec<String> {
         words.push(word);
     }
     words
-}
-
-fn shared_file(relative: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(relative);
-    path.exists().then_some(path)
 }
 
 /// Files the examples name that come from ../shared/data.
@@ -204,7 +197,7 @@ fn every_help_example_runs() {
             write_still(&work.join("still.csv"));
             write_gx1(&work.join("imu.bin"));
             for (name, relative) in SHARED {
-                if let Some(path) = shared_file(relative) {
+                if let Some(path) = crate::harness::shared(relative) {
                     std::fs::copy(path, work.join(name)).unwrap();
                 }
             }

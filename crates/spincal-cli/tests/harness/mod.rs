@@ -49,17 +49,25 @@ pub fn venv_python() -> Option<PathBuf> {
     None
 }
 
+/// A file under the shared data folder: `$SPINCAL_SHARED_DATA`, or `../shared/data` beside the
+/// clone. `None` with a printed reason when it is absent (a user's clone); with
+/// `SPINCAL_REQUIRE_DATA=1` (CI) a missing file fails the test instead.
 pub fn shared(relative: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(relative);
+    let root = std::env::var_os("SPINCAL_SHARED_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
+    let path = root.join(relative);
     if path.exists() {
-        Some(path)
-    } else {
-        eprintln!(
-            "skipped: {} is absent (../shared/data is not beside this clone)",
-            path.display()
-        );
-        None
+        return Some(path);
     }
+    assert!(
+        std::env::var("SPINCAL_REQUIRE_DATA").as_deref() != Ok("1"),
+        "SPINCAL_REQUIRE_DATA=1 but {} is absent: put the shared data beside the clone or set SPINCAL_SHARED_DATA",
+        path.display()
+    );
+    eprintln!(
+        "skipped: {} is absent (set SPINCAL_SHARED_DATA to the shared data folder)",
+        path.display()
+    );
+    None
 }

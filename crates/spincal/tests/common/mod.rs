@@ -6,7 +6,8 @@ pub mod synthetic;
 use std::path::PathBuf;
 
 /// Path of a file under `../shared/data` (or `$SPINCAL_SHARED_DATA`), or `None` with a printed
-/// reason when the data is not there (a user's clone); CI always has it.
+/// reason when the data is not there (a user's clone); with `SPINCAL_REQUIRE_DATA=1` (CI) a
+/// missing file fails the test instead.
 pub fn shared_data(relative: &str) -> Option<PathBuf> {
     let root = std::env::var_os("SPINCAL_SHARED_DATA")
         .map(PathBuf::from)
@@ -15,6 +16,11 @@ pub fn shared_data(relative: &str) -> Option<PathBuf> {
     if path.exists() {
         Some(path)
     } else {
+        assert!(
+            std::env::var("SPINCAL_REQUIRE_DATA").as_deref() != Ok("1"),
+            "SPINCAL_REQUIRE_DATA=1 but {} is absent: put the shared data beside the clone or set SPINCAL_SHARED_DATA",
+            path.display()
+        );
         eprintln!(
             "skipped: {} is absent (set SPINCAL_SHARED_DATA to the shared data folder)",
             path.display()
