@@ -11,10 +11,10 @@ use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
 use spincal::calibrate::CalibrationOutput;
+use spincal::campaign::params::{NetworkChoice, Params};
 use spincal::campaign::{Campaign, CampaignOutput};
 use spincal::corrector::{Axis, Corrector};
 use spincal::formats::{Format, ReadOptions};
-use spincal::params::{NetworkChoice, Params};
 use spincal::recording::{GyroUnit, TimeUnit};
 use spincal::sysid::{ModelKind, ModelSpec};
 use spincal::turntable::{AxesObjective, DriftMode, FitOptions, RadiusPrior};

@@ -12,7 +12,7 @@
 //! width, 1/(m/s²)), `--detail` (every held-out row).
 
 use spincal::campaign::calibrate_campaign;
-use spincal::params::Params;
+use spincal::campaign::params::Params;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 
 fn main() {

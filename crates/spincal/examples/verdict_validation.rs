@@ -23,10 +23,10 @@
 //! ```
 
 use rand::{Rng, SeedableRng};
+use spincal::campaign::params::Params;
 use spincal::campaign::prepare::prepare;
 use spincal::campaign::select::conditions;
 use spincal::campaign::{calibrate_campaign, combined};
-use spincal::params::Params;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, RunSetup, SimulatedCampaign};
 
 /// An independently drawn unit: 7 poses and 4 runs (two speeds, two radii, z up and x up).

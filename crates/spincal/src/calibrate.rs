@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
+use crate::campaign::params::{NetworkChoice, ParamError, Params};
 use crate::correctors::ann::{
     architecture_label, reduce_sweep, run_sweep_locally, AnnError, AnnProblem, Division, LmSettings,
     SweepRow, SweepRun, SweepSettings,
@@ -22,7 +23,6 @@ use crate::correctors::linear::{LinearError, LinearModel};
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::input::recording::Recording;
 use crate::metrics::{fit_percent, rmse};
-use crate::params::{NetworkChoice, ParamError, Params};
 use crate::progress::{Observer, Progress};
 use crate::sysid::{fit_and_score, score, ModelSpec, Scores, SysidError, SysidModel};
 use crate::turntable::fit::{FitError, TurntableFit};

@@ -25,7 +25,6 @@ pub mod input;
 pub mod metrics;
 pub mod optim;
 pub mod output;
-pub mod params;
 pub mod progress;
 #[cfg(feature = "plot")]
 pub mod report;

@@ -504,7 +504,7 @@ fn streaming_correction_matches_batch_application() {
 #[test]
 fn a_single_speed_calibration_never_makes_another_speed_worse() {
     use spincal::calibrate::calibrate;
-    use spincal::params::{NetworkChoice, Params};
+    use spincal::campaign::params::{NetworkChoice, Params};
     use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
     use spincal::turntable::{FitOptions, RadiusPrior};
     let settings = Params {

@@ -1,4 +1,4 @@
-//! The import graph of both crates has no cycles.
+//! The import graph of both crates has no cycles, and every integration-test file runs.
 //!
 //! Every `crate::…` and `super::…` path in a source file is resolved to the module it names; a
 //! module is its file (`a/b.rs` or `a/b/mod.rs` is `a::b`). Modules are then grouped two levels
@@ -192,4 +192,43 @@ fn the_scanner_finds_a_cycle_when_there_is_one() {
     let caught = std::panic::catch_unwind(|| check_crate(src)).unwrap_err();
     let message = caught.downcast_ref::<String>().unwrap();
     assert!(message.contains("import cycle: a → b → a"), "{message}");
+}
+
+/// With `autotests = false` a file of a crate's tests/ is built only as a module of its
+/// tests/suite.rs or as a `[[test]]` of its own in Cargo.toml: any other file would never run.
+#[test]
+fn every_test_file_runs() {
+    let crates = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut checked = 0;
+    let mut missing = Vec::new();
+    for krate in std::fs::read_dir(&crates).unwrap() {
+        let krate = krate.unwrap().path();
+        let tests = krate.join("tests");
+        let Ok(suite) = std::fs::read_to_string(tests.join("suite.rs")) else {
+            continue;
+        };
+        let manifest = std::fs::read_to_string(krate.join("Cargo.toml")).unwrap();
+        for entry in std::fs::read_dir(&tests).unwrap() {
+            let name = entry.unwrap().file_name().into_string().unwrap();
+            let Some(module) = name.strip_suffix(".rs") else {
+                continue;
+            };
+            checked += 1;
+            let runs = name == "suite.rs"
+                || suite.contains(&format!("\nmod {module};"))
+                || manifest.contains(&format!("path = \"tests/{name}\""));
+            if !runs {
+                missing.push(tests.join(&name));
+            }
+        }
+    }
+    assert!(
+        checked >= 30,
+        "only {checked} test files found under {}",
+        crates.display()
+    );
+    assert!(
+        missing.is_empty(),
+        "{missing:?} would never run: add `mod …;` to the crate's tests/suite.rs"
+    );
 }

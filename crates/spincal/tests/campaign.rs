@@ -3,11 +3,11 @@
 //! checked on a held-out condition.
 
 use spincal::campaign::joint::{fit_joint, JointSettings, SensorTerms};
+use spincal::campaign::params::Params;
 use spincal::campaign::prepare::prepare;
 use spincal::campaign::{calibrate_campaign, CandidateKind};
 use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
 use spincal::correctors::physical::{quadratic_from_datasheet, PhysicalCorrector};
-use spincal::params::Params;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, RunSetup};
 
 use crate::common::campaign_units as units;

@@ -6,8 +6,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use spincal::campaign::params::Params;
 use spincal::campaign::{Campaign, CampaignOutput};
-use spincal::params::Params;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 use spincal::simulate::fleet::WriteError;
 

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
-use spincal::params::Params;
+use spincal::campaign::params::Params;
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
 use spincal::turntable::{FitOptions, RadiusPrior};
 use spincal::AccelUnit;

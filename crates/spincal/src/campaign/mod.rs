@@ -6,13 +6,15 @@
 //! them against physics before any fit, `joint` fits
 //! the sensor model (`correctors::physical`) jointly with them, `select` trains the candidate
 //! correctors on all conditions but one, and `verdict` judges each on the one held out by physics
-//! alone (and, in simulations, against truth too).
+//! alone (and, in simulations, against truth too). `params` holds the settings of every
+//! calibration, a campaign's or the paper's one-recording protocol (`crate::calibrate`).
 
 pub mod checks;
 pub mod file;
 pub mod gyro;
 pub mod joint;
 pub mod load;
+pub mod params;
 pub mod prepare;
 pub mod select;
 pub mod verdict;

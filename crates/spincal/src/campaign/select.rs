@@ -16,7 +16,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::params::{ParamError, Params};
+use crate::campaign::params::{ParamError, Params};
 
 use crate::campaign::checks::{check_prepared, check_recordings, InputError};
 use crate::campaign::gyro::{fit_gyro, GyroFit};

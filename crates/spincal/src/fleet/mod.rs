@@ -23,7 +23,7 @@ use std::sync::Mutex;
 
 use serde::{Deserialize, Serialize};
 
-use crate::params::Params;
+use crate::campaign::params::Params;
 
 use crate::campaign::file::{Campaign, CampaignError};
 use crate::campaign::joint::JointParam;

@@ -8,9 +8,9 @@
 
 use super::escape;
 use crate::calibrate::{CalibrationOutput, CalibrationResult, ComparisonRow, PartScore};
+use crate::campaign::params::NetworkChoice;
 use crate::correctors::ann::Part;
 use crate::input::recording::{Recording, STANDARD_GRAVITY};
-use crate::params::NetworkChoice;
 use crate::report::plot::{Figure, HeatMap, LinePlot, PlotError, Rgb, Series};
 use crate::turntable::fit::FittedParam;
 use crate::turntable::{Direction, TurntableFit};
