@@ -266,3 +266,156 @@ fn sigint_during_correct_removes_its_temporary_file() {
 fn sigterm_during_correct_removes_its_temporary_file() {
     interrupted_correct_leaves_nothing("TERM");
 }
+
+/// A linear model trained on a simulated recording in `dir` (its recording, reference, model).
+fn linear_model(dir: &Path) -> (PathBuf, PathBuf) {
+    let rec = recording(dir);
+    let reference = dir.join("ref.csv");
+    let model = dir.join("linear.json");
+    spincal()
+        .args(["fit", "--quiet"])
+        .arg(&rec)
+        .arg("--reference-csv")
+        .arg(&reference)
+        .assert()
+        .success();
+    spincal()
+        .args(["train", "--kind", "linear", "--quiet", "--data"])
+        .arg(&rec)
+        .arg("--reference")
+        .arg(&reference)
+        .arg("-o")
+        .arg(&model)
+        .assert()
+        .success();
+    (rec, model)
+}
+
+/// `text` with the field `column` (0-based) of line `line` (1-based) replaced.
+fn with_field(text: &str, line: usize, column: usize, value: &str) -> String {
+    text.lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i + 1 != line {
+                return l.to_string() + "\n";
+            }
+            let mut fields: Vec<&str> = l.split(',').collect();
+            fields[column] = value;
+            fields.join(",") + "\n"
+        })
+        .collect()
+}
+
+/// (status, corrected values) of each row of `correct`'s output.
+fn statuses(output: &str) -> Vec<(String, Vec<String>)> {
+    let mut lines = output.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let corrected: Vec<usize> = (0..header.len())
+        .filter(|&c| header[c].ends_with("_corrected"))
+        .collect();
+    lines
+        .map(|l| {
+            let fields = split_quoted(l);
+            (
+                fields.last().unwrap().to_string(),
+                corrected.iter().map(|&c| fields[c].to_string()).collect(),
+            )
+        })
+        .collect()
+}
+
+/// A CSV line's fields, double-quoted ones unquoted.
+fn split_quoted(line: &str) -> Vec<String> {
+    let mut fields = vec![String::new()];
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '"' if quoted && chars.peek() == Some(&'"') => {
+                chars.next();
+                fields.last_mut().unwrap().push('"');
+            }
+            '"' => quoted = !quoted,
+            ',' if !quoted => fields.push(String::new()),
+            c => fields.last_mut().unwrap().push(c),
+        }
+    }
+    fields
+}
+
+#[test]
+fn a_value_that_overflows_in_unit_conversion_is_refused_where_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let (rec, model) = linear_model(dir.path());
+    let text = std::fs::read_to_string(&rec).unwrap();
+    assert!(text.starts_with("t_s,ax_g,"), "{}", &text[..40]);
+    let huge = dir.path().join("huge.csv");
+    std::fs::write(&huge, with_field(&text, 5, 1, "1e308")).unwrap();
+    let huge_bytes = read(&huge);
+    let model_bytes = read(&model);
+
+    let (code, _, err) = run(&[os("fit"), huge.as_os_str()]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("huge.csv:5, column 2 (ax_g)"), "{err}");
+    assert!(err.contains("after conversion"), "{err}");
+
+    let out = dir.path().join("corrected.csv");
+    let (code, _, err) = run(&[
+        os("correct"),
+        os("--model"),
+        model.as_os_str(),
+        huge.as_os_str(),
+        os("-o"),
+        out.as_os_str(),
+    ]);
+    assert_eq!(code, 3, "{err}");
+    assert!(err.contains("line 5, column 2 (ax_g)"), "{err}");
+    let rows = statuses(&std::fs::read_to_string(&out).unwrap());
+    assert_eq!(rows.len(), text.lines().count() - 1, "every input row is written");
+    assert!(rows[3].0.starts_with("refused: line 5, column 2 (ax_g)"), "{:?}", rows[3]);
+    assert!(rows[3].1.iter().all(String::is_empty), "{:?}", rows[3]);
+    assert_eq!(rows.iter().filter(|r| r.0 != "ok").count(), 1);
+    assert_eq!((read(&huge), read(&model)), (huge_bytes, model_bytes));
+}
+
+#[test]
+fn a_corrected_value_that_is_not_finite_is_never_ok() {
+    let dir = tempfile::tempdir().unwrap();
+    let (rec, model) = linear_model(dir.path());
+    // In m/s², no conversion: the file's largest values, which no correction keeps finite.
+    let text = std::fs::read_to_string(&rec)
+        .unwrap()
+        .replacen("t_s,ax_g,ay_g,az_g", "t_s,ax_mps2,ay_mps2,az_mps2", 1);
+    let mut text = with_field(&text, 6, 1, "1.7976931348623157e308");
+    for column in 1..4 {
+        text = with_field(&text, 7, column, "-1.7976931348623157e308");
+    }
+    let extreme = dir.path().join("extreme.csv");
+    std::fs::write(&extreme, &text).unwrap();
+    let before = (read(&extreme), read(&model));
+    let out = dir.path().join("corrected.csv");
+    let (code, _, err) = run(&[
+        os("correct"),
+        os("--model"),
+        model.as_os_str(),
+        extreme.as_os_str(),
+        os("-o"),
+        out.as_os_str(),
+    ]);
+    let rows = statuses(&std::fs::read_to_string(&out).unwrap());
+    assert_eq!(rows.len(), text.lines().count() - 1, "every input row is written");
+    for (status, corrected) in &rows {
+        if status == "ok" {
+            for v in corrected {
+                let v: f64 = v.parse().unwrap();
+                assert!(v.is_finite(), "status ok with {corrected:?}");
+            }
+        }
+    }
+    let not_ok: Vec<&String> = rows.iter().map(|r| &r.0).filter(|s| *s != "ok").collect();
+    assert!(!not_ok.is_empty());
+    assert!(not_ok.iter().all(|s| s.contains("not finite")), "{not_ok:?}");
+    assert_eq!(code, 3, "{err}");
+    assert!(err.contains("not finite"), "{err}");
+    assert_eq!((read(&extreme), read(&model)), before);
+}

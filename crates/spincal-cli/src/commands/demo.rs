@@ -4,7 +4,6 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use clap::Args;
 use spincal::calibrate::{CalibrateSettings, NetworkChoice};
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
@@ -53,7 +52,7 @@ pub fn default_session() -> Vec<(String, TurntableSetup)> {
 }
 
 pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    super::create_folder("--out", &args.out)?;
     // The campaign first: its verdict is what a user should read first.
     let campaign_dir = args.out.join("campaign");
     super::campaign::write_simulated_campaign(
@@ -74,7 +73,7 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
         sim.recording.write_csv_path(&path, AccelUnit::G)?;
         super::write_text(
             &path.with_extension("truth.json"),
-            &(serde_json::to_string_pretty(&sim.truth)? + "\n"),
+            &spincal::simulate::truth_json(&sim.truth, &path)?,
         )?;
         let mut recording = sim.recording;
         recording.source.name = name;

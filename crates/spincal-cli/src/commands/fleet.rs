@@ -100,7 +100,7 @@ pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
         &inputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
         &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
     )?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    super::create_folder("--out", &args.out)?;
 
     let multi = ui.multi();
     let width = labels.iter().map(String::len).max().unwrap_or(4);
