@@ -419,3 +419,93 @@ fn a_corrected_value_that_is_not_finite_is_never_ok() {
     assert!(err.contains("not finite"), "{err}");
     assert_eq!((read(&extreme), read(&model)), before);
 }
+
+/// Every file under `dir` with its bytes, sorted by path.
+fn tree(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut files = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                let bytes = read(&path);
+                files.push((path, bytes));
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+#[test]
+fn fleet_takes_any_single_toml_and_leaves_no_folder_out_unseen() {
+    use spincal::simulate::campaign::{CampaignSetup, RunSetup};
+    let dir = tempfile::tempdir().unwrap();
+    let base = CampaignSetup::default();
+    let setup = CampaignSetup {
+        runs: base
+            .runs
+            .iter()
+            .map(|r| RunSetup {
+                duration_s: 20.0,
+                ..r.clone()
+            })
+            .collect(),
+        ..base
+    };
+    let setup_path = dir.path().join("setup.json");
+    std::fs::write(&setup_path, serde_json::to_string(&setup).unwrap()).unwrap();
+    let fleet = dir.path().join("fleet");
+    let (code, _, err) = run(&[
+        os("simulate"),
+        os("--fleet"),
+        os("2"),
+        os("--seed"),
+        os("5"),
+        os("--out"),
+        fleet.as_os_str(),
+        os("--setup"),
+        setup_path.as_os_str(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    // The README's name for a unit's campaign file, a folder with no campaign, a hidden folder.
+    std::fs::rename(fleet.join("unit-02/campaign.toml"), fleet.join("unit-02/unit.toml")).unwrap();
+    std::fs::create_dir(fleet.join("notes")).unwrap();
+    std::fs::write(fleet.join("notes/readme.txt"), "bench log").unwrap();
+    std::fs::create_dir(fleet.join(".thumbnails")).unwrap();
+    let before = tree(&fleet);
+
+    let out = dir.path().join("cal");
+    let (code, stdout, err) = run(&[os("fleet"), fleet.as_os_str(), os("--quiet"), os("--out"), out.as_os_str()]);
+    assert_eq!(code, 3, "{stdout}\n{err}");
+    assert!(err.contains(".thumbnails") && err.contains("skipped") && err.contains("hidden"), "{err}");
+    assert!(err.contains("1 of 3 units failed"), "{err}");
+    assert!(err.contains("notes") && err.contains("no campaign file"), "{err}");
+    for unit in ["unit-01", "unit-02"] {
+        let results: serde_json::Value =
+            serde_json::from_slice(&read(&out.join(unit).join("results.json"))).unwrap();
+        assert!(results["spincal_version"].is_string(), "{unit}");
+    }
+    let csv = std::fs::read_to_string(out.join("fleet.csv")).unwrap();
+    assert!(csv.contains("notes"), "{csv}");
+    assert_eq!(tree(&fleet), before, "no input changed");
+
+    // A unit named but not there fails as its own unit: exit 3, the other one written.
+    let missing = fleet.join("unit-09");
+    let out2 = dir.path().join("cal2");
+    let unit1 = fleet.join("unit-01");
+    let (code, stdout, err) = run(&[
+        os("fleet"),
+        unit1.as_os_str(),
+        missing.as_os_str(),
+        os("--quiet"),
+        os("--out"),
+        out2.as_os_str(),
+    ]);
+    assert_eq!(code, 3, "{stdout}\n{err}");
+    assert!(err.contains("unit-09"), "{err}");
+    assert!(out2.join("unit-01/results.json").is_file());
+    assert_eq!(tree(&fleet), before, "no input changed");
+}
