@@ -25,7 +25,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Simulate the default record-player session and calibrate it (the README's main command).
+    /// Simulate a campaign and calibrate it, then the default record-player session (the README's main command).
     Demo(commands::demo::DemoArgs),
     /// The whole job: turntable fit, every corrector trained and compared, model + report written.
     Calibrate(commands::calibrate::CalibrateArgs),

@@ -28,7 +28,9 @@ use crate::ui::{RowsRefused, Ui, UsageError};
 
 #[derive(Args)]
 pub struct CorrectArgs {
-    /// Corrector file written by `spincal train`.
+    /// Corrector file (model.json): written by `spincal calibrate` (recordings or `--campaign`),
+    /// `spincal fleet`, `spincal train` or `spincal static -o`; any kind (ann, linear, static,
+    /// physical, physical_ann).
     #[arg(long, value_name = "MODEL.json")]
     pub model: PathBuf,
     /// Recording to correct (CSV), or - for standard input.

@@ -15,7 +15,9 @@ use crate::ui::{self, Ui};
 use spincal::ann::small_grid;
 
 #[derive(Args, Debug)]
-#[command(after_help = "Example:\n  spincal demo --out spincal-demo && xdg-open spincal-demo/report.html")]
+#[command(
+    after_help = "Runs two calibrations, each on simulated data:\n  1. a campaign (still poses and turntable runs, written to OUT/campaign) calibrated as\n     `spincal calibrate --campaign` does, into OUT/campaign-calibration (its verdict first);\n  2. the paper's protocol: two turntable recordings (OUT/rec33.csv, OUT/rec45.csv) calibrated as\n     `spincal calibrate` does, into OUT (results.json, report.html, model.json).\n\nExample:\n  spincal demo --out spincal-demo && xdg-open spincal-demo/report.html"
+)]
 pub struct DemoArgs {
     /// Folder for the simulated recordings and every result.
     #[arg(long, default_value = "spincal-demo")]
