@@ -143,9 +143,11 @@ pub enum FitError {
     Spectrum(#[from] SpectrumError),
     #[error(transparent)]
     Bounds(#[from] BoundsError),
-    #[error("{file}: only {rotations:.1} rotations (measured: {rpm:.2} rpm for {duration_s:.1} s); at least 3 are needed to fit the turntable")]
+    #[error("{file}: only {rotations:.1} rotations ({basis}: {rpm:.2} rpm for {duration_s:.1} s); at least 3 are needed to fit the turntable")]
     TooFewRotations {
         file: String,
+        /// Where the rate comes from: measured, or sought near the rate the user gave.
+        basis: &'static str,
         rotations: f64,
         rpm: f64,
         duration_s: f64,
@@ -686,15 +688,20 @@ fn first_look(rec: &Recording, inspection: Inspection, options: &FitOptions) -> 
     // rotation count, is not measured. Say so rather than give the count.
     // Three turns at the slowest record speed, 16⅔ rpm, take 10.8 s: a longer recording with no
     // resolved line is not turning (below), not short.
-    if rotations < 2.0 && rec.duration_s() < 3.0 * 60.0 / (50.0 / 3.0) {
+    if rotations < 2.0 && rec.duration_s() < 3.0 * 60.0 / (50.0 / 3.0) && options.rpm_hint.is_none() {
         return Err(FitError::TooShortToMeasure {
             file: rec.source.name.clone(),
             duration_s: rec.duration_s(),
         });
     }
-    if (2.0..3.0).contains(&rotations) {
+    if (2.0..3.0).contains(&rotations) || (rotations < 3.0 && options.rpm_hint.is_some()) {
         return Err(FitError::TooFewRotations {
             file: rec.source.name.clone(),
+            basis: if options.rpm_hint.is_some() {
+                "the rate found within 10 % of the rpm given"
+            } else {
+                "measured"
+            },
             rotations,
             rpm: rate.rpm,
             duration_s: rec.duration_s(),
