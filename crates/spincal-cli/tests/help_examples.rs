@@ -285,10 +285,16 @@ fn the_readme_command_table_names_each_subcommand_exactly_once() {
     let rows = readme_table_rows();
     for command in &commands {
         let count = rows.iter().filter(|r| r.contains(command)).count();
-        assert_eq!(count, 1, "`spincal {command}` is in {count} rows of the README's table");
+        assert_eq!(
+            count, 1,
+            "`spincal {command}` is in {count} rows of the README's table"
+        );
     }
     for name in rows.iter().flatten() {
-        assert!(commands.contains(name), "the README's table names `spincal {name}`, which is no subcommand");
+        assert!(
+            commands.contains(name),
+            "the README's table names `spincal {name}`, which is no subcommand"
+        );
     }
 }
 
@@ -322,12 +328,24 @@ fn help(command: &str) -> String {
 fn help_texts_say_what_the_commands_do() {
     // Every command that writes a model file is named by `correct --model`.
     let correct = help("correct");
-    for writer in ["spincal calibrate", "--campaign", "spincal train", "spincal static -o", "spincal fleet"] {
-        assert!(correct.contains(writer), "correct --help leaves out {writer}:\n{correct}");
+    for writer in [
+        "spincal calibrate",
+        "--campaign",
+        "spincal train",
+        "spincal static -o",
+        "spincal fleet",
+    ] {
+        assert!(
+            correct.contains(writer),
+            "correct --help leaves out {writer}:\n{correct}"
+        );
     }
     // demo runs a campaign as well as the paper's protocol.
     let demo = help("demo");
-    assert!(demo.contains("campaign") && demo.contains("calibrate --campaign"), "{demo}");
+    assert!(
+        demo.contains("campaign") && demo.contains("calibrate --campaign"),
+        "{demo}"
+    );
     // static --yaml is not Kalibr's imu.yaml.
     let static_help = help("static");
     assert!(static_help.contains("not Kalibr's imu.yaml"), "{static_help}");
@@ -341,14 +359,28 @@ fn help_texts_say_what_the_commands_do() {
         .arg(&disc)
         .output()
         .unwrap();
-    assert_eq!(passes.status.code(), Some(0), "{}", String::from_utf8_lossy(&passes.stderr));
+    assert_eq!(
+        passes.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&passes.stderr)
+    );
     let before = std::fs::read(&disc).unwrap();
     let fails = spincal()
         .args(["strobe", "--rpm", "45", "--exact", "-o"])
         .arg(&disc)
         .output()
         .unwrap();
-    assert_eq!(fails.status.code(), Some(1), "{}", String::from_utf8_lossy(&fails.stderr));
+    assert_eq!(
+        fails.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&fails.stderr)
+    );
     assert!(String::from_utf8_lossy(&fails.stderr).contains("133"));
-    assert_eq!(std::fs::read(&disc).unwrap(), before, "a failed disc leaves the old one");
+    assert_eq!(
+        std::fs::read(&disc).unwrap(),
+        before,
+        "a failed disc leaves the old one"
+    );
 }

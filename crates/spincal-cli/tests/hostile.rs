@@ -385,14 +385,24 @@ fn a_time_column_that_is_not_seconds_is_refused_with_the_flag_that_fixes_it() {
         .success();
     let text = std::fs::read_to_string(&rec).unwrap();
     let cases: [(&str, String, &str, &[&str]); 3] = [
-        ("index.csv", retimed(&text, |i, _| i.to_string()), "--sample-rate", &["--sample-rate", "100"]),
+        (
+            "index.csv",
+            retimed(&text, |i, _| i.to_string()),
+            "--sample-rate",
+            &["--sample-rate", "100"],
+        ),
         (
             "millis.csv",
             retimed(&text, |_, t| format!("{}", (t * 1000.0).round())),
             "--time-unit ms",
             &["--time-unit", "ms"],
         ),
-        ("zeros.csv", retimed(&text, |_, _| "0".into()), "--sample-rate", &["--sample-rate", "100"]),
+        (
+            "zeros.csv",
+            retimed(&text, |_, _| "0".into()),
+            "--sample-rate",
+            &["--sample-rate", "100"],
+        ),
     ];
     for (name, content, flag, fix) in cases {
         let path = dir.path().join(name);
@@ -424,13 +434,24 @@ fn a_rotation_count_in_a_refusal_is_measured_or_not_given() {
     let before = std::fs::read(&one).unwrap();
     let (code, err) = run(&[os("fit"), one.as_os_str()]);
     assert_eq!(code, 1, "{err}");
-    assert!(err.contains("one.csv") && err.contains("too short to measure"), "{err}");
+    assert!(
+        err.contains("one.csv") && err.contains("too short to measure"),
+        "{err}"
+    );
     assert!(!err.contains("rotations at") && !err.contains("rpm for"), "{err}");
     assert_eq!(std::fs::read(&one).unwrap(), before);
     // 4.5 s at 33.333 rpm: 2.5 turns, resolved: the count and rate given are the measured ones.
     let short = dir.path().join("short.csv");
     spincal()
-        .args(["simulate", "--duration", "4.5", "--speed-error-pct", "0", "--quiet", "-o"])
+        .args([
+            "simulate",
+            "--duration",
+            "4.5",
+            "--speed-error-pct",
+            "0",
+            "--quiet",
+            "-o",
+        ])
         .arg(&short)
         .assert()
         .success();

@@ -58,7 +58,10 @@ fn simulate_never_replaces_a_recording_it_did_not_write_but_replaces_its_own() {
     std::fs::write(&real, REAL).unwrap();
     let (code, _, err) = simulate(&real, &[]);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("my-recording.csv") && err.contains("spincal did not write it"), "{err}");
+    assert!(
+        err.contains("my-recording.csv") && err.contains("spincal did not write it"),
+        "{err}"
+    );
     assert!(err.contains("--force"), "{err}");
     assert_eq!(read(&real), REAL.as_bytes());
     assert_eq!(listing(dir.path()), ["my-recording.csv"], "nothing else written");
@@ -100,7 +103,10 @@ fn simulate_never_replaces_a_recording_it_did_not_write_but_replaces_its_own() {
         real.as_os_str(),
     ]);
     assert_eq!(code, 0, "{err}");
-    assert!(err.contains("replacing") && err.contains("my-recording.csv"), "{err}");
+    assert!(
+        err.contains("replacing") && err.contains("my-recording.csv"),
+        "{err}"
+    );
     assert_ne!(read(&real), REAL.as_bytes());
 }
 
@@ -142,7 +148,10 @@ fn calibrate_keeps_files_it_did_not_write_and_replaces_its_own() {
     std::fs::write(&theirs, their_model).unwrap();
     let (code, _, err) = calibrate(&rec, &out, false);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("model.json") && err.contains("spincal did not write it"), "{err}");
+    assert!(
+        err.contains("model.json") && err.contains("spincal did not write it"),
+        "{err}"
+    );
     assert_eq!(read(&theirs), their_model);
     assert_eq!(listing(&out), ["model.json"], "refused before any work");
 
@@ -177,7 +186,10 @@ fn out_naming_a_file_is_refused_by_name_and_force_says_what_it_replaces() {
     std::fs::write(&file, "keep me").unwrap();
     let (code, _, err) = calibrate(&rec, &file, false);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("--out") && err.contains("notes.txt") && err.contains("not a folder"), "{err}");
+    assert!(
+        err.contains("--out") && err.contains("notes.txt") && err.contains("not a folder"),
+        "{err}"
+    );
     assert!(!err.contains("os error"), "{err}");
     assert_eq!(read(&file), b"keep me");
 
@@ -372,7 +384,11 @@ fn a_value_that_overflows_in_unit_conversion_is_refused_where_it_is() {
     assert!(err.contains("line 5, column 2 (ax_g)"), "{err}");
     let rows = statuses(&std::fs::read_to_string(&out).unwrap());
     assert_eq!(rows.len(), text.lines().count() - 1, "every input row is written");
-    assert!(rows[3].0.starts_with("refused: line 5, column 2 (ax_g)"), "{:?}", rows[3]);
+    assert!(
+        rows[3].0.starts_with("refused: line 5, column 2 (ax_g)"),
+        "{:?}",
+        rows[3]
+    );
     assert!(rows[3].1.iter().all(String::is_empty), "{:?}", rows[3]);
     assert_eq!(rows.iter().filter(|r| r.0 != "ok").count(), 1);
     assert_eq!((read(&huge), read(&model)), (huge_bytes, model_bytes));
@@ -383,9 +399,11 @@ fn a_corrected_value_that_is_not_finite_is_never_ok() {
     let dir = tempfile::tempdir().unwrap();
     let (rec, model) = linear_model(dir.path());
     // In m/s², no conversion: the file's largest values, which no correction keeps finite.
-    let text = std::fs::read_to_string(&rec)
-        .unwrap()
-        .replacen("t_s,ax_g,ay_g,az_g", "t_s,ax_mps2,ay_mps2,az_mps2", 1);
+    let text = std::fs::read_to_string(&rec).unwrap().replacen(
+        "t_s,ax_g,ay_g,az_g",
+        "t_s,ax_mps2,ay_mps2,az_mps2",
+        1,
+    );
     let mut text = with_field(&text, 6, 1, "1.7976931348623157e308");
     for column in 1..4 {
         text = with_field(&text, 7, column, "-1.7976931348623157e308");
@@ -471,16 +489,29 @@ fn fleet_takes_any_single_toml_and_leaves_no_folder_out_unseen() {
     ]);
     assert_eq!(code, 0, "{err}");
     // The README's name for a unit's campaign file, a folder with no campaign, a hidden folder.
-    std::fs::rename(fleet.join("unit-02/campaign.toml"), fleet.join("unit-02/unit.toml")).unwrap();
+    std::fs::rename(
+        fleet.join("unit-02/campaign.toml"),
+        fleet.join("unit-02/unit.toml"),
+    )
+    .unwrap();
     std::fs::create_dir(fleet.join("notes")).unwrap();
     std::fs::write(fleet.join("notes/readme.txt"), "bench log").unwrap();
     std::fs::create_dir(fleet.join(".thumbnails")).unwrap();
     let before = tree(&fleet);
 
     let out = dir.path().join("cal");
-    let (code, stdout, err) = run(&[os("fleet"), fleet.as_os_str(), os("--quiet"), os("--out"), out.as_os_str()]);
+    let (code, stdout, err) = run(&[
+        os("fleet"),
+        fleet.as_os_str(),
+        os("--quiet"),
+        os("--out"),
+        out.as_os_str(),
+    ]);
     assert_eq!(code, 3, "{stdout}\n{err}");
-    assert!(err.contains(".thumbnails") && err.contains("skipped") && err.contains("hidden"), "{err}");
+    assert!(
+        err.contains(".thumbnails") && err.contains("skipped") && err.contains("hidden"),
+        "{err}"
+    );
     assert!(err.contains("1 of 3 units failed"), "{err}");
     assert!(err.contains("notes") && err.contains("no campaign file"), "{err}");
     for unit in ["unit-01", "unit-02"] {

@@ -345,7 +345,10 @@ pub fn written_by_spincal(path: &Path, companions: &[&Path]) -> bool {
     if start.is_some_and(|i| head[i] == b'{') {
         return json_object(path).is_some_and(|map| spincal_json(&map));
     }
-    if head.windows(HTML_GENERATOR.len()).any(|w| w == HTML_GENERATOR.as_bytes()) {
+    if head
+        .windows(HTML_GENERATOR.len())
+        .any(|w| w == HTML_GENERATOR.as_bytes())
+    {
         return true;
     }
     let folder = match path.parent() {
@@ -508,6 +511,61 @@ mod tests {
         ));
         assert!(check_outputs(&[&input], &[&a, Path::new("-")]).is_ok());
         assert_eq!(std::fs::read_to_string(&input).unwrap(), "data");
+    }
+
+    #[test]
+    fn only_files_spincal_wrote_are_claimed_and_force_names_the_others() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = |name: &str| dir.path().join(name);
+        std::fs::write(
+            path("model.json"),
+            r#"{"format_version": 1, "spincal_version": "0.1"}"#,
+        )
+        .unwrap();
+        std::fs::write(path("theirs.json"), r#"{"format_version": 1}"#).unwrap();
+        std::fs::write(
+            path("report.html"),
+            format!("<html><head>{HTML_GENERATOR}</head>"),
+        )
+        .unwrap();
+        std::fs::write(path("notes.html"), "<html>notes</html>").unwrap();
+        std::fs::write(path("empty.csv"), "").unwrap();
+        std::fs::write(path("rec.csv"), "t_s,ax_g\n0,1\n").unwrap();
+        let print = fingerprint(&path("rec.csv")).unwrap();
+        let truth = serde_json::json!({
+            "spincal_version": "0.1",
+            "recording": {"file": "rec.csv", "bytes": print.bytes, "fnv1a64": print.fnv1a64},
+        });
+        std::fs::write(path("rec.truth.json"), truth.to_string()).unwrap();
+        for ours in ["model.json", "report.html", "empty.csv", "rec.csv", "missing.csv"] {
+            assert!(claim_outputs(&[&path(ours)], false).unwrap().is_empty(), "{ours}");
+        }
+        for theirs in ["theirs.json", "notes.html"] {
+            let err = claim_outputs(&[&path(theirs)], false).unwrap_err();
+            assert!(matches!(err, OutputError::NotWrittenBySpincal { .. }), "{err}");
+            assert!(err.to_string().contains(theirs), "{err}");
+            let replaced = claim_outputs(&[&path(theirs)], true).unwrap();
+            assert_eq!(replaced, [Replaced { path: path(theirs) }]);
+        }
+        // An edited recording is no longer the one its truth names.
+        std::fs::write(path("rec.csv"), "t_s,ax_g\n0,2\n").unwrap();
+        assert!(claim_outputs(&[&path("rec.csv")], false).is_err());
+        assert_eq!(
+            std::fs::read_to_string(path("rec.csv")).unwrap(),
+            "t_s,ax_g\n0,2\n"
+        );
+    }
+
+    #[test]
+    fn an_output_folder_that_is_a_file_is_refused_by_name() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("out");
+        std::fs::write(&file, "keep").unwrap();
+        let err = create_folder(&file).unwrap_err();
+        assert!(matches!(err, OutputError::NotAFolder { .. }), "{err}");
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep");
+        create_folder(&dir.path().join("a/b")).unwrap();
+        assert!(dir.path().join("a/b").is_dir());
     }
 
     #[cfg(unix)]

@@ -382,7 +382,10 @@ fn stream(
         // Finite in the file is not enough: a unit's factor can carry a value past f64's range.
         let converted = std::iter::once((columns.time, columns.time_to_s))
             .chain(columns.accel.map(|c| (c, columns.accel_to_mps2)))
-            .chain(gyro.iter().flat_map(|(_, c)| c.map(|col| (col, columns.gyro_to_radps))));
+            .chain(
+                gyro.iter()
+                    .flat_map(|(_, c)| c.map(|col| (col, columns.gyro_to_radps))),
+            );
         if let Some((c, factor)) = converted.into_iter().find(|&(c, k)| !(values[c] * k).is_finite()) {
             let fields = values.iter().map(f64::to_string).collect();
             let reason = format!(

@@ -60,8 +60,7 @@ pub fn claim_outputs(outputs: &[&Path]) -> anyhow::Result<()> {
 
 /// Makes the output folder named by `flag` (e.g. `--out`); a file there is refused by name.
 pub fn create_folder(flag: &str, path: &Path) -> anyhow::Result<()> {
-    spincal::output::create_folder(path)
-        .map_err(|e| crate::ui::UsageError(format!("{flag} {e}")).into())
+    spincal::output::create_folder(path).map_err(|e| crate::ui::UsageError(format!("{flag} {e}")).into())
 }
 
 /// Moves aside the outputs of an earlier run that this run does not write (a model.json beside
