@@ -291,9 +291,13 @@ fn json_object(path: &Path) -> Option<serde_json::Map<String, serde_json::Value>
 }
 
 /// Whether a JSON object is one spincal writes: a `spincal_version` field (models, results,
-/// truth), or imucal's file with the comment spincal gives it.
+/// truth), a campaign's results.json from before it carried one (its joint fit, held-out scores,
+/// candidates and verdict), or imucal's file with the comment spincal gives it.
 fn spincal_json(map: &serde_json::Map<String, serde_json::Value>) -> bool {
     map.get("spincal_version").is_some_and(|v| v.is_string())
+        || ["unit", "joint", "held_out", "candidates", "verdict"]
+            .iter()
+            .all(|k| map.contains_key(*k))
         || map
             .get("comment")
             .and_then(|c| c.as_str())
