@@ -14,13 +14,18 @@ struct Cli {
     /// Hide progress bars.
     #[arg(long, global = true)]
     quiet: bool,
+    /// Replace existing output files that spincal did not write (each one replaced is named on
+    /// standard error). Without it such a file is refused; spincal's own earlier outputs are
+    /// always replaced.
+    #[arg(long, global = true)]
+    force: bool,
     #[command(subcommand)]
     command: Command,
 }
 
 #[derive(Subcommand)]
 enum Command {
-    /// Simulate the default record-player session and calibrate it (the README's main command).
+    /// Simulate a campaign and calibrate it, then the default record-player session (the README's main command).
     Demo(commands::demo::DemoArgs),
     /// The whole job: turntable fit, every corrector trained and compared, model + report written.
     Calibrate(commands::calibrate::CalibrateArgs),
@@ -106,6 +111,8 @@ fn main() {
         }
     };
     let ui = ui::Ui::new(cli.quiet);
+    commands::set_force(cli.force);
+    ui::remove_temporaries_on_signals();
     let result = match cli.command {
         Command::Demo(args) => commands::demo::run(args, ui),
         Command::Calibrate(args) => commands::calibrate::run(args, ui),

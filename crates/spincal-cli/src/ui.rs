@@ -115,3 +115,64 @@ pub struct UnitsFailed(pub String);
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct RowsRefused(pub String);
+
+/// On SIGINT or SIGTERM: removes the temporary files being written (the library's own, see
+/// `spincal::output::remove_temporaries`), then ends the process by the same signal. The signal
+/// handler only writes the signal's number to a pipe; a thread does the rest. A signal that was
+/// ignored when spincal started stays ignored.
+#[cfg(unix)]
+pub fn remove_temporaries_on_signals() {
+    use std::sync::atomic::{AtomicI32, Ordering};
+    static PIPE_WRITE: AtomicI32 = AtomicI32::new(-1);
+    extern "C" fn handler(signal: libc::c_int) {
+        let byte = signal as u8;
+        // SAFETY: write(2) is async-signal-safe; the descriptor stays open for the process's life.
+        unsafe {
+            libc::write(PIPE_WRITE.load(Ordering::Relaxed), (&byte as *const u8).cast(), 1);
+        }
+    }
+    let mut fds = [0 as libc::c_int; 2];
+    // SAFETY: pipe(2) fills the two descriptors it is given.
+    if unsafe { libc::pipe(fds.as_mut_ptr()) } != 0 {
+        return;
+    }
+    PIPE_WRITE.store(fds[1], Ordering::Relaxed);
+    let read_end = fds[0];
+    let spawned = std::thread::Builder::new()
+        .name("signals".into())
+        .spawn(move || loop {
+            let mut byte = 0u8;
+            // SAFETY: reads one byte into a live local.
+            let n = unsafe { libc::read(read_end, (&mut byte as *mut u8).cast(), 1) };
+            if n == 1 {
+                spincal::output::remove_temporaries();
+                let signal = libc::c_int::from(byte);
+                // SAFETY: restores the default action and raises the signal again, so the process
+                // ends as the signal says (exit status included).
+                unsafe {
+                    libc::signal(signal, libc::SIG_DFL);
+                    libc::raise(signal);
+                }
+                std::process::exit(128 + signal);
+            }
+            if n == 0 || std::io::Error::last_os_error().kind() != std::io::ErrorKind::Interrupted {
+                return;
+            }
+        });
+    if spawned.is_err() {
+        return;
+    }
+    for signal in [libc::SIGINT, libc::SIGTERM] {
+        // SAFETY: the handler only calls write(2).
+        unsafe {
+            let previous = libc::signal(signal, handler as *const () as libc::sighandler_t);
+            if previous == libc::SIG_IGN {
+                libc::signal(signal, libc::SIG_IGN);
+            }
+        }
+    }
+}
+
+/// Elsewhere, signals end the process as they always did.
+#[cfg(not(unix))]
+pub fn remove_temporaries_on_signals() {}

@@ -244,3 +244,142 @@ fn example_lines_are_split_like_a_shell() {
     );
     assert_eq!(split_words("a '' b"), ["a", "", "b"]);
 }
+
+/// The README's text.
+fn readme() -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md");
+    std::fs::read_to_string(path).unwrap()
+}
+
+/// The subcommands each row of the README's command table names in its first cell
+/// (`spincal NAME`, each name once per row).
+fn readme_table_rows() -> Vec<Vec<String>> {
+    let text = readme();
+    let table = text
+        .split("| command | what it does |")
+        .nth(1)
+        .expect("the README's command table");
+    table
+        .lines()
+        .skip(2)
+        .take_while(|l| l.starts_with('|'))
+        .map(|row| {
+            let first = row.trim_start_matches('|').split(" | ").next().unwrap();
+            let mut names: Vec<String> = first
+                .split("`spincal ")
+                .skip(1)
+                .filter_map(|rest| rest.split([' ', '`']).next())
+                .map(str::to_string)
+                .collect();
+            names.dedup();
+            names
+        })
+        .collect()
+}
+
+#[test]
+fn the_readme_command_table_names_each_subcommand_exactly_once() {
+    let commands = subcommands();
+    assert!(commands.len() > 10, "{commands:?}");
+    let rows = readme_table_rows();
+    for command in &commands {
+        let count = rows.iter().filter(|r| r.contains(command)).count();
+        assert_eq!(
+            count, 1,
+            "`spincal {command}` is in {count} rows of the README's table"
+        );
+    }
+    for name in rows.iter().flatten() {
+        assert!(
+            commands.contains(name),
+            "the README's table names `spincal {name}`, which is no subcommand"
+        );
+    }
+}
+
+#[test]
+fn the_readme_names_every_model_file_kind() {
+    // The kinds the model file reads, from the reader's own refusal of an unknown kind.
+    let err = serde_json::from_str::<spincal::CorrectorModel>(r#"{"kind": "no-such-kind"}"#)
+        .unwrap_err()
+        .to_string();
+    let expected = err.split("expected one of").nth(1).expect(&err);
+    let mut kinds: Vec<&str> = expected.split('`').skip(1).step_by(2).collect();
+    kinds.sort();
+    assert!(kinds.len() >= 4, "{err}");
+    let text = readme();
+    let listed = text
+        .split("by `kind` (")
+        .nth(1)
+        .and_then(|rest| rest.split(')').next())
+        .expect("the README's list of model kinds");
+    let mut readme_kinds: Vec<&str> = listed.split('`').skip(1).step_by(2).collect();
+    readme_kinds.sort();
+    assert_eq!(readme_kinds, kinds);
+}
+
+/// The help of `spincal <command>`.
+fn help(command: &str) -> String {
+    stdout_of(&[command, "--help"])
+}
+
+#[test]
+fn help_texts_say_what_the_commands_do() {
+    // Every command that writes a model file is named by `correct --model`.
+    let correct = help("correct");
+    for writer in [
+        "spincal calibrate",
+        "--campaign",
+        "spincal train",
+        "spincal static -o",
+        "spincal fleet",
+    ] {
+        assert!(
+            correct.contains(writer),
+            "correct --help leaves out {writer}:\n{correct}"
+        );
+    }
+    // demo runs a campaign as well as the paper's protocol.
+    let demo = help("demo");
+    assert!(
+        demo.contains("campaign") && demo.contains("calibrate --campaign"),
+        "{demo}"
+    );
+    // static --yaml is not Kalibr's imu.yaml.
+    let static_help = help("static");
+    assert!(static_help.contains("not Kalibr's imu.yaml"), "{static_help}");
+    // strobe --exact: the help's two cases behave as it says.
+    let strobe = help("strobe");
+    assert!(strobe.contains("33.333") && strobe.contains("45 rpm"), "{strobe}");
+    let dir = tempfile::tempdir().unwrap();
+    let disc = dir.path().join("disc.svg");
+    let passes = spincal()
+        .args(["strobe", "--rpm", "33.333", "--exact", "-o"])
+        .arg(&disc)
+        .output()
+        .unwrap();
+    assert_eq!(
+        passes.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&passes.stderr)
+    );
+    let before = std::fs::read(&disc).unwrap();
+    let fails = spincal()
+        .args(["strobe", "--rpm", "45", "--exact", "-o"])
+        .arg(&disc)
+        .output()
+        .unwrap();
+    assert_eq!(
+        fails.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&fails.stderr)
+    );
+    assert!(String::from_utf8_lossy(&fails.stderr).contains("133"));
+    assert_eq!(
+        std::fs::read(&disc).unwrap(),
+        before,
+        "a failed disc leaves the old one"
+    );
+}

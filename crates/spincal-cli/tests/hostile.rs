@@ -362,3 +362,113 @@ fn a_headerless_file_needs_its_unit_named_and_a_moving_file_has_no_allan_deviati
     assert!(err.contains("the sensor moves"), "{err}");
     assert!(!profile.exists());
 }
+
+/// `text` (a simulated CSV) with its time column replaced by `time(i, t)`.
+fn retimed(text: &str, time: impl Fn(usize, f64) -> String) -> String {
+    let mut lines = text.lines();
+    let mut out = lines.next().unwrap().to_string() + "\n";
+    for (i, line) in lines.enumerate() {
+        let (t, rest) = line.split_once(',').unwrap();
+        out += &format!("{},{rest}\n", time(i, t.parse().unwrap()));
+    }
+    out
+}
+
+#[test]
+fn a_time_column_that_is_not_seconds_is_refused_with_the_flag_that_fixes_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec.csv");
+    spincal()
+        .args(["simulate", "--duration", "20", "--quiet", "-o"])
+        .arg(&rec)
+        .assert()
+        .success();
+    let text = std::fs::read_to_string(&rec).unwrap();
+    let cases: [(&str, String, &str, &[&str]); 3] = [
+        (
+            "index.csv",
+            retimed(&text, |i, _| i.to_string()),
+            "--sample-rate",
+            &["--sample-rate", "100"],
+        ),
+        (
+            "millis.csv",
+            retimed(&text, |_, t| format!("{}", (t * 1000.0).round())),
+            "--time-unit ms",
+            &["--time-unit", "ms"],
+        ),
+        (
+            "zeros.csv",
+            retimed(&text, |_, _| "0".into()),
+            "--sample-rate",
+            &["--sample-rate", "100"],
+        ),
+    ];
+    for (name, content, flag, fix) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, &content).unwrap();
+        let (code, err) = run(&[os("fit"), path.as_os_str()]);
+        assert_eq!(code, 1, "{name}: {err}");
+        assert!(err.contains(name) && err.contains(flag), "{name}: {err}");
+        assert!(!err.contains("turning"), "{name}: {err}");
+        // The flag named fixes it.
+        let mut args = vec![os("fit"), path.as_os_str()];
+        args.extend(fix.iter().map(|s| os(s)));
+        let (code, err) = run(&args);
+        assert_eq!(code, 0, "{name} with {fix:?}: {err}");
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), content);
+    }
+    assert_eq!(std::fs::read_to_string(&rec).unwrap(), text);
+}
+
+#[test]
+fn a_rotation_count_in_a_refusal_is_measured_or_not_given() {
+    let dir = tempfile::tempdir().unwrap();
+    // 1 s at 33.5 rpm: about half a turn, too little to measure the rate at all.
+    let one = dir.path().join("one.csv");
+    spincal()
+        .args(["simulate", "--duration", "1", "--rpm", "33.5", "--quiet", "-o"])
+        .arg(&one)
+        .assert()
+        .success();
+    let before = std::fs::read(&one).unwrap();
+    let (code, err) = run(&[os("fit"), one.as_os_str()]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("one.csv") && err.contains("too short to measure"),
+        "{err}"
+    );
+    assert!(!err.contains("rotations at") && !err.contains("rpm for"), "{err}");
+    assert_eq!(std::fs::read(&one).unwrap(), before);
+    // 4.5 s at 33.333 rpm: 2.5 turns, resolved: the count and rate given are the measured ones.
+    let short = dir.path().join("short.csv");
+    spincal()
+        .args([
+            "simulate",
+            "--duration",
+            "4.5",
+            "--speed-error-pct",
+            "0",
+            "--quiet",
+            "-o",
+        ])
+        .arg(&short)
+        .assert()
+        .success();
+    let (code, err) = run(&[os("fit"), short.as_os_str()]);
+    assert_eq!(code, 1, "{err}");
+    let measured: f64 = err
+        .split("measured: ")
+        .nth(1)
+        .and_then(|r| r.split(" rpm").next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no measured rate in: {err}"));
+    assert!((measured - 100.0 / 3.0).abs() < 0.5, "{err}");
+    let rotations: f64 = err
+        .split("only ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no rotation count in: {err}"));
+    assert!((rotations - 4.5 * 100.0 / 3.0 / 60.0).abs() < 0.1, "{err}");
+}

@@ -22,4 +22,5 @@ mod help_examples;
 mod hostile;
 mod hostile_models;
 mod io_commands;
+mod outputs;
 mod strobe;

@@ -7,6 +7,12 @@
 //!   file). A symbolic link is written through to its target, and stays a link. Pipes, devices and
 //!   other non-regular targets are streamed to directly and never removed. The only file this
 //!   module ever removes is its own temporary file.
+//! - [`claim_outputs`] runs before any work too: an existing output that spincal did not write
+//!   (recognised by its content, [`written_by_spincal`]) is refused unless the caller forces it,
+//!   and then each one replaced is returned so the caller can say so.
+//! - [`create_folder`] makes an output folder, refusing a path that is a file.
+//! - [`remove_temporaries`] removes the temporary files being written right now (a signal handler
+//!   calls it before the process ends).
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Write};
@@ -25,6 +31,10 @@ pub enum OutputError {
     Directory { path: String },
     #[error("{path}: a symbolic link to a missing file ({target}); remove the link or name another output")]
     DanglingLink { path: String, target: String },
+    #[error("{path}: exists and spincal did not write it ({why}); spincal does not replace it: choose another path, move the file away, or give --force to replace it")]
+    NotWrittenBySpincal { path: String, why: String },
+    #[error("{path}: is a file, not a folder; name a folder for the outputs (it is made if missing)")]
+    NotAFolder { path: String },
     #[error("{path}: cannot write: {source}")]
     Io {
         path: String,
@@ -158,6 +168,7 @@ pub fn write_file(
         .create_new(true)
         .open(&temporary)
         .map_err(io_error(path))?;
+    let _live = LiveTemporary::new(&temporary);
     let written = (|| {
         let mut out = BufWriter::new(file);
         write(&mut out)?;
@@ -175,6 +186,231 @@ pub fn write_file(
         });
     }
     Ok(())
+}
+
+/// The temporary files being written now, removed by [`remove_temporaries`].
+static LIVE_TEMPORARIES: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// A temporary file listed in [`LIVE_TEMPORARIES`] while it exists.
+struct LiveTemporary(PathBuf);
+
+impl LiveTemporary {
+    fn new(path: &Path) -> LiveTemporary {
+        if let Ok(mut live) = LIVE_TEMPORARIES.lock() {
+            live.push(path.to_path_buf());
+        }
+        LiveTemporary(path.to_path_buf())
+    }
+}
+
+impl Drop for LiveTemporary {
+    fn drop(&mut self) {
+        if let Ok(mut live) = LIVE_TEMPORARIES.lock() {
+            live.retain(|p| *p != self.0);
+        }
+    }
+}
+
+/// Removes every temporary file [`write_file`] is writing now (they are its own, made with
+/// `create_new`), and returns them. For a process that is being interrupted: nothing else is
+/// removed, and the files being replaced stay as they were.
+pub fn remove_temporaries() -> Vec<PathBuf> {
+    let live = match LIVE_TEMPORARIES.lock() {
+        Ok(mut live) => std::mem::take(&mut *live),
+        Err(poisoned) => std::mem::take(&mut *poisoned.into_inner()),
+    };
+    for path in &live {
+        let _ = std::fs::remove_file(path);
+    }
+    live
+}
+
+/// Makes the output folder `path` (and its parents); a path that exists as a file is refused by
+/// name rather than with the system's "File exists".
+pub fn create_folder(path: &Path) -> Result<(), OutputError> {
+    if let Ok(meta) = std::fs::metadata(path) {
+        if !meta.is_dir() {
+            return Err(OutputError::NotAFolder {
+                path: path.display().to_string(),
+            });
+        }
+        return Ok(());
+    }
+    std::fs::create_dir_all(path).map_err(io_error(path))
+}
+
+/// The mark spincal's HTML reports carry in their head.
+pub const HTML_GENERATOR: &str = "<meta name=\"generator\" content=\"spincal\">";
+
+/// A file's length and FNV-1a 64-bit hash (hex): how a spincal JSON file names a file it was
+/// written with (a simulation's truth names its recording).
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Fingerprint {
+    pub bytes: u64,
+    pub fnv1a64: String,
+}
+
+/// The fingerprint of the file at `path`, read in pieces.
+pub fn fingerprint(path: &Path) -> std::io::Result<Fingerprint> {
+    use std::io::Read;
+    let mut file = File::open(path)?;
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut bytes = 0u64;
+    let mut buffer = vec![0u8; 1 << 16];
+    loop {
+        let n = file.read(&mut buffer)?;
+        if n == 0 {
+            break;
+        }
+        bytes += n as u64;
+        for &b in &buffer[..n] {
+            hash ^= u64::from(b);
+            hash = hash.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    Ok(Fingerprint {
+        bytes,
+        fnv1a64: format!("{hash:016x}"),
+    })
+}
+
+/// The largest JSON file read to decide whether spincal wrote it.
+const LARGEST_JSON_CHECKED: u64 = 512 << 20;
+
+/// The top-level JSON object in `path`, if the file is one.
+fn json_object(path: &Path) -> Option<serde_json::Map<String, serde_json::Value>> {
+    let meta = std::fs::metadata(path).ok()?;
+    if meta.len() > LARGEST_JSON_CHECKED {
+        return None;
+    }
+    let text = std::fs::read(path).ok()?;
+    match serde_json::from_slice::<serde_json::Value>(&text).ok()? {
+        serde_json::Value::Object(map) => Some(map),
+        _ => None,
+    }
+}
+
+/// Whether a JSON object is one spincal writes: a `spincal_version` field (models, results,
+/// truth), a campaign's results.json from before it carried one (its joint fit, held-out scores,
+/// candidates and verdict), or imucal's file with the comment spincal gives it.
+fn spincal_json(map: &serde_json::Map<String, serde_json::Value>) -> bool {
+    map.get("spincal_version").is_some_and(|v| v.is_string())
+        || ["unit", "joint", "held_out", "candidates", "verdict"]
+            .iter()
+            .all(|k| map.contains_key(*k))
+        || map
+            .get("comment")
+            .and_then(|c| c.as_str())
+            .is_some_and(|c| c.starts_with("spincal "))
+}
+
+/// Whether `claimer` (a spincal JSON file) names `file` with its current fingerprint in a
+/// `recording` field (`{"file": name, "bytes": …, "fnv1a64": …}`).
+fn claims(claimer: &Path, file: &Path) -> bool {
+    let Some(map) = json_object(claimer) else {
+        return false;
+    };
+    if !spincal_json(&map) {
+        return false;
+    }
+    let Some(recording) = map.get("recording") else {
+        return false;
+    };
+    let name = recording.get("file").and_then(|f| f.as_str());
+    if name.is_none() || name != file.file_name().and_then(|n| n.to_str()) {
+        return false;
+    }
+    let Ok(claimed) = serde_json::from_value::<Fingerprint>(recording.clone()) else {
+        return false;
+    };
+    let same_size = std::fs::metadata(file).is_ok_and(|m| m.len() == claimed.bytes);
+    same_size && fingerprint(file).is_ok_and(|f| f == claimed)
+}
+
+/// Whether spincal wrote the regular file `path`, judged by its content:
+/// - JSON with a `spincal_version` field (model files, results.json, a simulation's truth) or
+///   imucal's file with spincal's comment;
+/// - HTML with spincal's generator mark ([`HTML_GENERATOR`]) in its first 4 KiB;
+/// - an imu_tk `.calib` file beside a results.json that spincal wrote (a campaign's exports);
+/// - any other file that a spincal JSON file among `companions` (or `<stem>.truth.json` beside
+///   it) names with its current length and hash (a simulated recording).
+pub fn written_by_spincal(path: &Path, companions: &[&Path]) -> bool {
+    use std::io::Read;
+    let mut head = Vec::with_capacity(4096);
+    if File::open(path)
+        .and_then(|f| f.take(4096).read_to_end(&mut head))
+        .is_err()
+    {
+        return false;
+    }
+    let start = head
+        .iter()
+        .position(|b| !b.is_ascii_whitespace() && !matches!(b, 0xEF | 0xBB | 0xBF));
+    if start.is_some_and(|i| head[i] == b'{') {
+        return json_object(path).is_some_and(|map| spincal_json(&map));
+    }
+    if head
+        .windows(HTML_GENERATOR.len())
+        .any(|w| w == HTML_GENERATOR.as_bytes())
+    {
+        return true;
+    }
+    let folder = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if path.extension().is_some_and(|e| e == "calib") {
+        let results = folder.join("results.json");
+        return json_object(&results).is_some_and(|map| spincal_json(&map));
+    }
+    let beside = path.with_extension("truth.json");
+    companions
+        .iter()
+        .copied()
+        .chain(std::iter::once(beside.as_path()))
+        .filter(|c| identity(c) != identity(path))
+        .any(|c| claims(c, path))
+}
+
+/// An existing output that spincal did not write, replaced because the caller forced it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Replaced {
+    pub path: PathBuf,
+}
+
+/// Checks, before any work, that writing `outputs` loses nothing: each one must be absent, empty,
+/// not a regular file (a pipe or device is streamed to), or written by spincal
+/// ([`written_by_spincal`], with the other outputs as companions). Any other existing file is
+/// refused by name, unless `force`: then it is returned so the caller can say it is replaced.
+pub fn claim_outputs(outputs: &[&Path], force: bool) -> Result<Vec<Replaced>, OutputError> {
+    let mut replaced = Vec::new();
+    for &output in outputs.iter().filter(|p| !is_stdio(p)) {
+        let Ok(meta) = std::fs::metadata(output) else {
+            continue;
+        };
+        if !meta.is_file() || meta.len() == 0 {
+            continue;
+        }
+        if written_by_spincal(output, outputs) {
+            continue;
+        }
+        if !force {
+            let why = match output.extension().and_then(|e| e.to_str()) {
+                Some("json") => "no spincal_version field in it",
+                Some("html") => "no spincal generator mark in it",
+                Some("calib") => "no results.json by spincal beside it",
+                _ => "no spincal file names it with its current content",
+            };
+            return Err(OutputError::NotWrittenBySpincal {
+                path: output.display().to_string(),
+                why: why.to_string(),
+            });
+        }
+        replaced.push(Replaced {
+            path: output.to_path_buf(),
+        });
+    }
+    Ok(replaced)
 }
 
 /// A replaced file keeps its permissions.
@@ -279,6 +515,61 @@ mod tests {
         ));
         assert!(check_outputs(&[&input], &[&a, Path::new("-")]).is_ok());
         assert_eq!(std::fs::read_to_string(&input).unwrap(), "data");
+    }
+
+    #[test]
+    fn only_files_spincal_wrote_are_claimed_and_force_names_the_others() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = |name: &str| dir.path().join(name);
+        std::fs::write(
+            path("model.json"),
+            r#"{"format_version": 1, "spincal_version": "0.1"}"#,
+        )
+        .unwrap();
+        std::fs::write(path("theirs.json"), r#"{"format_version": 1}"#).unwrap();
+        std::fs::write(
+            path("report.html"),
+            format!("<html><head>{HTML_GENERATOR}</head>"),
+        )
+        .unwrap();
+        std::fs::write(path("notes.html"), "<html>notes</html>").unwrap();
+        std::fs::write(path("empty.csv"), "").unwrap();
+        std::fs::write(path("rec.csv"), "t_s,ax_g\n0,1\n").unwrap();
+        let print = fingerprint(&path("rec.csv")).unwrap();
+        let truth = serde_json::json!({
+            "spincal_version": "0.1",
+            "recording": {"file": "rec.csv", "bytes": print.bytes, "fnv1a64": print.fnv1a64},
+        });
+        std::fs::write(path("rec.truth.json"), truth.to_string()).unwrap();
+        for ours in ["model.json", "report.html", "empty.csv", "rec.csv", "missing.csv"] {
+            assert!(claim_outputs(&[&path(ours)], false).unwrap().is_empty(), "{ours}");
+        }
+        for theirs in ["theirs.json", "notes.html"] {
+            let err = claim_outputs(&[&path(theirs)], false).unwrap_err();
+            assert!(matches!(err, OutputError::NotWrittenBySpincal { .. }), "{err}");
+            assert!(err.to_string().contains(theirs), "{err}");
+            let replaced = claim_outputs(&[&path(theirs)], true).unwrap();
+            assert_eq!(replaced, [Replaced { path: path(theirs) }]);
+        }
+        // An edited recording is no longer the one its truth names.
+        std::fs::write(path("rec.csv"), "t_s,ax_g\n0,2\n").unwrap();
+        assert!(claim_outputs(&[&path("rec.csv")], false).is_err());
+        assert_eq!(
+            std::fs::read_to_string(path("rec.csv")).unwrap(),
+            "t_s,ax_g\n0,2\n"
+        );
+    }
+
+    #[test]
+    fn an_output_folder_that_is_a_file_is_refused_by_name() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("out");
+        std::fs::write(&file, "keep").unwrap();
+        let err = create_folder(&file).unwrap_err();
+        assert!(matches!(err, OutputError::NotAFolder { .. }), "{err}");
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep");
+        create_folder(&dir.path().join("a/b")).unwrap();
+        assert!(dir.path().join("a/b").is_dir());
     }
 
     #[cfg(unix)]

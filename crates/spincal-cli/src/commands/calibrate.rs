@@ -2,7 +2,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use clap::Args;
 use spincal::ann::{default_grid, small_grid};
 use spincal::calibrate::{calibrate, CalibrationOutput};
@@ -144,7 +143,7 @@ pub fn run_calibration(
     read_seconds: Option<f64>,
     ui: Ui,
 ) -> anyhow::Result<CalibrationOutput> {
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    super::create_folder("--out", out)?;
     let mut output = calibrate_with_progress(recordings, settings, ui, "calibrating")?;
     let stage = |stage: &str, seconds: f64| spincal::calibrate::StageTime {
         stage: stage.to_string(),
@@ -204,7 +203,12 @@ pub fn run(args: CalibrateArgs, ui: Ui) -> anyhow::Result<()> {
     let settings = args.params()?;
     let inputs: Vec<&Path> = args.fit.recordings.iter().map(PathBuf::as_path).collect();
     let outputs = ["model.json", "results.json", "report.html"].map(|name| args.out.join(name));
-    super::check_outputs(&inputs, &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>())?;
+    let outputs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).collect();
+    super::check_outputs(&inputs, &outputs)?;
+    if args.out.exists() && !args.out.is_dir() {
+        super::create_folder("--out", &args.out)?;
+    }
+    super::claim_outputs(&outputs)?;
     let clock = std::time::Instant::now();
     let recordings = args
         .fit

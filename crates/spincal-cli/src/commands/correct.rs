@@ -28,7 +28,9 @@ use crate::ui::{RowsRefused, Ui, UsageError};
 
 #[derive(Args)]
 pub struct CorrectArgs {
-    /// Corrector file written by `spincal train`.
+    /// Corrector file (model.json): written by `spincal calibrate` (recordings or `--campaign`),
+    /// `spincal fleet`, `spincal train` or `spincal static -o`; any kind (ann, linear, static,
+    /// physical, physical_ann).
     #[arg(long, value_name = "MODEL.json")]
     pub model: PathBuf,
     /// Recording to correct (CSV), or - for standard input.
@@ -377,9 +379,44 @@ fn stream(
             refuse(&mut summary, out, fields, reason)?;
             continue;
         }
+        // Finite in the file is not enough: a unit's factor can carry a value past f64's range.
+        let converted = std::iter::once((columns.time, columns.time_to_s))
+            .chain(columns.accel.map(|c| (c, columns.accel_to_mps2)))
+            .chain(
+                gyro.iter()
+                    .flat_map(|(_, c)| c.map(|col| (col, columns.gyro_to_radps))),
+            );
+        if let Some((c, factor)) = converted.into_iter().find(|&(c, k)| !(values[c] * k).is_finite()) {
+            let fields = values.iter().map(f64::to_string).collect();
+            let reason = format!(
+                "line {line_no}, column {} ({}): {:e} is {} after conversion to SI units (× {factor}); spincal needs finite numbers",
+                c + 1,
+                header[c],
+                values[c],
+                values[c] * factor
+            );
+            refuse(&mut summary, out, fields, reason)?;
+            continue;
+        }
         previous_time = Some(t);
         let accel = columns.accel.map(|c| values[c] * columns.accel_to_mps2);
         let sample = state.correct_sample(accel);
+        let gyro_rate = gyro
+            .as_ref()
+            .map(|(corrector, c)| corrector.correct(c.map(|col| values[col] * columns.gyro_to_radps)));
+        let corrected_finite = axes
+            .iter()
+            .map(|axis| sample.accel_mps2[axis.index()] * from_mps2)
+            .chain(gyro_rate.iter().flatten().map(|w| w / columns.gyro_to_radps))
+            .all(f64::is_finite);
+        if !corrected_finite {
+            let fields = values.iter().map(f64::to_string).collect();
+            let reason = format!(
+                "line {line_no}: the corrected value is not finite (the input is far outside anything the model was made for)"
+            );
+            refuse(&mut summary, out, fields, reason)?;
+            continue;
+        }
         if sample.outside_training_range {
             summary.outside_training_range += 1;
             summary.first_outside_line.get_or_insert(line_no);
@@ -393,8 +430,7 @@ fn stream(
         for axis in &axes {
             write!(out, "{sep}{}", sample.accel_mps2[axis.index()] * from_mps2)?;
         }
-        if let Some((corrector, c)) = &gyro {
-            let rate = corrector.correct(c.map(|col| values[col] * columns.gyro_to_radps));
+        if let Some(rate) = gyro_rate {
             for w in rate {
                 write!(out, "{sep}{}", w / columns.gyro_to_radps)?;
             }

@@ -4,7 +4,6 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use clap::Args;
 use spincal::campaign::params::Params;
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
@@ -15,7 +14,9 @@ use super::calibrate::{run_calibration, summary};
 use crate::ui::{self, Ui};
 
 #[derive(Args, Debug)]
-#[command(after_help = "Example:\n  spincal demo --out spincal-demo && xdg-open spincal-demo/report.html")]
+#[command(
+    after_help = "Runs two calibrations, each on simulated data:\n  1. a campaign (still poses and turntable runs, written to OUT/campaign) calibrated as\n     `spincal calibrate --campaign` does, into OUT/campaign-calibration (its verdict first);\n  2. the paper's protocol: two turntable recordings (OUT/rec33.csv, OUT/rec45.csv) calibrated as\n     `spincal calibrate` does, into OUT (results.json, report.html, model.json).\n\nExample:\n  spincal demo --out spincal-demo && xdg-open spincal-demo/report.html"
+)]
 pub struct DemoArgs {
     /// Folder for the simulated recordings and every result.
     #[arg(long, default_value = "spincal-demo")]
@@ -52,7 +53,7 @@ pub fn default_session() -> Vec<(String, TurntableSetup)> {
 }
 
 pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    super::create_folder("--out", &args.out)?;
     // The campaign first: its verdict is what a user should read first.
     let campaign_dir = args.out.join("campaign");
     super::campaign::write_simulated_campaign(
@@ -73,7 +74,7 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
         sim.recording.write_csv_path(&path, AccelUnit::G)?;
         super::write_text(
             &path.with_extension("truth.json"),
-            &(serde_json::to_string_pretty(&sim.truth)? + "\n"),
+            &spincal::simulate::truth_json(&sim.truth, &path)?,
         )?;
         let mut recording = sim.recording;
         recording.source.name = name;

@@ -20,8 +20,11 @@ use spincal::simulate::fleet::{simulate_fleet, FleetSetup, WriteError};
 use crate::ui::{self, Ui, UnitsFailed, UsageError};
 
 pub const AFTER_HELP: &str =
-    "Each UNIT is a campaign file, or a folder holding campaign.toml; a folder of such folders (as
-`spincal simulate --fleet` writes) stands for all of them. Each unit is calibrated exactly as
+    "Each UNIT is a campaign file, or a folder holding campaign.toml (or exactly one other *.toml
+campaign file, such as unit.toml); a folder of such folders (as `spincal simulate --fleet`
+writes) stands for all of its folders: one without a campaign file fails as its own unit, so none
+is left out unseen (hidden folders and the --out folder are skipped, each named on standard
+error). A unit that cannot be found fails as its own unit too. Each unit is calibrated exactly as
 `spincal calibrate --campaign` does, on one thread; --threads units run at once.
 
 Writes OUT/<unit>/results.json, report.html and (when saved) model.json per unit, and
@@ -44,7 +47,8 @@ Examples:
 
 #[derive(Args, Debug)]
 pub struct FleetArgs {
-    /// The units: campaign files, folders holding campaign.toml, or folders of such folders.
+    /// The units: campaign files, folders holding one (campaign.toml or a single *.toml), or
+    /// folders of such folders.
     #[arg(required = true, value_name = "DIR_OR_CAMPAIGN")]
     pub units: Vec<PathBuf>,
     /// Output folder: one folder per unit, fleet.csv, fleet.json and fleet.html.
@@ -85,7 +89,11 @@ fn outputs_of(out: &Path, labels: &[String]) -> Vec<PathBuf> {
 }
 
 pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
-    let sources = expand_sources(&args.units);
+    let expanded = expand_sources(&args.units, &[&args.out]);
+    for (folder, why) in &expanded.skipped {
+        eprintln!("spincal: skipped {}: {why}", folder.display());
+    }
+    let sources = expanded.units;
     let labels = unit_labels(&sources);
     // Outputs may not be inputs: every campaign that can be read names its files (one that
     // cannot fails as its own unit later).
@@ -100,7 +108,7 @@ pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
         &inputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
         &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
     )?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    super::create_folder("--out", &args.out)?;
 
     let multi = ui.multi();
     let width = labels.iter().map(String::len).max().unwrap_or(4);

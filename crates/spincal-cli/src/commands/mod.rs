@@ -33,6 +33,36 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> anyhow::Result<()> 
     spincal::output::check_outputs(inputs, outputs).map_err(|e| crate::ui::UsageError(e.to_string()).into())
 }
 
+/// Whether `--force` was given: existing outputs that spincal did not write may be replaced.
+static FORCE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Records the global `--force` flag.
+pub fn set_force(force: bool) {
+    FORCE.store(force, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Refuses, before any work, to replace an existing output that spincal did not write (a usage
+/// error naming it), unless `--force` was given; then says on standard error what is replaced.
+/// spincal's own earlier outputs are replaced without a word, so a run repeated into its own
+/// folder or file just works.
+pub fn claim_outputs(outputs: &[&Path]) -> anyhow::Result<()> {
+    let force = FORCE.load(std::sync::atomic::Ordering::Relaxed);
+    let replaced = spincal::output::claim_outputs(outputs, force)
+        .map_err(|e| anyhow::Error::from(crate::ui::UsageError(e.to_string())))?;
+    for r in replaced {
+        eprintln!(
+            "spincal: --force: replacing {}, which spincal did not write",
+            r.path.display()
+        );
+    }
+    Ok(())
+}
+
+/// Makes the output folder named by `flag` (e.g. `--out`); a file there is refused by name.
+pub fn create_folder(flag: &str, path: &Path) -> anyhow::Result<()> {
+    spincal::output::create_folder(path).map_err(|e| crate::ui::UsageError(format!("{flag} {e}")).into())
+}
+
 /// Moves aside the outputs of an earlier run that this run does not write (a model.json beside
 /// results that saved nothing), and says so on standard error.
 pub fn set_aside_stale(folder: &Path, names: &[&str], written: &[&str]) -> anyhow::Result<()> {

@@ -158,9 +158,12 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         .unwrap_or_else(|| output.with_extension("truth.json"));
     let sensor_file: Vec<&std::path::Path> = args.sensor.iter().map(|p| p.as_path()).collect();
     super::check_outputs(&sensor_file, &[&output, &truth_path])?;
+    super::claim_outputs(&[&output, &truth_path])?;
     let sim = simulate(&sensor, &table, args.seed).map_err(|e| UsageError(e.to_string()))?;
     sim.recording.write_csv_path(&output, unit)?;
-    super::write_text(&truth_path, &(serde_json::to_string_pretty(&sim.truth)? + "\n"))?;
+    let truth = spincal::simulate::truth_json(&sim.truth, &output)
+        .with_context(|| format!("reading back {}", output.display()))?;
+    super::write_text(&truth_path, &truth)?;
     if args.json {
         return ui::print_json(&serde_json::json!({
             "recording": output,

@@ -27,7 +27,9 @@ pub struct StaticArgs {
     /// Write the calibration as JSON.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
-    /// Write a Kalibr-style YAML.
+    /// Write the accelerometer calibration as YAML laid out like Kalibr's IMU intrinsics (imu0:
+    /// M, bias, scale, misalignment). It is not Kalibr's imu.yaml (noise densities and random
+    /// walks: `spincal allan --kalibr`), and Kalibr does not read it.
     #[arg(long)]
     pub yaml: Option<PathBuf>,
     /// Print JSON instead of text.

@@ -20,7 +20,9 @@ pub struct Args {
     /// Where to write the SVG.
     #[arg(short, long, default_value = "strobe.svg")]
     output: PathBuf,
-    /// Fail instead of rounding when a speed needs a non-integer number of bars.
+    /// Fail instead of rounding when a speed needs a non-integer number of bars. A count within
+    /// 1 part in 10⁴ of an integer counts as exact, so 33.333 is taken as 33⅓ rpm (180 bars at
+    /// 50 Hz) and passes; 45 rpm at 50 Hz (133.33 bars) fails.
     #[arg(long)]
     exact: bool,
     /// Print a JSON object instead of text.

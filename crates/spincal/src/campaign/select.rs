@@ -250,6 +250,9 @@ pub struct TruthCheck {
 /// Everything a campaign calibration found (results.json).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct CampaignResult {
+    /// The spincal that wrote it (also how a later run knows the file is spincal's).
+    #[serde(default)]
+    pub spincal_version: String,
     pub unit: String,
     pub recordings: Vec<String>,
     pub joint: JointFit,
@@ -946,6 +949,7 @@ pub fn calibrate_campaign(
     let saved_name = saved.as_ref().and(best).map(|b| b.candidate.clone());
     Ok(CampaignOutput {
         result: CampaignResult {
+            spincal_version: env!("CARGO_PKG_VERSION").to_string(),
             unit: unit.to_string(),
             recordings: units.iter().map(|u| u.name.clone()).collect(),
             joint,

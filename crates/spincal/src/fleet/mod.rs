@@ -55,8 +55,10 @@ pub struct FleetSettings {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum FleetError {
-    #[error("{folder}: a unit folder must hold {CAMPAIGN_FILE}, and this one does not; give the campaign file itself or the folder that holds it")]
+    #[error("{folder}: no campaign file here; a unit folder must hold {CAMPAIGN_FILE} or exactly one other *.toml campaign file (give the campaign file itself or the folder that holds it)")]
     NoCampaign { folder: String },
+    #[error("{folder}: several *.toml files ({files}) and no {CAMPAIGN_FILE}; name the unit's campaign file itself")]
+    SeveralCampaigns { folder: String, files: String },
     #[error(transparent)]
     Campaign(#[from] CampaignError),
     #[error(transparent)]
@@ -169,18 +171,51 @@ pub fn campaign_inputs(campaign: &Campaign) -> Vec<PathBuf> {
     inputs
 }
 
-/// The campaign file of a source: the file itself, or `campaign.toml` in a folder.
+/// The `*.toml` files in `folder`, sorted.
+fn toml_files(folder: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(folder)
+        .map(|entries| {
+            entries
+                .filter_map(Result::ok)
+                .map(|e| e.path())
+                .filter(|p| p.is_file() && p.extension().is_some_and(|e| e == "toml"))
+                .collect()
+        })
+        .unwrap_or_default();
+    files.sort();
+    files
+}
+
+/// Whether `folder` holds a campaign file (`campaign.toml` or any `*.toml`).
+fn holds_campaign(folder: &Path) -> bool {
+    folder.join(CAMPAIGN_FILE).is_file() || !toml_files(folder).is_empty()
+}
+
+/// The campaign file of a source: the file itself; in a folder, `campaign.toml`, else the
+/// folder's only `*.toml` file (the README's `unit.toml`, or any other name).
 pub fn campaign_path(source: &Path) -> Result<PathBuf, FleetError> {
-    if source.is_dir() {
-        let file = source.join(CAMPAIGN_FILE);
-        if !file.is_file() {
-            return Err(FleetError::NoCampaign {
-                folder: source.display().to_string(),
-            });
-        }
-        return Ok(file);
+    if !source.is_dir() {
+        return Ok(source.to_path_buf());
     }
-    Ok(source.to_path_buf())
+    let preferred = source.join(CAMPAIGN_FILE);
+    if preferred.is_file() {
+        return Ok(preferred);
+    }
+    let mut files = toml_files(source);
+    match files.len() {
+        0 => Err(FleetError::NoCampaign {
+            folder: source.display().to_string(),
+        }),
+        1 => Ok(files.remove(0)),
+        _ => Err(FleetError::SeveralCampaigns {
+            folder: source.display().to_string(),
+            files: files
+                .iter()
+                .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
+                .collect::<Vec<_>>()
+                .join(", "),
+        }),
+    }
 }
 
 /// A unit's name from its source: a folder's name; for `…/campaign.toml`, its folder's name; for
@@ -216,32 +251,62 @@ pub fn unit_labels(sources: &[PathBuf]) -> Vec<String> {
     out
 }
 
-/// The units named by `paths`: each as given, except a folder without `campaign.toml` whose
-/// sub-folders hold one (a fleet written by `spincal simulate --fleet`), which stands for those
-/// sub-folders in name order. Anything else (a folder holding neither) stays, to fail as its own
-/// unit.
-pub fn expand_sources(paths: &[PathBuf]) -> Vec<PathBuf> {
-    let mut out = Vec::with_capacity(paths.len());
+/// The units a fleet run calibrates, and the folders it leaves out with the reason.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Sources {
+    /// In order: each path as given, or a fleet folder's sub-folders in name order.
+    pub units: Vec<PathBuf>,
+    /// (folder, why) for each sub-folder of a fleet folder that is not a unit.
+    pub skipped: Vec<(PathBuf, String)>,
+}
+
+/// The units named by `paths`: each as given, except a folder holding no campaign file whose
+/// sub-folders hold one (a fleet, as `spincal simulate --fleet` writes): it stands for its
+/// sub-folders in name order. Every such sub-folder is a unit, one without a campaign file too
+/// (it fails as its own unit, so nothing is left out unseen), apart from hidden folders and the
+/// folders in `exclude` (the run's output folder), which are listed in `skipped` with the reason.
+/// Anything else (a missing path, a folder holding nothing) stays, to fail as its own unit.
+pub fn expand_sources(paths: &[PathBuf], exclude: &[&Path]) -> Sources {
+    let mut sources = Sources::default();
+    let excluded = |p: &Path| {
+        let canonical = std::fs::canonicalize(p).ok();
+        exclude
+            .iter()
+            .any(|e| canonical.is_some() && std::fs::canonicalize(e).ok() == canonical)
+    };
     for path in paths {
-        if path.is_dir() && !path.join(CAMPAIGN_FILE).is_file() {
-            let mut units: Vec<PathBuf> = std::fs::read_dir(path)
+        if path.is_dir() && !holds_campaign(path) {
+            let mut folders: Vec<PathBuf> = std::fs::read_dir(path)
                 .map(|entries| {
                     entries
                         .filter_map(Result::ok)
                         .map(|e| e.path())
-                        .filter(|p| p.is_dir() && p.join(CAMPAIGN_FILE).is_file())
+                        .filter(|p| p.is_dir())
                         .collect()
                 })
                 .unwrap_or_default();
-            if !units.is_empty() {
-                units.sort();
-                out.extend(units);
+            folders.sort();
+            if folders.iter().any(|f| holds_campaign(f)) {
+                for folder in folders {
+                    let hidden = folder
+                        .file_name()
+                        .is_some_and(|n| n.to_string_lossy().starts_with('.'));
+                    if excluded(&folder) {
+                        sources
+                            .skipped
+                            .push((folder, "the run's own output folder".into()));
+                    } else if hidden {
+                        sources.skipped.push((folder, "a hidden folder".into()));
+                    } else {
+                        sources.units.push(folder);
+                    }
+                }
                 continue;
             }
         }
-        out.push(path.clone());
+        sources.units.push(path.clone());
     }
-    out
+    sources
 }
 
 /// The settings a campaign file is calibrated with: `base` with the file's own gravity and, when it
@@ -435,8 +500,48 @@ mod tests {
         std::fs::write(dir.path().join("b").join(CAMPAIGN_FILE), "").unwrap();
         std::fs::write(dir.path().join("a").join(CAMPAIGN_FILE), "").unwrap();
         let empty = dir.path().join("c");
-        let got = expand_sources(&[dir.path().to_path_buf(), empty.clone()]);
-        assert_eq!(got, [dir.path().join("a"), dir.path().join("b"), empty]);
+        let got = expand_sources(&[dir.path().to_path_buf(), empty.clone()], &[]);
+        // c holds no campaign: it is a unit all the same (it fails as one), never left out.
+        assert_eq!(
+            got.units,
+            [dir.path().join("a"), dir.path().join("b"), empty.clone(), empty]
+        );
+        assert!(got.skipped.is_empty());
+    }
+
+    #[test]
+    fn any_single_toml_is_a_units_campaign_and_skipped_folders_are_listed() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["u1", "u2", "u3", ".cache", "out"] {
+            std::fs::create_dir(dir.path().join(name)).unwrap();
+        }
+        std::fs::write(dir.path().join("u1").join("unit.toml"), "").unwrap();
+        std::fs::write(dir.path().join("u3").join("a.toml"), "").unwrap();
+        std::fs::write(dir.path().join("u3").join("b.toml"), "").unwrap();
+        let out = dir.path().join("out");
+        let got = expand_sources(&[dir.path().to_path_buf()], &[&out]);
+        let names: Vec<_> = got.units.iter().map(|p| unit_label(p)).collect();
+        assert_eq!(names, ["u1", "u2", "u3"]);
+        let skipped: Vec<_> = got
+            .skipped
+            .iter()
+            .map(|(p, why)| (unit_label(p), why.as_str()))
+            .collect();
+        assert_eq!(
+            skipped,
+            [
+                (".cache".to_string(), "a hidden folder"),
+                ("out".to_string(), "the run's own output folder")
+            ]
+        );
+        assert_eq!(
+            campaign_path(&dir.path().join("u1")).unwrap(),
+            dir.path().join("u1").join("unit.toml")
+        );
+        let e = campaign_path(&dir.path().join("u2")).unwrap_err().to_string();
+        assert!(e.contains("u2") && e.contains("no campaign file"), "{e}");
+        let e = campaign_path(&dir.path().join("u3")).unwrap_err().to_string();
+        assert!(e.contains("a.toml, b.toml"), "{e}");
     }
 
     #[test]

@@ -255,6 +255,61 @@ fn flat_tops(axis: &[f64], min: f64, max: f64) -> Vec<(usize, f64)> {
     hits
 }
 
+/// What is wrong with a recording's time column for a turntable fit, and the reading flag that
+/// fixes it, or `None` when the clock looks like one: every stamp equal (not a clock), steps of
+/// exactly 1 in whole numbers (a sample index), steps of half a second or more (milliseconds read
+/// as seconds, or a sample index), steps under 10 µs (seconds read as milliseconds or
+/// microseconds). The same rule for every command that fits a turntable.
+pub fn time_advice(recording: &Recording) -> Option<String> {
+    let t = &recording.time_s;
+    if t.len() < 2 {
+        return None;
+    }
+    if recording.duration_s() == 0.0 {
+        return Some(format!(
+            "every timestamp is {}: the time column is not a clock; give the sample rate (--sample-rate HZ: time = sample number / rate)",
+            t[0]
+        ));
+    }
+    let dt = sample_interval(t);
+    if dt.is_nan() || dt <= 0.0 {
+        return None;
+    }
+    let whole = t.iter().all(|v| v.fract() == 0.0);
+    if whole && dt == 1.0 {
+        return Some(
+            "the time column counts 0, 1, 2, … in steps of exactly 1: a sample index, not seconds; give the sample rate (--sample-rate HZ: time = sample number / rate)"
+                .to_string(),
+        );
+    }
+    if dt >= 0.5 {
+        return Some(format!(
+            "the time column steps by {dt} s ({:.3} Hz), too slow for a turntable recording: if it counts milliseconds give --time-unit ms (microseconds: --time-unit us); if it counts samples, give --sample-rate HZ",
+            1.0 / dt
+        ));
+    }
+    if dt < 1e-5 {
+        return Some(format!(
+            "the time column steps by {dt:e} s ({:.0} Hz), faster than an IMU logs: if it counts seconds give --time-unit s (milliseconds: --time-unit ms); or give --sample-rate HZ",
+            1.0 / dt
+        ));
+    }
+    None
+}
+
+/// How a time column's repeated stamps could spoil a rate: `Some` advice when more than a tenth of
+/// the steps repeat a stamp (a coarse clock), pointing to `--retime`.
+pub fn repeated_stamps_advice(recording: &Recording) -> Option<String> {
+    let t = &recording.time_s;
+    let repeats = t.windows(2).filter(|w| w[1] == w[0]).count();
+    (t.len() > 1 && repeats * 10 > t.len() - 1).then(|| {
+        format!(
+            "{repeats} of {} time steps repeat a stamp (a coarse clock); --retime spaces the samples evenly at the rate all the stamps give",
+            t.len() - 1
+        )
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -147,6 +147,12 @@ pub enum RecordingError {
         previous: f64,
         current: f64,
     },
+    #[error("{at}: the value is finite in the file but {converted} after conversion to SI units (× {factor}); spincal needs finite numbers: check the column's unit or the value")]
+    NonFiniteAfterConversion {
+        at: Location,
+        converted: f64,
+        factor: f64,
+    },
     #[error("{file}: only {found} samples; at least {needed} are needed")]
     TooShort {
         file: String,
@@ -378,6 +384,28 @@ impl Recording {
         }
         let accel_mps2 = [next(), next(), next()];
         let gyro_radps = (plan.indices.len() == 7).then(|| [next(), next(), next()]);
+        // The file's values were finite; a unit's factor can still carry one past f64's range.
+        let converted: Vec<&Vec<f64>> = std::iter::once(&time_s)
+            .filter(|_| rate_hz.is_none())
+            .chain(accel_mps2.iter())
+            .chain(gyro_radps.iter().flatten())
+            .collect();
+        let skip = usize::from(rate_hz.is_some());
+        for (k, column) in converted.into_iter().enumerate() {
+            let k = k + skip;
+            if let Some(i) = column.iter().position(|v| !v.is_finite()) {
+                return Err(RecordingError::NonFiniteAfterConversion {
+                    at: Location {
+                        file: name,
+                        line: lines.get(i).copied().unwrap_or(i + 1),
+                        column: Some(plan.indices[k] + 1),
+                        column_name: Some(plan.names[k].clone()),
+                    },
+                    converted: column[i],
+                    factor: plan.scales[k],
+                });
+            }
+        }
         let recording = Recording {
             time_s,
             accel_mps2,

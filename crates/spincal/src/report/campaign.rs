@@ -15,7 +15,7 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
     let mut h = String::new();
     let _ = write!(
         h,
-        "<!doctype html><html><head><meta charset=\"utf-8\"><title>spincal campaign: {unit}</title>\
+        "<!doctype html><html><head><meta charset=\"utf-8\"><meta name=\"generator\" content=\"spincal\"><title>spincal campaign: {unit}</title>\
          <style>body{{font-family:sans-serif;max-width:70em;margin:2em auto}}table{{border-collapse:collapse}}\
          td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}th{{background:#eee}}.bad{{color:#b00}}</style></head><body>\
          <h1>Campaign calibration: {unit}</h1><h2>Verdict</h2><p>{verdict}</p>",

@@ -105,7 +105,7 @@ pub fn parameter_plot(table: &FleetTable, k: usize) -> Option<LinePlot> {
 pub fn fleet_html(table: &FleetTable) -> Result<String, PlotError> {
     let mut h = String::new();
     h.push_str(
-        "<!doctype html><html><head><meta charset=\"utf-8\"><title>spincal fleet</title>\
+        "<!doctype html><html><head><meta charset=\"utf-8\"><meta name=\"generator\" content=\"spincal\"><title>spincal fleet</title>\
          <style>body{font-family:sans-serif;max-width:80em;margin:2em auto}table{border-collapse:collapse;font-size:90%}\
          td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}th{background:#eee}td.name{text-align:left}\
          tr.flagged td{background:#fde3d4}tr.failed td{color:#b00}figure{margin:1em 0}</style></head><body>",

@@ -118,7 +118,7 @@ pub fn render_report(output: &CalibrationOutput, recordings: &[Recording]) -> Re
 /// The page head and the summary paragraph.
 fn title_section(r: &CalibrationResult) -> String {
     let mut html = String::from(concat!(
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">",
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"generator\" content=\"spincal\">",
         "<title>spincal calibration report</title><style>",
         "body{font-family:sans-serif;max-width:1000px;margin:2em auto;color:#222;line-height:1.45}",
         "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}",

@@ -141,6 +141,26 @@ pub struct Truth {
     pub saturated_samples: usize,
 }
 
+/// The truth sidecar of a simulated recording as JSON: the truth's fields, `spincal_version`, and
+/// `recording` naming the recording file it goes with (name, length and hash, see
+/// [`crate::output::fingerprint`]), by which a later run recognises both files as spincal's.
+pub fn truth_json(truth: &Truth, recording: &std::path::Path) -> std::io::Result<String> {
+    let mut value = serde_json::to_value(truth).map_err(std::io::Error::other)?;
+    let fingerprint = crate::output::fingerprint(recording)?;
+    if let serde_json::Value::Object(map) = &mut value {
+        map.insert("spincal_version".into(), env!("CARGO_PKG_VERSION").into());
+        map.insert(
+            "recording".into(),
+            serde_json::json!({
+                "file": recording.file_name().map(|n| n.to_string_lossy().into_owned()),
+                "bytes": fingerprint.bytes,
+                "fnv1a64": fingerprint.fnv1a64,
+            }),
+        );
+    }
+    Ok(serde_json::to_string_pretty(&value).map_err(std::io::Error::other)? + "\n")
+}
+
 /// A simulated recording and its truth.
 #[derive(Debug, Clone)]
 pub struct Simulation {

@@ -124,21 +124,30 @@ impl Default for FitOptions {
 pub enum FitError {
     #[error("{file}: a{axis} is constant (a dead or disconnected channel): there is no rotation to fit on it; check the recording or leave the axis out of the objective (--objective-axes)")]
     ConstantAxis { file: String, axis: char },
-    #[error("{file}: no rotation found: the strongest line in the search band ({rpm:.2} rpm) is only {peak_to_median:.1}× the spectrum's median (at least {MIN_PEAK_TO_MEDIAN} is needed); was the turntable turning?")]
+    #[error("{file}: no rotation found: the strongest line in the search band ({rpm:.2} rpm) is only {peak_to_median:.1}× the spectrum's median (at least {MIN_PEAK_TO_MEDIAN} is needed); {advice}")]
     NoRotation {
         file: String,
         peak_to_median: f64,
         rpm: f64,
+        /// What to check: the time column's flag when its stamps repeat, else whether the
+        /// turntable was turning.
+        advice: String,
     },
+    #[error("{file}: {advice}")]
+    Time { file: String, advice: String },
+    #[error("{file}: {duration_s:.2} s is too short to measure the rotation rate (the spectrum holds fewer than 2 cycles of any line it finds, so a rate or rotation count read from it would be a guess); the turntable fit needs at least 3 rotations: record at least {:.1} s at 33⅓ rpm, {:.1} s at 45 rpm", 3.0 * 60.0 / (100.0 / 3.0), 3.0 * 60.0 / 45.0)]
+    TooShortToMeasure { file: String, duration_s: f64 },
     #[error("no recordings to fit")]
     NoRecordings,
     #[error(transparent)]
     Spectrum(#[from] SpectrumError),
     #[error(transparent)]
     Bounds(#[from] BoundsError),
-    #[error("{file}: only {rotations:.1} rotations at {rpm:.2} rpm in {duration_s:.1} s; at least 3 are needed to fit the turntable")]
+    #[error("{file}: only {rotations:.1} rotations ({basis}: {rpm:.2} rpm for {duration_s:.1} s); at least 3 are needed to fit the turntable")]
     TooFewRotations {
         file: String,
+        /// Where the rate comes from: measured, or sought near the rate the user gave.
+        basis: &'static str,
         rotations: f64,
         rpm: f64,
         duration_s: f64,
@@ -657,6 +666,12 @@ fn first_look(rec: &Recording, inspection: Inspection, options: &FitOptions) -> 
         },
         None => RateSearch::default(),
     };
+    if let Some(advice) = crate::input::inspect::time_advice(rec) {
+        return Err(FitError::Time {
+            file: rec.source.name.clone(),
+            advice,
+        });
+    }
     let rate = estimate_rotation_rate(rec, search)?;
     if let Some(axis) = inspection
         .constant_axes
@@ -669,19 +684,36 @@ fn first_look(rec: &Recording, inspection: Inspection, options: &FitOptions) -> 
         });
     }
     let rotations = rec.duration_s() * rate.frequency_hz;
-    if rotations < 3.0 {
+    // A line with fewer than 2 cycles in the window is not resolved: its frequency, and so the
+    // rotation count, is not measured. Say so rather than give the count.
+    // Three turns at the slowest record speed, 16⅔ rpm, take 10.8 s: a longer recording with no
+    // resolved line is not turning (below), not short.
+    if rotations < 2.0 && rec.duration_s() < 3.0 * 60.0 / (50.0 / 3.0) && options.rpm_hint.is_none() {
+        return Err(FitError::TooShortToMeasure {
+            file: rec.source.name.clone(),
+            duration_s: rec.duration_s(),
+        });
+    }
+    if (2.0..3.0).contains(&rotations) || (rotations < 3.0 && options.rpm_hint.is_some()) {
         return Err(FitError::TooFewRotations {
             file: rec.source.name.clone(),
+            basis: if options.rpm_hint.is_some() {
+                "the rate found within 10 % of the rpm given"
+            } else {
+                "measured"
+            },
             rotations,
             rpm: rate.rpm,
             duration_s: rec.duration_s(),
         });
     }
-    if rate.peak_to_median.is_nan() || rate.peak_to_median < MIN_PEAK_TO_MEDIAN {
+    if rotations < 2.0 || rate.peak_to_median.is_nan() || rate.peak_to_median < MIN_PEAK_TO_MEDIAN {
         return Err(FitError::NoRotation {
             file: rec.source.name.clone(),
             peak_to_median: rate.peak_to_median,
             rpm: rate.rpm,
+            advice: crate::input::inspect::repeated_stamps_advice(rec)
+                .unwrap_or_else(|| "was the turntable turning?".to_string()),
         });
     }
     let start = sinusoid_fit(rec, rate.omega_radps);

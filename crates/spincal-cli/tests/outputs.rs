@@ -1,0 +1,542 @@
+//! Output paths a careless user gets wrong (issue 31): a file spincal did not write is never
+//! replaced without `--force`, spincal's own earlier outputs are, `--out` naming a file is refused
+//! by name, and an interrupted `correct` leaves no temporary file. Each case checks the exit code,
+//! the message and the bytes of every input and pre-existing output.
+
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+
+fn spincal() -> Command {
+    Command::cargo_bin("spincal").unwrap()
+}
+
+/// Runs spincal; returns exit code, stdout and stderr.
+fn run(args: &[&std::ffi::OsStr]) -> (i32, String, String) {
+    let out = spincal().args(args).output().unwrap();
+    (
+        out.status.code().expect("spincal ended by a signal"),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn os(s: &str) -> &std::ffi::OsStr {
+    std::ffi::OsStr::new(s)
+}
+
+fn read(path: &Path) -> Vec<u8> {
+    std::fs::read(path).unwrap()
+}
+
+/// Names in `dir`, sorted.
+fn listing(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// A recording as a logger writes it: spincal did not write it.
+const REAL: &str = "# logger v2, unit 4711\ntime,ax,ay,az\n0.00,0.01,0.02,1.00\n0.01,0.01,0.02,1.01\n";
+
+fn simulate(output: &Path, extra: &[&str]) -> (i32, String, String) {
+    let mut args = vec![os("simulate"), os("-o"), output.as_os_str()];
+    if !extra.contains(&"--duration") {
+        args.extend([os("--duration"), os("2")]);
+    }
+    args.extend(extra.iter().map(|s| os(s)));
+    run(&args)
+}
+
+#[test]
+fn simulate_never_replaces_a_recording_it_did_not_write_but_replaces_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let real = dir.path().join("my-recording.csv");
+    std::fs::write(&real, REAL).unwrap();
+    let (code, _, err) = simulate(&real, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("my-recording.csv") && err.contains("spincal did not write it"),
+        "{err}"
+    );
+    assert!(err.contains("--force"), "{err}");
+    assert_eq!(read(&real), REAL.as_bytes());
+    assert_eq!(listing(dir.path()), ["my-recording.csv"], "nothing else written");
+
+    // A truth file of the user's beside a fresh output name is refused the same way.
+    let fresh = dir.path().join("fresh.csv");
+    let their_truth = dir.path().join("fresh.truth.json");
+    std::fs::write(&their_truth, "{\"notes\": \"mine\"}\n").unwrap();
+    let (code, _, err) = simulate(&fresh, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("fresh.truth.json"), "{err}");
+    assert!(!fresh.exists());
+    assert_eq!(read(&their_truth), b"{\"notes\": \"mine\"}\n");
+
+    // spincal's own simulation is replaced by a second run, with another seed, without a word.
+    let own = dir.path().join("sim.csv");
+    let (code, _, err) = simulate(&own, &["--seed", "3"]);
+    assert_eq!(code, 0, "{err}");
+    let first = read(&own);
+    let (code, _, err) = simulate(&own, &["--seed", "4"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.is_empty(), "{err}");
+    assert_ne!(read(&own), first, "the second run wrote its own recording");
+    // Once its recording is edited by hand, spincal no longer claims it.
+    let mut edited = read(&own);
+    edited.extend_from_slice(b"99,0,0,1\n");
+    std::fs::write(&own, &edited).unwrap();
+    let (code, _, err) = simulate(&own, &["--seed", "5"]);
+    assert_eq!(code, 2, "{err}");
+    assert_eq!(read(&own), edited);
+
+    // --force replaces the real recording and says so.
+    let (code, _, err) = run(&[
+        os("--force"),
+        os("simulate"),
+        os("--duration"),
+        os("2"),
+        os("-o"),
+        real.as_os_str(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("replacing") && err.contains("my-recording.csv"),
+        "{err}"
+    );
+    assert_ne!(read(&real), REAL.as_bytes());
+}
+
+/// A short simulated recording in `dir`.
+fn recording(dir: &Path) -> PathBuf {
+    let rec = dir.join("rec.csv");
+    let (code, _, err) = simulate(&rec, &["--duration", "10"]);
+    assert_eq!(code, 0, "{err}");
+    rec
+}
+
+fn calibrate(rec: &Path, out: &Path, force: bool) -> (i32, String, String) {
+    let mut args = vec![
+        os("calibrate"),
+        rec.as_os_str(),
+        os("--hidden"),
+        os("2"),
+        os("--restarts"),
+        os("1"),
+        os("--quiet"),
+        os("--out"),
+        out.as_os_str(),
+    ];
+    if force {
+        args.push(os("--force"));
+    }
+    run(&args)
+}
+
+#[test]
+fn calibrate_keeps_files_it_did_not_write_and_replaces_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = recording(dir.path());
+    let rec_bytes = read(&rec);
+    let out = dir.path().join("cal");
+    std::fs::create_dir(&out).unwrap();
+    let theirs = out.join("model.json");
+    let their_model = b"{\"weights\": [1, 2, 3]}\n";
+    std::fs::write(&theirs, their_model).unwrap();
+    let (code, _, err) = calibrate(&rec, &out, false);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("model.json") && err.contains("spincal did not write it"),
+        "{err}"
+    );
+    assert_eq!(read(&theirs), their_model);
+    assert_eq!(listing(&out), ["model.json"], "refused before any work");
+
+    // A report of the user's is kept too.
+    std::fs::remove_file(&theirs).unwrap();
+    let report = out.join("report.html");
+    std::fs::write(&report, "<html>my notes</html>").unwrap();
+    let (code, _, err) = calibrate(&rec, &out, false);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("report.html"), "{err}");
+    assert_eq!(read(&report), b"<html>my notes</html>");
+    std::fs::remove_file(&report).unwrap();
+
+    // Into an empty folder, then again into the same folder: spincal's own files are replaced.
+    let (code, _, err) = calibrate(&rec, &out, false);
+    assert_eq!(code, 0, "{err}");
+    let model = read(&out.join("model.json"));
+    let (code, _, err) = calibrate(&rec, &out, false);
+    assert_eq!(code, 0, "{err}");
+    assert!(!err.contains("replacing"), "{err}");
+    assert_eq!(read(&out.join("model.json")), model, "the same calibration again");
+    assert_eq!(listing(&out), ["model.json", "report.html", "results.json"]);
+    assert_eq!(read(&rec), rec_bytes);
+}
+
+#[test]
+fn out_naming_a_file_is_refused_by_name_and_force_says_what_it_replaces() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = recording(dir.path());
+    let rec_bytes = read(&rec);
+    let file = dir.path().join("notes.txt");
+    std::fs::write(&file, "keep me").unwrap();
+    let (code, _, err) = calibrate(&rec, &file, false);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("--out") && err.contains("notes.txt") && err.contains("not a folder"),
+        "{err}"
+    );
+    assert!(!err.contains("os error"), "{err}");
+    assert_eq!(read(&file), b"keep me");
+
+    let out = dir.path().join("cal");
+    std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("results.json"), "[1, 2]").unwrap();
+    let (code, _, err) = calibrate(&rec, &out, true);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("replacing") && err.contains("results.json"), "{err}");
+    let results: serde_json::Value = serde_json::from_slice(&read(&out.join("results.json"))).unwrap();
+    assert!(results["spincal_version"].is_string());
+    assert_eq!(read(&rec), rec_bytes);
+}
+
+/// `correct` reading a pipe that stays open, ended by `signal` once its temporary output exists:
+/// the temporary file is removed, the output never appears, and the inputs are unchanged.
+#[cfg(unix)]
+fn interrupted_correct_leaves_nothing(signal: &str) {
+    use std::io::Write;
+    let dir = tempfile::tempdir().unwrap();
+    let rec = recording(dir.path());
+    let reference = dir.path().join("ref.csv");
+    let model = dir.path().join("linear.json");
+    spincal()
+        .args(["fit", "--quiet"])
+        .arg(&rec)
+        .arg("--reference-csv")
+        .arg(&reference)
+        .assert()
+        .success();
+    spincal()
+        .args(["train", "--kind", "linear", "--quiet", "--data"])
+        .arg(&rec)
+        .arg("--reference")
+        .arg(&reference)
+        .arg("-o")
+        .arg(&model)
+        .assert()
+        .success();
+    let before = [read(&rec), read(&model)];
+    let work = dir.path().join("work");
+    std::fs::create_dir(&work).unwrap();
+    let output = work.join("corrected.csv");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_spincal"))
+        .arg("correct")
+        .arg("--model")
+        .arg(&model)
+        .arg("-")
+        .arg("-o")
+        .arg(&output)
+        .stdin(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let text = String::from_utf8(read(&rec)).unwrap();
+    stdin.write_all(text.as_bytes()).unwrap();
+    stdin.flush().unwrap();
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while listing(&work).is_empty() {
+        assert!(std::time::Instant::now() < deadline, "no temporary file appeared");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert!(listing(&work)[0].ends_with(".tmp"), "{:?}", listing(&work));
+    let killed = std::process::Command::new("kill")
+        .arg(format!("-{signal}"))
+        .arg(child.id().to_string())
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let status = child.wait().unwrap();
+    drop(stdin);
+    assert!(!status.success(), "{status:?}");
+    assert!(listing(&work).is_empty(), "left behind: {:?}", listing(&work));
+    assert_eq!([read(&rec), read(&model)], before);
+}
+
+#[cfg(unix)]
+#[test]
+fn sigint_during_correct_removes_its_temporary_file() {
+    interrupted_correct_leaves_nothing("INT");
+}
+
+#[cfg(unix)]
+#[test]
+fn sigterm_during_correct_removes_its_temporary_file() {
+    interrupted_correct_leaves_nothing("TERM");
+}
+
+/// A linear model trained on a simulated recording in `dir` (its recording, reference, model).
+fn linear_model(dir: &Path) -> (PathBuf, PathBuf) {
+    let rec = recording(dir);
+    let reference = dir.join("ref.csv");
+    let model = dir.join("linear.json");
+    spincal()
+        .args(["fit", "--quiet"])
+        .arg(&rec)
+        .arg("--reference-csv")
+        .arg(&reference)
+        .assert()
+        .success();
+    spincal()
+        .args(["train", "--kind", "linear", "--quiet", "--data"])
+        .arg(&rec)
+        .arg("--reference")
+        .arg(&reference)
+        .arg("-o")
+        .arg(&model)
+        .assert()
+        .success();
+    (rec, model)
+}
+
+/// `text` with the field `column` (0-based) of line `line` (1-based) replaced.
+fn with_field(text: &str, line: usize, column: usize, value: &str) -> String {
+    text.lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i + 1 != line {
+                return l.to_string() + "\n";
+            }
+            let mut fields: Vec<&str> = l.split(',').collect();
+            fields[column] = value;
+            fields.join(",") + "\n"
+        })
+        .collect()
+}
+
+/// (status, corrected values) of each row of `correct`'s output.
+fn statuses(output: &str) -> Vec<(String, Vec<String>)> {
+    let mut lines = output.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let corrected: Vec<usize> = (0..header.len())
+        .filter(|&c| header[c].ends_with("_corrected"))
+        .collect();
+    lines
+        .map(|l| {
+            let fields = split_quoted(l);
+            (
+                fields.last().unwrap().to_string(),
+                corrected.iter().map(|&c| fields[c].to_string()).collect(),
+            )
+        })
+        .collect()
+}
+
+/// A CSV line's fields, double-quoted ones unquoted.
+fn split_quoted(line: &str) -> Vec<String> {
+    let mut fields = vec![String::new()];
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '"' if quoted && chars.peek() == Some(&'"') => {
+                chars.next();
+                fields.last_mut().unwrap().push('"');
+            }
+            '"' => quoted = !quoted,
+            ',' if !quoted => fields.push(String::new()),
+            c => fields.last_mut().unwrap().push(c),
+        }
+    }
+    fields
+}
+
+#[test]
+fn a_value_that_overflows_in_unit_conversion_is_refused_where_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let (rec, model) = linear_model(dir.path());
+    let text = std::fs::read_to_string(&rec).unwrap();
+    assert!(text.starts_with("t_s,ax_g,"), "{}", &text[..40]);
+    let huge = dir.path().join("huge.csv");
+    std::fs::write(&huge, with_field(&text, 5, 1, "1e308")).unwrap();
+    let huge_bytes = read(&huge);
+    let model_bytes = read(&model);
+
+    let (code, _, err) = run(&[os("fit"), huge.as_os_str()]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("huge.csv:5, column 2 (ax_g)"), "{err}");
+    assert!(err.contains("after conversion"), "{err}");
+
+    let out = dir.path().join("corrected.csv");
+    let (code, _, err) = run(&[
+        os("correct"),
+        os("--model"),
+        model.as_os_str(),
+        huge.as_os_str(),
+        os("-o"),
+        out.as_os_str(),
+    ]);
+    assert_eq!(code, 3, "{err}");
+    assert!(err.contains("line 5, column 2 (ax_g)"), "{err}");
+    let rows = statuses(&std::fs::read_to_string(&out).unwrap());
+    assert_eq!(rows.len(), text.lines().count() - 1, "every input row is written");
+    assert!(
+        rows[3].0.starts_with("refused: line 5, column 2 (ax_g)"),
+        "{:?}",
+        rows[3]
+    );
+    assert!(rows[3].1.iter().all(String::is_empty), "{:?}", rows[3]);
+    assert_eq!(rows.iter().filter(|r| r.0 != "ok").count(), 1);
+    assert_eq!((read(&huge), read(&model)), (huge_bytes, model_bytes));
+}
+
+#[test]
+fn a_corrected_value_that_is_not_finite_is_never_ok() {
+    let dir = tempfile::tempdir().unwrap();
+    let (rec, model) = linear_model(dir.path());
+    // In m/s², no conversion: the file's largest values, which no correction keeps finite.
+    let text = std::fs::read_to_string(&rec).unwrap().replacen(
+        "t_s,ax_g,ay_g,az_g",
+        "t_s,ax_mps2,ay_mps2,az_mps2",
+        1,
+    );
+    let mut text = with_field(&text, 6, 1, "1.7976931348623157e308");
+    for column in 1..4 {
+        text = with_field(&text, 7, column, "-1.7976931348623157e308");
+    }
+    let extreme = dir.path().join("extreme.csv");
+    std::fs::write(&extreme, &text).unwrap();
+    let before = (read(&extreme), read(&model));
+    let out = dir.path().join("corrected.csv");
+    let (code, _, err) = run(&[
+        os("correct"),
+        os("--model"),
+        model.as_os_str(),
+        extreme.as_os_str(),
+        os("-o"),
+        out.as_os_str(),
+    ]);
+    let rows = statuses(&std::fs::read_to_string(&out).unwrap());
+    assert_eq!(rows.len(), text.lines().count() - 1, "every input row is written");
+    for (status, corrected) in &rows {
+        if status == "ok" {
+            for v in corrected {
+                let v: f64 = v.parse().unwrap();
+                assert!(v.is_finite(), "status ok with {corrected:?}");
+            }
+        }
+    }
+    let not_ok: Vec<&String> = rows.iter().map(|r| &r.0).filter(|s| *s != "ok").collect();
+    assert!(!not_ok.is_empty());
+    assert!(not_ok.iter().all(|s| s.contains("not finite")), "{not_ok:?}");
+    assert_eq!(code, 3, "{err}");
+    assert!(err.contains("not finite"), "{err}");
+    assert_eq!((read(&extreme), read(&model)), before);
+}
+
+/// Every file under `dir` with its bytes, sorted by path.
+fn tree(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut files = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                let bytes = read(&path);
+                files.push((path, bytes));
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+#[test]
+fn fleet_takes_any_single_toml_and_leaves_no_folder_out_unseen() {
+    use spincal::simulate::campaign::{CampaignSetup, RunSetup};
+    let dir = tempfile::tempdir().unwrap();
+    let base = CampaignSetup::default();
+    let setup = CampaignSetup {
+        runs: base
+            .runs
+            .iter()
+            .map(|r| RunSetup {
+                duration_s: 20.0,
+                ..r.clone()
+            })
+            .collect(),
+        ..base
+    };
+    let setup_path = dir.path().join("setup.json");
+    std::fs::write(&setup_path, serde_json::to_string(&setup).unwrap()).unwrap();
+    let fleet = dir.path().join("fleet");
+    let (code, _, err) = run(&[
+        os("simulate"),
+        os("--fleet"),
+        os("2"),
+        os("--seed"),
+        os("5"),
+        os("--out"),
+        fleet.as_os_str(),
+        os("--setup"),
+        setup_path.as_os_str(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    // The README's name for a unit's campaign file, a folder with no campaign, a hidden folder.
+    std::fs::rename(
+        fleet.join("unit-02/campaign.toml"),
+        fleet.join("unit-02/unit.toml"),
+    )
+    .unwrap();
+    std::fs::create_dir(fleet.join("notes")).unwrap();
+    std::fs::write(fleet.join("notes/readme.txt"), "bench log").unwrap();
+    std::fs::create_dir(fleet.join(".thumbnails")).unwrap();
+    let before = tree(&fleet);
+
+    let out = dir.path().join("cal");
+    let (code, stdout, err) = run(&[
+        os("fleet"),
+        fleet.as_os_str(),
+        os("--quiet"),
+        os("--out"),
+        out.as_os_str(),
+    ]);
+    assert_eq!(code, 3, "{stdout}\n{err}");
+    assert!(
+        err.contains(".thumbnails") && err.contains("skipped") && err.contains("hidden"),
+        "{err}"
+    );
+    assert!(err.contains("1 of 3 units failed"), "{err}");
+    assert!(err.contains("notes") && err.contains("no campaign file"), "{err}");
+    for unit in ["unit-01", "unit-02"] {
+        let results: serde_json::Value =
+            serde_json::from_slice(&read(&out.join(unit).join("results.json"))).unwrap();
+        assert!(results["spincal_version"].is_string(), "{unit}");
+    }
+    let csv = std::fs::read_to_string(out.join("fleet.csv")).unwrap();
+    assert!(csv.contains("notes"), "{csv}");
+    assert_eq!(tree(&fleet), before, "no input changed");
+
+    // A unit named but not there fails as its own unit: exit 3, the other one written.
+    let missing = fleet.join("unit-09");
+    let out2 = dir.path().join("cal2");
+    let unit1 = fleet.join("unit-01");
+    let (code, stdout, err) = run(&[
+        os("fleet"),
+        unit1.as_os_str(),
+        missing.as_os_str(),
+        os("--quiet"),
+        os("--out"),
+        out2.as_os_str(),
+    ]);
+    assert_eq!(code, 3, "{stdout}\n{err}");
+    assert!(err.contains("unit-09"), "{err}");
+    assert!(out2.join("unit-01/results.json").is_file());
+    assert_eq!(tree(&fleet), before, "no input changed");
+}
