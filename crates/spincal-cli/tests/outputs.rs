@@ -210,25 +210,7 @@ fn out_naming_a_file_is_refused_by_name_and_force_says_what_it_replaces() {
 fn interrupted_correct_leaves_nothing(signal: &str) {
     use std::io::Write;
     let dir = tempfile::tempdir().unwrap();
-    let rec = recording(dir.path());
-    let reference = dir.path().join("ref.csv");
-    let model = dir.path().join("linear.json");
-    spincal()
-        .args(["fit", "--quiet"])
-        .arg(&rec)
-        .arg("--reference-csv")
-        .arg(&reference)
-        .assert()
-        .success();
-    spincal()
-        .args(["train", "--kind", "linear", "--quiet", "--data"])
-        .arg(&rec)
-        .arg("--reference")
-        .arg(&reference)
-        .arg("-o")
-        .arg(&model)
-        .assert()
-        .success();
+    let (rec, model) = linear_model(dir.path());
     let before = [read(&rec), read(&model)];
     let work = dir.path().join("work");
     std::fs::create_dir(&work).unwrap();
