@@ -3,32 +3,10 @@
 //! flagged, a unit's results equal to `calibrate --campaign`'s, and every number of fleet.html
 //! read from fleet.json.
 
-use std::path::Path;
-
 use assert_cmd::Command;
-use spincal::simulate::campaign::{CampaignSetup, RunSetup};
 
 fn spincal() -> Command {
     Command::cargo_bin("spincal").unwrap()
-}
-
-/// The default campaign with 20 s turntable runs (the test's time).
-fn short_setup(dir: &Path) -> std::path::PathBuf {
-    let base = CampaignSetup::default();
-    let setup = CampaignSetup {
-        runs: base
-            .runs
-            .iter()
-            .map(|r| RunSetup {
-                duration_s: 20.0,
-                ..r.clone()
-            })
-            .collect(),
-        ..base
-    };
-    let path = dir.join("setup.json");
-    std::fs::write(&path, serde_json::to_string(&setup).unwrap()).unwrap();
-    path
 }
 
 fn without_time(text: &str) -> serde_json::Value {
@@ -41,7 +19,7 @@ fn without_time(text: &str) -> serde_json::Value {
 #[test]
 fn a_simulated_fleet_is_calibrated_and_a_broken_unit_is_reported_alone() {
     let dir = tempfile::tempdir().unwrap();
-    let setup = short_setup(dir.path());
+    let setup = crate::harness::short_campaign_setup(dir.path());
     let fleet = dir.path().join("fleet");
     let run = spincal()
         .args([

@@ -21,30 +21,7 @@ struct Setup {
 fn setup() -> Setup {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().to_path_buf();
-    let rec = path.join("rec.csv");
-    let reference = path.join("ref.csv");
-    let model = path.join("linear.json");
-    spincal()
-        .args(["simulate", "--duration", "10", "--quiet", "-o"])
-        .arg(&rec)
-        .assert()
-        .success();
-    spincal()
-        .args(["fit", "--quiet"])
-        .arg(&rec)
-        .arg("--reference-csv")
-        .arg(&reference)
-        .assert()
-        .success();
-    spincal()
-        .args(["train", "--kind", "linear", "--quiet", "--data"])
-        .arg(&rec)
-        .arg("--reference")
-        .arg(&reference)
-        .arg("-o")
-        .arg(&model)
-        .assert()
-        .success();
+    let (rec, model) = crate::harness::linear_model(&path);
     Setup {
         _dir: dir,
         dir: path,

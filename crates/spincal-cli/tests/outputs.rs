@@ -210,7 +210,7 @@ fn out_naming_a_file_is_refused_by_name_and_force_says_what_it_replaces() {
 fn interrupted_correct_leaves_nothing(signal: &str) {
     use std::io::Write;
     let dir = tempfile::tempdir().unwrap();
-    let (rec, model) = linear_model(dir.path());
+    let (rec, model) = crate::harness::linear_model(dir.path());
     let before = [read(&rec), read(&model)];
     let work = dir.path().join("work");
     std::fs::create_dir(&work).unwrap();
@@ -259,30 +259,6 @@ fn sigint_during_correct_removes_its_temporary_file() {
 #[test]
 fn sigterm_during_correct_removes_its_temporary_file() {
     interrupted_correct_leaves_nothing("TERM");
-}
-
-/// A linear model trained on a simulated recording in `dir` (its recording, reference, model).
-fn linear_model(dir: &Path) -> (PathBuf, PathBuf) {
-    let rec = recording(dir);
-    let reference = dir.join("ref.csv");
-    let model = dir.join("linear.json");
-    spincal()
-        .args(["fit", "--quiet"])
-        .arg(&rec)
-        .arg("--reference-csv")
-        .arg(&reference)
-        .assert()
-        .success();
-    spincal()
-        .args(["train", "--kind", "linear", "--quiet", "--data"])
-        .arg(&rec)
-        .arg("--reference")
-        .arg(&reference)
-        .arg("-o")
-        .arg(&model)
-        .assert()
-        .success();
-    (rec, model)
 }
 
 /// `text` with the field `column` (0-based) of line `line` (1-based) replaced.
@@ -340,7 +316,7 @@ fn split_quoted(line: &str) -> Vec<String> {
 #[test]
 fn a_value_that_overflows_in_unit_conversion_is_refused_where_it_is() {
     let dir = tempfile::tempdir().unwrap();
-    let (rec, model) = linear_model(dir.path());
+    let (rec, model) = crate::harness::linear_model(dir.path());
     let text = std::fs::read_to_string(&rec).unwrap();
     assert!(text.starts_with("t_s,ax_g,"), "{}", &text[..40]);
     let huge = dir.path().join("huge.csv");
@@ -379,7 +355,7 @@ fn a_value_that_overflows_in_unit_conversion_is_refused_where_it_is() {
 #[test]
 fn a_corrected_value_that_is_not_finite_is_never_ok() {
     let dir = tempfile::tempdir().unwrap();
-    let (rec, model) = linear_model(dir.path());
+    let (rec, model) = crate::harness::linear_model(dir.path());
     // In m/s², no conversion: the file's largest values, which no correction keeps finite.
     let text = std::fs::read_to_string(&rec).unwrap().replacen(
         "t_s,ax_g,ay_g,az_g",
@@ -441,22 +417,8 @@ fn tree(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
 
 #[test]
 fn fleet_takes_any_single_toml_and_leaves_no_folder_out_unseen() {
-    use spincal::simulate::campaign::{CampaignSetup, RunSetup};
     let dir = tempfile::tempdir().unwrap();
-    let base = CampaignSetup::default();
-    let setup = CampaignSetup {
-        runs: base
-            .runs
-            .iter()
-            .map(|r| RunSetup {
-                duration_s: 20.0,
-                ..r.clone()
-            })
-            .collect(),
-        ..base
-    };
-    let setup_path = dir.path().join("setup.json");
-    std::fs::write(&setup_path, serde_json::to_string(&setup).unwrap()).unwrap();
+    let setup_path = crate::harness::short_campaign_setup(dir.path());
     let fleet = dir.path().join("fleet");
     let (code, _, err) = run(&[
         os("simulate"),

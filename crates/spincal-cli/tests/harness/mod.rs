@@ -71,3 +71,46 @@ pub fn shared(relative: &str) -> Option<PathBuf> {
     );
     None
 }
+
+/// A linear corrector trained on a 10 s simulated recording in `dir`: the recording
+/// (`rec.csv`, with `ref.csv` from its turntable fit) and the model (`linear.json`).
+pub fn linear_model(dir: &Path) -> (PathBuf, PathBuf) {
+    let (rec, reference, model) = (dir.join("rec.csv"), dir.join("ref.csv"), dir.join("linear.json"));
+    run(spincal()
+        .args(["simulate", "--duration", "10", "--quiet", "-o"])
+        .arg(&rec));
+    run(spincal()
+        .args(["fit", "--quiet"])
+        .arg(&rec)
+        .arg("--reference-csv")
+        .arg(&reference));
+    run(spincal()
+        .args(["train", "--kind", "linear", "--quiet", "--data"])
+        .arg(&rec)
+        .arg("--reference")
+        .arg(&reference)
+        .arg("-o")
+        .arg(&model));
+    (rec, model)
+}
+
+/// The default campaign with 20 s turntable runs (a test's time), written as `setup.json` in
+/// `dir` for `spincal simulate --setup`.
+pub fn short_campaign_setup(dir: &Path) -> PathBuf {
+    use spincal::simulate::campaign::{CampaignSetup, RunSetup};
+    let base = CampaignSetup::default();
+    let setup = CampaignSetup {
+        runs: base
+            .runs
+            .iter()
+            .map(|r| RunSetup {
+                duration_s: 20.0,
+                ..r.clone()
+            })
+            .collect(),
+        ..base
+    };
+    let path = dir.join("setup.json");
+    std::fs::write(&path, serde_json::to_string(&setup).unwrap()).unwrap();
+    path
+}
