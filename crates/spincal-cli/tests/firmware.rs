@@ -129,6 +129,7 @@ fn models_and_samples() -> (Vec<(&'static str, CorrectorFile)>, Samples, f64) {
         time_s: (0..columns[0].len()).map(|i| i as f64).collect(),
         accel_mps2: columns,
         gyro_radps: None,
+        temperature_c: None,
         source: Default::default(),
     };
     let network = AnnProblem::new(

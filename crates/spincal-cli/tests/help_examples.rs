@@ -162,6 +162,7 @@ fn write_gx1(path: &Path) {
         time_s: (0..n).map(|i| i as f64 * 0.01).collect(),
         accel_mps2: [vec![0.5; n], vec![-0.25; n], vec![9.8; n]],
         gyro_radps: None,
+        temperature_c: None,
         source: Source::default(),
     };
     std::fs::write(path, encode(&rec, &Gx1EncodeOptions::default()).unwrap()).unwrap();

@@ -93,6 +93,7 @@ fn inspect_reports_detected_gx1_format_and_damage_offset() {
         time_s: (0..n).map(|i| i as f64 * 0.01).collect(),
         accel_mps2: [vec![0.5; n], vec![-0.25; n], vec![9.8; n]],
         gyro_radps: None,
+        temperature_c: None,
         source: Source::default(),
     };
     let mut bytes = encode(&rec, &Gx1EncodeOptions::default()).unwrap();

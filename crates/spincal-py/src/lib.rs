@@ -251,6 +251,7 @@ fn recording(
         time_s,
         accel_mps2,
         gyro_radps,
+        temperature_c: None,
         source: spincal::recording::Source {
             name: name.to_string(),
             format: "array".to_string(),

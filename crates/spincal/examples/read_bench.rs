@@ -22,6 +22,7 @@ fn generate(dir: &Path, rows: usize) {
     let rec = Recording {
         accel_mps2: [axis(0.0), axis(0.0), axis(9.8)],
         gyro_radps: Some([axis(0.0), axis(0.0), axis(0.0)]),
+        temperature_c: None,
         time_s,
         source: Source::default(),
     };

@@ -610,6 +610,7 @@ fn with_signal(recordings: &[Recording], signal: impl Fn(usize, &[f64]) -> [Vec<
             time_s: rec.time_s.clone(),
             accel_mps2: signal(k, &rec.time_s),
             gyro_radps: None,
+            temperature_c: None,
             source: rec.source.clone(),
         })
         .collect()

@@ -30,6 +30,7 @@ pub mod progress;
 pub mod report;
 pub mod simulate;
 pub mod sysid;
+pub mod thermal;
 pub mod turntable;
 
 // Paths of earlier releases, kept working (CHANGELOG.md lists the moves).

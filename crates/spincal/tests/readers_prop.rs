@@ -100,6 +100,7 @@ fn simulated(n: usize, seed: u64) -> Recording {
         time_s,
         accel_mps2: accel,
         gyro_radps: None,
+        temperature_c: None,
         source: Source::default(),
     }
 }

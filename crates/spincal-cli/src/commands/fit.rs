@@ -166,6 +166,7 @@ pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
             time_s: rec.time_s.clone(),
             accel_mps2: fit.reference(k, &rec.time_s),
             gyro_radps: None,
+            temperature_c: None,
             source: spincal::recording::Source::default(),
         };
         reference

@@ -150,6 +150,7 @@ fn check_run(run: &RunInput, gravity: f64) -> Result<(), InputError> {
         time_s: run.time_s.clone(),
         accel_mps2: [across[0].clone(), across[1].clone(), vec![0.0; run.time_s.len()]],
         gyro_radps: None,
+        temperature_c: None,
         source: Default::default(),
     };
     if let Ok(rate) = estimate_rotation_rate(&flat, RateSearch::default()) {

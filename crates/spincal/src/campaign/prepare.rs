@@ -248,6 +248,7 @@ mod tests {
                         time_s,
                         accel_mps2: accel,
                         gyro_radps: None,
+                        temperature_c: None,
                         source: Default::default(),
                     };
                     pose_input(&rec, format!("pose {p}"), 0, samples, 1)

@@ -518,6 +518,7 @@ impl Candidate for PhysicalAnnCandidate {
             time_s: (0..n).map(|i| i as f64).collect(),
             accel_mps2: accel,
             gyro_radps: None,
+            temperature_c: None,
             source: Default::default(),
         };
         let (measured, target) = (as_recording(input), as_recording(residual));

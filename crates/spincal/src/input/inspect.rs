@@ -360,6 +360,7 @@ mod tests {
             time_s: vec![0.0, 0.01, 0.02, 0.03],
             accel_mps2: [vec![1.0, 2.0, 3.0, 4.0], vec![0.0; 4], vec![9.8; 4]],
             gyro_radps: None,
+            temperature_c: None,
             source: Source::default(),
         };
         let found = inspect(&r, None);

@@ -97,6 +97,42 @@ impl GyroUnit {
     }
 }
 
+/// Unit of a temperature column in a file.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TemperatureUnit {
+    /// Degrees Celsius.
+    C,
+    /// Kelvin.
+    K,
+    /// Degrees Fahrenheit.
+    F,
+    /// The MPU-6000/6050 family's TEMP_OUT register, raw counts: °C = counts / 340 + 36.53
+    /// (InvenSense MPU-6000/MPU-6050 Register Map, rev. 4.2, register 65–66).
+    Mpu6050Counts,
+}
+
+impl TemperatureUnit {
+    /// The value in °C.
+    pub fn to_celsius(self, value: f64) -> f64 {
+        match self {
+            TemperatureUnit::C => value,
+            TemperatureUnit::K => value - 273.15,
+            TemperatureUnit::F => (value - 32.0) * 5.0 / 9.0,
+            TemperatureUnit::Mpu6050Counts => value / 340.0 + 36.53,
+        }
+    }
+    pub fn parse(text: &str) -> Option<TemperatureUnit> {
+        match text.to_ascii_lowercase().as_str() {
+            "c" | "degc" | "°c" | "celsius" => Some(TemperatureUnit::C),
+            "k" | "kelvin" => Some(TemperatureUnit::K),
+            "f" | "degf" | "°f" => Some(TemperatureUnit::F),
+            "mpu6050" | "mpu6050counts" | "counts" => Some(TemperatureUnit::Mpu6050Counts),
+            _ => None,
+        }
+    }
+}
+
 /// Where a recording came from and how it was read.
 #[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
 pub struct Source {
@@ -104,7 +140,7 @@ pub struct Source {
     pub name: String,
     /// Format name as detected or chosen (`csv`, `phyphox`, `3dm-gx1`, …).
     pub format: String,
-    /// Columns used, as `t,ax,ay,az[,gx,gy,gz]` names from the file.
+    /// Columns used, as `t,ax,ay,az[,gx,gy,gz][,temperature]` names from the file.
     pub columns: Vec<String>,
     /// Lines skipped before the data (metadata), as read.
     pub metadata: Vec<String>,
@@ -122,6 +158,9 @@ pub struct Recording {
     pub accel_mps2: [Vec<f64>; 3],
     /// Gyro x, y, z, rad/s (sensor frame), when recorded.
     pub gyro_radps: Option<[Vec<f64>; 3]>,
+    /// The sensor's reported temperature, °C, when recorded (a die or board sensor: it may lag the
+    /// die and be quantised; see [`crate::thermal`]).
+    pub temperature_c: Option<Vec<f64>>,
     pub source: Source,
 }
 
@@ -139,7 +178,7 @@ pub enum RecordingError {
     },
     #[error("{file}: cannot tell which columns hold time and acceleration (columns: {available}); pass --columns t,ax,ay,az")]
     AmbiguousColumns { file: String, available: String },
-    #[error("--columns needs 4 or 7 entries (t,ax,ay,az[,gx,gy,gz]), got {0}")]
+    #[error("--columns needs 4, 5, 7 or 8 entries (t,ax,ay,az[,gx,gy,gz][,temperature]), got {0}")]
     ColumnCount(usize),
     #[error("{at}: time goes backwards ({previous} s, then {current} s)")]
     TimeNotIncreasing {
@@ -173,7 +212,8 @@ pub enum RecordingError {
 /// Which columns hold what, and in which units.
 #[derive(Debug, Clone, Default)]
 pub struct ColumnMap {
-    /// `t,ax,ay,az[,gx,gy,gz]` as names or 1-based indices; guessed from the header when `None`.
+    /// `t,ax,ay,az[,gx,gy,gz][,temperature]` as names or 1-based indices; guessed from the header
+    /// when `None`.
     pub columns: Option<Vec<String>>,
     /// Acceleration unit; from the column name suffix (`_g`, `_mps2`) or m/s² when `None`.
     pub accel_unit: Option<AccelUnit>,
@@ -181,14 +221,16 @@ pub struct ColumnMap {
     pub time_unit: Option<TimeUnit>,
     /// Gyro unit; from the column name suffix (`_dps`, `_radps`) or rad/s when `None`.
     pub gyro_unit: Option<GyroUnit>,
+    /// Temperature unit; from the column name suffix (`_c`, `_k`, `_f`) or °C when `None`.
+    pub temperature_unit: Option<TemperatureUnit>,
     pub table: TableOptions,
 }
 
 impl ColumnMap {
-    /// Parses `t,ax,ay,az[,gx,gy,gz]`.
+    /// Parses `t,ax,ay,az[,gx,gy,gz][,temperature]`.
     pub fn with_columns(mut self, spec: &str) -> Result<Self, RecordingError> {
         let keys: Vec<String> = spec.split(',').map(|s| s.trim().to_string()).collect();
-        if keys.len() != 4 && keys.len() != 7 {
+        if ![4, 5, 7, 8].contains(&keys.len()) {
             return Err(RecordingError::ColumnCount(keys.len()));
         }
         self.columns = Some(keys);
@@ -242,6 +284,28 @@ fn gyro_names(a: usize) -> Vec<String> {
     for unit in ["dps", "radps"] {
         names.push(format!("g{x}_{unit}"));
         names.push(format!("gyr_{x}_{unit}"));
+    }
+    names
+}
+
+/// Header names spincal recognises for a temperature column (°C unless a unit suffix says
+/// otherwise: `temp_k`, `temperature_f`).
+fn temperature_names() -> Vec<String> {
+    let mut names: Vec<String> = ["temperature (°c)", "temp (°c)", "temperature (c)", "temp (c)"]
+        .map(String::from)
+        .to_vec();
+    for stem in [
+        "temp",
+        "temperature",
+        "imu_temp",
+        "die_temp",
+        "temp_die",
+        "imu_temperature",
+    ] {
+        names.push(stem.to_string());
+        for unit in ["c", "degc", "k", "f"] {
+            names.push(format!("{stem}_{unit}"));
+        }
     }
     names
 }
@@ -383,12 +447,18 @@ impl Recording {
             }
         }
         let accel_mps2 = [next(), next(), next()];
-        let gyro_radps = (plan.indices.len() == 7).then(|| [next(), next(), next()]);
+        let gyro_radps = plan.gyro.then(|| [next(), next(), next()]);
+        let temperature_c = plan.temperature.map(|unit| {
+            let mut column = next();
+            column.iter_mut().for_each(|v| *v = unit.to_celsius(*v));
+            column
+        });
         // The file's values were finite; a unit's factor can still carry one past f64's range.
         let converted: Vec<&Vec<f64>> = std::iter::once(&time_s)
             .filter(|_| rate_hz.is_none())
             .chain(accel_mps2.iter())
             .chain(gyro_radps.iter().flatten())
+            .chain(temperature_c.iter())
             .collect();
         let skip = usize::from(rate_hz.is_some());
         for (k, column) in converted.into_iter().enumerate() {
@@ -410,6 +480,7 @@ impl Recording {
             time_s,
             accel_mps2,
             gyro_radps,
+            temperature_c,
             source: Source {
                 name,
                 format: "csv".into(),
@@ -471,6 +542,7 @@ impl Recording {
                 .gyro_radps
                 .as_ref()
                 .map(|g| std::array::from_fn(|a| pick(&g[a]))),
+            temperature_c: self.temperature_c.as_deref().map(pick),
             source: Source {
                 lines,
                 ..self.source.clone()
@@ -478,12 +550,16 @@ impl Recording {
         }
     }
 
-    /// Writes the recording as CSV with unit-bearing header names (`t_s,ax_mps2,…` or `ax_g`).
+    /// Writes the recording as CSV with unit-bearing header names (`t_s,ax_mps2,…` or `ax_g`, and
+    /// `temp_c` when the recording has a temperature).
     pub fn write_csv<W: Write>(&self, mut out: W, unit: AccelUnit) -> std::io::Result<()> {
         let u = unit.suffix();
         write!(out, "t_s,ax_{u},ay_{u},az_{u}")?;
         if self.gyro_radps.is_some() {
             write!(out, ",gx_radps,gy_radps,gz_radps")?;
+        }
+        if self.temperature_c.is_some() {
+            write!(out, ",temp_c")?;
         }
         writeln!(out)?;
         let k = 1.0 / unit.to_si();
@@ -499,6 +575,9 @@ impl Recording {
             )?;
             if let Some(g) = &self.gyro_radps {
                 write!(out, ",{},{},{}", g[0][i], g[1][i], g[2][i])?;
+            }
+            if let Some(temperature) = &self.temperature_c {
+                write!(out, ",{}", temperature[i])?;
             }
             writeln!(out)?;
         }
@@ -561,10 +640,16 @@ fn unit_from_name<U>(name: &str, parse: impl Fn(&str) -> Option<U>) -> Option<U>
     lower.rsplit_once('_').and_then(|(_, suffix)| parse(suffix))
 }
 
-/// Which file columns become time, acceleration and rate, and the factor to SI for each.
+/// Which file columns become time, acceleration, rate and temperature, and the factor to SI for
+/// each.
 struct Plan {
-    /// File columns of t, ax, ay, az[, gx, gy, gz].
+    /// File columns of t, ax, ay, az[, gx, gy, gz][, temperature].
     indices: Vec<usize>,
+    /// Whether gx, gy, gz are among them.
+    gyro: bool,
+    /// The temperature column's unit, when there is one (its factor in `scales` is 1: the
+    /// conversion to °C is affine, applied after reading).
+    temperature: Option<TemperatureUnit>,
     /// Factor to SI of each.
     scales: Vec<f64>,
     /// Their names in the file (or `column N`).
@@ -573,7 +658,7 @@ struct Plan {
 
 impl Plan {
     fn new(header: &[String], n_columns: usize, file: &str, map: &ColumnMap) -> Result<Plan, RecordingError> {
-        let indices = resolve_columns(header, n_columns, file, map)?;
+        let (indices, gyro, has_temperature) = resolve_columns(header, n_columns, file, map)?;
         let name_of = |i: usize| {
             header
                 .get(i)
@@ -594,15 +679,23 @@ impl Plan {
             accel_unit.to_si(),
             accel_unit.to_si(),
         ];
-        if indices.len() == 7 {
+        if gyro {
             let unit = map
                 .gyro_unit
                 .or_else(|| unit_from_name(&name_of(indices[4]), GyroUnit::parse))
                 .unwrap_or(GyroUnit::Radps);
             scales.extend([unit.to_si(); 3]);
         }
+        let temperature = has_temperature.then(|| {
+            scales.push(1.0);
+            map.temperature_unit
+                .or_else(|| unit_from_name(&name_of(*indices.last().unwrap_or(&0)), TemperatureUnit::parse))
+                .unwrap_or(TemperatureUnit::C)
+        });
         let names = indices.iter().map(|&i| name_of(i)).collect();
         Ok(Plan {
+            gyro,
+            temperature,
             indices,
             scales,
             names,
@@ -619,12 +712,14 @@ impl Plan {
     }
 }
 
+/// The file columns of t, ax, ay, az[, gx, gy, gz][, temperature], whether the gyro is among them,
+/// and whether the temperature is.
 fn resolve_columns(
     header: &[String],
     n_columns: usize,
     file: &str,
     map: &ColumnMap,
-) -> Result<Vec<usize>, RecordingError> {
+) -> Result<(Vec<usize>, bool, bool), RecordingError> {
     let available = || {
         if header.is_empty() {
             format!("{} unnamed", n_columns)
@@ -633,7 +728,7 @@ fn resolve_columns(
         }
     };
     if let Some(keys) = &map.columns {
-        return keys
+        let indices = keys
             .iter()
             .map(|k| {
                 find_column(header, n_columns, k).ok_or_else(|| RecordingError::NoSuchColumn {
@@ -642,12 +737,14 @@ fn resolve_columns(
                     available: available(),
                 })
             })
-            .collect();
+            .collect::<Result<Vec<usize>, _>>()?;
+        let (gyro, temperature) = (indices.len() >= 7, matches!(indices.len(), 5 | 8));
+        return Ok((indices, gyro, temperature));
     }
     if header.is_empty() {
         return match n_columns {
-            4 => Ok(vec![0, 1, 2, 3]),
-            n if n >= 7 => Ok((0..7).collect()),
+            4 => Ok((vec![0, 1, 2, 3], false, false)),
+            n if n >= 7 => Ok(((0..7).collect(), true, false)),
             _ => Err(RecordingError::AmbiguousColumns {
                 file: file.to_string(),
                 available: available(),
@@ -666,10 +763,11 @@ fn resolve_columns(
     let mut indices = vec![time];
     indices.extend(accel);
     let gyro: Option<Vec<usize>> = (0..3).map(|a| find_any(header, &gyro_names(a))).collect();
-    if let Some(gyro) = gyro {
-        indices.extend(gyro);
-    }
-    Ok(indices)
+    let has_gyro = gyro.is_some();
+    indices.extend(gyro.into_iter().flatten());
+    let temperature = find_any(header, &temperature_names());
+    indices.extend(temperature);
+    Ok((indices, has_gyro, temperature.is_some()))
 }
 
 #[cfg(test)]

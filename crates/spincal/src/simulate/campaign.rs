@@ -404,6 +404,7 @@ fn recording(name: &str, time_s: Vec<f64>, accel: [Vec<f64>; 3], gyro: Option<[V
         time_s,
         accel_mps2: accel,
         gyro_radps: gyro,
+        temperature_c: None,
         source: Source {
             name: name.to_string(),
             format: "simulated".into(),

@@ -364,6 +364,7 @@ pub fn simulate(
         time_s,
         accel_mps2: accel,
         gyro_radps: None,
+        temperature_c: None,
         source: Source {
             name: format!("simulated (seed {seed})"),
             format: "simulated".into(),

@@ -1170,6 +1170,7 @@ mod tests {
             time_s,
             accel_mps2: accel,
             gyro_radps: None,
+            temperature_c: None,
             source: Default::default(),
         }
     }

@@ -317,6 +317,7 @@ mod tests {
             time_s: time,
             accel_mps2: accel,
             gyro_radps: None,
+            temperature_c: None,
             source: Source::default(),
         }
     }

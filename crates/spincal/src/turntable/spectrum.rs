@@ -390,6 +390,7 @@ mod tests {
             time_s,
             accel_mps2: [x, y, z],
             gyro_radps: None,
+            temperature_c: None,
             source: Source {
                 name: "rotating".into(),
                 format: "test".into(),

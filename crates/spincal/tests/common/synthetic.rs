@@ -47,6 +47,7 @@ pub fn turntable_pair(n: usize, seed: u64) -> (Recording, Recording) {
         time_s: time_s.clone(),
         accel_mps2,
         gyro_radps: None,
+        temperature_c: None,
         source: Source {
             name: name.into(),
             format: "synthetic".into(),

@@ -365,6 +365,7 @@ pub fn decode(bytes: &[u8], file: &str, options: &Gx1Options) -> Result<(Recordi
         time_s,
         accel_mps2: accel,
         gyro_radps: gyro_k.map(|_| gyro),
+        temperature_c: None,
         source: Source {
             name: file.into(),
             format: "3dm-gx1".into(),
@@ -485,6 +486,7 @@ mod tests {
             time_s,
             accel_mps2: accel,
             gyro_radps: Some(gyro),
+            temperature_c: None,
             source: Source::default(),
         }
     }

@@ -16,7 +16,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::input::recording::{ColumnMap, Recording, RecordingError, Source};
+use crate::input::recording::{ColumnMap, Recording, RecordingError, Source, TemperatureUnit};
 use crate::input::table::{read_labelled, Delimiter, Table, TableError, TableOptions};
 
 pub use gx1::{Gx1EncodeOptions, Gx1Error, Gx1Fault, Gx1Options, Gx1Report};
@@ -579,6 +579,7 @@ fn read_imucal(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded
         gyro_radps: gyro
             .as_ref()
             .map(|g| std::array::from_fn(|a| order.iter().map(|&i| table.columns[g[a]][i]).collect())),
+        temperature_c: None,
         source: Source {
             name: file.into(),
             format: "imucal".into(),
@@ -637,6 +638,10 @@ fn read_mpu6050(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loade
     .iter()
     .map(|names| names.iter().find_map(|n| table.column_index(n)))
     .collect();
+    // The logger's TEMP_OUT column, raw counts like every other column.
+    let temperature = ["temp", "temperature", "temp_out"]
+        .iter()
+        .find_map(|n| table.column_index(n));
     let n = table.n_rows();
     let recording = Recording {
         time_s: (0..n).map(|i| i as f64 / fs).collect(),
@@ -644,12 +649,19 @@ fn read_mpu6050(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loade
         gyro_radps: gyro
             .as_ref()
             .map(|g| std::array::from_fn(|a| table.columns[g[a]].clone())),
+        temperature_c: temperature.map(|c| {
+            table.columns[c]
+                .iter()
+                .map(|&v| TemperatureUnit::Mpu6050Counts.to_celsius(v))
+                .collect()
+        }),
         source: Source {
             name: file.into(),
             format: "mpu6050".into(),
             columns: acc
                 .iter()
                 .chain(gyro.iter().flatten())
+                .chain(temperature.iter())
                 .map(|&c| table.header[c].clone())
                 .collect(),
             metadata: table.metadata.iter().map(|(_, s)| s.clone()).collect(),
@@ -661,6 +673,12 @@ fn read_mpu6050(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loade
     l.notes.push(format!(
         "time synthesised from Fs = {fs} Hz; gyro kept in raw counts (no scale)"
     ));
+    if temperature.is_some() {
+        l.notes.push(
+            "temperature from TEMP_OUT counts by the MPU-6050 register map's formula: °C = counts / 340 + 36.53"
+                .into(),
+        );
+    }
     Ok(l)
 }
 

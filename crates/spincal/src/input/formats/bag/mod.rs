@@ -591,6 +591,7 @@ fn assemble(mut c: Collector, storage: Storage, topic: Option<&str>) -> Result<B
         time_s,
         accel_mps2: data.v,
         gyro_radps: data.g,
+        temperature_c: None,
         source: Source {
             name: c.file.clone(),
             format: "rosbag".into(),

@@ -1,0 +1,288 @@
+//! Temperature: the die temperature from a lagging, quantised sensor, and a thermal sensor model.
+//!
+//! ```text
+//! m_k = b_k + β_k(ΔT) + (1 + s_k)(1 + ρ_k(ΔT)) · ((I + M) f)_k,    ΔT = T_die − T_ref
+//! β_k(ΔT) = Σ_j β_kj ΔT^j,   ρ_k(ΔT) = Σ_j ρ_kj ΔT^j   (j ≥ 1: both vanish at T_ref)
+//! ```
+//! b, s and M are the sensor model's bias, scale errors and misalignment at the reference
+//! temperature ([`crate::correctors::physical`]); β is the bias's change with temperature (m/s²),
+//! ρ the relative change of each axis's gain. Misalignment is held constant: still poses at a few
+//! temperatures determine it poorly, and datasheets give no thermal figure for it.
+//!
+//! **The die temperature.** A temperature sensor reports the die through a lag, often a first-order
+//! one (dT_rep/dt = (T_die − T_rep)/τ), and in steps (1 °C on many boards). Inverting the lag,
+//! T_die = T_rep + τ·dT_rep/dt, needs the rate of a stepped signal, so both the value and the rate
+//! come from a local straight line fitted to the reported temperature over a centred window
+//! ([`die_temperature`]); τ is chosen by the fit ([`fit`]). The window is 60 s, short against a
+//! warm-up's time constant (minutes), whose curvature a longer one would flatten. A temperature
+//! in whole degrees that barely moves holds still for many minutes, and no window can smooth that:
+//! it is known only from when its steps happen, so such a temperature is first replaced by the line
+//! through its steps' midpoints ([`dequantised`]).
+
+pub mod fit;
+
+use serde::{Deserialize, Serialize};
+
+pub use fit::{fit_thermal, OrderScore, ThermalError, ThermalFit, ThermalSettings};
+
+/// Sensor parameters at the reference temperature that the thermal model carries (no
+/// nonlinearity: still poses at 1 g cannot tell it from bias and scale).
+pub const REFERENCE_PARAMS: usize = 9;
+
+/// The thermal sensor model (see the module documentation).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThermalModel {
+    /// T_ref, °C.
+    pub reference_c: f64,
+    /// b at T_ref, m/s².
+    pub bias_mps2: [f64; 3],
+    /// s at T_ref.
+    pub scale_error: [f64; 3],
+    /// [m_yx, m_zx, m_zy], rad.
+    pub misalignment_rad: [f64; 3],
+    /// β_kj for j = 1, 2, …: m/s² per °C^j, per axis.
+    pub bias_per_c: [Vec<f64>; 3],
+    /// ρ_kj for j = 1, 2, …: per °C^j, per axis.
+    pub scale_per_c: [Vec<f64>; 3],
+    /// τ of the reported temperature's first-order lag, s.
+    pub lag_s: f64,
+    /// Width of the window the reported temperature is smoothed over, s.
+    pub smoothing_s: f64,
+    /// The die temperatures the model was fitted on, °C (min, max).
+    pub fitted_range_c: [f64; 2],
+}
+
+fn polynomial(coefficients: &[f64], dt: f64) -> f64 {
+    coefficients.iter().rev().fold(0.0, |acc, c| (acc + c) * dt)
+}
+
+impl ThermalModel {
+    /// β_k(ΔT) for each axis at die temperature `die_c`.
+    pub fn bias_change(&self, die_c: f64) -> [f64; 3] {
+        let dt = die_c - self.reference_c;
+        std::array::from_fn(|k| polynomial(&self.bias_per_c[k], dt))
+    }
+
+    /// ρ_k(ΔT) for each axis at die temperature `die_c`.
+    pub fn scale_change(&self, die_c: f64) -> [f64; 3] {
+        let dt = die_c - self.reference_c;
+        std::array::from_fn(|k| polynomial(&self.scale_per_c[k], dt))
+    }
+
+    /// The reading m of a true specific force `f` at die temperature `die_c`.
+    pub fn reading(&self, f: [f64; 3], die_c: f64) -> [f64; 3] {
+        let [m_yx, m_zx, m_zy] = self.misalignment_rad;
+        let v = [f[0], f[1] + m_yx * f[0], f[2] + m_zx * f[0] + m_zy * f[1]];
+        let (beta, rho) = (self.bias_change(die_c), self.scale_change(die_c));
+        std::array::from_fn(|k| {
+            self.bias_mps2[k] + beta[k] + (1.0 + self.scale_error[k]) * (1.0 + rho[k]) * v[k]
+        })
+    }
+
+    /// The true specific force behind reading `m` at die temperature `die_c` (the model's inverse).
+    pub fn correct(&self, m: [f64; 3], die_c: f64) -> [f64; 3] {
+        let (beta, rho) = (self.bias_change(die_c), self.scale_change(die_c));
+        let v: [f64; 3] = std::array::from_fn(|k| {
+            (m[k] - self.bias_mps2[k] - beta[k]) / ((1.0 + self.scale_error[k]) * (1.0 + rho[k]))
+        });
+        let [m_yx, m_zx, m_zy] = self.misalignment_rad;
+        let x = v[0];
+        let y = v[1] - m_yx * x;
+        [x, y, v[2] - m_zx * x - m_zy * y]
+    }
+
+    /// The reading the sensor would have given at the reference temperature: m with the thermal
+    /// change removed, for a corrector fitted at T_ref to take over.
+    pub fn to_reference(&self, m: [f64; 3], die_c: f64) -> [f64; 3] {
+        let (beta, rho) = (self.bias_change(die_c), self.scale_change(die_c));
+        std::array::from_fn(|k| self.bias_mps2[k] + (m[k] - self.bias_mps2[k] - beta[k]) / (1.0 + rho[k]))
+    }
+
+    /// The die temperature behind a recording's reported temperatures, with this model's lag and
+    /// smoothing.
+    pub fn die_temperature(&self, time_s: &[f64], reported_c: &[f64]) -> Vec<f64> {
+        die_temperature(time_s, reported_c, self.lag_s, self.smoothing_s)
+    }
+}
+
+/// The die temperature from the reported one: T_s + τ·Ṫ_s, where T_s and Ṫ_s are the value and
+/// slope of a straight line fitted by least squares to the reported temperatures within a centred
+/// window `smoothing_s` wide (fewer samples at the ends). A temperature reported in coarse steps
+/// ([`dequantised`]) is first replaced by the line through its steps. O(n).
+pub fn die_temperature(time_s: &[f64], reported_c: &[f64], lag_s: f64, smoothing_s: f64) -> Vec<f64> {
+    let n = time_s.len().min(reported_c.len());
+    let (time_s, reported_c) = (&time_s[..n], &reported_c[..n]);
+    let Some(&t0) = time_s.first() else {
+        return Vec::new();
+    };
+    let stepped = dequantised(time_s, reported_c);
+    let values = stepped.as_deref().unwrap_or(reported_c);
+    // Prefix sums of 1, t, t², T, tT, with t relative to the first sample.
+    let mut sums = vec![[0.0f64; 5]; n + 1];
+    for i in 0..n {
+        let (t, v) = (time_s[i] - t0, values[i]);
+        let s = sums[i];
+        sums[i + 1] = [s[0] + 1.0, s[1] + t, s[2] + t * t, s[3] + v, s[4] + t * v];
+    }
+    let half = smoothing_s / 2.0;
+    let (mut lo, mut hi) = (0usize, 0usize);
+    (0..n)
+        .map(|i| {
+            let ti = time_s[i];
+            while time_s[lo] < ti - half {
+                lo += 1;
+            }
+            while hi < n && time_s[hi] <= ti + half {
+                hi += 1;
+            }
+            let [count, st, stt, sv, stv]: [f64; 5] = std::array::from_fn(|k| sums[hi][k] - sums[lo][k]);
+            let mean_t = st / count;
+            let var_t = stt / count - mean_t * mean_t;
+            let mean_v = sv / count;
+            let slope = if count >= 3.0 && var_t > 1e-12 {
+                (stv / count - mean_t * mean_v) / var_t
+            } else {
+                0.0
+            };
+            mean_v + slope * (ti - t0 - mean_t) + lag_s * slope
+        })
+        .collect()
+}
+
+/// A temperature reported in coarse steps (it changes on fewer than one sample in ten), as the
+/// line through the moments it stepped: the reported value crossed the midpoint of two levels
+/// between the samples where it changed. Before the first and after the last step the line's
+/// slope continues, held within half a step of the reported level. `None` for a finely resolved
+/// (or constant) temperature, which smoothing alone handles.
+pub fn dequantised(time_s: &[f64], reported_c: &[f64]) -> Option<Vec<f64>> {
+    let n = time_s.len().min(reported_c.len());
+    let changes: Vec<usize> = (1..n).filter(|&i| reported_c[i] != reported_c[i - 1]).collect();
+    if changes.is_empty() || changes.len() * 10 > n {
+        return None;
+    }
+    let knots: Vec<(f64, f64)> = changes
+        .iter()
+        .map(|&i| {
+            (
+                (time_s[i - 1] + time_s[i]) / 2.0,
+                (reported_c[i - 1] + reported_c[i]) / 2.0,
+            )
+        })
+        .collect();
+    let step = changes
+        .iter()
+        .map(|&i| (reported_c[i] - reported_c[i - 1]).abs())
+        .fold(f64::INFINITY, f64::min);
+    let slope_of = |a: (f64, f64), b: (f64, f64)| {
+        if b.0 > a.0 {
+            (b.1 - a.1) / (b.0 - a.0)
+        } else {
+            0.0
+        }
+    };
+    let first_slope = knots.get(1).map_or(0.0, |&b| slope_of(knots[0], b));
+    let last_slope = knots
+        .len()
+        .checked_sub(2)
+        .map_or(0.0, |a| slope_of(knots[a], knots[a + 1]));
+    let mut k = 0;
+    Some(
+        (0..n)
+            .map(|i| {
+                let t = time_s[i];
+                while k < knots.len() && knots[k].0 <= t {
+                    k += 1;
+                }
+                let level = reported_c[i];
+                let clamp = |v: f64| v.clamp(level - step / 2.0, level + step / 2.0);
+                match k {
+                    0 => clamp(knots[0].1 + first_slope * (t - knots[0].0)),
+                    k if k == knots.len() => clamp(knots[k - 1].1 + last_slope * (t - knots[k - 1].0)),
+                    k => {
+                        let (a, b) = (knots[k - 1], knots[k]);
+                        a.1 + slope_of(a, b) * (t - a.0)
+                    }
+                }
+            })
+            .collect(),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model() -> ThermalModel {
+        ThermalModel {
+            reference_c: 25.0,
+            bias_mps2: [0.05, -0.03, 0.08],
+            scale_error: [0.004, -0.002, 0.006],
+            misalignment_rad: [0.003, -0.002, 0.004],
+            bias_per_c: [vec![0.01, -2e-4], vec![-0.008], vec![0.005, 1e-4, -3e-6]],
+            scale_per_c: [vec![2e-4], vec![-1e-4, 3e-6], vec![]],
+            lag_s: 20.0,
+            smoothing_s: 60.0,
+            fitted_range_c: [10.0, 40.0],
+        }
+    }
+
+    #[test]
+    fn correct_inverts_reading_at_any_temperature() {
+        let m = model();
+        for (f, t) in [
+            ([1.0, -9.0, 2.5], 10.0),
+            ([0.0, 0.0, 9.8], 25.0),
+            ([-7.0, 3.0, -5.0], 47.0),
+        ] {
+            let back = m.correct(m.reading(f, t), t);
+            for k in 0..3 {
+                assert!((back[k] - f[k]).abs() < 1e-12, "{back:?} vs {f:?}");
+            }
+            // To the reference temperature and back through the model at T_ref: the same force.
+            let at_reference = m.correct(m.to_reference(m.reading(f, t), t), m.reference_c);
+            for k in 0..3 {
+                assert!((at_reference[k] - f[k]).abs() < 1e-12);
+            }
+        }
+        assert_eq!(m.bias_change(25.0), [0.0; 3]);
+        assert!((m.bias_change(35.0)[0] - (0.1 - 0.02)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn die_temperature_undoes_a_first_order_lag_and_steps() {
+        // A warm-up T_die = 20 + 25(1 − e^(−t/600)) seen through a 20 s lag, then in 1 °C steps.
+        // Judged while steps still come (to 2100 s): after the last one, the temperature is only
+        // known to within half a step.
+        let dt = 0.1;
+        let tau = 20.0;
+        let time: Vec<f64> = (0..30_000).map(|i| i as f64 * dt).collect();
+        let die: Vec<f64> = time
+            .iter()
+            .map(|t| 20.0 + 25.0 * (1.0 - (-t / 600.0).exp()))
+            .collect();
+        let mut reported = vec![die[0]; time.len()];
+        for i in 1..time.len() {
+            reported[i] = reported[i - 1] + dt / tau * (die[i - 1] - reported[i - 1]);
+        }
+        let stepped: Vec<f64> = reported.iter().map(|v| v.round()).collect();
+        let worst = |estimate: &[f64]| {
+            estimate[1000..21_000]
+                .iter()
+                .zip(&die[1000..21_000])
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max)
+        };
+        let lagging = worst(&reported);
+        let smooth_only = worst(&die_temperature(&time, &stepped, 0.0, 60.0));
+        let est = die_temperature(&time, &stepped, tau, 60.0);
+        let estimated = worst(&est);
+        assert!(lagging > 0.6, "the lag itself: {lagging}");
+        assert!(smooth_only > 0.6, "smoothing alone keeps the lag: {smooth_only}");
+        assert!(estimated < 0.2, "lag undone and steps smoothed: {estimated} °C");
+        // No steps: the estimate moves by less than 0.01 °C between samples (10 Hz) where the
+        // reported value jumps by 1 °C.
+        let jump = est.windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
+        assert!(jump < 0.01, "largest jump {jump} °C");
+    }
+}
