@@ -20,4 +20,5 @@ mod real_imu;
 mod shared_files;
 mod sysid;
 mod sysid_benchmarks;
+mod thermal;
 mod turntable_fit;

@@ -9,6 +9,7 @@
 pub mod campaign;
 pub mod fleet;
 pub mod gyro_poses;
+pub mod thermal;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

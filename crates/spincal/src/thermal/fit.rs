@@ -32,7 +32,7 @@ pub struct ThermalSettings {
     pub smoothing_s: f64,
     /// Candidate lags τ of the temperature sensor, s.
     pub lags_s: Vec<f64>,
-    /// Highest order of β tried (1 to 3).
+    /// Highest order of β tried (0 to 3; 0 with `max_scale_order` 0 fits no thermal change).
     pub max_bias_order: usize,
     /// Highest order of ρ tried (0 to 3).
     pub max_scale_order: usize,
@@ -47,7 +47,7 @@ impl Default for ThermalSettings {
         ThermalSettings {
             window_s: 2.0,
             smoothing_s: 60.0,
-            lags_s: vec![0.0, 5.0, 10.0, 20.0, 30.0, 45.0, 60.0, 90.0],
+            lags_s: vec![0.0, 10.0, 20.0, 40.0, 80.0],
             max_bias_order: 3,
             max_scale_order: 2,
             held_out_fraction: 0.2,
@@ -134,11 +134,11 @@ impl ThermalSettings {
                 "must list at least one lag ≥ 0 s",
             );
         }
-        if !(1..=3).contains(&self.max_bias_order) {
+        if self.max_bias_order > 3 {
             return bad(
                 "max_bias_order",
                 self.max_bias_order.to_string(),
-                "must be 1, 2 or 3",
+                "must be 0 to 3",
             );
         }
         if self.max_scale_order > 3 {
@@ -456,7 +456,7 @@ pub fn fit_thermal(
         let all = windows(stills, settings, lag)?;
         let temps: Vec<f64> = all.iter().map(|w| w.die_c).collect();
         let (lo, hi) = (quantile(&temps, 0.0), quantile(&temps, 1.0));
-        if hi - lo < MIN_SPAN_C {
+        if kb + ks > 0 && hi - lo < MIN_SPAN_C {
             return Err(ThermalError::NarrowRange {
                 span_c: hi - lo,
                 needed_c: MIN_SPAN_C,
@@ -494,7 +494,7 @@ pub fn fit_thermal(
             .filter(|w| w.die_c < bands[0] || w.die_c > bands[1]),
     );
     let mut order_scores = Vec::new();
-    for bias_order in 1..=kb {
+    for bias_order in 0..=kb {
         for scale_order in 0..=ks {
             let score = if outside.is_empty() || inside.is_empty() {
                 f64::NAN
