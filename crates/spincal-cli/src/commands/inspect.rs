@@ -55,6 +55,12 @@ pub fn run(args: &InspectArgs, ui: &ui::Ui) -> anyhow::Result<()> {
             inspection.accel_max_mps2[a]
         );
     }
+    if let Some(t) = &inspection.temperature {
+        s += &format!(
+            "temperature: {:.2} .. {:.2} °C, resolution {} °C ({} distinct values)\n",
+            t.min_c, t.max_c, t.resolution_c, t.distinct_values
+        );
+    }
     s += &format!("gaps (> 1.5 median intervals): {}\n", inspection.gap_count);
     for g in &inspection.gaps {
         s += &format!(

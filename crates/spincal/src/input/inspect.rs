@@ -65,6 +65,41 @@ pub struct Inspection {
     pub accel_min_mps2: [f64; 3],
     pub accel_max_mps2: [f64; 3],
     pub has_gyro: bool,
+    /// The reported temperature, when the recording has one.
+    pub temperature: Option<TemperatureSummary>,
+}
+
+/// A temperature column's range and resolution.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TemperatureSummary {
+    pub min_c: f64,
+    pub max_c: f64,
+    /// The smallest step between distinct reported values, °C (1 for a sensor in whole degrees).
+    pub resolution_c: f64,
+    /// How many distinct values it takes.
+    pub distinct_values: usize,
+}
+
+/// Range and resolution of a temperature column; `None` when it is empty.
+pub fn temperature_summary(temperature_c: &[f64]) -> Option<TemperatureSummary> {
+    let mut values: Vec<f64> = temperature_c.to_vec();
+    values.sort_by(f64::total_cmp);
+    values.dedup();
+    let (&min_c, &max_c) = (values.first()?, values.last()?);
+    let resolution_c = values
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(f64::INFINITY, f64::min);
+    Some(TemperatureSummary {
+        min_c,
+        max_c,
+        resolution_c: if resolution_c.is_finite() {
+            resolution_c
+        } else {
+            0.0
+        },
+        distinct_values: values.len(),
+    })
 }
 
 impl Inspection {
@@ -194,6 +229,7 @@ pub fn inspect(recording: &Recording, range_mps2: Option<f64>) -> Inspection {
         accel_min_mps2,
         accel_max_mps2,
         has_gyro: recording.gyro_radps.is_some(),
+        temperature: recording.temperature_c.as_deref().and_then(temperature_summary),
     }
 }
 
@@ -317,6 +353,23 @@ mod tests {
 
     fn read(text: &str) -> Recording {
         Recording::read_csv(text.as_bytes(), "rec.csv", &ColumnMap::default()).unwrap()
+    }
+
+    #[test]
+    fn temperature_range_and_resolution() {
+        let r = read("t,ax,ay,az,temp_c\n0,0,0,9.8,24\n0.01,0,0,9.8,25\n0.02,0,0,9.8,25\n0.03,0,0,9.8,27\n");
+        let t = inspect(&r, None).temperature.unwrap();
+        assert_eq!(
+            (t.min_c, t.max_c, t.resolution_c, t.distinct_values),
+            (24.0, 27.0, 1.0, 3)
+        );
+        let r = read("t,ax,ay,az,temp_k\n0,0,0,9.8,300\n0.01,0,0,9.8,300.5\n");
+        let t = inspect(&r, None).temperature.unwrap();
+        assert!((t.min_c - 26.85).abs() < 1e-9 && (t.resolution_c - 0.5).abs() < 1e-9);
+        assert_eq!(
+            inspect(&read("t,ax,ay,az\n0,0,0,9.8\n0.01,0,0,9.8\n"), None).temperature,
+            None
+        );
     }
 
     #[test]

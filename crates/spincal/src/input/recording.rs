@@ -805,6 +805,49 @@ mod tests {
     }
 
     #[test]
+    fn temperature_column_by_name_unit_or_position() {
+        let r = read(
+            "t,ax,ay,az,gx,gy,gz,Temperature\n0,0,0,9.8,0,0,0,24.5\n0.01,0,0,9.8,0,0,0,25\n",
+            &ColumnMap::default(),
+        )
+        .unwrap();
+        assert_eq!(r.temperature_c, Some(vec![24.5, 25.0]));
+        assert!(r.gyro_radps.is_some());
+        let r = read(
+            "t,ax,ay,az,temp_f\n0,0,0,9.8,212\n0.01,0,0,9.8,32\n",
+            &ColumnMap::default(),
+        )
+        .unwrap();
+        assert_eq!(r.temperature_c, Some(vec![100.0, 0.0]));
+        let map = ColumnMap::default().with_columns("time,x,y,z,die").unwrap();
+        let r = read(
+            "time,x,y,z,die\n0,0,0,9.8,300\n1,0,0,9.8,301\n",
+            &ColumnMap {
+                temperature_unit: Some(TemperatureUnit::K),
+                ..map
+            },
+        )
+        .unwrap();
+        assert!((r.temperature_c.as_ref().unwrap()[1] - 27.85).abs() < 1e-9);
+        assert!(r.gyro_radps.is_none());
+        // Written as temp_c and read back.
+        let mut out = Vec::new();
+        r.write_csv(&mut out, AccelUnit::Mps2).unwrap();
+        let back = read(std::str::from_utf8(&out).unwrap(), &ColumnMap::default()).unwrap();
+        assert_eq!(back.temperature_c, r.temperature_c);
+        // A temperature that is finite in the file but not in °C is named.
+        let e = read(
+            "t,ax,ay,az,temp_k\n0,0,0,9.8,1e308\n0.01,0,0,9.8,300\n",
+            &ColumnMap::default(),
+        );
+        assert!(e.is_ok(), "{e:?}");
+        assert_eq!(
+            TemperatureUnit::Mpu6050Counts.to_celsius(-521.0),
+            -521.0 / 340.0 + 36.53
+        );
+    }
+
+    #[test]
     fn time_going_backwards_names_the_line() {
         let e = read(
             "t,ax,ay,az\n0,0,0,1\n0.02,0,0,1\n0.01,0,0,1\n",
