@@ -71,11 +71,13 @@ fn spincal_fit(campaign: &ThermalCampaign) -> ThermalModel {
 }
 
 fn applied(model: &ThermalModel, held_out: &[ThermalRecording]) -> Vec<Vec<[f64; 3]>> {
+    let recordings: Vec<&Recording> = held_out.iter().map(|r| &r.recording).collect();
+    let dies = model.die_temperatures(&recordings);
     held_out
         .iter()
-        .map(|r| {
-            let rec = &r.recording;
-            let die = model.die_temperature(&rec.time_s, rec.temperature_c.as_ref().unwrap());
+        .zip(dies)
+        .map(|(r, die)| {
+            let (rec, die) = (&r.recording, die.unwrap());
             (0..rec.len())
                 .map(|i| model.correct(reading(rec, i), die[i]))
                 .collect()
@@ -249,16 +251,26 @@ fn thermal_corrector_near_the_oracle_on_held_out_temperatures() {
         );
     }
     let [means, samples] = worst;
-    assert!(samples[0] <= 1.25, "spincal/oracle per sample {}", samples[0]);
+    // The goals, on the stricter 1 s means: within 1.25× the oracle; an excess over the
+    // oracle at most half the flight stacks'. With the temperature in whole degrees through a 20 s
+    // lag, within 5 % of the same campaign with the die temperature logged, per sample; of 1 s
+    // means the worst of 20 units measured 6.9 %, so 10 % bounds that here.
     assert!(
-        samples[1] <= 0.5 && means[1] <= 0.5,
-        "excess ratio {} {}",
-        samples[1],
-        means[1]
+        means[0] <= 1.25 && samples[0] <= 1.25,
+        "spincal/oracle {} {}",
+        means[0],
+        samples[0]
     );
     assert!(
-        samples[2] <= 1.05,
-        "stepped and lagging over die logged, per sample {}",
-        samples[2]
+        means[1] <= 0.5 && samples[1] <= 0.5,
+        "excess ratio {} {}",
+        means[1],
+        samples[1]
+    );
+    assert!(
+        samples[2] <= 1.05 && means[2] <= 1.10,
+        "stepped and lagging over die logged {} {}",
+        samples[2],
+        means[2]
     );
 }

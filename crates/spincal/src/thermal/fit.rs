@@ -1,6 +1,8 @@
 //! Fitting the thermal sensor model to still recordings that carry the sensor's temperature.
 //!
-//! Each still recording holds one orientation; it is cut into windows of `window_s`, and each
+//! Each still recording holds one orientation; its die temperature comes from its own reported
+//! temperature, or from its session's when the recordings follow each other on one clock
+//! ([`super::die_temperatures`]). It is cut into windows of `window_s`, and each
 //! window's mean reading is compared with the model's reading of gravity (`gravity` m/s²) along
 //! that recording's direction, which is fitted too (two angles per recording). So a warm-up in one
 //! orientation ties every axis's reading across temperature, and poses in several orientations at
@@ -165,14 +167,15 @@ fn windows(
     settings: &ThermalSettings,
     lag_s: f64,
 ) -> Result<Vec<Window>, ThermalError> {
+    if let Some(rec) = stills.iter().find(|r| r.temperature_c.is_none()) {
+        return Err(ThermalError::NoTemperature {
+            file: rec.source.name.clone(),
+        });
+    }
+    let dies = super::die_temperatures(stills, lag_s, settings.smoothing_s);
     let mut out = Vec::new();
-    for (r, rec) in stills.iter().enumerate() {
-        let Some(reported) = &rec.temperature_c else {
-            return Err(ThermalError::NoTemperature {
-                file: rec.source.name.clone(),
-            });
-        };
-        let die = super::die_temperature(&rec.time_s, reported, lag_s, settings.smoothing_s);
+    for (r, (rec, die)) in stills.iter().zip(dies).enumerate() {
+        let die = die.unwrap_or_default();
         let before = out.len();
         let mut start = 0;
         while start < rec.len() {

@@ -23,6 +23,8 @@ pub mod fit;
 
 use serde::{Deserialize, Serialize};
 
+use crate::input::recording::Recording;
+
 pub use fit::{fit_thermal, OrderScore, ThermalError, ThermalFit, ThermalSettings};
 
 /// Sensor parameters at the reference temperature that the thermal model carries (no
@@ -104,6 +106,53 @@ impl ThermalModel {
     pub fn die_temperature(&self, time_s: &[f64], reported_c: &[f64]) -> Vec<f64> {
         die_temperature(time_s, reported_c, self.lag_s, self.smoothing_s)
     }
+
+    /// [`die_temperatures`] with this model's lag and smoothing.
+    pub fn die_temperatures(&self, recordings: &[&Recording]) -> Vec<Option<Vec<f64>>> {
+        die_temperatures(recordings, self.lag_s, self.smoothing_s)
+    }
+}
+
+/// The die temperature behind each recording's reported temperature (`None` without one).
+/// Recordings on one clock, each starting at most `smoothing_s` after the previous one ended (the
+/// poses of one logging session), are taken as one track: a temperature in whole degrees steps
+/// rarely, and a short pose alone may hold no step at all.
+pub fn die_temperatures(recordings: &[&Recording], lag_s: f64, smoothing_s: f64) -> Vec<Option<Vec<f64>>> {
+    let mut order: Vec<usize> = (0..recordings.len())
+        .filter(|&i| recordings[i].temperature_c.is_some() && !recordings[i].is_empty())
+        .collect();
+    order.sort_by(|&a, &b| recordings[a].time_s[0].total_cmp(&recordings[b].time_s[0]));
+    let mut out = vec![None; recordings.len()];
+    let mut track: Vec<usize> = Vec::new();
+    let mut flush = |track: &mut Vec<usize>| {
+        let time: Vec<f64> = track
+            .iter()
+            .flat_map(|&i| recordings[i].time_s.iter().copied())
+            .collect();
+        let reported: Vec<f64> = track
+            .iter()
+            .flat_map(|&i| recordings[i].temperature_c.iter().flatten().copied())
+            .collect();
+        let mut die = die_temperature(&time, &reported, lag_s, smoothing_s).into_iter();
+        for &i in track.iter() {
+            out[i] = Some(die.by_ref().take(recordings[i].len()).collect());
+        }
+        track.clear();
+    };
+    for &i in &order {
+        let joins = track.last().is_some_and(|&last| {
+            let gap = recordings[i].time_s[0] - recordings[last].time_s[recordings[last].len() - 1];
+            gap > 0.0 && gap <= smoothing_s
+        });
+        if !joins && !track.is_empty() {
+            flush(&mut track);
+        }
+        track.push(i);
+    }
+    if !track.is_empty() {
+        flush(&mut track);
+    }
+    out
 }
 
 /// The die temperature from the reported one: T_s + τ·Ṫ_s, where T_s and Ṫ_s are the value and
