@@ -183,3 +183,51 @@ fn allan_writes_curve_and_profile() {
         .unwrap()
         .starts_with("tau_s,adev_x,adev_y,adev_z\n"));
 }
+
+/// `simulate --thermal` writes a thermal campaign whose files carry the reported temperature,
+/// which `inspect` reads back with its range and resolution; the truth matches the simulated
+/// profile; the folder is never overwritten.
+#[test]
+fn simulated_thermal_campaign_carries_its_temperature() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("warm");
+    spincal()
+        .args(["simulate", "--thermal", out.to_str().unwrap(), "--seed", "3"])
+        .assert()
+        .success();
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("truth.json")).unwrap()).unwrap();
+    assert_eq!(truth["model"]["lag_s"], 20.0);
+    assert_eq!(truth["recordings"].as_array().unwrap().len(), 1 + 60 + 80);
+    let inspected = spincal()
+        .args(["inspect", out.join("warmup-00.csv").to_str().unwrap()])
+        .output()
+        .unwrap();
+    let text = String::from_utf8(inspected.stdout).unwrap();
+    assert!(
+        text.contains("temperature: 15.00 .. 40.00 °C, resolution 1 °C"),
+        "{text}"
+    );
+    // The die temperature in the truth is not stepped.
+    let die = spincal()
+        .args([
+            "inspect",
+            "--json",
+            out.join("warmup-00.truth.csv").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let report: serde_json::Value = serde_json::from_slice(&die.stdout).unwrap();
+    assert!(
+        report["inspection"]["temperature"]["distinct_values"]
+            .as_u64()
+            .unwrap()
+            > 10_000
+    );
+    let again = spincal()
+        .args(["simulate", "--thermal", out.to_str().unwrap(), "--seed", "3"])
+        .assert()
+        .failure();
+    let stderr = String::from_utf8(again.get_output().stderr.clone()).unwrap();
+    assert!(stderr.contains("already exists"), "{stderr}");
+}

@@ -19,16 +19,26 @@ use crate::ui::{self, UsageError};
                         writes unit7/campaign.toml, still poses and turntable runs with their true specific force\n  \
                         spincal simulate --fleet 8 --faulty 3 --out fleet8 --seed 7\n  \
                         writes fleet8/unit-01 … unit-08 (campaign folders, each unit with its own sensor errors;\n  \
-                        unit-03 with +0.1 g bias on x and +5 % scale error on y) and fleet8/fleet-truth.json"
+                        unit-03 with +0.1 g bias on x and +5 % scale error on y) and fleet8/fleet-truth.json\n  \
+                        spincal simulate --thermal warm7 --seed 7\n  \
+                        writes warm7/: a warm-up, still poses and held-out poses through 25 °C warm-ups, each\n  \
+                        with the temperature as a lagging 1 °C sensor reports it, their truth and truth.json"
 )]
 pub struct SimulateArgs {
     /// Output CSV.
-    #[arg(short, long, required_unless_present_any = ["campaign", "fleet"])]
+    #[arg(short, long, required_unless_present_any = ["campaign", "fleet", "thermal"])]
     pub output: Option<PathBuf>,
     /// Write a whole campaign of one unit into this folder instead (campaign.toml, still poses and
     /// turntable runs in m/s², each with its true specific force, and truth.json).
     #[arg(long, value_name = "DIR", conflicts_with_all = ["output", "fleet"])]
     pub campaign: Option<PathBuf>,
+    /// Write a thermal campaign into this folder instead: a unit whose bias and gain follow its
+    /// die temperature, recorded through three warm-ups from a cold start (a still warm-up, still
+    /// poses, held-out poses in random orientations), with the temperature as its sensor reports
+    /// it (lagging, in whole degrees), the truth per sample and truth.json. --setup takes the
+    /// ThermalProfile as JSON (coefficient ranges, warm-up, sensor lag and resolution).
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["output", "fleet", "campaign"])]
+    pub thermal: Option<PathBuf>,
     /// Write a fleet of N units into --out DIR instead: one campaign folder per unit (unit-01, …),
     /// each unit's sensor drawn around the default one (bias sd 0.005 g, scale error sd 0.3 %,
     /// misalignment sd 0.2° per axis), and fleet-truth.json.
@@ -112,8 +122,11 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
             args.json,
         );
     }
+    if let Some(dir) = &args.thermal {
+        return simulate_thermal(dir, args.seed, args.setup.as_deref(), args.json);
+    }
     if args.setup.is_some() && args.campaign.is_none() {
-        return Err(UsageError("--setup needs --campaign or --fleet".into()).into());
+        return Err(UsageError("--setup needs --campaign, --fleet or --thermal".into()).into());
     }
     if let Some(dir) = &args.campaign {
         return super::campaign::simulate(dir, args.seed, args.setup.as_deref(), args.json);
@@ -180,5 +193,46 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         sim.recording.duration_s(),
         sim.truth.saturated_samples,
         truth_path.display()
+    ))
+}
+
+fn simulate_thermal(
+    dir: &std::path::Path,
+    seed: u64,
+    setup: Option<&std::path::Path>,
+    json: bool,
+) -> anyhow::Result<()> {
+    use spincal::simulate::thermal::{simulate_thermal_campaign, ThermalProfile};
+    let profile = match setup {
+        Some(path) => {
+            let text =
+                std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+            serde_json::from_str::<ThermalProfile>(&text)
+                .with_context(|| format!("{}: not a thermal profile", path.display()))?
+        }
+        None => ThermalProfile::default(),
+    };
+    profile.check().map_err(|e| UsageError(e.to_string()))?;
+    let campaign = simulate_thermal_campaign(&profile, seed);
+    match campaign.write_folder(dir, seed, &profile) {
+        Err(e @ spincal::simulate::fleet::WriteError::Exists { .. }) => {
+            return Err(UsageError(e.to_string()).into())
+        }
+        Err(e) => return Err(e.into()),
+        Ok(()) => {}
+    }
+    let files = 1 + campaign.poses.len() + campaign.held_out.len();
+    if json {
+        return ui::print_json(&serde_json::json!({
+            "folder": dir,
+            "recordings": files,
+            "truth": dir.join("truth.json"),
+        }));
+    }
+    ui::print(&format!(
+        "wrote {}: warmup-00.csv, {} still poses and {} held-out poses (t_s, ax/ay/az_mps2, temp_c as reported), each with its .truth.csv (true force, die temperature), and truth.json\n",
+        dir.display(),
+        campaign.poses.len(),
+        campaign.held_out.len()
     ))
 }

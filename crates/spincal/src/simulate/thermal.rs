@@ -16,7 +16,11 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::input::recording::{Recording, Source, STANDARD_GRAVITY};
+use std::path::{Path, PathBuf};
+
+use crate::input::recording::{AccelUnit, Recording, Source, STANDARD_GRAVITY};
+use crate::simulate::fleet::WriteError;
+use crate::simulate::{check, SimulationError};
 use crate::thermal::ThermalModel;
 
 /// The thermal world's ranges, datasheet-like (standard deviations of zero-mean draws).
@@ -76,6 +80,42 @@ impl Default for ThermalProfile {
             resolution_c: 1.0,
             pose_s: 30.0,
         }
+    }
+}
+
+impl ThermalProfile {
+    /// Every setting finite and in its range; the error names the setting.
+    pub fn check(&self) -> Result<(), SimulationError> {
+        let spreads = [
+            ("bias_g", self.bias_g),
+            ("scale_error_pct", self.scale_error_pct),
+            ("misalignment_deg", self.misalignment_deg),
+            ("bias_per_c_g", self.bias_per_c_g),
+            ("bias_per_c2_g", self.bias_per_c2_g),
+            ("scale_per_c_pct", self.scale_per_c_pct),
+            ("scale_per_c2_pct", self.scale_per_c2_pct),
+            ("noise_mps2", self.noise_mps2),
+            ("sensor_lag_s", self.sensor_lag_s),
+            ("resolution_c", self.resolution_c),
+        ];
+        for (name, value) in spreads {
+            check(name, value, value >= 0.0, "must not be negative")?;
+        }
+        check("start_c", self.start_c, true, "must be finite")?;
+        check("warmup_c", self.warmup_c, true, "must be finite")?;
+        for (name, value) in [
+            ("sample_rate_hz", self.sample_rate_hz),
+            ("warmup_time_s", self.warmup_time_s),
+            ("pose_s", self.pose_s),
+        ] {
+            check(name, value, value > 0.0, "must be positive")?;
+        }
+        check(
+            "session_s",
+            self.session_s,
+            self.session_s >= self.pose_s + 10.0 && self.session_s * self.sample_rate_hz <= 1e8,
+            "must hold one pose (pose_s + 10 s) and at most 10⁸ samples",
+        )
     }
 }
 
@@ -247,5 +287,72 @@ pub fn simulate_thermal_campaign(profile: &ThermalProfile, seed: u64) -> Thermal
         warmup,
         poses,
         held_out,
+    }
+}
+
+/// What `truth.json` of a simulated thermal campaign holds.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ThermalTruth {
+    pub seed: u64,
+    pub profile: ThermalProfile,
+    /// The unit's true thermal model (reference temperature, lag of its temperature sensor).
+    pub model: ThermalModel,
+    /// Each recording's file and its true specific force, m/s².
+    pub recordings: Vec<(String, [f64; 3])>,
+}
+
+impl ThermalCampaign {
+    fn all(&self) -> impl Iterator<Item = &ThermalRecording> {
+        std::iter::once(&self.warmup)
+            .chain(&self.poses)
+            .chain(&self.held_out)
+    }
+
+    /// The files [`ThermalCampaign::write_folder`] writes into `dir`.
+    pub fn folder_files(&self, dir: &Path) -> Vec<PathBuf> {
+        let mut files = vec![dir.join("truth.json")];
+        for r in self.all() {
+            let name = &r.recording.source.name;
+            files.push(dir.join(name));
+            files.push(dir.join(name.replace(".csv", ".truth.csv")));
+        }
+        files
+    }
+
+    /// Writes each recording (`t_s, ax_mps2, ay_mps2, az_mps2, temp_c`: the temperature as the
+    /// sensor reported it), its truth (`<name>.truth.csv`: the true specific force and, as
+    /// `temp_c`, the true die temperature) and truth.json into `dir`. Refuses to replace a file.
+    pub fn write_folder(&self, dir: &Path, seed: u64, profile: &ThermalProfile) -> Result<(), WriteError> {
+        if let Some(existing) = self.folder_files(dir).iter().find(|p| p.exists()) {
+            return Err(WriteError::Exists {
+                path: existing.display().to_string(),
+            });
+        }
+        std::fs::create_dir_all(dir).map_err(|e| WriteError::Folder {
+            path: dir.display().to_string(),
+            message: e.to_string(),
+        })?;
+        for r in self.all() {
+            let name = &r.recording.source.name;
+            r.recording.write_csv_path(&dir.join(name), AccelUnit::Mps2)?;
+            let truth = Recording {
+                accel_mps2: std::array::from_fn(|k| vec![r.true_force_mps2[k]; r.recording.len()]),
+                temperature_c: Some(r.die_c.clone()),
+                ..r.recording.clone()
+            };
+            truth.write_csv_path(&dir.join(name.replace(".csv", ".truth.csv")), AccelUnit::Mps2)?;
+        }
+        let truth = ThermalTruth {
+            seed,
+            profile: profile.clone(),
+            model: self.truth.clone(),
+            recordings: self
+                .all()
+                .map(|r| (r.recording.source.name.clone(), r.true_force_mps2))
+                .collect(),
+        };
+        let text = serde_json::to_string_pretty(&truth).expect("the truth serialises") + "\n";
+        crate::output::write_bytes(&dir.join("truth.json"), text.as_bytes())?;
+        Ok(())
     }
 }
