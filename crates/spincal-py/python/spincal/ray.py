@@ -38,7 +38,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import ray
 
-from . import Calibration, CampaignResult, Corrector, Error, Result, _spincal
+from . import Calibration, CampaignResult, Corrector, Error, FormatError, Result, UsageError, _spincal
 from . import calibrate as _calibrate_locally
 
 __all__ = ["UnitResult", "FleetResult", "calibrate_fleet", "unit_payload", "calibrate", "sweep_runner"]
@@ -68,7 +68,7 @@ def unit_payload(source: PathLike) -> Tuple[str, str, Dict[str, bytes]]:
             with open(p, "rb") as f:
                 files[os.path.relpath(p, root)] = f.read()
         except OSError as e:
-            raise _spincal.FormatError(f"{p}: cannot read: {e.strerror}") from None
+            raise FormatError(f"{p}: cannot read: {e.strerror}") from None
     return root, os.path.relpath(os.path.abspath(os.fspath(campaign)), root), files
 
 
@@ -81,7 +81,6 @@ def _calibrate_shipped(label: str, root: str, campaign: str, files: Mapping[str,
             os.makedirs(os.path.dirname(path), exist_ok=True)
             with open(path, "wb") as f:
                 f.write(data)
-        _crash_once_for_tests(label)
         try:
             unit, results, model = _spincal.calibrate_unit(os.path.join(tmp, campaign))
             # Results name the files read: name the driver's, as calibrating in place would.
@@ -101,19 +100,6 @@ def _node() -> str:
         return ray.get_runtime_context().get_node_id()
     except Exception:  # pragma: no cover - outside a Ray worker
         return "local"
-
-
-def _crash_once_for_tests(label: str) -> None:
-    """Test support: with SPINCAL_RAY_CRASH_ONCE=<folder> in the task's environment, the first
-    attempt of each unit kills its worker process (as a lost node would), so the retry path runs."""
-    folder = os.environ.get("SPINCAL_RAY_CRASH_ONCE")
-    if not folder:
-        return
-    marker = os.path.join(folder, f"{label}.crashed")
-    if not os.path.exists(marker):
-        with open(marker, "w") as f:
-            f.write(str(os.getpid()))
-        os._exit(1)
 
 
 _remote_calibrate = ray.remote(_calibrate_shipped)
@@ -307,7 +293,6 @@ def calibrate_fleet(
 
 def _run_sweep_jobs(jobs_json: str, jobs: List[int]) -> List[str]:
     """The task body of a distributed sweep: the given jobs, one after another, on one thread."""
-    _crash_once_for_tests(f"sweep-job-{jobs[0]}")
     return _spincal.run_sweep_jobs(jobs_json, jobs)
 
 
@@ -334,7 +319,7 @@ def sweep_runner(
         >>> cal = spincal.calibrate([rec], sweep="full", sweep_runner=runner)     # doctest: +SKIP
     """
     if jobs_per_task < 1:
-        raise _spincal.UsageError(f"jobs_per_task {jobs_per_task}: must be at least 1")
+        raise UsageError(f"jobs_per_task {jobs_per_task}: must be at least 1")
     env = dict(runtime_env or {})
     env_vars = dict(env.get("env_vars", {}))
     env_vars["RAYON_NUM_THREADS"] = "1"
