@@ -172,7 +172,8 @@ fn corrector_place(e: &spincal::correctors::model_file::CorrectorError) -> Optio
     }
 }
 
-/// The most specific place any error in the chain names (the innermost one that names one).
+/// The most specific place any error in the chain names: the innermost one with a line, else the
+/// innermost one (a campaign's missing recording: the campaign file's line that names it).
 fn place_of(error: &(dyn std::error::Error + 'static)) -> Place {
     let mut found = Place::default();
     let mut current: Option<&(dyn std::error::Error + 'static)> = Some(error);
@@ -197,7 +198,9 @@ fn place_of(error: &(dyn std::error::Error + 'static)) -> Place {
             None
         };
         if let Some(place) = here {
-            found = place;
+            if place.line.is_some() || found.line.is_none() {
+                found = place;
+            }
         }
         current = e.source();
     }
