@@ -26,7 +26,7 @@ import os
 import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -169,10 +169,10 @@ def read(
         >>> frame = pd.DataFrame({"time": [0.0, 0.01, 0.02], "ax_g": [0.0, 0.1, 0.2],
         ...                       "ay_g": [0.0, 0.0, 0.0], "az_g": [1.0, 1.0, 1.0]})
         >>> rec = spincal.read(frame)
-        >>> rec.columns, rec.accel[1, 0]
+        >>> rec.columns, float(rec.accel[1, 0])
         (['time', 'ax_g', 'ay_g', 'az_g'], 0.980665)
-        >>> spincal.read(frame[["ax_g", "ay_g", "az_g"]], sample_rate_hz=100).time[2]
-        0.02
+        >>> spincal.read(frame[["ax_g", "ay_g", "az_g"]], sample_rate_hz=100).time.tolist()
+        [0.0, 0.01, 0.02]
     """
     kind = _frames.frame_kind(source)
     if kind is not None:
@@ -468,7 +468,7 @@ class Corrected:
         categories, codes = self._status_categories()
         data: Dict[str, Any] = dict(self._output_columns())
         data["valid"] = self.valid
-        data["status"] = pd.Categorical.from_codes(codes, categories=categories)
+        data["status"] = pd.Categorical.from_codes(cast(Any, codes), categories=pd.Index(categories))
         index = self.index if self.index is not None else pd.RangeIndex(len(self))
         return pd.DataFrame(data, index=index, copy=False)
 
@@ -606,7 +606,7 @@ class Corrector:
                 time_optional=True,
             )
             t, accel, g = _frames.planned_columns(data, kind, plan)
-            index = data.index if kind == "pandas" else None
+            index = cast(Any, data).index if kind == "pandas" else None
         elif isinstance(data, (np.ndarray, list, tuple)):
             if columns is not None or accel_unit is not None or time_unit is not None or gyro_unit is not None or read_options:
                 raise UsageError("columns and units apply to DataFrames and files; arrays are in s, m/s² and rad/s")

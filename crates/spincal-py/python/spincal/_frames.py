@@ -30,7 +30,15 @@ def frame_kind(value: Any) -> Optional[str]:
 
 def column_keys(columns: Columns) -> Optional[List[Optional[str]]]:
     """``columns=`` as the library's keys: names or 1-based positions (as text), time first;
-    ``"t,ax,ay,az"`` is split at the commas."""
+    ``"t,ax,ay,az"`` is split at the commas.
+
+    Example::
+
+        >>> spincal._frames.column_keys("t, ax,ay,az")
+        ['t', 'ax', 'ay', 'az']
+        >>> spincal._frames.column_keys([None, "ax", 3, "az"])
+        [None, 'ax', '3', 'az']
+    """
     if columns is None:
         return None
     if isinstance(columns, str):

@@ -105,7 +105,7 @@ def calibration_changes(
     fit: Dict[str, Any],
     *,
     sweep: Optional[str],
-    hidden: Optional[Sequence[int]],
+    hidden: Optional[Orders],
     restarts: Optional[int],
     sweep_hessian_samples: Optional[int],
     correct_axes: Optional[Axes],

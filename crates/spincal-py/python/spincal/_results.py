@@ -9,10 +9,13 @@ from __future__ import annotations
 import json
 import re
 from dataclasses import asdict, dataclass
-from typing import Any, Dict, Iterator, List, Mapping, Optional
+from typing import Any, Dict, Iterator, List, Mapping, Optional, Type, TypeVar
 
 import numpy as np
 import numpy.typing as npt
+
+
+R = TypeVar("R", bound="Result")
 
 
 def _wrap(value: Any) -> Any:
@@ -41,7 +44,7 @@ class Result:
         object.__setattr__(self, "_data", data)
 
     @classmethod
-    def _from_json(cls, text: str) -> "Result":
+    def _from_json(cls: Type[R], text: str) -> R:
         return cls(json.loads(text))
 
     def __getattr__(self, name: str) -> Any:

@@ -87,7 +87,7 @@ def _calibrate_shipped(label: str, root: str, campaign: str, files: Mapping[str,
             here, there = json.dumps(tmp)[1:-1], json.dumps(root)[1:-1]
             results = results.replace(here, there)
             model = None if model is None else model.replace(here, there)
-            outcome = {"unit": unit, "results_json": results, "model_json": model, "error": None}
+            outcome: Dict[str, Any] = {"unit": unit, "results_json": results, "model_json": model, "error": None}
         except Error as e:
             # The message names the worker's copy; name the driver's files instead.
             outcome = {"error": f"{type(e).__name__}: {str(e).replace(tmp, root)}"}
@@ -140,7 +140,7 @@ class UnitResult:
         }
 
     def __repr__(self) -> str:
-        state = f"saved={self.result.saved!r}" if self.ok else f"error={self.error!r}"
+        state = f"saved={self.result.saved!r}" if self.result is not None else f"error={self.error!r}"
         return f"UnitResult({self.label!r}, {state})"
 
 

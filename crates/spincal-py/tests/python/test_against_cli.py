@@ -69,6 +69,7 @@ def test_calibration_gives_the_clis_results_json(simulated, calibrated):
     cli_result = json.loads((calibrated / "results.json").read_text())
     assert _without_timing(cal.to_dict()) == _without_timing(cli_result)
     assert cal.result.chosen == cli_result["chosen"]
+    assert cal.corrector is not None
     assert cal.corrector.to_dict()["corrector"] == json.loads((calibrated / "model.json").read_text())["corrector"]
 
 
@@ -80,6 +81,7 @@ def test_calibration_writes_the_report(simulated, tmp_path):
         assert (tmp_path / "out" / name).stat().st_size > 0
     assert "<html" in (tmp_path / "out" / "report.html").read_text()[:2000].lower()
     reloaded = spincal.load_corrector(tmp_path / "out" / "model.json")
+    assert cal.corrector is not None
     assert np.array_equal(reloaded.correct(rec.accel).accel, cal.corrector.correct(rec.accel).accel)
 
 

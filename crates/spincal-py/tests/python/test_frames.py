@@ -112,6 +112,7 @@ def test_polars_gives_the_same_rows_as_pandas(campaign_model, tmp_path):
 def test_a_refused_row_never_reaches_the_corrector(campaign_model):
     model, recordings = campaign_model
     rec = spincal.read(recordings[-1])
+    assert rec.gyro is not None
     corrector = spincal.load_corrector(model)
     accel = rec.accel.copy()
     accel[50, 1] = float("nan")
@@ -123,6 +124,7 @@ def test_a_refused_row_never_reaches_the_corrector(campaign_model):
     keep[50] = False
     without = corrector.correct(rec.accel[keep], gyro=rec.gyro[keep])
     np.testing.assert_array_equal(marked.accel[keep], without.accel)
+    assert marked.gyro is not None and without.gyro is not None
     np.testing.assert_array_equal(marked.gyro[keep], without.gyro)
     assert (marked.status[keep] == without.status).all()
 

@@ -54,13 +54,13 @@ def test_errors_carry_their_place_as_attributes(tmp_path):
     # A model file's field.
     model = tmp_path / "model.json"
     model.write_text(json.dumps({"format_version": 999, "corrector": {"kind": "linear"}}))
-    with pytest.raises(spincal.ModelError) as caught:
+    with pytest.raises(spincal.ModelError) as model_error:
         spincal.load_corrector(model)
-    assert caught.value.path == str(model)
+    assert model_error.value.path == str(model)
     # Where nothing is known, None.
-    with pytest.raises(spincal.UsageError) as caught:
+    with pytest.raises(spincal.UsageError) as usage_error:
         spincal.simulate(turntable={"bogus": 1})
-    assert caught.value.path is None and caught.value.line is None
+    assert usage_error.value.path is None and usage_error.value.line is None
 
 
 def test_format_error_names_file_line_and_column(tmp_path):
@@ -166,6 +166,6 @@ def test_every_public_function_documents_an_example():
         if inspect.isfunction(obj):
             doc = inspect.getdoc(obj) or ""
             assert "Example" in doc and ">>>" in doc, name
-    text = spincal.calibrate.__doc__
+    text = spincal.calibrate.__doc__ or ""
     assert "spincal calibrate" in text and "progress=True" in text
     assert inspect.signature(spincal.calibrate).parameters["radius_m"].default is None
