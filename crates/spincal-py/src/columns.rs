@@ -268,19 +268,18 @@ pub fn recording_from_columns(
     let accel = [accel.0.as_array(), accel.1.as_array(), accel.2.as_array()];
     let gyro = gyro.as_ref().map(|g| [g.0.as_array(), g.1.as_array(), g.2.as_array()]);
     let n = accel[0].len();
-    let lengths = accel
-        .iter()
-        .chain(gyro.iter().flatten())
-        .map(|c| c.len())
-        .chain(time.as_ref().map(|t| t.as_array().len()));
-    for (k, len) in lengths.enumerate() {
-        if len != n {
-            return Err(usage(format!(
-                "{name}: {} has {len} rows, {} has {n}: every column needs one value per row",
-                column_label(plan, k),
-                plan.names[1]
-            )));
-        }
+    let mut lengths: Vec<(&str, usize)> = (0..3).map(|a| (plan.names[1 + a].as_str(), accel[a].len())).collect();
+    if let Some(g) = &gyro {
+        lengths.extend((0..3).map(|a| (plan.names.get(4 + a).map_or("gyro", String::as_str), g[a].len())));
+    }
+    if let Some(t) = &time {
+        lengths.push((plan.names[0].as_str(), t.as_array().len()));
+    }
+    if let Some((column, len)) = lengths.iter().find(|(_, len)| *len != n) {
+        return Err(usage(format!(
+            "{name}: {column} has {len} rows, {} has {n}: every column needs one value per row",
+            plan.names[1]
+        )));
     }
     if plan.gyro.is_some() != gyro.is_some() {
         return Err(usage(format!(
@@ -354,15 +353,6 @@ pub fn recording_from_columns(
         notes: Vec::new(),
         raw_counts: false,
     })
-}
-
-/// The name of the k-th column checked for length (accel x, y, z, gyro x, y, z, then time).
-fn column_label(plan: &ColumnPlan, k: usize) -> String {
-    let index = match k {
-        0..=5 => k + 1,
-        _ => 0,
-    };
-    plan.names.get(index).cloned().unwrap_or_else(|| format!("column {k}"))
 }
 
 /// What each row's `status` code means: `spincal correct`'s status column.

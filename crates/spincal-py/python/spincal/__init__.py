@@ -388,7 +388,7 @@ _STATUS_NAMES: List[str] = list(_spincal.STATUS_NAMES)
 _REFUSED = _STATUS_NAMES.index("refused")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Corrected:
     """Rows corrected as ``spincal correct`` corrects them, one per input row, in order.
 

@@ -2,7 +2,9 @@
 
 Install with ``pip install "spincal[ray]"``. Connect to a cluster first (``ray.init()`` or
 ``ray.init(address="auto")``); without one, :func:`calibrate_fleet` starts a local one as
-``ray.init()`` does.
+``ray.init()`` does. The workers need the ``spincal`` package: in the cluster's image, or shipped
+with the job as the wheel, ``ray.init(address="auto", runtime_env={"py_modules": ["dist/spincal-….whl"]})``
+(Ray uploads a local wheel and installs it on each node that runs a task).
 
 How the work moves:
 

@@ -207,6 +207,10 @@ def test_lists_and_tuples_are_arrays(small_corrector):
     np.testing.assert_array_equal(linear.correct(tuple(map(tuple, rows))).accel, linear.correct(np.array(rows)).accel)
     rec = spincal.recording([0.0, 0.01, 0.02, 0.03], rows)
     assert len(rec) == 4 and rec.accel.dtype == np.float64
+    with pytest.raises(spincal.UsageError, match="t has 3 rows, ax_mps2 has 4"):
+        spincal.recording([0.0, 0.01, 0.02], rows)
+    with pytest.raises(spincal.UsageError, match="gx_radps has 3 rows"):
+        spincal.recording(None, rows, gyro=rows[:3], sample_rate_hz=100.0)
     with pytest.raises(spincal.UsageError, match=r"accel: expected an \(n, 3\) array"):
         linear.correct([1.0, 2.0, 3.0])
     noise = np.random.default_rng(2).normal(0.0, 0.01, (2000, 3))
