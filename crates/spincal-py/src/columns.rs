@@ -93,7 +93,12 @@ fn column_map(
 }
 
 /// The library's reading of a one-row table whose cells hold `value(c)`.
-fn probe(header: &[String], name: &str, map: &ColumnMap, value: impl Fn(usize) -> f64) -> Result<Recording, RecordingError> {
+fn probe(
+    header: &[String],
+    name: &str,
+    map: &ColumnMap,
+    value: impl Fn(usize) -> f64,
+) -> Result<Recording, RecordingError> {
     let table = Table {
         file: name.to_string(),
         delimiter: Delimiter::Comma,
@@ -266,9 +271,13 @@ pub fn recording_from_columns(
     sample_rate_hz: Option<f64>,
 ) -> PyResult<crate::PyRecording> {
     let accel = [accel.0.as_array(), accel.1.as_array(), accel.2.as_array()];
-    let gyro = gyro.as_ref().map(|g| [g.0.as_array(), g.1.as_array(), g.2.as_array()]);
+    let gyro = gyro
+        .as_ref()
+        .map(|g| [g.0.as_array(), g.1.as_array(), g.2.as_array()]);
     let n = accel[0].len();
-    let mut lengths: Vec<(&str, usize)> = (0..3).map(|a| (plan.names[1 + a].as_str(), accel[a].len())).collect();
+    let mut lengths: Vec<(&str, usize)> = (0..3)
+        .map(|a| (plan.names[1 + a].as_str(), accel[a].len()))
+        .collect();
     if let Some(g) = &gyro {
         lengths.extend((0..3).map(|a| (plan.names.get(4 + a).map_or("gyro", String::as_str), g[a].len())));
     }
@@ -284,7 +293,11 @@ pub fn recording_from_columns(
     if plan.gyro.is_some() != gyro.is_some() {
         return Err(usage(format!(
             "{name}: the gyro columns were {} the plan",
-            if gyro.is_some() { "given but are not in" } else { "planned but not given to" }
+            if gyro.is_some() {
+                "given but are not in"
+            } else {
+                "planned but not given to"
+            }
         )));
     }
     let time_s = match (sample_rate_hz, &time) {
@@ -304,9 +317,27 @@ pub fn recording_from_columns(
         }
     };
     let accel_mps2: [Vec<f64>; 3] = [
-        converted(name, accel[0], plan.accel_to_mps2, &plan.names[1], Some(plan.accel[0]))?,
-        converted(name, accel[1], plan.accel_to_mps2, &plan.names[2], Some(plan.accel[1]))?,
-        converted(name, accel[2], plan.accel_to_mps2, &plan.names[3], Some(plan.accel[2]))?,
+        converted(
+            name,
+            accel[0],
+            plan.accel_to_mps2,
+            &plan.names[1],
+            Some(plan.accel[0]),
+        )?,
+        converted(
+            name,
+            accel[1],
+            plan.accel_to_mps2,
+            &plan.names[2],
+            Some(plan.accel[1]),
+        )?,
+        converted(
+            name,
+            accel[2],
+            plan.accel_to_mps2,
+            &plan.names[3],
+            Some(plan.accel[2]),
+        )?,
     ];
     let gyro_radps = match (&gyro, plan.gyro) {
         (Some(g), Some(p)) => Some([
@@ -402,11 +433,13 @@ pub fn correct_rows<'py>(
     }
     // The gyro is corrected when the model calibrates it and the data has it, as by the CLI.
     let gyro_corrector = match (&file.gyro, &gyro) {
-        (Some(model), Some(_)) => Some(
-            model
-                .corrector()
-                .ok_or_else(|| errors::with_place(Kind::Model, "the model's gyro sensitivity is singular".into(), &Place::default()))?,
-        ),
+        (Some(model), Some(_)) => Some(model.corrector().ok_or_else(|| {
+            errors::with_place(
+                Kind::Model,
+                "the model's gyro sensitivity is singular".into(),
+                &Place::default(),
+            )
+        })?),
         _ => None,
     };
     let gyro = gyro.filter(|_| gyro_corrector.is_some());
@@ -431,7 +464,13 @@ pub fn correct_rows<'py>(
                 .chain((0..3).map(|a| (accel[a][i], a + 1)))
                 .chain(gyro.iter().flat_map(|g| (0..3).map(move |a| (g[a][i], a + 4))));
             if let Some((v, k)) = given.clone().find(|(v, _)| !v.is_finite()) {
-                refusals.push((i, format!("column {}: the value is {v}; spincal needs finite numbers", names[k])));
+                refusals.push((
+                    i,
+                    format!(
+                        "column {}: the value is {v}; spincal needs finite numbers",
+                        names[k]
+                    ),
+                ));
                 continue;
             }
             let t = time.map(|t| t[i] * plan.time_to_s);

@@ -127,7 +127,9 @@ fn recording_place(e: &RecordingError) -> Option<Place> {
 fn read_place(e: &ReadError) -> Option<Place> {
     use ReadError as F;
     match e {
-        F::Io { file, .. } | F::NoSampleRate { file } | F::MissingColumn { file, .. } => Some(Place::file(file)),
+        F::Io { file, .. } | F::NoSampleRate { file } | F::MissingColumn { file, .. } => {
+            Some(Place::file(file))
+        }
         F::Table(t) => table_place(t),
         F::Recording(r) => recording_place(r),
         F::BadSampleRate { file, line, .. } => Some(Place::file_line(file, *line)),
@@ -144,7 +146,9 @@ fn read_place(e: &ReadError) -> Option<Place> {
 fn campaign_place(e: &CampaignError) -> Option<Place> {
     match e {
         CampaignError::Io { file, .. } => Some(Place::file(file)),
-        CampaignError::Syntax { file, line, column, .. } => Some(Place {
+        CampaignError::Syntax {
+            file, line, column, ..
+        } => Some(Place {
             column: Some(*column),
             ..Place::file_line(file, *line)
         }),
@@ -212,10 +216,15 @@ fn place_of(error: &(dyn std::error::Error + 'static)) -> Place {
 fn load_place(e: &LoadError) -> Option<Place> {
     use LoadError as L;
     let (campaign, line, key) = match e {
-        L::Recording { campaign, line, .. } | L::RawCounts { campaign, line, .. } => (campaign, *line, "file"),
-        L::Companion { campaign, line, key, .. } | L::CompanionLength { campaign, line, key, .. } => {
-            (campaign, *line, *key)
+        L::Recording { campaign, line, .. } | L::RawCounts { campaign, line, .. } => {
+            (campaign, *line, "file")
         }
+        L::Companion {
+            campaign, line, key, ..
+        }
+        | L::CompanionLength {
+            campaign, line, key, ..
+        } => (campaign, *line, *key),
         L::Columns { campaign, line, .. } => (campaign, *line, "columns"),
         _ => return None,
     };

@@ -448,9 +448,14 @@ fn calibrate<'py>(
             "bj" => ModelKind::Bj,
             "narx" => ModelKind::Narx,
             "hw" => ModelKind::Hw,
-            other => return Err(usage(format!("sysid model {other:?}: expected arx, bj, narx or hw"))),
+            other => {
+                return Err(usage(format!(
+                    "sysid model {other:?}: expected arx, bj, narx or hw"
+                )))
+            }
         };
-        let spec = ModelSpec::new(parsed, &orders).map_err(|e| usage(format!("{kind} orders {orders:?}: {e}")))?;
+        let spec =
+            ModelSpec::new(parsed, &orders).map_err(|e| usage(format!("{kind} orders {orders:?}: {e}")))?;
         match settings.sysid.iter_mut().find(|s| s.kind == parsed) {
             Some(slot) => *slot = spec,
             None => settings.sysid.push(spec),
@@ -663,13 +668,23 @@ impl PyCorrector {
     fn correct_columns<'py>(
         &self,
         py: Python<'py>,
-        accel: (PyReadonlyArray1<'py, f64>, PyReadonlyArray1<'py, f64>, PyReadonlyArray1<'py, f64>),
-        gyro: Option<(PyReadonlyArray1<'py, f64>, PyReadonlyArray1<'py, f64>, PyReadonlyArray1<'py, f64>)>,
+        accel: (
+            PyReadonlyArray1<'py, f64>,
+            PyReadonlyArray1<'py, f64>,
+            PyReadonlyArray1<'py, f64>,
+        ),
+        gyro: Option<(
+            PyReadonlyArray1<'py, f64>,
+            PyReadonlyArray1<'py, f64>,
+            PyReadonlyArray1<'py, f64>,
+        )>,
         time: Option<PyReadonlyArray1<'py, f64>>,
         plan: &columns::ColumnPlan,
     ) -> PyResult<columns::CorrectedColumns<'py>> {
         let accel = [accel.0.as_array(), accel.1.as_array(), accel.2.as_array()];
-        let gyro = gyro.as_ref().map(|g| [g.0.as_array(), g.1.as_array(), g.2.as_array()]);
+        let gyro = gyro
+            .as_ref()
+            .map(|g| [g.0.as_array(), g.1.as_array(), g.2.as_array()]);
         let time = time.as_ref().map(|t| t.as_array());
         columns::correct_rows(py, &self.file, time, accel, gyro, plan)
     }

@@ -80,6 +80,8 @@ pub fn sweep_grid(name: &str) -> PyResult<Vec<Vec<usize>>> {
     match name {
         "small" => Ok(spincal::ann::small_grid()),
         "full" => Ok(spincal::ann::default_grid()),
-        other => Err(usage(format!("sweep {other:?}: expected 'none', 'small' or 'full'"))),
+        other => Err(usage(format!(
+            "sweep {other:?}: expected 'none', 'small' or 'full'"
+        ))),
     }
 }
