@@ -184,7 +184,29 @@ class TurntableFit(Result):
 
 class CalibrationResult(Result):
     """Every number of a calibration: the content of results.json (``comparison``, ``chosen``,
-    ``turntable``, ``sweep``, ``cross_condition``, ``division`` …)."""
+    ``turntable``, ``sweep``, ``cross_condition``, ``division`` …); ``parameters`` (the turntable
+    fit's parameters by name) and ``to_pandas()`` (the comparison table)."""
+
+    @property
+    def parameters(self) -> Parameters:
+        """The turntable fit's parameters by name (``result.parameters["radius"].stderr``)."""
+        return Parameters._from_library(self._data["turntable"]["params"])
+
+    def to_pandas(self) -> Any:
+        """The comparison of every corrector and model, one row per ``model``: its ``kind``,
+        ``structure`` and the mean fit % and RMSE (m/s²) on training, validation and test data,
+        as results.json holds them."""
+        import pandas as pd
+
+        rows = []
+        for row in self._data["comparison"]:
+            flat: Dict[str, Any] = {"model": row["model"], "kind": row.get("kind"), "structure": row.get("structure")}
+            for part in ("train", "validation", "test"):
+                scores = row.get(part) or {}
+                flat[f"{part}_fit_percent"] = scores.get("fit_percent_mean")
+                flat[f"{part}_rmse_mps2"] = scores.get("rmse_mps2_mean")
+            rows.append(flat)
+        return pd.DataFrame(rows).set_index("model")
 
 
 class CampaignResult(Result):

@@ -69,6 +69,14 @@ def test_calibration_gives_the_clis_results_json(simulated, calibrated):
     cli_result = json.loads((calibrated / "results.json").read_text())
     assert _without_timing(cal.to_dict()) == _without_timing(cli_result)
     assert cal.result.chosen == cli_result["chosen"]
+    # The turntable fit's parameters by name, and the comparison as a table, from the same numbers.
+    radius = cal.result.parameters["radius"]
+    cli_radius = next(p for p in cli_result["turntable"]["params"] if p["name"] == "radius")
+    assert (radius.value, radius.stderr, radius.unit) == (cli_radius["value"], cli_radius["std_error"], cli_radius["unit"])
+    table = cal.result.to_pandas()
+    assert list(table.index) == [row["model"] for row in cli_result["comparison"]]
+    first = cli_result["comparison"][0]
+    assert table.iloc[0]["validation_fit_percent"] == first["validation"]["fit_percent_mean"]
     assert cal.corrector is not None
     assert cal.corrector.to_dict()["corrector"] == json.loads((calibrated / "model.json").read_text())["corrector"]
 
