@@ -404,6 +404,8 @@ class Corrected:
     :meth:`to_pandas` and :meth:`to_polars` give the columns ``spincal correct`` adds to its
     input (``<column>_corrected`` per corrected axis in the input's unit, ``valid``,
     ``status``) with the input's index: ``frame.join(out.to_pandas())`` is the CLI's output.
+    Arrays, recordings and files are in SI units, so their columns are named ``ax_mps2``,
+    ``gx_radps`` … (``ax_mps2_corrected``).
     """
 
     accel: FloatArray
