@@ -33,6 +33,20 @@ def timed(fn, reps):
     return min(times), statistics.median(times)
 
 
+def timed_interleaved(fns, reps):
+    """Each function once per round, round after round (after one warm-up round), so that a
+    change of the machine's load falls on all of them alike; (best, median) of each."""
+    for fn in fns:
+        fn()
+    times = [[] for _ in fns]
+    for _ in range(reps):
+        for k, fn in enumerate(fns):
+            t = time.perf_counter()
+            fn()
+            times[k].append(time.perf_counter() - t)
+    return [(min(ts), statistics.median(ts)) for ts in times]
+
+
 def bench_correct(args):
     out = os.path.join(args.out, "correct")
     shutil.rmtree(out, ignore_errors=True)
@@ -40,7 +54,7 @@ def bench_correct(args):
     rows = args.rows
     # A network corrector from a quick calibration of a simulated session.
     rec, _ = spincal.simulate(seed=1)
-    cal = spincal.calibrate([rec], radius_m=0.1, sweep="none", hidden="10,6", restarts=1)
+    cal = spincal.calibrate([rec], radius_m=0.1, hidden=[10, 6], restarts=1)
     model = os.path.join(out, "model.json")
     cal.corrector.save(model)
     # 10^6 rows: the session repeated, time continued (m/s² columns).
@@ -55,16 +69,34 @@ def bench_correct(args):
     os.sched_setaffinity(0, {args.cpu})
 
     array = big.accel  # (n, 3), Fortran-ordered view
-    best_arr, med_arr = timed(lambda: corrector.correct(array), args.reps)
     contiguous = np.ascontiguousarray(array)
-    best_c, med_c = timed(lambda: corrector.correct(contiguous), args.reps)
     best_file, med_file = timed(lambda: corrector.correct(csv), args.reps)
     cli_out = os.path.join(out, "cli.csv")
     best_cli, med_cli = timed(
         lambda: subprocess.run(cpu + [args.cli, "correct", "--model", model, csv, "-o", cli_out], check=True), args.reps
     )
+    # DataFrame in, DataFrame out (the output frame built, the status per row included) against
+    # array in, arrays out: the frame's columns are handed over as arrays, never as text.
+    import pandas as pd
+
+    # Timed in alternation with the array path (the same rounds), against the same rows.
+    import polars as pl
+
+    frame = pd.DataFrame({"t_s": t, "ax_mps2": array[:, 0], "ay_mps2": array[:, 1], "az_mps2": array[:, 2]})
+    polars_frame = pl.from_pandas(frame)
+    (best_arr, med_arr), (best_c, med_c), (best_df, med_df), (best_pl, med_pl) = timed_interleaved(
+        [
+            lambda: corrector.correct(array),
+            lambda: corrector.correct(contiguous),
+            lambda: corrector.correct(frame).to_pandas(),
+            lambda: corrector.correct(polars_frame).to_polars(),
+        ],
+        args.reps,
+    )
+    framed = corrector.correct(frame).to_pandas()
     # The numbers agree to the last bit.
     py = corrector.correct(array).accel
+    frame_equal = all(np.array_equal(framed[f"a{a}_mps2_corrected"].to_numpy(), py[:, i]) for i, a in enumerate("xy"))
     got = np.genfromtxt(cli_out, delimiter=",", names=True)
     diff = max(float(np.max(np.abs(got[f"a{a}_mps2_corrected"] - py[:, i]))) for i, a in enumerate("xy"))
     # The CLI's time to read and write the same rows without a model: what it spends beyond correcting.
@@ -73,6 +105,13 @@ def bench_correct(args):
         "python_array_fortran_s": [best_arr, med_arr],
         "python_array_c_s": [best_c, med_c],
         "python_file_s": [best_file, med_file],
+        "python_pandas_frame_to_frame_s": [best_df, med_df],
+        "python_polars_frame_to_frame_s": [best_pl, med_pl],
+        "pandas_frame_over_array_best_median": [best_df / best_arr, med_df / med_arr],
+        "polars_frame_over_array_best_median": [best_pl / best_arr, med_pl / med_arr],
+        "pandas_frame_over_c_array_best_median": [best_df / best_c, med_df / med_c],
+        "polars_frame_over_c_array_best_median": [best_pl / best_c, med_pl / med_c],
+        "frame_equals_array_bit_for_bit": frame_equal,
         "cli_file_to_file_s": [best_cli, med_cli],
         "python_array_rows_per_s": rows / best_arr,
         "python_file_rows_per_s": rows / best_file,

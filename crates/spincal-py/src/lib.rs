@@ -5,23 +5,24 @@
 
 use std::path::{Path, PathBuf};
 
-use numpy::ndarray::{Array1, Array2, ArrayView2, Axis as NdAxis};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::ndarray::{Array2, ArrayView2};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
 use spincal::calibrate::CalibrationOutput;
-use spincal::campaign::params::{NetworkChoice, Params};
+use spincal::campaign::params::Params;
 use spincal::campaign::{Campaign, CampaignOutput};
-use spincal::corrector::{Axis, Corrector};
+use spincal::corrector::Corrector;
 use spincal::formats::{Format, ReadOptions};
 use spincal::recording::{GyroUnit, TimeUnit};
 use spincal::sysid::{ModelKind, ModelSpec};
-use spincal::turntable::{AxesObjective, DriftMode, FitOptions, RadiusPrior};
-use spincal::{AccelUnit, CorrectorFile, CorrectorModel, Recording};
+use spincal::{AccelUnit, CorrectorFile, CorrectorModel, Recording, RecordingError};
 
+mod columns;
 mod errors;
 mod long;
+mod params;
 
 use errors::usage;
 
@@ -32,7 +33,7 @@ fn json<T: serde::Serialize>(value: &T) -> PyResult<String> {
 
 /// A time series of one IMU session in SI units (s, m/s², rad/s), as read or simulated.
 #[pyclass(name = "Recording", module = "spincal._spincal", frozen)]
-struct PyRecording {
+pub(crate) struct PyRecording {
     inner: Recording,
     notes: Vec<String>,
     raw_counts: bool,
@@ -50,13 +51,25 @@ fn columns_to_array<'py>(py: Python<'py>, columns: &[Vec<f64>; 3]) -> Bound<'py,
     block.reversed_axes().into_pyarray(py)
 }
 
-/// An (n, 3) array as three columns (any strides).
+/// An (n, 3) array as three columns (any strides); every value must be a finite number (the
+/// error names the row and column, as for every other entry point).
 fn array_to_columns(view: ArrayView2<'_, f64>, what: &str) -> PyResult<[Vec<f64>; 3]> {
     if view.ncols() != 3 {
         return Err(usage(format!(
             "{what}: expected an (n, 3) array, got shape {:?}",
             view.shape()
         )));
+    }
+    if let Some(((row, column), value)) = view.indexed_iter().find(|(_, v)| !v.is_finite()) {
+        return Err(errors::with_place(
+            errors::Kind::Format,
+            format!("{what}[{row}, {column}]: the value is {value}; spincal needs finite numbers"),
+            &errors::Place {
+                row: Some(row),
+                column: Some(column + 1),
+                ..errors::Place::default()
+            },
+        ));
     }
     Ok(std::array::from_fn(|a| view.column(a).to_vec()))
 }
@@ -179,6 +192,25 @@ fn read_options(
     Ok(options)
 }
 
+/// A reading error; columns that cannot be told apart are explained in Python's words.
+fn read_error(e: spincal::formats::FormatError) -> PyErr {
+    use spincal::formats::FormatError as F;
+    match e {
+        F::Recording(RecordingError::AmbiguousColumns { file, available }) => errors::with_place(
+            errors::Kind::Format,
+            format!(
+                "{file}: cannot tell which columns hold time and acceleration (columns: {available}); pass \
+                 columns=[\"t\", \"ax\", \"ay\", \"az\"] (names or 1-based positions, gx, gy, gz after them for the gyro)"
+            ),
+            &errors::Place {
+                path: Some(file),
+                ..errors::Place::default()
+            },
+        ),
+        e => errors::format(e),
+    }
+}
+
 /// Reads a recording in any supported format from a path or from bytes (`name` names it in errors).
 #[pyfunction]
 #[pyo3(signature = (source, *, name = None, format = None, columns = None, accel_unit = None, time_unit = None,
@@ -215,55 +247,13 @@ fn read(
         let path: PathBuf = source.extract()?;
         py.detach(|| spincal::formats::read_path(&path, &options))
     }
-    .map_err(errors::format)?;
+    .map_err(read_error)?;
     let mut recording = loaded.recording;
     recording.source.format = loaded.format.name().to_string();
     Ok(PyRecording {
         inner: recording,
         notes: loaded.notes,
         raw_counts: loaded.raw_counts,
-    })
-}
-
-/// A recording from arrays: time (n,) in s, accel (n, 3) in m/s², gyro (n, 3) in rad/s.
-#[pyfunction]
-#[pyo3(signature = (time, accel, gyro = None, *, name = "array"))]
-fn recording(
-    time: PyReadonlyArray1<'_, f64>,
-    accel: PyReadonlyArray2<'_, f64>,
-    gyro: Option<PyReadonlyArray2<'_, f64>>,
-    name: &str,
-) -> PyResult<PyRecording> {
-    let time_s = time.as_array().to_vec();
-    let accel_mps2 = array_to_columns(accel.as_array(), "accel")?;
-    let gyro_radps = gyro.map(|g| array_to_columns(g.as_array(), "gyro")).transpose()?;
-    let n = time_s.len();
-    if accel_mps2[0].len() != n || gyro_radps.as_ref().is_some_and(|g| g[0].len() != n) {
-        return Err(usage(format!(
-            "{name}: time has {n} samples, accel {} and gyro {}: every array needs one row per time",
-            accel_mps2[0].len(),
-            gyro_radps.as_ref().map_or(n, |g| g[0].len())
-        )));
-    }
-    let columns = ["t", "ax", "ay", "az", "gx", "gy", "gz"];
-    let used = if gyro_radps.is_some() { 7 } else { 4 };
-    let inner = Recording {
-        time_s,
-        accel_mps2,
-        gyro_radps,
-        temperature_c: None,
-        source: spincal::recording::Source {
-            name: name.to_string(),
-            format: "array".to_string(),
-            columns: columns[..used].iter().map(|c| c.to_string()).collect(),
-            ..Default::default()
-        },
-    };
-    inner.check_time().map_err(errors::format)?;
-    Ok(PyRecording {
-        inner,
-        notes: Vec::new(),
-        raw_counts: false,
     })
 }
 
@@ -351,51 +341,6 @@ fn write_text(path: &Path, text: &str) -> PyResult<()> {
         .map_err(errors::output)
 }
 
-/// The turntable fit's options from keyword arguments (the CLI's defaults).
-#[allow(clippy::too_many_arguments)]
-fn fit_options(
-    rpm: Option<f64>,
-    radius_m: Option<f64>,
-    radius_tol_m: f64,
-    objective_axes: &str,
-    drift: bool,
-    fit_offsets: bool,
-    separate_radii: bool,
-    gravity_mps2: f64,
-    range_g: Option<f64>,
-    bounds: Vec<(String, f64, f64)>,
-) -> PyResult<FitOptions> {
-    let axes = match objective_axes {
-        "xyz" => AxesObjective::Xyz,
-        "xy" => AxesObjective::Xy,
-        "x" => AxesObjective::X,
-        other => return Err(usage(format!("objective_axes {other:?}: expected x, xy or xyz"))),
-    };
-    for (name, value) in [("rpm", rpm), ("radius_m", radius_m), ("range_g", range_g)] {
-        if value.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
-            return Err(usage(format!("{name} = {value:?}: must be a positive number")));
-        }
-    }
-    if !(radius_tol_m.is_finite() && radius_tol_m > 0.0 && gravity_mps2.is_finite() && gravity_mps2 > 0.0) {
-        return Err(usage("radius_tol_m and gravity_mps2 must be positive numbers"));
-    }
-    Ok(FitOptions {
-        axes,
-        drift: if drift { DriftMode::Fit } else { DriftMode::Off },
-        gravity_mps2,
-        rpm_hint: rpm,
-        radius: radius_m.map(|value_m| RadiusPrior {
-            value_m,
-            tolerance_m: radius_tol_m,
-        }),
-        shared_radius: !separate_radii,
-        fit_offsets,
-        bounds,
-        range_mps2: range_g.map(|g| g * spincal::STANDARD_GRAVITY),
-        ..FitOptions::default()
-    })
-}
-
 fn inner_recordings(recordings: &[PyRef<'_, PyRecording>]) -> PyResult<Vec<Recording>> {
     if recordings.is_empty() {
         return Err(usage("no recordings given: pass at least one recording"));
@@ -404,39 +349,17 @@ fn inner_recordings(recordings: &[PyRef<'_, PyRecording>]) -> PyResult<Vec<Recor
 }
 
 /// Fits the turntable model to recordings; returns the fit as JSON and the reference (the
-/// turntable's physical acceleration, m/s²) per recording as (n, 3) arrays.
+/// turntable's physical acceleration, m/s²) per recording as (n, 3) arrays. `params_json` changes
+/// the library's settings as for [`calibrate`]; only its `fit` part is used.
 #[pyfunction]
-#[pyo3(signature = (recordings, *, rpm = None, radius_m = None, radius_tol_m = 0.002, objective_axes = "xyz",
-    drift = true, fit_offsets = true, separate_radii = false, gravity_mps2 = spincal::STANDARD_GRAVITY,
-    range_g = None, bounds = Vec::new(), progress = None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (recordings, *, params_json = None, progress = None))]
 fn fit_turntable<'py>(
     py: Python<'py>,
     recordings: Vec<PyRef<'py, PyRecording>>,
-    rpm: Option<f64>,
-    radius_m: Option<f64>,
-    radius_tol_m: f64,
-    objective_axes: &str,
-    drift: bool,
-    fit_offsets: bool,
-    separate_radii: bool,
-    gravity_mps2: f64,
-    range_g: Option<f64>,
-    bounds: Vec<(String, f64, f64)>,
+    params_json: Option<&str>,
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<(String, Vec<Bound<'py, PyArray2<f64>>>)> {
-    let options = fit_options(
-        rpm,
-        radius_m,
-        radius_tol_m,
-        objective_axes,
-        drift,
-        fit_offsets,
-        separate_radii,
-        gravity_mps2,
-        range_g,
-        bounds,
-    )?;
+    let options = params::params_from(params_json)?.fit;
     let recordings = inner_recordings(&recordings)?;
     let (fit, references) = long::run(py, progress.as_ref(), |observer| {
         let refs: Vec<&Recording> = recordings.iter().collect();
@@ -504,101 +427,40 @@ impl PyCalibration {
     }
 }
 
-fn parse_orders(text: &str, what: &str) -> PyResult<Vec<usize>> {
-    text.split(',')
-        .map(|s| s.trim().parse::<usize>())
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|_| usage(format!("{what} {text:?}: expected orders like 6,8,1")))
-}
-
-/// Calibrates from turntable recordings (SPEC §1): the same settings and defaults as
-/// `spincal calibrate`.
+/// Calibrates from turntable recordings (SPEC §1): the library's `Params` defaults (what
+/// `spincal calibrate` runs) with the changes of `params_json`, a JSON object nested as `Params`
+/// serialises; `sysid` replaces the orders of the named system-identification models
+/// (`[("arx", [6, 8, 1])]`), which the library turns into full model specifications.
 #[pyfunction]
-#[pyo3(signature = (recordings, *, rpm = None, radius_m = None, radius_tol_m = 0.002, objective_axes = "xyz",
-    drift = true, fit_offsets = true, separate_radii = false, gravity_mps2 = spincal::STANDARD_GRAVITY,
-    range_g = None, sweep = None, hidden = None, restarts = 3,
-    sweep_hessian_samples = spincal::ann::SWEEP_HESSIAN_SAMPLES, correct_axes = "x,y", delays = 0, seed = 1,
-    arx = "6,8,1", bj = "4,4,4,4,1", narx = "2,2,1", hw = "2,3,1", progress = None, sweep_runner = None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (recordings, *, params_json = None, sysid = None, progress = None, sweep_runner = None))]
 fn calibrate<'py>(
     py: Python<'py>,
     recordings: Vec<PyRef<'py, PyRecording>>,
-    rpm: Option<f64>,
-    radius_m: Option<f64>,
-    radius_tol_m: f64,
-    objective_axes: &str,
-    drift: bool,
-    fit_offsets: bool,
-    separate_radii: bool,
-    gravity_mps2: f64,
-    range_g: Option<f64>,
-    sweep: Option<&str>,
-    hidden: Option<&str>,
-    restarts: usize,
-    sweep_hessian_samples: usize,
-    correct_axes: &str,
-    delays: usize,
-    seed: u64,
-    arx: &str,
-    bj: &str,
-    narx: &str,
-    hw: &str,
+    params_json: Option<&str>,
+    sysid: Option<Vec<(String, Vec<usize>)>>,
     progress: Option<Bound<'py, PyAny>>,
     sweep_runner: Option<Py<PyAny>>,
 ) -> PyResult<PyCalibration> {
-    let fit = fit_options(
-        rpm,
-        radius_m,
-        radius_tol_m,
-        objective_axes,
-        drift,
-        fit_offsets,
-        separate_radii,
-        gravity_mps2,
-        range_g,
-        Vec::new(),
-    )?;
-    let sweep_over = |grid| NetworkChoice::Sweep {
-        grid,
-        restarts,
-        hessian_samples: (sweep_hessian_samples > 0).then_some(sweep_hessian_samples),
-    };
-    let network = match (sweep, hidden) {
-        (Some("small" | "full"), Some(_)) => {
-            return Err(usage(
-                "hidden fixes the architecture, so it cannot be combined with sweep='small' or 'full'; drop one of them",
-            ))
+    let mut settings = params::params_from(params_json)?;
+    for (kind, orders) in sysid.unwrap_or_default() {
+        let parsed = match kind.to_ascii_lowercase().as_str() {
+            "arx" => ModelKind::Arx,
+            "bj" => ModelKind::Bj,
+            "narx" => ModelKind::Narx,
+            "hw" => ModelKind::Hw,
+            other => {
+                return Err(usage(format!(
+                    "sysid model {other:?}: expected arx, bj, narx or hw"
+                )))
+            }
+        };
+        let spec =
+            ModelSpec::new(parsed, &orders).map_err(|e| usage(format!("{kind} orders {orders:?}: {e}")))?;
+        match settings.sysid.iter_mut().find(|s| s.kind == parsed) {
+            Some(slot) => *slot = spec,
+            None => settings.sysid.push(spec),
         }
-        (Some("small") | None, None) => sweep_over(spincal::ann::small_grid()),
-        (None | Some("none"), hidden) => NetworkChoice::Fixed {
-            hidden: spincal::ann::parse_hidden_sizes(hidden.unwrap_or("10,6"))
-                .map_err(|e| usage(format!("hidden {e}")))?,
-            restarts,
-        },
-        (Some("full"), None) => sweep_over(spincal::ann::default_grid()),
-        (Some(other), _) => return Err(usage(format!("sweep {other:?}: expected none, small or full"))),
-    };
-    let axes = Axis::parse_list(correct_axes)
-        .ok_or_else(|| usage(format!("correct_axes {correct_axes:?}: expected e.g. x,y")))?;
-    let spec = |kind: ModelKind, text: &str, what: &str| -> PyResult<ModelSpec> {
-        let orders = parse_orders(text, what)?;
-        ModelSpec::new(kind, &orders).map_err(|e| usage(format!("{what}: {e}")))
-    };
-    // The library's defaults with what the keywords name (nothing else is decided here).
-    let settings = Params {
-        fit,
-        correct_axes: axes,
-        network,
-        delays,
-        seed,
-        sysid: vec![
-            spec(ModelKind::Arx, arx, "arx")?,
-            spec(ModelKind::Bj, bj, "bj")?,
-            spec(ModelKind::Narx, narx, "narx")?,
-            spec(ModelKind::Hw, hw, "hw")?,
-        ],
-        ..Params::default()
-    };
+    }
     let recordings = inner_recordings(&recordings)?;
     // A Python exception from the sweep runner, raised as itself once the library has stopped.
     let runner_failure: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
@@ -735,13 +597,6 @@ fn calibrate_campaign(
     Ok(PyCampaignCalibration { output })
 }
 
-/// Corrected samples (n, 3), valid (n,), outside the training range (n,).
-type CorrectedArrays<'py> = (
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray1<bool>>,
-    Bound<'py, PyArray1<bool>>,
-);
-
 /// A saved corrector (model.json) of any kind: ann, linear, static, physical.
 #[pyclass(name = "Corrector", module = "spincal._spincal", frozen)]
 struct PyCorrector {
@@ -801,46 +656,37 @@ impl PyCorrector {
             self.warmup_samples()
         )
     }
-    /// Corrects an (n, 3) array of m/s² in time order; returns (corrected (n, 3), valid (n,) bool,
-    /// outside_training_range (n,) bool). The input is read in place (any strides), never copied.
-    fn correct<'py>(
+    /// True when the file also calibrates the gyroscope (applied to gyro columns by `correct`).
+    #[getter]
+    fn has_gyro(&self) -> bool {
+        self.file.gyro.is_some()
+    }
+    /// Corrects rows in time order exactly as `spincal correct` does: accel x, y, z and (optional)
+    /// gyro x, y, z and time columns as 1-D arrays in the units `plan` states (read in place,
+    /// whatever their strides). See `columns::correct_rows`.
+    #[pyo3(signature = (accel, gyro, time, plan))]
+    fn correct_columns<'py>(
         &self,
         py: Python<'py>,
-        accel: PyReadonlyArray2<'py, f64>,
-    ) -> PyResult<CorrectedArrays<'py>> {
-        if accel.shape().len() != 2 || accel.shape()[1] != 3 {
-            return Err(usage(format!(
-                "accel: expected an (n, 3) array, got shape {:?}",
-                accel.shape()
-            )));
-        }
-        let view = accel.as_array();
-        let corrector = &self.file.corrector;
-        let (out, valid, outside) = py.detach(|| {
-            let n = view.nrows();
-            let mut out = Array2::<f64>::zeros((n, 3));
-            let mut valid = Array1::<bool>::from_elem(n, false);
-            let mut outside = Array1::<bool>::from_elem(n, false);
-            let mut stream = corrector.stream();
-            for (i, (row, mut target)) in view
-                .axis_iter(NdAxis(0))
-                .zip(out.axis_iter_mut(NdAxis(0)))
-                .enumerate()
-            {
-                let sample = stream.correct_sample([row[0], row[1], row[2]]);
-                target[0] = sample.accel_mps2[0];
-                target[1] = sample.accel_mps2[1];
-                target[2] = sample.accel_mps2[2];
-                valid[i] = sample.valid;
-                outside[i] = sample.outside_training_range;
-            }
-            (out, valid, outside)
-        });
-        Ok((
-            out.into_pyarray(py),
-            valid.into_pyarray(py),
-            outside.into_pyarray(py),
-        ))
+        accel: (
+            PyReadonlyArray1<'py, f64>,
+            PyReadonlyArray1<'py, f64>,
+            PyReadonlyArray1<'py, f64>,
+        ),
+        gyro: Option<(
+            PyReadonlyArray1<'py, f64>,
+            PyReadonlyArray1<'py, f64>,
+            PyReadonlyArray1<'py, f64>,
+        )>,
+        time: Option<PyReadonlyArray1<'py, f64>>,
+        plan: &columns::ColumnPlan,
+    ) -> PyResult<columns::CorrectedColumns<'py>> {
+        let accel = [accel.0.as_array(), accel.1.as_array(), accel.2.as_array()];
+        let gyro = gyro
+            .as_ref()
+            .map(|g| [g.0.as_array(), g.1.as_array(), g.2.as_array()]);
+        let time = time.as_ref().map(|t| t.as_array());
+        columns::correct_rows(py, &self.file, time, accel, gyro, plan)
     }
     /// The static calibration's JSON when this is one (for Allan deviation of calibrated data).
     fn static_json(&self) -> PyResult<Option<String>> {
@@ -1084,7 +930,13 @@ fn _spincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyCampaignCalibration>()?;
     m.add_class::<PyCorrector>()?;
     m.add_function(wrap_pyfunction!(read, m)?)?;
-    m.add_function(wrap_pyfunction!(recording, m)?)?;
+    m.add_class::<columns::ColumnPlan>()?;
+    m.add("STATUS_NAMES", columns::STATUS_NAMES.to_vec())?;
+    m.add_function(wrap_pyfunction!(columns::plan_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(columns::recording_from_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(params::default_params, m)?)?;
+    m.add_function(wrap_pyfunction!(params::resolve_params, m)?)?;
+    m.add_function(wrap_pyfunction!(params::sweep_grid, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(simulation_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(simulate_campaign, m)?)?;

@@ -10,9 +10,10 @@ Example::
 
     import spincal
     rec, truth = spincal.simulate(seed=7)
-    cal = spincal.calibrate([rec], sweep="none", hidden="4", restarts=1)
+    cal = spincal.calibrate([rec], radius_m=0.10, hidden=[4], restarts=1)
     print(cal.result.chosen)
-    corrected = cal.corrector.correct(rec.accel)
+    fixed = cal.corrector.correct(frame)           # a pandas/polars DataFrame, an array, a recording
+    out = fixed.to_pandas()                        # corrected columns, valid, status; frame's index
     cal.write("cal")            # model.json, results.json, report.html
 
 Fleets on a Ray cluster: ``spincal.ray`` (``pip install "spincal[ray]"``).
@@ -22,16 +23,22 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from contextlib import contextmanager
-from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+from dataclasses import dataclass, field
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union, cast
 
 import numpy as np
+import numpy.typing as npt
 
-from . import _spincal
+from . import _frames, _spincal
+from ._params import Axes, Orders, calibration_changes, default_params, fit_changes, orders_list
 from ._results import (
     AllanResult,
     CalibrationResult,
     CampaignResult,
+    Parameter,
+    Parameters,
     Result,
     StaticResult,
     TurntableFit,
@@ -62,6 +69,8 @@ __all__ = [
     "Calibration",
     "CampaignCalibration",
     "Result",
+    "Parameter",
+    "Parameters",
     "TurntableFit",
     "CalibrationResult",
     "CampaignResult",
@@ -76,6 +85,7 @@ __all__ = [
     "fit_turntable",
     "calibrate",
     "calibrate_campaign",
+    "default_params",
     "load_corrector",
     "correct",
     "static_calibration",
@@ -87,7 +97,12 @@ __all__ = [
 
 PathLike = Union[str, "os.PathLike[str]"]
 Progress = Union[bool, Callable[[str, int, Optional[int]], Any], None]
+#: A recording, a file (path or bytes) or a pandas/polars DataFrame.
 RecordingLike = Union[Recording, PathLike, bytes, Any]
+#: Columns by name or 1-based position, time first (None: no time column): ``["t", "ax", "ay", "az"]``.
+Columns = _frames.Columns
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
 
 
 @contextmanager
@@ -119,22 +134,12 @@ def _progress(progress: Progress, label: str) -> Iterator[Optional[Callable[[str
         bar.close()
 
 
-def _is_dataframe(value: Any) -> bool:
-    return type(value).__name__ == "DataFrame" and hasattr(value, "columns") and hasattr(value, "to_csv")
-
-
-def _dataframe_bytes(frame: Any) -> bytes:
-    """A DataFrame as CSV text, so that the library finds its columns by name exactly as the CLI
-    does (numbers are written with Python's round-trip repr: no value changes)."""
-    return frame.to_csv(index=False, float_format=None).encode("utf-8")
-
-
 def read(
     source: Union[PathLike, bytes, Any],
     *,
     name: Optional[str] = None,
     format: Optional[str] = None,
-    columns: Optional[str] = None,
+    columns: Columns = None,
     accel_unit: Optional[str] = None,
     time_unit: Optional[str] = None,
     gyro_unit: Optional[str] = None,
@@ -143,33 +148,68 @@ def read(
     retime: bool = False,
 ) -> Recording:
     """Reads a recording in any format spincal reads: delimited text, imu_tk, imucal, MPU-6050,
-    phyphox, the 3DM-GX1 binary stream (detected, or named by ``format``).
+    phyphox, the 3DM-GX1 binary stream, MAT-files, ROS bags (detected, or named by ``format``).
 
-    ``source`` is a path, the file's bytes (``name`` then names it in errors), or a pandas
-    DataFrame (columns found by name as the CLI does: ``t``/``time``, ``ax``/``acc_x``/``ax_g`` …;
-    or given as ``columns="t,ax,ay,az"``). Units as the CLI: from the column names (``_g``,
-    ``_ms``) or ``accel_unit="g"``, ``time_unit="ms"``. Returns a :class:`Recording` in SI units:
-    ``rec.time`` (n,), ``rec.accel`` (n, 3) m/s², ``rec.gyro`` (n, 3) rad/s or None.
+    ``source`` is a path, the file's bytes (``name`` then names it in errors), or a pandas or
+    polars DataFrame. A DataFrame's columns are found by the CLI's rules (``t``/``time``/``t_s``,
+    ``ax``/``acc_x``/``ax_g`` …, gyro ``gx``/``gyro_x`` …) or named by ``columns=["t", "ax", "ay",
+    "az"]`` (names or 1-based positions; seven entries with the gyro); they are handed over as
+    arrays, never as text. Without a time column give ``sample_rate_hz`` (time = sample number /
+    rate; ``columns`` may then start with None). Units as the CLI: from the column names (``_g``,
+    ``_ms``, ``_dps``) or ``accel_unit="g"``, ``time_unit="ms"``, ``gyro_unit="dps"``. Returns a
+    :class:`Recording` in SI units: ``rec.time`` (n,), ``rec.accel`` (n, 3) m/s², ``rec.gyro``
+    (n, 3) rad/s or None.
 
-    Raises :class:`FormatError` naming the file, line and column at fault.
+    Raises :class:`FormatError` naming the file (or frame), line or row, and column at fault: a
+    value that is not a finite number is refused, as everywhere in spincal.
 
     Example::
 
-        >>> rec = spincal.read("rec33.csv", accel_unit="g")        # doctest: +SKIP
-        >>> rec.accel.shape, rec.sample_rate_hz                      # doctest: +SKIP
-        ((12000, 3), 100.0)
+        >>> import pandas as pd
+        >>> frame = pd.DataFrame({"time": [0.0, 0.01, 0.02], "ax_g": [0.0, 0.1, 0.2],
+        ...                       "ay_g": [0.0, 0.0, 0.0], "az_g": [1.0, 1.0, 1.0]})
+        >>> rec = spincal.read(frame)
+        >>> rec.columns, float(rec.accel[1, 0])
+        (['time', 'ax_g', 'ay_g', 'az_g'], 0.980665)
+        >>> spincal.read(frame[["ax_g", "ay_g", "az_g"]], sample_rate_hz=100).time.tolist()
+        [0.0, 0.01, 0.02]
     """
-    if _is_dataframe(source):
-        source, name = _dataframe_bytes(source), name or "<DataFrame>"
-    elif isinstance(source, (bytearray, memoryview)):
+    kind = _frames.frame_kind(source)
+    if kind is not None:
+        if format is not None or accel_scale is not None or retime:
+            raise UsageError("format, accel_scale and retime apply to files; a DataFrame is read by its columns")
+        label = name or "<DataFrame>"
+        plan = _frames.plan(
+            source,
+            name=label,
+            columns=columns,
+            accel_unit=accel_unit,
+            time_unit=time_unit,
+            gyro_unit=gyro_unit,
+            time_optional=sample_rate_hz is not None,
+        )
+        time, accel, gyro = _frames.planned_columns(source, kind, plan)
+        return _spincal.recording_from_columns(
+            None if sample_rate_hz is not None else time,
+            accel,
+            gyro,
+            plan,
+            name=label,
+            format=f"{kind} DataFrame",
+            sample_rate_hz=sample_rate_hz,
+        )
+    if isinstance(source, (bytearray, memoryview)):
         source = bytes(source)
     elif not isinstance(source, bytes):
         source = os.fspath(source)
+    keys = _frames.column_keys(columns)
+    if keys is not None and None in keys:
+        raise UsageError("columns: None (no time column) is for DataFrames; a file states its time or its rate")
     return _spincal.read(
         source,
         name=name,
         format=format,
-        columns=columns,
+        columns=None if keys is None else ",".join(k for k in keys if k is not None),
         accel_unit=accel_unit,
         time_unit=time_unit,
         gyro_unit=gyro_unit,
@@ -180,10 +220,17 @@ def read(
 
 
 def recording(
-    time: Any, accel: Any, gyro: Any = None, *, name: str = "array"
+    time: Any,
+    accel: Any,
+    gyro: Any = None,
+    *,
+    name: str = "array",
+    sample_rate_hz: Optional[float] = None,
 ) -> Recording:
-    """A :class:`Recording` from arrays: ``time`` (n,) in s, ``accel`` (n, 3) in m/s², optional
-    ``gyro`` (n, 3) in rad/s. Time must not go backwards (:class:`FormatError` names the sample).
+    """A :class:`Recording` from arrays (numpy arrays, lists or tuples): ``time`` (n,) in s,
+    ``accel`` (n, 3) in m/s², optional ``gyro`` (n, 3) in rad/s. ``time`` may be None with
+    ``sample_rate_hz`` (time = sample number / rate). Every value must be a finite number and
+    time must not go backwards (:class:`FormatError` names the row and column).
 
     Example::
 
@@ -191,13 +238,26 @@ def recording(
         >>> a = np.tile([0.0, 0.0, 9.81], (1000, 1))
         >>> spincal.recording(t, a).sample_rate_hz
         100.0
+        >>> spincal.recording(None, [[0.0, 0.0, 9.81]] * 3, sample_rate_hz=50).time.tolist()
+        [0.0, 0.02, 0.04]
     """
-    t = np.ascontiguousarray(time, dtype=np.float64)
-    a = np.asarray(accel, dtype=np.float64)
-    g = None if gyro is None else np.asarray(gyro, dtype=np.float64)
-    if a.ndim != 2 or a.shape[1:] != (3,):
-        raise UsageError(f"accel: expected an (n, 3) array, got shape {a.shape}")
-    return _spincal.recording(t, a, g, name=name)
+    a = _frames.array_columns(accel, "accel")
+    g = None if gyro is None else _frames.array_columns(gyro, "gyro")
+    if time is None and sample_rate_hz is None:
+        raise UsageError("time is None: give sample_rate_hz (time = sample number / rate)")
+    t = None if time is None else _frames.as_floats(time, "time")
+    if t is not None and t.ndim != 1:
+        raise UsageError(f"time: expected an (n,) array, got shape {t.shape}")
+    plan = _frames.si_plan(t is not None, g is not None)
+    return _spincal.recording_from_columns(
+        t if sample_rate_hz is None else None,
+        _frames.split(a),
+        None if g is None else _frames.split(g),
+        plan,
+        name=name,
+        format="array",
+        sample_rate_hz=sample_rate_hz,
+    )
 
 
 def _as_recording(value: RecordingLike, read_options: Optional[Mapping[str, Any]] = None) -> Recording:
@@ -269,23 +329,27 @@ def fit_turntable(
     *,
     rpm: Optional[float] = None,
     radius_m: Optional[float] = None,
-    radius_tol_m: float = 0.002,
-    objective_axes: str = "xyz",
-    drift: bool = True,
-    fit_offsets: bool = True,
-    separate_radii: bool = False,
-    gravity_mps2: float = 9.80665,
+    radius_tol_m: Optional[float] = None,
+    objective_axes: Optional[str] = None,
+    drift: Optional[bool] = None,
+    fit_offsets: Optional[bool] = None,
+    separate_radii: Optional[bool] = None,
+    gravity_mps2: Optional[float] = None,
     range_g: Optional[float] = None,
     bounds: Optional[Mapping[str, Tuple[float, float]]] = None,
+    params: Optional[Mapping[str, Any]] = None,
     progress: Progress = False,
 ) -> TurntableFit:
     """Fits the turntable model (ω²r plus tilted gravity, offsets, drift) to one or more
     recordings, as ``spincal fit``: bounded Nelder–Mead then Levenberg–Marquardt, standard errors,
     correlations, and what the data did not determine.
 
-    ``recordings``: :class:`Recording` objects, paths or DataFrames. ``bounds`` replaces a
-    parameter's bounds by name (SI units). Returns a :class:`TurntableFit`; its ``references``
-    are the reference accelerations (n, 3) in m/s².
+    ``recordings``: :class:`Recording` objects, paths or DataFrames. Every setting left None is
+    the library's default (:func:`default_params` ``["fit"]``); ``radius_tol_m`` (default
+    0.002) is the tolerance of ``radius_m``; ``bounds`` replaces a parameter's bounds by name (SI
+    units); ``params={"fit": {...}}`` changes any other setting of the fit. Returns a
+    :class:`TurntableFit`: ``fit.parameters["radius"].value``, ``.stderr``, ``.unit``;
+    ``references`` are the reference accelerations (n, 3) in m/s².
 
     Example::
 
@@ -293,58 +357,164 @@ def fit_turntable(
         >>> fit = spincal.fit_turntable([rec], rpm=33.3)
         >>> abs(fit.recordings[0].session.omega_radps / truth.session.omega_radps - 1) < 1e-3
         True
+        >>> fit.parameters["radius"].unit
+        'm'
     """
     recs = [_as_recording(r) for r in recordings]
+    fit = fit_changes(
+        rpm=rpm,
+        radius_m=radius_m,
+        radius_tol_m=radius_tol_m,
+        objective_axes=objective_axes,
+        drift=drift,
+        fit_offsets=fit_offsets,
+        separate_radii=separate_radii,
+        gravity_mps2=gravity_mps2,
+        range_g=range_g,
+        bounds=bounds,
+    )
+    changes = calibration_changes(
+        params, fit, sweep=None, hidden=None, restarts=None, sweep_hessian_samples=None,
+        correct_axes=None, delays=None, seed=None,
+    )
     with _progress(progress, "turntable fit") as callback:
         text, references = _spincal.fit_turntable(
-            recs,
-            rpm=rpm,
-            radius_m=radius_m,
-            radius_tol_m=radius_tol_m,
-            objective_axes=objective_axes,
-            drift=drift,
-            fit_offsets=fit_offsets,
-            separate_radii=separate_radii,
-            gravity_mps2=gravity_mps2,
-            range_g=range_g,
-            bounds=[(k, float(lo), float(hi)) for k, (lo, hi) in (bounds or {}).items()],
-            progress=callback,
+            recs, params_json=json.dumps(changes) if changes else None, progress=callback
         )
     return TurntableFit(json.loads(text), references)
 
 
-class Corrected(Result):
-    """Corrected samples: ``accel`` (n, 3) m/s², ``valid`` (n,) bool (False for the first samples
-    without a full delay history and for samples outside a network's training range, both passed
-    through), ``outside_training_range`` (n,) bool (a network is not applied there; a physical
-    model still corrects)."""
+_STATUS_NAMES: List[str] = list(_spincal.STATUS_NAMES)
+_REFUSED = _STATUS_NAMES.index("refused")
 
-    __slots__ = ("accel", "valid", "outside_training_range")
 
-    def __init__(self, accel: np.ndarray, valid: np.ndarray, outside: np.ndarray):
-        super().__init__({"rows": int(accel.shape[0]), "outside_training_range": int(outside.sum())})
-        object.__setattr__(self, "accel", accel)
-        object.__setattr__(self, "valid", valid)
-        object.__setattr__(self, "outside_training_range", outside)
+@dataclass(frozen=True, eq=False)
+class Corrected:
+    """Rows corrected as ``spincal correct`` corrects them, one per input row, in order.
+
+    ``accel`` (n, 3) m/s² (every axis; the axes the corrector does not change pass through),
+    ``gyro`` (n, 3) rad/s (when the model calibrates the gyroscope and the data has it, else
+    None), ``valid`` (n,) (False for the first rows without a full delay history, for rows a
+    network does not correct and for refused rows), ``outside_training_range`` (n,), and
+    ``status`` (n,): ``ok``, ``physics-only``, ``outside-range`` or ``refused: row …: why`` (a
+    value that is not a finite number, time going backwards; the row's corrected values are
+    NaN), the words of ``spincal correct``'s status column. ``refused`` maps each refused row's
+    position to its reason.
+
+    :meth:`to_pandas` and :meth:`to_polars` give the columns ``spincal correct`` adds to its
+    input (``<column>_corrected`` per corrected axis in the input's unit, ``valid``,
+    ``status``) with the input's index: ``frame.join(out.to_pandas())`` is the CLI's output.
+    Arrays, recordings and files are in SI units, so their columns are named ``ax_mps2``,
+    ``gx_radps`` … (``ax_mps2_corrected``).
+    """
+
+    accel: FloatArray
+    gyro: Optional[FloatArray]
+    valid: BoolArray
+    outside_training_range: BoolArray
+    status_codes: npt.NDArray[np.uint8]
+    refused: Dict[int, str]
+    axes: Tuple[str, ...]
+    columns: Tuple[str, ...] = field(repr=False)
+    accel_to_mps2: float = field(repr=False, default=1.0)
+    gyro_to_radps: float = field(repr=False, default=1.0)
+    index: Any = field(repr=False, default=None)
+
+    def __len__(self) -> int:
+        return int(self.accel.shape[0])
+
+    def _row_label(self, row: int) -> Any:
+        return row if self.index is None else self.index[row]
+
+    def _status_categories(self) -> Tuple[List[str], npt.NDArray[np.int32]]:
+        """Every status as a category and each row's code into them (refused rows each their own)."""
+        codes = self.status_codes.astype(np.int32)
+        categories = _STATUS_NAMES[:_REFUSED]
+        for k, (row, why) in enumerate(sorted(self.refused.items())):
+            categories.append(f"refused: row {self._row_label(row)}: {why}")
+            codes[row] = _REFUSED + k
+        return categories, codes
+
+    @property
+    def status(self) -> npt.NDArray[np.object_]:
+        """Each row's status, as ``spincal correct`` writes it."""
+        categories, codes = self._status_categories()
+        return np.asarray(categories, dtype=object)[codes]
+
+    def _output_columns(self) -> Dict[str, FloatArray]:
+        """The corrected columns in the input's units, computed as the CLI computes them."""
+        out: Dict[str, FloatArray] = {}
+        from_mps2 = 1.0 / self.accel_to_mps2
+        for axis in self.axes:
+            a = "xyz".index(axis)
+            values = self.accel[:, a]
+            out[f"{self.columns[1 + a]}_corrected"] = values if from_mps2 == 1.0 else values * from_mps2
+        if self.gyro is not None:
+            for a in range(3):
+                values = self.gyro[:, a]
+                k = self.gyro_to_radps
+                out[f"{self.columns[4 + a]}_corrected"] = values if k == 1.0 else values / k
+        return out
+
+    def to_pandas(self) -> Any:
+        """A pandas DataFrame with the input's index: ``<column>_corrected`` per corrected axis
+        (and gyro axis) in the input's unit, ``valid`` (bool) and ``status`` (categorical).
+
+        Example::
+
+            >>> out = corrector.correct(frame).to_pandas()                      # doctest: +SKIP
+            >>> frame.join(out)          # what `spincal correct` writes        # doctest: +SKIP
+        """
+        import pandas as pd
+
+        categories, codes = self._status_categories()
+        data: Dict[str, Any] = dict(self._output_columns())
+        data["valid"] = self.valid
+        data["status"] = pd.Categorical.from_codes(cast(Any, codes), categories=pd.Index(categories))
+        index = self.index if self.index is not None else pd.RangeIndex(len(self))
+        return pd.DataFrame(data, index=index, copy=False)
+
+    def to_polars(self) -> Any:
+        """A polars DataFrame of the same columns as :meth:`to_pandas` (``status`` as an Enum),
+        rows in the input's order.
+
+        Example::
+
+            >>> out = corrector.correct(frame).to_polars()                      # doctest: +SKIP
+        """
+        import polars as pl
+
+        categories, codes = self._status_categories()
+        columns: List[Any] = [pl.Series(name, values) for name, values in self._output_columns().items()]
+        columns.append(pl.Series("valid", self.valid))
+        status = pl.Series("status", categories, dtype=pl.String).gather(codes)
+        columns.append(status.cast(pl.Enum(categories)))
+        return pl.DataFrame(columns)
 
     def to_dict(self) -> Dict[str, Any]:
+        """Plain lists: ``accel``, ``gyro`` (or None), ``valid``, ``outside_training_range``,
+        ``status``."""
         return {
             "accel": self.accel.tolist(),
+            "gyro": None if self.gyro is None else self.gyro.tolist(),
             "valid": self.valid.tolist(),
             "outside_training_range": self.outside_training_range.tolist(),
+            "status": self.status.tolist(),
         }
 
 
 class Corrector:
     """A saved corrector (model.json) of any kind: ``ann``, ``linear``, ``static``,
-    ``physical`` or ``physical_ann``. Load with :func:`load_corrector`; apply with :meth:`correct`.
+    ``physical``, ``physical_linear`` or ``physical_ann``, with the gyroscope's calibration when
+    the campaign had gyro columns (``has_gyro``). Load with :func:`load_corrector`; apply with
+    :meth:`correct`.
 
     Example::
 
         >>> c = spincal.load_corrector("cal/model.json")                          # doctest: +SKIP
-        >>> out = c.correct(rec.accel)                                            # doctest: +SKIP
-        >>> out.accel.shape                                                       # doctest: +SKIP
-        (12000, 3)
+        >>> out = c.correct(frame)                                                # doctest: +SKIP
+        >>> out.to_pandas().columns.tolist()                                      # doctest: +SKIP
+        ['ax_g_corrected', 'ay_g_corrected', 'valid', 'status']
     """
 
     __slots__ = ("_inner",)
@@ -354,13 +524,18 @@ class Corrector:
 
     @property
     def kind(self) -> str:
-        """``ann``, ``linear``, ``static``, ``physical`` or ``physical_ann``."""
+        """``ann``, ``linear``, ``static``, ``physical``, ``physical_linear`` or ``physical_ann``."""
         return self._inner.kind
 
     @property
     def axes(self) -> List[str]:
-        """The axes it changes; the others pass through."""
+        """The accelerometer axes it changes; the others pass through."""
         return list(self._inner.axes)
+
+    @property
+    def has_gyro(self) -> bool:
+        """True when it also calibrates the gyroscope (applied to gyro columns by :meth:`correct`)."""
+        return self._inner.has_gyro
 
     @property
     def warmup_samples(self) -> int:
@@ -382,25 +557,94 @@ class Corrector:
         """Writes model.json (temporary file, then renamed)."""
         self._inner.save(os.fspath(path))
 
-    def correct(self, data: Union[np.ndarray, Recording, PathLike, Any], **read_options: Any) -> Corrected:
-        """Corrects samples in time order, exactly as ``spincal correct`` does row by row.
+    def correct(
+        self,
+        data: Union[npt.ArrayLike, Recording, PathLike, bytes, Any],
+        *,
+        gyro: Optional[npt.ArrayLike] = None,
+        time: Optional[npt.ArrayLike] = None,
+        columns: Columns = None,
+        accel_unit: Optional[str] = None,
+        time_unit: Optional[str] = None,
+        gyro_unit: Optional[str] = None,
+        **read_options: Any,
+    ) -> Corrected:
+        """Corrects rows in time order exactly as ``spincal correct`` does: the same library
+        calls, the gyroscope too when the model calibrates it, the same ``status`` per row (a row
+        with a value that is not a finite number, or whose time goes backwards, is refused and
+        the next rows go on). Returns :class:`Corrected`.
 
-        ``data``: an (n, 3) float64 array in m/s² (read in place whatever its strides; other
-        dtypes are converted), a :class:`Recording`, a DataFrame or a path (read with
-        ``read_options`` as :func:`read`). Returns :class:`Corrected`.
+        ``data``:
+
+        - a pandas or polars DataFrame: columns found as :func:`read` finds them (``columns=``,
+          units from the names or ``accel_unit``/``time_unit``/``gyro_unit``), handed over as
+          arrays (never as text); a time column is optional (when present, rows whose time goes
+          back are refused, as by the CLI); the output keeps the frame's index;
+        - an (n, 3) array, list or tuple of m/s² (read in place when float64, whatever its
+          strides), with optional ``gyro`` (n, 3) rad/s and ``time`` (n,) s;
+        - a :class:`Recording`, or a file (path or bytes, read whole with ``read_options`` as
+          :func:`read`).
 
         Example::
 
-            >>> out = corrector.correct(np.array([[0.1, 0.0, 9.8]]))              # doctest: +SKIP
+            >>> rec, _ = spincal.simulate(seed=7, turntable={"duration_s": 5})
+            >>> linear = spincal.load_corrector("tests/linear.json")            # doctest: +SKIP
+            >>> out = linear.correct(rec.accel)                                  # doctest: +SKIP
+            >>> out.status[:2].tolist()                                          # doctest: +SKIP
+            ['ok', 'ok']
         """
-        if isinstance(data, np.ndarray):
-            accel = data if data.dtype == np.float64 else data.astype(np.float64)
+        kind = _frames.frame_kind(data)
+        index = None
+        if kind is not None:
+            if read_options:
+                raise UsageError(f"{', '.join(read_options)}: not used for a DataFrame (its columns are read as they are)")
+            plan = _frames.plan(
+                data,
+                name="<DataFrame>",
+                columns=columns,
+                accel_unit=accel_unit,
+                time_unit=time_unit,
+                gyro_unit=gyro_unit,
+                time_optional=True,
+            )
+            t, accel, g = _frames.planned_columns(data, kind, plan)
+            index = cast(Any, data).index if kind == "pandas" else None
+        elif isinstance(data, (np.ndarray, list, tuple)):
+            if columns is not None or accel_unit is not None or time_unit is not None or gyro_unit is not None or read_options:
+                raise UsageError("columns and units apply to DataFrames and files; arrays are in s, m/s² and rad/s")
+            a = _frames.array_columns(data, "accel")
+            ga = None if gyro is None else _frames.array_columns(gyro, "gyro")
+            t = None if time is None else _frames.as_floats(time, "time")
+            plan = _frames.si_plan(t is not None, ga is not None)
+            accel, g = _frames.split(a), None if ga is None else _frames.split(ga)
         else:
-            accel = _as_recording(data, read_options).accel
-        if accel.ndim != 2 or accel.shape[1:] != (3,):
-            raise UsageError(f"accel: expected an (n, 3) array, got shape {accel.shape}")
-        out, valid, outside = self._inner.correct(accel)
-        return Corrected(out, valid, outside)
+            if gyro is not None or time is not None:
+                raise UsageError("gyro and time go with an accel array; a recording or file has its own")
+            options = dict(read_options, columns=columns, accel_unit=accel_unit, time_unit=time_unit, gyro_unit=gyro_unit)
+            rec = _as_recording(data, {k: v for k, v in options.items() if v is not None})
+            rg = rec.gyro
+            t = rec.time
+            plan = _frames.si_plan(True, rg is not None)
+            accel, g = _frames.split(rec.accel), None if rg is None else _frames.split(rg)
+        if self.has_gyro and g is None:
+            warnings.warn(
+                "the model calibrates the gyroscope, but the data has no gyro columns; only the accelerometer was corrected",
+                stacklevel=2,
+            )
+        out, gyro_out, valid, outside, codes, refusals = self._inner.correct_columns(accel, g, t, plan)
+        return Corrected(
+            accel=out,
+            gyro=gyro_out,
+            valid=valid,
+            outside_training_range=outside,
+            status_codes=codes,
+            refused=dict(refusals),
+            axes=tuple(self.axes),
+            columns=tuple(plan.names),
+            accel_to_mps2=plan.accel_to_mps2,
+            gyro_to_radps=plan.gyro_to_radps,
+            index=index,
+        )
 
 
 def load_corrector(path: PathLike) -> Corrector:
@@ -418,16 +662,17 @@ def load_corrector(path: PathLike) -> Corrector:
     return Corrector(_spincal.Corrector.load(os.fspath(path)))
 
 
-def correct(model: Union[Corrector, PathLike], data: Any, **read_options: Any) -> Corrected:
-    """Applies a saved corrector to an array, a recording, a DataFrame or a file.
+def correct(model: Union[Corrector, PathLike], data: Any, **options: Any) -> Corrected:
+    """Applies a saved corrector (a :class:`Corrector` or the path of model.json) to a
+    DataFrame, an array, a recording or a file, as :meth:`Corrector.correct`.
 
     Example::
 
-        >>> out = spincal.correct("cal/model.json", "rec33.csv")                  # doctest: +SKIP
-        >>> out.accel[:3]                                                         # doctest: +SKIP
+        >>> out = spincal.correct("cal/model.json", frame)                       # doctest: +SKIP
+        >>> out.to_pandas().head()                                                # doctest: +SKIP
     """
     corrector = model if isinstance(model, Corrector) else load_corrector(model)
-    return corrector.correct(data, **read_options)
+    return corrector.correct(data, **options)
 
 
 class Calibration:
@@ -532,38 +777,47 @@ def calibrate_campaign(campaign: PathLike, *, progress: Progress = False) -> Cam
 
 
 def calibrate(
-    recordings: Union[Sequence[RecordingLike], PathLike],
+    recordings: Sequence[RecordingLike],
     *,
     rpm: Optional[float] = None,
     radius_m: Optional[float] = None,
-    radius_tol_m: float = 0.002,
-    objective_axes: str = "xyz",
-    drift: bool = True,
-    fit_offsets: bool = True,
-    separate_radii: bool = False,
-    gravity_mps2: float = 9.80665,
+    radius_tol_m: Optional[float] = None,
+    objective_axes: Optional[str] = None,
+    drift: Optional[bool] = None,
+    fit_offsets: Optional[bool] = None,
+    separate_radii: Optional[bool] = None,
+    gravity_mps2: Optional[float] = None,
     range_g: Optional[float] = None,
     sweep: Optional[str] = None,
-    hidden: Optional[str] = None,
-    restarts: int = 3,
-    sweep_hessian_samples: int = 8192,
-    correct_axes: str = "x,y",
-    delays: int = 0,
-    seed: int = 1,
-    arx: str = "6,8,1",
-    bj: str = "4,4,4,4,1",
-    narx: str = "2,2,1",
-    hw: str = "2,3,1",
+    hidden: Optional[Orders] = None,
+    restarts: Optional[int] = None,
+    sweep_hessian_samples: Optional[int] = None,
+    correct_axes: Optional[Axes] = None,
+    delays: Optional[int] = None,
+    seed: Optional[int] = None,
+    arx: Optional[Orders] = None,
+    bj: Optional[Orders] = None,
+    narx: Optional[Orders] = None,
+    hw: Optional[Orders] = None,
+    params: Optional[Mapping[str, Any]] = None,
     progress: Progress = False,
     sweep_runner: Optional[Callable[[str, int], Sequence[str]]] = None,
-) -> Union[Calibration, CampaignCalibration]:
+) -> Calibration:
     """Calibrates accelerometer data with the turntable as the reference, as ``spincal calibrate``
-    (same arguments, same defaults, same results.json numbers).
+    (the same settings, the same defaults, the same results.json numbers). For a campaign file
+    use :func:`calibrate_campaign`.
 
     ``recordings``: a list of :class:`Recording` objects, paths or DataFrames (turntable
-    sessions), or the path of a campaign file (``*.toml``, then see :func:`calibrate_campaign`).
-    ``sweep``: ``"small"`` (default), ``"full"`` (the paper's 165 architectures) or ``"none"``
-    with ``hidden="10,6"``. ``progress=True`` shows a tqdm bar; Ctrl-C stops the work.
+    sessions). Every setting left None is the library's default (:func:`default_params`, what
+    ``spincal calibrate`` runs). ``sweep``: ``"small"`` (default), ``"full"`` (the paper's 165
+    architectures) or ``"none"``; ``hidden=[10, 6]`` fixes one architecture; ``restarts`` per
+    architecture; ``correct_axes=["x", "y"]``; ``arx=[6, 8, 1]``, ``bj``, ``narx``, ``hw``: the
+    system-identification models' orders. ``params`` changes any other setting of the library's
+    ``Params`` by its name there, nested as :func:`default_params` shows (e.g.
+    ``params={"lm": {"max_epochs": 50}, "division": {"mode": "interleaved", ...}}``); an unknown
+    or unusable setting raises :class:`UsageError` naming its path. ``progress=True`` shows a
+    tqdm bar; Ctrl-C stops the work.
+
     ``sweep_runner``: who runs the network sweep's jobs (architectures × restarts), called as
     ``sweep_runner(jobs_json, n_jobs)`` and returning every job's run as text, in any order, from
     ``spincal._spincal.run_sweep_jobs(jobs_json, job_indices)`` wherever that runs;
@@ -575,39 +829,44 @@ def calibrate(
     Example::
 
         >>> rec, truth = spincal.simulate(seed=3)
-        >>> cal = spincal.calibrate([rec], radius_m=0.10, sweep="none", hidden="4", restarts=1)
+        >>> cal = spincal.calibrate([rec], radius_m=0.10, hidden=[4], restarts=1)
         >>> cal.result.chosen in {row.model for row in cal.result.comparison}
         True
     """
-    if isinstance(recordings, (str, os.PathLike)):
-        path = os.fspath(recordings)
-        if path.endswith(".toml"):
-            return calibrate_campaign(path, progress=progress)
-        recordings = [path]
+    if isinstance(recordings, (str, bytes, os.PathLike)) or _frames.frame_kind(recordings) is not None:
+        path = recordings if isinstance(recordings, (str, os.PathLike)) else None
+        if path is not None and os.fspath(path).endswith(".toml"):
+            raise UsageError(f"{os.fspath(path)}: a campaign file: use spincal.calibrate_campaign")
+        recordings = [recordings]
     recs = [_as_recording(r) for r in recordings]
+    fit = fit_changes(
+        rpm=rpm,
+        radius_m=radius_m,
+        radius_tol_m=radius_tol_m,
+        objective_axes=objective_axes,
+        drift=drift,
+        fit_offsets=fit_offsets,
+        separate_radii=separate_radii,
+        gravity_mps2=gravity_mps2,
+        range_g=range_g,
+    )
+    changes = calibration_changes(
+        params,
+        fit,
+        sweep=sweep,
+        hidden=hidden,
+        restarts=restarts,
+        sweep_hessian_samples=sweep_hessian_samples,
+        correct_axes=correct_axes,
+        delays=delays,
+        seed=seed,
+    )
+    sysid = [(kind, orders_list(orders, kind)) for kind, orders in (("arx", arx), ("bj", bj), ("narx", narx), ("hw", hw)) if orders is not None]
     with _progress(progress, "calibrating") as callback:
         inner = _spincal.calibrate(
             recs,
-            rpm=rpm,
-            radius_m=radius_m,
-            radius_tol_m=radius_tol_m,
-            objective_axes=objective_axes,
-            drift=drift,
-            fit_offsets=fit_offsets,
-            separate_radii=separate_radii,
-            gravity_mps2=gravity_mps2,
-            range_g=range_g,
-            sweep=sweep,
-            hidden=hidden,
-            restarts=restarts,
-            sweep_hessian_samples=sweep_hessian_samples,
-            correct_axes=correct_axes,
-            delays=delays,
-            seed=seed,
-            arx=arx,
-            bj=bj,
-            narx=narx,
-            hw=hw,
+            params_json=json.dumps(changes) if changes else None,
+            sysid=sysid or None,
             progress=callback,
             sweep_runner=sweep_runner,
         )
@@ -646,7 +905,7 @@ def static_calibration(
     return StaticResult._from_json(text), Corrector(corrector)
 
 
-def allan(data: Union[np.ndarray, RecordingLike], dt_s: Optional[float] = None, *, per_decade: int = 10) -> AllanResult:
+def allan(data: Union[npt.ArrayLike, RecordingLike], dt_s: Optional[float] = None, *, per_decade: int = 10) -> AllanResult:
     """Overlapping Allan deviation of a still recording (or an (n, 3) array sampled every
     ``dt_s`` seconds), with the noise density, bias instability and where the floor lies.
 
@@ -657,10 +916,10 @@ def allan(data: Union[np.ndarray, RecordingLike], dt_s: Optional[float] = None, 
         >>> 0.0009 < r.noise.noise_density[0] < 0.0011
         True
     """
-    if isinstance(data, np.ndarray):
+    if isinstance(data, (np.ndarray, list, tuple)):
         if dt_s is None:
             raise UsageError("dt_s is needed with an array (the sampling interval, s)")
-        accel = data
+        accel = _frames.array_columns(data, "data")
     else:
         rec = _as_recording(data)
         accel = rec.accel

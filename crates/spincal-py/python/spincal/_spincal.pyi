@@ -1,5 +1,6 @@
-# Type stubs of the extension module (crates/spincal-py/src/lib.rs); tests/python/test_stubs.py
-# checks that every name and parameter here matches the built module.
+# Type stubs of the extension module (crates/spincal-py/src/*.rs); tests/python/test_module.py
+# checks that every name and parameter here matches the built module, and mypy checks the package
+# against them (tests/python/test_types.py).
 from os import PathLike
 from typing import Any, Callable, List, Optional, Sequence, Tuple, Union
 
@@ -9,7 +10,19 @@ import numpy.typing as npt
 _Progress = Optional[Callable[[str, int, Optional[int]], Any]]
 _Path = Union[str, PathLike[str]]
 
-class Error(Exception): ...
+_F64 = npt.NDArray[np.float64]
+_Three = Tuple[_F64, _F64, _F64]
+
+STATUS_NAMES: List[str]
+
+class Error(Exception):
+    path: Optional[str]
+    line: Optional[int]
+    column: Optional[int]
+    column_name: Optional[str]
+    row: Optional[int]
+    key: Optional[str]
+
 class FormatError(Error): ...
 class ModelError(Error): ...
 class FitError(Error): ...
@@ -55,9 +68,18 @@ class Corrector:
     def axes(self) -> List[str]: ...
     @property
     def warmup_samples(self) -> int: ...
-    def correct(
-        self, accel: npt.NDArray[np.float64]
-    ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_], npt.NDArray[np.bool_]]: ...
+    @property
+    def has_gyro(self) -> bool: ...
+    def correct_columns(
+        self, accel: _Three, gyro: Optional[_Three], time: Optional[_F64], plan: ColumnPlan
+    ) -> Tuple[
+        _F64,
+        Optional[_F64],
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.uint8],
+        List[Tuple[int, str]],
+    ]: ...
     def static_json(self) -> Optional[str]: ...
 
 class Calibration:
@@ -85,13 +107,45 @@ def read(
     accel_scale: Optional[float] = None,
     retime: bool = False,
 ) -> Recording: ...
-def recording(
-    time: npt.NDArray[np.float64],
-    accel: npt.NDArray[np.float64],
-    gyro: Optional[npt.NDArray[np.float64]] = None,
+class ColumnPlan:
+    @property
+    def time(self) -> Optional[int]: ...
+    @property
+    def accel(self) -> Tuple[int, int, int]: ...
+    @property
+    def gyro(self) -> Optional[Tuple[int, int, int]]: ...
+    @property
+    def time_to_s(self) -> float: ...
+    @property
+    def accel_to_mps2(self) -> float: ...
+    @property
+    def gyro_to_radps(self) -> float: ...
+    @property
+    def names(self) -> List[str]: ...
+
+def plan_columns(
+    header: Sequence[str],
     *,
-    name: str = "array",
+    name: str = "<DataFrame>",
+    columns: Optional[Sequence[Optional[str]]] = None,
+    accel_unit: Optional[str] = None,
+    time_unit: Optional[str] = None,
+    gyro_unit: Optional[str] = None,
+    time_optional: bool = False,
+) -> ColumnPlan: ...
+def recording_from_columns(
+    time: Optional[_F64],
+    accel: _Three,
+    gyro: Optional[_Three],
+    plan: ColumnPlan,
+    *,
+    name: str,
+    format: str,
+    sample_rate_hz: Optional[float] = None,
 ) -> Recording: ...
+def default_params() -> str: ...
+def resolve_params(changes_json: str) -> str: ...
+def sweep_grid(name: str) -> List[List[int]]: ...
 def simulate(
     sensor_json: Optional[str] = None, turntable_json: Optional[str] = None, seed: int = 7
 ) -> Tuple[Recording, str]: ...
@@ -100,41 +154,14 @@ def simulate_campaign(folder: _Path, seed: int = 7, setup_json: Optional[str] = 
 def fit_turntable(
     recordings: Sequence[Recording],
     *,
-    rpm: Optional[float] = None,
-    radius_m: Optional[float] = None,
-    radius_tol_m: float = 0.002,
-    objective_axes: str = "xyz",
-    drift: bool = True,
-    fit_offsets: bool = True,
-    separate_radii: bool = False,
-    gravity_mps2: float = ...,
-    range_g: Optional[float] = None,
-    bounds: Sequence[Tuple[str, float, float]] = ...,
+    params_json: Optional[str] = None,
     progress: _Progress = None,
 ) -> Tuple[str, List[npt.NDArray[np.float64]]]: ...
 def calibrate(
     recordings: Sequence[Recording],
     *,
-    rpm: Optional[float] = None,
-    radius_m: Optional[float] = None,
-    radius_tol_m: float = 0.002,
-    objective_axes: str = "xyz",
-    drift: bool = True,
-    fit_offsets: bool = True,
-    separate_radii: bool = False,
-    gravity_mps2: float = ...,
-    range_g: Optional[float] = None,
-    sweep: Optional[str] = None,
-    hidden: Optional[str] = None,
-    restarts: int = 3,
-    sweep_hessian_samples: int = ...,
-    correct_axes: str = "x,y",
-    delays: int = 0,
-    seed: int = 1,
-    arx: str = "6,8,1",
-    bj: str = "4,4,4,4,1",
-    narx: str = "2,2,1",
-    hw: str = "2,3,1",
+    params_json: Optional[str] = None,
+    sysid: Optional[Sequence[Tuple[str, Sequence[int]]]] = None,
     progress: _Progress = None,
     sweep_runner: Optional[Callable[[str, int], Sequence[str]]] = None,
 ) -> Calibration: ...

@@ -2,7 +2,9 @@
 
 Install with ``pip install "spincal[ray]"``. Connect to a cluster first (``ray.init()`` or
 ``ray.init(address="auto")``); without one, :func:`calibrate_fleet` starts a local one as
-``ray.init()`` does.
+``ray.init()`` does. The workers need the ``spincal`` package: in the cluster's image, or shipped
+with the job as the wheel, ``ray.init(address="auto", runtime_env={"py_modules": ["dist/spincal-….whl"]})``
+(Ray uploads a local wheel and installs it on each node that runs a task).
 
 How the work moves:
 
@@ -38,7 +40,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import ray
 
-from . import Calibration, CampaignResult, Corrector, Error, Result, _spincal
+from . import Calibration, CampaignResult, Corrector, Error, FormatError, Result, UsageError, _spincal
 from . import calibrate as _calibrate_locally
 
 __all__ = ["UnitResult", "FleetResult", "calibrate_fleet", "unit_payload", "calibrate", "sweep_runner"]
@@ -68,7 +70,7 @@ def unit_payload(source: PathLike) -> Tuple[str, str, Dict[str, bytes]]:
             with open(p, "rb") as f:
                 files[os.path.relpath(p, root)] = f.read()
         except OSError as e:
-            raise _spincal.FormatError(f"{p}: cannot read: {e.strerror}") from None
+            raise FormatError(f"{p}: cannot read: {e.strerror}") from None
     return root, os.path.relpath(os.path.abspath(os.fspath(campaign)), root), files
 
 
@@ -81,14 +83,13 @@ def _calibrate_shipped(label: str, root: str, campaign: str, files: Mapping[str,
             os.makedirs(os.path.dirname(path), exist_ok=True)
             with open(path, "wb") as f:
                 f.write(data)
-        _crash_once_for_tests(label)
         try:
             unit, results, model = _spincal.calibrate_unit(os.path.join(tmp, campaign))
             # Results name the files read: name the driver's, as calibrating in place would.
             here, there = json.dumps(tmp)[1:-1], json.dumps(root)[1:-1]
             results = results.replace(here, there)
             model = None if model is None else model.replace(here, there)
-            outcome = {"unit": unit, "results_json": results, "model_json": model, "error": None}
+            outcome: Dict[str, Any] = {"unit": unit, "results_json": results, "model_json": model, "error": None}
         except Error as e:
             # The message names the worker's copy; name the driver's files instead.
             outcome = {"error": f"{type(e).__name__}: {str(e).replace(tmp, root)}"}
@@ -101,19 +102,6 @@ def _node() -> str:
         return ray.get_runtime_context().get_node_id()
     except Exception:  # pragma: no cover - outside a Ray worker
         return "local"
-
-
-def _crash_once_for_tests(label: str) -> None:
-    """Test support: with SPINCAL_RAY_CRASH_ONCE=<folder> in the task's environment, the first
-    attempt of each unit kills its worker process (as a lost node would), so the retry path runs."""
-    folder = os.environ.get("SPINCAL_RAY_CRASH_ONCE")
-    if not folder:
-        return
-    marker = os.path.join(folder, f"{label}.crashed")
-    if not os.path.exists(marker):
-        with open(marker, "w") as f:
-            f.write(str(os.getpid()))
-        os._exit(1)
 
 
 _remote_calibrate = ray.remote(_calibrate_shipped)
@@ -154,7 +142,7 @@ class UnitResult:
         }
 
     def __repr__(self) -> str:
-        state = f"saved={self.result.saved!r}" if self.ok else f"error={self.error!r}"
+        state = f"saved={self.result.saved!r}" if self.result is not None else f"error={self.error!r}"
         return f"UnitResult({self.label!r}, {state})"
 
 
@@ -307,7 +295,6 @@ def calibrate_fleet(
 
 def _run_sweep_jobs(jobs_json: str, jobs: List[int]) -> List[str]:
     """The task body of a distributed sweep: the given jobs, one after another, on one thread."""
-    _crash_once_for_tests(f"sweep-job-{jobs[0]}")
     return _spincal.run_sweep_jobs(jobs_json, jobs)
 
 
@@ -334,7 +321,7 @@ def sweep_runner(
         >>> cal = spincal.calibrate([rec], sweep="full", sweep_runner=runner)     # doctest: +SKIP
     """
     if jobs_per_task < 1:
-        raise _spincal.UsageError(f"jobs_per_task {jobs_per_task}: must be at least 1")
+        raise UsageError(f"jobs_per_task {jobs_per_task}: must be at least 1")
     env = dict(runtime_env or {})
     env_vars = dict(env.get("env_vars", {}))
     env_vars["RAYON_NUM_THREADS"] = "1"

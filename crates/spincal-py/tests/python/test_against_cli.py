@@ -69,6 +69,15 @@ def test_calibration_gives_the_clis_results_json(simulated, calibrated):
     cli_result = json.loads((calibrated / "results.json").read_text())
     assert _without_timing(cal.to_dict()) == _without_timing(cli_result)
     assert cal.result.chosen == cli_result["chosen"]
+    # The turntable fit's parameters by name, and the comparison as a table, from the same numbers.
+    radius = cal.result.parameters["radius"]
+    cli_radius = next(p for p in cli_result["turntable"]["params"] if p["name"] == "radius")
+    assert (radius.value, radius.stderr, radius.unit) == (cli_radius["value"], cli_radius["std_error"], cli_radius["unit"])
+    table = cal.result.to_pandas()
+    assert list(table.index) == [row["model"] for row in cli_result["comparison"]]
+    first = cli_result["comparison"][0]
+    assert table.iloc[0]["validation_fit_percent"] == first["validation"]["fit_percent_mean"]
+    assert cal.corrector is not None
     assert cal.corrector.to_dict()["corrector"] == json.loads((calibrated / "model.json").read_text())["corrector"]
 
 
@@ -80,6 +89,7 @@ def test_calibration_writes_the_report(simulated, tmp_path):
         assert (tmp_path / "out" / name).stat().st_size > 0
     assert "<html" in (tmp_path / "out" / "report.html").read_text()[:2000].lower()
     reloaded = spincal.load_corrector(tmp_path / "out" / "model.json")
+    assert cal.corrector is not None
     assert np.array_equal(reloaded.correct(rec.accel).accel, cal.corrector.correct(rec.accel).accel)
 
 
@@ -87,12 +97,24 @@ def test_campaign_calibration_gives_the_clis_results_json(tmp_path, cli):
     unit = tmp_path / "unit"
     truth = spincal.simulate_campaign(unit, seed=5)
     cli("calibrate", "--campaign", unit / "campaign.toml", "--out", tmp_path / "cli")
-    cal = spincal.calibrate(unit / "campaign.toml")
+    cal = spincal.calibrate_campaign(unit / "campaign.toml")
     assert isinstance(cal, spincal.CampaignCalibration)
+    with pytest.raises(spincal.UsageError, match="calibrate_campaign"):
+        spincal.calibrate(unit / "campaign.toml")
     cli_result = json.loads((tmp_path / "cli" / "results.json").read_text())
     assert _without_timing(cal.to_dict()) == _without_timing(cli_result)
     names = [p.name for p in cal.result.joint.sensor_params]
     assert any(n.startswith("bias_x") for n in names)
+    # The same parameters by name, the unit apart, standard errors beside the values.
+    by_name = cal.result.parameters
+    first = cli_result["joint"]["sensor_params"][0]
+    assert list(by_name)[0] == "bias_x" and by_name["bias_x"].unit == "m/s²"
+    assert (by_name["bias_x"].value, by_name["bias_x"].stderr) == (first["value"], first["std_error"])
+    assert len(by_name) == len(cli_result["joint"]["sensor_params"])
+    table = by_name.to_pandas()
+    assert table.loc["bias_x", "value"] == first["value"] and list(table.columns) == ["value", "stderr", "unit"]
+    gyro = cal.result.gyro_parameters
+    assert gyro is not None and len(gyro) == len(cli_result["gyro"]["params"])
     assert truth.sensor.bias_mps2 == truth.to_dict()["sensor"]["bias_mps2"]
     cal.write(tmp_path / "py")
     assert json.loads((tmp_path / "py" / "results.json").read_text())["unit"] == cli_result["unit"]

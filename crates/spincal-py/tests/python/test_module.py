@@ -26,7 +26,41 @@ def test_error_hierarchy():
     for name in ["FormatError", "ModelError", "FitError", "UsageError", "OutputError"]:
         cls = getattr(spincal, name)
         assert issubclass(cls, spincal.Error) and issubclass(cls, Exception)
+        # Shown and pickled as spincal.X, the name users import.
+        assert cls.__module__ == "spincal" and cls.__qualname__ == name
+        assert repr(cls("x")) == f"{name}('x')"
     assert not issubclass(spincal.FormatError, spincal.ModelError)
+    from spincal import FormatError  # noqa: F401  importable by name
+
+
+def test_errors_carry_their_place_as_attributes(tmp_path):
+    import pickle
+
+    path = tmp_path / "bad.csv"
+    path.write_text("t,ax,ay,az\n0,1,2,3\n0.01,1,zwei,3\n")
+    with pytest.raises(spincal.FormatError) as caught:
+        spincal.read(path)
+    e = caught.value
+    assert (e.path, e.line, e.column, e.column_name) == (str(path), 3, 3, "ay")
+    # Attributes survive pickling (Ray ships exceptions between processes).
+    again = pickle.loads(pickle.dumps(e))
+    assert type(again) is spincal.FormatError and again.line == 3 and str(again) == str(e)
+    # A campaign file's key and line.
+    campaign = tmp_path / "campaign.toml"
+    campaign.write_text('unit = "u"\n[[recording]]\nfile = "missing.csv"\nkind = "static"\n')
+    with pytest.raises(spincal.FormatError) as caught:
+        spincal.calibrate_campaign(campaign)
+    assert (caught.value.path, caught.value.line, caught.value.key) == (str(campaign), 2, "file"), str(caught.value)
+    # A model file's field.
+    model = tmp_path / "model.json"
+    model.write_text(json.dumps({"format_version": 999, "corrector": {"kind": "linear"}}))
+    with pytest.raises(spincal.ModelError) as model_error:
+        spincal.load_corrector(model)
+    assert model_error.value.path == str(model)
+    # Where nothing is known, None.
+    with pytest.raises(spincal.UsageError) as usage_error:
+        spincal.simulate(turntable={"bogus": 1})
+    assert usage_error.value.path is None and usage_error.value.line is None
 
 
 def test_format_error_names_file_line_and_column(tmp_path):
@@ -38,8 +72,9 @@ def test_format_error_names_file_line_and_column(tmp_path):
     assert "bad.csv" in text and ":3" in text and "zwei" in text
     with pytest.raises(spincal.Error):
         spincal.read(b"a,b\n1,2\n", name="x.csv")
-    with pytest.raises(spincal.FormatError, match="backwards"):
+    with pytest.raises(spincal.FormatError, match="backwards") as caught:
         spincal.recording(np.array([0.0, 0.2, 0.1]), np.zeros((3, 3)))
+    assert caught.value.row == 2
 
 
 def test_model_error_names_the_field(tmp_path):
@@ -73,9 +108,14 @@ def _public(obj):
     return {n for n in dir(obj) if not n.startswith("_")}
 
 
-def test_stubs_name_every_function_and_class():
+def test_stubs_name_every_function_class_and_constant():
     tree = _stub_tree()
     stubbed = {node.name for node in tree.body if isinstance(node, (ast.FunctionDef, ast.ClassDef))}
+    stubbed |= {
+        node.target.id
+        for node in tree.body
+        if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and not node.target.id.startswith("_")
+    }
     assert stubbed == _public(_spincal)
 
 
@@ -126,6 +166,6 @@ def test_every_public_function_documents_an_example():
         if inspect.isfunction(obj):
             doc = inspect.getdoc(obj) or ""
             assert "Example" in doc and ">>>" in doc, name
-    text = spincal.calibrate.__doc__
+    text = spincal.calibrate.__doc__ or ""
     assert "spincal calibrate" in text and "progress=True" in text
     assert inspect.signature(spincal.calibrate).parameters["radius_m"].default is None

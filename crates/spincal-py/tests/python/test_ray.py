@@ -2,6 +2,7 @@
 
 import json
 import os
+from typing import Any, Callable, Dict
 
 import numpy as np
 import pytest
@@ -12,6 +13,33 @@ ray = pytest.importorskip("ray")
 import spincal.ray as sray  # noqa: E402
 
 # The default campaign with shorter turntable runs (30 s), as the library's fleet test.
+
+
+def _crashing_once(body: Callable[..., Any], folder: str, label: Callable[..., str]) -> Any:
+    """A Ray task running ``body`` whose first attempt for each label kills its worker process (as
+    a lost node would), so Ray's retry path runs. Defined here, in the tests: the package ships no
+    such hook. The nested function travels to the workers by value; ``body`` is the package's own
+    task function, imported there by name."""
+
+    def task(*args: Any) -> Any:
+        marker = os.path.join(folder, f"{label(*args)}.crashed")
+        if not os.path.exists(marker):
+            with open(marker, "w") as f:
+                f.write(str(os.getpid()))
+            os._exit(1)
+        return body(*args)
+
+    return ray.remote(task)
+
+
+def _crash_fleet_tasks_once(monkeypatch, folder):
+    monkeypatch.setattr(sray, "_remote_calibrate", _crashing_once(sray._calibrate_shipped, str(folder), lambda label, *_: label))
+
+
+def _crash_sweep_tasks_once(monkeypatch, folder):
+    task = _crashing_once(sray._run_sweep_jobs, str(folder), lambda jobs_json, jobs: f"sweep-job-{jobs[0]}")
+    monkeypatch.setattr(sray, "_remote_sweep_jobs", task)
+
 
 def _setup(units, faulty):
     campaign = spincal.simulation_defaults()["campaign"]
@@ -92,7 +120,7 @@ def test_a_fleet_on_ray_recovers_each_unit_and_flags_the_faulty_one(ray_fleet, f
         alone = spincal.calibrate_unit(source)
         assert _comparable(unit._results_json) == _comparable(json.dumps(alone.result.to_dict()))
         assert (unit.corrector is None) == (alone.corrector is None)
-        if unit.corrector is not None:
+        if unit.corrector is not None and alone.corrector is not None:
             assert unit.corrector.to_dict() == alone.corrector.to_dict()
 
     result.write(tmp_path / "out")
@@ -102,24 +130,22 @@ def test_a_fleet_on_ray_recovers_each_unit_and_flags_the_faulty_one(ray_fleet, f
     assert "Held-out residual against physics" in (tmp_path / "out" / good[0].label / "report.html").read_text()
 
 
-def test_a_retried_task_gives_the_same_result(ray_fleet, fleet, tmp_path):
+def test_a_retried_task_gives_the_same_result(ray_fleet, fleet, tmp_path, monkeypatch):
     _, folders, _ = fleet
     _, first = ray_fleet
     markers = tmp_path / "markers"
     markers.mkdir()
     # Every task's first attempt kills its worker, as a lost node would; Ray runs it again.
-    again = sray.calibrate_fleet(
-        folders[:1], runtime_env={"env_vars": {"SPINCAL_RAY_CRASH_ONCE": str(markers)}}, max_retries=2
-    )
+    _crash_fleet_tasks_once(monkeypatch, markers)
+    again = sray.calibrate_fleet(folders[:1], max_retries=2)
     assert os.listdir(markers) == [f"{os.path.basename(folders[0])}.crashed"]
     assert again.units[0].ok, again.units[0].error
     assert _comparable(first.units[0]._results_json) == _comparable(again.units[0]._results_json)
     # Without retries the lost worker is that unit's failure, not the fleet's.
     markers2 = tmp_path / "markers2"
     markers2.mkdir()
-    lost = sray.calibrate_fleet(
-        folders[:1], runtime_env={"env_vars": {"SPINCAL_RAY_CRASH_ONCE": str(markers2)}}, max_retries=0
-    )
+    _crash_fleet_tasks_once(monkeypatch, markers2)
+    lost = sray.calibrate_fleet(folders[:1], max_retries=0)
     assert not lost.units[0].ok and lost.units[0].error
 
 
@@ -140,16 +166,15 @@ def _untimed(value):
     return value
 
 
-def test_a_sweep_spread_over_ray_equals_the_local_sweep_bit_for_bit(cluster, tmp_path):
+def test_a_sweep_spread_over_ray_equals_the_local_sweep_bit_for_bit(cluster, tmp_path, monkeypatch):
     rec, _ = spincal.simulate(seed=11, turntable={"duration_s": 40.0})
-    settings = dict(radius_m=0.10, sweep="small", restarts=2, seed=5)
+    settings: Dict[str, Any] = dict(radius_m=0.10, sweep="small", restarts=2, seed=5)
     local = spincal.calibrate([rec], **settings)
     markers = tmp_path / "markers"
     markers.mkdir()
     # Every task's first attempt kills its worker; the retried tasks give the same runs.
-    spread = sray.calibrate(
-        [rec], jobs_per_task=7, runtime_env={"env_vars": {"SPINCAL_RAY_CRASH_ONCE": str(markers)}}, **settings
-    )
+    _crash_sweep_tasks_once(monkeypatch, markers)
+    spread = sray.calibrate([rec], jobs_per_task=7, **settings)
     n_jobs = len(local.result.sweep) * 2
     assert len(local.result.sweep) == 20
     assert sorted(os.listdir(markers)) == sorted(f"sweep-job-{k}.crashed" for k in range(0, n_jobs, 7))
@@ -158,6 +183,7 @@ def test_a_sweep_spread_over_ray_equals_the_local_sweep_bit_for_bit(cluster, tmp
     # Floats compared as text would hide nothing, but check the sweep's MSEs to the bit anyway.
     for x, y in zip(a["sweep"], b["sweep"]):
         assert float(x["best_validation_mse"]).hex() == float(y["best_validation_mse"]).hex()
+    assert local.corrector is not None and spread.corrector is not None
     assert _untimed(json.loads(local.corrector.to_json())) == _untimed(json.loads(spread.corrector.to_json()))
     np.testing.assert_array_equal(local.corrected, spread.corrected)
 

@@ -1,0 +1,554 @@
+//! Columns handed over by Python (numpy arrays, a DataFrame's columns): which column is which, by
+//! the library's own rules; whole recordings built from them with the same checks as every other
+//! entry point; and row-by-row correction exactly as `spincal correct` does it.
+//!
+//! A DataFrame is never written out as text: Python hands its header to [`plan_columns`], which
+//! finds time, accel and gyro by the library's column rules (names, `columns=`, units from the
+//! name suffixes), then hands only those columns over as arrays, read in place.
+
+use numpy::ndarray::{Array1, Array2, ArrayView1};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
+use pyo3::prelude::*;
+
+use spincal::table::{Delimiter, Table};
+use spincal::{ColumnMap, Recording, RecordingError};
+
+use crate::errors::{self, usage, Kind, Place};
+
+/// The header name given to the synthetic time column of a table that has none (time then comes
+/// from the sample rate, or is not needed).
+const NO_TIME: &str = "(no time column)";
+
+/// Where time, accel and gyro are in a table (0-based positions) and their factors to SI.
+#[pyclass(name = "ColumnPlan", module = "spincal._spincal", frozen, get_all)]
+#[derive(Debug, Clone)]
+pub struct ColumnPlan {
+    /// The time column, or None when the table has none.
+    pub time: Option<usize>,
+    pub accel: [usize; 3],
+    pub gyro: Option<[usize; 3]>,
+    pub time_to_s: f64,
+    pub accel_to_mps2: f64,
+    pub gyro_to_radps: f64,
+    /// The names of the columns used, time first (`(no time column)` when absent).
+    pub names: Vec<String>,
+}
+
+#[pymethods]
+impl ColumnPlan {
+    fn __repr__(&self) -> String {
+        format!(
+            "ColumnPlan(time={:?}, accel={:?}, gyro={:?}, names={:?})",
+            self.time, self.accel, self.gyro, self.names
+        )
+    }
+}
+
+/// The column map for keyword arguments: `columns` (names or 1-based positions, time first; a
+/// time of None means "no time column") and the units.
+fn column_map(
+    columns: Option<&[Option<String>]>,
+    accel_unit: Option<&str>,
+    time_unit: Option<&str>,
+    gyro_unit: Option<&str>,
+) -> PyResult<ColumnMap> {
+    let mut map = ColumnMap::default();
+    if let Some(keys) = columns {
+        if keys.len() != 4 && keys.len() != 7 {
+            return Err(usage(format!(
+                "columns: expected 4 or 7 entries (time, ax, ay, az[, gx, gy, gz]), got {}",
+                keys.len()
+            )));
+        }
+        if let Some(i) = keys[1..].iter().position(Option::is_none) {
+            return Err(usage(format!(
+                "columns[{}]: only the time column may be None",
+                i + 1
+            )));
+        }
+        map.columns = Some(
+            keys.iter()
+                .map(|k| k.clone().unwrap_or_else(|| NO_TIME.to_string()))
+                .collect(),
+        );
+    }
+    map.accel_unit = accel_unit
+        .map(|u| {
+            spincal::AccelUnit::parse(u).ok_or_else(|| usage(format!("accel_unit {u:?}: expected g or mps2")))
+        })
+        .transpose()?;
+    map.time_unit = time_unit
+        .map(|u| {
+            spincal::recording::TimeUnit::parse(u)
+                .ok_or_else(|| usage(format!("time_unit {u:?}: expected s, ms or us")))
+        })
+        .transpose()?;
+    map.gyro_unit = gyro_unit
+        .map(|u| {
+            spincal::recording::GyroUnit::parse(u)
+                .ok_or_else(|| usage(format!("gyro_unit {u:?}: expected dps or radps")))
+        })
+        .transpose()?;
+    Ok(map)
+}
+
+/// The library's reading of a one-row table whose cells hold `value(c)`.
+fn probe(
+    header: &[String],
+    name: &str,
+    map: &ColumnMap,
+    value: impl Fn(usize) -> f64,
+) -> Result<Recording, RecordingError> {
+    let table = Table {
+        file: name.to_string(),
+        delimiter: Delimiter::Comma,
+        header: header.to_vec(),
+        metadata: Vec::new(),
+        columns: (0..header.len()).map(|c| vec![value(c)]).collect(),
+        lines: vec![1],
+    };
+    Recording::from_table(&table, map)
+}
+
+/// Resolves the columns of a table with header `header` exactly as `spincal` reads a file with that
+/// header line: the library reads two one-row tables, one of ones (its values are the unit factors)
+/// and one of column numbers (its values, over the factors, are the positions it chose).
+fn resolve(header: &[String], name: &str, map: &ColumnMap) -> Result<ColumnPlan, RecordingError> {
+    let factors = probe(header, name, map, |_| 1.0)?;
+    let numbers = probe(header, name, map, |c| (c + 1) as f64)?;
+    let position = |value: f64, factor: f64| (value / factor).round() as usize - 1;
+    let time_position = position(numbers.time_s[0], factors.time_s[0]);
+    let accel = std::array::from_fn(|a| position(numbers.accel_mps2[a][0], factors.accel_mps2[a][0]));
+    let gyro = match (&numbers.gyro_radps, &factors.gyro_radps) {
+        (Some(n), Some(f)) => Some(std::array::from_fn(|a| position(n[a][0], f[a][0]))),
+        _ => None,
+    };
+    let time = (header.get(time_position).map(String::as_str) != Some(NO_TIME)).then_some(time_position);
+    Ok(ColumnPlan {
+        time,
+        accel,
+        gyro,
+        time_to_s: factors.time_s[0],
+        accel_to_mps2: factors.accel_mps2[0][0],
+        gyro_to_radps: factors.gyro_radps.as_ref().map_or(1.0, |g| g[0][0]),
+        names: factors.source.columns,
+    })
+}
+
+/// Finds time, accel and gyro among a table's columns by the library's rules (as `spincal` reads a
+/// file with this header). With `time_optional`, a table without a time column is accepted (its
+/// plan has `time` None).
+#[pyfunction]
+#[pyo3(signature = (header, *, name = "<DataFrame>", columns = None, accel_unit = None, time_unit = None,
+    gyro_unit = None, time_optional = false))]
+pub fn plan_columns(
+    header: Vec<String>,
+    name: &str,
+    columns: Option<Vec<Option<String>>>,
+    accel_unit: Option<&str>,
+    time_unit: Option<&str>,
+    gyro_unit: Option<&str>,
+    time_optional: bool,
+) -> PyResult<ColumnPlan> {
+    let map = column_map(columns.as_deref(), accel_unit, time_unit, gyro_unit)?;
+    let no_time_named = columns.as_ref().is_some_and(|c| c[0].is_none());
+    if no_time_named && !time_optional {
+        return Err(usage(
+            "columns: the time column is None, so give sample_rate_hz (time = sample number / rate)",
+        ));
+    }
+    let mut with_time = header.clone();
+    with_time.push(NO_TIME.to_string());
+    let first = if no_time_named {
+        resolve(&with_time, name, &map)
+    } else {
+        resolve(&header, name, &map)
+    };
+    match first {
+        // No time column found: a sample rate can stand in for it.
+        Err(RecordingError::AmbiguousColumns { .. }) if time_optional && map.columns.is_none() => {
+            let mut guessed = header.clone();
+            guessed.push("t".to_string());
+            let mut plan = resolve(&guessed, name, &map).map_err(|_| ambiguous(&header, name))?;
+            if plan.time == Some(header.len()) {
+                plan.time = None;
+                plan.names[0] = NO_TIME.to_string();
+            }
+            Ok(plan)
+        }
+        Err(RecordingError::AmbiguousColumns { .. }) => Err(ambiguous(&header, name)),
+        Err(e) => Err(errors::format(e)),
+        Ok(plan) => Ok(plan),
+    }
+}
+
+/// The error for columns that cannot be told apart, in Python's words (not the CLI's flag).
+fn ambiguous(header: &[String], name: &str) -> PyErr {
+    errors::with_place(
+        Kind::Format,
+        format!(
+            "{name}: cannot tell which columns hold time and acceleration (columns: {}); pass \
+             columns=[\"t\", \"ax\", \"ay\", \"az\"] (names or 1-based positions, gx, gy, gz after them \
+             for the gyro; None for the time with sample_rate_hz)",
+            header.join(", ")
+        ),
+        &Place {
+            path: Some(name.to_string()),
+            ..Place::default()
+        },
+    )
+}
+
+/// A value that is not finite, named by row and column (the same words as the library's table
+/// reader: "the value is NaN; spincal needs finite numbers").
+fn not_finite(name: &str, row: usize, column: &str, position: Option<usize>, value: f64) -> PyErr {
+    errors::with_place(
+        Kind::Format,
+        format!("{name}: row {row}, column {column}: the value is {value}; spincal needs finite numbers"),
+        &Place {
+            path: Some(name.to_string()),
+            row: Some(row),
+            column: position.map(|p| p + 1),
+            column_name: Some(column.to_string()),
+            ..Place::default()
+        },
+    )
+}
+
+/// One column converted to SI, every value checked: finite as given, finite after conversion.
+fn converted(
+    name: &str,
+    column: ArrayView1<'_, f64>,
+    factor: f64,
+    column_name: &str,
+    position: Option<usize>,
+) -> PyResult<Vec<f64>> {
+    let mut out = Vec::with_capacity(column.len());
+    for (row, &v) in column.iter().enumerate() {
+        if !v.is_finite() {
+            return Err(not_finite(name, row, column_name, position, v));
+        }
+        let si = v * factor;
+        if !si.is_finite() {
+            return Err(errors::with_place(
+                Kind::Format,
+                format!(
+                    "{name}: row {row}, column {column_name}: {v:e} is {si} after conversion to SI units (× {factor}); spincal needs finite numbers: check the column's unit or the value"
+                ),
+                &Place {
+                    path: Some(name.to_string()),
+                    row: Some(row),
+                    column: position.map(|p| p + 1),
+                    column_name: Some(column_name.to_string()),
+                    ..Place::default()
+                },
+            ));
+        }
+        out.push(si);
+    }
+    Ok(out)
+}
+
+type Three<'py> = (
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+    PyReadonlyArray1<'py, f64>,
+);
+
+/// A whole recording from columns: the one path of `recording()` (arrays) and `read()` of a
+/// DataFrame. Every value must be finite (the error names the row and column), time must not go
+/// backwards; without a time column, time is sample number / `sample_rate_hz`.
+#[pyfunction]
+#[pyo3(signature = (time, accel, gyro, plan, *, name, format, sample_rate_hz = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn recording_from_columns(
+    time: Option<PyReadonlyArray1<'_, f64>>,
+    accel: Three<'_>,
+    gyro: Option<Three<'_>>,
+    plan: &ColumnPlan,
+    name: &str,
+    format: &str,
+    sample_rate_hz: Option<f64>,
+) -> PyResult<crate::PyRecording> {
+    let accel = [accel.0.as_array(), accel.1.as_array(), accel.2.as_array()];
+    let gyro = gyro
+        .as_ref()
+        .map(|g| [g.0.as_array(), g.1.as_array(), g.2.as_array()]);
+    let n = accel[0].len();
+    let mut lengths: Vec<(&str, usize)> = (0..3)
+        .map(|a| (plan.names[1 + a].as_str(), accel[a].len()))
+        .collect();
+    if let Some(g) = &gyro {
+        lengths.extend((0..3).map(|a| (plan.names.get(4 + a).map_or("gyro", String::as_str), g[a].len())));
+    }
+    if let Some(t) = &time {
+        lengths.push((plan.names[0].as_str(), t.as_array().len()));
+    }
+    if let Some((column, len)) = lengths.iter().find(|(_, len)| *len != n) {
+        return Err(usage(format!(
+            "{name}: {column} has {len} rows, {} has {n}: every column needs one value per row",
+            plan.names[1]
+        )));
+    }
+    if plan.gyro.is_some() != gyro.is_some() {
+        return Err(usage(format!(
+            "{name}: the gyro columns were {} the plan",
+            if gyro.is_some() {
+                "given but are not in"
+            } else {
+                "planned but not given to"
+            }
+        )));
+    }
+    let time_s = match (sample_rate_hz, &time) {
+        (Some(rate), _) => {
+            if !(rate.is_finite() && rate > 0.0) {
+                return Err(usage(format!(
+                    "sample_rate_hz = {rate}: must be a positive number of samples per second"
+                )));
+            }
+            (0..n).map(|i| i as f64 / rate).collect()
+        }
+        (None, Some(t)) => converted(name, t.as_array(), plan.time_to_s, &plan.names[0], plan.time)?,
+        (None, None) => {
+            return Err(usage(format!(
+                "{name}: no time column: give one, or sample_rate_hz (time = sample number / rate)"
+            )))
+        }
+    };
+    let accel_mps2: [Vec<f64>; 3] = [
+        converted(
+            name,
+            accel[0],
+            plan.accel_to_mps2,
+            &plan.names[1],
+            Some(plan.accel[0]),
+        )?,
+        converted(
+            name,
+            accel[1],
+            plan.accel_to_mps2,
+            &plan.names[2],
+            Some(plan.accel[1]),
+        )?,
+        converted(
+            name,
+            accel[2],
+            plan.accel_to_mps2,
+            &plan.names[3],
+            Some(plan.accel[2]),
+        )?,
+    ];
+    let gyro_radps = match (&gyro, plan.gyro) {
+        (Some(g), Some(p)) => Some([
+            converted(name, g[0], plan.gyro_to_radps, &plan.names[4], Some(p[0]))?,
+            converted(name, g[1], plan.gyro_to_radps, &plan.names[5], Some(p[1]))?,
+            converted(name, g[2], plan.gyro_to_radps, &plan.names[6], Some(p[2]))?,
+        ]),
+        _ => None,
+    };
+    if let Some(i) = (1..n).find(|&i| time_s[i] < time_s[i - 1]) {
+        return Err(errors::with_place(
+            Kind::Format,
+            format!(
+                "{name}: row {i}, column {}: time goes backwards ({} s, then {} s)",
+                plan.names[0],
+                time_s[i - 1],
+                time_s[i]
+            ),
+            &Place {
+                path: Some(name.to_string()),
+                row: Some(i),
+                column: plan.time.map(|p| p + 1),
+                column_name: Some(plan.names[0].clone()),
+                ..Place::default()
+            },
+        ));
+    }
+    let mut names = plan.names.clone();
+    if plan.time.is_none() {
+        names[0] = "(sample number / rate)".to_string();
+    }
+    Ok(crate::PyRecording {
+        inner: Recording {
+            time_s,
+            accel_mps2,
+            gyro_radps,
+            temperature_c: None,
+            source: spincal::recording::Source {
+                name: name.to_string(),
+                format: format.to_string(),
+                columns: names,
+                ..Default::default()
+            },
+        },
+        notes: Vec::new(),
+        raw_counts: false,
+    })
+}
+
+/// What each row's `status` code means: `spincal correct`'s status column.
+pub const STATUS_NAMES: [&str; 4] = ["ok", "physics-only", "outside-range", "refused"];
+
+/// Corrected rows: accel (n, 3) m/s² (every axis; uncorrected ones pass through), gyro (n, 3)
+/// rad/s or None, valid (n,), outside the training range (n,), status code (n,) (an index into
+/// [`STATUS_NAMES`]) and, for every refused row, (row, reason).
+pub type CorrectedColumns<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Option<Bound<'py, PyArray2<f64>>>,
+    Bound<'py, PyArray1<bool>>,
+    Bound<'py, PyArray1<bool>>,
+    Bound<'py, PyArray1<u8>>,
+    Vec<(usize, String)>,
+);
+
+/// (n, 3) from three columns stored one after another: a Fortran-ordered view, each column contiguous.
+fn three_columns(py: Python<'_>, flat: Vec<f64>, n: usize) -> Bound<'_, PyArray2<f64>> {
+    Array2::from_shape_vec((3, n), flat)
+        .expect("three columns of n values")
+        .reversed_axes()
+        .into_pyarray(py)
+}
+
+/// Corrects rows exactly as `spincal correct` does, one row after another through the same
+/// library calls (`Corrector::stream` and `correct_sample`, the model's gyro corrector): a row
+/// with a value that is not finite (as given or after conversion to SI) or whose time goes
+/// backwards is refused (status `refused`, valid False, corrected values NaN) and never reaches the
+/// corrector; a row whose corrected value is not finite is refused after it.
+#[allow(clippy::too_many_arguments)]
+pub fn correct_rows<'py>(
+    py: Python<'py>,
+    file: &spincal::CorrectorFile,
+    time: Option<ArrayView1<'_, f64>>,
+    accel: [ArrayView1<'_, f64>; 3],
+    gyro: Option<[ArrayView1<'_, f64>; 3]>,
+    plan: &ColumnPlan,
+) -> PyResult<CorrectedColumns<'py>> {
+    use spincal::corrector::Corrector;
+    let n = accel[0].len();
+    let columns_given = accel.iter().chain(gyro.iter().flatten()).chain(time.iter());
+    if let Some(bad) = columns_given.map(|c| c.len()).find(|&len| len != n) {
+        return Err(usage(format!(
+            "the columns differ in length ({bad} and {n} rows): every column needs one value per row"
+        )));
+    }
+    // The gyro is corrected when the model calibrates it and the data has it, as by the CLI.
+    let gyro_corrector = match (&file.gyro, &gyro) {
+        (Some(model), Some(_)) => Some(model.corrector().ok_or_else(|| {
+            errors::with_place(
+                Kind::Model,
+                "the model's gyro sensitivity is singular".into(),
+                &Place::default(),
+            )
+        })?),
+        _ => None,
+    };
+    let gyro = gyro.filter(|_| gyro_corrector.is_some());
+    let corrector = &file.corrector;
+    let axes = corrector.corrected_axes();
+    let names = &plan.names;
+    let run = || {
+        let mut out = vec![f64::NAN; 3 * n];
+        let mut gyro_out = gyro.map(|_| vec![f64::NAN; 3 * n]);
+        let mut valid = Array1::<bool>::from_elem(n, false);
+        let mut outside = Array1::<bool>::from_elem(n, false);
+        let mut status = Array1::<u8>::from_elem(n, 3);
+        let mut refusals = Vec::new();
+        let mut state = corrector.stream();
+        let mut previous_time: Option<f64> = None;
+        let from_mps2 = 1.0 / plan.accel_to_mps2;
+        for i in 0..n {
+            // Every value handed on must be a finite number (the CLI's reader refuses the row).
+            let given = time
+                .iter()
+                .map(|t| (t[i], 0usize))
+                .chain((0..3).map(|a| (accel[a][i], a + 1)))
+                .chain(gyro.iter().flat_map(|g| (0..3).map(move |a| (g[a][i], a + 4))));
+            if let Some((v, k)) = given.clone().find(|(v, _)| !v.is_finite()) {
+                refusals.push((
+                    i,
+                    format!(
+                        "column {}: the value is {v}; spincal needs finite numbers",
+                        names[k]
+                    ),
+                ));
+                continue;
+            }
+            let t = time.map(|t| t[i] * plan.time_to_s);
+            if let (Some(t), Some(p)) = (t, previous_time) {
+                if t < p {
+                    refusals.push((i, format!("time {t} s goes backwards (previous row {p} s)")));
+                    continue;
+                }
+            }
+            let factor = |k: usize| match k {
+                0 => plan.time_to_s,
+                1..=3 => plan.accel_to_mps2,
+                _ => plan.gyro_to_radps,
+            };
+            if let Some((v, k)) = given.clone().find(|&(v, k)| !(v * factor(k)).is_finite()) {
+                refusals.push((
+                    i,
+                    format!(
+                        "column {}: {v:e} is {} after conversion to SI units (× {}); spincal needs finite numbers",
+                        names[k],
+                        v * factor(k),
+                        factor(k)
+                    ),
+                ));
+                continue;
+            }
+            previous_time = t.or(previous_time);
+            let measured = [
+                accel[0][i] * plan.accel_to_mps2,
+                accel[1][i] * plan.accel_to_mps2,
+                accel[2][i] * plan.accel_to_mps2,
+            ];
+            let sample = state.correct_sample(measured);
+            let rate = gyro.as_ref().zip(gyro_corrector.as_ref()).map(|(g, c)| {
+                c.correct([
+                    g[0][i] * plan.gyro_to_radps,
+                    g[1][i] * plan.gyro_to_radps,
+                    g[2][i] * plan.gyro_to_radps,
+                ])
+            });
+            let corrected_finite = axes
+                .iter()
+                .map(|axis| sample.accel_mps2[axis.index()] * from_mps2)
+                .chain(rate.iter().flatten().map(|w| w / plan.gyro_to_radps))
+                .all(f64::is_finite);
+            if !corrected_finite {
+                refusals.push((
+                    i,
+                    "the corrected value is not finite (the input is far outside anything the model was made for)".to_string(),
+                ));
+                continue;
+            }
+            for a in 0..3 {
+                out[a * n + i] = sample.accel_mps2[a];
+            }
+            if let (Some(g), Some(rate)) = (gyro_out.as_mut(), rate) {
+                for a in 0..3 {
+                    g[a * n + i] = rate[a];
+                }
+            }
+            valid[i] = sample.valid;
+            outside[i] = sample.outside_training_range;
+            status[i] = match (sample.valid, sample.outside_training_range) {
+                (_, false) => 0,
+                (true, true) => 1,
+                (false, true) => 2,
+            };
+        }
+        (out, gyro_out, valid, outside, status, refusals)
+    };
+    let (out, gyro_out, valid, outside, status, refusals) = py.detach(run);
+    Ok((
+        three_columns(py, out, n),
+        gyro_out.map(|g| three_columns(py, g, n)),
+        valid.into_pyarray(py),
+        outside.into_pyarray(py),
+        status.into_pyarray(py),
+        refusals,
+    ))
+}

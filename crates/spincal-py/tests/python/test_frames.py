@@ -1,0 +1,239 @@
+"""DataFrames (pandas and polars) in and out: columns handed over as arrays by the library's column
+rules, and `spincal correct`'s output reproduced from Python, gyro included, to the last bit."""
+
+import csv
+import math
+
+import numpy as np
+import pytest
+
+import spincal
+
+pd = pytest.importorskip("pandas")
+
+
+@pytest.fixture(scope="module")
+def campaign_model(tmp_path_factory, cli):
+    """A campaign calibrated by the CLI: its model.json calibrates the gyroscope too."""
+    folder = tmp_path_factory.mktemp("campaign")
+    unit = folder / "unit"
+    spincal.simulate_campaign(unit, seed=5)
+    cli("calibrate", "--campaign", unit / "campaign.toml", "--out", folder / "cal")
+    model = folder / "cal" / "model.json"
+    assert spincal.load_corrector(model).has_gyro, "the campaign's model should calibrate the gyro"
+    recordings = sorted(p for p in unit.glob("*.csv") if not p.name.endswith((".truth.csv", ".random.csv")))
+    return model, recordings
+
+
+def _frame_in_g_and_dps(source, target):
+    """The recording's rows written with the acceleration in g and the gyro in °/s (unit-bearing
+    names), two rows whose values are not numbers and one whose time goes back: what a user's
+    file looks like. Written with Python's round-trip repr, so pandas and the CLI read the same
+    bits."""
+    frame = pd.read_csv(source, float_precision="round_trip")
+    out = pd.DataFrame(
+        {
+            "time_s": frame["t_s"],
+            "ax_g": frame["ax_mps2"] / 9.80665,
+            "ay_g": frame["ay_mps2"] / 9.80665,
+            "az_g": frame["az_mps2"] / 9.80665,
+            "gx_dps": np.degrees(frame["gx_radps"]),
+            "gy_dps": np.degrees(frame["gy_radps"]),
+            "gz_dps": np.degrees(frame["gz_radps"]),
+            "note": 7.0,
+        }
+    ).iloc[:3000].copy()
+    out.loc[100, "ay_g"] = float("nan")
+    out.loc[200, "gz_dps"] = float("inf")
+    out.loc[300, "time_s"] = out.loc[299, "time_s"] - 1.0
+    out.to_csv(target, index=False, na_rep="NaN")
+    return pd.read_csv(target, float_precision="round_trip")
+
+
+def _cli_rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_a_dataframe_corrected_in_python_equals_spincal_correct_gyro_included(campaign_model, cli, tmp_path):
+    model, recordings = campaign_model
+    turning = next(p for p in recordings if p.name.startswith("run-"))
+    source = tmp_path / "in.csv"
+    frame = _frame_in_g_and_dps(turning, source)
+    frame.index = frame.index * 10 + 5  # a user's own index: kept in the output
+    cli_out = tmp_path / "cli.csv"
+    done = cli("correct", "--model", model, source, "-o", cli_out, check=False)
+    assert done.returncode == 3, done.stderr  # rows were refused
+    rows = _cli_rows(cli_out)
+    corrected = spincal.correct(model, frame)
+    ours = frame.join(corrected.to_pandas())
+    # The same columns, in the same order, as the CLI writes.
+    assert list(ours.columns) == list(rows[0].keys())
+    assert "gx_dps_corrected" in ours.columns and "ax_g_corrected" in ours.columns
+    assert list(ours.index) == list(frame.index)
+    refused = 0
+    for k, (label, row) in enumerate(zip(ours.index, rows)):
+        status = ours.at[label, "status"]
+        if row["status"].startswith("refused"):
+            refused += 1
+            assert status.startswith(f"refused: row {label}: "), (k, status, row["status"])
+            assert not ours.at[label, "valid"]
+            continue
+        assert status == row["status"], k
+        assert bool(ours.at[label, "valid"]) == (row["valid"] == "1"), k
+        for column in ours.columns:
+            if column.endswith("_corrected"):
+                # Bit for bit: the CLI prints the shortest text that reads back to the same double.
+                assert float(row[column]) == ours.at[label, column], (k, column)
+    assert refused == 3
+    reasons = [corrected.refused[p] for p in sorted(corrected.refused)]
+    assert "column ay_g: the value is NaN" in reasons[0]
+    assert "column gz_dps: the value is inf" in reasons[1]
+    assert "goes backwards" in reasons[2]
+    # The gyro really was corrected, and differs from the measurement.
+    assert not np.array_equal(ours["gx_dps_corrected"].dropna(), frame["gx_dps"][ours["gx_dps_corrected"].notna()])
+
+
+def test_polars_gives_the_same_rows_as_pandas(campaign_model, tmp_path):
+    pl = pytest.importorskip("polars")
+    model, recordings = campaign_model
+    frame = _frame_in_g_and_dps(recordings[0], tmp_path / "in.csv")
+    corrector = spincal.load_corrector(model)
+    from_pandas = corrector.correct(frame).to_pandas()
+    from_polars = corrector.correct(pl.from_pandas(frame)).to_polars()
+    assert from_polars.columns == list(from_pandas.columns)
+    for column in from_polars.columns:
+        if column == "status":
+            assert from_polars[column].to_list() == [str(s) for s in from_pandas[column]]
+        else:
+            np.testing.assert_array_equal(from_polars[column].to_numpy(), from_pandas[column].to_numpy())
+
+
+def test_a_refused_row_never_reaches_the_corrector(campaign_model):
+    model, recordings = campaign_model
+    rec = spincal.read(recordings[-1])
+    assert rec.gyro is not None
+    corrector = spincal.load_corrector(model)
+    accel = rec.accel.copy()
+    accel[50, 1] = float("nan")
+    marked = corrector.correct(accel, gyro=rec.gyro)
+    assert marked.status[50].startswith("refused: row 50: column ay_mps2: the value is NaN")
+    assert not marked.valid[50] and np.isnan(marked.accel[50]).all()
+    # Every other row is what correcting the data without that row gives.
+    keep = np.ones(len(rec), dtype=bool)
+    keep[50] = False
+    without = corrector.correct(rec.accel[keep], gyro=rec.gyro[keep])
+    np.testing.assert_array_equal(marked.accel[keep], without.accel)
+    assert marked.gyro is not None and without.gyro is not None
+    np.testing.assert_array_equal(marked.gyro[keep], without.gyro)
+    assert (marked.status[keep] == without.status).all()
+
+
+def test_columns_are_found_by_the_clis_rules_or_named(simulated):
+    path, rec, _ = simulated
+    frame = pd.read_csv(path, float_precision="round_trip")
+    # By the names the CLI knows, in any order, other columns ignored.
+    shuffled = frame[["az_mps2", "t_s", "ax_mps2", "ay_mps2"]].assign(other=1.0)
+    read = spincal.read(shuffled)
+    np.testing.assert_array_equal(read.accel, rec.accel)
+    np.testing.assert_array_equal(read.time, rec.time)
+    assert read.format == "pandas DataFrame" and read.columns == ["t_s", "ax_mps2", "ay_mps2", "az_mps2"]
+    # Named (or by 1-based position), units as keywords.
+    renamed = pd.DataFrame({"clock": frame["t_s"] * 1000, "a": frame["ax_mps2"] / 9.80665, "b": frame["ay_mps2"] / 9.80665, "c": frame["az_mps2"] / 9.80665})
+    named = spincal.read(renamed, columns=["clock", "a", "b", "c"], accel_unit="g", time_unit="ms")
+    by_position = spincal.read(renamed, columns=[1, 2, 3, 4], accel_unit="g", time_unit="ms")
+    np.testing.assert_array_equal(named.accel, by_position.accel)
+    np.testing.assert_allclose(named.accel, rec.accel, rtol=1e-15)
+    # No time column: the sample rate stands in, as `--sample-rate`.
+    untimed = frame[["ax_mps2", "ay_mps2", "az_mps2"]]
+    with pytest.raises(spincal.FormatError, match=r"columns=\[") as caught:
+        spincal.read(untimed)
+    assert "--columns" not in str(caught.value)  # Python's words, not the CLI's flag
+    at_rate = spincal.read(untimed, sample_rate_hz=100.0)
+    np.testing.assert_array_equal(at_rate.accel, rec.accel)
+    assert at_rate.time[1] == 1 / 100.0 and at_rate.sample_rate_hz == pytest.approx(100.0)
+    also = spincal.read(renamed, columns=[None, "a", "b", "c"], accel_unit="g", sample_rate_hz=100.0)
+    np.testing.assert_array_equal(also.accel, named.accel)
+    with pytest.raises(spincal.FormatError, match="no column 'nope'"):
+        spincal.read(frame, columns=["t_s", "nope", "ay_mps2", "az_mps2"])
+
+
+def test_polars_frames_are_read_as_pandas_ones(simulated):
+    pl = pytest.importorskip("polars")
+    path, rec, _ = simulated
+    frame = pl.read_csv(path)
+    read = spincal.read(frame)
+    assert read.format == "polars DataFrame"
+    np.testing.assert_array_equal(read.accel, rec.accel)
+    np.testing.assert_array_equal(read.time, rec.time)
+
+
+def test_not_a_number_is_refused_the_same_way_everywhere(tmp_path, small_corrector):
+    t = np.arange(5) / 100.0
+    a = np.tile([0.0, 0.0, 9.81], (5, 1))
+    a[3, 1] = float("nan")
+    # A whole recording cannot hold NaN: read() of a file or a frame, and recording(), refuse it
+    # with the row (or line) and column.
+    with pytest.raises(spincal.FormatError, match=r"row 3, column ay_mps2: the value is NaN") as caught:
+        spincal.recording(t, a)
+    assert (caught.value.row, caught.value.column_name) == (3, "ay_mps2")
+    frame = pd.DataFrame({"t": t, "ax": a[:, 0], "ay": a[:, 1], "az": a[:, 2]})
+    with pytest.raises(spincal.FormatError, match=r"<DataFrame>: row 3, column ay: the value is NaN") as caught:
+        spincal.read(frame)
+    assert (caught.value.row, caught.value.column, caught.value.column_name) == (3, 3, "ay")
+    path = tmp_path / "nan.csv"
+    frame.to_csv(path, index=False, na_rep="NaN")
+    with pytest.raises(spincal.FormatError, match=r"nan.csv:5, column 3 \(ay\): the value is NaN") as caught:
+        spincal.read(path)
+    assert (caught.value.line, caught.value.column) == (5, 3)
+    # NaN times no longer make a recording (its sample rate would be NaN).
+    with pytest.raises(spincal.FormatError, match="column t: the value is NaN"):
+        spincal.recording([0.0, float("nan"), 0.02], np.zeros((3, 3)))
+    # Correction marks the row as `spincal correct` does and goes on.
+    linear = small_corrector
+    out = linear.correct(a)
+    assert out.status.tolist()[3].startswith("refused: row 3: column ay_mps2: the value is NaN")
+    assert not out.status[4].startswith("refused") and out.valid[2] == (out.status[2] == "ok")
+    # A null in a pandas nullable column is the same as NaN.
+    nullable = frame.astype({"ay": "Float64"})
+    nullable.loc[3, "ay"] = pd.NA
+    assert spincal.correct(linear, nullable).status[3].startswith("refused: row 3: column ay: the value is NaN")
+
+
+def test_lists_and_tuples_are_arrays(small_corrector):
+    rows = [[0.0, 0.0, 9.81]] * 4
+    linear = small_corrector
+    np.testing.assert_array_equal(linear.correct(rows).accel, linear.correct(np.array(rows)).accel)
+    np.testing.assert_array_equal(linear.correct(tuple(map(tuple, rows))).accel, linear.correct(np.array(rows)).accel)
+    rec = spincal.recording([0.0, 0.01, 0.02, 0.03], rows)
+    assert len(rec) == 4 and rec.accel.dtype == np.float64
+    with pytest.raises(spincal.UsageError, match="t has 3 rows, ax_mps2 has 4"):
+        spincal.recording([0.0, 0.01, 0.02], rows)
+    with pytest.raises(spincal.UsageError, match="gx_radps has 3 rows"):
+        spincal.recording(None, rows, gyro=rows[:3], sample_rate_hz=100.0)
+    with pytest.raises(spincal.UsageError, match=r"accel: expected an \(n, 3\) array"):
+        linear.correct([1.0, 2.0, 3.0])
+    noise = np.random.default_rng(2).normal(0.0, 0.01, (2000, 3))
+    r = spincal.allan(noise.tolist(), dt_s=0.1)
+    np.testing.assert_array_equal(r.adev, spincal.allan(noise, dt_s=0.1).adev)
+    assert r.adev.shape == (len(r.tau_s), 3)
+
+
+@pytest.fixture(scope="module")
+def small_corrector():
+    """The corrector of a quick calibration of a simulated session (a small network on x and y)."""
+    rec, _ = spincal.simulate(seed=4, turntable={"duration_s": 20.0})
+    return spincal.calibrate([rec], radius_m=0.10, hidden=[2], restarts=1).corrector
+
+
+def test_the_output_frame_keeps_the_index_and_the_status(small_corrector):
+    rec, _ = spincal.simulate(seed=6, turntable={"duration_s": 10.0})
+    corrector = small_corrector
+    index = pd.date_range("2026-01-01", periods=len(rec), freq="10ms", name="when")
+    frame = pd.DataFrame(rec.accel, columns=["acc_x", "acc_y", "acc_z"], index=index)
+    out = corrector.correct(frame).to_pandas()
+    assert out.index.equals(index)
+    assert list(out.columns) == [f"acc_{a}_corrected" for a in corrector.axes] + ["valid", "status"]
+    assert out["status"].dtype == "category" and set(out["status"].unique()) <= {"ok", "physics-only", "outside-range"}
+    np.testing.assert_array_equal(out["acc_x_corrected"].to_numpy(), corrector.correct(rec.accel).accel[:, 0])
+    assert not math.isnan(out["acc_y_corrected"].iloc[-1])
