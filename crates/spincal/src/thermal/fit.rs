@@ -42,6 +42,8 @@ pub struct ThermalSettings {
     pub held_out_fraction: f64,
     /// T_ref, °C; the median die temperature of the windows when `None`.
     pub reference_c: Option<f64>,
+    /// The orders of β and ρ, when fixed instead of chosen on the held-out bands.
+    pub orders: Option<[usize; 2]>,
 }
 
 impl Default for ThermalSettings {
@@ -54,6 +56,7 @@ impl Default for ThermalSettings {
             max_scale_order: 2,
             held_out_fraction: 0.2,
             reference_c: None,
+            orders: None,
         }
     }
 }
@@ -149,6 +152,11 @@ impl ThermalSettings {
                 self.max_scale_order.to_string(),
                 "must be 0 to 3",
             );
+        }
+        if let Some(orders) = self.orders {
+            if orders[0] > 3 || orders[1] > 3 {
+                return bad("orders", format!("{orders:?}"), "each order must be 0 to 3");
+            }
         }
         if !(0.0..0.5).contains(&self.held_out_fraction) {
             return bad(
@@ -356,24 +364,7 @@ fn solve(
     reference_c: f64,
     gravity: f64,
 ) -> (Problem<'_>, Solved) {
-    let n_recordings = windows.iter().map(|w| w.recording + 1).max().unwrap_or(0);
-    let frames = (0..n_recordings)
-        .map(|r| {
-            let mut sum = [0.0; 3];
-            for w in windows.iter().filter(|w| w.recording == r) {
-                (0..3).for_each(|k| sum[k] += w.reading[k]);
-            }
-            frame(sum)
-        })
-        .collect();
-    let problem = Problem {
-        windows,
-        bias_order,
-        scale_order,
-        reference_c,
-        gravity,
-        frames,
-    };
+    let problem = problem(windows, bias_order, scale_order, reference_c, gravity);
     let p0 = vec![0.0; problem.n_params()];
     let report = levenberg_marquardt(&problem, &p0, &LmOptions::default(), &crate::progress::silent);
     let n_res = problem.n_residuals() as f64;
@@ -391,6 +382,34 @@ fn solve(
             covariance_diagonal,
         },
     )
+}
+
+/// The problem over `windows`, each recording's direction started at its windows' mean reading.
+fn problem(
+    windows: &[Window],
+    bias_order: usize,
+    scale_order: usize,
+    reference_c: f64,
+    gravity: f64,
+) -> Problem<'_> {
+    let n_recordings = windows.iter().map(|w| w.recording + 1).max().unwrap_or(0);
+    let frames = (0..n_recordings)
+        .map(|r| {
+            let mut sum = [0.0; 3];
+            for w in windows.iter().filter(|w| w.recording == r) {
+                (0..3).for_each(|k| sum[k] += w.reading[k]);
+            }
+            frame(sum)
+        })
+        .collect();
+    Problem {
+        windows,
+        bias_order,
+        scale_order,
+        reference_c,
+        gravity,
+        frames,
+    }
 }
 
 /// The diagonal of H⁻¹ for a symmetric positive definite H.
@@ -451,10 +470,13 @@ pub fn fit_thermal(
     gravity: f64,
 ) -> Result<ThermalFit, ThermalError> {
     settings.check()?;
-    // The lag: at the highest orders, on every window.
-    let (kb, ks) = (settings.max_bias_order, settings.max_scale_order);
+    // The lag: at the fixed or the highest orders, on every window.
+    let (kb, ks) = match settings.orders {
+        Some([kb, ks]) => (kb, ks),
+        None => (settings.max_bias_order, settings.max_scale_order),
+    };
     let mut lag_scores = Vec::new();
-    let mut best: Option<(f64, Vec<Window>)> = None;
+    let mut best: Option<(f64, Vec<Window>, Solved)> = None;
     for &lag in &settings.lags_s {
         let all = windows(stills, settings, lag)?;
         let temps: Vec<f64> = all.iter().map(|w| w.die_c).collect();
@@ -468,11 +490,11 @@ pub fn fit_thermal(
         let reference = settings.reference_c.unwrap_or_else(|| quantile(&temps, 0.5));
         let (_, solved) = solve(&all, kb, ks, reference, gravity);
         lag_scores.push((lag, solved.rms));
-        if best.as_ref().is_none_or(|(rms, _)| solved.rms < *rms) {
-            best = Some((solved.rms, all));
+        if best.as_ref().is_none_or(|(rms, ..)| solved.rms < *rms) {
+            best = Some((solved.rms, all, solved));
         }
     }
-    let (_, all) = best.expect("at least one lag (checked)");
+    let (_, all, at_best_lag) = best.expect("at least one lag (checked)");
     let lag_s = lag_scores
         .iter()
         .min_by(|a, b| a.1.total_cmp(&b.1))
@@ -497,24 +519,27 @@ pub fn fit_thermal(
             .filter(|w| w.die_c < bands[0] || w.die_c > bands[1]),
     );
     let mut order_scores = Vec::new();
-    for bias_order in 0..=kb {
-        for scale_order in 0..=ks {
-            let score = if outside.is_empty() || inside.is_empty() {
-                f64::NAN
-            } else {
-                let (problem, solved) = solve(&inside, bias_order, scale_order, reference_c, gravity);
-                held_out_rms(
-                    &problem.model(&solved.params, lag_s, settings.smoothing_s, range),
-                    &outside,
-                    gravity,
-                )
-            };
-            order_scores.push(OrderScore {
-                bias_order,
-                scale_order,
-                held_out_rms_mps2: score,
-            });
-        }
+    let candidates = if settings.orders.is_some() {
+        Vec::new()
+    } else {
+        (0..=kb).flat_map(|b| (0..=ks).map(move |s| (b, s))).collect()
+    };
+    for (bias_order, scale_order) in candidates {
+        let score = if outside.is_empty() || inside.is_empty() {
+            f64::NAN
+        } else {
+            let (problem, solved) = solve(&inside, bias_order, scale_order, reference_c, gravity);
+            held_out_rms(
+                &problem.model(&solved.params, lag_s, settings.smoothing_s, range),
+                &outside,
+                gravity,
+            )
+        };
+        order_scores.push(OrderScore {
+            bias_order,
+            scale_order,
+            held_out_rms_mps2: score,
+        });
     }
     let best_score = order_scores
         .iter()
@@ -527,7 +552,12 @@ pub fn fit_thermal(
         .min_by_key(|s| (s.bias_order + s.scale_order, s.bias_order))
         .map(|s| (s.bias_order, s.scale_order))
         .unwrap_or((kb, ks));
-    let (problem, solved) = solve(&all, chosen.0, chosen.1, reference_c, gravity);
+    // The lag's fit at these orders is the final one when they are the orders it used.
+    let (problem, solved) = if chosen == (kb, ks) {
+        (problem(&all, kb, ks, reference_c, gravity), at_best_lag)
+    } else {
+        solve(&all, chosen.0, chosen.1, reference_c, gravity)
+    };
     let model = problem.model(&solved.params, lag_s, settings.smoothing_s, range);
     let se = |o: usize, k: usize, order: usize| -> Vec<f64> {
         (0..order)
