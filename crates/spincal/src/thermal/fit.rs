@@ -101,7 +101,10 @@ pub struct ThermalFit {
     pub held_out_bands_c: [f64; 2],
     /// RMS residual of the final fit, m/s².
     pub residual_rms_mps2: f64,
-    /// Standard errors of β (per axis, per order) and ρ, from the final fit's curvature.
+    /// Standard errors of β (per axis, per order) and ρ, from the final fit's curvature: they
+    /// hold the die temperature as known. Its estimate's own error is not in them (measured: with
+    /// a 20 s lag and 1 °C steps the 95 % intervals held the truth 79 % of the time, against 96 %
+    /// with the die temperature logged exactly).
     pub bias_per_c_se: [Vec<f64>; 3],
     pub scale_per_c_se: [Vec<f64>; 3],
     pub windows: usize,
