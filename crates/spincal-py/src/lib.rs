@@ -91,6 +91,11 @@ impl PyRecording {
     fn gyro<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
         self.inner.gyro_radps.as_ref().map(|g| columns_to_array(py, g))
     }
+    /// The sensor's reported temperature in °C, shape (n,), or None when the file has none.
+    #[getter]
+    fn temperature<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        self.inner.temperature_c.as_deref().map(|t| PyArray1::from_slice(py, t))
+    }
     /// The file name (or what the recording was made from).
     #[getter]
     fn name(&self) -> String {
@@ -101,7 +106,7 @@ impl PyRecording {
     fn format(&self) -> String {
         self.inner.source.format.clone()
     }
-    /// The columns used, as named in the file (t, ax, ay, az[, gx, gy, gz]).
+    /// The columns used, as named in the file (t, ax, ay, az[, gx, gy, gz][, temperature]).
     #[getter]
     fn columns(&self) -> Vec<String> {
         self.inner.source.columns.clone()

@@ -169,3 +169,14 @@ def test_every_public_function_documents_an_example():
     text = spincal.calibrate.__doc__ or ""
     assert "spincal calibrate" in text and "progress=True" in text
     assert inspect.signature(spincal.calibrate).parameters["radius_m"].default is None
+
+
+def test_recording_keeps_the_temperature_column(tmp_path):
+    path = tmp_path / "warm.csv"
+    path.write_text("t,ax,ay,az,temp_k\n0,0,0,9.8,300\n0.01,0,0,9.8,301\n0.02,0,0,9.8,301\n")
+    rec = spincal.read(path)
+    assert rec.temperature is not None
+    np.testing.assert_allclose(rec.temperature, [26.85, 27.85, 27.85])
+    assert rec.columns[-1] == "temp_k"
+    path.write_text("t,ax,ay,az\n0,0,0,9.8\n0.01,0,0,9.8\n")
+    assert spincal.read(path).temperature is None
