@@ -94,7 +94,10 @@ impl PyRecording {
     /// The sensor's reported temperature in °C, shape (n,), or None when the file has none.
     #[getter]
     fn temperature<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
-        self.inner.temperature_c.as_deref().map(|t| PyArray1::from_slice(py, t))
+        self.inner
+            .temperature_c
+            .as_deref()
+            .map(|t| PyArray1::from_slice(py, t))
     }
     /// The file name (or what the recording was made from).
     #[getter]

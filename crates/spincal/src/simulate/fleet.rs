@@ -144,6 +144,19 @@ pub enum WriteError {
     Output(#[from] OutputError),
 }
 
+/// Creates `dir` for a simulation's `files`, refusing when any of them is already there.
+pub(crate) fn create_folder_for(dir: &Path, files: &[PathBuf]) -> Result<(), WriteError> {
+    if let Some(existing) = files.iter().find(|p| p.exists()) {
+        return Err(WriteError::Exists {
+            path: existing.display().to_string(),
+        });
+    }
+    std::fs::create_dir_all(dir).map_err(|e| WriteError::Folder {
+        path: dir.display().to_string(),
+        message: e.to_string(),
+    })
+}
+
 /// Simulates the fleet. Deterministic for a given seed.
 pub fn simulate_fleet(setup: &FleetSetup, seed: u64) -> Result<SimulatedFleet, SimulationError> {
     let invalid = |name, value, why| Err(SimulationError::Invalid { name, value, why });
@@ -240,17 +253,12 @@ impl SimulatedCampaign {
     /// (`<name>.truth.csv`), its random error (`<name>.random.csv`) and truth.json into `dir`. Refuses to replace a file already there
     /// unless `replace` (a folder this program made itself, such as the demo's).
     pub fn write_folder(&self, dir: &Path, replace: bool) -> Result<(), WriteError> {
-        if !replace {
-            if let Some(existing) = self.folder_files(dir).iter().find(|p| p.exists()) {
-                return Err(WriteError::Exists {
-                    path: existing.display().to_string(),
-                });
-            }
-        }
-        std::fs::create_dir_all(dir).map_err(|e| WriteError::Folder {
-            path: dir.display().to_string(),
-            message: e.to_string(),
-        })?;
+        let files = if replace {
+            Vec::new()
+        } else {
+            self.folder_files(dir)
+        };
+        create_folder_for(dir, &files)?;
         for (i, r) in self.recordings.iter().enumerate() {
             r.recording
                 .write_csv_path(&dir.join(format!("{}.csv", r.name)), AccelUnit::Mps2)?;

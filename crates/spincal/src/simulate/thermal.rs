@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 use crate::input::recording::{AccelUnit, Recording, Source, STANDARD_GRAVITY};
-use crate::simulate::fleet::WriteError;
+use crate::simulate::fleet::{create_folder_for, WriteError};
 use crate::simulate::{check, SimulationError};
 use crate::thermal::ThermalModel;
 
@@ -323,15 +323,7 @@ impl ThermalCampaign {
     /// sensor reported it), its truth (`<name>.truth.csv`: the true specific force and, as
     /// `temp_c`, the true die temperature) and truth.json into `dir`. Refuses to replace a file.
     pub fn write_folder(&self, dir: &Path, seed: u64, profile: &ThermalProfile) -> Result<(), WriteError> {
-        if let Some(existing) = self.folder_files(dir).iter().find(|p| p.exists()) {
-            return Err(WriteError::Exists {
-                path: existing.display().to_string(),
-            });
-        }
-        std::fs::create_dir_all(dir).map_err(|e| WriteError::Folder {
-            path: dir.display().to_string(),
-            message: e.to_string(),
-        })?;
+        create_folder_for(dir, &self.folder_files(dir))?;
         for r in self.all() {
             let name = &r.recording.source.name;
             r.recording.write_csv_path(&dir.join(name), AccelUnit::Mps2)?;
