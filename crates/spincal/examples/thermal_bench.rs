@@ -77,7 +77,8 @@ fn windows(stills: &[&Recording], settings: &ThermalSettings, lag_s: f64) -> Vec
                 break;
             }
             let n = (end - start) as f64;
-            let mean: [f64; 3] = std::array::from_fn(|k| rec.accel_mps2[k][start..end].iter().sum::<f64>() / n);
+            let mean: [f64; 3] =
+                std::array::from_fn(|k| rec.accel_mps2[k][start..end].iter().sum::<f64>() / n);
             out.push((r, mean, die[start..end].iter().sum::<f64>() / n));
             start = end;
         }
@@ -106,7 +107,8 @@ fn band_error(truth: &[Recording], corrected: &[Vec<[f64; 3]>]) -> f64 {
                 continue;
             }
             for k in 0..3 {
-                let mean = (start..end).map(|i| c[i][k] - t.accel_mps2[k][i]).sum::<f64>() / (end - start) as f64;
+                let mean =
+                    (start..end).map(|i| c[i][k] - t.accel_mps2[k][i]).sum::<f64>() / (end - start) as f64;
                 sum += mean * mean;
                 count += 1;
             }
@@ -146,10 +148,9 @@ fn main() {
             dir
         }
     };
-    let truth: ThermalTruth = serde_json::from_str(
-        &std::fs::read_to_string(data.join("truth.json")).expect("truth.json"),
-    )
-    .expect("truth.json parses");
+    let truth: ThermalTruth =
+        serde_json::from_str(&std::fs::read_to_string(data.join("truth.json")).expect("truth.json"))
+            .expect("truth.json parses");
 
     let still_files: Vec<PathBuf> = files(&data, "warmup-")
         .into_iter()
@@ -197,7 +198,10 @@ fn main() {
     let mut temps: Vec<f64> = cut.iter().map(|w| w.2).collect();
     temps.sort_by(f64::total_cmp);
     let reference = temps[((temps.len() - 1) as f64 * 0.5).round() as usize];
-    assert_eq!(reference, fit.model.reference_c, "same reference temperature as the fit's");
+    assert_eq!(
+        reference, fit.model.reference_c,
+        "same reference temperature as the fit's"
+    );
     let mut text = String::from("recording,ax,ay,az,die_c\n");
     for (r, m, d) in &cut {
         text += &format!("{r},{:e},{:e},{:e},{:e}\n", m[0], m[1], m[2], d);
