@@ -106,9 +106,8 @@ fn band_error(truth: &[Recording], corrected: &[Vec<[f64; 3]>]) -> f64 {
             if end - start < rate || (mid > cold && mid < hot) {
                 continue;
             }
-            for k in 0..3 {
-                let mean =
-                    (start..end).map(|i| c[i][k] - t.accel_mps2[k][i]).sum::<f64>() / (end - start) as f64;
+            for (k, axis) in t.accel_mps2.iter().enumerate() {
+                let mean = (start..end).map(|i| c[i][k] - axis[i]).sum::<f64>() / (end - start) as f64;
                 sum += mean * mean;
                 count += 1;
             }
