@@ -9,7 +9,8 @@
 //! several temperatures separate the bias's change from the gain's.
 //!
 //! **Choices the data make.**
-//! - The lag τ: the value on `lags_s` with the smallest residual, at the highest orders.
+//! - The lag τ: the value on `lags_s` with the smallest residual, at the fixed orders (`orders`)
+//!   or else the highest tried.
 //! - The polynomial orders of β and ρ: fitted on the windows whose die temperature lies between the
 //!   `held_out_fraction` and 1 − `held_out_fraction` quantiles, scored on the rest (the coldest and
 //!   hottest bands) without truth: each held-out window is corrected and compared with gravity along
@@ -94,8 +95,9 @@ pub struct ThermalFit {
     pub model: ThermalModel,
     pub bias_order: usize,
     pub scale_order: usize,
-    /// (τ, RMS residual at the highest orders) for each candidate lag.
+    /// (τ, RMS residual at the fixed or the highest orders) for each candidate lag.
     pub lag_scores: Vec<(f64, f64)>,
+    /// Every order pair tried on the held-out bands (empty when the orders were fixed).
     pub order_scores: Vec<OrderScore>,
     /// Die temperatures that bound the held-out bands, °C (below the first, above the second).
     pub held_out_bands_c: [f64; 2],
