@@ -19,14 +19,14 @@ use spincal::thermal::{fit_thermal, ThermalModel, ThermalSettings};
 use spincal::STANDARD_GRAVITY;
 
 /// RMS over the held-out bands of 1 s means of (corrected − true) force, m/s², and the
-/// per-sample RMS (noise in).
-fn band_error(held_out: &[ThermalRecording], correct: impl Fn(&Recording, usize) -> [f64; 3]) -> (f64, f64) {
+/// per-sample RMS (noise in); `correct(j, i)` is sample i of held-out recording j, corrected.
+fn band_error(held_out: &[ThermalRecording], correct: impl Fn(usize, usize) -> [f64; 3]) -> (f64, f64) {
     let mut temps: Vec<f64> = held_out.iter().flat_map(|r| r.die_c.iter().copied()).collect();
     temps.sort_by(f64::total_cmp);
     let cold = temps[temps.len() / 5];
     let hot = temps[temps.len() * 4 / 5];
     let (mut block_sum, mut blocks, mut sample_sum, mut samples) = (0.0, 0usize, 0.0, 0usize);
-    for r in held_out {
+    for (j, r) in held_out.iter().enumerate() {
         let rate = r.recording.sample_rate_hz().round() as usize;
         for start in (0..r.recording.len()).step_by(rate) {
             let end = (start + rate).min(r.recording.len());
@@ -36,7 +36,7 @@ fn band_error(held_out: &[ThermalRecording], correct: impl Fn(&Recording, usize)
             }
             let mut mean = [0.0; 3];
             for i in start..end {
-                let f = correct(&r.recording, i);
+                let f = correct(j, i);
                 for k in 0..3 {
                     let e = f[k] - r.true_force_mps2[k];
                     mean[k] += e / (end - start) as f64;
@@ -192,37 +192,19 @@ fn thermal_corrector_near_the_oracle_on_held_out_temperatures() {
         .map(|seed| {
             let campaign = simulate_thermal_campaign(&profile, 1000 + seed);
             let truth = &campaign.truth;
-            let oracle = band_error(&campaign.held_out, |r, i| {
-                let rec = campaign
-                    .held_out
-                    .iter()
-                    .find(|h| std::ptr::eq(&h.recording, r))
-                    .unwrap();
-                truth.correct(reading(r, i), rec.die_c[i])
+            let held_out = &campaign.held_out;
+            let oracle = band_error(held_out, |j, i| {
+                truth.correct(reading(&held_out[j].recording, i), held_out[j].die_c[i])
             });
             let model = spincal_fit(&campaign);
             let ours_values = applied(&model, &campaign.held_out);
-            let ours = band_error(&campaign.held_out, |r, i| {
-                let j = campaign
-                    .held_out
-                    .iter()
-                    .position(|h| std::ptr::eq(&h.recording, r))
-                    .unwrap();
-                ours_values[j][i]
-            });
+            let ours = band_error(held_out, |j, i| ours_values[j][i]);
             let peer_correct = flight_stack(&campaign, model.reference_c);
-            let peer = band_error(&campaign.held_out, &peer_correct);
+            let peer = band_error(held_out, |j, i| peer_correct(&held_out[j].recording, i));
             let logged = with_die_logged(&campaign);
             let logged_model = spincal_fit(&logged);
             let logged_values = applied(&logged_model, &logged.held_out);
-            let die_logged = band_error(&logged.held_out, |r, i| {
-                let j = logged
-                    .held_out
-                    .iter()
-                    .position(|h| std::ptr::eq(&h.recording, r))
-                    .unwrap();
-                logged_values[j][i]
-            });
+            let die_logged = band_error(&logged.held_out, |j, i| logged_values[j][i]);
             [oracle, ours, peer, die_logged]
         })
         .collect();
