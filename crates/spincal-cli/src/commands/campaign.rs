@@ -148,12 +148,7 @@ pub fn summary(output: &CampaignOutput, out: &Path) -> String {
 /// Writes a simulated campaign into `dir` and says so.
 pub fn simulate(dir: &Path, seed: u64, setup_file: Option<&Path>, json: bool) -> anyhow::Result<()> {
     let setup = match setup_file {
-        Some(path) => {
-            let text =
-                std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            serde_json::from_str::<CampaignSetup>(&text)
-                .with_context(|| format!("{}: not a campaign setup", path.display()))?
-        }
+        Some(path) => super::values::read_json_file::<CampaignSetup>(path, "a campaign setup")?,
         None => CampaignSetup::default(),
     };
     let sim = write_simulated_campaign(dir, &setup, seed, false)?;

@@ -242,12 +242,7 @@ pub fn simulate(
     json: bool,
 ) -> anyhow::Result<()> {
     let campaign = match setup_file {
-        Some(path) => {
-            let text =
-                std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            serde_json::from_str::<CampaignSetup>(&text)
-                .with_context(|| format!("{}: not a campaign setup", path.display()))?
-        }
+        Some(path) => super::values::read_json_file::<CampaignSetup>(path, "a campaign setup")?,
         None => CampaignSetup::default(),
     };
     if let Some(bad) = faulty.iter().find(|&&k| k == 0 || k > units) {

@@ -135,12 +135,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         return Err(UsageError("give -o FILE (or --campaign DIR)".into()).into());
     };
     let mut sensor = match &args.sensor {
-        Some(path) => {
-            let text =
-                std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            serde_json::from_str::<SensorProfile>(&text)
-                .with_context(|| format!("{}: not a sensor profile", path.display()))?
-        }
+        Some(path) => super::values::read_json_file::<SensorProfile>(path, "a sensor profile")?,
         None if args.ideal => SensorProfile::ideal(),
         None => SensorProfile::default(),
     };
@@ -204,12 +199,7 @@ fn simulate_thermal(
 ) -> anyhow::Result<()> {
     use spincal::simulate::thermal::{simulate_thermal_campaign, ThermalProfile};
     let profile = match setup {
-        Some(path) => {
-            let text =
-                std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            serde_json::from_str::<ThermalProfile>(&text)
-                .with_context(|| format!("{}: not a thermal profile", path.display()))?
-        }
+        Some(path) => super::values::read_json_file::<ThermalProfile>(path, "a thermal profile")?,
         None => ThermalProfile::default(),
     };
     profile.check().map_err(|e| UsageError(e.to_string()))?;

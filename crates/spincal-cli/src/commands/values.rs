@@ -215,6 +215,17 @@ pub fn finite(text: &str) -> Result<f64, String> {
     number(text, |_| true, "a finite number")
 }
 
+/// A settings file (`--setup`, `--sensor`) read as JSON; errors name the file and what it should
+/// have been (`sim.json: not a campaign setup`).
+pub fn read_json_file<T: serde::de::DeserializeOwned>(
+    path: &std::path::Path,
+    what: &str,
+) -> anyhow::Result<T> {
+    use anyhow::Context;
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    serde_json::from_str::<T>(&text).with_context(|| format!("{}: not {what}", path.display()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
