@@ -410,11 +410,11 @@ fn three_columns(py: Python<'_>, flat: Vec<f64>, n: usize) -> Bound<'_, PyArray2
         .into_pyarray(py)
 }
 
-/// Corrects rows exactly as `spincal correct` does, one row after another through the same
-/// library calls (`Corrector::stream` and `correct_sample`, the model's gyro corrector): a row
-/// with a value that is not finite (as given or after conversion to SI) or whose time goes
-/// backwards is refused (status `refused`, valid False, corrected values NaN) and never reaches the
-/// corrector; a row whose corrected value is not finite is refused after it.
+/// Corrects rows exactly as `spincal correct` does, through the same library row corrector
+/// ([`spincal::correctors::rows::RowCorrector`]): a row with a value that is not finite (as given
+/// or after conversion to SI) or whose time goes backwards is refused (status `refused`, valid
+/// False, corrected values NaN) and never reaches the corrector; a row whose corrected value is not
+/// finite is refused after it.
 #[allow(clippy::too_many_arguments)]
 pub fn correct_rows<'py>(
     py: Python<'py>,
@@ -424,7 +424,7 @@ pub fn correct_rows<'py>(
     gyro: Option<[ArrayView1<'_, f64>; 3]>,
     plan: &ColumnPlan,
 ) -> PyResult<CorrectedColumns<'py>> {
-    use spincal::corrector::Corrector;
+    use spincal::correctors::rows::{RowCorrector, RowOutcome, RowStatus, RowValue, UnitFactors};
     let n = accel[0].len();
     let columns_given = accel.iter().chain(gyro.iter().flatten()).chain(time.iter());
     if let Some(bad) = columns_given.map(|c| c.len()).find(|&len| len != n) {
@@ -432,117 +432,73 @@ pub fn correct_rows<'py>(
             "the columns differ in length ({bad} and {n} rows): every column needs one value per row"
         )));
     }
-    // The gyro is corrected when the model calibrates it and the data has it, as by the CLI.
-    let gyro_corrector = match (&file.gyro, &gyro) {
-        (Some(model), Some(_)) => Some(model.corrector().ok_or_else(|| {
-            errors::with_place(
-                Kind::Model,
-                "the model's gyro sensitivity is singular".into(),
-                &Place::default(),
-            )
-        })?),
-        _ => None,
+    let units = UnitFactors {
+        time_to_s: plan.time_to_s,
+        accel_to_mps2: plan.accel_to_mps2,
+        gyro_to_radps: plan.gyro_to_radps,
     };
-    let gyro = gyro.filter(|_| gyro_corrector.is_some());
-    let corrector = &file.corrector;
-    let axes = corrector.corrected_axes();
+    // The gyro is corrected when the model calibrates it and the data has it, as by the CLI.
+    let model_error = |e: spincal::correctors::rows::SingularGyro| {
+        errors::with_place(Kind::Model, e.to_string(), &Place::default())
+    };
+    let corrects_gyro = RowCorrector::new(file, units, gyro.is_some())
+        .map_err(model_error)?
+        .corrects_gyro();
+    let gyro = gyro.filter(|_| corrects_gyro);
     let names = &plan.names;
     let run = || {
+        // Made here: the stream's state stays on the thread that runs without the GIL.
+        let mut corrector = RowCorrector::new(file, units, gyro.is_some())?;
         let mut out = vec![f64::NAN; 3 * n];
         let mut gyro_out = gyro.map(|_| vec![f64::NAN; 3 * n]);
         let mut valid = Array1::<bool>::from_elem(n, false);
         let mut outside = Array1::<bool>::from_elem(n, false);
         let mut status = Array1::<u8>::from_elem(n, 3);
         let mut refusals = Vec::new();
-        let mut state = corrector.stream();
-        let mut previous_time: Option<f64> = None;
-        let from_mps2 = 1.0 / plan.accel_to_mps2;
+        let value_name = |v: RowValue| {
+            let k = match v {
+                RowValue::Time => 0,
+                RowValue::Accel(a) => a + 1,
+                RowValue::Gyro(a) => a + 4,
+            };
+            format!("column {}", names[k])
+        };
         for i in 0..n {
-            // Every value handed on must be a finite number (the CLI's reader refuses the row).
-            let given = time
-                .iter()
-                .map(|t| (t[i], 0usize))
-                .chain((0..3).map(|a| (accel[a][i], a + 1)))
-                .chain(gyro.iter().flat_map(|g| (0..3).map(move |a| (g[a][i], a + 4))));
-            if let Some((v, k)) = given.clone().find(|(v, _)| !v.is_finite()) {
-                refusals.push((
-                    i,
-                    format!(
-                        "column {}: the value is {v}; spincal needs finite numbers",
-                        names[k]
-                    ),
-                ));
-                continue;
-            }
-            let t = time.map(|t| t[i] * plan.time_to_s);
-            if let (Some(t), Some(p)) = (t, previous_time) {
-                if t < p {
-                    refusals.push((i, format!("time {t} s goes backwards (previous row {p} s)")));
-                    continue;
+            let outcome = corrector.correct(
+                time.map(|t| t[i]),
+                [accel[0][i], accel[1][i], accel[2][i]],
+                gyro.map(|g| [g[0][i], g[1][i], g[2][i]]),
+                value_name,
+            );
+            match outcome {
+                RowOutcome::Refused(reason) => refusals.push((i, reason)),
+                RowOutcome::Corrected {
+                    accel_mps2,
+                    gyro_radps,
+                    valid: row_valid,
+                    status: row_status,
+                } => {
+                    for a in 0..3 {
+                        out[a * n + i] = accel_mps2[a];
+                    }
+                    if let (Some(g), Some(rate)) = (gyro_out.as_mut(), gyro_radps) {
+                        for a in 0..3 {
+                            g[a * n + i] = rate[a];
+                        }
+                    }
+                    valid[i] = row_valid;
+                    outside[i] = row_status != RowStatus::Ok;
+                    status[i] = match row_status {
+                        RowStatus::Ok => 0,
+                        RowStatus::PhysicsOnly => 1,
+                        RowStatus::OutsideRange => 2,
+                    };
                 }
             }
-            let factor = |k: usize| match k {
-                0 => plan.time_to_s,
-                1..=3 => plan.accel_to_mps2,
-                _ => plan.gyro_to_radps,
-            };
-            if let Some((v, k)) = given.clone().find(|&(v, k)| !(v * factor(k)).is_finite()) {
-                refusals.push((
-                    i,
-                    format!(
-                        "column {}: {v:e} is {} after conversion to SI units (× {}); spincal needs finite numbers",
-                        names[k],
-                        v * factor(k),
-                        factor(k)
-                    ),
-                ));
-                continue;
-            }
-            previous_time = t.or(previous_time);
-            let measured = [
-                accel[0][i] * plan.accel_to_mps2,
-                accel[1][i] * plan.accel_to_mps2,
-                accel[2][i] * plan.accel_to_mps2,
-            ];
-            let sample = state.correct_sample(measured);
-            let rate = gyro.as_ref().zip(gyro_corrector.as_ref()).map(|(g, c)| {
-                c.correct([
-                    g[0][i] * plan.gyro_to_radps,
-                    g[1][i] * plan.gyro_to_radps,
-                    g[2][i] * plan.gyro_to_radps,
-                ])
-            });
-            let corrected_finite = axes
-                .iter()
-                .map(|axis| sample.accel_mps2[axis.index()] * from_mps2)
-                .chain(rate.iter().flatten().map(|w| w / plan.gyro_to_radps))
-                .all(f64::is_finite);
-            if !corrected_finite {
-                refusals.push((
-                    i,
-                    "the corrected value is not finite (the input is far outside anything the model was made for)".to_string(),
-                ));
-                continue;
-            }
-            for a in 0..3 {
-                out[a * n + i] = sample.accel_mps2[a];
-            }
-            if let (Some(g), Some(rate)) = (gyro_out.as_mut(), rate) {
-                for a in 0..3 {
-                    g[a * n + i] = rate[a];
-                }
-            }
-            valid[i] = sample.valid;
-            outside[i] = sample.outside_training_range;
-            status[i] = match (sample.valid, sample.outside_training_range) {
-                (_, false) => 0,
-                (true, true) => 1,
-                (false, true) => 2,
-            };
         }
-        (out, gyro_out, valid, outside, status, refusals)
+        Ok((out, gyro_out, valid, outside, status, refusals))
     };
-    let (out, gyro_out, valid, outside, status, refusals) = py.detach(run);
+    let (out, gyro_out, valid, outside, status, refusals) = py.detach(run).map_err(model_error)?;
     Ok((
         three_columns(py, out, n),
         gyro_out.map(|g| three_columns(py, g, n)),

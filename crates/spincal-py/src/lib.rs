@@ -192,7 +192,9 @@ fn read_options(
         .map(|u| AccelUnit::parse(u).ok_or_else(|| usage(format!("accel_unit {u:?}: expected g or mps2"))))
         .transpose()?;
     options.columns.time_unit = time_unit
-        .map(|u| TimeUnit::parse(u).ok_or_else(|| usage(format!("time_unit {u:?}: expected s, ms or us"))))
+        .map(|u| {
+            TimeUnit::parse(u).ok_or_else(|| usage(format!("time_unit {u:?}: expected s, ms, us or ns")))
+        })
         .transpose()?;
     options.columns.gyro_unit = gyro_unit
         .map(|u| GyroUnit::parse(u).ok_or_else(|| usage(format!("gyro_unit {u:?}: expected dps or radps"))))

@@ -382,7 +382,9 @@ fn mat_files_and_their_csv_copies_agree() {
     }
 }
 
-/// A used column with an empty cell stays a located error; unused ones may be empty.
+/// A generic table's used column with an empty cell stays a located error; unused ones may be
+/// empty. A recording leaves out, and counts, the rows that lack a used column (a logger's packets
+/// of another kind).
 #[test]
 fn an_empty_cell_is_an_error_only_in_a_used_column() {
     let Some(path) = common::shared_data("sysid/WienerHammerBenchmark.csv") else {
@@ -401,9 +403,112 @@ fn an_empty_cell_is_an_error_only_in_a_used_column() {
     let text = "t,ax,ay,az,note\n0,0,0,9.8,1\n0.01,0,0,9.8,\n0.02,0,0,9.8,\n";
     let r = read_bytes(text.as_bytes(), "e.csv", &ReadOptions::default()).unwrap();
     assert_eq!(r.recording.len(), 3);
-    let bad = "t,ax,ay,az,note\n0,0,0,9.8,1\n0.01,0,,9.8,\n";
-    let e = read_bytes(bad.as_bytes(), "e.csv", &ReadOptions::default()).unwrap_err();
-    assert_eq!(e.to_string(), "e.csv:3, column 3 (ay): the cell is empty");
+    assert!(r.notes.is_empty(), "{:?}", r.notes);
+    let gap = "t,ax,ay,az,note\n0,0,0,9.8,1\n0.01,0,,9.8,\n0.02,0,0,9.8,\n";
+    let r = read_bytes(gap.as_bytes(), "e.csv", &ReadOptions::default()).unwrap();
+    assert_eq!(
+        (r.recording.time_s.as_slice(), r.recording.source.lines.as_slice()),
+        (&[0.0, 0.02][..], &[2, 4][..])
+    );
+    assert_eq!(
+        r.notes,
+        ["1 row lacks a value in a column used and was left out (the first at line 3, column 3)"]
+    );
+}
+
+/// Loggers write more than a tidy CSV: a text column (a state letter), packets of another kind
+/// interleaved with the IMU's (their IMU columns empty), time in integer nanoseconds since the
+/// epoch, and `rostopic echo -p`'s dump (`%time` header, ns stamps, a text frame id).
+#[test]
+fn logger_files_read_as_they_are() {
+    let mut text = String::from("time,state,ax,ay,az\n");
+    let mut mixed = String::from("time,kind,ax,ay,az,baro\n");
+    let mut epoch = String::from("timestamp_ns,ax,ay,az\n");
+    let mut ros = String::from(
+        "%time,field.header.seq,field.header.stamp,field.header.frame_id,field.linear_acceleration.x,field.linear_acceleration.y,field.linear_acceleration.z,field.angular_velocity.x,field.angular_velocity.y,field.angular_velocity.z\n",
+    );
+    let t0: u64 = 1_732_000_000_123_456_789;
+    for i in 0..500u64 {
+        let z = 9.8 + (i % 7) as f64 * 1e-3;
+        text += &format!(
+            "{},{},0.01,-0.02,{z}\n",
+            i as f64 * 0.01,
+            ["A", "B", "idle"][i as usize % 3]
+        );
+        if i % 10 == 3 {
+            mixed += &format!("{},baro,,,,101325.5\n", i as f64 * 0.01 - 0.005);
+        }
+        mixed += &format!("{},imu,0.01,-0.02,{z},\n", i as f64 * 0.01);
+        epoch += &format!("{},0.01,-0.02,{z}\n", t0 + i * 5_000_000);
+        ros += &format!(
+            "{},{i},{},imu_link,0.01,-0.02,{z},0.001,0.002,0.003\n",
+            t0 + i * 5_000_000 + 777,
+            t0 + i * 5_000_000
+        );
+    }
+    let read = |text: &str, columns: Option<&str>| {
+        read_bytes(text.as_bytes(), "logger.csv", &options(None, columns)).unwrap_or_else(|e| panic!("{e}"))
+    };
+    let l = read(&text, None);
+    assert_eq!(
+        (l.recording.len(), l.recording.source.columns[1].as_str()),
+        (500, "ax")
+    );
+    assert!((l.recording.sample_rate_hz() - 100.0).abs() < 1e-6);
+    let l = read(&mixed, None);
+    assert_eq!(l.recording.len(), 500);
+    assert_eq!(l.recording.source.incomplete_rows.count, 50);
+    assert_eq!(l.recording.source.incomplete_rows.first, Some((5, 3)));
+    assert!(
+        l.notes.iter().any(|n| n.starts_with("50 rows lack a value")),
+        "{:?}",
+        l.notes
+    );
+    for l in [
+        read(&epoch, None),
+        read(&epoch.replace("timestamp_ns", "stamp"), None),
+    ] {
+        let t = &l.recording.time_s;
+        assert!((t[0] - 1_732_000_000.123_457).abs() < 1e-6, "{}", t[0]);
+        assert!(
+            (l.recording.sample_rate_hz() - 200.0).abs() < 1e-3,
+            "{}",
+            l.recording.sample_rate_hz()
+        );
+    }
+    // Under any other name the unit is given by --time-unit (here through the column map).
+    let mut o = options(None, Some("clock,ax,ay,az"));
+    o.columns.time_unit = Some(spincal::recording::TimeUnit::Ns);
+    let l = read_bytes(
+        epoch.replace("timestamp_ns", "clock").as_bytes(),
+        "logger.csv",
+        &o,
+    )
+    .unwrap();
+    assert!((l.recording.sample_rate_hz() - 200.0).abs() < 1e-3);
+    let l = read(&ros, None);
+    assert_eq!(
+        l.recording.source.columns,
+        [
+            "%time",
+            "field.linear_acceleration.x",
+            "field.linear_acceleration.y",
+            "field.linear_acceleration.z",
+            "field.angular_velocity.x",
+            "field.angular_velocity.y",
+            "field.angular_velocity.z"
+        ]
+    );
+    assert!((l.recording.sample_rate_hz() - 200.0).abs() < 1e-3);
+    let l = read(&ros, Some("field.header.stamp,5,6,7"));
+    assert!((l.recording.time_s[0] - 1_732_000_000.123_457).abs() < 1e-6);
+    // Text in a used column is still an error naming its place.
+    let bad = text.replacen("0.01,-0.02", "n/a,-0.02", 1);
+    let e = read_bytes(bad.as_bytes(), "logger.csv", &options(None, None)).unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "logger.csv:2, column 3 (ax): 'n/a' is not a number"
+    );
 }
 
 /// `--sample-rate` replaces a time column (the Ferraris session's is a sample index).

@@ -1,23 +1,34 @@
 //! `spincal correct`: streams a recording through a saved corrector in constant memory.
 //!
-//! Every input data row comes out, in place, with its original columns, one corrected column per
+//! Delimited text (and standard input) is streamed. Every input data row comes out, in place, as
+//! its original text, then one corrected column per
 //! corrected axis (in the input's acceleration unit), `valid` (0 for the first rows that lack a full
 //! delay history, whose corrected values are the measured ones, and for refused rows) and `status`:
 //! `ok`, `physics-only` (an input lies well outside the training range: a physical model corrects it,
 //! a network on top of it is not applied), `outside-range` (the same for a network alone: the reading
 //! goes through unchanged with `valid` 0), or `refused:` with
 //! the line and the reason for a row that cannot be read or whose time goes backwards; its
-//! corrected columns are empty. The summary on standard error names the first refused lines, and
-//! the exit code is 3 when rows were refused. The output file is written through a temporary file
-//! and renamed when complete; an output that is the input or the model is refused.
+//! corrected columns are empty. A row with an empty cell in a column used (a logger's packet of
+//! another kind) comes out as `skipped:` with the column, and is counted. The summary on standard
+//! error names the first refused lines, and the exit code is 3 when rows were refused.
+//!
+//! Other formats (imucal's and the MPU-6050 logger's files, MAT-files, bags, binary streams) and
+//! the flags that need the whole file (`--sample-rate`, `--accel-scale`, `--retime`) are read by
+//! the reader every other command uses; every sample it gives comes out with its source line (for
+//! text), time in s, the values in SI units or counts (the column names say which), the label of
+//! a labelled file, the corrected columns, `valid` and `status`.
+//!
+//! The output file is written through a temporary file and renamed when complete; an output that
+//! is the input or the model is refused.
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, BufWriter, Write};
 use std::path::PathBuf;
 
 use anyhow::Context;
-use clap::{Args, ValueEnum};
-use spincal::corrector::Corrector;
+use clap::Args;
+use spincal::correctors::rows::{RowCorrector, RowOutcome, RowStatus, RowValue, UnitFactors};
+use spincal::formats::Loaded;
 use spincal::table::{display_name, Delimiter, Record, RowReader, Table};
 use spincal::CorrectorFile;
 use spincal::{ColumnMap, Recording};
@@ -33,48 +44,57 @@ pub struct CorrectArgs {
     /// physical, physical_ann).
     #[arg(long, value_name = "MODEL.json")]
     pub model: PathBuf,
-    /// Recording to correct (CSV), or - for standard input.
+    /// Recording to correct (any format the other commands read; delimited text is streamed), or -
+    /// for standard input (delimited text).
     #[arg(value_name = "IN.csv")]
     pub input: PathBuf,
     /// Output CSV (standard output when absent).
     #[arg(short, long, value_name = "OUT.csv")]
     pub output: Option<PathBuf>,
-    /// How to read the input (the same flags as every command; delimited text only, since rows
-    /// are streamed).
+    /// How to read the input (the same flags as every command).
     #[command(flatten)]
     pub read: ReadArgs,
 }
 
 impl CorrectArgs {
-    /// The column map for the streamed rows; flags that only whole-file readers use are refused.
-    fn column_map(&self) -> anyhow::Result<ColumnMap> {
+    /// Whether the input is read whole by the common reader rather than streamed: a format other
+    /// than delimited text, or a flag that needs the whole file.
+    fn reads_whole_file(&self) -> anyhow::Result<bool> {
         let r = &self.read;
-        if let Some(format) = r
-            .format
-            .filter(|f| !matches!(f, FormatArg::Csv | FormatArg::Whitespace))
-        {
-            return Err(UsageError(format!(
-                "--format {}: correct streams delimited text (csv or whitespace); this format is read whole by the other commands",
-                format.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default()
-            ))
-            .into());
+        if spincal::output::is_stdio(&self.input) {
+            return Ok(false);
         }
-        let whole_file_only = [
-            ("--accel-scale", r.accel_scale.is_some()),
-            ("--accel-offset", r.accel_offset.is_some()),
-            ("--sample-rate", r.sample_rate.is_some()),
-            ("--retime", r.retime),
-            ("--gx1-accel-gain", r.gx1_accel_gain.is_some()),
-            ("--gx1-gyro-gain", r.gx1_gyro_gain.is_some()),
-        ];
-        if let Some((flag, _)) = whole_file_only.iter().find(|(_, given)| *given) {
-            return Err(UsageError(format!(
-                "{flag} is not supported by correct: it streams rows of time and acceleration in g or m/s²"
-            ))
-            .into());
-        }
-        let mut map = r.column_map()?;
-        if r.format == Some(FormatArg::Whitespace) && map.table.delimiter.is_none() {
+        let whole_file_flags = r.accel_scale.is_some()
+            || r.accel_offset.is_some()
+            || r.sample_rate.is_some()
+            || r.retime
+            || r.gx1_accel_gain.is_some()
+            || r.gx1_gyro_gain.is_some();
+        let format = match r.format {
+            Some(f) => spincal::formats::Format::from(f),
+            None if self.input.is_dir() => return Ok(true),
+            None => {
+                use std::io::Read;
+                let mut head = Vec::with_capacity(spincal::formats::DETECT_BYTES);
+                File::open(&self.input)
+                    .with_context(|| format!("{}: cannot open", self.input.display()))?
+                    .take(spincal::formats::DETECT_BYTES as u64)
+                    .read_to_end(&mut head)
+                    .with_context(|| format!("{}: cannot read", self.input.display()))?;
+                spincal::formats::detect(&head).format
+            }
+        };
+        let delimited = matches!(
+            format,
+            spincal::formats::Format::Csv | spincal::formats::Format::Whitespace
+        );
+        Ok(whole_file_flags || !delimited)
+    }
+
+    /// The column map for the streamed rows.
+    fn column_map(&self) -> anyhow::Result<ColumnMap> {
+        let mut map = self.read.column_map()?;
+        if self.read.format == Some(FormatArg::Whitespace) && map.table.delimiter.is_none() {
             map.table.delimiter = Some(spincal::table::Delimiter::Whitespace);
         }
         Ok(map)
@@ -88,9 +108,16 @@ struct Columns {
     /// Gyro x, y, z, when the file has them.
     gyro: Option<[usize; 3]>,
     /// Multiply file values by these to get s, m/s² and rad/s.
-    time_to_s: f64,
-    accel_to_mps2: f64,
-    gyro_to_radps: f64,
+    units: UnitFactors,
+}
+
+impl Columns {
+    fn used(&self) -> Vec<usize> {
+        let mut used = vec![self.time];
+        used.extend(self.accel);
+        used.extend(self.gyro.iter().flatten());
+        used
+    }
 }
 
 /// Resolves columns with the same rules as whole-file reading, by reading a one-row table of
@@ -126,56 +153,64 @@ fn resolve_columns(header: &[String], width: usize, file: &str, map: &ColumnMap)
         time: index(&names[0])?,
         accel: [index(&names[1])?, index(&names[2])?, index(&names[3])?],
         gyro,
-        time_to_s: recording.time_s[0],
-        accel_to_mps2: recording.accel_mps2[0][0],
-        gyro_to_radps: recording.gyro_radps.as_ref().map_or(1.0, |g| g[0][0]),
+        units: UnitFactors {
+            time_to_s: recording.time_s[0],
+            accel_to_mps2: recording.accel_mps2[0][0],
+            gyro_to_radps: recording.gyro_radps.as_ref().map_or(1.0, |g| g[0][0]),
+        },
     })
 }
 
-pub fn run(args: CorrectArgs, _ui: Ui) -> anyhow::Result<()> {
-    let map = args.column_map()?;
+pub fn run(args: CorrectArgs, ui: Ui) -> anyhow::Result<()> {
     let outputs: Vec<&std::path::Path> = args.output.iter().map(PathBuf::as_path).collect();
     super::check_outputs(&[&args.input, &args.model], &outputs)?;
     let model = CorrectorFile::read_path(&args.model)?;
-    let (reader, name): (Box<dyn BufRead>, String) = if spincal::output::is_stdio(&args.input) {
+    let whole_file = args.reads_whole_file()?;
+    let (source, name): (Option<Box<dyn BufRead>>, String) = if whole_file {
+        (None, display_name(&args.input))
+    } else if spincal::output::is_stdio(&args.input) {
         (
-            Box::new(BufReader::new(std::io::stdin().lock())),
+            Some(Box::new(BufReader::new(std::io::stdin().lock()))),
             "<stdin>".to_string(),
         )
     } else {
         let file =
             File::open(&args.input).with_context(|| format!("{}: cannot open", args.input.display()))?;
-        (Box::new(BufReader::new(file)), display_name(&args.input))
+        (Some(Box::new(BufReader::new(file))), display_name(&args.input))
+    };
+    let loaded = if whole_file {
+        Some(args.read.load(&args.input, &ui)?)
+    } else {
+        None
+    };
+    let map = args.column_map()?;
+    let write = |out: &mut dyn Write, source: Option<Box<dyn BufRead>>| match (source, &loaded) {
+        (Some(reader), _) => stream(&model, reader, &name, &map, out),
+        (None, Some(loaded)) => correct_loaded(&model, loaded, &name, out),
+        (None, None) => unreachable!("a source is either streamed or loaded"),
     };
     let result = match &args.output {
         Some(path) if !spincal::output::is_stdio(path) => {
             // The stream's own error is kept apart so that it, not a generic write error, is shown.
             let mut failure = None;
             let mut summary = None;
-            let written =
-                spincal::output::write_file(path, |out| match stream(&model, reader, &name, &map, out) {
-                    Ok(s) => {
-                        summary = Some(s);
-                        Ok(())
-                    }
-                    Err(e) => {
-                        failure = Some(e);
-                        Err(std::io::Error::other("the stream failed"))
-                    }
-                });
+            let written = spincal::output::write_file(path, |out| match write(out, source) {
+                Ok(s) => {
+                    summary = Some(s);
+                    Ok(())
+                }
+                Err(e) => {
+                    failure = Some(e);
+                    Err(std::io::Error::other("the stream failed"))
+                }
+            });
             match (failure, written, summary) {
                 (Some(e), _, _) => Err(e),
                 (None, Err(e), _) => Err(e.into()),
                 (None, Ok(()), summary) => summary.context("the output was written without its rows"),
             }
         }
-        _ => stream(
-            &model,
-            reader,
-            &name,
-            &map,
-            &mut BufWriter::new(std::io::stdout().lock()),
-        ),
+        _ => write(&mut BufWriter::new(std::io::stdout().lock()), source),
     };
     match result {
         Ok(summary) => summary.finish(&name),
@@ -193,6 +228,7 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
 const LISTED_REFUSALS: usize = 5;
 
 /// What a finished stream saw, beyond the rows it wrote.
+#[derive(Default)]
 struct StreamSummary {
     rows: usize,
     /// Rows flagged as outside the training range, and the line of the first.
@@ -201,12 +237,32 @@ struct StreamSummary {
     refused: usize,
     /// The first refused rows: line and reason.
     first_refusals: Vec<String>,
+    /// Rows without a value in a column used (written with status `skipped`), and the first.
+    skipped: usize,
+    first_skipped: Option<String>,
     /// The model calibrates a gyroscope but the file has no gyro columns.
     gyro_uncorrected: bool,
 }
 
 impl StreamSummary {
-    /// Warns about rows outside the training range; refused rows make the result an error (exit code 3).
+    /// Counts a corrected row.
+    fn corrected(&mut self, line: usize, status: RowStatus) {
+        if status != RowStatus::Ok {
+            self.outside_training_range += 1;
+            self.first_outside_line.get_or_insert(line);
+        }
+    }
+
+    /// Counts a refused row and keeps its reason when it is among the first.
+    fn refused(&mut self, reason: &str) {
+        self.refused += 1;
+        if self.first_refusals.len() < LISTED_REFUSALS {
+            self.first_refusals.push(reason.to_string());
+        }
+    }
+
+    /// Warns about rows outside the training range and rows skipped; refused rows make the result
+    /// an error (exit code 3).
     fn finish(&self, name: &str) -> anyhow::Result<()> {
         if self.gyro_uncorrected {
             eprintln!(
@@ -223,6 +279,12 @@ impl StreamSummary {
                 self.rows,
                 100.0 * self.outside_training_range as f64 / self.rows.max(1) as f64,
                 100.0 * spincal::ann::EXTRAPOLATION_MARGIN,
+            );
+        }
+        if let Some(first) = &self.first_skipped {
+            eprintln!(
+                "warning: {name}: {} of {} rows have no value in a column used (packets of another kind?) and were written with status `skipped` and empty corrected columns; the first: {first}",
+                self.skipped, self.rows
             );
         }
         if self.refused > 0 {
@@ -266,6 +328,49 @@ fn refused_fields(text: &str, delimiter: Delimiter, width: usize) -> Vec<String>
     fields
 }
 
+/// Writes one output row: the input's fields, then the corrected values (empty when there are
+/// none), `valid` and `status`.
+fn write_row(
+    out: &mut dyn Write,
+    input: &str,
+    sep: char,
+    corrected: &[Option<f64>],
+    valid: bool,
+    status: &str,
+) -> std::io::Result<()> {
+    write!(out, "{input}")?;
+    for v in corrected {
+        match v {
+            Some(v) => write!(out, "{sep}{v}")?,
+            None => write!(out, "{sep}")?,
+        }
+    }
+    writeln!(out, "{sep}{}{sep}{}", u8::from(valid), field(status, sep))
+}
+
+/// The corrected values written for a row, in the file's units: the corrected accelerometer axes,
+/// then the gyro.
+fn corrected_values(
+    axes: &[spincal::corrector::Axis],
+    outcome: &RowOutcome,
+    gyro_width: usize,
+    units: UnitFactors,
+) -> Vec<Option<f64>> {
+    let (from_mps2, from_radps) = (1.0 / units.accel_to_mps2, 1.0 / units.gyro_to_radps);
+    match outcome {
+        RowOutcome::Corrected {
+            accel_mps2,
+            gyro_radps,
+            ..
+        } => axes
+            .iter()
+            .map(|a| Some(accel_mps2[a.index()] * from_mps2))
+            .chain(gyro_radps.iter().flatten().map(|&w| Some(w * from_radps)))
+            .collect(),
+        RowOutcome::Refused(_) => vec![None; axes.len() + gyro_width],
+    }
+}
+
 fn stream(
     model: &CorrectorFile,
     reader: Box<dyn BufRead>,
@@ -289,158 +394,233 @@ fn stream(
         .into());
     }
     let columns = resolve_columns(&rows.header, width, name, map)?;
-    let corrector = &model.corrector;
-    let axes = corrector.corrected_axes();
-    let delimiter = rows.delimiter;
-    let sep = delimiter.as_char();
+    rows.choose_columns(&columns.used());
+    let mut corrector = RowCorrector::new(model, columns.units, columns.gyro.is_some())?;
+    let axes = corrector.corrected_axes().to_vec();
+    let gyro = columns.gyro.filter(|_| corrector.corrects_gyro());
+    let gyro_width = if gyro.is_some() { 3 } else { 0 };
+    let sep = rows.delimiter.as_char();
     let mut line = header
         .iter()
         .map(|h| field(h, sep))
         .collect::<Vec<_>>()
         .join(&sep.to_string());
-    for axis in &axes {
+    let corrected_names = axes
+        .iter()
+        .map(|a| columns.accel[a.index()])
+        .chain(gyro.iter().flatten().copied());
+    for col in corrected_names {
         line.push(sep);
-        line.push_str(&field(
-            &format!("{}_corrected", header[columns.accel[axis.index()]]),
-            sep,
-        ));
+        line.push_str(&field(&format!("{}_corrected", header[col]), sep));
     }
-    // The gyro calibration, when the model has one and the file has gyro columns.
-    let gyro = match (&model.gyro, columns.gyro) {
-        (Some(g), Some(c)) => Some((
-            g.corrector()
-                .context("the model's gyro sensitivity is singular")?,
-            c,
-        )),
-        _ => None,
-    };
-    if let Some((_, c)) = &gyro {
-        for &col in c {
-            line.push(sep);
-            line.push_str(&field(&format!("{}_corrected", header[col]), sep));
-        }
-    }
-    let gyro_width = if gyro.is_some() { 3 } else { 0 };
     line.push(sep);
     line.push_str("valid");
     line.push(sep);
     line.push_str("status");
     writeln!(out, "{line}")?;
 
-    let mut state = corrector.stream();
     let mut values = Vec::with_capacity(width);
-    let mut previous_time: Option<f64> = None;
-    let from_mps2 = 1.0 / columns.accel_to_mps2;
     let mut summary = StreamSummary {
-        rows: 0,
-        outside_training_range: 0,
-        first_outside_line: None,
-        refused: 0,
-        first_refusals: Vec::new(),
         gyro_uncorrected: model.gyro.is_some() && columns.gyro.is_none(),
+        ..StreamSummary::default()
     };
-    let refuse = |summary: &mut StreamSummary, out: &mut dyn Write, fields: Vec<String>, reason: String| {
-        summary.refused += 1;
-        if summary.first_refusals.len() < LISTED_REFUSALS {
-            summary.first_refusals.push(reason.clone());
-        }
-        let mut row = fields
-            .iter()
-            .map(|f| field(f, sep))
-            .collect::<Vec<_>>()
-            .join(&sep.to_string());
-        for _ in 0..axes.len() + gyro_width {
-            row.push(sep);
-        }
-        writeln!(
-            out,
-            "{row}{sep}0{sep}{}",
-            field(&format!("refused: {reason}"), sep)
-        )
+    let value_name = |v: RowValue| {
+        let c = match v {
+            RowValue::Time => columns.time,
+            RowValue::Accel(a) => columns.accel[a],
+            RowValue::Gyro(a) => gyro.map_or(0, |g| g[a]),
+        };
+        format!("column {} ({})", c + 1, header[c])
     };
+    let blank = vec![None; axes.len() + gyro_width];
     while let Some(record) = rows.next_record(&mut values)? {
         summary.rows += 1;
         let line_no = match record {
             Record::Parsed { line } => line,
-            Record::Refused { line, text, error } => {
-                refuse(
-                    &mut summary,
+            Record::Incomplete { line, column, .. } => {
+                let reason = format!("line {line}: column {column} ({}) is empty", header[column - 1]);
+                summary.skipped += 1;
+                summary.first_skipped.get_or_insert_with(|| reason.clone());
+                write_row(
                     out,
-                    refused_fields(&text, delimiter, width),
-                    format!("line {line}: {error}"),
+                    &rows.line_text(),
+                    sep,
+                    &blank,
+                    false,
+                    &format!("skipped: {reason}"),
                 )?;
                 continue;
             }
-        };
-        let t = values[columns.time] * columns.time_to_s;
-        if let Some(p) = previous_time.filter(|&p| t < p) {
-            let fields = values.iter().map(f64::to_string).collect();
-            let reason = format!("line {line_no}: time {t} s goes backwards (previous row {p} s)");
-            refuse(&mut summary, out, fields, reason)?;
-            continue;
-        }
-        // Finite in the file is not enough: a unit's factor can carry a value past f64's range.
-        let converted = std::iter::once((columns.time, columns.time_to_s))
-            .chain(columns.accel.map(|c| (c, columns.accel_to_mps2)))
-            .chain(
-                gyro.iter()
-                    .flat_map(|(_, c)| c.map(|col| (col, columns.gyro_to_radps))),
-            );
-        if let Some((c, factor)) = converted.into_iter().find(|&(c, k)| !(values[c] * k).is_finite()) {
-            let fields = values.iter().map(f64::to_string).collect();
-            let reason = format!(
-                "line {line_no}, column {} ({}): {:e} is {} after conversion to SI units (× {factor}); spincal needs finite numbers",
-                c + 1,
-                header[c],
-                values[c],
-                values[c] * factor
-            );
-            refuse(&mut summary, out, fields, reason)?;
-            continue;
-        }
-        previous_time = Some(t);
-        let accel = columns.accel.map(|c| values[c] * columns.accel_to_mps2);
-        let sample = state.correct_sample(accel);
-        let gyro_rate = gyro
-            .as_ref()
-            .map(|(corrector, c)| corrector.correct(c.map(|col| values[col] * columns.gyro_to_radps)));
-        let corrected_finite = axes
-            .iter()
-            .map(|axis| sample.accel_mps2[axis.index()] * from_mps2)
-            .chain(gyro_rate.iter().flatten().map(|w| w / columns.gyro_to_radps))
-            .all(f64::is_finite);
-        if !corrected_finite {
-            let fields = values.iter().map(f64::to_string).collect();
-            let reason = format!(
-                "line {line_no}: the corrected value is not finite (the input is far outside anything the model was made for)"
-            );
-            refuse(&mut summary, out, fields, reason)?;
-            continue;
-        }
-        if sample.outside_training_range {
-            summary.outside_training_range += 1;
-            summary.first_outside_line.get_or_insert(line_no);
-        }
-        for (c, v) in values.iter().enumerate() {
-            if c > 0 {
-                write!(out, "{sep}")?;
+            Record::Refused { line, text, error } => {
+                let reason = format!("line {line}: {error}");
+                summary.refused(&reason);
+                let fields = refused_fields(&text, rows.delimiter, width)
+                    .iter()
+                    .map(|f| field(f, sep))
+                    .collect::<Vec<_>>()
+                    .join(&sep.to_string());
+                write_row(out, &fields, sep, &blank, false, &format!("refused: {reason}"))?;
+                continue;
             }
-            write!(out, "{v}")?;
-        }
-        for axis in &axes {
-            write!(out, "{sep}{}", sample.accel_mps2[axis.index()] * from_mps2)?;
-        }
-        if let Some(rate) = gyro_rate {
-            for w in rate {
-                write!(out, "{sep}{}", w / columns.gyro_to_radps)?;
+        };
+        let outcome = corrector.correct(
+            Some(values[columns.time]),
+            columns.accel.map(|c| values[c]),
+            gyro.map(|g| g.map(|c| values[c])),
+            value_name,
+        );
+        let corrected = corrected_values(&axes, &outcome, gyro_width, columns.units);
+        match outcome {
+            RowOutcome::Corrected { valid, status, .. } => {
+                summary.corrected(line_no, status);
+                write_row(out, &rows.line_text(), sep, &corrected, valid, status.as_str())?;
+            }
+            RowOutcome::Refused(reason) => {
+                let reason = format!("line {line_no}, {reason}");
+                summary.refused(&reason);
+                write_row(
+                    out,
+                    &rows.line_text(),
+                    sep,
+                    &corrected,
+                    false,
+                    &format!("refused: {reason}"),
+                )?;
             }
         }
-        let status = match (sample.valid, sample.outside_training_range) {
-            (_, false) => "ok",
-            (true, true) => "physics-only",
-            (false, true) => "outside-range",
+    }
+    out.flush()?;
+    Ok(summary)
+}
+
+/// Corrects a recording read whole by the common reader and writes every sample it gave.
+fn correct_loaded(
+    model: &CorrectorFile,
+    loaded: &Loaded,
+    name: &str,
+    out: &mut dyn Write,
+) -> anyhow::Result<StreamSummary> {
+    let rec = &loaded.recording;
+    let static_input = match &model.corrector {
+        spincal::CorrectorModel::Static(s) => Some(s.input_unit.as_str()),
+        _ => None,
+    };
+    let counts_expected = static_input == Some("counts");
+    if loaded.raw_counts != counts_expected {
+        let what = if loaded.raw_counts { "raw counts" } else { "m/s²" };
+        let wanted = if counts_expected {
+            "raw counts (it was calibrated from them)"
+        } else {
+            "m/s² or g"
         };
-        writeln!(out, "{sep}{}{sep}{status}", u8::from(sample.valid))?;
+        return Err(UsageError(format!(
+            "{name}: the {} file holds {what}, but the model takes {wanted}; {}",
+            loaded.format.name(),
+            if loaded.raw_counts {
+                "pass --accel-scale (and --accel-offset) to convert the counts, or correct it with a static calibration made from counts (`spincal static`)"
+            } else {
+                "correct the counts file the calibration was made from, or make the calibration from this file"
+            }
+        ))
+        .into());
+    }
+    // The gyro is corrected when the model's calibration takes the file's unit (counts or rad/s).
+    let gyro_unit_fits = model
+        .gyro
+        .as_ref()
+        .is_some_and(|g| g.input_unit.is_rad_per_s() != loaded.gyro_counts);
+    let gyro = rec.gyro_radps.as_ref().filter(|_| gyro_unit_fits);
+    let units = UnitFactors {
+        time_to_s: 1.0,
+        accel_to_mps2: 1.0,
+        gyro_to_radps: 1.0,
+    };
+    let mut corrector = RowCorrector::new(model, units, gyro.is_some())?;
+    let axes = corrector.corrected_axes().to_vec();
+    let gyro = gyro.filter(|_| corrector.corrects_gyro());
+    let gyro_width = if gyro.is_some() { 3 } else { 0 };
+    let accel_unit = if loaded.raw_counts { "counts" } else { "mps2" };
+    let lines = (rec.source.lines.len() == rec.len()).then_some(&rec.source.lines);
+    let mut header: Vec<String> = Vec::new();
+    if lines.is_some() {
+        header.push("line".into());
+    }
+    header.push("t_s".into());
+    header.extend(["x", "y", "z"].map(|a| format!("a{a}_{accel_unit}")));
+    if rec.gyro_radps.is_some() {
+        let unit = if loaded.gyro_counts { "counts" } else { "radps" };
+        header.extend(["x", "y", "z"].map(|a| format!("g{a}_{unit}")));
+    }
+    if rec.temperature_c.is_some() {
+        header.push("temp_c".into());
+    }
+    if loaded.labels.is_some() {
+        header.push("label".into());
+    }
+    header.extend(axes.iter().map(|a| format!("a{a}_corrected_mps2")));
+    if gyro.is_some() {
+        header.extend(["x", "y", "z"].map(|a| format!("g{a}_corrected_radps")));
+    }
+    header.extend(["valid".to_string(), "status".to_string()]);
+    writeln!(out, "{}", header.join(","))?;
+    let mut summary = StreamSummary {
+        gyro_uncorrected: model.gyro.is_some() && rec.gyro_radps.is_none(),
+        ..StreamSummary::default()
+    };
+    if model.gyro.is_some() && rec.gyro_radps.is_some() && !gyro_unit_fits {
+        let (file, wanted) = if loaded.gyro_counts {
+            ("raw counts", "rad/s")
+        } else {
+            ("rad/s", "raw counts")
+        };
+        eprintln!("warning: {name}: the gyro columns hold {file} but the model's gyro calibration takes {wanted}; only the accelerometer was corrected");
+    }
+    let value_name = |v: RowValue| match v {
+        RowValue::Time => "t_s".to_string(),
+        RowValue::Accel(a) => format!("a{}", ["x", "y", "z"][a]),
+        RowValue::Gyro(a) => format!("g{}", ["x", "y", "z"][a]),
+    };
+    let mut input = String::new();
+    for i in 0..rec.len() {
+        summary.rows += 1;
+        let line_no = lines.map_or(i + 1, |l| l[i]);
+        input.clear();
+        use std::fmt::Write as _;
+        if lines.is_some() {
+            write!(input, "{line_no},")?;
+        }
+        write!(input, "{}", rec.time_s[i])?;
+        for a in &rec.accel_mps2 {
+            write!(input, ",{}", a[i])?;
+        }
+        for g in rec.gyro_radps.iter().flatten() {
+            write!(input, ",{}", g[i])?;
+        }
+        if let Some(t) = &rec.temperature_c {
+            write!(input, ",{}", t[i])?;
+        }
+        if let Some(labels) = &loaded.labels {
+            write!(input, ",{}", field(&labels[i], ','))?;
+        }
+        let outcome = corrector.correct(
+            Some(rec.time_s[i]),
+            std::array::from_fn(|a| rec.accel_mps2[a][i]),
+            gyro.map(|g| std::array::from_fn(|a| g[a][i])),
+            value_name,
+        );
+        let corrected = corrected_values(&axes, &outcome, gyro_width, units);
+        match outcome {
+            RowOutcome::Corrected { valid, status, .. } => {
+                summary.corrected(line_no, status);
+                write_row(out, &input, ',', &corrected, valid, status.as_str())?;
+            }
+            RowOutcome::Refused(reason) => {
+                let where_ = if lines.is_some() { "line" } else { "sample" };
+                let reason = format!("{where_} {line_no}, {reason}");
+                summary.refused(&reason);
+                write_row(out, &input, ',', &corrected, false, &format!("refused: {reason}"))?;
+            }
+        }
     }
     out.flush()?;
     Ok(summary)

@@ -128,6 +128,9 @@ impl ReadArgs {
         let loaded =
             formats::read_path(path, &options).with_context(|| format!("reading {}", path.display()));
         spinner.finish_and_clear();
+        if let Ok(l) = &loaded {
+            warn_left_out(path, &l.recording);
+        }
         loaded
     }
 
@@ -135,6 +138,7 @@ impl ReadArgs {
     pub fn read(&self, path: &Path) -> anyhow::Result<Recording> {
         let mut loaded = formats::read_path(path, &self.options()?)
             .with_context(|| format!("reading {}", path.display()))?;
+        warn_left_out(path, &loaded.recording);
         if loaded.gyro_counts {
             // Raw gyro counts are not rad/s; without a gyro scale they are left out.
             loaded.recording.gyro_radps = None;
@@ -148,6 +152,13 @@ impl ReadArgs {
             .into());
         }
         Ok(loaded.recording)
+    }
+}
+
+/// Says on standard error which rows a reader left out, so that no command drops rows silently.
+fn warn_left_out(path: &Path, recording: &Recording) {
+    if let Some(left_out) = recording.source.incomplete_rows.describe() {
+        eprintln!("warning: {}: {left_out}", path.display());
     }
 }
 

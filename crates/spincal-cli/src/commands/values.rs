@@ -83,8 +83,10 @@ pub enum TimeUnitArg {
     S,
     Ms,
     Us,
+    /// Nanoseconds (ROS stamps, Linux loggers; since the epoch is fine).
+    Ns,
 }
-mirror!(TimeUnitArg => TimeUnit { S => TimeUnit::S, Ms => TimeUnit::Ms, Us => TimeUnit::Us });
+mirror!(TimeUnitArg => TimeUnit { S => TimeUnit::S, Ms => TimeUnit::Ms, Us => TimeUnit::Us, Ns => TimeUnit::Ns });
 
 /// Field separators.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

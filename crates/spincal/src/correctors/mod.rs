@@ -13,5 +13,6 @@ pub mod linear;
 pub mod model_file;
 pub mod physical;
 pub mod physical_ann;
+pub mod rows;
 pub mod static_cal;
 pub mod static_detect;

@@ -9,7 +9,9 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::input::table::{find_column, read_file, Location, Table, TableError, TableHead, TableOptions};
+use crate::input::table::{
+    find_column, read_file, Incomplete, Location, Table, TableError, TableHead, TableOptions,
+};
 
 /// Standard gravity, m/s² (the default local g).
 pub const STANDARD_GRAVITY: f64 = 9.80665;
@@ -53,6 +55,9 @@ pub enum TimeUnit {
     S,
     Ms,
     Us,
+    /// Nanoseconds: ROS stamps and Linux loggers, often since the epoch (an f64 holds such a stamp
+    /// to about 0.25 µs).
+    Ns,
 }
 
 impl TimeUnit {
@@ -61,6 +66,7 @@ impl TimeUnit {
             TimeUnit::S => 1.0,
             TimeUnit::Ms => 1e-3,
             TimeUnit::Us => 1e-6,
+            TimeUnit::Ns => 1e-9,
         }
     }
     pub fn parse(text: &str) -> Option<TimeUnit> {
@@ -68,6 +74,7 @@ impl TimeUnit {
             "s" => Some(TimeUnit::S),
             "ms" => Some(TimeUnit::Ms),
             "us" | "µs" => Some(TimeUnit::Us),
+            "ns" => Some(TimeUnit::Ns),
             _ => None,
         }
     }
@@ -147,6 +154,10 @@ pub struct Source {
     /// 1-based source line of every sample, when read from text (empty otherwise).
     #[serde(skip)]
     pub lines: Vec<usize>,
+    /// Data rows left out because a chosen column was empty (a logger's packets of another
+    /// kind, interleaved).
+    #[serde(default)]
+    pub incomplete_rows: Incomplete,
 }
 
 /// Time series of one IMU session, SI units.
@@ -248,7 +259,21 @@ const TIME_NAMES: &[&str] = &[
     "t_us",
     "time_s",
     "time_ms",
+    "time_us",
+    "t_ns",
+    "time_ns",
+    "timestamp_ms",
+    "timestamp_us",
+    "timestamp_ns",
+    "stamp",
+    "stamp_ns",
+    // `rostopic echo -p`: the receive time and the message's own stamp, both in ns.
+    "field.header.stamp",
+    "%time",
 ];
+
+/// Time columns in nanoseconds without saying so in a suffix (ROS's CSV dumps).
+const NANOSECOND_TIME_NAMES: &[&str] = &["%time", "field.header.stamp", "header.stamp", "stamp"];
 const AXIS: [&str; 3] = ["x", "y", "z"];
 
 /// Header names spincal recognises for accelerometer axis `a` (0 = x).
@@ -263,6 +288,9 @@ fn accel_names(a: usize) -> Vec<String> {
         format!("a_{x}"),
         format!("linear acceleration {x} (m/s^2)"),
         format!("acceleration {x} (m/s^2)"),
+        format!("linear_acceleration_{x}"),
+        format!("linear_acceleration.{x}"),
+        format!("field.linear_acceleration.{x}"),
     ];
     for unit in ["g", "mps2"] {
         names.push(format!("a{x}_{unit}"));
@@ -280,6 +308,9 @@ fn gyro_names(a: usize) -> Vec<String> {
         format!("gyro{x}"),
         format!("w{x}"),
         format!("gyroscope {x} (rad/s)"),
+        format!("angular_velocity_{x}"),
+        format!("angular_velocity.{x}"),
+        format!("field.angular_velocity.{x}"),
     ];
     for unit in ["dps", "radps"] {
         names.push(format!("g{x}_{unit}"));
@@ -388,16 +419,18 @@ impl Recording {
                 return Err(e);
             }
         };
-        let rows = head.rows(&plan.targets())?;
+        let rows = head.rows_skipping_incomplete(&plan.targets())?;
         let metadata = head.metadata.iter().map(|(_, s)| s.clone()).collect();
-        Recording::from_columns(
+        let mut recording = Recording::from_columns(
             plan,
             rows.columns.into_iter(),
             name.to_string(),
             metadata,
             rows.lines,
             rate_hz,
-        )
+        )?;
+        recording.source.incomplete_rows = rows.incomplete;
+        Ok(recording)
     }
 
     /// Picks time/accel/gyro columns out of a table and converts them to SI.
@@ -487,6 +520,7 @@ impl Recording {
                 columns: plan.names,
                 metadata,
                 lines,
+                incomplete_rows: Default::default(),
             },
         };
         recording.check_time()?;
@@ -665,9 +699,16 @@ impl Plan {
                 .cloned()
                 .unwrap_or_else(|| format!("column {}", i + 1))
         };
+        let time_name = name_of(indices[0]);
         let time_unit = map
             .time_unit
-            .or_else(|| unit_from_name(&name_of(indices[0]), TimeUnit::parse))
+            .or_else(|| unit_from_name(&time_name, TimeUnit::parse))
+            .or_else(|| {
+                NANOSECOND_TIME_NAMES
+                    .iter()
+                    .any(|n| time_name.trim().eq_ignore_ascii_case(n))
+                    .then_some(TimeUnit::Ns)
+            })
             .unwrap_or(TimeUnit::S);
         let accel_unit = map
             .accel_unit
@@ -901,8 +942,8 @@ mod tests {
             ("t,a\n0,1\n1,2\n".into(), map(Some("t,a,a,a"))),
             ("0,1,2,3\n1,2,3,4\n".into(), map(None)),
             ("0,1,2,3,4,5,6,7\n1,2,3,4,5,6,7,8\n".into(), map(None)),
-            ("t,ax\n0,1\n1,x\n".into(), map(None)),
-            ("x y z time\n1 2 3 0\n4 5 q 1\n".into(), map(Some("t,x,y,z"))),
+            ("t,ax,ay,az\n0,1,2,3\n1,x,2,3\n".into(), map(None)),
+            ("x y z time\n1 2 3 0\n4 5 q 1\n".into(), map(Some("time,x,y,z"))),
             ("x y z time\n1 2 3 0\n4 5 6 1\n".into(), map(Some("t,x,y,z"))),
             ("t,ax,ay,az\n0,0,0,1\n0.02,0,0,1\n0.01,0,0,1\n".into(), map(None)),
             (long.clone(), map(None)),

@@ -374,6 +374,7 @@ pub fn simulate(
                 .to_vec(),
             metadata: Vec::new(),
             lines: Vec::new(),
+            incomplete_rows: Default::default(),
         },
     };
     Ok(Simulation {

@@ -397,6 +397,7 @@ mod tests {
                 columns: vec![],
                 metadata: vec![],
                 lines: vec![],
+                incomplete_rows: Default::default(),
             },
         }
     }

@@ -380,6 +380,9 @@ fn finish(
 ) -> Result<Loaded, FormatError> {
     loaded.detection = detection;
     loaded.recording.source.format = loaded.format.name().into();
+    if let Some(left_out) = loaded.recording.source.incomplete_rows.describe() {
+        loaded.notes.push(left_out);
+    }
     if let (Some(rate), Format::Csv | Format::Whitespace | Format::Phyphox | Format::Mat) =
         (options.sample_rate_hz, loaded.format)
     {
@@ -590,6 +593,7 @@ fn read_imucal(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded
                 .collect(),
             metadata: table.metadata.iter().map(|(_, s)| s.clone()).collect(),
             lines: order.iter().map(|&i| table.lines[i]).collect(),
+            incomplete_rows: Default::default(),
         },
     };
     let mut l = Loaded::new(recording, Format::Imucal, true);
@@ -666,6 +670,7 @@ fn read_mpu6050(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loade
                 .collect(),
             metadata: table.metadata.iter().map(|(_, s)| s.clone()).collect(),
             lines: table.lines.clone(),
+            incomplete_rows: Default::default(),
         },
     };
     let mut l = Loaded::new(recording, Format::Mpu6050, true);

@@ -598,6 +598,7 @@ fn assemble(mut c: Collector, storage: Storage, topic: Option<&str>) -> Result<B
             columns,
             metadata,
             lines: Vec::new(),
+            incomplete_rows: Default::default(),
         },
     };
     Ok(BagRead {

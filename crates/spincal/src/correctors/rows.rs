@@ -1,0 +1,178 @@
+//! Row-by-row correction of values in a file's own units: what `spincal correct` and Python's
+//! `Corrector.correct` do to every row, in one place.
+//!
+//! A row is corrected or refused with a reason; nothing is dropped. A row refused for its input
+//! leaves the stream's history untouched, so the rows after it are corrected as if it were absent.
+
+use crate::correctors::corrector::{Axis, Corrector, SampleCorrector};
+use crate::correctors::gyro::GyroCorrector;
+use crate::correctors::model_file::CorrectorFile;
+
+/// Factors that turn a file's values into SI units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UnitFactors {
+    pub time_to_s: f64,
+    pub accel_to_mps2: f64,
+    pub gyro_to_radps: f64,
+}
+
+/// How a corrected row may be used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RowStatus {
+    /// Corrected as trained.
+    Ok,
+    /// An input lay well outside the training range: the physical model corrected it, the
+    /// network on top of it was not applied.
+    PhysicsOnly,
+    /// The same for a network alone: the reading goes through unchanged, `valid` false.
+    OutsideRange,
+}
+
+impl RowStatus {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RowStatus::Ok => "ok",
+            RowStatus::PhysicsOnly => "physics-only",
+            RowStatus::OutsideRange => "outside-range",
+        }
+    }
+}
+
+/// One row's result, in SI units (finite also when converted back to the file's units).
+#[derive(Debug, Clone, PartialEq)]
+pub enum RowOutcome {
+    Corrected {
+        /// All three axes, m/s² (the ones the model does not correct pass through).
+        accel_mps2: [f64; 3],
+        /// The corrected rate, rad/s, when the model calibrates the gyro and the row has it.
+        gyro_radps: Option<[f64; 3]>,
+        /// False for the first rows without a full delay history and outside the range.
+        valid: bool,
+        status: RowStatus,
+    },
+    /// The row cannot be corrected; why, without its line (the caller knows where it was).
+    Refused(String),
+}
+
+/// Which value of a row a refusal is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RowValue {
+    Time,
+    Accel(usize),
+    Gyro(usize),
+}
+
+/// Corrects rows in order, keeping the stream's history and the previous time.
+pub struct RowCorrector<'a> {
+    stream: Box<dyn SampleCorrector + 'a>,
+    gyro: Option<GyroCorrector>,
+    axes: Vec<Axis>,
+    units: UnitFactors,
+    previous_time_s: Option<f64>,
+}
+
+/// The gyro sensitivity in a model file cannot be inverted.
+#[derive(Debug, thiserror::Error)]
+#[error("the model's gyro sensitivity is singular")]
+pub struct SingularGyro;
+
+impl<'a> RowCorrector<'a> {
+    /// `with_gyro`: the rows carry gyro values (they are corrected when the model calibrates the
+    /// gyro).
+    pub fn new(file: &'a CorrectorFile, units: UnitFactors, with_gyro: bool) -> Result<Self, SingularGyro> {
+        let gyro = match (&file.gyro, with_gyro) {
+            (Some(model), true) => Some(model.corrector().ok_or(SingularGyro)?),
+            _ => None,
+        };
+        Ok(RowCorrector {
+            stream: file.corrector.stream(),
+            gyro,
+            axes: file.corrector.corrected_axes(),
+            units,
+            previous_time_s: None,
+        })
+    }
+
+    /// The accelerometer axes the model corrects.
+    pub fn corrected_axes(&self) -> &[Axis] {
+        &self.axes
+    }
+
+    /// Whether gyro rows are corrected.
+    pub fn corrects_gyro(&self) -> bool {
+        self.gyro.is_some()
+    }
+
+    /// Corrects one row; `name` names a value in refusals (`ax`, `column 3 (ax)`). Values must be
+    /// finite in the file and in SI units, and time must not go backwards.
+    pub fn correct(
+        &mut self,
+        time: Option<f64>,
+        accel: [f64; 3],
+        gyro: Option<[f64; 3]>,
+        name: impl Fn(RowValue) -> String,
+    ) -> RowOutcome {
+        let u = self.units;
+        let gyro = gyro.filter(|_| self.gyro.is_some());
+        let given = time
+            .map(|t| (t, u.time_to_s, RowValue::Time))
+            .into_iter()
+            .chain((0..3).map(|a| (accel[a], u.accel_to_mps2, RowValue::Accel(a))))
+            .chain(
+                gyro.into_iter()
+                    .flat_map(|g| (0..3).map(move |a| (g[a], u.gyro_to_radps, RowValue::Gyro(a)))),
+            );
+        for (v, factor, which) in given {
+            if !v.is_finite() {
+                return RowOutcome::Refused(format!(
+                    "{}: the value is {v}; spincal needs finite numbers",
+                    name(which)
+                ));
+            }
+            // Finite in the file is not enough: a unit's factor can carry a value past f64's range.
+            if !(v * factor).is_finite() {
+                return RowOutcome::Refused(format!(
+                    "{}: {v:e} is {} after conversion to SI units (× {factor}); spincal needs finite numbers",
+                    name(which),
+                    v * factor
+                ));
+            }
+        }
+        let t = time.map(|t| t * u.time_to_s);
+        if let (Some(t), Some(p)) = (t, self.previous_time_s) {
+            if t < p {
+                return RowOutcome::Refused(format!("time {t} s goes backwards (previous row {p} s)"));
+            }
+        }
+        self.previous_time_s = t.or(self.previous_time_s);
+        let sample = self.stream.correct_sample(accel.map(|a| a * u.accel_to_mps2));
+        let rate = gyro
+            .zip(self.gyro.as_ref())
+            .map(|(g, c)| c.correct(g.map(|w| w * u.gyro_to_radps)));
+        let (from_mps2, from_radps) = (1.0 / u.accel_to_mps2, 1.0 / u.gyro_to_radps);
+        let finite = self
+            .axes
+            .iter()
+            .map(|axis| sample.accel_mps2[axis.index()])
+            .flat_map(|a| [a, a * from_mps2])
+            .chain(rate.iter().flatten().flat_map(|&w| [w, w * from_radps]))
+            .all(f64::is_finite);
+        if !finite {
+            return RowOutcome::Refused(
+                "the corrected value is not finite (the input is far outside anything the model was made for)"
+                    .to_string(),
+            );
+        }
+        let status = match (sample.valid, sample.outside_training_range) {
+            (_, false) => RowStatus::Ok,
+            (true, true) => RowStatus::PhysicsOnly,
+            (false, true) => RowStatus::OutsideRange,
+        };
+        RowOutcome::Corrected {
+            accel_mps2: sample.accel_mps2,
+            gyro_radps: rate,
+            valid: sample.valid,
+            status,
+        }
+    }
+}
