@@ -470,7 +470,7 @@ impl Rates {
         if self.head.len() <= 8 * WINDOW {
             self.head.push(t);
         }
-        if self.n % WINDOW == 0 {
+        if self.n.is_multiple_of(WINDOW) {
             if self.n > 0 {
                 self.kth.push((t - self.anchor) / WINDOW as f64);
             }
@@ -491,7 +491,7 @@ impl Rates {
                 return Ok(v);
             }
             src.each(shape, |i, s| {
-                if i % WINDOW == 0 {
+                if i.is_multiple_of(WINDOW) {
                     if i > 0 {
                         kth.push((s.t - anchor) / WINDOW as f64);
                     }
@@ -746,7 +746,7 @@ mod tests {
         let value = |i: usize| {
             let x = (i as f64 * 0.618_033_988_749_895).fract();
             // Most values in one narrow band, so the first histogram does not settle it.
-            if i % 5 == 0 {
+            if i.is_multiple_of(5) {
                 -x * 1e3
             } else {
                 9.81 + x * 1e-9
