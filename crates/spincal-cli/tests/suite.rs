@@ -9,6 +9,7 @@ mod support;
 
 mod ann_cli;
 mod bags_cli;
+mod bounded;
 mod browser;
 mod campaign_cli;
 mod demo;

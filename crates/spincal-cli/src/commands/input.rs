@@ -177,6 +177,17 @@ impl InputArgs {
     pub fn load(&self, ui: &Ui) -> anyhow::Result<Loaded> {
         self.read.load(&self.rec, ui)
     }
+
+    /// Reads and inspects the recording: a CSV or whitespace file streamed (the `Loaded` then
+    /// holds the recording's source and no samples), any other read whole.
+    pub fn inspect(&self, ui: &Ui) -> anyhow::Result<(Loaded, spincal::inspect::Inspection)> {
+        let options = self.read.options()?;
+        let spinner = ui.spinner("reading");
+        let found = formats::inspect_path(&self.rec, &options, None)
+            .with_context(|| format!("reading {}", self.rec.display()));
+        spinner.finish_and_clear();
+        found
+    }
 }
 
 /// One line saying which reader was used and why.

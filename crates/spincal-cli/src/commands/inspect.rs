@@ -24,9 +24,9 @@ struct Report<'a> {
 }
 
 pub fn run(args: &InspectArgs, ui: &ui::Ui) -> anyhow::Result<()> {
-    let loaded = args.input.load(ui)?;
+    // A delimited text file is read row by row, in memory that does not grow with it.
+    let (loaded, inspection) = args.input.inspect(ui)?;
     let rec = &loaded.recording;
-    let inspection = spincal::inspect::inspect(rec, None);
     if args.json {
         return ui::print_json(&Report {
             file: args.input.rec.display().to_string(),

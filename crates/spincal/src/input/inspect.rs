@@ -19,7 +19,7 @@ pub const RAIL_SAMPLES: usize = 3;
 pub const RANGE_SHARE: f64 = 0.999;
 
 /// Gaps listed individually; the rest are only counted.
-const LISTED_GAPS: usize = 20;
+pub(crate) const LISTED_GAPS: usize = 20;
 
 /// A gap: a sample interval longer than [`GAP_FACTOR`] times the median.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

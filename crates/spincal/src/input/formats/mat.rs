@@ -27,9 +27,15 @@ pub const MAGIC: &[u8] = b"MATLAB 5.0 MAT-file";
 /// Size of the v5 header.
 const HEADER_BYTES: usize = 128;
 
-/// Decompressed bytes accepted from one `miCOMPRESSED` element: one element of at most 2³² − 1
-/// bytes and its tag, the most the format can describe (a zlib bomb stops here).
-const MAX_INFLATED_BYTES: u64 = (1 << 32) + 7;
+/// The most a MAT-file's `miCOMPRESSED` (zlib) elements may inflate to, all together, and the most
+/// the values read from them may take as f64 (8 bytes each): 64 MiB (8 Mi doubles, e.g. 2 M
+/// samples of 4 signals). A compressed element is refused before anything is allocated when its
+/// inflated tag states more than is left, and while inflating when it yields more than its tag
+/// said; an array's dimensions are checked against what is left before its values are allocated.
+/// So a zlib bomb (a 0.93 MB file of 30 M × 4 zeros inflates to 960 MB) is refused in constant
+/// memory. Uncompressed elements have no such limit: their values are bounded by the file's own
+/// size (at most 8 bytes of f64 per byte of data). [`parse_limited`] takes another limit.
+pub const MAX_INFLATED_BYTES: u64 = 64 << 20;
 
 /// What is wrong with a MAT-file.
 #[derive(Debug, thiserror::Error)]
@@ -45,6 +51,17 @@ pub enum MatError {
         /// `, variable 'x'` when one was being read.
         variable: String,
         why: String,
+    },
+    #[error("{file}: byte {at}: {what} {needed} bytes, over the limit of {limit} bytes that spincal inflates from one MAT-file's compressed elements ({left} left); save the variables uncompressed (MATLAB: save -v6), which is read without this limit")]
+    OverLimit {
+        file: String,
+        /// File offset of the compressed element.
+        at: usize,
+        /// What would pass the limit (the element's inflated size, an array's values).
+        what: String,
+        needed: u64,
+        limit: u64,
+        left: u64,
     },
     #[error("{file}: no numeric 2-D real variable of more than one value to read as columns{skipped}")]
     NoNumeric { file: String, skipped: String },
@@ -93,6 +110,14 @@ struct Place {
 struct Reader<'a> {
     file: &'a str,
     big_endian: bool,
+    /// [`MAX_INFLATED_BYTES`] or the limit given to [`parse_limited`].
+    limit: u64,
+    /// Bytes inflated so far, over every compressed element.
+    inflated: std::cell::Cell<u64>,
+    /// Bytes of f64 values read from compressed elements so far.
+    values: std::cell::Cell<u64>,
+    /// The run of empty matrix elements that ends the skipped list: how many, the first's offset.
+    empty_run: std::cell::Cell<(usize, usize)>,
 }
 
 /// A data element's type and payload, with the payload's offset.
@@ -231,8 +256,8 @@ impl<'a> Reader<'a> {
         })
     }
 
-    /// Numbers of a numeric data element, widened to f64.
-    fn numbers(&self, e: &Element, base: usize, place: Place, variable: &str) -> Result<Vec<f64>, MatError> {
+    /// The byte size of one value of a numeric data element, checked against the element's length.
+    fn value_size(&self, e: &Element, base: usize, place: Place, variable: &str) -> Result<usize, MatError> {
         let size = match e.kind {
             MI_INT8 | MI_UINT8 => 1,
             MI_INT16 | MI_UINT16 => 2,
@@ -258,6 +283,12 @@ impl<'a> Reader<'a> {
                 ),
             ));
         }
+        Ok(size)
+    }
+
+    /// Numbers of a numeric data element of `size`-byte values (see [`Reader::value_size`]),
+    /// widened to f64.
+    fn numbers(&self, e: &Element, size: usize) -> Vec<f64> {
         let be = self.big_endian;
         let values = e.data.chunks_exact(size).map(|c| {
             macro_rules! get {
@@ -284,7 +315,7 @@ impl<'a> Reader<'a> {
                 _ => get!(u64, 8) as f64,
             }
         });
-        Ok(values.collect())
+        values.collect()
     }
 
     /// Reads the top-level elements of `bytes` (the file after its header, or a decompressed
@@ -304,26 +335,7 @@ impl<'a> Reader<'a> {
                             "a compressed element inside a compressed element",
                         ));
                     }
-                    let mut inflated = Vec::new();
-                    let mut decoder = flate2::read::ZlibDecoder::new(e.data).take(MAX_INFLATED_BYTES + 1);
-                    if let Err(error) = decoder.read_to_end(&mut inflated) {
-                        return Err(self.corrupt(
-                            place,
-                            e.at,
-                            None,
-                            format!("the compressed element does not inflate: {error}"),
-                        ));
-                    }
-                    if inflated.len() as u64 > MAX_INFLATED_BYTES {
-                        return Err(self.corrupt(
-                            place,
-                            e.at,
-                            None,
-                            format!(
-                                "the compressed element inflates to more than {MAX_INFLATED_BYTES} bytes"
-                            ),
-                        ));
-                    }
+                    let inflated = self.inflate(&e, place)?;
                     self.top_level(
                         &inflated,
                         0,
@@ -349,15 +361,73 @@ impl<'a> Reader<'a> {
         Ok(())
     }
 
+    /// Inflates the compressed element `e` within what is left of the limit: the first element
+    /// tag inside says how many bytes follow, and is checked before anything is allocated; then
+    /// inflating stops one byte past what is left, so a stream longer than its tag said is
+    /// refused too.
+    fn inflate(&self, e: &Element, place: Place) -> Result<Vec<u8>, MatError> {
+        let left = self.limit.saturating_sub(self.inflated.get());
+        let over = |what: &str, needed: u64| MatError::OverLimit {
+            file: self.file.to_string(),
+            at: e.at,
+            what: what.to_string(),
+            needed,
+            limit: self.limit,
+            left,
+        };
+        let fails = |error: std::io::Error| {
+            self.corrupt(
+                place,
+                e.at,
+                None,
+                format!("the compressed element does not inflate: {error}"),
+            )
+        };
+        let mut decoder = flate2::read::ZlibDecoder::new(e.data).take(left.saturating_add(1));
+        // The first tag: a small element is 8 bytes in all, else 8 + the size it states.
+        let mut tag = Vec::with_capacity(8);
+        (&mut decoder).take(8).read_to_end(&mut tag).map_err(fails)?;
+        let stated = if tag.len() < 8 {
+            tag.len() as u64
+        } else if self.u32(&tag) >> 16 != 0 {
+            8
+        } else {
+            8 + u64::from(self.u32(&tag[4..]))
+        };
+        if stated > left {
+            return Err(over("the compressed element's first tag states", stated));
+        }
+        let mut inflated = tag;
+        inflated.reserve_exact(stated as usize - inflated.len());
+        decoder.read_to_end(&mut inflated).map_err(fails)?;
+        let got = inflated.len() as u64;
+        if got > left {
+            return Err(over("the compressed element inflates to at least", got));
+        }
+        self.inflated.set(self.inflated.get() + got);
+        Ok(inflated)
+    }
+
     /// Reads one `miMATRIX` element: flags, dimensions, name, then the real (and imaginary) part.
     fn matrix(&self, e: &Element, place: Place, out: &mut MatFile) -> Result<(), MatError> {
         let data = e.data;
         if data.is_empty() {
-            // An empty matrix element (MATLAB writes them for empty cells and fields).
-            out.skipped.push(Skipped {
-                name: String::new(),
-                why: format!("empty matrix element at byte {}", e.at),
-            });
+            // An empty matrix element (MATLAB writes them for empty cells and fields). A run of
+            // them is one entry, so the list stays small next to the file.
+            match out.skipped.last_mut() {
+                Some(last) if last.name.is_empty() && self.empty_run.get().0 > 0 => {
+                    let (n, first) = self.empty_run.get();
+                    self.empty_run.set((n + 1, first));
+                    last.why = format!("{} empty matrix elements, the first at byte {first}", n + 1);
+                }
+                _ => {
+                    self.empty_run.set((1, e.at));
+                    out.skipped.push(Skipped {
+                        name: String::new(),
+                        why: format!("empty matrix element at byte {}", e.at),
+                    });
+                }
+            }
             return Ok(());
         }
         // Offsets inside `data` are reported relative to the bytes `e` came from.
@@ -416,6 +486,7 @@ impl<'a> Reader<'a> {
             .collect::<Vec<_>>()
             .join("×");
         let skip = |out: &mut MatFile, why: String| {
+            self.empty_run.set((0, 0));
             out.skipped.push(Skipped {
                 name: name.clone(),
                 why,
@@ -445,18 +516,33 @@ impl<'a> Reader<'a> {
             ));
         };
         let real = sub(name_el.next, Some(&name))?;
-        let values = self.numbers(&real, base, place, &name)?;
-        if values.len() != count {
+        // The dimensions are checked against the data before the values are allocated.
+        let size = self.value_size(&real, base, place, &name)?;
+        let held = real.data.len() / size;
+        if held != count {
             return Err(self.corrupt(
                 place,
                 base + real.at,
                 Some(&name),
-                format!(
-                    "a {shape} array needs {count} values, the real part holds {}",
-                    values.len()
-                ),
+                format!("a {shape} array needs {count} values, the real part holds {held}"),
             ));
         }
+        if let Some(outer) = place.compressed_at {
+            let needed = count as u64 * 8;
+            let left = self.limit.saturating_sub(self.values.get());
+            if needed > left {
+                return Err(MatError::OverLimit {
+                    file: self.file.to_string(),
+                    at: outer,
+                    what: format!("the values of variable '{name}' ({shape}) as f64 take"),
+                    needed,
+                    limit: self.limit,
+                    left,
+                });
+            }
+            self.values.set(self.values.get() + needed);
+        }
+        let values = self.numbers(&real, size);
         if let Some(i) = values.iter().position(|v| !v.is_finite()) {
             return skip(
                 out,
@@ -480,8 +566,15 @@ impl<'a> Reader<'a> {
     }
 }
 
-/// Parses a MAT-file held in memory; `file` names it in errors.
+/// Parses a MAT-file held in memory; `file` names it in errors. Compressed elements are read
+/// within [`MAX_INFLATED_BYTES`].
 pub fn parse(bytes: &[u8], file: &str) -> Result<MatFile, MatError> {
+    parse_limited(bytes, file, MAX_INFLATED_BYTES)
+}
+
+/// [`parse`], with `limit` bytes for all the compressed elements' inflated bytes (and as much
+/// again for the f64 values read from them) instead of [`MAX_INFLATED_BYTES`].
+pub fn parse_limited(bytes: &[u8], file: &str, limit: u64) -> Result<MatFile, MatError> {
     let not = |why: String| MatError::NotMat {
         file: file.to_string(),
         why,
@@ -520,7 +613,14 @@ pub fn parse(bytes: &[u8], file: &str) -> Result<MatFile, MatError> {
             "version 0x{version:04x} at byte 124 (v5 files say 0x0100; v7.3 files are HDF5)"
         )));
     }
-    let reader = Reader { file, big_endian };
+    let reader = Reader {
+        file,
+        big_endian,
+        limit,
+        inflated: std::cell::Cell::new(0),
+        values: std::cell::Cell::new(0),
+        empty_run: std::cell::Cell::new((0, 0)),
+    };
     let mut out = MatFile {
         description,
         variables: Vec::new(),
@@ -723,6 +823,100 @@ mod tests {
             e.to_string()
                 .starts_with("f.mat: byte 128: the compressed element does not inflate"),
             "{e}"
+        );
+    }
+
+    fn over(e: MatError) -> (usize, String, u64, u64, u64) {
+        match e {
+            MatError::OverLimit {
+                at,
+                what,
+                needed,
+                limit,
+                left,
+                ..
+            } => (at, what, needed, limit, left),
+            other => panic!("expected OverLimit, got {other}"),
+        }
+    }
+
+    #[test]
+    fn a_compressed_element_over_the_limit_is_refused_by_its_tag() {
+        let bytes = write(&[("u", 6, 1, 200, MI_DOUBLE, doubles(&[0.0; 200]))], true);
+        let e = parse_limited(&bytes, "f.mat", 1000).unwrap_err();
+        let text = e.to_string();
+        assert!(
+            text.starts_with("f.mat: byte 128: the compressed element's first tag states 1664 bytes, over the limit of 1000 bytes"),
+            "{text}"
+        );
+        assert!(text.contains("save -v6"), "{text}");
+        assert_eq!(over(e).4, 1000);
+        // Within a larger limit it is read.
+        assert_eq!(parse_limited(&bytes, "f.mat", 1664).unwrap().variables.len(), 1);
+    }
+
+    #[test]
+    fn the_limit_holds_for_all_compressed_elements_together() {
+        let var = |name| (name, 6u8, 1, 50, MI_DOUBLE, doubles(&[1.0; 50]));
+        let bytes = write(&[var("a"), var("b")], true);
+        // Each inflates to 464 bytes: the second finds 544 − 464 = 80 left.
+        let (at, what, needed, limit, left) = over(parse_limited(&bytes, "f.mat", 544).unwrap_err());
+        assert!(at > 128, "{at}");
+        assert_eq!((needed, limit, left), (464, 544, 80), "{what}");
+        assert_eq!(parse_limited(&bytes, "f.mat", 928).unwrap().variables.len(), 2);
+    }
+
+    #[test]
+    fn a_stream_longer_than_its_tag_is_refused_while_inflating() {
+        use std::io::Write;
+        // A tag stating 48 bytes, then 100 000 zeros: the reader stops one byte past the limit.
+        let mut inner = Vec::new();
+        inner.extend(MI_MATRIX.to_le_bytes());
+        inner.extend(48u32.to_le_bytes());
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+        z.write_all(&inner).unwrap();
+        z.write_all(&vec![0u8; 100_000]).unwrap();
+        let z = z.finish().unwrap();
+        let mut bytes = write(&[], false);
+        bytes.extend(MI_COMPRESSED.to_le_bytes());
+        bytes.extend((z.len() as u32).to_le_bytes());
+        bytes.extend(z);
+        let (at, what, needed, limit, _) = over(parse_limited(&bytes, "f.mat", 4096).unwrap_err());
+        assert_eq!((at, needed, limit), (128, 4097, 4096), "{what}");
+    }
+
+    #[test]
+    fn values_from_compressed_elements_are_counted_before_they_are_allocated() {
+        // 2 000 uint8 values inflate to about 2 kB but take 16 kB as f64.
+        let bytes = write(&[("u", 9, 1, 2000, MI_UINT8, vec![7u8; 2000])], true);
+        let (at, what, needed, _, left) = over(parse_limited(&bytes, "f.mat", 10_000).unwrap_err());
+        assert_eq!((at, needed, left), (128, 16_000, 10_000));
+        assert_eq!(what, "the values of variable 'u' (1×2000) as f64 take");
+        // Uncompressed, the file holds them: no limit.
+        let plain = write(&[("u", 9, 1, 2000, MI_UINT8, vec![7u8; 2000])], false);
+        assert_eq!(
+            parse_limited(&plain, "f.mat", 10).unwrap().variables[0]
+                .values
+                .len(),
+            2000
+        );
+    }
+
+    #[test]
+    fn a_run_of_empty_matrix_elements_is_one_entry() {
+        let mut bytes = write(&[("u", 6, 1, 3, MI_DOUBLE, doubles(&[1.0, 2.0, 3.0]))], false);
+        for _ in 0..1000 {
+            bytes.extend(MI_MATRIX.to_le_bytes());
+            bytes.extend(0u32.to_le_bytes());
+        }
+        let mat = parse(&bytes, "f.mat").unwrap();
+        assert_eq!(mat.skipped.len(), 1);
+        assert_eq!(
+            mat.skipped[0].why,
+            format!(
+                "1000 empty matrix elements, the first at byte {}",
+                bytes.len() - 8000
+            )
         );
     }
 }

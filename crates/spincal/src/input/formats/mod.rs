@@ -11,6 +11,7 @@
 pub mod bag;
 pub mod gx1;
 pub mod mat;
+pub mod streamed;
 
 use std::path::Path;
 
@@ -20,6 +21,7 @@ use crate::input::recording::{ColumnMap, Recording, RecordingError, Source, Temp
 use crate::input::table::{read_labelled, Delimiter, Table, TableError, TableOptions};
 
 pub use gx1::{Gx1EncodeOptions, Gx1Error, Gx1Fault, Gx1Options, Gx1Report};
+pub use streamed::inspect_path;
 
 /// The file formats spincal reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -504,16 +506,29 @@ fn table_options(options: &ReadOptions, default: Option<Delimiter>) -> TableOpti
     table
 }
 
+/// A whitespace file's median |a| above this is taken for raw counts: 200 m/s² (20 g) is beyond
+/// most MEMS ranges, counts are in the thousands.
+const RAW_COUNTS_MPS2: f64 = 200.0;
+
+/// imu_tk's columns: without a header or a column choice, a file of other than 4 columns is read
+/// as its first four.
+fn whitespace_map(mut map: ColumnMap, no_header: bool, width: usize) -> ColumnMap {
+    if map.columns.is_none() && no_header && width != 4 {
+        map.columns = Some(vec!["1".into(), "2".into(), "3".into(), "4".into()]);
+    }
+    map
+}
+
 /// imu_tk: `t ax ay az`, no header. Values above 200 in magnitude are taken to be raw counts.
 fn read_whitespace(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
     let table = Table::parse(bytes, file, &table_options(options, Some(Delimiter::Whitespace)))?;
-    let mut map = options.columns.clone();
-    if map.columns.is_none() && table.header.is_empty() && table.n_columns() != 4 {
-        map.columns = Some(vec!["1".into(), "2".into(), "3".into(), "4".into()]);
-    }
+    let map = whitespace_map(
+        options.columns.clone(),
+        table.header.is_empty(),
+        table.n_columns(),
+    );
     let recording = Recording::from_table_timed(&table, &map, options.sample_rate_hz)?;
-    // Why a threshold: 200 m/s² (20 g) is beyond most MEMS ranges, counts are in the thousands.
-    let raw = median_abs(&recording.accel_mps2) > 200.0;
+    let raw = median_abs(&recording.accel_mps2) > RAW_COUNTS_MPS2;
     let mut l = Loaded::new(recording, Format::Whitespace, raw);
     if raw {
         l.notes

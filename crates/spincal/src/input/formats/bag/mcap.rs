@@ -197,13 +197,21 @@ fn chunk(
     let (records, base): (&[u8], Option<usize>) = match header.compression.as_str() {
         "" => (&bytes[start..start + data.len()], Some(start)),
         "zstd" | "lz4" => {
-            // Why a cap: a damaged size must not allocate gigabytes; real chunks are a few MiB.
-            let cap = (1u64 << 30).min(data.len() as u64 * 4096 + (1 << 20));
-            if header.uncompressed_size > cap {
+            // The size is checked against the chunk limit before anything is allocated.
+            if header.uncompressed_size > super::chunk_limit(data.len()) {
                 return Err(corrupt(
                     file,
                     here(),
-                    format!("uncompressed size {} is implausible", header.uncompressed_size),
+                    format!(
+                        "{} chunk says it decompresses to {} bytes from {}: over the limit of {} bytes (at most {}, and {} × the compressed bytes + {})",
+                        header.compression,
+                        header.uncompressed_size,
+                        data.len(),
+                        super::chunk_limit(data.len()),
+                        super::MAX_CHUNK_BYTES,
+                        super::MAX_CHUNK_RATIO,
+                        super::CHUNK_SLACK_BYTES
+                    ),
                 ));
             }
             let size = header.uncompressed_size as usize;

@@ -257,12 +257,37 @@ enum Choice {
     Vectors { accel: usize, gyro: Option<usize> },
 }
 
+/// The most one compressed chunk may say it decompresses to. Real chunks are small (rosbag's
+/// default is 768 KiB, MCAP writers' a few MiB); a chunk is decompressed, walked and dropped
+/// before the next, so this bounds what decompression holds at once.
+pub const MAX_CHUNK_BYTES: u64 = 256 << 20;
+
+/// The most a chunk may say it decompresses to per compressed byte (plus [`CHUNK_SLACK_BYTES`]):
+/// a chunk that claims more is refused before anything is allocated, whatever its codec could do.
+pub const MAX_CHUNK_RATIO: u64 = 4096;
+
+/// Added to [`MAX_CHUNK_RATIO`] × compressed bytes, so small chunks are never refused for it.
+pub const CHUNK_SLACK_BYTES: u64 = 1 << 20;
+
+/// The most a chunk of `compressed` bytes may decompress to: [`MAX_CHUNK_BYTES`], and
+/// [`MAX_CHUNK_RATIO`] × `compressed` + [`CHUNK_SLACK_BYTES`].
+pub fn chunk_limit(compressed: usize) -> u64 {
+    MAX_CHUNK_BYTES.min((compressed as u64).saturating_mul(MAX_CHUNK_RATIO) + CHUNK_SLACK_BYTES)
+}
+
 /// A compressed chunk (MCAP's zstd or lz4, ROS 1's bz2 or lz4; lz4 as frames), decompressed to
-/// exactly `size` bytes, the size its header states. The callers have checked the kind.
+/// exactly `size` bytes, the size its header states, which is checked against [`chunk_limit`]
+/// first; decompression stops one byte past it. The callers have checked the kind.
 fn decompress_chunk(kind: &str, data: &[u8], size: usize) -> Result<Vec<u8>, String> {
     use std::io::Read;
-    // Why a cap on the preallocation: `size` comes from the file.
-    let mut out = Vec::with_capacity(size.min(64 << 20));
+    let most = chunk_limit(data.len());
+    if size as u64 > most {
+        return Err(format!(
+            "{kind} chunk says it decompresses to {size} bytes from {}: over the limit of {most} bytes (at most {MAX_CHUNK_BYTES}, and {MAX_CHUNK_RATIO} × the compressed bytes + {CHUNK_SLACK_BYTES})",
+            data.len()
+        ));
+    }
+    let mut out = Vec::with_capacity(size);
     let limit = size as u64 + 1;
     let result = match kind {
         "zstd" => zstd::stream::read::Decoder::new(data).and_then(|d| d.take(limit).read_to_end(&mut out)),
@@ -753,6 +778,32 @@ pub fn topics(bytes: &[u8], file: &str) -> Result<Vec<TopicInfo>, BagError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_chunk_is_held_to_its_stated_size_and_the_chunk_limit() {
+        use std::io::Write;
+        let zeros = vec![0u8; 4 << 20];
+        let mut bz = bzip2::write::BzEncoder::new(Vec::new(), bzip2::Compression::best());
+        bz.write_all(&zeros).unwrap();
+        let bz = bz.finish().unwrap();
+        assert!(bz.len() < 1024, "{}", bz.len());
+        // 4 MiB of zeros in under 1 KiB: over 4096 × its size + 1 MiB, refused unopened.
+        let e = decompress_chunk("bz2", &bz, zeros.len()).unwrap_err();
+        assert!(e.contains("over the limit of"), "{e}");
+        assert!(chunk_limit(bz.len()) < zeros.len() as u64);
+        // A 3 GiB claim from a large chunk is over MAX_CHUNK_BYTES.
+        let big = vec![0u8; 1 << 20];
+        let e = decompress_chunk("zstd", &big, 3 << 30).unwrap_err();
+        assert!(e.contains(&format!("at most {MAX_CHUNK_BYTES}")), "{e}");
+        // Within the limits: exactly the stated size, and no more.
+        let small = zstd::encode_all(&zeros[..100_000], 3).unwrap();
+        assert_eq!(decompress_chunk("zstd", &small, 100_000).unwrap().len(), 100_000);
+        let e = decompress_chunk("zstd", &small, 99_999).unwrap_err();
+        assert_eq!(
+            e,
+            "zstd chunk decompresses to 100000+ bytes, its header says 99999"
+        );
+    }
 
     fn collector_with(topics: &[(&str, &str)]) -> Collector {
         let mut c = Collector::new("b", None);
