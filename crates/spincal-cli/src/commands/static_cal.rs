@@ -237,6 +237,15 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         let std: Vec<String> = fit.param_std.iter().map(|v| format!("{v:.3e}")).collect();
         s += &format!("1-σ uncertainties [b, s, α, q]: [{}]\n", std.join(", "));
     }
+    let poor = fit.poorly_determined();
+    if !poor.is_empty() {
+        let named: Vec<String> = poor.iter().map(|(n, e)| format!("{n} (± {e:.3} m/s²)")).collect();
+        eprintln!(
+            "warning: the poses leave {} poorly determined (1-σ effect on a 1 g reading above {} % of g); record more poses with each axis pointing up and down, or use a smaller model (--model 6)",
+            named.join(", "),
+            100.0 * spincal::static_cal::POORLY_DETERMINED_FRACTION_OF_G
+        );
+    }
     if let Some(b) = rms_before {
         s += &format!("RMS of |a| − g over the poses before: {b:.6} m/s²\n");
     }

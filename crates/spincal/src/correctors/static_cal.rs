@@ -207,7 +207,7 @@ impl StaticCalibration {
     /// A Kalibr-style YAML block (IMU intrinsics): a = M (r − b), written by hand.
     pub fn to_kalibr_yaml(&self, update_rate_hz: f64, noise_density: Option<[f64; 3]>) -> String {
         let m = self.linear_matrix();
-        let row = |r: [f64; 3]| format!("[{:.10e}, {:.10e}, {:.10e}]", r[0], r[1], r[2]);
+        let row = |r: [f64; 3]| format!("[{}, {}, {}]", yaml_float(r[0]), yaml_float(r[1]), yaml_float(r[2]));
         let mut s = String::new();
         s.push_str("# spincal static calibration, Kalibr-style IMU intrinsics.\n");
         s.push_str("# a [m/s^2] = M (r - b); r in ");
@@ -221,8 +221,8 @@ impl StaticCalibration {
                 .as_str()
                 .unwrap_or("")
         ));
-        s.push_str(&format!("  update_rate: {update_rate_hz}\n"));
-        s.push_str(&format!("  gravity_magnitude: {}\n", self.gravity_mps2));
+        s.push_str(&format!("  update_rate: {}\n", yaml_float(update_rate_hz)));
+        s.push_str(&format!("  gravity_magnitude: {}\n", yaml_float(self.gravity_mps2)));
         s.push_str("  accelerometers:\n");
         s.push_str(&format!(
             "    M: [{},\n        {},\n        {}]\n",
@@ -235,9 +235,19 @@ impl StaticCalibration {
         s.push_str(&format!("    misalignment: {}\n", row(self.misalignment)));
         if let Some(n) = noise_density {
             let mean = (n[0] + n[1] + n[2]) / 3.0;
-            s.push_str(&format!("  accelerometer_noise_density: {mean:.6e}\n"));
+            s.push_str(&format!("  accelerometer_noise_density: {}\n", yaml_float(mean)));
         }
         s
+    }
+}
+
+/// A float in the form YAML 1.1 readers (PyYAML) take as a number: a point in the mantissa and a
+/// signed exponent (`3.3e4` and `0e0` would be read as strings).
+fn yaml_float(v: f64) -> String {
+    let text = format!("{v:.10e}");
+    match text.split_once('e') {
+        Some((mantissa, exponent)) if !exponent.starts_with('-') => format!("{mantissa}e+{exponent}"),
+        _ => text,
     }
 }
 
@@ -263,6 +273,36 @@ pub struct StaticFit {
     pub stop: LmStop,
     /// 1-σ parameter uncertainties from the residual variance and (JᵀJ)⁻¹ (empty when poses = parameters).
     pub param_std: Vec<f64>,
+}
+
+/// A parameter whose 1-σ uncertainty moves a 1 g reading by more than this fraction of g is
+/// reported as poorly determined by the poses.
+pub const POORLY_DETERMINED_FRACTION_OF_G: f64 = 0.01;
+
+impl StaticFit {
+    /// The parameters the poses leave poorly determined: name and the 1-σ effect of its
+    /// uncertainty on a 1 g reading, m/s² (bias: σ_b·s; scale: g·σ_s/s; misalignment: g·σ_α;
+    /// nonlinearity: g²·σ_q). Empty when the fit is exact (no uncertainty to judge).
+    pub fn poorly_determined(&self) -> Vec<(String, f64)> {
+        let c = &self.calibration;
+        let g = c.gravity_mps2;
+        let axis = ["x", "y", "z"];
+        let misalignment = ["yz", "zy", "zx"];
+        self.param_std
+            .iter()
+            .enumerate()
+            .map(|(k, &sd)| {
+                let a = k % 3;
+                match k / 3 {
+                    0 => (format!("bias_{}", axis[a]), sd * c.scale[a].abs()),
+                    1 => (format!("scale_{}", axis[a]), g * sd / c.scale[a].abs()),
+                    2 => (format!("misalignment_{}", misalignment[a]), g * sd),
+                    _ => (format!("nonlinearity_{}", axis[a]), g * g * sd),
+                }
+            })
+            .filter(|(_, effect)| !(*effect <= POORLY_DETERMINED_FRACTION_OF_G * g))
+            .collect()
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -583,6 +623,20 @@ mod tests {
         let yaml = truth(StaticModel::Misalignment).to_kalibr_yaml(100.0, None);
         assert!(yaml.contains("imu0:\n  model: misalignment\n"), "{yaml}");
         assert!(yaml.contains("    M: [[4.8076923077e-3, "), "{yaml}");
+        // Every number has the point and the signed exponent YAML 1.1 (PyYAML) needs to read it
+        // as a float: `0e0` or `3.3e4` would come back as strings.
+        for token in yaml
+            .lines()
+            .filter(|l| !l.trim_start().starts_with('#'))
+            .flat_map(|l| l.split(|c: char| matches!(c, '[' | ']' | ',' | ' ' | ':')))
+            .filter(|t| t.starts_with(|c: char| c.is_ascii_digit() || c == '-'))
+        {
+            let (mantissa, exponent) = token.split_once('e').unwrap_or((token, "+0"));
+            assert!(
+                mantissa.contains('.') && exponent.starts_with(['+', '-']),
+                "{token} in {yaml}"
+            );
+        }
     }
 
     #[test]
