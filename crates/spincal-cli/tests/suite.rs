@@ -24,4 +24,5 @@ mod hostile;
 mod hostile_models;
 mod io_commands;
 mod outputs;
+mod real_files;
 mod strobe;

@@ -217,6 +217,18 @@ fn read_error(e: spincal::formats::FormatError) -> PyErr {
                 ..errors::Place::default()
             },
         ),
+        F::Recording(RecordingError::NoTimeColumn { file, available, accel }) => errors::with_place(
+            errors::Kind::Format,
+            format!(
+                "{file}: no time column among {available} (the acceleration is in {accel}); pass \
+                 columns=[\"T\", ...] naming it (time_unit=\"ms\", \"us\" or \"ns\" if it is not in s), or \
+                 sample_rate_hz=HZ when the file has none"
+            ),
+            &errors::Place {
+                path: Some(file),
+                ..errors::Place::default()
+            },
+        ),
         e => errors::format(e),
     }
 }

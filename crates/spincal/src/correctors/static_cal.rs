@@ -207,7 +207,14 @@ impl StaticCalibration {
     /// A Kalibr-style YAML block (IMU intrinsics): a = M (r − b), written by hand.
     pub fn to_kalibr_yaml(&self, update_rate_hz: f64, noise_density: Option<[f64; 3]>) -> String {
         let m = self.linear_matrix();
-        let row = |r: [f64; 3]| format!("[{}, {}, {}]", yaml_float(r[0]), yaml_float(r[1]), yaml_float(r[2]));
+        let row = |r: [f64; 3]| {
+            format!(
+                "[{}, {}, {}]",
+                yaml_float(r[0]),
+                yaml_float(r[1]),
+                yaml_float(r[2])
+            )
+        };
         let mut s = String::new();
         s.push_str("# spincal static calibration, Kalibr-style IMU intrinsics.\n");
         s.push_str("# a [m/s^2] = M (r - b); r in ");
@@ -222,7 +229,10 @@ impl StaticCalibration {
                 .unwrap_or("")
         ));
         s.push_str(&format!("  update_rate: {}\n", yaml_float(update_rate_hz)));
-        s.push_str(&format!("  gravity_magnitude: {}\n", yaml_float(self.gravity_mps2)));
+        s.push_str(&format!(
+            "  gravity_magnitude: {}\n",
+            yaml_float(self.gravity_mps2)
+        ));
         s.push_str("  accelerometers:\n");
         s.push_str(&format!(
             "    M: [{},\n        {},\n        {}]\n",

@@ -189,6 +189,12 @@ pub enum RecordingError {
     },
     #[error("{file}: cannot tell which columns hold time and acceleration (columns: {available}); pass --columns t,ax,ay,az")]
     AmbiguousColumns { file: String, available: String },
+    #[error("{file}: no time column among {available} (the acceleration is in {accel}); pass --columns T,{accel} naming the time column (with --time-unit ms, us or ns if it is not in s), or, when the file has none, any column as T with --sample-rate HZ")]
+    NoTimeColumn {
+        file: String,
+        available: String,
+        accel: String,
+    },
     #[error("--columns needs 4, 5, 7 or 8 entries (t,ax,ay,az[,gx,gy,gz][,temperature]), got {0}")]
     ColumnCount(usize),
     #[error("{at}: time goes backwards ({previous} s, then {current} s)")]
@@ -795,6 +801,17 @@ fn resolve_columns(
     let names: Vec<String> = TIME_NAMES.iter().map(|s| s.to_string()).collect();
     let time = find_any(header, &names);
     let accel: Option<Vec<usize>> = (0..3).map(|a| find_any(header, &accel_names(a))).collect();
+    if let (None, Some(accel)) = (time, &accel) {
+        return Err(RecordingError::NoTimeColumn {
+            file: file.to_string(),
+            available: available(),
+            accel: accel
+                .iter()
+                .map(|&c| header[c].clone())
+                .collect::<Vec<_>>()
+                .join(","),
+        });
+    }
     let (Some(time), Some(accel)) = (time, accel) else {
         return Err(RecordingError::AmbiguousColumns {
             file: file.to_string(),
