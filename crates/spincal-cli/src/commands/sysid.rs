@@ -6,7 +6,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use spincal::formats::read_table;
-use spincal::sysid::{fit_and_score_parts, DataPart, FitScore, ModelKind, ModelSpec, ScoredFit, SysidModel};
+use spincal::sysid::{
+    fit_and_score_parts, DataPart, FitScore, ModelKind, ModelSpec, NarxFocus, ScoredFit, SysidModel,
+};
 use spincal::table::{read_file, TableOptions};
 
 use super::values::{DelimiterArg, SysidModelArg};
@@ -68,6 +70,9 @@ pub struct SysidArgs {
     /// Seed of NARX's initial weights.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// What a NARX fit minimises: the one-step prediction error or the simulation error.
+    #[arg(long, value_parser = ["prediction", "simulation"], default_value = "prediction")]
+    focus: String,
     /// Print the result (model included) as JSON.
     #[arg(long)]
     json: bool,
@@ -108,6 +113,11 @@ pub fn run(args: SysidArgs, ui: Ui) -> anyhow::Result<()> {
         size: args.size,
         max_iterations: args.max_iterations,
         seed: args.seed,
+        focus: if args.focus == "simulation" {
+            NarxFocus::Simulation
+        } else {
+            NarxFocus::Prediction
+        },
         ..ModelSpec::new(kind, &orders).map_err(|e| UsageError(format!("{e}")))?
     };
     let reading = ui.spinner("reading");

@@ -7,7 +7,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use super::hw::{HwModel, HwParams};
-use super::narx::{NarxModel, NarxParams};
+use super::narx::{NarxFocus, NarxModel, NarxParams};
 use super::poly::{PolyModel, SimInit};
 use super::{ArxParams, PemParams, SysidError};
 use crate::metrics::{fit_percent, rmse};
@@ -90,6 +90,13 @@ pub struct ModelSpec {
     pub size: usize,
     pub max_iterations: usize,
     pub seed: u64,
+    /// NARX only: the error its fit minimises; ignored otherwise.
+    #[serde(default, skip_serializing_if = "is_prediction")]
+    pub focus: NarxFocus,
+}
+
+fn is_prediction(focus: &NarxFocus) -> bool {
+    *focus == NarxFocus::Prediction
 }
 
 impl ModelSpec {
@@ -111,6 +118,7 @@ impl ModelSpec {
             size: 10,
             max_iterations: 100,
             seed: 1,
+            focus: NarxFocus::Prediction,
         })
     }
 
@@ -124,7 +132,12 @@ impl ModelSpec {
             list(&self.orders)
         );
         match self.kind {
-            ModelKind::Narx => s += &format!(", sigmoidnet {} units", self.size),
+            ModelKind::Narx => {
+                s += &format!(", sigmoidnet {} units", self.size);
+                if self.focus == NarxFocus::Simulation {
+                    s += ", simulation focus";
+                }
+            }
             ModelKind::Hw => s += &format!(", pwlinear {} breakpoints", self.size),
             _ => {}
         }
@@ -161,6 +174,7 @@ impl ModelSpec {
                     units: self.size,
                     max_iterations: self.max_iterations,
                     seed: self.seed,
+                    focus: self.focus,
                     ..NarxParams::new(o[0], o[1], o[2])
                 }
                 .fit(u, y, observer)?;
@@ -218,8 +232,8 @@ impl SysidModel {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct FittedModel {
     pub model: SysidModel,
-    /// Mean squared error of the fit's own criterion: one-step prediction error (ARX, PEM, NARX)
-    /// or simulation error (HW).
+    /// Mean squared error of the fit's own criterion: one-step prediction error (ARX, PEM, NARX
+    /// with the default focus) or simulation error (HW, NARX with simulation focus).
     pub loss: f64,
     /// Solver iterations (0 for the linear least-squares ARX).
     pub iterations: usize,

@@ -22,7 +22,7 @@ pub use compare::{
     PredictionKind, ScoredFit, Scores, SysidModel,
 };
 pub use hw::{HwFit, HwModel, HwParams, PiecewiseLinear};
-pub use narx::{NarxFit, NarxModel, NarxParams};
+pub use narx::{NarxFit, NarxFocus, NarxModel, NarxParams};
 pub use pem::{PemFit, PemParams};
 pub use poly::{filter, PolyModel, SimInit};
 

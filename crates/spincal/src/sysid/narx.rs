@@ -5,8 +5,12 @@
 //! ŷ(t) = lᵀx + l₀ + Σⱼ αⱼ σ(wⱼᵀ z + βⱼ),   σ(s) = 1/(1 + e⁻ˢ),   z = (x − mean)/std
 //! ```
 //!
-//! fitted by Levenberg–Marquardt on the one-step prediction error, started from the ARX
-//! solution for the linear term and seeded random weights for the units. Single input.
+//! fitted by Levenberg–Marquardt, started from the ARX solution for the linear term and seeded
+//! random weights for the units. Single input. The criterion is MATLAB's `Focus`: the one-step
+//! prediction error (the default, [`NarxFocus::Prediction`]) or the simulation error
+//! ([`NarxFocus::Simulation`]: the prediction fit refined with the model's own past outputs in the
+//! regressor, the Jacobian by forward sensitivities through the fed-back lags, the first rows'
+//! lags measured).
 
 use faer::MatMut;
 use rand::SeedableRng;
@@ -31,6 +35,22 @@ pub struct NarxParams {
     pub tolerance: f64,
     /// Seed of the initial unit weights (ChaCha8).
     pub seed: u64,
+    /// What the fit minimises.
+    #[serde(default)]
+    pub focus: NarxFocus,
+}
+
+/// The error a NARX fit minimises (MATLAB's `nlarxOptions` `Focus`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NarxFocus {
+    /// One-step-ahead prediction error: measured past outputs in the regressor.
+    #[default]
+    Prediction,
+    /// Simulation error: the model's own past outputs in the regressor (started from the first
+    /// rows' measured outputs). The prediction fit first, then up to `max_iterations` more on the
+    /// simulation error from there; each of those simulates the whole training part.
+    Simulation,
 }
 
 impl NarxParams {
@@ -43,6 +63,7 @@ impl NarxParams {
             max_iterations: 100,
             tolerance: 1e-9,
             seed: 1,
+            focus: NarxFocus::Prediction,
         }
     }
 }
@@ -74,7 +95,8 @@ pub struct SigmoidUnit {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct NarxFit {
     pub model: NarxModel,
-    /// Mean squared one-step prediction error on the training rows.
+    /// Mean squared error on the training rows of the fit's criterion (one-step prediction or
+    /// simulation, as [`NarxParams::focus`]).
     pub loss: f64,
     pub iterations: usize,
     pub stop: LmStop,
@@ -245,22 +267,43 @@ impl NarxParams {
                 weights: (0..nx).map(|_| normal() / (nx as f64).sqrt()).collect(),
             })
             .collect();
-        let problem = NarxProblem {
-            template: model.clone(),
-            xs: &xs,
-            target: &y[t0..],
-        };
         let options = LmOptions {
             max_iterations: self.max_iterations,
             cost_tolerance: self.tolerance,
             ..LmOptions::default()
         };
-        let report = levenberg_marquardt(&problem, &model.pack(), &options, observer);
+        let report = {
+            let problem = NarxProblem {
+                template: model.clone(),
+                xs: &xs,
+                target: &y[t0..],
+            };
+            levenberg_marquardt(&problem, &model.pack(), &options, observer)
+        };
+        let mut iterations = report.iterations;
+        let report = match self.focus {
+            NarxFocus::Prediction => report,
+            NarxFocus::Simulation => {
+                // From the prediction fit: random units started anywhere near the ARX solution
+                // already move a slow system's simulation far (their small outputs go through the
+                // linear part's large low-frequency gain), the prediction fit does not.
+                drop(xs);
+                let problem = NarxSimulationProblem {
+                    template: model.clone(),
+                    u,
+                    y,
+                    t0,
+                };
+                let refined = levenberg_marquardt(&problem, &report.params, &options, observer);
+                iterations += refined.iterations;
+                refined
+            }
+        };
         model.unpack(&report.params);
         Ok(NarxFit {
             model,
             loss: report.sse / rows as f64,
-            iterations: report.iterations,
+            iterations,
             stop: report.stop,
         })
     }
@@ -313,6 +356,104 @@ impl LeastSquares for NarxProblem<'_> {
                 for k in 0..nx {
                     out[(r, base + 2 + k)] = -ds * z[k];
                 }
+            }
+        }
+    }
+}
+
+/// The simulation-error problem: residuals y(t) − ŷ(t) where ŷ's past outputs in the regressor are
+/// the model's own (the first `t0` outputs measured), and the Jacobian by forward sensitivities:
+/// dŷ(t)/dθ = ∂f/∂θ + Σₖ ∂f/∂yₖ · dŷ(t−k)/dθ over the na fed-back lags.
+struct NarxSimulationProblem<'a> {
+    template: NarxModel,
+    u: &'a [f64],
+    y: &'a [f64],
+    t0: usize,
+}
+
+impl NarxSimulationProblem<'_> {
+    /// The simulated outputs (the first t0 measured).
+    fn simulate(&self, m: &NarxModel) -> Vec<f64> {
+        let mut out = self.y[..self.t0].to_vec();
+        out.resize(self.y.len(), 0.0);
+        let mut x = vec![0.0; m.n_regressors()];
+        for t in self.t0..self.y.len() {
+            m.regressor(&out, self.u, t, &mut x);
+            out[t] = m.eval(&x);
+        }
+        out
+    }
+}
+
+impl LeastSquares for NarxSimulationProblem<'_> {
+    fn n_params(&self) -> usize {
+        self.template.n_params()
+    }
+
+    fn n_residuals(&self) -> usize {
+        self.y.len() - self.t0
+    }
+
+    fn residuals(&self, p: &[f64], out: &mut [f64]) {
+        let mut m = self.template.clone();
+        m.unpack(p);
+        let sim = self.simulate(&m);
+        for (r, o) in out.iter_mut().enumerate() {
+            let t = self.t0 + r;
+            *o = self.y[t] - sim[t];
+        }
+    }
+
+    fn jacobian(&self, p: &[f64], mut out: MatMut<'_, f64>) {
+        let mut m = self.template.clone();
+        m.unpack(p);
+        let (na, nx, np) = (m.na, m.n_regressors(), m.n_params());
+        let sim = self.simulate(&m);
+        let mut x = vec![0.0; nx];
+        let mut z = vec![0.0; nx];
+        // dŷ/dθ of the last na + 1 samples, sample t in row t mod (na + 1).
+        let mut d = vec![0.0; (na + 1) * np];
+        // ∂f/∂y(t−1−k) for the fed-back lags.
+        let mut dy = vec![0.0; na];
+        for r in 0..self.n_residuals() {
+            let t = self.t0 + r;
+            m.regressor(&sim, self.u, t, &mut x);
+            for k in 0..nx {
+                z[k] = (x[k] - m.mean[k]) / m.scale[k];
+            }
+            let row = (t % (na + 1)) * np;
+            let (cur, _) = d[row..].split_at_mut(np);
+            cur[..nx].copy_from_slice(&x);
+            cur[nx] = 1.0;
+            dy.copy_from_slice(&m.linear[..na]);
+            for (j, unit) in m.units.iter().enumerate() {
+                let base = nx + 1 + j * (nx + 2);
+                let s = unit.bias + unit.weights.iter().zip(&z).map(|(w, zk)| w * zk).sum::<f64>();
+                let sg = sigmoid(s);
+                let ds = unit.out * sg * (1.0 - sg);
+                cur[base] = sg;
+                cur[base + 1] = ds;
+                for k in 0..nx {
+                    cur[base + 2 + k] = ds * z[k];
+                }
+                for k in 0..na {
+                    dy[k] += ds * unit.weights[k] / m.scale[k];
+                }
+            }
+            // Sensitivities of the fed-back outputs (zero before t0: those are measured).
+            for (k, &g) in dy.iter().enumerate() {
+                let lag = k + 1;
+                if t < self.t0 + lag || g == 0.0 {
+                    continue;
+                }
+                let prev = ((t - lag) % (na + 1)) * np;
+                for q in 0..np {
+                    let v = d[prev + q];
+                    d[row + q] += g * v;
+                }
+            }
+            for q in 0..np {
+                out[(r, q)] = -d[row + q];
             }
         }
     }
@@ -376,6 +517,85 @@ mod tests {
                 assert!(
                     (fd - jac[(r, j)]).abs() < 1e-6 * (1.0 + fd.abs()),
                     "param {j}: {fd} vs {}",
+                    jac[(r, j)]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn simulation_focus_has_the_right_jacobian_and_removes_the_output_noise_bias() {
+        // An output-error system: the noise is on the measurement, not in the recursion, so the
+        // one-step fit regresses on noisy past outputs and is biased; the simulation fit is not.
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        let n = 3000;
+        let u: Vec<f64> = (0..n).map(|_| StandardNormal.sample(&mut rng)).collect();
+        let mut x = vec![0.0; n];
+        for t in 1..n {
+            x[t] = 0.9 * x[t - 1] + (1.5 * u[t - 1]).tanh();
+        }
+        let y: Vec<f64> = x
+            .iter()
+            .map(|v| {
+                let e: f64 = StandardNormal.sample(&mut rng);
+                v + 0.5 * e
+            })
+            .collect();
+        let (train, test) = (0..2000, 2000..n);
+        let fit = |focus| {
+            NarxParams {
+                units: 3,
+                max_iterations: 100,
+                focus,
+                ..NarxParams::new(1, 1, 1)
+            }
+            .fit(&[&u[train.clone()]], &y[train.clone()], &crate::progress::silent)
+            .unwrap()
+        };
+        let noise_free_fit = |m: &NarxModel| {
+            let sim = m
+                .simulate(
+                    &[&u[test.clone()]],
+                    SimInit::Measured {
+                        y: &x[test.clone()],
+                        n: 1,
+                    },
+                )
+                .unwrap();
+            crate::metrics::fit_percent(&x[test.clone()][1..], &sim[1..])
+        };
+        let prediction = noise_free_fit(&fit(NarxFocus::Prediction).model);
+        let simulation_fit = fit(NarxFocus::Simulation);
+        let simulation = noise_free_fit(&simulation_fit.model);
+        assert!(
+            simulation > prediction + 5.0 && simulation > 90.0,
+            "simulation focus {simulation} %, prediction focus {prediction} %"
+        );
+
+        // Forward sensitivities against central differences at the fitted point.
+        let model = simulation_fit.model;
+        let problem = NarxSimulationProblem {
+            template: model.clone(),
+            u: &u[..400],
+            y: &y[..400],
+            t0: model.first_row(),
+        };
+        let p = model.pack();
+        let m = problem.n_residuals();
+        let mut jac = Mat::<f64>::zeros(m, p.len());
+        problem.jacobian(&p, jac.as_mut());
+        let (mut rp, mut rm) = (vec![0.0; m], vec![0.0; m]);
+        for j in 0..p.len() {
+            let mut q = p.clone();
+            q[j] += 1e-6;
+            problem.residuals(&q, &mut rp);
+            q[j] -= 2e-6;
+            problem.residuals(&q, &mut rm);
+            for r in (0..m).step_by(13) {
+                let fd = (rp[r] - rm[r]) / 2e-6;
+                assert!(
+                    (fd - jac[(r, j)]).abs() < 1e-5 * (1.0 + fd.abs()),
+                    "param {j}, row {r}: {fd} vs {}",
                     jac[(r, j)]
                 );
             }
