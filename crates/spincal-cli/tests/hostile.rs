@@ -85,7 +85,8 @@ fn a_link_output_stays_a_link_and_a_device_is_never_removed() {
     let s = setup();
     let target = s.dir.join("target.csv");
     let link = s.dir.join("link.csv");
-    std::fs::write(&target, "old contents").unwrap();
+    // Empty: a file with content that spincal did not write would be kept (tests/outputs.rs).
+    std::fs::write(&target, "").unwrap();
     std::os::unix::fs::symlink(&target, &link).unwrap();
     let (code, err) = correct(&s.model, &s.rec, &link);
     assert_eq!(code, 0, "{err}");

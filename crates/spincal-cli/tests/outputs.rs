@@ -484,3 +484,103 @@ fn fleet_takes_any_single_toml_and_leaves_no_folder_out_unseen() {
     assert!(out2.join("unit-01/results.json").is_file());
     assert_eq!(tree(&fleet), before, "no input changed");
 }
+
+/// Every other command's outputs follow the same rule: `correct -o`, `static -o` and `--yaml`,
+/// `strobe -o`, `fit -o` and `--reference-csv`: a file spincal did not write is
+/// kept (exit 2, named), spincal's own output of the same command is replaced on a second run, and
+/// `--force` replaces the foreign file and says so.
+#[test]
+fn every_command_keeps_a_file_it_did_not_write_and_replaces_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec.csv");
+    let (code, _, err) = simulate(&rec, &["--duration", "20", "--rpm", "33.33"]);
+    assert_eq!(code, 0, "{err}");
+    let p = |name: &str| dir.path().join(name);
+    let (code, _, err) = run(&[
+        os("train"),
+        os("--kind"),
+        os("linear"),
+        os("--data"),
+        rec.as_os_str(),
+        os("--reference"),
+        rec.as_os_str(),
+        os("-o"),
+        p("model.json").as_os_str(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let model = p("model.json");
+    let cases: Vec<(&str, Vec<std::ffi::OsString>)> = vec![
+        (
+            "corrected.csv",
+            vec![
+                "correct".into(),
+                "--model".into(),
+                model.clone().into(),
+                rec.clone().into(),
+                "-o".into(),
+            ],
+        ),
+        (
+            "cal.json",
+            vec![
+                "static".into(),
+                rec.clone().into(),
+                "--model".into(),
+                "6".into(),
+                "--min-interval".into(),
+                "0.5".into(),
+                "-o".into(),
+            ],
+        ),
+        (
+            "disc.svg",
+            vec!["strobe".into(), "--rpm".into(), "33.333".into(), "-o".into()],
+        ),
+        ("fit.json", vec!["fit".into(), rec.clone().into(), "-o".into()]),
+        (
+            "reference.csv",
+            vec!["fit".into(), rec.clone().into(), "--reference-csv".into()],
+        ),
+        (
+            "yaml.yaml",
+            vec![
+                "static".into(),
+                rec.clone().into(),
+                "--model".into(),
+                "6".into(),
+                "--min-interval".into(),
+                "0.5".into(),
+                "--yaml".into(),
+            ],
+        ),
+    ];
+    for (name, mut args) in cases {
+        let target = p(name);
+        std::fs::write(&target, REAL).unwrap();
+        args.push(target.clone().into());
+        let argv: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_os_str()).collect();
+        let (code, _, err) = run(&argv);
+        assert_eq!(code, 2, "{name}: {err}");
+        assert!(
+            err.contains(name) && err.contains("spincal did not write it"),
+            "{name}: {err}"
+        );
+        assert_eq!(read(&target), REAL.as_bytes(), "{name} was changed");
+        let mut forced = vec![os("--force")];
+        forced.extend(&argv);
+        let (code, _, err) = run(&forced);
+        // `static` may find too few poses in a turntable run: what matters is that it got past the
+        // output check and said what it replaced, or refused for its own reason.
+        if !matches!(name, "cal.json" | "yaml.yaml") {
+            assert_eq!(code, 0, "{name}: {err}");
+            assert!(err.contains("--force: replacing"), "{name}: {err}");
+            let (code, _, err) = run(&argv);
+            assert_eq!(
+                code, 0,
+                "{name}: a second run replaces spincal's own output: {err}"
+            );
+        } else {
+            assert_ne!(code, 2, "{name}: {err}");
+        }
+    }
+}

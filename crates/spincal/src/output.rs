@@ -250,6 +250,32 @@ pub struct Fingerprint {
     pub fnv1a64: String,
 }
 
+/// A file written beside a spincal JSON file, named in its `outputs` list so that a later run
+/// recognises it as spincal's ([`written_by_spincal`]).
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct NamedFingerprint {
+    /// The file's name (no folder).
+    pub file: String,
+    #[serde(flatten)]
+    pub fingerprint: Fingerprint,
+}
+
+/// The fingerprints of files just written, for a JSON file's `outputs` list.
+pub fn named_fingerprints(paths: &[&Path]) -> std::io::Result<Vec<NamedFingerprint>> {
+    paths
+        .iter()
+        .map(|p| {
+            Ok(NamedFingerprint {
+                file: p
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
+                fingerprint: fingerprint(p)?,
+            })
+        })
+        .collect()
+}
+
 /// The fingerprint of the file at `path`, read in pieces.
 pub fn fingerprint(path: &Path) -> std::io::Result<Fingerprint> {
     use std::io::Read;
@@ -304,36 +330,41 @@ fn spincal_json(map: &serde_json::Map<String, serde_json::Value>) -> bool {
             .is_some_and(|c| c.starts_with("spincal "))
 }
 
-/// Whether `claimer` (a spincal JSON file) names `file` with its current fingerprint in a
-/// `recording` field (`{"file": name, "bytes": …, "fnv1a64": …}`).
-fn claims(claimer: &Path, file: &Path) -> bool {
-    let Some(map) = json_object(claimer) else {
-        return false;
-    };
+/// What a spincal JSON file (`claimer`) says of `file`: `None` when it does not name it, else
+/// whether `file` still has the fingerprint it names, in a `recording` field or an `outputs`
+/// list (`{"file": name, "bytes": …, "fnv1a64": …}`).
+fn claim_of(claimer: &Path, file: &Path) -> Option<bool> {
+    let map = json_object(claimer)?;
     if !spincal_json(&map) {
-        return false;
+        return None;
     }
-    let Some(recording) = map.get("recording") else {
-        return false;
-    };
-    let name = recording.get("file").and_then(|f| f.as_str());
-    if name.is_none() || name != file.file_name().and_then(|n| n.to_str()) {
-        return false;
-    }
-    let Ok(claimed) = serde_json::from_value::<Fingerprint>(recording.clone()) else {
-        return false;
+    let name = file.file_name().and_then(|n| n.to_str())?;
+    let listed = map.get("outputs").and_then(|o| o.as_array());
+    let entry = map
+        .get("recording")
+        .into_iter()
+        .chain(listed.into_iter().flatten())
+        .find(|e| e.get("file").and_then(|f| f.as_str()) == Some(name))?;
+    let Ok(claimed) = serde_json::from_value::<Fingerprint>(entry.clone()) else {
+        return Some(false);
     };
     let same_size = std::fs::metadata(file).is_ok_and(|m| m.len() == claimed.bytes);
-    same_size && fingerprint(file).is_ok_and(|f| f == claimed)
+    Some(same_size && fingerprint(file).is_ok_and(|f| f == claimed))
 }
 
 /// Whether spincal wrote the regular file `path`, judged by its content:
 /// - JSON with a `spincal_version` field (model files, results.json, a simulation's truth) or
 ///   imucal's file with spincal's comment;
 /// - HTML with spincal's generator mark ([`HTML_GENERATOR`]) in its first 4 KiB;
+/// - text whose first line is a comment naming spincal (`# spincal static calibration`, the C
+///   export's `/* … spincal … */`), or an SVG marked `data-generator="spincal"` (the strobe disc);
+/// - a CSV laid out as spincal writes it: `correct`'s output (its header ends with `valid` and
+///   `status`) or a recording (`t_s,ax_g|ax_mps2,…`, as `fit` writes them) that no truth file
+///   beside it names (a simulated recording is judged by its truth's fingerprint alone);
 /// - an imu_tk `.calib` file beside a results.json that spincal wrote (a campaign's exports);
-/// - any other file that a spincal JSON file among `companions` (or `<stem>.truth.json` beside
-///   it) names with its current length and hash (a simulated recording).
+/// - any file that a spincal JSON file among `companions` (or `<stem>.truth.json` beside it) names
+///   with its current length and hash, in a `recording` field (a simulated recording) or an
+///   `outputs` list (a sweep's table and heat maps); once named, only that content counts.
 pub fn written_by_spincal(path: &Path, companions: &[&Path]) -> bool {
     use std::io::Read;
     let mut head = Vec::with_capacity(4096);
@@ -359,17 +390,56 @@ pub fn written_by_spincal(path: &Path, companions: &[&Path]) -> bool {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    if path.extension().is_some_and(|e| e == "calib") {
-        let results = folder.join("results.json");
-        return json_object(&results).is_some_and(|map| spincal_json(&map));
-    }
     let beside = path.with_extension("truth.json");
-    companions
+    let mut claimers = companions
         .iter()
         .copied()
         .chain(std::iter::once(beside.as_path()))
         .filter(|c| identity(c) != identity(path))
-        .any(|c| claims(c, path))
+        .filter_map(|c| claim_of(c, path));
+    if let Some(claimed) = claimers.next() {
+        // A file a spincal JSON names is spincal's only while it has the content named there.
+        return claimed || claimers.any(|c| c);
+    }
+    let first_line = String::from_utf8_lossy(&head[start.unwrap_or(0)..]);
+    let first_line = first_line.lines().next().unwrap_or("").trim();
+    let spincal_svg = first_line.starts_with("<svg") && first_line.contains("data-generator=\"spincal\"");
+    if spincal_svg || is_spincal_comment(first_line) || is_spincal_csv_header(first_line) {
+        return true;
+    }
+    if path.extension().is_some_and(|e| e == "calib") {
+        let results = folder.join("results.json");
+        return json_object(&results).is_some_and(|map| spincal_json(&map));
+    }
+    false
+}
+
+/// A first line that is a comment naming spincal.
+fn is_spincal_comment(line: &str) -> bool {
+    let comment = ["#", "//", "/*", "<!--", "%"].iter().any(|m| line.starts_with(m));
+    comment && line.to_ascii_lowercase().contains("spincal")
+}
+
+/// A header spincal's CSV writers write: `correct`'s (ending in `valid`, `status`) or a
+/// recording's ([`crate::Recording::write_csv`]).
+fn is_spincal_csv_header(line: &str) -> bool {
+    let fields: Vec<&str> = line
+        .split([',', ' ', '\t', ';'])
+        .filter(|f| !f.is_empty())
+        .collect();
+    if fields.ends_with(&["valid", "status"]) {
+        return true;
+    }
+    let recording = |unit: &str| {
+        let axes = [format!("ax_{unit}"), format!("ay_{unit}"), format!("az_{unit}")];
+        fields.len() >= 4 && fields[0] == "t_s" && fields[1..4].iter().zip(&axes).all(|(f, a)| f == a) && {
+            let rest = &fields[4..];
+            let gyro = ["gx_radps", "gy_radps", "gz_radps"];
+            let rest = if rest.starts_with(&gyro) { &rest[3..] } else { rest };
+            rest.is_empty() || rest == ["temp_c"]
+        }
+    };
+    recording("g") || recording("mps2")
 }
 
 /// An existing output that spincal did not write, replaced because the caller forced it.

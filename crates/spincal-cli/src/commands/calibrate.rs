@@ -208,7 +208,6 @@ pub fn run(args: CalibrateArgs, ui: Ui) -> anyhow::Result<()> {
     if args.out.exists() && !args.out.is_dir() {
         super::create_folder("--out", &args.out)?;
     }
-    super::claim_outputs(&outputs)?;
     let clock = std::time::Instant::now();
     let recordings = args
         .fit

@@ -37,7 +37,6 @@ pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignO
     let outputs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).collect();
     super::check_outputs(&inputs, &outputs)?;
     super::create_folder("--out", out)?;
-    super::claim_outputs(&outputs)?;
     let bar = ui.progress(1, "calibrating the campaign");
     let output = spincal::fleet::calibrate_campaign_file(&campaign, &Params::default(), &|p| {
         crate::ui::show(&bar, p)

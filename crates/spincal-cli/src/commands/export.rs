@@ -52,6 +52,11 @@ pub fn run(args: ExportArgs) -> anyhow::Result<()> {
             spincal::firmware::FirmwareError::Name { .. } => anyhow::Error::new(UsageError(e.to_string())),
             other => anyhow::Error::new(other),
         })?;
+    let paths: Vec<PathBuf> = export.files.iter().map(|(name, _)| args.out.join(name)).collect();
+    super::check_outputs(
+        &[args.model.as_path()],
+        &paths.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
+    )?;
     let written = write_export(&export, &args.out)?;
     let mut text = format!("exported the {} corrector:\n", export.kind);
     for path in &written {

@@ -174,7 +174,12 @@ pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
             .with_context(|| format!("writing the reference of {}", rec.source.name))?;
     }
     if let Some(path) = &args.output {
-        super::write_text(path, &(serde_json::to_string_pretty(&fit)? + "\n"))?;
+        // Marked as spincal's, so that a later run replaces it (and keeps anyone else's file).
+        let mut json = serde_json::to_value(&fit)?;
+        if let Some(map) = json.as_object_mut() {
+            map.insert("spincal_version".into(), env!("CARGO_PKG_VERSION").into());
+        }
+        super::write_text(path, &(serde_json::to_string_pretty(&json)? + "\n"))?;
     }
     if args.turntable.json {
         return ui::print_json(&fit);

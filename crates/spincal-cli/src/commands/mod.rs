@@ -27,10 +27,13 @@ use std::path::Path;
 
 use anyhow::Context;
 
-/// Refuses outputs that are also inputs (followed through links) or that name the same file, before
-/// any work starts: a usage error.
+/// Refuses outputs that are also inputs (followed through links) or that name the same file, and
+/// existing outputs that spincal did not write (see [`claim_outputs`]), before any work starts: a
+/// usage error.
 pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> anyhow::Result<()> {
-    spincal::output::check_outputs(inputs, outputs).map_err(|e| crate::ui::UsageError(e.to_string()).into())
+    spincal::output::check_outputs(inputs, outputs)
+        .map_err(|e| anyhow::Error::from(crate::ui::UsageError(e.to_string())))?;
+    claim_outputs(outputs)
 }
 
 /// Whether `--force` was given: existing outputs that spincal did not write may be replaced.

@@ -166,7 +166,6 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
         .unwrap_or_else(|| output.with_extension("truth.json"));
     let sensor_file: Vec<&std::path::Path> = args.sensor.iter().map(|p| p.as_path()).collect();
     super::check_outputs(&sensor_file, &[&output, &truth_path])?;
-    super::claim_outputs(&[&output, &truth_path])?;
     let sim = simulate(&sensor, &table, args.seed).map_err(|e| UsageError(e.to_string()))?;
     sim.recording.write_csv_path(&output, unit)?;
     let truth = spincal::simulate::truth_json(&sim.truth, &output)

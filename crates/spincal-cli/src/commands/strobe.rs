@@ -75,6 +75,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             other => anyhow::Error::new(UsageError(other.to_string())),
         }
     })?;
+    super::check_outputs(&[], &[args.output.as_path()])?;
     super::write_text(&args.output, &disc.to_svg())?;
     if args.json {
         return ui::print_json(&Report {

@@ -50,6 +50,9 @@ struct SweepOutput<'a> {
     hessian_samples: Option<usize>,
     wall_seconds: f64,
     rows: &'a [SweepRow],
+    spincal_version: &'static str,
+    /// The table and heat maps written beside this file, so that a later run knows them as its own.
+    outputs: Vec<spincal::output::NamedFingerprint>,
 }
 
 pub fn run(args: SweepArgs, ui: Ui) -> anyhow::Result<()> {
@@ -90,7 +93,7 @@ pub fn run(args: SweepArgs, ui: Ui) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     let rows = pool.install(|| sweep(&problem, &settings, &observer))?;
     bar.finish_and_clear();
-    let output = SweepOutput {
+    let mut output = SweepOutput {
         data: args.data.data.display().to_string(),
         reference: args.data.reference.display().to_string(),
         axes,
@@ -100,11 +103,12 @@ pub fn run(args: SweepArgs, ui: Ui) -> anyhow::Result<()> {
         hessian_samples: settings.lm.hessian_samples,
         wall_seconds: started.elapsed().as_secs_f64(),
         rows: &rows,
+        spincal_version: env!("CARGO_PKG_VERSION"),
+        outputs: Vec::new(),
     };
     let csv_path = args.output.with_extension("csv");
     let json_path = args.output.with_extension("json");
     super::write_text(&csv_path, &table_csv(&rows))?;
-    super::write_text(&json_path, &(serde_json::to_string_pretty(&output)? + "\n"))?;
     let mut heatmap_paths = Vec::new();
     if let Some(map) = heat_map(&rows) {
         let stem = args.output.display().to_string();
@@ -114,6 +118,12 @@ pub fn run(args: SweepArgs, ui: Ui) -> anyhow::Result<()> {
         map.to_png(&png_path, 1200, 820)?;
         heatmap_paths = vec![svg_path, png_path];
     }
+    // The JSON comes last and names the others with their fingerprints.
+    let written: Vec<&std::path::Path> = std::iter::once(csv_path.as_path())
+        .chain(heatmap_paths.iter().map(PathBuf::as_path))
+        .collect();
+    output.outputs = spincal::output::named_fingerprints(&written)?;
+    super::write_text(&json_path, &(serde_json::to_string_pretty(&output)? + "\n"))?;
     if args.json {
         return ui::print_json(&output);
     }

@@ -310,7 +310,8 @@ impl StaticFit {
                     _ => (format!("nonlinearity_{}", axis[a]), g * g * sd),
                 }
             })
-            .filter(|(_, effect)| !(*effect <= POORLY_DETERMINED_FRACTION_OF_G * g))
+            // A NaN effect (a singular fit) counts as poorly determined too.
+            .filter(|(_, effect)| effect.is_nan() || *effect > POORLY_DETERMINED_FRACTION_OF_G * g)
             .collect()
     }
 }
@@ -638,7 +639,7 @@ mod tests {
         for token in yaml
             .lines()
             .filter(|l| !l.trim_start().starts_with('#'))
-            .flat_map(|l| l.split(|c: char| matches!(c, '[' | ']' | ',' | ' ' | ':')))
+            .flat_map(|l| l.split(['[', ']', ',', ' ', ':']))
             .filter(|t| t.starts_with(|c: char| c.is_ascii_digit() || c == '-'))
         {
             let (mantissa, exponent) = token.split_once('e').unwrap_or((token, "+0"));

@@ -213,7 +213,7 @@ impl StrobeDisc {
         let mut s = String::with_capacity(200 * self.rings.iter().map(|g| g.bars as usize).sum::<usize>());
         let _ = writeln!(
             s,
-            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{side}mm" height="{side}mm" viewBox="{o} {o} {side} {side}">"#,
+            r#"<svg xmlns="http://www.w3.org/2000/svg" data-generator="spincal" width="{side}mm" height="{side}mm" viewBox="{o} {o} {side} {side}">"#,
             o = -side / 2.0
         );
         let _ = writeln!(
