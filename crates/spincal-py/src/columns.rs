@@ -166,7 +166,9 @@ pub fn plan_columns(
     };
     match first {
         // No time column found: a sample rate can stand in for it.
-        Err(RecordingError::AmbiguousColumns { .. }) if time_optional && map.columns.is_none() => {
+        Err(RecordingError::AmbiguousColumns { .. } | RecordingError::NoTimeColumn { .. })
+            if time_optional && map.columns.is_none() =>
+        {
             let mut guessed = header.clone();
             guessed.push("t".to_string());
             let mut plan = resolve(&guessed, name, &map).map_err(|_| ambiguous(&header, name))?;
@@ -176,7 +178,9 @@ pub fn plan_columns(
             }
             Ok(plan)
         }
-        Err(RecordingError::AmbiguousColumns { .. }) => Err(ambiguous(&header, name)),
+        Err(RecordingError::AmbiguousColumns { .. } | RecordingError::NoTimeColumn { .. }) => {
+            Err(ambiguous(&header, name))
+        }
         Err(e) => Err(errors::format(e)),
         Ok(plan) => Ok(plan),
     }

@@ -356,7 +356,9 @@ fn corrected_values(
     gyro_width: usize,
     units: UnitFactors,
 ) -> Vec<Option<f64>> {
-    let (from_mps2, from_radps) = (1.0 / units.accel_to_mps2, 1.0 / units.gyro_to_radps);
+    // As before the row corrector was shared: the accelerometer times the reciprocal, the gyro
+    // divided (Python's frames convert the same way, so both agree to the bit).
+    let from_mps2 = 1.0 / units.accel_to_mps2;
     match outcome {
         RowOutcome::Corrected {
             accel_mps2,
@@ -365,7 +367,7 @@ fn corrected_values(
         } => axes
             .iter()
             .map(|a| Some(accel_mps2[a.index()] * from_mps2))
-            .chain(gyro_radps.iter().flatten().map(|&w| Some(w * from_radps)))
+            .chain(gyro_radps.iter().flatten().map(|&w| Some(w / units.gyro_to_radps)))
             .collect(),
         RowOutcome::Refused(_) => vec![None; axes.len() + gyro_width],
     }

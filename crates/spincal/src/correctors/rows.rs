@@ -149,13 +149,13 @@ impl<'a> RowCorrector<'a> {
         let rate = gyro
             .zip(self.gyro.as_ref())
             .map(|(g, c)| c.correct(g.map(|w| w * u.gyro_to_radps)));
-        let (from_mps2, from_radps) = (1.0 / u.accel_to_mps2, 1.0 / u.gyro_to_radps);
+        let from_mps2 = 1.0 / u.accel_to_mps2;
         let finite = self
             .axes
             .iter()
             .map(|axis| sample.accel_mps2[axis.index()])
             .flat_map(|a| [a, a * from_mps2])
-            .chain(rate.iter().flatten().flat_map(|&w| [w, w * from_radps]))
+            .chain(rate.iter().flatten().flat_map(|&w| [w, w / u.gyro_to_radps]))
             .all(f64::is_finite);
         if !finite {
             return RowOutcome::Refused(
