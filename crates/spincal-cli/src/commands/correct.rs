@@ -367,7 +367,12 @@ fn corrected_values(
         } => axes
             .iter()
             .map(|a| Some(accel_mps2[a.index()] * from_mps2))
-            .chain(gyro_radps.iter().flatten().map(|&w| Some(w / units.gyro_to_radps)))
+            .chain(
+                gyro_radps
+                    .iter()
+                    .flatten()
+                    .map(|&w| Some(w / units.gyro_to_radps)),
+            )
             .collect(),
         RowOutcome::Refused(_) => vec![None; axes.len() + gyro_width],
     }
