@@ -190,8 +190,10 @@ impl Collector {
             "ros1" => Some(Encoding::Ros1),
             _ => None,
         };
-        let wanted = self.wanted.as_ref().is_none_or(|w| w.iter().any(|t| t == name));
         let info_kind = info.kind();
+        // A temperature topic is read whatever IMU topic is chosen: it goes beside it.
+        let wanted = self.wanted.as_ref().is_none_or(|w| w.iter().any(|t| t == name))
+            || info_kind == Some(MsgKind::Temperature);
         let series = (wanted && info_kind.is_some() && enc.is_some()).then(Series::default);
         self.topics.push(info);
         self.encodings.push(enc);
@@ -343,7 +345,7 @@ fn candidates(c: &Collector) -> Vec<Choice> {
                     accels.push(i)
                 }
             }
-            None => {}
+            Some(MsgKind::Temperature) | None => {}
         }
     }
     match (accels.as_slice(), gyros.as_slice()) {
@@ -554,6 +556,97 @@ fn merge(accel: Timed, gyro: Timed, notes: &mut Vec<String>, names: (&str, &str)
     out
 }
 
+/// The bag's `sensor_msgs/Temperature` on the IMU's times, when there is one to take: the only
+/// temperature topic, or among several the one with the IMU's frame_id. Linear between its
+/// messages, held at its first and last value beyond them (a temperature changes slowly); each
+/// choice is in `notes`. A temperature topic that cannot be read is noted and left out: it never
+/// stops the IMU data being read.
+fn temperature_beside(
+    c: &mut Collector,
+    data: &Timed,
+    frame: Option<&str>,
+    notes: &mut Vec<String>,
+) -> Option<Vec<f64>> {
+    let topics: Vec<usize> = (0..c.topics.len())
+        .filter(|&i| c.kinds[i] == Some(MsgKind::Temperature) && c.series[i].is_some())
+        .collect();
+    let chosen = match topics.as_slice() {
+        [] => return None,
+        [one] => *one,
+        several => {
+            let same_frame: Vec<usize> = several
+                .iter()
+                .copied()
+                .filter(|&i| c.series[i].as_ref().and_then(|s| s.frame_id.as_deref()) == frame)
+                .collect();
+            let names = several
+                .iter()
+                .map(|&i| c.topics[i].name.clone())
+                .collect::<Vec<_>>()
+                .join(", ");
+            match same_frame.as_slice() {
+                [one] => *one,
+                _ => {
+                    notes.push(format!(
+                        "temperature topics {names}: none has the IMU's frame_id alone, so none is read"
+                    ));
+                    return None;
+                }
+            }
+        }
+    };
+    let name = c.topics[chosen].name.clone();
+    let mut quiet = Vec::new();
+    let series = match timed(c, chosen, &mut quiet) {
+        Ok(t) => t,
+        Err(e) => {
+            notes.push(format!("temperature topic {name} left out: {e}"));
+            return None;
+        }
+    };
+    notes.extend(quiet);
+    let (ns, value) = (&series.ns, &series.v[0]);
+    if let Some(k) = value.iter().position(|v| !v.is_finite()) {
+        notes.push(format!(
+            "temperature topic {name} left out: message {} holds {}",
+            k + 1,
+            value[k]
+        ));
+        return None;
+    }
+    let (mut inside, mut held) = (0usize, 0usize);
+    let mut j = 0usize;
+    let merged = data
+        .ns
+        .iter()
+        .map(|&t| {
+            while j + 1 < ns.len() && ns[j + 1] <= t {
+                j += 1;
+            }
+            if t < ns[0] || (t > ns[j] && j + 1 == ns.len()) {
+                held += 1;
+                if t < ns[0] {
+                    value[0]
+                } else {
+                    value[j]
+                }
+            } else if ns[j] == t || j + 1 == ns.len() {
+                inside += 1;
+                value[j]
+            } else {
+                inside += 1;
+                let f = (t - ns[j]) as f64 / (ns[j + 1] - ns[j]) as f64;
+                value[j] + f * (value[j + 1] - value[j])
+            }
+        })
+        .collect();
+    notes.push(format!(
+        "temperature from {name} ({} messages) on the IMU's stamps: {inside} within its span (linear between messages), {held} beyond it (its first or last value held)",
+        ns.len()
+    ));
+    Some(merged)
+}
+
 fn assemble(mut c: Collector, storage: Storage, topic: Option<&str>) -> Result<BagRead, BagError> {
     let choice = choose(&c, topic)?;
     let mut notes = Vec::new();
@@ -586,6 +679,7 @@ fn assemble(mut c: Collector, storage: Storage, topic: Option<&str>) -> Result<B
             }
         }
     };
+    let temperature = temperature_beside(&mut c, &data, frame.as_deref(), &mut notes);
     let t0 = data.ns[0];
     let time_s: Vec<f64> = data.ns.iter().map(|&t| (t - t0) as f64 * 1e-9).collect();
     let gyro = data.g.is_some();
@@ -600,6 +694,9 @@ fn assemble(mut c: Collector, storage: Storage, topic: Option<&str>) -> Result<B
     }
     if gyro {
         columns.extend(["angular_velocity.x", "angular_velocity.y", "angular_velocity.z"].map(String::from));
+    }
+    if temperature.is_some() {
+        columns.push("temperature".into());
     }
     let metadata = vec![
         format!("storage: {}", storage.name()),
@@ -616,7 +713,7 @@ fn assemble(mut c: Collector, storage: Storage, topic: Option<&str>) -> Result<B
         time_s,
         accel_mps2: data.v,
         gyro_radps: data.g,
-        temperature_c: None,
+        temperature_c: temperature,
         source: Source {
             name: c.file.clone(),
             format: "rosbag".into(),
@@ -803,6 +900,79 @@ mod tests {
             e,
             "zstd chunk decompresses to 100000+ bytes, its header says 99999"
         );
+    }
+
+    /// A bag's `sensor_msgs/Temperature` topic goes beside the IMU's samples, on their stamps:
+    /// interpolated within its span, held beyond it, in ROS 1 and ROS 2 encodings alike; a
+    /// damaged temperature topic is left out with a note and never stops the IMU data.
+    #[test]
+    fn a_temperature_topic_is_merged_on_the_imu_stamps() {
+        for (encoding, name) in [(Encoding::Cdr, "cdr"), (Encoding::Ros1, "ros1")] {
+            let (imu_type, temp_type) = match encoding {
+                Encoding::Cdr => ("sensor_msgs/msg/Imu", "sensor_msgs/msg/Temperature"),
+                Encoding::Ros1 => ("sensor_msgs/Imu", "sensor_msgs/Temperature"),
+            };
+            for damaged in [false, true] {
+                // --topic names the IMU only: the temperature is read all the same.
+                let mut c = Collector::new("b", Some("/imu"));
+                let imu = c.topic("/imu", imu_type, name);
+                let temp = c.topic("/imu/temperature", temp_type, name);
+                let t0 = 1_700_000_000_000_000_000i64;
+                let message = |stamp_ns: i64, vector: [f64; 3]| msg::Decoded {
+                    stamp_ns,
+                    frame_id: "imu_link".into(),
+                    vector,
+                    angular_velocity: Some([0.0; 3]),
+                    accel_cov0: 0.0,
+                    gyro_cov0: 0.0,
+                };
+                // IMU at 100 Hz for 3 s; temperature at 1 Hz from 0.5 s to 2.5 s, 20 °C rising 1 °C/s.
+                for k in 0..300 {
+                    let m = message(t0 + k * 10_000_000, [0.0, 0.0, 9.8]);
+                    c.message(
+                        imu,
+                        0,
+                        &msg::encode(&m, encoding, MsgKind::Imu, k as u32),
+                        &|| String::new(),
+                    );
+                }
+                for k in 0..3 {
+                    let m = message(t0 + 500_000_000 + k * 1_000_000_000, [20.0 + k as f64, 0.01, 0.0]);
+                    let mut bytes = msg::encode(&m, encoding, MsgKind::Temperature, k as u32);
+                    if damaged && k == 1 {
+                        bytes.truncate(bytes.len() - 3);
+                    }
+                    c.message(temp, 0, &bytes, &|| String::new());
+                }
+                let read = assemble(c, Storage::Mcap, Some("/imu")).unwrap();
+                let r = &read.recording;
+                assert_eq!(r.len(), 300);
+                if damaged {
+                    assert!(r.temperature_c.is_none());
+                    assert!(
+                        read.notes
+                            .iter()
+                            .any(|n| n.starts_with("temperature topic /imu/temperature left out")),
+                        "{:?}",
+                        read.notes
+                    );
+                    continue;
+                }
+                let temp = r.temperature_c.as_ref().expect("the temperature was merged");
+                assert_eq!(r.source.columns.last().map(String::as_str), Some("temperature"));
+                assert_eq!(temp[0], 20.0, "held before its first message");
+                assert!((temp[150] - 21.0).abs() < 1e-12, "{}", temp[150]);
+                assert!((temp[100] - 20.5).abs() < 1e-12, "{}", temp[100]);
+                assert_eq!(temp[299], 22.0, "held after its last message");
+                assert!(
+                    read.notes
+                        .iter()
+                        .any(|n| n.contains("201 within its span") && n.contains("99 beyond it")),
+                    "{:?}",
+                    read.notes
+                );
+            }
+        }
     }
 
     fn collector_with(topics: &[(&str, &str)]) -> Collector {

@@ -1,4 +1,5 @@
-//! Decoders for the two IMU message shapes, in both serialisations ROS uses.
+//! Decoders for the two IMU message shapes and the temperature beside them, in both
+//! serialisations ROS uses.
 //!
 //! * ROS 2 (CDR, XCDR1 "plain"): a 4-byte encapsulation header (`00 01` little endian, `00 00` big
 //!   endian, then two option bytes), then the fields, each aligned to its own size counted from the
@@ -26,6 +27,8 @@ pub enum MsgKind {
     Imu,
     /// `geometry_msgs/Vector3Stamped`.
     Vector3Stamped,
+    /// `sensor_msgs/Temperature` (°C and its variance).
+    Temperature,
 }
 
 impl MsgKind {
@@ -34,6 +37,7 @@ impl MsgKind {
         match name.replace("/msg/", "/").as_str() {
             "sensor_msgs/Imu" => Some(MsgKind::Imu),
             "geometry_msgs/Vector3Stamped" => Some(MsgKind::Vector3Stamped),
+            "sensor_msgs/Temperature" => Some(MsgKind::Temperature),
             _ => None,
         }
     }
@@ -44,7 +48,8 @@ impl MsgKind {
 pub struct Decoded {
     pub stamp_ns: i64,
     pub frame_id: String,
-    /// `Imu`: linear acceleration (m/s²); `Vector3Stamped`: the vector.
+    /// `Imu`: linear acceleration (m/s²); `Vector3Stamped`: the vector; `Temperature`: the
+    /// temperature (°C), its variance, 0.
     pub vector: [f64; 3],
     /// `Imu`: angular velocity (rad/s).
     pub angular_velocity: Option<[f64; 3]>,
@@ -243,6 +248,17 @@ pub fn decode(data: &[u8], encoding: Encoding, kind: MsgKind) -> Result<Decoded,
             accel_cov0: 0.0,
             gyro_cov0: 0.0,
         },
+        MsgKind::Temperature => {
+            let [temperature, variance] = c.f64s("temperature and variance")?;
+            Decoded {
+                stamp_ns,
+                frame_id,
+                vector: [temperature, variance, 0.0],
+                angular_velocity: None,
+                accel_cov0: 0.0,
+                gyro_cov0: 0.0,
+            }
+        }
     };
     let left = data.len() - c.pos;
     // CDR writers may pad the end to a multiple of 4; ROS 1 has no padding.
@@ -316,6 +332,7 @@ pub fn encode(msg: &Decoded, encoding: Encoding, kind: MsgKind, seq: u32) -> Vec
             put(&mut out, &accel_cov);
         }
         MsgKind::Vector3Stamped => put(&mut out, &msg.vector),
+        MsgKind::Temperature => put(&mut out, &msg.vector[..2]),
     }
     out
 }
