@@ -200,3 +200,108 @@ fn a_file_without_a_time_column_is_corrected_at_the_rate_given() {
     assert_eq!(&header[..3], ["line", "t_s", "ax_mps2"]);
     assert_eq!(body[1][1], (1.0 / 102.4).to_string());
 }
+
+/// `static --exports` writes what a campaign writes for other tools, and each file, applied by its
+/// own tool's documented formula, gives what `spincal correct` gives from model.json: imucal's
+/// acc = R_a⁻¹ K_a⁻¹ (raw − b_a), imu_tk's a = T K (raw − b); the MPU-6050 recording's gyro too.
+#[test]
+fn static_exports_match_the_model_it_saves() {
+    let Some(path) = shared("imu/mpu6050/example_data_calibration.csv") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (cal, out, exports) = (
+        dir.path().join("cal.json"),
+        dir.path().join("out.csv"),
+        dir.path().join("exports"),
+    );
+    let args = |extra: &[&std::ffi::OsStr]| {
+        let mut c = spincal();
+        c.arg("static")
+            .arg(&path)
+            .args(["--model", "6", "-o"])
+            .arg(&cal)
+            .arg("--exports")
+            .arg(&exports)
+            .args(extra);
+        c
+    };
+    run(&mut args(&[]));
+    // A second run replaces its own files without a word.
+    run(&mut args(&[]));
+    run(spincal()
+        .arg("correct")
+        .arg("--model")
+        .arg(&cal)
+        .arg(&path)
+        .arg("-o")
+        .arg(&out));
+    let (header, body) = rows(&out);
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| h == name)
+            .unwrap_or_else(|| panic!("{name} in {header:?}"))
+    };
+    let imucal: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(exports.join("imucal.json")).unwrap()).unwrap();
+    let m = |key: &str| -> [[f64; 3]; 3] { serde_json::from_value(imucal[key].clone()).unwrap() };
+    let v = |key: &str| -> [f64; 3] { serde_json::from_value(imucal[key].clone()).unwrap() };
+    let (k_a, r_a, b_a) = (m("K_a"), m("R_a"), v("b_a"));
+    let (k_g, r_g, b_g) = (m("K_g"), m("R_g"), v("b_g"));
+    assert_eq!(imucal["from_acc_unit"], "counts");
+    // Solves M x = y for a 3×3 M (Cramer's rule, written out for the test).
+    fn solve(m: [[f64; 3]; 3], y: [f64; 3]) -> [f64; 3] {
+        let det = |a: [[f64; 3]; 3]| {
+            a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+                - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+                + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+        };
+        let d = det(m);
+        std::array::from_fn(|k| {
+            let mut a = m;
+            for r in 0..3 {
+                a[r][k] = y[r];
+            }
+            det(a) / d
+        })
+    }
+    let imu_tk = std::fs::read_to_string(exports.join("imu_tk_acc.calib")).unwrap();
+    let numbers: Vec<f64> = imu_tk.split_whitespace().map(|w| w.parse().unwrap()).collect();
+    let t: [[f64; 3]; 3] = std::array::from_fn(|r| std::array::from_fn(|c| numbers[3 * r + c]));
+    let k: [f64; 3] = std::array::from_fn(|i| numbers[9 + 4 * i]);
+    let b: [f64; 3] = std::array::from_fn(|i| numbers[18 + i]);
+    assert!(exports.join("imu_tk_gyro.calib").exists());
+    for row in body.iter().step_by(97) {
+        let get = |name: &str| row[col(name)].parse::<f64>().unwrap();
+        let raw = ["ax_counts", "ay_counts", "az_counts"].map(get);
+        let ours = ["ax_corrected_mps2", "ay_corrected_mps2", "az_corrected_mps2"].map(get);
+        // imucal: R_a⁻¹ K_a⁻¹ (raw − b_a) = solve(K_a R_a, raw − b_a).
+        let k_r: [[f64; 3]; 3] =
+            std::array::from_fn(|r| std::array::from_fn(|c| (0..3).map(|i| k_a[r][i] * r_a[i][c]).sum()));
+        let theirs = solve(k_r, std::array::from_fn(|i| raw[i] - b_a[i]));
+        let d: [f64; 3] = std::array::from_fn(|i| k[i] * (raw[i] - b[i]));
+        let tk: [f64; 3] = std::array::from_fn(|r| (0..3).map(|c| t[r][c] * d[c]).sum());
+        for a in 0..3 {
+            assert!(
+                (theirs[a] - ours[a]).abs() < 1e-9 * (1.0 + ours[a].abs()),
+                "imucal {theirs:?} vs {ours:?}"
+            );
+            assert!(
+                (tk[a] - ours[a]).abs() < 1e-9 * (1.0 + ours[a].abs()),
+                "imu_tk {tk:?} vs {ours:?}"
+            );
+        }
+        let raw_g = ["gx_counts", "gy_counts", "gz_counts"].map(get);
+        let ours_g = ["gx_corrected_radps", "gy_corrected_radps", "gz_corrected_radps"].map(get);
+        let k_r_g: [[f64; 3]; 3] =
+            std::array::from_fn(|r| std::array::from_fn(|c| (0..3).map(|i| k_g[r][i] * r_g[i][c]).sum()));
+        let theirs_g = solve(k_r_g, std::array::from_fn(|i| raw_g[i] - b_g[i]));
+        for a in 0..3 {
+            assert!(
+                (theirs_g[a] - ours_g[a]).abs() < 1e-9 * (1.0 + ours_g[a].abs()),
+                "gyro {theirs_g:?} vs {ours_g:?}"
+            );
+        }
+    }
+}

@@ -270,6 +270,72 @@ pub fn imucal_json(sensor: &SensorModel, gyro: Option<&GyroModel>) -> serde_json
     })
 }
 
+/// A static calibration (`spincal static`) as imucal's JSON and imu_tk's files, in the reading's
+/// own units (counts or m/s²): the same model, a = T K (r − b), so the files hold it exactly
+/// (imucal: K_a = K⁻¹, R_a = T⁻¹, b_a = b; imu_tk: T, K, b), except a 12-parameter model's
+/// quadratic terms, which are left out and said so in imucal's comment. The gyroscope, when
+/// calibrated, goes beside it as in [`imucal_json`].
+pub fn static_files(
+    calibration: &crate::correctors::static_cal::StaticCalibration,
+    gyro: Option<&GyroModel>,
+) -> Option<Vec<(&'static str, String)>> {
+    let t = calibration.misalignment_matrix();
+    let t_inverse = inverse(&t)?;
+    let k_a: M3 = std::array::from_fn(|r| {
+        std::array::from_fn(|c| if r == c { 1.0 / calibration.scale[r] } else { 0.0 })
+    });
+    if k_a.iter().flatten().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let quadratic = calibration.nonlinearity.iter().any(|&q| q != 0.0);
+    let mut imucal = imucal_json(
+        &SensorModel {
+            bias_mps2: calibration.bias,
+            ..SensorModel::default()
+        },
+        gyro,
+    );
+    imucal["K_a"] = serde_json::json!(k_a);
+    imucal["R_a"] = serde_json::json!(t_inverse);
+    imucal["from_acc_unit"] = serde_json::json!(calibration.input_unit);
+    if let Some(g) = gyro {
+        imucal["from_gyr_unit"] = serde_json::json!(if g.input_unit.is_rad_per_s() {
+            "rad/s"
+        } else {
+            "counts"
+        });
+    }
+    imucal["comment"] = serde_json::json!(format!(
+        "spincal {} static calibration{}{}",
+        env!("CARGO_PKG_VERSION"),
+        if quadratic {
+            "; the accelerometer's quadratic nonlinearity is not representable here and is left out"
+        } else {
+            ""
+        },
+        if gyro.is_none() {
+            "; no gyroscope calibration (identity)"
+        } else {
+            ""
+        }
+    ));
+    let mut files = vec![("imucal.json", pretty(&imucal))];
+    let accel = ImuTkCalib {
+        misalignment: t,
+        scale: calibration.scale,
+        bias: calibration.bias,
+    };
+    files.push(("imu_tk_acc.calib", accel.to_text()));
+    if let Some(g) = gyro {
+        let k_inv = inverse(&g.sensitivity)?;
+        files.push((
+            "imu_tk_gyro.calib",
+            ImuTkCalib::from_map(&k_inv, g.bias_radps).to_text(),
+        ));
+    }
+    Some(files)
+}
+
 /// Every file a campaign calibration writes, by name, with its content: model.json (when a
 /// corrector was saved), results.json, report.html, and the linear part of the calibration in
 /// the files other tools read (imucal.json, imu_tk_acc.calib, imu_tk_gyro.calib; see

@@ -361,7 +361,8 @@ fn claim_of(claimer: &Path, file: &Path) -> Option<bool> {
 /// - a CSV laid out as spincal writes it: `correct`'s output (its header ends with `valid` and
 ///   `status`) or a recording (`t_s,ax_g|ax_mps2,…`, as `fit` writes them) that no truth file
 ///   beside it names (a simulated recording is judged by its truth's fingerprint alone);
-/// - an imu_tk `.calib` file beside a results.json that spincal wrote (a campaign's exports);
+/// - an imu_tk `.calib` file beside a results.json or imucal.json that spincal wrote (a
+///   campaign's or `static --exports`' files);
 /// - any file that a spincal JSON file among `companions` (or `<stem>.truth.json` beside it) names
 ///   with its current length and hash, in a `recording` field (a simulated recording) or an
 ///   `outputs` list (a sweep's table and heat maps); once named, only that content counts.
@@ -408,8 +409,9 @@ pub fn written_by_spincal(path: &Path, companions: &[&Path]) -> bool {
         return true;
     }
     if path.extension().is_some_and(|e| e == "calib") {
-        let results = folder.join("results.json");
-        return json_object(&results).is_some_and(|map| spincal_json(&map));
+        return ["results.json", "imucal.json"]
+            .iter()
+            .any(|beside| json_object(&folder.join(beside)).is_some_and(|map| spincal_json(&map)));
     }
     false
 }
@@ -468,7 +470,7 @@ pub fn claim_outputs(outputs: &[&Path], force: bool) -> Result<Vec<Replaced>, Ou
             let why = match output.extension().and_then(|e| e.to_str()) {
                 Some("json") => "no spincal_version field in it",
                 Some("html") => "no spincal generator mark in it",
-                Some("calib") => "no results.json by spincal beside it",
+                Some("calib") => "no results.json or imucal.json by spincal beside it",
                 _ => "no spincal file names it with its current content",
             };
             return Err(OutputError::NotWrittenBySpincal {

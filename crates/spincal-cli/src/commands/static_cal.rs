@@ -32,6 +32,12 @@ pub struct StaticArgs {
     /// walks: `spincal allan --kalibr`), and Kalibr does not read it.
     #[arg(long)]
     pub yaml: Option<PathBuf>,
+    /// Also write the calibration as other tools read it, into this folder (made if missing), as a
+    /// campaign does: imucal.json (imucal's Ferraris JSON), imu_tk_acc.calib and, with a gyro,
+    /// imu_tk_gyro.calib, in the reading's own units (a 12-parameter model's quadratic terms are
+    /// left out, and imucal's comment says so).
+    #[arg(long, value_name = "DIR")]
+    pub exports: Option<PathBuf>,
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
@@ -96,11 +102,20 @@ struct Report<'a> {
     gyro: Option<GyroReport<'a>>,
 }
 
+/// The files `--exports` may write (the gyro's only with a gyro calibration).
+const EXPORT_FILES: [&str; 3] = ["imucal.json", "imu_tk_acc.calib", "imu_tk_gyro.calib"];
+
 pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
+    let export_paths: Vec<PathBuf> = args
+        .exports
+        .iter()
+        .flat_map(|dir| EXPORT_FILES.map(|name| dir.join(name)))
+        .collect();
     let outputs: Vec<&std::path::Path> = args
         .output
         .iter()
         .chain(&args.yaml)
+        .chain(&export_paths)
         .map(|p| p.as_path())
         .collect();
     let mut inputs = vec![args.input.rec.as_path()];
@@ -200,6 +215,14 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     if let Some(path) = &args.yaml {
         let yaml = fit.calibration.to_kalibr_yaml(rec.sample_rate_hz(), None);
         super::write_text(path, &yaml)?;
+    }
+    if let Some(dir) = &args.exports {
+        let files = spincal::export::static_files(&fit.calibration, gyro_fit.map(|g| &g.model))
+            .context("the calibration's scale or misalignment cannot be inverted for imucal and imu_tk")?;
+        super::create_folder("--exports", dir)?;
+        for (name, text) in files {
+            super::write_text(&dir.join(name), &text)?;
+        }
     }
     if args.json {
         return ui::print_json(&Report {
