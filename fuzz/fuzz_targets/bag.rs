@@ -19,14 +19,15 @@ fuzz_target!(|data: &[u8]| {
     };
     // The decoders alone, on the whole input, in both serialisations and both shapes.
     for encoding in [msg::Encoding::Cdr, msg::Encoding::Ros1] {
-        for kind in [msg::MsgKind::Imu, msg::MsgKind::Vector3Stamped] {
+        for kind in [msg::MsgKind::Imu, msg::MsgKind::Vector3Stamped, msg::MsgKind::Temperature] {
             if let Err(e) = msg::decode(file, encoding, kind) {
                 assert!(e.offset <= file.len());
             }
         }
     }
-    let topic = TOPICS[usize::from(choice) % TOPICS.len()];
-    match read_bytes(file, "fuzz.bag", topic) {
+    let topic = TOPICS[usize::from(choice & 0x7f) % TOPICS.len()];
+    // The high bit asks for salvage (the messages before damage at the end).
+    match read_bytes(file, "fuzz.bag", topic, choice & 0x80 != 0) {
         Ok(read) => {
             let r = &read.recording;
             let n = r.time_s.len();

@@ -68,7 +68,7 @@ fuzz_target!(|data: &[u8]| {
         units,
     );
     columns.accel_unit = pick(&[AccelUnit::Mps2, AccelUnit::G], units >> 3);
-    columns.time_unit = pick(&[TimeUnit::S, TimeUnit::Ms, TimeUnit::Us], units >> 5);
+    columns.time_unit = pick(&[TimeUnit::S, TimeUnit::Ms, TimeUnit::Us, TimeUnit::Ns], units >> 5);
     columns.gyro_unit = pick(&[GyroUnit::Radps, GyroUnit::Dps], gyro);
     let value = |byte: u8| VALUES[byte as usize % VALUES.len()];
     let options = ReadOptions {
@@ -83,6 +83,8 @@ fuzz_target!(|data: &[u8]| {
             command: flag(6).then_some(rate),
         },
         retime: flag(0),
+        salvage: flag(7),
+        ..ReadOptions::default()
     };
 
     match read_bytes(bytes, &name, &options) {

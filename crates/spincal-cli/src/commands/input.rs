@@ -47,6 +47,10 @@ pub struct ReadArgs {
     /// or jittered stamps).
     #[arg(long)]
     pub retime: bool,
+    /// ROS bags: read the messages before damage at the end of the file (cut short, its footer or
+    /// index lost) instead of refusing it; the output says where reading stopped.
+    #[arg(long)]
+    pub salvage: bool,
     /// ROS bag topic to read: a sensor_msgs/Imu topic, or `ACCEL,GYRO` geometry_msgs/Vector3Stamped
     /// topics (default: the bag's only IMU topic; several are listed with their message counts).
     #[arg(long, value_name = "TOPIC")]
@@ -118,6 +122,7 @@ impl ReadArgs {
             },
             topic: self.topic.clone(),
             retime: self.retime,
+            salvage: self.salvage,
         })
     }
 

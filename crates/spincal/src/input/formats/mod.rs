@@ -191,6 +191,9 @@ pub struct ReadOptions {
     /// Replace the timestamps by t₀ + i·Δt, Δt from all the timestamps (for coarse, repeated or
     /// jittered stamps). Dropped samples are not restored: use it on recordings without gaps.
     pub retime: bool,
+    /// ROS bags: a file whose end is damaged (cut, its footer or index lost) gives the messages
+    /// before the damage, with a note, instead of an error naming how many are intact.
+    pub salvage: bool,
 }
 
 /// A recording and what its reader learned.
@@ -271,7 +274,7 @@ pub fn read_path(path: &Path, options: &ReadOptions) -> Result<Loaded, FormatErr
         || (options.format.is_none() && sniff_bag(path))
     {
         check_options(options)?;
-        let read = bag::read_path(path, options.topic.as_deref())?;
+        let read = bag::read_path(path, options.topic.as_deref(), options.salvage)?;
         let detection = options.format.is_none().then(|| Detection {
             format: Format::RosBag,
             reason: if path.is_dir() {
@@ -324,7 +327,12 @@ pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loa
             l
         }
         Format::Mat => read_mat(bytes, file, options)?,
-        Format::RosBag => bag_loaded(bag::read_bytes(bytes, file, options.topic.as_deref())?),
+        Format::RosBag => bag_loaded(bag::read_bytes(
+            bytes,
+            file,
+            options.topic.as_deref(),
+            options.salvage,
+        )?),
     };
     finish(loaded, detection, options)
 }

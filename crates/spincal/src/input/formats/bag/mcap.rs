@@ -41,20 +41,24 @@ pub fn scan(bytes: &[u8], file: &str, c: &mut Collector) -> Result<(), BagError>
     };
     let mut pos = MAGIC.len();
     loop {
+        // Damage at the end (a cut, a lost footer) leaves every record before it whole.
         if pos == bytes.len() {
-            return Err(corrupt(
+            return c.damaged_end(corrupt(
                 file,
                 format!("byte {pos}"),
                 "the file ends without a footer record (truncated)",
             ));
         }
-        let (opcode, body) = record_at(bytes, pos, file, "record")?;
+        let (opcode, body) = match record_at(bytes, pos, file, "record") {
+            Ok(record) => record,
+            Err(e) => return c.damaged_end(e),
+        };
         let body_at = pos + 9;
         match opcode {
             op::FOOTER => {
                 let end = body_at + body.len();
                 if bytes.len() - end < MAGIC.len() || &bytes[end..end + MAGIC.len()] != MAGIC {
-                    return Err(corrupt(
+                    return c.damaged_end(corrupt(
                         file,
                         format!("byte {end}"),
                         "no MCAP magic after the footer (truncated)",

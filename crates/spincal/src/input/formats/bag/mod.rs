@@ -157,10 +157,14 @@ pub struct Collector {
     kinds: Vec<Option<MsgKind>>,
     series: Vec<Option<Series>>,
     by_key: HashMap<(String, String), usize>,
+    /// Read the messages before damage at the end of the file instead of refusing it.
+    salvage: bool,
+    /// Where reading stopped at such damage, and why (with `salvage`).
+    salvaged: Option<String>,
 }
 
 impl Collector {
-    fn new(file: &str, topic: Option<&str>) -> Collector {
+    fn new(file: &str, topic: Option<&str>, salvage: bool) -> Collector {
         Collector {
             file: file.to_string(),
             wanted: topic.map(|t| t.split(',').map(|s| s.trim().to_string()).collect()),
@@ -169,7 +173,30 @@ impl Collector {
             kinds: Vec::new(),
             series: Vec::new(),
             by_key: HashMap::new(),
+            salvage,
+            salvaged: None,
         }
+    }
+
+    /// The end of the file is damaged (cut inside a record, or its footer or index lost) at a
+    /// place where every message before it is whole: with `salvage`, reading stops there and says
+    /// so; otherwise the refusal says how many messages are intact and how to read them.
+    fn damaged_end(&mut self, error: BagError) -> Result<(), BagError> {
+        let intact: u64 = self.topics.iter().map(|t| t.count).sum();
+        if self.salvage {
+            self.salvaged = Some(format!("{error}; the {intact} messages before it were read"));
+            return Ok(());
+        }
+        Err(match error {
+            BagError::Corrupt { file, at, what } if intact > 0 => BagError::Corrupt {
+                file,
+                at,
+                what: format!(
+                    "{what}; the {intact} messages before it are intact: read them with salvage (--salvage)"
+                ),
+            },
+            other => other,
+        })
     }
 
     /// Registers a topic (or finds it again: ROS 1 bags and split ROS 2 bags repeat connections)
@@ -649,7 +676,7 @@ fn temperature_beside(
 
 fn assemble(mut c: Collector, storage: Storage, topic: Option<&str>) -> Result<BagRead, BagError> {
     let choice = choose(&c, topic)?;
-    let mut notes = Vec::new();
+    let mut notes: Vec<String> = c.salvaged.iter().map(|s| format!("salvaged: {s}")).collect();
     let described = describe(&c, &choice);
     let (data, msgtype, frame, topic_name) = match choice {
         Choice::Imu(i) => {
@@ -732,13 +759,15 @@ fn assemble(mut c: Collector, storage: Storage, topic: Option<&str>) -> Result<B
 }
 
 /// Reads a bag held in memory (one `.mcap`, `.db3` or `.bag` file); `file` names it in errors.
-pub fn read_bytes(bytes: &[u8], file: &str, topic: Option<&str>) -> Result<BagRead, BagError> {
+/// `salvage`: a file whose end is damaged (cut, its footer or index lost) gives the messages
+/// before the damage, with a note, instead of an error.
+pub fn read_bytes(bytes: &[u8], file: &str, topic: Option<&str>, salvage: bool) -> Result<BagRead, BagError> {
     let storage = Storage::sniff(bytes).ok_or_else(|| BagError::Corrupt {
         file: file.into(),
         at: "byte 0".into(),
         what: "not a bag: no MCAP, SQLite or ROS 1 bag magic".into(),
     })?;
-    let mut c = Collector::new(file, topic);
+    let mut c = Collector::new(file, topic, salvage);
     scan(storage, bytes, None, file, &mut c)?;
     assemble(c, storage, topic)
 }
@@ -766,8 +795,8 @@ pub fn is_bag_dir(path: &Path) -> bool {
 }
 
 /// Reads a bag file, or a ROS 2 bag directory (its `metadata.yaml` names the storage files, read
-/// in order as one bag).
-pub fn read_path(path: &Path, topic: Option<&str>) -> Result<BagRead, BagError> {
+/// in order as one bag); `salvage` as in [`read_bytes`].
+pub fn read_path(path: &Path, topic: Option<&str>, salvage: bool) -> Result<BagRead, BagError> {
     let file = path.display().to_string();
     let io = |f: &Path, source| BagError::Io {
         file: f.display().to_string(),
@@ -778,7 +807,7 @@ pub fn read_path(path: &Path, topic: Option<&str>) -> Result<BagRead, BagError> 
     } else {
         vec![path.to_path_buf()]
     };
-    let mut c = Collector::new(&file, topic);
+    let mut c = Collector::new(&file, topic, salvage);
     let mut storage = None;
     for f in &files {
         let name = f.display().to_string();
@@ -867,7 +896,7 @@ pub fn topics(bytes: &[u8], file: &str) -> Result<Vec<TopicInfo>, BagError> {
         what: "not a bag: no MCAP, SQLite or ROS 1 bag magic".into(),
     })?;
     // Decode nothing: want a topic name no bag has.
-    let mut c = Collector::new(file, Some("\u{0}"));
+    let mut c = Collector::new(file, Some("\u{0}"), false);
     scan(storage, bytes, None, file, &mut c)?;
     Ok(c.topics)
 }
@@ -914,7 +943,7 @@ mod tests {
             };
             for damaged in [false, true] {
                 // --topic names the IMU only: the temperature is read all the same.
-                let mut c = Collector::new("b", Some("/imu"));
+                let mut c = Collector::new("b", Some("/imu"), false);
                 let imu = c.topic("/imu", imu_type, name);
                 let temp = c.topic("/imu/temperature", temp_type, name);
                 let t0 = 1_700_000_000_000_000_000i64;
@@ -976,7 +1005,7 @@ mod tests {
     }
 
     fn collector_with(topics: &[(&str, &str)]) -> Collector {
-        let mut c = Collector::new("b", None);
+        let mut c = Collector::new("b", None, false);
         for (name, ty) in topics {
             let i = c.topic(name, ty, "cdr");
             c.topics[i].count = 3;
@@ -1028,28 +1057,28 @@ mod tests {
         ] {
             assert_eq!(detect(head).format, Format::RosBag, "{head:?}");
         }
-        let e = read_bytes(b"#ROSBAG V1.2\n\0\0", "old.bag", None)
+        let e = read_bytes(b"#ROSBAG V1.2\n\0\0", "old.bag", None, false)
             .unwrap_err()
             .to_string();
         assert!(
             e.starts_with("old.bag: '#ROSBAG V1.2': only ROS 1 bag format 2.0"),
             "{e}"
         );
-        let e = read_bytes(b"\x89MCAP0\r\n", "cut.mcap", None)
+        let e = read_bytes(b"\x89MCAP0\r\n", "cut.mcap", None, false)
             .unwrap_err()
             .to_string();
         assert_eq!(
             e,
             "cut.mcap: byte 8: the file ends without a footer record (truncated)"
         );
-        let e = read_bytes(b"#ROSBAG V2.0\n\x05\0\0\0", "cut.bag", None)
+        let e = read_bytes(b"#ROSBAG V2.0\n\x05\0\0\0", "cut.bag", None, false)
             .unwrap_err()
             .to_string();
         assert!(
             e.starts_with("cut.bag: byte 13: record header of 5 bytes runs past the end"),
             "{e}"
         );
-        let e = read_bytes(b"SQLite format 3\0", "x.db3", None)
+        let e = read_bytes(b"SQLite format 3\0", "x.db3", None, false)
             .unwrap_err()
             .to_string();
         assert!(e.starts_with("x.db3: sqlite3 storage"), "{e}");

@@ -164,7 +164,12 @@ fn walk(
 ) -> Result<(), BagError> {
     let mut pos = start;
     while pos < buf.len() {
-        let (op, fields, data, data_at) = record_at(buf, pos).map_err(|w| corrupt(file, place.at(pos), w))?;
+        let (op, fields, data, data_at) = match record_at(buf, pos) {
+            Ok(record) => record,
+            // A file cut inside a record: every record before it is whole.
+            Err(w) if matches!(place, Place::File) => return c.damaged_end(corrupt(file, place.at(pos), w)),
+            Err(w) => return Err(corrupt(file, place.at(pos), w)),
+        };
         let fail = |w: String| corrupt(file, place.at(pos), w);
         match op {
             OP_CHUNK => {
