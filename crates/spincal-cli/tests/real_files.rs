@@ -305,3 +305,33 @@ fn static_exports_match_the_model_it_saves() {
         }
     }
 }
+
+/// A named pipe streams like a file: its first bytes are not used up looking for its format, so
+/// every row comes out (the format check looks into regular files only).
+#[cfg(unix)]
+#[test]
+fn a_pipe_streams_with_every_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let (rec, model) = crate::harness::linear_model(dir.path());
+    let text = std::fs::read_to_string(&rec).unwrap();
+    let fifo = dir.path().join("rows.fifo");
+    run(std::process::Command::new("mkfifo").arg(&fifo));
+    let writer = {
+        let (fifo, text) = (fifo.clone(), text.clone());
+        std::thread::spawn(move || std::fs::write(fifo, text).unwrap())
+    };
+    let out = dir.path().join("out.csv");
+    run(spincal()
+        .arg("correct")
+        .arg("--model")
+        .arg(&model)
+        .arg(&fifo)
+        .arg("-o")
+        .arg(&out));
+    writer.join().unwrap();
+    let written = std::fs::read_to_string(&out).unwrap();
+    assert_eq!(written.lines().count(), text.lines().count());
+    for (a, b) in text.lines().zip(written.lines()).skip(1) {
+        assert!(b.starts_with(a), "{a} -> {b}");
+    }
+}

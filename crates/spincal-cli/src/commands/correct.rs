@@ -61,7 +61,9 @@ impl CorrectArgs {
     /// than delimited text, or a flag that needs the whole file.
     fn reads_whole_file(&self) -> anyhow::Result<bool> {
         let r = &self.read;
-        if spincal::output::is_stdio(&self.input) {
+        // Standard input and pipes stream (their first bytes are read once); so does a missing
+        // file, which the stream refuses by name.
+        if spincal::output::is_stdio(&self.input) || !(self.input.is_file() || self.input.is_dir()) {
             return Ok(false);
         }
         let whole_file_flags = r.accel_scale.is_some()
@@ -70,24 +72,9 @@ impl CorrectArgs {
             || r.retime
             || r.gx1_accel_gain.is_some()
             || r.gx1_gyro_gain.is_some();
-        let format = match r.format {
-            Some(f) => spincal::formats::Format::from(f),
-            None if self.input.is_dir() => return Ok(true),
-            None => {
-                use std::io::Read;
-                let mut head = Vec::with_capacity(spincal::formats::DETECT_BYTES);
-                File::open(&self.input)
-                    .with_context(|| format!("{}: cannot open", self.input.display()))?
-                    .take(spincal::formats::DETECT_BYTES as u64)
-                    .read_to_end(&mut head)
-                    .with_context(|| format!("{}: cannot read", self.input.display()))?;
-                spincal::formats::detect(&head).format
-            }
-        };
-        let delimited = matches!(
-            format,
-            spincal::formats::Format::Csv | spincal::formats::Format::Whitespace
-        );
+        let delimited = spincal::formats::delimited_text_format(&self.input, r.format.map(Into::into))
+            .with_context(|| format!("{}: cannot read", self.input.display()))?
+            .is_some();
         Ok(whole_file_flags || !delimited)
     }
 

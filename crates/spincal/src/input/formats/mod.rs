@@ -101,6 +101,32 @@ pub struct Detection {
 /// How much of a file [`detect`] looks at.
 pub const DETECT_BYTES: usize = 8192;
 
+/// The format of a regular file that is delimited text: `Csv` or `Whitespace`, given or detected
+/// from its first bytes (with the detection when detected); `None` for any other format (a bag
+/// whatever was given) and for anything but a regular file, whose first bytes reading would use up
+/// (a pipe) or which has none (a bag directory).
+pub fn delimited_text_format(
+    path: &Path,
+    given: Option<Format>,
+) -> std::io::Result<Option<(Format, Option<Detection>)>> {
+    use std::io::Read;
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let mut head = Vec::with_capacity(DETECT_BYTES);
+    std::fs::File::open(path)?
+        .take(DETECT_BYTES as u64)
+        .read_to_end(&mut head)?;
+    if bag::Storage::sniff(&head).is_some() {
+        return Ok(None);
+    }
+    let detection = given.is_none().then(|| detect(&head));
+    let format = given
+        .or(detection.as_ref().map(|d| d.format))
+        .unwrap_or(Format::Csv);
+    Ok(matches!(format, Format::Csv | Format::Whitespace).then_some((format, detection)))
+}
+
 /// Guesses the format from the first bytes of a file (at most [`DETECT_BYTES`] are used).
 pub fn detect(head: &[u8]) -> Detection {
     let head = &head[..head.len().min(DETECT_BYTES)];

@@ -25,12 +25,12 @@
 //! that is not used; the whole-file reader reads past it).
 
 use std::collections::BTreeSet;
-use std::io::{BufReader, Read};
+use std::io::BufReader;
 use std::path::Path;
 
 use super::{
-    check_options, detect, finish, read_path, table_options, whitespace_map, Detection, Format, FormatError,
-    Loaded, ReadOptions, DETECT_BYTES, RAW_COUNTS_MPS2,
+    check_options, finish, read_path, table_options, whitespace_map, Detection, Format, FormatError, Loaded,
+    ReadOptions, RAW_COUNTS_MPS2,
 };
 use crate::input::inspect::{
     inspect, Gap, Inspection, Saturation, TemperatureSummary, GAP_FACTOR, LISTED_GAPS, RAIL_SAMPLES,
@@ -77,22 +77,10 @@ fn stream(
     options: &ReadOptions,
     range_mps2: Option<f64>,
 ) -> Result<Option<(Loaded, Inspection)>, FormatError> {
-    if !path.is_file() || super::bag::is_bag_dir(path) {
+    // A file that cannot be read is the whole-file reader's to refuse, with its message.
+    let Ok(Some((format, detection))) = super::delimited_text_format(path, options.format) else {
         return Ok(None);
-    }
-    let mut head = Vec::with_capacity(DETECT_BYTES);
-    let read = std::fs::File::open(path).and_then(|f| f.take(DETECT_BYTES as u64).read_to_end(&mut head));
-    if read.is_err() || super::bag::Storage::sniff(&head).is_some() {
-        return Ok(None);
-    }
-    let detection = options.format.is_none().then(|| detect(&head));
-    let format = options
-        .format
-        .or(detection.as_ref().map(|d| d.format))
-        .unwrap_or(Format::Csv);
-    if !matches!(format, Format::Csv | Format::Whitespace) {
-        return Ok(None);
-    }
+    };
     // The whole-file reader's own errors for bad options and a bad scale.
     check_options(options)?;
     if options.accel_scale.is_some_and(|s| !s.is_finite() || s == 0.0) {
