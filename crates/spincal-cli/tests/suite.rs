@@ -26,3 +26,4 @@ mod io_commands;
 mod outputs;
 mod real_files;
 mod strobe;
+mod thermal_cli;

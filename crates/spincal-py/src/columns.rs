@@ -10,7 +10,7 @@ use numpy::ndarray::{Array1, Array2, ArrayView1};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::prelude::*;
 
-use spincal::table::{Delimiter, Table};
+use spincal::recording::TemperatureUnit;
 use spincal::{ColumnMap, Recording, RecordingError};
 
 use crate::errors::{self, usage, Kind, Place};
@@ -27,6 +27,10 @@ pub struct ColumnPlan {
     pub time: Option<usize>,
     pub accel: [usize; 3],
     pub gyro: Option<[usize; 3]>,
+    /// The temperature column, when the table has one, and its unit (`c`, `k`, `f`,
+    /// `mpu6050counts`).
+    pub temperature: Option<usize>,
+    pub temperature_unit: Option<String>,
     pub time_to_s: f64,
     pub accel_to_mps2: f64,
     pub gyro_to_radps: f64,
@@ -92,47 +96,33 @@ fn column_map(
     Ok(map)
 }
 
-/// The library's reading of a one-row table whose cells hold `value(c)`.
-fn probe(
-    header: &[String],
-    name: &str,
-    map: &ColumnMap,
-    value: impl Fn(usize) -> f64,
-) -> Result<Recording, RecordingError> {
-    let table = Table {
-        file: name.to_string(),
-        delimiter: Delimiter::Comma,
-        header: header.to_vec(),
-        metadata: Vec::new(),
-        columns: (0..header.len()).map(|c| vec![value(c)]).collect(),
-        lines: vec![1],
-    };
-    Recording::from_table(&table, map)
+/// The library's plan for a table with header `header`, exactly as `spincal` reads a file with
+/// that header line, in the binding's shape.
+fn resolve(header: &[String], name: &str, map: &ColumnMap) -> Result<ColumnPlan, RecordingError> {
+    let plan = spincal::ColumnPlan::new(header, header.len(), name, map)?;
+    let time = plan.time_column();
+    Ok(ColumnPlan {
+        time: (header.get(time).map(String::as_str) != Some(NO_TIME)).then_some(time),
+        accel: plan.accel_columns(),
+        gyro: plan.gyro_columns(),
+        temperature: plan.temperature_column().map(|(c, _)| c),
+        temperature_unit: plan
+            .temperature_column()
+            .map(|(_, unit)| temperature_unit_name(unit).to_string()),
+        time_to_s: plan.time_to_s(),
+        accel_to_mps2: plan.accel_to_mps2(),
+        gyro_to_radps: plan.gyro_to_radps().unwrap_or(1.0),
+        names: plan.names().to_vec(),
+    })
 }
 
-/// Resolves the columns of a table with header `header` exactly as `spincal` reads a file with that
-/// header line: the library reads two one-row tables, one of ones (its values are the unit factors)
-/// and one of column numbers (its values, over the factors, are the positions it chose).
-fn resolve(header: &[String], name: &str, map: &ColumnMap) -> Result<ColumnPlan, RecordingError> {
-    let factors = probe(header, name, map, |_| 1.0)?;
-    let numbers = probe(header, name, map, |c| (c + 1) as f64)?;
-    let position = |value: f64, factor: f64| (value / factor).round() as usize - 1;
-    let time_position = position(numbers.time_s[0], factors.time_s[0]);
-    let accel = std::array::from_fn(|a| position(numbers.accel_mps2[a][0], factors.accel_mps2[a][0]));
-    let gyro = match (&numbers.gyro_radps, &factors.gyro_radps) {
-        (Some(n), Some(f)) => Some(std::array::from_fn(|a| position(n[a][0], f[a][0]))),
-        _ => None,
-    };
-    let time = (header.get(time_position).map(String::as_str) != Some(NO_TIME)).then_some(time_position);
-    Ok(ColumnPlan {
-        time,
-        accel,
-        gyro,
-        time_to_s: factors.time_s[0],
-        accel_to_mps2: factors.accel_mps2[0][0],
-        gyro_to_radps: factors.gyro_radps.as_ref().map_or(1.0, |g| g[0][0]),
-        names: factors.source.columns,
-    })
+fn temperature_unit_name(unit: TemperatureUnit) -> &'static str {
+    match unit {
+        TemperatureUnit::C => "c",
+        TemperatureUnit::K => "k",
+        TemperatureUnit::F => "f",
+        TemperatureUnit::Mpu6050Counts => "mpu6050counts",
+    }
 }
 
 /// Finds time, accel and gyro among a table's columns by the library's rules (as `spincal` reads a
@@ -392,7 +382,17 @@ pub fn recording_from_columns(
 }
 
 /// What each row's `status` code means: `spincal correct`'s status column.
-pub const STATUS_NAMES: [&str; 4] = ["ok", "physics-only", "outside-range", "refused"];
+pub const STATUS_NAMES: [&str; 6] = [
+    "ok",
+    "physics-only",
+    "outside-range",
+    "no-temperature",
+    "outside-temperature-range",
+    "refused",
+];
+
+/// The code of a refused row (the last of [`STATUS_NAMES`]).
+const REFUSED: u8 = 5;
 
 /// Corrected rows: accel (n, 3) m/s² (every axis; uncorrected ones pass through), gyro (n, 3)
 /// rad/s or None, valid (n,), outside the training range (n,), status code (n,) (an index into
@@ -426,11 +426,16 @@ pub fn correct_rows<'py>(
     time: Option<ArrayView1<'_, f64>>,
     accel: [ArrayView1<'_, f64>; 3],
     gyro: Option<[ArrayView1<'_, f64>; 3]>,
+    temperature: Option<ArrayView1<'_, f64>>,
     plan: &ColumnPlan,
 ) -> PyResult<CorrectedColumns<'py>> {
     use spincal::correctors::rows::{RowCorrector, RowOutcome, RowStatus, RowValue, UnitFactors};
     let n = accel[0].len();
-    let columns_given = accel.iter().chain(gyro.iter().flatten()).chain(time.iter());
+    let columns_given = accel
+        .iter()
+        .chain(gyro.iter().flatten())
+        .chain(time.iter())
+        .chain(temperature.iter());
     if let Some(bad) = columns_given.map(|c| c.len()).find(|&len| len != n) {
         return Err(usage(format!(
             "the columns differ in length ({bad} and {n} rows): every column needs one value per row"
@@ -450,6 +455,12 @@ pub fn correct_rows<'py>(
         .corrects_gyro();
     let gyro = gyro.filter(|_| corrects_gyro);
     let names = &plan.names;
+    // Arrays come in °C; a frame's column in the unit its plan found.
+    let temperature_unit = plan
+        .temperature_unit
+        .as_deref()
+        .and_then(TemperatureUnit::parse)
+        .unwrap_or(TemperatureUnit::C);
     let run = || {
         // Made here: the stream's state stays on the thread that runs without the GIL.
         let mut corrector = RowCorrector::new(file, units, gyro.is_some())?;
@@ -457,7 +468,7 @@ pub fn correct_rows<'py>(
         let mut gyro_out = gyro.map(|_| vec![f64::NAN; 3 * n]);
         let mut valid = Array1::<bool>::from_elem(n, false);
         let mut outside = Array1::<bool>::from_elem(n, false);
-        let mut status = Array1::<u8>::from_elem(n, 3);
+        let mut status = Array1::<u8>::from_elem(n, REFUSED);
         let mut refusals = Vec::new();
         let value_name = |v: RowValue| {
             let k = match v {
@@ -472,6 +483,7 @@ pub fn correct_rows<'py>(
                 time.map(|t| t[i]),
                 [accel[0][i], accel[1][i], accel[2][i]],
                 gyro.map(|g| [g[0][i], g[1][i], g[2][i]]),
+                temperature.map(|t| temperature_unit.to_celsius(t[i])),
                 value_name,
             );
             match outcome {
@@ -491,11 +503,13 @@ pub fn correct_rows<'py>(
                         }
                     }
                     valid[i] = row_valid;
-                    outside[i] = row_status != RowStatus::Ok;
+                    outside[i] = matches!(row_status, RowStatus::PhysicsOnly | RowStatus::OutsideRange);
                     status[i] = match row_status {
                         RowStatus::Ok => 0,
                         RowStatus::PhysicsOnly => 1,
                         RowStatus::OutsideRange => 2,
+                        RowStatus::NoTemperature => 3,
+                        RowStatus::OutsideTemperatureRange => 4,
                     };
                 }
             }

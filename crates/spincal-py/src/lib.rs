@@ -678,15 +678,20 @@ impl PyCorrector {
             self.warmup_samples()
         )
     }
+    /// Whether the model corrects the accelerometer for temperature (rows then need one).
+    #[getter]
+    fn has_thermal(&self) -> bool {
+        self.file.thermal.is_some()
+    }
     /// True when the file also calibrates the gyroscope (applied to gyro columns by `correct`).
     #[getter]
     fn has_gyro(&self) -> bool {
         self.file.gyro.is_some()
     }
     /// Corrects rows in time order exactly as `spincal correct` does: accel x, y, z and (optional)
-    /// gyro x, y, z and time columns as 1-D arrays in the units `plan` states (read in place,
-    /// whatever their strides). See `columns::correct_rows`.
-    #[pyo3(signature = (accel, gyro, time, plan))]
+    /// gyro x, y, z, time and temperature columns as 1-D arrays in the units `plan` states (read
+    /// in place, whatever their strides). See `columns::correct_rows`.
+    #[pyo3(signature = (accel, gyro, time, temperature, plan))]
     fn correct_columns<'py>(
         &self,
         py: Python<'py>,
@@ -701,6 +706,7 @@ impl PyCorrector {
             PyReadonlyArray1<'py, f64>,
         )>,
         time: Option<PyReadonlyArray1<'py, f64>>,
+        temperature: Option<PyReadonlyArray1<'py, f64>>,
         plan: &columns::ColumnPlan,
     ) -> PyResult<columns::CorrectedColumns<'py>> {
         let accel = [accel.0.as_array(), accel.1.as_array(), accel.2.as_array()];
@@ -708,7 +714,8 @@ impl PyCorrector {
             .as_ref()
             .map(|g| [g.0.as_array(), g.1.as_array(), g.2.as_array()]);
         let time = time.as_ref().map(|t| t.as_array());
-        columns::correct_rows(py, &self.file, time, accel, gyro, plan)
+        let temperature = temperature.as_ref().map(|t| t.as_array());
+        columns::correct_rows(py, &self.file, time, accel, gyro, temperature, plan)
     }
     /// The static calibration's JSON when this is one (for Allan deviation of calibrated data).
     fn static_json(&self) -> PyResult<Option<String>> {

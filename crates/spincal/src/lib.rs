@@ -41,4 +41,4 @@ pub use input::{formats, inspect, recording, table};
 pub use report::{plot, strobe};
 pub use turntable::spectrum;
 
-pub use input::recording::{AccelUnit, ColumnMap, Recording, RecordingError, STANDARD_GRAVITY};
+pub use input::recording::{AccelUnit, ColumnMap, ColumnPlan, Recording, RecordingError, STANDARD_GRAVITY};

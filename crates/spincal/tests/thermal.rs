@@ -11,11 +11,16 @@
 #![allow(clippy::needless_range_loop)]
 
 use rayon::prelude::*;
+use spincal::campaign::params::Params;
+use spincal::campaign::{calibrate_campaign, CandidateKind, UnitRecording};
+use spincal::correctors::rows::{RowCorrector, RowOutcome, UnitFactors};
+use spincal::progress::silent;
 use spincal::recording::Recording;
 use spincal::simulate::thermal::{
     simulate_thermal_campaign, ThermalCampaign, ThermalProfile, ThermalRecording,
 };
 use spincal::thermal::{fit_thermal, ThermalModel, ThermalSettings};
+use spincal::CorrectorFile;
 use spincal::STANDARD_GRAVITY;
 
 /// RMS over the held-out bands of 1 s means of (corrected − true) force, m/s², and the
@@ -325,5 +330,144 @@ fn thermal_coefficients_recovered_within_their_standard_errors() {
     assert!(
         estimated < logged,
         "the temperature's estimate adds error the intervals leave out"
+    );
+}
+
+/// A campaign of still recordings with a temperature (the warm-up and the posed session) as the
+/// unit's recordings: what `spincal calibrate --campaign` reads.
+fn campaign_units(campaign: &ThermalCampaign, temperature: bool) -> Vec<UnitRecording> {
+    std::iter::once(&campaign.warmup)
+        .chain(&campaign.poses)
+        .enumerate()
+        .map(|(i, r)| {
+            let mut recording = r.recording.clone();
+            if !temperature {
+                recording.temperature_c = None;
+            }
+            UnitRecording {
+                name: format!("still-{i:02}.csv"),
+                recording,
+                turntable: None,
+                truth: None,
+                floor_mps2: None,
+                random_mps2: None,
+            }
+        })
+        .collect()
+}
+
+/// The held-out session streamed through `spincal correct`'s row corrector in time order, as one
+/// logger file (the causal die estimate runs across its poses).
+fn streamed(file: &CorrectorFile, held_out: &[ThermalRecording]) -> Vec<Vec<[f64; 3]>> {
+    let units = UnitFactors {
+        time_to_s: 1.0,
+        accel_to_mps2: 1.0,
+        gyro_to_radps: 1.0,
+    };
+    let mut rows = RowCorrector::new(file, units, false).expect("no gyro");
+    held_out
+        .iter()
+        .map(|r| {
+            let rec = &r.recording;
+            (0..rec.len())
+                .map(|i| {
+                    let temperature = rec.temperature_c.as_ref().map(|t| t[i]);
+                    match rows.correct(Some(rec.time_s[i]), reading(rec, i), None, temperature, |_| {
+                        String::new()
+                    }) {
+                        RowOutcome::Corrected { accel_mps2, .. } => accel_mps2,
+                        RowOutcome::Refused(why) => panic!("row {i} refused: {why}"),
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The campaign path end to end: still recordings with a logged temperature (whole degrees,
+/// 20 s lag) give a thermal model in model.json with its fitted range, the campaign holds out
+/// its coldest and hottest poses, and `correct`'s row corrector (causal die estimate) brings the
+/// held-out session's coldest and hottest fifths near the oracle, far below the same campaign
+/// calibrated without the temperature (its saved model, or the readings when it saves none).
+#[test]
+fn a_campaign_with_temperature_saves_a_thermal_model_that_holds_when_streamed() {
+    let profile = ThermalProfile::default();
+    let params = Params {
+        candidates: vec![CandidateKind::Physical, CandidateKind::PhysicalLinear],
+        ..Params::default()
+    };
+    let rows: Vec<[(f64, f64); 3]> = (0..5u64)
+        .into_par_iter()
+        .map(|seed| {
+            let campaign = simulate_thermal_campaign(&profile, 3000 + seed);
+            let (truth, held_out) = (&campaign.truth, &campaign.held_out);
+            let oracle = band_error(held_out, |j, i| {
+                truth.correct(reading(&held_out[j].recording, i), held_out[j].die_c[i])
+            });
+            let calibrated = calibrate_campaign("unit", &campaign_units(&campaign, true), &params, &silent)
+                .expect("campaign with temperature");
+            let result = &calibrated.result;
+            let thermal = result.thermal.as_ref().expect("a thermal model fitted");
+            assert!(thermal.without_temperature.is_empty());
+            let labels: Vec<&str> = result.conditions.iter().map(|c| c.label.as_str()).collect();
+            assert!(
+                labels.iter().any(|l| l.starts_with("coldest"))
+                    && labels.iter().any(|l| l.starts_with("hottest")),
+                "temperature bands held out: {labels:?}"
+            );
+            let file = calibrated
+                .saved
+                .as_ref()
+                .unwrap_or_else(|| panic!("nothing saved: {}", result.verdict));
+            let model = file
+                .thermal
+                .as_ref()
+                .expect("model.json carries the thermal model");
+            let [lo, hi] = model.fitted_range_c;
+            assert!(hi - lo > 20.0, "fitted over {lo}–{hi} °C of a 25 °C warm-up");
+            assert!(
+                result.verdict.contains("°C"),
+                "the verdict states the range: {}",
+                result.verdict
+            );
+            let ours_values = streamed(file, held_out);
+            let ours = band_error(held_out, |j, i| ours_values[j][i]);
+            let plain = calibrate_campaign("unit", &campaign_units(&campaign, false), &params, &silent)
+                .expect("campaign without temperature");
+            assert!(plain.result.thermal.is_none());
+            // Without the temperature the verdict may save nothing: the user then has the readings.
+            let without = match &plain.saved {
+                Some(plain_file) => {
+                    let values = streamed(plain_file, held_out);
+                    band_error(held_out, |j, i| values[j][i])
+                }
+                None => band_error(held_out, |j, i| reading(&held_out[j].recording, i)),
+            };
+            [oracle, ours, without]
+        })
+        .collect();
+    println!("seed  oracle   campaign+thermal  campaign without temperature  (1 s means; per sample)");
+    let mut worst = [0.0f64; 2];
+    for (seed, [oracle, ours, without]) in rows.iter().enumerate() {
+        println!(
+            "{seed:>4}  {:.5}  {:.5}           {:.5}          ({:.5} {:.5} {:.5} per sample)",
+            oracle.0, ours.0, without.0, oracle.1, ours.1, without.1
+        );
+        worst[0] = worst[0].max(ours.0 / oracle.0);
+        worst[1] = worst[1].max(ours.1 / oracle.1);
+        assert!(
+            without.0 > 2.0 * ours.0,
+            "seed {seed}: temperature ignored {:.5} against {:.5}",
+            without.0,
+            ours.0
+        );
+    }
+    println!(
+        "worst campaign+thermal / oracle: {:.3} (1 s means), {:.3} (per sample)",
+        worst[0], worst[1]
+    );
+    assert!(
+        worst[0] <= 1.25 && worst[1] <= 1.25,
+        "campaign+thermal / oracle {worst:?}"
     );
 }

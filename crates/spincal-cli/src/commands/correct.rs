@@ -29,9 +29,9 @@ use anyhow::Context;
 use clap::Args;
 use spincal::correctors::rows::{RowCorrector, RowOutcome, RowStatus, RowValue, UnitFactors};
 use spincal::formats::Loaded;
-use spincal::table::{display_name, Delimiter, Record, RowReader, Table};
+use spincal::table::{display_name, Delimiter, Record, RowReader};
 use spincal::CorrectorFile;
-use spincal::{ColumnMap, Recording};
+use spincal::{ColumnMap, ColumnPlan};
 
 use super::input::ReadArgs;
 use super::values::FormatArg;
@@ -86,66 +86,6 @@ impl CorrectArgs {
         }
         Ok(map)
     }
-}
-
-/// Where the time and acceleration columns are, and their units, from a header.
-struct Columns {
-    time: usize,
-    accel: [usize; 3],
-    /// Gyro x, y, z, when the file has them.
-    gyro: Option<[usize; 3]>,
-    /// Multiply file values by these to get s, m/s² and rad/s.
-    units: UnitFactors,
-}
-
-impl Columns {
-    fn used(&self) -> Vec<usize> {
-        let mut used = vec![self.time];
-        used.extend(self.accel);
-        used.extend(self.gyro.iter().flatten());
-        used
-    }
-}
-
-/// Resolves columns with the same rules as whole-file reading, by reading a one-row table of
-/// ones: the recording's column names give the indices, its values the unit factors.
-fn resolve_columns(header: &[String], width: usize, file: &str, map: &ColumnMap) -> anyhow::Result<Columns> {
-    let probe = Table {
-        file: file.to_string(),
-        delimiter: spincal::table::Delimiter::Comma,
-        header: header.to_vec(),
-        metadata: Vec::new(),
-        columns: vec![vec![1.0]; width],
-        lines: vec![1],
-    };
-    let recording = Recording::from_table(&probe, map)?;
-    let index = |name: &str| -> anyhow::Result<usize> {
-        header
-            .iter()
-            .position(|h| h == name)
-            .or_else(|| {
-                name.strip_prefix("column ")
-                    .and_then(|n| n.parse::<usize>().ok())
-                    .map(|n| n - 1)
-            })
-            .with_context(|| format!("{file}: cannot locate column {name}"))
-    };
-    let names = &recording.source.columns;
-    let gyro = if names.len() >= 7 {
-        Some([index(&names[4])?, index(&names[5])?, index(&names[6])?])
-    } else {
-        None
-    };
-    Ok(Columns {
-        time: index(&names[0])?,
-        accel: [index(&names[1])?, index(&names[2])?, index(&names[3])?],
-        gyro,
-        units: UnitFactors {
-            time_to_s: recording.time_s[0],
-            accel_to_mps2: recording.accel_mps2[0][0],
-            gyro_to_radps: recording.gyro_radps.as_ref().map_or(1.0, |g| g[0][0]),
-        },
-    })
 }
 
 pub fn run(args: CorrectArgs, ui: Ui) -> anyhow::Result<()> {
@@ -229,14 +169,25 @@ struct StreamSummary {
     first_skipped: Option<String>,
     /// The model calibrates a gyroscope but the file has no gyro columns.
     gyro_uncorrected: bool,
+    /// Rows corrected as at the reference temperature (none given, or outside the thermal model's
+    /// range), and the line of the first.
+    thermal_fallback: usize,
+    first_thermal_fallback: Option<(usize, RowStatus)>,
 }
 
 impl StreamSummary {
     /// Counts a corrected row.
     fn corrected(&mut self, line: usize, status: RowStatus) {
-        if status != RowStatus::Ok {
-            self.outside_training_range += 1;
-            self.first_outside_line.get_or_insert(line);
+        match status {
+            RowStatus::Ok => {}
+            RowStatus::NoTemperature | RowStatus::OutsideTemperatureRange => {
+                self.thermal_fallback += 1;
+                self.first_thermal_fallback.get_or_insert((line, status));
+            }
+            RowStatus::PhysicsOnly | RowStatus::OutsideRange => {
+                self.outside_training_range += 1;
+                self.first_outside_line.get_or_insert(line);
+            }
         }
     }
 
@@ -266,6 +217,17 @@ impl StreamSummary {
                 self.rows,
                 100.0 * self.outside_training_range as f64 / self.rows.max(1) as f64,
                 100.0 * spincal::ann::EXTRAPOLATION_MARGIN,
+            );
+        }
+        if let Some((line, status)) = self.first_thermal_fallback {
+            eprintln!(
+                "warning: {name}: {} of {} rows were corrected as at the thermal model's reference temperature, valid 0: \
+                 status `no-temperature` (the row has no temperature: name the column `temp_c`, or list it last in --columns) \
+                 or `outside-temperature-range` (the die temperature lies outside the range the model was fitted on); the first, \
+                 line {line}, is `{}`",
+                self.thermal_fallback,
+                self.rows,
+                status.as_str()
             );
         }
         if let Some(first) = &self.first_skipped {
@@ -387,11 +349,24 @@ fn stream(
         ))
         .into());
     }
-    let columns = resolve_columns(&rows.header, width, name, map)?;
-    rows.choose_columns(&columns.used());
-    let mut corrector = RowCorrector::new(model, columns.units, columns.gyro.is_some())?;
+    let columns = ColumnPlan::new(&rows.header, width, name, map)?;
+    // A row without a temperature is still corrected (and marked), so the column is not required.
+    let temperature = columns.temperature_column();
+    let used: Vec<usize> = columns
+        .used_columns()
+        .iter()
+        .copied()
+        .filter(|&c| Some(c) != temperature.map(|(t, _)| t))
+        .collect();
+    rows.choose_columns(&used);
+    let units = UnitFactors {
+        time_to_s: columns.time_to_s(),
+        accel_to_mps2: columns.accel_to_mps2(),
+        gyro_to_radps: columns.gyro_to_radps().unwrap_or(1.0),
+    };
+    let mut corrector = RowCorrector::new(model, units, columns.gyro_columns().is_some())?;
     let axes = corrector.corrected_axes().to_vec();
-    let gyro = columns.gyro.filter(|_| corrector.corrects_gyro());
+    let gyro = columns.gyro_columns().filter(|_| corrector.corrects_gyro());
     let gyro_width = if gyro.is_some() { 3 } else { 0 };
     let sep = rows.delimiter.as_char();
     let mut line = header
@@ -401,7 +376,7 @@ fn stream(
         .join(&sep.to_string());
     let corrected_names = axes
         .iter()
-        .map(|a| columns.accel[a.index()])
+        .map(|a| columns.accel_columns()[a.index()])
         .chain(gyro.iter().flatten().copied());
     for col in corrected_names {
         line.push(sep);
@@ -415,13 +390,13 @@ fn stream(
 
     let mut values = Vec::with_capacity(width);
     let mut summary = StreamSummary {
-        gyro_uncorrected: model.gyro.is_some() && columns.gyro.is_none(),
+        gyro_uncorrected: model.gyro.is_some() && columns.gyro_columns().is_none(),
         ..StreamSummary::default()
     };
     let value_name = |v: RowValue| {
         let c = match v {
-            RowValue::Time => columns.time,
-            RowValue::Accel(a) => columns.accel[a],
+            RowValue::Time => columns.time_column(),
+            RowValue::Accel(a) => columns.accel_columns()[a],
             RowValue::Gyro(a) => gyro.map_or(0, |g| g[a]),
         };
         format!("column {} ({})", c + 1, header[c])
@@ -458,12 +433,13 @@ fn stream(
             }
         };
         let outcome = corrector.correct(
-            Some(values[columns.time]),
-            columns.accel.map(|c| values[c]),
+            Some(values[columns.time_column()]),
+            columns.accel_columns().map(|c| values[c]),
             gyro.map(|g| g.map(|c| values[c])),
+            temperature.map(|(c, unit)| unit.to_celsius(values[c])),
             value_name,
         );
-        let corrected = corrected_values(&axes, &outcome, gyro_width, columns.units);
+        let corrected = corrected_values(&axes, &outcome, gyro_width, units);
         match outcome {
             RowOutcome::Corrected { valid, status, .. } => {
                 summary.corrected(line_no, status);
@@ -600,6 +576,7 @@ fn correct_loaded(
             Some(rec.time_s[i]),
             std::array::from_fn(|a| rec.accel_mps2[a][i]),
             gyro.map(|g| std::array::from_fn(|a| g[a][i])),
+            rec.temperature_c.as_ref().map(|t| t[i]),
             value_name,
         );
         let corrected = corrected_values(&axes, &outcome, gyro_width, units);

@@ -35,8 +35,9 @@ pub struct SimulateArgs {
     /// Write a thermal campaign into this folder instead: a unit whose bias and gain follow its
     /// die temperature, recorded through three warm-ups from a cold start (a still warm-up, still
     /// poses, held-out poses in random orientations), with the temperature as its sensor reports
-    /// it (lagging, in whole degrees), the truth per sample and truth.json. --setup takes the
-    /// ThermalProfile as JSON (coefficient ranges, warm-up, sensor lag and resolution).
+    /// it (lagging, in whole degrees), the truth per sample, truth.json and campaign.toml (the
+    /// warm-up and the poses, for `calibrate --campaign`). --setup takes the ThermalProfile as
+    /// JSON (coefficient ranges, warm-up, sensor lag and resolution).
     #[arg(long, value_name = "DIR", conflicts_with_all = ["output", "fleet", "campaign"])]
     pub thermal: Option<PathBuf>,
     /// Write a fleet of N units into --out DIR instead: one campaign folder per unit (unit-01, …),
@@ -216,12 +217,14 @@ fn simulate_thermal(
             "folder": dir,
             "recordings": files,
             "truth": dir.join("truth.json"),
+            "campaign": dir.join("campaign.toml"),
         }));
     }
     ui::print(&format!(
-        "wrote {}: warmup-00.csv, {} still poses and {} held-out poses (t_s, ax/ay/az_mps2, temp_c as reported), each with its .truth.csv (true force, die temperature), and truth.json\n",
+        "wrote {}: warmup-00.csv, {} still poses and {} held-out poses (t_s, ax/ay/az_mps2, temp_c as reported), each with its .truth.csv (true force, die temperature), truth.json and campaign.toml (calibrate it with `spincal calibrate --campaign {}`)\n",
         dir.display(),
         campaign.poses.len(),
-        campaign.held_out.len()
+        campaign.held_out.len(),
+        dir.join("campaign.toml").display()
     ))
 }

@@ -396,7 +396,8 @@ class Corrected:
     ``gyro`` (n, 3) rad/s (when the model calibrates the gyroscope and the data has it, else
     None), ``valid`` (n,) (False for the first rows without a full delay history, for rows a
     network does not correct and for refused rows), ``outside_training_range`` (n,), and
-    ``status`` (n,): ``ok``, ``physics-only``, ``outside-range`` or ``refused: row …: why`` (a
+    ``status`` (n,): ``ok``, ``physics-only``, ``outside-range``, ``no-temperature``,
+    ``outside-temperature-range`` or ``refused: row …: why`` (a
     value that is not a finite number, time going backwards; the row's corrected values are
     NaN), the words of ``spincal correct``'s status column. ``refused`` maps each refused row's
     position to its reason.
@@ -538,6 +539,12 @@ class Corrector:
         return self._inner.has_gyro
 
     @property
+    def has_thermal(self) -> bool:
+        """Whether the model corrects the accelerometer for temperature (a campaign whose still
+        recordings logged one): rows then need a temperature."""
+        return self._inner.has_thermal
+
+    @property
     def warmup_samples(self) -> int:
         """Samples at the start without a full delay history (passed through, ``valid`` False)."""
         return self._inner.warmup_samples
@@ -563,6 +570,7 @@ class Corrector:
         *,
         gyro: Optional[npt.ArrayLike] = None,
         time: Optional[npt.ArrayLike] = None,
+        temperature: Optional[npt.ArrayLike] = None,
         columns: Columns = None,
         accel_unit: Optional[str] = None,
         time_unit: Optional[str] = None,
@@ -581,7 +589,7 @@ class Corrector:
           arrays (never as text); a time column is optional (when present, rows whose time goes
           back are refused, as by the CLI); the output keeps the frame's index;
         - an (n, 3) array, list or tuple of m/s² (read in place when float64, whatever its
-          strides), with optional ``gyro`` (n, 3) rad/s and ``time`` (n,) s;
+          strides), with optional ``gyro`` (n, 3) rad/s, ``time`` (n,) s and ``temperature`` (n,) °C;
         - a :class:`Recording`, or a file (path or bytes, read whole with ``read_options`` as
           :func:`read`).
 
@@ -608,6 +616,7 @@ class Corrector:
                 time_optional=True,
             )
             t, accel, g = _frames.planned_columns(data, kind, plan)
+            temp = _frames.planned_temperature(data, kind, plan)
             index = cast(Any, data).index if kind == "pandas" else None
         elif isinstance(data, (np.ndarray, list, tuple)):
             if columns is not None or accel_unit is not None or time_unit is not None or gyro_unit is not None or read_options:
@@ -615,15 +624,17 @@ class Corrector:
             a = _frames.array_columns(data, "accel")
             ga = None if gyro is None else _frames.array_columns(gyro, "gyro")
             t = None if time is None else _frames.as_floats(time, "time")
+            temp = None if temperature is None else _frames.as_floats(temperature, "temperature")
             plan = _frames.si_plan(t is not None, ga is not None)
             accel, g = _frames.split(a), None if ga is None else _frames.split(ga)
         else:
-            if gyro is not None or time is not None:
-                raise UsageError("gyro and time go with an accel array; a recording or file has its own")
+            if gyro is not None or time is not None or temperature is not None:
+                raise UsageError("gyro, time and temperature go with an accel array; a recording or file has its own")
             options = dict(read_options, columns=columns, accel_unit=accel_unit, time_unit=time_unit, gyro_unit=gyro_unit)
             rec = _as_recording(data, {k: v for k, v in options.items() if v is not None})
             rg = rec.gyro
             t = rec.time
+            temp = rec.temperature
             plan = _frames.si_plan(True, rg is not None)
             accel, g = _frames.split(rec.accel), None if rg is None else _frames.split(rg)
         if self.has_gyro and g is None:
@@ -631,7 +642,12 @@ class Corrector:
                 "the model calibrates the gyroscope, but the data has no gyro columns; only the accelerometer was corrected",
                 stacklevel=2,
             )
-        out, gyro_out, valid, outside, codes, refusals = self._inner.correct_columns(accel, g, t, plan)
+        if self.has_thermal and temp is None:
+            warnings.warn(
+                "the model corrects for temperature, but the data has no temperature; every row is corrected as at the reference temperature and marked no-temperature",
+                stacklevel=2,
+            )
+        out, gyro_out, valid, outside, codes, refusals = self._inner.correct_columns(accel, g, t, temp, plan)
         return Corrected(
             accel=out,
             gyro=gyro_out,

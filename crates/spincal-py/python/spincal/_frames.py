@@ -109,6 +109,13 @@ def plan(
 Three = Tuple[FloatArray, FloatArray, FloatArray]
 
 
+def planned_temperature(frame: Any, kind: str, p: ColumnPlan) -> Optional[FloatArray]:
+    """The planned temperature column of ``frame`` in its own unit (or None)."""
+    if p.temperature is None:
+        return None
+    return frame_column(frame, kind, p.temperature, p.names[-1])
+
+
 def planned_columns(frame: Any, kind: str, p: ColumnPlan) -> Tuple[Optional[FloatArray], Three, Optional[Three]]:
     """The planned columns of ``frame``: time (or None), accel x, y, z, gyro x, y, z (or None)."""
     names = p.names

@@ -72,8 +72,15 @@ class Corrector:
     def warmup_samples(self) -> int: ...
     @property
     def has_gyro(self) -> bool: ...
+    @property
+    def has_thermal(self) -> bool: ...
     def correct_columns(
-        self, accel: _Three, gyro: Optional[_Three], time: Optional[_F64], plan: ColumnPlan
+        self,
+        accel: _Three,
+        gyro: Optional[_Three],
+        time: Optional[_F64],
+        temperature: Optional[_F64],
+        plan: ColumnPlan,
     ) -> Tuple[
         _F64,
         Optional[_F64],
@@ -116,6 +123,10 @@ class ColumnPlan:
     def accel(self) -> Tuple[int, int, int]: ...
     @property
     def gyro(self) -> Optional[Tuple[int, int, int]]: ...
+    @property
+    def temperature(self) -> Optional[int]: ...
+    @property
+    def temperature_unit(self) -> Optional[str]: ...
     @property
     def time_to_s(self) -> float: ...
     @property

@@ -237,3 +237,38 @@ def test_the_output_frame_keeps_the_index_and_the_status(small_corrector):
     assert out["status"].dtype == "category" and set(out["status"].unique()) <= {"ok", "physics-only", "outside-range"}
     np.testing.assert_array_equal(out["acc_x_corrected"].to_numpy(), corrector.correct(rec.accel).accel[:, 0])
     assert not math.isnan(out["acc_y_corrected"].iloc[-1])
+
+
+def test_a_thermal_model_corrects_a_frame_by_its_temperature_as_the_cli_does(cli, tmp_path):
+    """A campaign that logged its temperature: the frame's `temp_c` column is read by the same
+    rules, the causal die temperature is the CLI's, and rows without a temperature or outside the
+    fitted range are marked alike."""
+    sim = tmp_path / "warm"
+    cli("simulate", "--thermal", sim, "--seed", "4")
+    cli("calibrate", "--campaign", sim / "campaign.toml", "--out", tmp_path / "cal")
+    model = tmp_path / "cal" / "model.json"
+    corrector = spincal.load_corrector(model)
+    assert corrector.has_thermal
+    frame = pd.read_csv(sim / "held-out-40.csv", float_precision="round_trip")
+    frame.loc[50, "temp_c"] = float("nan")
+    frame.loc[60, "temp_c"] = 95.0
+    source = tmp_path / "in.csv"
+    frame.to_csv(source, index=False, na_rep="")
+    frame = pd.read_csv(source, float_precision="round_trip")
+    cli_out = tmp_path / "cli.csv"
+    cli("correct", "--model", model, source, "-o", cli_out)
+    rows = _cli_rows(cli_out)
+    ours = frame.join(corrector.correct(frame).to_pandas())
+    assert list(ours.columns) == list(rows[0].keys())
+    for k, row in enumerate(rows):
+        assert ours.at[k, "status"] == row["status"], k
+        assert bool(ours.at[k, "valid"]) == (row["valid"] == "1"), k
+        for column in ("ax_mps2_corrected", "ay_mps2_corrected", "az_mps2_corrected"):
+            assert float(row[column]) == ours.at[k, column], (k, column)
+    assert ours.at[50, "status"] == "no-temperature"
+    assert ours.at[60, "status"] == "outside-temperature-range"
+    assert (ours["status"] == "ok").sum() == len(ours) - 2
+    # Without the temperature every row is marked, with a warning.
+    with pytest.warns(UserWarning, match="no temperature"):
+        bare = corrector.correct(frame[["t_s", "ax_mps2", "ay_mps2", "az_mps2"]])
+    assert set(bare.status) == {"no-temperature"}

@@ -3,7 +3,7 @@
 //! they never trained on.
 //!
 //! `file` reads the campaign file, `prepare` cuts recordings into runs and poses, `checks` holds
-//! them against physics before any fit, `joint` fits
+//! them against physics before any fit, `thermal` takes them to a reference temperature, `joint` fits
 //! the sensor model (`correctors::physical`) jointly with them, `select` trains the candidate
 //! correctors on all conditions but one, and `verdict` judges each on the one held out by physics
 //! alone (and, in simulations, against truth too). `params` holds the settings of every
@@ -17,6 +17,7 @@ pub mod load;
 pub mod params;
 pub mod prepare;
 pub mod select;
+pub mod thermal;
 pub mod verdict;
 
 pub use crate::correctors::physical::{PhysicalCorrector, SensorModel};

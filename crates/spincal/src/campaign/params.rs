@@ -60,6 +60,9 @@ pub struct Params {
     /// this, m/s².
     pub determined_tolerance_mps2: f64,
     pub gyro: GyroSettings,
+    /// A campaign's thermal model, fitted when its still recordings carry a temperature over a
+    /// few degrees.
+    pub thermal: crate::thermal::ThermalSettings,
 }
 
 impl Default for Params {
@@ -88,6 +91,7 @@ impl Default for Params {
             candidates: CandidateKind::ALL.to_vec(),
             determined_tolerance_mps2: 0.02,
             gyro: GyroSettings::default(),
+            thermal: crate::thermal::ThermalSettings::default(),
         }
     }
 }
@@ -215,7 +219,16 @@ impl Params {
             ("gyro.block_s", g.block_s),
             ("gyro.reference_rate_radps", g.reference_rate_radps),
             ("gyro.determined_tolerance_radps", g.determined_tolerance_radps),
-        ])
+        ])?;
+        match self.thermal.check() {
+            Err(crate::thermal::ThermalError::Setting { name, value, why }) => Err(ParamError {
+                name: format!("thermal.{name}"),
+                value,
+                why: why.to_string(),
+            }),
+            Err(other) => Err(refuse("thermal", &self.thermal, other.to_string())),
+            Ok(()) => Ok(()),
+        }
     }
 
     fn check_fit(&self) -> Result<(), ParamError> {

@@ -60,12 +60,14 @@ pub enum PrepareError {
 
 /// Samples at each end of a still interval left out (the hand may still be settling).
 const EDGE_FRACTION: f64 = 0.1;
+/// Still files this close after one another on one clock, s, are one logging session.
+const SAME_SESSION_GAP_S: f64 = 60.0;
 /// Blocks a pose is cut into to estimate the standard error of its mean.
 const POSE_BLOCKS: usize = 8;
 
 /// Still intervals of a still recording: the detector's, or the whole recording when it is one
 /// short pose the detector cannot set a threshold on.
-fn still_intervals(rec: &Recording, name: &str) -> Result<Vec<StillInterval>, PrepareError> {
+pub(crate) fn still_intervals(rec: &Recording, name: &str) -> Result<Vec<StillInterval>, PrepareError> {
     let options = StaticOptions {
         init_s: (0.3 * rec.duration_s()).clamp(0.5, 3.0),
         window_s: (0.1 * rec.duration_s()).clamp(0.2, 1.0),
@@ -156,6 +158,7 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
         pose_origin: Vec::new(),
     };
     let mut sessions = 0;
+    let mut last_still_end: Option<f64> = None;
     for (index, unit) in recordings.iter().enumerate() {
         let rec = &unit.recording;
         match &unit.turntable {
@@ -187,7 +190,16 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
                     });
                 }
                 let intervals = still_intervals(rec, &unit.name)?;
-                sessions += 1;
+                // A file that starts within a minute after the previous still file ended, on the
+                // same clock, continues its logging session (one power-on, one bias offset).
+                let continues = last_still_end.is_some_and(|end: f64| {
+                    let gap = rec.time_s[0] - end;
+                    gap > 0.0 && gap <= SAME_SESSION_GAP_S
+                });
+                if !continues {
+                    sessions += 1;
+                }
+                last_still_end = rec.time_s.last().copied();
                 let several = intervals.len() > 1;
                 for (k, interval) in intervals.iter().enumerate() {
                     let edge = ((interval.len() as f64) * EDGE_FRACTION) as usize;

@@ -25,6 +25,7 @@ use crate::campaign::joint::{
     SensorTerms, GEOMETRY,
 };
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
+use crate::campaign::thermal::{temperature_bands, thermal_stage, CampaignThermal};
 use crate::campaign::verdict::{
     combined, compare, condition_samples, predicted_mean_square, predicted_ratio, rms_and_floor,
     sample_errors, Comparison, Prediction, SampleErrors, Segment,
@@ -265,6 +266,13 @@ pub struct CampaignResult {
     /// Why the gyroscope could not be calibrated, when it could not.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gyro_error: Option<String>,
+    /// The thermal model and the recordings it took to the reference temperature, when the
+    /// still recordings carry a temperature over a few degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thermal: Option<CampaignThermal>,
+    /// Why no thermal model was fitted although the recordings have a temperature.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thermal_note: Option<String>,
     pub conditions: Vec<Condition>,
     pub held_out: Vec<HeldOutScore>,
     pub candidates: Vec<CandidateSummary>,
@@ -756,18 +764,24 @@ pub fn calibrate_campaign(
     let started = Instant::now();
     settings.check()?;
     check_recordings(units)?;
+    let mut clock = Instant::now();
+    // Temperature first: everything after runs on readings taken to the reference temperature.
+    let stage = thermal_stage(units, &settings.thermal, settings.joint.gravity_mps2);
+    let units = &stage.units[..];
     let prepared = prepare(units)?;
     check_prepared(&prepared, settings.joint.gravity_mps2)?;
     observer(Progress::step("joint fit", 0, Some(1)));
     let mut stages = Vec::new();
-    let mut clock = Instant::now();
-    let mut lap = |stage: &str, stages: &mut Vec<crate::progress::StageTime>| {
+    let mut lap = |name: &str, stages: &mut Vec<crate::progress::StageTime>| {
         stages.push(crate::progress::StageTime {
-            stage: stage.to_string(),
+            stage: name.to_string(),
             seconds: clock.elapsed().as_secs_f64(),
         });
         clock = Instant::now();
     };
+    if stage.thermal.is_some() {
+        lap("thermal fit", &mut stages);
+    }
     let (joint, joint_settings, nonlinearity) = fit_with_nonlinearity_rule(&prepared, settings, observer)?;
     let settings = &Params {
         joint: joint_settings,
@@ -782,7 +796,18 @@ pub fn calibrate_campaign(
         Err(e) => (None, Some(e.to_string())),
     };
     lap("gyro fit", &mut stages);
-    let conditions = conditions(&prepared);
+    let mut conditions = conditions(&prepared);
+    if let Some(thermal) = &stage.thermal {
+        conditions.extend(
+            temperature_bands(&prepared, &thermal.die_c)
+                .into_iter()
+                .map(|(label, poses)| Condition {
+                    label,
+                    runs: Vec::new(),
+                    poses,
+                }),
+        );
+    }
     let offset_sd = offset_spread(&joint, prepared.runs.len()).max(settings.joint.bias_instability_mps2);
     let candidates: Vec<Box<dyn Candidate + Sync>> =
         settings.candidates.iter().map(|&k| candidate(k)).collect();
@@ -906,7 +931,9 @@ pub fn calibrate_campaign(
                         best.worst_ratio_to_uncorrected.unwrap_or(f64::NAN),
                         truth_sentence(truth_check.as_ref())
                     );
+                    let verdict = verdict + &thermal_sentence(stage.thermal.as_ref());
                     let mut file = CorrectorFile::new(model);
+                    file.thermal = stage.thermal.as_ref().map(|t| t.fit.model.clone());
                     file.gyro = gyro
                         .as_ref()
                         .map(|g| g.model.clone())
@@ -958,6 +985,8 @@ pub fn calibrate_campaign(
             nonlinearity,
             gyro,
             gyro_error,
+            thermal: stage.thermal,
+            thermal_note: stage.note,
             conditions,
             held_out,
             candidates: summaries,
@@ -969,6 +998,18 @@ pub fn calibrate_campaign(
         },
         saved,
     })
+}
+
+/// What the saved model does about temperature, for the verdict.
+fn thermal_sentence(thermal: Option<&CampaignThermal>) -> String {
+    let Some(t) = thermal else {
+        return String::new();
+    };
+    let [lo, hi] = t.fit.model.fitted_range_c;
+    format!(
+        " Corrected for temperature first (bias order {}, gain order {}, chosen on the coldest and hottest fifths held out; sensor lag {:.0} s) over die temperatures {lo:.1}–{hi:.1} °C: rows outside that range, or without a temperature, are corrected as at {:.1} °C and marked.",
+        t.fit.bias_order, t.fit.scale_order, t.fit.model.lag_s, t.fit.model.reference_c
+    )
 }
 
 fn no_conditions_verdict(prepared: &Prepared, undetermined: &[(String, String)]) -> String {

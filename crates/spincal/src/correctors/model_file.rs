@@ -143,6 +143,11 @@ pub struct CorrectorFile {
     /// `correct` to the gyro columns.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gyro: Option<crate::correctors::gyro::GyroModel>,
+    /// The accelerometer's change with temperature (a campaign whose still recordings carry a
+    /// temperature over a few degrees): `correct` takes each row to the reference temperature
+    /// with it before the corrector.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thermal: Option<crate::thermal::ThermalModel>,
 }
 
 impl CorrectorFile {
@@ -152,6 +157,7 @@ impl CorrectorFile {
             spincal_version: env!("CARGO_PKG_VERSION").to_string(),
             corrector,
             gyro: None,
+            thermal: None,
         }
     }
 
@@ -163,6 +169,11 @@ impl CorrectorFile {
     /// paths in the file (`corrector.network.weights`).
     pub fn validate(&self) -> Result<(), ModelError> {
         self.corrector.validate().map_err(|e| e.within("corrector"))?;
+        if let Some(thermal) = &self.thermal {
+            thermal
+                .validate()
+                .map_err(|e| ModelError::new(e.field, e.reason).within("thermal"))?;
+        }
         match &self.gyro {
             Some(gyro) => gyro.validate().map_err(|e| e.within("gyro")),
             None => Ok(()),

@@ -7,6 +7,8 @@
 use crate::correctors::corrector::{Axis, Corrector, SampleCorrector};
 use crate::correctors::gyro::GyroCorrector;
 use crate::correctors::model_file::CorrectorFile;
+use crate::thermal::causal::CausalDieTemperature;
+use crate::thermal::ThermalModel;
 
 /// Factors that turn a file's values into SI units.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -26,6 +28,12 @@ pub enum RowStatus {
     PhysicsOnly,
     /// The same for a network alone: the reading goes through unchanged, `valid` false.
     OutsideRange,
+    /// The model corrects for temperature but the row has none: corrected as at the reference
+    /// temperature, `valid` false.
+    NoTemperature,
+    /// The die temperature lay outside the range the thermal model was fitted on: corrected as at
+    /// the reference temperature, `valid` false.
+    OutsideTemperatureRange,
 }
 
 impl RowStatus {
@@ -34,6 +42,8 @@ impl RowStatus {
             RowStatus::Ok => "ok",
             RowStatus::PhysicsOnly => "physics-only",
             RowStatus::OutsideRange => "outside-range",
+            RowStatus::NoTemperature => "no-temperature",
+            RowStatus::OutsideTemperatureRange => "outside-temperature-range",
         }
     }
 }
@@ -69,6 +79,8 @@ pub struct RowCorrector<'a> {
     axes: Vec<Axis>,
     units: UnitFactors,
     previous_time_s: Option<f64>,
+    /// The thermal model and its die-temperature estimate, when the model file has one.
+    thermal: Option<(&'a ThermalModel, CausalDieTemperature)>,
 }
 
 /// The gyro sensitivity in a model file cannot be inverted.
@@ -90,6 +102,10 @@ impl<'a> RowCorrector<'a> {
             axes: file.corrector.corrected_axes(),
             units,
             previous_time_s: None,
+            thermal: file
+                .thermal
+                .as_ref()
+                .map(|m| (m, CausalDieTemperature::new(m.lag_s, m.smoothing_s))),
         })
     }
 
@@ -103,13 +119,20 @@ impl<'a> RowCorrector<'a> {
         self.gyro.is_some()
     }
 
+    /// Whether rows are corrected for temperature (their temperature is then needed).
+    pub fn corrects_temperature(&self) -> bool {
+        self.thermal.is_some()
+    }
+
     /// Corrects one row; `name` names a value in refusals (`ax`, `column 3 (ax)`). Values must be
-    /// finite in the file and in SI units, and time must not go backwards.
+    /// finite in the file and in SI units, and time must not go backwards. `temperature_c` is the
+    /// reported temperature, °C (None or not finite: the row has none).
     pub fn correct(
         &mut self,
         time: Option<f64>,
         accel: [f64; 3],
         gyro: Option<[f64; 3]>,
+        temperature_c: Option<f64>,
         name: impl Fn(RowValue) -> String,
     ) -> RowOutcome {
         let u = self.units;
@@ -145,7 +168,19 @@ impl<'a> RowCorrector<'a> {
             }
         }
         self.previous_time_s = t.or(self.previous_time_s);
-        let sample = self.stream.correct_sample(accel.map(|a| a * u.accel_to_mps2));
+        let mut accel_mps2 = accel.map(|a| a * u.accel_to_mps2);
+        let mut thermal_status = None;
+        if let Some((model, die)) = &mut self.thermal {
+            let reported = temperature_c.filter(|v| v.is_finite());
+            // Without a clock the lag cannot be undone: the reported value stands.
+            let die_c = reported.map(|v| t.map_or(v, |t| die.update(t, v)));
+            match die_c {
+                Some(d) if model.covers(d) => accel_mps2 = model.to_reference(accel_mps2, d),
+                Some(_) => thermal_status = Some(RowStatus::OutsideTemperatureRange),
+                None => thermal_status = Some(RowStatus::NoTemperature),
+            }
+        }
+        let sample = self.stream.correct_sample(accel_mps2);
         let rate = gyro
             .zip(self.gyro.as_ref())
             .map(|(g, c)| c.correct(g.map(|w| w * u.gyro_to_radps)));
@@ -171,8 +206,8 @@ impl<'a> RowCorrector<'a> {
         RowOutcome::Corrected {
             accel_mps2: sample.accel_mps2,
             gyro_radps: rate,
-            valid: sample.valid,
-            status,
+            valid: sample.valid && thermal_status.is_none(),
+            status: thermal_status.unwrap_or(status),
         }
     }
 }

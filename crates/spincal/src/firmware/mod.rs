@@ -176,6 +176,13 @@ pub fn export_firmware(
     if options.precisions.is_empty() {
         return Err(FirmwareError::NoPrecision);
     }
+    if model.thermal.is_some() {
+        return Err(FirmwareError::TooLarge {
+            file: source.into(),
+            field: "thermal".into(),
+            reason: "the firmware code has no temperature correction yet, and without it the model is wrong away from its reference temperature; calibrate without a temperature column for a model the firmware can hold".into(),
+        });
+    }
     let plan = plan::Plan::of(model).map_err(|e| e.in_file(source))?;
     let provenance = format!(
         "exported by spincal {} from {} (written by spincal {})",

@@ -417,7 +417,7 @@ impl Recording {
         rate_hz: Option<f64>,
     ) -> Result<Recording, RecordingError> {
         let head = TableHead::new(bytes, name, &map.table)?;
-        let plan = match Plan::new(&head.header, head.width(), name, map) {
+        let plan = match ColumnPlan::new(&head.header, head.width(), name, map) {
             Ok(plan) => plan,
             Err(e) => {
                 // An error in the table comes first, as when the whole table was read before.
@@ -451,7 +451,7 @@ impl Recording {
         map: &ColumnMap,
         rate_hz: Option<f64>,
     ) -> Result<Recording, RecordingError> {
-        let plan = Plan::new(&table.header, table.n_columns(), &table.file, map)?;
+        let plan = ColumnPlan::new(&table.header, table.n_columns(), &table.file, map)?;
         let columns: Vec<Vec<f64>> = plan
             .targets()
             .into_iter()
@@ -471,7 +471,7 @@ impl Recording {
     /// A recording from the plan's columns in SI, in its order (time, accel x y z, gyro x y z when
     /// planned); checks the time.
     fn from_columns(
-        plan: Plan,
+        plan: ColumnPlan,
         mut columns: impl Iterator<Item = Vec<f64>>,
         name: String,
         metadata: Vec<String>,
@@ -680,9 +680,11 @@ fn unit_from_name<U>(name: &str, parse: impl Fn(&str) -> Option<U>) -> Option<U>
     lower.rsplit_once('_').and_then(|(_, suffix)| parse(suffix))
 }
 
-/// Which file columns become time, acceleration, rate and temperature, and the factor to SI for
-/// each.
-struct Plan {
+/// Which columns of a table become time, acceleration, rate and temperature, and each one's
+/// factor to SI: the one reading of a header that every entry point shares (whole files, the
+/// streaming `correct`, Python's DataFrames).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColumnPlan {
     /// File columns of t, ax, ay, az[, gx, gy, gz][, temperature].
     indices: Vec<usize>,
     /// Whether gx, gy, gz are among them.
@@ -696,8 +698,16 @@ struct Plan {
     names: Vec<String>,
 }
 
-impl Plan {
-    fn new(header: &[String], n_columns: usize, file: &str, map: &ColumnMap) -> Result<Plan, RecordingError> {
+impl ColumnPlan {
+    /// Reads a header (empty when the table has none) of a table `n_columns` wide by the column
+    /// rules: `map.columns` when given, else the names (`t`, `ax_g`, `gx (deg/s)`, `temp_c`, …),
+    /// else position for a bare 4- or 7-column table. `file` names the table in errors.
+    pub fn new(
+        header: &[String],
+        n_columns: usize,
+        file: &str,
+        map: &ColumnMap,
+    ) -> Result<ColumnPlan, RecordingError> {
         let (indices, gyro, has_temperature) = resolve_columns(header, n_columns, file, map)?;
         let name_of = |i: usize| {
             header
@@ -740,13 +750,61 @@ impl Plan {
                 .unwrap_or(TemperatureUnit::C)
         });
         let names = indices.iter().map(|&i| name_of(i)).collect();
-        Ok(Plan {
+        Ok(ColumnPlan {
             gyro,
             temperature,
             indices,
             scales,
             names,
         })
+    }
+
+    /// The time column (0-based).
+    pub fn time_column(&self) -> usize {
+        self.indices[0]
+    }
+
+    /// The acceleration's x, y, z columns (0-based).
+    pub fn accel_columns(&self) -> [usize; 3] {
+        [self.indices[1], self.indices[2], self.indices[3]]
+    }
+
+    /// The rate's x, y, z columns (0-based), when the table has them.
+    pub fn gyro_columns(&self) -> Option<[usize; 3]> {
+        self.gyro
+            .then(|| [self.indices[4], self.indices[5], self.indices[6]])
+    }
+
+    /// The temperature column (0-based) and its unit, when the table has one.
+    pub fn temperature_column(&self) -> Option<(usize, TemperatureUnit)> {
+        self.temperature
+            .map(|unit| (self.indices[self.indices.len() - 1], unit))
+    }
+
+    /// Every column used, in the order above.
+    pub fn used_columns(&self) -> &[usize] {
+        &self.indices
+    }
+
+    /// The names of the columns used, in the order above (`column N` where the table has no
+    /// header).
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Multiply the time column by this to get s.
+    pub fn time_to_s(&self) -> f64 {
+        self.scales[0]
+    }
+
+    /// Multiply the acceleration columns by this to get m/s².
+    pub fn accel_to_mps2(&self) -> f64 {
+        self.scales[1]
+    }
+
+    /// Multiply the rate columns by this to get rad/s, when the table has them.
+    pub fn gyro_to_radps(&self) -> Option<f64> {
+        self.gyro.then(|| self.scales[4])
     }
 
     /// (file column, factor) of each output column.

@@ -110,6 +110,7 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
             "What the joint fit leaves on each turntable run, per axis (numbered as in the list of recordings at the end): a run far above the others holds something the model does not (a loose mount, a wobble, a temperature change).",
         )?);
     }
+    thermal_section(r, &mut h)?;
     if !r.undetermined.is_empty() {
         h.push_str("<h2>What this campaign does not determine</h2><ul>");
         for (name, advice) in &r.undetermined {
@@ -264,6 +265,114 @@ fn held_out_plot(r: &CampaignResult, against_truth: bool) -> Option<LinePlot> {
         );
     }
     Some(plot)
+}
+
+/// The thermal model: what was chosen, over which range, and its curves with their bands; or why
+/// there is none although the recordings carry a temperature.
+fn thermal_section(r: &CampaignResult, h: &mut String) -> Result<(), PlotError> {
+    if let Some(note) = &r.thermal_note {
+        let _ = write!(h, "<h2>Temperature</h2><p>{}</p>", escape(note));
+    }
+    let Some(t) = &r.thermal else {
+        return Ok(());
+    };
+    let m = &t.fit.model;
+    let _ = write!(
+        h,
+        "<h2>Temperature</h2><p>Every recording with a temperature was taken to the reference temperature {:.1} °C before the rest of the calibration, and model.json applies the same change first. Bias order {}, gain order {}, chosen on the coldest and hottest fifths of the windows, held out (below {:.1} °C and above {:.1} °C); the reported temperature lags the die by τ = {:.0} s (chosen by residual among the candidates), undone as T + τ·dT/dt over {:.0} s. Validated over die temperatures {:.1}–{:.1} °C: <code>spincal correct</code> marks rows outside it. Residual RMS of the thermal fit {:.4} m/s² over {} windows.{}{}</p>",
+        m.reference_c,
+        t.fit.bias_order,
+        t.fit.scale_order,
+        t.fit.held_out_bands_c[0],
+        t.fit.held_out_bands_c[1],
+        m.lag_s,
+        m.smoothing_s,
+        m.fitted_range_c[0],
+        m.fitted_range_c[1],
+        t.fit.residual_rms_mps2,
+        t.fit.windows,
+        if t.without_temperature.is_empty() {
+            String::new()
+        } else {
+            format!(" Used as recorded (no temperature): {}.", escape(&t.without_temperature.join(", ")))
+        },
+        if t.clamped_samples == 0 {
+            String::new()
+        } else {
+            format!(" {} samples lay outside the range and were taken to the reference from its nearest end.", t.clamped_samples)
+        }
+    );
+    if !t.fit.order_scores.is_empty() {
+        h.push_str("<table><tr><th>bias order</th><th>gain order</th><th>held-out RMS, m/s²</th></tr>");
+        for o in &t.fit.order_scores {
+            let _ = write!(
+                h,
+                "<tr><td>{}</td><td>{}</td><td>{:.5}</td></tr>",
+                o.bias_order, o.scale_order, o.held_out_rms_mps2
+            );
+        }
+        h.push_str("</table>");
+    }
+    for (gain, caption) in [
+        (false, "The bias's change with die temperature per axis, β(T), m/s², with a 95 % band (± 1.96 standard errors of the coefficients, taken as independent; the die temperature's own estimate is not in them, see ThermalFit)."),
+        (true, "The gain's change with die temperature per axis, ρ(T), in parts per million, with the same band."),
+    ] {
+        h.push_str(&figure(&thermal_plot(&t.fit, gain), caption)?);
+    }
+    Ok(())
+}
+
+/// β_k(T) (or ρ_k(T) in ppm) over the fitted range with ± 1.96 SE bands.
+fn thermal_plot(fit: &crate::thermal::ThermalFit, gain: bool) -> LinePlot {
+    let m = &fit.model;
+    let [lo, hi] = m.fitted_range_c;
+    let (coefficients, errors, scale, title, unit) = if gain {
+        (
+            &m.scale_per_c,
+            &fit.scale_per_c_se,
+            1e6,
+            "Gain against temperature",
+            "gain change, ppm",
+        )
+    } else {
+        (
+            &m.bias_per_c,
+            &fit.bias_per_c_se,
+            1.0,
+            "Bias against temperature",
+            "bias change, m/s²",
+        )
+    };
+    let t: Vec<f64> = (0..=50).map(|i| lo + (hi - lo) * i as f64 / 50.0).collect();
+    let mut plot = LinePlot::new(title, "die temperature, °C", unit).legend(Legend::UpperLeft);
+    for (k, axis) in ["x", "y", "z"].into_iter().enumerate() {
+        let value = |d: f64| -> (f64, f64) {
+            let dt = d - m.reference_c;
+            let (mut v, mut var) = (0.0, 0.0);
+            for (j, c) in coefficients[k].iter().enumerate() {
+                let p = dt.powi(j as i32 + 1);
+                v += c * p;
+                var += (errors[k].get(j).copied().unwrap_or(0.0) * p).powi(2);
+            }
+            (v * scale, 1.96 * var.sqrt() * scale)
+        };
+        let (v, band): (Vec<f64>, Vec<f64>) = t.iter().map(|&d| value(d)).unzip();
+        let low: Vec<f64> = v.iter().zip(&band).map(|(a, b)| a - b).collect();
+        let high: Vec<f64> = v.iter().zip(&band).map(|(a, b)| a + b).collect();
+        plot = plot
+            .series(Series::new(axis, t.clone(), v).color(Rgb::palette(k)))
+            .series(
+                Series::new("", t.clone(), low)
+                    .color(Rgb::palette(k))
+                    .style(LineStyle::Dashed),
+            )
+            .series(
+                Series::new("", t.clone(), high)
+                    .color(Rgb::palette(k))
+                    .style(LineStyle::Dashed),
+            );
+    }
+    plot
 }
 
 /// Vertical intervals as one series: each (x, low, high) a segment, NaN between them.

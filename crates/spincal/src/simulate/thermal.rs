@@ -310,7 +310,7 @@ impl ThermalCampaign {
 
     /// The files [`ThermalCampaign::write_folder`] writes into `dir`.
     pub fn folder_files(&self, dir: &Path) -> Vec<PathBuf> {
-        let mut files = vec![dir.join("truth.json")];
+        let mut files = vec![dir.join("truth.json"), dir.join("campaign.toml")];
         for r in self.all() {
             let name = &r.recording.source.name;
             files.push(dir.join(name));
@@ -345,6 +345,22 @@ impl ThermalCampaign {
         };
         let text = serde_json::to_string_pretty(&truth).expect("the truth serialises") + "\n";
         crate::output::write_bytes(&dir.join("truth.json"), text.as_bytes())?;
+        crate::output::write_bytes(&dir.join("campaign.toml"), self.campaign_toml().as_bytes())?;
         Ok(())
+    }
+
+    /// The campaign a user would calibrate: the warm-up and the posed session as still entries
+    /// (no truth keys: the held-out session is left for `correct`).
+    pub fn campaign_toml(&self) -> String {
+        let mut text = String::from(
+            "# The thermal campaign: a still warm-up and still poses through a second warm-up, each\n# logging its temperature (temp_c). Calibrate with `spincal calibrate --campaign`; the\n# held-out-*.csv files are for `spincal correct`.\nunit = \"thermal-unit\"\n",
+        );
+        for r in std::iter::once(&self.warmup).chain(&self.poses) {
+            text.push_str(&format!(
+                "\n[[recording]]\nfile = \"{}\"\nkind = \"static\"\n",
+                r.recording.source.name
+            ));
+        }
+        text
     }
 }

@@ -121,7 +121,8 @@ struct Window {
 }
 
 impl ThermalSettings {
-    fn check(&self) -> Result<(), ThermalError> {
+    /// Checks every setting; the first that cannot be used is named.
+    pub fn check(&self) -> Result<(), ThermalError> {
         let bad = |name, value: String, why| Err(ThermalError::Setting { name, value, why });
         if !(self.window_s.is_finite() && self.window_s > 0.0) {
             return bad(

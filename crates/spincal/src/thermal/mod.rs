@@ -19,6 +19,7 @@
 //! it is known only from when its steps happen, so such a temperature is first replaced by the line
 //! through its steps' midpoints ([`dequantised`]).
 
+pub mod causal;
 pub mod fit;
 
 use serde::{Deserialize, Serialize};
@@ -59,7 +60,90 @@ fn polynomial(coefficients: &[f64], dt: f64) -> f64 {
     coefficients.iter().rev().fold(0.0, |acc, c| (acc + c) * dt)
 }
 
+/// A field of a thermal model read from a file that cannot be used, by its name there.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field}: {reason}")]
+pub struct InvalidField {
+    pub field: String,
+    pub reason: String,
+}
+
+impl InvalidField {
+    fn new(field: impl Into<String>, reason: impl Into<String>) -> InvalidField {
+        InvalidField {
+            field: field.into(),
+            reason: reason.into(),
+        }
+    }
+}
+
+/// The highest order of β and ρ a model may hold.
+pub const MAX_ORDER: usize = 3;
+
 impl ThermalModel {
+    /// Checks a model read from a file: finite values, orders up to [`MAX_ORDER`], a lag and a
+    /// smoothing that are not negative, an ordered range, and a gain that stays positive over it.
+    /// Fields are named as in the file (`bias_per_c[2]`).
+    pub fn validate(&self) -> Result<(), InvalidField> {
+        let finite = |field: &str, values: &[f64]| match values.iter().find(|v| !v.is_finite()) {
+            Some(v) => Err(InvalidField::new(field, format!("{v}: must be finite"))),
+            None => Ok(()),
+        };
+        finite("reference_c", &[self.reference_c])?;
+        finite("bias_mps2", &self.bias_mps2)?;
+        finite("scale_error", &self.scale_error)?;
+        finite("misalignment_rad", &self.misalignment_rad)?;
+        finite("fitted_range_c", &self.fitted_range_c)?;
+        for (name, terms) in [
+            ("bias_per_c", &self.bias_per_c),
+            ("scale_per_c", &self.scale_per_c),
+        ] {
+            for (k, c) in terms.iter().enumerate() {
+                let field = format!("{name}[{k}]");
+                finite(&field, c)?;
+                if c.len() > MAX_ORDER {
+                    return Err(InvalidField::new(
+                        field,
+                        format!("{} coefficients: at most {MAX_ORDER} (a cubic)", c.len()),
+                    ));
+                }
+            }
+        }
+        for (name, v) in [("lag_s", self.lag_s), ("smoothing_s", self.smoothing_s)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(InvalidField::new(
+                    name,
+                    format!("{v}: must be finite and not negative"),
+                ));
+            }
+        }
+        let [lo, hi] = self.fitted_range_c;
+        if lo > hi {
+            return Err(InvalidField::new(
+                "fitted_range_c",
+                format!("[{lo}, {hi}]: the minimum exceeds the maximum"),
+            ));
+        }
+        for t in [lo, (lo + hi) / 2.0, hi] {
+            let gain = self.scale_change(t).map(|r| 1.0 + r);
+            if let Some(k) = (0..3).find(|&k| !(gain[k] > 0.5 && gain[k] < 2.0)) {
+                return Err(InvalidField::new(
+                    format!("scale_per_c[{k}]"),
+                    format!(
+                        "the gain change reaches {:.3} at {t} °C: must stay between 0.5 and 2",
+                        gain[k]
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether `die_c` lies in the range the model was fitted on.
+    pub fn covers(&self, die_c: f64) -> bool {
+        die_c >= self.fitted_range_c[0] && die_c <= self.fitted_range_c[1]
+    }
+
     /// β_k(ΔT) for each axis at die temperature `die_c`.
     pub fn bias_change(&self, die_c: f64) -> [f64; 3] {
         let dt = die_c - self.reference_c;

@@ -1,0 +1,184 @@
+//! A campaign's thermal stage, before everything else: when its still recordings carry a
+//! temperature that spans at least [`MIN_SPAN_C`], the thermal model is fitted to their poses
+//! (`thermal::fit_thermal`, orders chosen on the coldest and hottest bands held out) and every
+//! recording with a temperature, runs included, is taken to the reference temperature. The joint
+//! fit, the candidates and the held-out verdict then run unchanged on those readings, and the
+//! saved model.json carries the thermal model for `correct` to apply first.
+//!
+//! What it cannot see: the thermal coefficients are fitted on every still pose, so the
+//! temperature bands held out by the campaign (`temperature_bands`) test the static
+//! correctors across temperature, not the thermal coefficients themselves; those are tested by
+//! the fit's own held-out bands, which choose their orders.
+
+use serde::{Deserialize, Serialize};
+
+use crate::campaign::prepare::{still_intervals, Prepared, UnitRecording};
+use crate::input::recording::Recording;
+use crate::thermal::fit::MIN_SPAN_C;
+use crate::thermal::{die_temperatures, fit_thermal, ThermalFit, ThermalSettings};
+
+/// What the thermal stage did (results.json `thermal`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CampaignThermal {
+    pub fit: ThermalFit,
+    /// Recordings taken to the reference temperature.
+    pub normalised: Vec<String>,
+    /// Recordings without a temperature, used as they are.
+    pub without_temperature: Vec<String>,
+    /// Samples whose die temperature lay outside the fitted range, taken to the reference from
+    /// the nearest end of it.
+    pub clamped_samples: usize,
+    /// The die temperature per sample of each recording, °C (None without a temperature).
+    #[serde(skip)]
+    pub die_c: Vec<Option<Vec<f64>>>,
+}
+
+/// The stage's outcome: the recordings to calibrate on, and what was fitted or why nothing was.
+pub struct ThermalStage {
+    pub units: Vec<UnitRecording>,
+    pub thermal: Option<CampaignThermal>,
+    /// Why no thermal model was fitted, when the campaign has a temperature at all.
+    pub note: Option<String>,
+}
+
+/// The still poses of every still recording that has a temperature, each as its own recording
+/// (fit_thermal takes one orientation per recording), on the recording's clock; a recording of
+/// one pose whole.
+fn still_poses(units: &[UnitRecording]) -> Vec<Recording> {
+    let mut out = Vec::new();
+    for unit in units.iter().filter(|u| u.turntable.is_none()) {
+        let rec = &unit.recording;
+        let Some(temperature) = &rec.temperature_c else {
+            continue;
+        };
+        let intervals = still_intervals(rec, &unit.name).unwrap_or_default();
+        // One pose: the whole recording (its temperature track unbroken, the lag seen whole).
+        if intervals.len() == 1 {
+            out.push(Recording {
+                gyro_radps: None,
+                ..rec.clone()
+            });
+            continue;
+        }
+        for interval in intervals {
+            let (a, b) = (interval.start, interval.end);
+            out.push(Recording {
+                time_s: rec.time_s[a..b].to_vec(),
+                accel_mps2: std::array::from_fn(|k| rec.accel_mps2[k][a..b].to_vec()),
+                gyro_radps: None,
+                temperature_c: Some(temperature[a..b].to_vec()),
+                source: rec.source.clone(),
+            });
+        }
+    }
+    out
+}
+
+/// Fits the thermal model where the campaign allows and takes every recording with a temperature
+/// to its reference temperature. A thermal fit that cannot be made leaves the recordings as they
+/// are, with a note saying why (the rest of the campaign does not need it).
+pub fn thermal_stage(units: &[UnitRecording], settings: &ThermalSettings, gravity_mps2: f64) -> ThermalStage {
+    let unchanged = |note: Option<String>| ThermalStage {
+        units: units.to_vec(),
+        thermal: None,
+        note,
+    };
+    if units.iter().all(|u| u.recording.temperature_c.is_none()) {
+        return unchanged(None);
+    }
+    let poses = still_poses(units);
+    if poses.is_empty() {
+        return unchanged(Some(
+            "no thermal model: no still recording with a temperature column".into(),
+        ));
+    }
+    let refs: Vec<&Recording> = poses.iter().collect();
+    let span = die_temperatures(&refs, 0.0, settings.smoothing_s)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], t| {
+            [lo.min(t), hi.max(t)]
+        });
+    if !(span[1] - span[0] >= MIN_SPAN_C) {
+        return unchanged(Some(format!(
+            "no thermal model: the still poses span {:.1} °C of temperature, under the {MIN_SPAN_C} °C a thermal fit needs (record a warm-up from a cold start as a still entry)",
+            (span[1] - span[0]).max(0.0)
+        )));
+    }
+    let fit = match fit_thermal(&refs, settings, gravity_mps2) {
+        Ok(fit) => fit,
+        Err(e) => return unchanged(Some(format!("no thermal model: {e}"))),
+    };
+    let model = &fit.model;
+    let recordings: Vec<&Recording> = units.iter().map(|u| &u.recording).collect();
+    let die_c = model.die_temperatures(&recordings);
+    let [lo, hi] = model.fitted_range_c;
+    let mut clamped_samples = 0;
+    let mut out = units.to_vec();
+    let (mut normalised, mut without_temperature) = (Vec::new(), Vec::new());
+    for (unit, die) in out.iter_mut().zip(&die_c) {
+        let Some(die) = die else {
+            without_temperature.push(unit.name.clone());
+            continue;
+        };
+        let accel = &mut unit.recording.accel_mps2;
+        for (s, &d) in die.iter().enumerate() {
+            clamped_samples += usize::from(!model.covers(d));
+            let m = model.to_reference([accel[0][s], accel[1][s], accel[2][s]], d.clamp(lo, hi));
+            for k in 0..3 {
+                accel[k][s] = m[k];
+            }
+        }
+        normalised.push(unit.name.clone());
+    }
+    ThermalStage {
+        units: out,
+        thermal: Some(CampaignThermal {
+            fit,
+            normalised,
+            without_temperature,
+            clamped_samples,
+            die_c,
+        }),
+        note: None,
+    }
+}
+
+/// Fraction of the poses held out at each end of the temperature range.
+const BAND_FRACTION: f64 = 0.2;
+
+/// The coldest and the hottest fifth of the still poses by mean die temperature, each as a label
+/// and its poses (indices into the prepared poses), to be held out (with at least five poses that
+/// have a temperature).
+pub fn temperature_bands(prepared: &Prepared, die_c: &[Option<Vec<f64>>]) -> Vec<(String, Vec<usize>)> {
+    let mut poses: Vec<(f64, usize)> = prepared
+        .pose_origin
+        .iter()
+        .enumerate()
+        .filter_map(|(p, origin)| {
+            let die = die_c.get(origin.recording)?.as_ref()?;
+            let window = die.get(origin.start..origin.end)?;
+            (!window.is_empty()).then(|| (window.iter().sum::<f64>() / window.len() as f64, p))
+        })
+        .collect();
+    if poses.len() < 5 {
+        return Vec::new();
+    }
+    poses.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let take = ((poses.len() as f64 * BAND_FRACTION).round() as usize).max(1);
+    let band = |name: &str, members: &[(f64, usize)]| {
+        let (lo, hi) = members
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), m| {
+                (lo.min(m.0), hi.max(m.0))
+            });
+        let mut indices: Vec<usize> = members.iter().map(|m| m.1).collect();
+        indices.sort_unstable();
+        (format!("{name} poses ({lo:.1}–{hi:.1} °C)"), indices)
+    };
+    vec![
+        band("coldest", &poses[..take]),
+        band("hottest", &poses[poses.len() - take..]),
+    ]
+}
