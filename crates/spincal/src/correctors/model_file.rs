@@ -143,6 +143,8 @@ pub struct CorrectorFile {
     /// `correct` to the gyro columns.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gyro: Option<crate::correctors::gyro::GyroModel>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thermal: Option<crate::thermal::ThermalModel>,
 }
 
 impl CorrectorFile {
@@ -152,6 +154,7 @@ impl CorrectorFile {
             spincal_version: env!("CARGO_PKG_VERSION").to_string(),
             corrector,
             gyro: None,
+            thermal: None,
         }
     }
 

@@ -20,6 +20,7 @@
 //! through its steps' midpoints ([`dequantised`]).
 
 pub mod fit;
+pub mod flight_stacks;
 
 use serde::{Deserialize, Serialize};
 
