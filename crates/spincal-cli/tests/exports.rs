@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use crate::harness::{run, shared, spincal, venv_python};
+use crate::harness::{fails, run, shared, spincal, venv_python};
 
 fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
     let text = std::fs::read_to_string(path).unwrap();
@@ -248,4 +248,91 @@ fn kalibr_file_of_the_real_t265_still_start_parses_and_matches_allantools() {
     let Some(python) = venv_python() else { return };
     let dir = tempfile::tempdir().unwrap();
     kalibr_against_allantools(&python, &acc, Some(&gyr), dir.path());
+}
+
+/// A model.json with a thermal model, the shape `CorrectorFile` reads.
+const THERMAL_MODEL: &str = r#"{"format_version": 1, "spincal_version": "test", "corrector": {"kind": "physical",
+ "sensor": {"bias_mps2": [0.1, -0.2, 0.05], "scale_error": [0.01, 0.0, -0.01],
+ "misalignment_rad": [0.0, 0.0, 0.0], "quadratic_per_mps2": [0.0, 0.0, 0.0]},
+ "gravity_mps2": 9.80665, "input_range_mps2": [[-10, 10], [-10, 10], [-10, 10]]},
+ "thermal": {"reference_c": 25.0, "bias_mps2": [0.05, -0.03, 0.08], "scale_error": [0.004, -0.002, 0.006],
+ "misalignment_rad": [0.003, -0.002, 0.004], "bias_per_c": [[0.0021, -4e-5, 6e-7], [-0.0013], [0.0035, 1e-5]],
+ "scale_per_c": [[1.5e-4], [], []], "lag_s": 18.0, "smoothing_s": 60.0, "fitted_range_c": [5.0, 55.0]}}"#;
+
+#[test]
+fn export_writes_the_flight_stacks_files_from_the_models_thermal_field() {
+    use spincal::thermal::flight_stacks::{self, ArduPilotTarget, Px4Target};
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("model.json");
+    std::fs::write(&model, THERMAL_MODEL).unwrap();
+    let (ap, px4) = (dir.path().join("imu.param"), dir.path().join("imu.params"));
+    let export = |extra: &[&str]| {
+        let mut cmd = spincal();
+        cmd.args(["export", "--model"])
+            .arg(&model)
+            .arg("--ardupilot")
+            .arg(&ap);
+        cmd.args(["--ardupilot-imu", "2", "--px4"]).arg(&px4);
+        cmd.args(["--px4-device-id", "1310988", "--px4-accel", "1"])
+            .args(extra);
+        cmd
+    };
+    let stdout = run(&mut export(&[]));
+    assert!(
+        stdout.contains("gain's change"),
+        "what is left out is shown: {stdout}"
+    );
+    let thermal = spincal::CorrectorFile::read_path(&model)
+        .unwrap()
+        .thermal
+        .unwrap();
+    let want_ap = flight_stacks::ardupilot(&thermal, ArduPilotTarget { imu: 2 })
+        .unwrap()
+        .text;
+    let target = Px4Target {
+        accel: 1,
+        device_id: 1_310_988,
+        system_id: 1,
+        component_id: 1,
+    };
+    let want_px4 = flight_stacks::px4(&thermal, target).unwrap().text;
+    assert_eq!(std::fs::read_to_string(&ap).unwrap(), want_ap);
+    assert_eq!(std::fs::read_to_string(&px4).unwrap(), want_px4);
+    assert!(want_ap.contains("INS_TCAL2_ACC3_X,") && want_px4.contains("\tTC_A1_X3_2\t"));
+    // Its own files are replaced on a rerun, with the firmware too; a file it did not write is not.
+    run(export(&["--out"]).arg(dir.path().join("firmware")));
+    assert!(dir.path().join("firmware/fusion.txt").exists());
+    std::fs::write(&ap, "INS_TCAL2_ENABLE,0\n").unwrap();
+    let stderr = fails(&mut export(&[]));
+    assert!(
+        stderr.contains("imu.param") && stderr.contains("did not write"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read_to_string(&ap).unwrap(), "INS_TCAL2_ENABLE,0\n");
+
+    // A model without a thermal model, and a bias the stacks cannot hold, are refused by name.
+    let plain = dir.path().join("plain.json");
+    let mut value: serde_json::Value = serde_json::from_str(THERMAL_MODEL).unwrap();
+    value.as_object_mut().unwrap().remove("thermal");
+    std::fs::write(&plain, value.to_string()).unwrap();
+    let out = dir.path().join("new.param");
+    let stderr = fails(
+        spincal()
+            .args(["export", "--model"])
+            .arg(&plain)
+            .arg("--ardupilot")
+            .arg(&out),
+    );
+    assert!(stderr.contains("no thermal model"), "{stderr}");
+    let quartic = THERMAL_MODEL.replace("[0.0035, 1e-5]", "[0.0035, 1e-5, 0.0, 2e-9]");
+    std::fs::write(&plain, quartic).unwrap();
+    let stderr = fails(
+        spincal()
+            .args(["export", "--model"])
+            .arg(&plain)
+            .arg("--ardupilot")
+            .arg(&out),
+    );
+    assert!(stderr.contains("thermal.bias_per_c[2][3]"), "{stderr}");
+    assert!(!out.exists());
 }

@@ -13,6 +13,7 @@ mod campaign;
 mod campaign_gyro;
 mod campaign_real;
 mod fleet;
+mod flight_stacks;
 mod gyro_poses;
 mod model_validation;
 mod readers_prop;

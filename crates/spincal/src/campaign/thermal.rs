@@ -100,7 +100,8 @@ pub fn thermal_stage(units: &[UnitRecording], settings: &ThermalSettings, gravit
         .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], t| {
             [lo.min(t), hi.max(t)]
         });
-    if !(span[1] - span[0] >= MIN_SPAN_C) {
+    // No sample at all leaves the span at −∞: too narrow.
+    if span[1] - span[0] < MIN_SPAN_C {
         return unchanged(Some(format!(
             "no thermal model: the still poses span {:.1} °C of temperature, under the {MIN_SPAN_C} °C a thermal fit needs (record a warm-up from a cold start as a still entry)",
             (span[1] - span[0]).max(0.0)

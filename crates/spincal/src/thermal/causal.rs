@@ -71,9 +71,9 @@ impl CausalDieTemperature {
         self.samples += 1;
         self.push(time_s, reported_c);
         let stepped = self.samples >= DECIDE_AFTER && self.changes * 10 <= self.samples;
-        let (value, slope) = match self.from_steps(time_s, reported_c) {
+        let (value, slope) = match self.steps_line(time_s, reported_c) {
             Some(line) if stepped => line,
-            _ => self.from_window(time_s, reported_c),
+            _ => self.window_line(time_s, reported_c),
         };
         value + self.lag_s * slope
     }
@@ -120,7 +120,7 @@ impl CausalDieTemperature {
         self.since_rebuild = 0;
     }
 
-    fn from_window(&self, time_s: f64, reported_c: f64) -> (f64, f64) {
+    fn window_line(&self, time_s: f64, reported_c: f64) -> (f64, f64) {
         let [count, st, stt, sv, stv] = self.sums;
         if count < 3.0 {
             return (reported_c, 0.0);
@@ -136,7 +136,7 @@ impl CausalDieTemperature {
     }
 
     /// The line through the last two steps' midpoints, once there are two.
-    fn from_steps(&self, time_s: f64, reported_c: f64) -> Option<(f64, f64)> {
+    fn steps_line(&self, time_s: f64, reported_c: f64) -> Option<(f64, f64)> {
         let half = self.step / 2.0;
         match self.knots {
             [Some(a), Some(b)] if b.0 > a.0 => {

@@ -21,6 +21,7 @@
 
 pub mod causal;
 pub mod fit;
+pub mod flight_stacks;
 
 use serde::{Deserialize, Serialize};
 
