@@ -10,6 +10,10 @@ use crate::correctors::model_file::CorrectorFile;
 use crate::thermal::causal::CausalDieTemperature;
 use crate::thermal::ThermalModel;
 
+/// How far outside the thermal model's range a reported temperature still feeds the die estimate,
+/// °C: enough for the lag near the range's ends, not for a glitch.
+const FEED_MARGIN_C: f64 = 5.0;
+
 /// Factors that turn a file's values into SI units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UnitFactors {
@@ -171,14 +175,25 @@ impl<'a> RowCorrector<'a> {
         let mut accel_mps2 = accel.map(|a| a * u.accel_to_mps2);
         let mut thermal_status = None;
         if let Some((model, die)) = &mut self.thermal {
-            let reported = temperature_c.filter(|v| v.is_finite());
-            // Without a clock the lag cannot be undone: the reported value stands.
-            let die_c = reported.map(|v| t.map_or(v, |t| die.update(t, v)));
-            match die_c {
-                Some(d) if model.covers(d) => accel_mps2 = model.to_reference(accel_mps2, d),
-                Some(_) => thermal_status = Some(RowStatus::OutsideTemperatureRange),
-                None => thermal_status = Some(RowStatus::NoTemperature),
-            }
+            let [lo, hi] = model.fitted_range_c;
+            thermal_status = match temperature_c.filter(|v| v.is_finite()) {
+                None => Some(RowStatus::NoTemperature),
+                // A reading far outside the range (a glitch, another sensor's value) is kept out
+                // of the die estimate, which it would spoil for a whole window.
+                Some(v) if v < lo - FEED_MARGIN_C || v > hi + FEED_MARGIN_C => {
+                    Some(RowStatus::OutsideTemperatureRange)
+                }
+                Some(v) => {
+                    // Without a clock the lag cannot be undone: the reported value stands.
+                    let d = t.map_or(v, |t| die.update(t, v));
+                    if model.covers(d) {
+                        accel_mps2 = model.to_reference(accel_mps2, d);
+                        None
+                    } else {
+                        Some(RowStatus::OutsideTemperatureRange)
+                    }
+                }
+            };
         }
         let sample = self.stream.correct_sample(accel_mps2);
         let rate = gyro
