@@ -4,7 +4,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use spincal::formats::bag::{msg, read_bytes};
+use spincal::input::formats::bag::{msg, read_bytes};
 
 const TOPICS: [Option<&str>; 4] = [
     None,

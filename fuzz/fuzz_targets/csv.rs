@@ -2,7 +2,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use spincal::formats::{read_bytes, Format, ReadOptions};
+use spincal::input::formats::{read_bytes, Format, ReadOptions};
 
 fuzz_target!(|data: &[u8]| {
     // Detection, then each text format forced.

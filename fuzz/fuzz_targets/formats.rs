@@ -4,9 +4,9 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use spincal::formats::{read_bytes, Format, Gx1Options, ReadOptions};
-use spincal::recording::{GyroUnit, TimeUnit};
-use spincal::table::Delimiter;
+use spincal::input::formats::{read_bytes, Format, Gx1Options, ReadOptions};
+use spincal::input::recording::{GyroUnit, TimeUnit};
+use spincal::input::table::Delimiter;
 use spincal::{AccelUnit, ColumnMap};
 
 /// Values for scales, offsets and rates: ordinary, extreme and invalid.

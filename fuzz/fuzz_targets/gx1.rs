@@ -3,7 +3,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use spincal::formats::gx1::{decode, scan, Gx1Options, Gx1Packet, EEPROM_REPLY_LEN, VECTORS_LEN};
+use spincal::input::formats::gx1::{decode, scan, Gx1Options, Gx1Packet, EEPROM_REPLY_LEN, VECTORS_LEN};
 
 fuzz_target!(|data: &[u8]| {
     let (packets, faults) = scan(data);

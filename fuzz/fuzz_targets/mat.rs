@@ -8,7 +8,7 @@
 use std::io::Write;
 
 use libfuzzer_sys::fuzz_target;
-use spincal::formats::{mat, read_bytes, Format, ReadOptions};
+use spincal::input::formats::{mat, read_bytes, Format, ReadOptions};
 
 fn header(big_endian: bool) -> Vec<u8> {
     let mut h = b"MATLAB 5.0 MAT-file, Platform: fuzz, Created on: never".to_vec();

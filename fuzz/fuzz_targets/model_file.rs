@@ -4,7 +4,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use spincal::corrector::Corrector;
+use spincal::correctors::corrector::Corrector;
 use spincal::{CorrectorFile, CorrectorModel, Recording};
 
 /// Finite readings, m/s²: rest, gravity on each axis, extremes.

@@ -4,7 +4,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use spincal::table::{Delimiter, Record, RowReader, Table, TableError, TableOptions};
+use spincal::input::table::{Delimiter, Record, RowReader, Table, TableError, TableOptions};
 
 /// The line an error names, when it names one.
 fn error_line(error: &TableError) -> Option<usize> {

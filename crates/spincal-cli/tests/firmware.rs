@@ -13,18 +13,18 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use spincal::ann::{AnnProblem, LmSettings};
-use spincal::corrector::{Axis, Corrector};
+use spincal::correctors::ann::{AnnProblem, LmSettings};
+use spincal::correctors::corrector::{Axis, Corrector};
 use spincal::correctors::division::DivisionMode;
 use spincal::correctors::gyro::{GyroInputUnit, GyroModel};
+use spincal::correctors::linear::LinearModel;
 use spincal::correctors::physical::{PhysicalCorrector, SensorModel};
 use spincal::correctors::physical_ann::{InputCoverage, PhysicalAnnCorrector};
+use spincal::correctors::static_cal::{StaticCalibration, StaticModel};
 use spincal::firmware::{export_firmware, fusion_values, ExportOptions};
-use spincal::linear::LinearModel;
-use spincal::recording::{Recording, STANDARD_GRAVITY};
+use spincal::input::recording::{Recording, STANDARD_GRAVITY};
 use spincal::simulate::campaign::profile_sensor_model;
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
-use spincal::static_cal::{StaticCalibration, StaticModel};
 use spincal::{CorrectorFile, CorrectorModel};
 
 /// The kinds, by the name their files and symbols get.

@@ -4,8 +4,8 @@
 use std::path::Path;
 
 use assert_cmd::Command;
-use spincal::formats::gx1::{encode, Gx1EncodeOptions};
-use spincal::recording::{Recording, Source};
+use spincal::input::formats::gx1::{encode, Gx1EncodeOptions};
+use spincal::input::recording::{Recording, Source};
 
 fn spincal() -> Command {
     Command::cargo_bin("spincal").unwrap()

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use assert_cmd::Command;
 use serde_json::{json, Value};
-use spincal::static_cal::{StaticCalibration, StaticModel};
+use spincal::correctors::static_cal::{StaticCalibration, StaticModel};
 use spincal::{CorrectorFile, CorrectorModel};
 
 fn spincal() -> Command {

@@ -1,8 +1,8 @@
 //! Black-box tests of `spincal inspect`, `static` and `allan` on files written here.
 
 use assert_cmd::Command;
-use spincal::formats::gx1::{encode, Gx1EncodeOptions, EEPROM_REPLY_LEN, VECTORS_LEN};
-use spincal::recording::{Recording, Source};
+use spincal::input::formats::gx1::{encode, Gx1EncodeOptions, EEPROM_REPLY_LEN, VECTORS_LEN};
+use spincal::input::recording::{Recording, Source};
 
 fn spincal() -> Command {
     Command::cargo_bin("spincal").unwrap()

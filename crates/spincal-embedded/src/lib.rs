@@ -25,7 +25,7 @@
 //! assert!((out.accel[2] - (9.9 - 0.08) / 1.003).abs() < 0.01);
 //! ```
 //!
-//! Every kind applies the library's stream (`spincal::corrector::Corrector::stream`) operation
+//! Every kind applies the library's stream (`spincal::correctors::corrector::Corrector::stream`) operation
 //! for operation: in `f64` the corrections equal `spincal correct`'s (tested to 1e-9 relative;
 //! in practice bit for bit), in `f32` they are the same operations in single precision. A
 //! network carries its training envelope and, inside `physical_ann`, falls back to the physical

@@ -10,7 +10,7 @@ use numpy::ndarray::{Array1, Array2, ArrayView1};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::prelude::*;
 
-use spincal::recording::TemperatureUnit;
+use spincal::input::recording::TemperatureUnit;
 use spincal::{ColumnMap, Recording, RecordingError};
 
 use crate::errors::{self, usage, Kind, Place};
@@ -83,13 +83,13 @@ fn column_map(
         .transpose()?;
     map.time_unit = time_unit
         .map(|u| {
-            spincal::recording::TimeUnit::parse(u)
+            spincal::input::recording::TimeUnit::parse(u)
                 .ok_or_else(|| usage(format!("time_unit {u:?}: expected s, ms or us")))
         })
         .transpose()?;
     map.gyro_unit = gyro_unit
         .map(|u| {
-            spincal::recording::GyroUnit::parse(u)
+            spincal::input::recording::GyroUnit::parse(u)
                 .ok_or_else(|| usage(format!("gyro_unit {u:?}: expected dps or radps")))
         })
         .transpose()?;
@@ -369,7 +369,7 @@ pub fn recording_from_columns(
             accel_mps2,
             gyro_radps,
             temperature_c: None,
-            source: spincal::recording::Source {
+            source: spincal::input::recording::Source {
                 name: name.to_string(),
                 format: format.to_string(),
                 columns: names,

@@ -9,8 +9,8 @@ use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 
 use spincal::campaign::{CampaignError, LoadError};
-use spincal::formats::FormatError as ReadError;
-use spincal::table::{Location, TableError};
+use spincal::input::formats::FormatError as ReadError;
+use spincal::input::table::{Location, TableError};
 use spincal::RecordingError;
 
 create_exception!(

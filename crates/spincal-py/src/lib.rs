@@ -13,9 +13,9 @@ use pyo3::types::PyBytes;
 use spincal::calibrate::CalibrationOutput;
 use spincal::campaign::params::Params;
 use spincal::campaign::{Campaign, CampaignOutput};
-use spincal::corrector::Corrector;
-use spincal::formats::{Format, ReadOptions};
-use spincal::recording::{GyroUnit, TimeUnit};
+use spincal::correctors::corrector::Corrector;
+use spincal::input::formats::{Format, ReadOptions};
+use spincal::input::recording::{GyroUnit, TimeUnit};
 use spincal::sysid::{ModelKind, ModelSpec};
 use spincal::{AccelUnit, CorrectorFile, CorrectorModel, Recording, RecordingError};
 
@@ -203,8 +203,8 @@ fn read_options(
 }
 
 /// A reading error; columns that cannot be told apart are explained in Python's words.
-fn read_error(e: spincal::formats::FormatError) -> PyErr {
-    use spincal::formats::FormatError as F;
+fn read_error(e: spincal::input::formats::FormatError) -> PyErr {
+    use spincal::input::formats::FormatError as F;
     match e {
         F::Recording(RecordingError::AmbiguousColumns { file, available }) => errors::with_place(
             errors::Kind::Format,
@@ -264,10 +264,10 @@ fn read(
     let loaded = if let Ok(bytes) = source.cast::<PyBytes>() {
         let data = bytes.as_bytes();
         let name = name.unwrap_or_else(|| "<bytes>".to_string());
-        py.detach(|| spincal::formats::read_bytes(data, &name, &options))
+        py.detach(|| spincal::input::formats::read_bytes(data, &name, &options))
     } else {
         let path: PathBuf = source.extract()?;
-        py.detach(|| spincal::formats::read_path(&path, &options))
+        py.detach(|| spincal::input::formats::read_path(&path, &options))
     }
     .map_err(read_error)?;
     let mut recording = loaded.recording;
@@ -489,16 +489,18 @@ fn calibrate<'py>(
     let outcome = long::run(py, progress.as_ref(), |observer| match &sweep_runner {
         None => spincal::calibrate::calibrate(&recordings, &settings, observer),
         Some(runner) => {
-            let remote = |problem: &spincal::ann::AnnProblem,
-                          sweep: &spincal::ann::SweepSettings,
+            let remote = |problem: &spincal::correctors::ann::AnnProblem,
+                          sweep: &spincal::correctors::ann::SweepSettings,
                           _: &spincal::progress::Observer| {
-                let jobs = spincal::ann::SweepJobs::new(problem, sweep);
+                let jobs = spincal::correctors::ann::SweepJobs::new(problem, sweep);
                 call_sweep_runner(runner, &jobs).map_err(|e| {
                     let message = e.to_string();
                     if let Ok(mut slot) = runner_failure.lock() {
                         slot.get_or_insert(e);
                     }
-                    spincal::ann::AnnError::SweepExchange(format!("the sweep runner failed: {message}"))
+                    spincal::correctors::ann::AnnError::SweepExchange(format!(
+                        "the sweep runner failed: {message}"
+                    ))
                 })
             };
             spincal::calibrate::calibrate_with_runner(&recordings, &settings, observer, &remote)
@@ -515,13 +517,13 @@ fn calibrate<'py>(
 /// reads its runs back.
 fn call_sweep_runner(
     runner: &Py<PyAny>,
-    jobs: &spincal::ann::SweepJobs,
-) -> PyResult<Vec<spincal::ann::SweepRun>> {
+    jobs: &spincal::correctors::ann::SweepJobs,
+) -> PyResult<Vec<spincal::correctors::ann::SweepRun>> {
     let texts: Vec<String> =
         Python::attach(|py| runner.call1(py, (jobs.to_json(), jobs.len()))?.extract(py))?;
     texts
         .iter()
-        .map(|text| spincal::ann::SweepRun::from_json(text))
+        .map(|text| spincal::correctors::ann::SweepRun::from_json(text))
         .collect::<Result<_, _>>()
         .map_err(errors::fit)
 }
@@ -537,7 +539,7 @@ fn run_sweep_jobs(
     jobs: Vec<usize>,
     progress: Option<Bound<'_, PyAny>>,
 ) -> PyResult<Vec<String>> {
-    let sweep = spincal::ann::SweepJobs::from_json(jobs_json).map_err(errors::usage_error)?;
+    let sweep = spincal::correctors::ann::SweepJobs::from_json(jobs_json).map_err(errors::usage_error)?;
     let total = jobs.len();
     long::run(py, progress.as_ref(), |observer| {
         let problem = sweep.problem();
@@ -548,11 +550,11 @@ fn run_sweep_jobs(
                 done,
                 Some(total),
             ));
-            runs.push(spincal::ann::run_sweep_job(&problem, &sweep.settings, job)?.to_json());
+            runs.push(spincal::correctors::ann::run_sweep_job(&problem, &sweep.settings, job)?.to_json());
         }
         Ok(runs)
     })?
-    .map_err(|e: spincal::ann::AnnError| errors::usage_error(e))
+    .map_err(|e: spincal::correctors::ann::AnnError| errors::usage_error(e))
 }
 
 /// A finished campaign calibration.
@@ -742,8 +744,8 @@ fn static_calibration(
     threshold_factor: f64,
     min_interval_s: f64,
 ) -> PyResult<(String, PyCorrector)> {
-    use spincal::static_cal::{fit_static, pose_means, StaticFitOptions, StaticModel};
-    use spincal::static_detect::{detect_static, StaticOptions};
+    use spincal::correctors::static_cal::{fit_static, pose_means, StaticFitOptions, StaticModel};
+    use spincal::correctors::static_detect::{detect_static, StaticOptions};
     let model = StaticModel::from_n_params(parameters)
         .ok_or_else(|| usage(format!("parameters = {parameters}: expected 6, 9 or 12")))?;
     let rec = &recording.inner;

@@ -78,8 +78,8 @@ pub fn resolve_params(changes_json: &str) -> PyResult<String> {
 #[pyfunction]
 pub fn sweep_grid(name: &str) -> PyResult<Vec<Vec<usize>>> {
     match name {
-        "small" => Ok(spincal::ann::small_grid()),
-        "full" => Ok(spincal::ann::default_grid()),
+        "small" => Ok(spincal::correctors::ann::small_grid()),
+        "full" => Ok(spincal::correctors::ann::default_grid()),
         other => Err(usage(format!(
             "sweep {other:?}: expected 'none', 'small' or 'full'"
         ))),

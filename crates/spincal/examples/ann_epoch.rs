@@ -16,8 +16,8 @@ use std::time::Instant;
 
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
-use spincal::ann::{AnnProblem, DivisionMode, Layout, LmSettings, LmWorkspace};
-use spincal::corrector::Axis;
+use spincal::correctors::ann::{AnnProblem, DivisionMode, Layout, LmSettings, LmWorkspace};
+use spincal::correctors::corrector::Axis;
 
 const XY: [Axis; 2] = [Axis::X, Axis::Y];
 
@@ -81,7 +81,7 @@ fn time_epochs(n: usize, block_samples: usize, epochs: usize, rounds: usize) -> 
         block_samples,
         ..LmSettings::default()
     };
-    let empty = spincal::ann::Dataset::default();
+    let empty = spincal::correctors::ann::Dataset::default();
     // One epoch = normal equations + damped solve + trial evaluation (+ the initial error).
     // Warm-up: one call outside the timed rounds.
     let mut w = weights.clone();

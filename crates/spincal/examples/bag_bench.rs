@@ -8,7 +8,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use spincal::formats::{read_path, ReadOptions};
+use spincal::input::formats::{read_path, ReadOptions};
 
 /// Seconds this process has run on a CPU (Linux's /proc/self/schedstat; 0 elsewhere).
 fn cpu_seconds() -> f64 {

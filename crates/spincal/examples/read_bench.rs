@@ -10,10 +10,10 @@ use std::path::Path;
 use std::time::Instant;
 
 use rand::{Rng, SeedableRng};
-use spincal::formats::gx1::{decode, encode, Gx1EncodeOptions, Gx1Options};
-use spincal::formats::{read_path, Format, ReadOptions};
-use spincal::recording::{AccelUnit, Recording, Source};
-use spincal::table::{Record, RowReader, TableOptions};
+use spincal::input::formats::gx1::{decode, encode, Gx1EncodeOptions, Gx1Options};
+use spincal::input::formats::{read_path, Format, ReadOptions};
+use spincal::input::recording::{AccelUnit, Recording, Source};
+use spincal::input::table::{Record, RowReader, TableOptions};
 
 fn generate(dir: &Path, rows: usize) {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);

@@ -5,8 +5,8 @@
 use std::path::Path;
 use std::time::Instant;
 
+use spincal::input::table::{Table, TableOptions};
 use spincal::sysid::{fit_and_score, ArxParams, ModelKind, ModelSpec};
-use spincal::table::{Table, TableOptions};
 
 /// Best and (upper) median, the rule bench_peers.py applies to the peers.
 fn best_and_median(times: &[f64]) -> (f64, f64) {

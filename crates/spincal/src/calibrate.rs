@@ -172,7 +172,7 @@ pub struct CalibrationOutput {
 }
 
 /// Runs every job of a network sweep and returns each job's run exactly once, in any order:
-/// [`run_sweep_locally`] on this machine's threads, or a runner that ships [`SweepJobs`](crate::ann::SweepJobs) to
+/// [`run_sweep_locally`] on this machine's threads, or a runner that ships [`SweepJobs`](crate::correctors::ann::SweepJobs) to
 /// other processes (the Python package's Ray runner). The result does not depend on which.
 pub type SweepRunner<'a> =
     dyn Fn(&AnnProblem, &SweepSettings, &Observer) -> Result<Vec<SweepRun>, AnnError> + Sync + 'a;

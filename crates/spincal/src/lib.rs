@@ -11,9 +11,7 @@
 #[cfg(doctest)]
 pub struct ReadmeDoctests;
 
-// Modules in pipeline order: input, turntable, correctors, system identification, the whole
-// calibration, report. Imports only point to modules above or beside, never back (tested in
-// tests/architecture.rs).
+// The modules, alphabetically. Their imports form no cycle (tested in tests/architecture.rs).
 pub mod allan;
 pub mod calibrate;
 pub mod campaign;
@@ -33,12 +31,20 @@ pub mod sysid;
 pub mod thermal;
 pub mod turntable;
 
-// Paths of earlier releases, kept working (CHANGELOG.md lists the moves).
+// The types of the common flow at the top; every module's items at one path, the module's own.
 pub use correctors::model_file::{CorrectorFile, CorrectorModel};
-pub use correctors::{ann, corrector, gyro_poses, linear, static_cal, static_detect};
-pub use input::{formats, inspect, recording, table};
-#[cfg(feature = "plot")]
-pub use report::{plot, strobe};
-pub use turntable::spectrum;
+
+/// The common flow in one import (`use spincal::prelude::*;`): read a recording, calibrate one
+/// recording or a campaign, load a model and correct rows with it.
+pub mod prelude {
+    pub use crate::calibrate::calibrate;
+    pub use crate::campaign::params::Params;
+    pub use crate::campaign::{calibrate_campaign, load_campaign};
+    pub use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
+    pub use crate::correctors::rows::{RowCorrector, RowOutcome, RowStatus, UnitFactors};
+    pub use crate::input::formats::read_path;
+    pub use crate::input::recording::{ColumnMap, Recording};
+    pub use crate::progress::silent;
+}
 
 pub use input::recording::{AccelUnit, ColumnMap, ColumnPlan, Recording, RecordingError, STANDARD_GRAVITY};

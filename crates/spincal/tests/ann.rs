@@ -1,13 +1,13 @@
 //! The network corrector end to end on synthetic turntable data.
 
 use crate::common::synthetic::turntable_pair;
-use spincal::ann::lm::full_jacobian;
-use spincal::ann::{
+use spincal::correctors::ann::lm::full_jacobian;
+use spincal::correctors::ann::{
     reduce_sweep, run_sweep_job, sweep, AnnError, AnnProblem, DivisionMode, LmSettings, LmWorkspace, Part,
     StopReason, SweepJobs, SweepRow, SweepRun, SweepSettings,
 };
-use spincal::corrector::{Axis, Corrector};
-use spincal::linear::LinearModel;
+use spincal::correctors::corrector::{Axis, Corrector};
+use spincal::correctors::linear::LinearModel;
 use spincal::{CorrectorFile, CorrectorModel};
 
 const XY: [Axis; 2] = [Axis::X, Axis::Y];
@@ -475,7 +475,7 @@ fn streaming_correction_matches_batch_application() {
         *v = mean + 2.0 * (*v - mean);
     }
     let (low, high) = (model.input_scaling.min[1], model.input_scaling.max[1]);
-    let margin = spincal::ann::EXTRAPOLATION_MARGIN * (high - low);
+    let margin = spincal::correctors::ann::EXTRAPOLATION_MARGIN * (high - low);
     let expected = louder.accel_mps2[1]
         .iter()
         .filter(|&&v| v < low - margin || v > high + margin)

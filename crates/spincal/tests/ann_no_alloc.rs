@@ -10,8 +10,8 @@ use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use common::synthetic::turntable_pair;
-use spincal::ann::{AnnProblem, Dataset, DivisionMode, LmSettings, LmWorkspace};
-use spincal::corrector::Axis;
+use spincal::correctors::ann::{AnnProblem, Dataset, DivisionMode, LmSettings, LmWorkspace};
+use spincal::correctors::corrector::Axis;
 
 struct Counting;
 

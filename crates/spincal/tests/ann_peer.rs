@@ -4,7 +4,7 @@
 //! pyrenn's by more than 1 %.
 
 use serde::Deserialize;
-use spincal::ann::{Dataset, Layout, LmSettings, LmWorkspace};
+use spincal::correctors::ann::{Dataset, Layout, LmSettings, LmWorkspace};
 
 #[derive(Deserialize)]
 struct Fixture {

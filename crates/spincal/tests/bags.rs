@@ -8,10 +8,10 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
-use spincal::formats::bag::BagError;
-use spincal::formats::{read_bytes, read_path, Format, FormatError, Loaded, ReadOptions};
+use spincal::input::formats::bag::BagError;
+use spincal::input::formats::{read_bytes, read_path, Format, FormatError, Loaded, ReadOptions};
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
-use spincal::spectrum::{estimate_rotation_rate, RateSearch};
+use spincal::turntable::spectrum::{estimate_rotation_rate, RateSearch};
 use spincal::{AccelUnit, Recording};
 
 const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
@@ -389,7 +389,7 @@ fn fuzz_regressions_are_refused() {
             Some("/camera/accel/sample"),
         ][usize::from(choice) % 4];
         // Found without salvage; (choice & 0x7f) % 4 is choice % 4, the fuzz target's topic.
-        let e = spincal::formats::bag::read_bytes(file, "regression.bag", topic, false)
+        let e = spincal::input::formats::bag::read_bytes(file, "regression.bag", topic, false)
             .map(|_| ())
             .unwrap_err();
         assert!(

@@ -220,7 +220,7 @@ fn a_saved_corrector_held_on_every_condition_and_round_trips() {
 /// (marked) where it is not; its file round-trips and a damaged coverage is refused by name.
 #[test]
 fn the_network_on_top_of_physics_is_trusted_only_where_it_was_trained() {
-    use spincal::corrector::Corrector;
+    use spincal::correctors::corrector::Corrector;
     use spincal::correctors::physical_ann::PhysicalAnnCorrector;
     let sim = simulate_campaign(&CampaignSetup::default(), 5).unwrap();
     let settings = Params {

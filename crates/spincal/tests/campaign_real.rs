@@ -10,8 +10,8 @@
 use crate::common;
 
 use spincal::campaign::joint::{fit_joint, JointSettings, PoseInput, SensorTerms};
-use spincal::formats::{read_path, Format, ReadOptions};
-use spincal::static_detect::{detect_static, StaticOptions, StillInterval};
+use spincal::correctors::static_detect::{detect_static, StaticOptions, StillInterval};
+use spincal::input::formats::{read_path, Format, ReadOptions};
 
 fn norm(a: [f64; 3]) -> f64 {
     (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()

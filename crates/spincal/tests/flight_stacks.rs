@@ -11,7 +11,7 @@
 use std::collections::HashMap;
 use std::path::PathBuf;
 
-use spincal::recording::STANDARD_GRAVITY;
+use spincal::input::recording::STANDARD_GRAVITY;
 use spincal::thermal::flight_stacks::{
     self, ArduPilotTarget, FlightStackError, Px4Target, ARDUPILOT_REFERENCE_C,
 };

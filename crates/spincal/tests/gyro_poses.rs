@@ -11,9 +11,9 @@ use spincal::correctors::gyro::{GyroInputUnit, GyroModel};
 use spincal::correctors::gyro_poses::{
     fit_gyro_poses, still_poses, GyroBiasSource, GyroPoseError, GyroPoseFit, GyroPoseOptions, StillPose,
 };
+use spincal::correctors::static_cal::{fit_static, pose_means, StaticFitOptions, StaticModel};
+use spincal::correctors::static_detect::{detect_static, StaticOptions};
 use spincal::simulate::gyro_poses::{simulate_pose_session, PoseSession, PoseSessionSetup};
-use spincal::static_cal::{fit_static, pose_means, StaticFitOptions, StaticModel};
-use spincal::static_detect::{detect_static, StaticOptions};
 
 /// The whole pipeline as `spincal static --gyro-file` runs it: still intervals detected on the
 /// accelerometer, its static fit, then the gyro.
@@ -166,11 +166,13 @@ fn t265_gyro_agrees_with_imu_tk() {
         return;
     };
     let read = |path: &std::path::Path| {
-        let options = spincal::formats::ReadOptions {
+        let options = spincal::input::formats::ReadOptions {
             retime: true,
             ..Default::default()
         };
-        spincal::formats::read_path(path, &options).unwrap().recording
+        spincal::input::formats::read_path(path, &options)
+            .unwrap()
+            .recording
     };
     let imu_tk = |path: &std::path::Path| {
         spincal::export::ImuTkCalib::parse(&std::fs::read_to_string(path).unwrap(), "calib").unwrap()

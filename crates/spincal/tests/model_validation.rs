@@ -6,11 +6,11 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use crate::common::synthetic::turntable_pair;
 use serde_json::{json, Value};
-use spincal::ann::{AnnError, AnnProblem, DivisionMode, LmSettings, MAX_DELAYS};
-use spincal::corrector::{Axis, Corrector};
+use spincal::correctors::ann::{AnnError, AnnProblem, DivisionMode, LmSettings, MAX_DELAYS};
+use spincal::correctors::corrector::{Axis, Corrector};
+use spincal::correctors::linear::LinearModel;
 use spincal::correctors::model_file::CorrectorError;
-use spincal::linear::LinearModel;
-use spincal::static_cal::{StaticCalibration, StaticModel};
+use spincal::correctors::static_cal::{StaticCalibration, StaticModel};
 use spincal::{CorrectorFile, CorrectorModel, Recording};
 
 /// Written in place of a string marker: JSON that parses as a number, but no finite f64.

@@ -3,9 +3,11 @@
 
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
-use spincal::formats::gx1::{self, Gx1EncodeOptions, Gx1Options, EEPROM_REPLY_LEN, TICK_S, VECTORS_LEN};
-use spincal::formats::{read_bytes, Format, ReadOptions};
-use spincal::recording::{Recording, Source};
+use spincal::input::formats::gx1::{
+    self, Gx1EncodeOptions, Gx1Options, EEPROM_REPLY_LEN, TICK_S, VECTORS_LEN,
+};
+use spincal::input::formats::{read_bytes, Format, ReadOptions};
+use spincal::input::recording::{Recording, Source};
 
 fn check_any_bytes(bytes: &[u8]) {
     let mut formats: Vec<Option<Format>> = Format::ALL.iter().copied().map(Some).collect();

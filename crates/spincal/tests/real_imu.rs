@@ -6,9 +6,9 @@
 
 use crate::common;
 
-use spincal::formats::{read_path, Format, Loaded, ReadOptions};
-use spincal::static_cal::{fit_static, pose_means, spread_about, StaticFitOptions, StaticModel};
-use spincal::static_detect::{detect_static, labelled_intervals, StaticOptions, StillInterval};
+use spincal::correctors::static_cal::{fit_static, pose_means, spread_about, StaticFitOptions, StaticModel};
+use spincal::correctors::static_detect::{detect_static, labelled_intervals, StaticOptions, StillInterval};
+use spincal::input::formats::{read_path, Format, Loaded, ReadOptions};
 
 fn load(relative: &str, format: Format) -> Option<Loaded> {
     let path = common::shared_data(relative)?;
@@ -239,7 +239,7 @@ fn t265_log_with_repeated_timestamps_reads_whole_at_its_true_rate() {
         "{} Hz against {mean_rate} Hz from the span",
         rec.sample_rate_hz()
     );
-    let inspection = spincal::inspect::inspect(rec, None);
+    let inspection = spincal::input::inspect::inspect(rec, None);
     assert!(inspection.repeated_times > rec.len() / 3, "{inspection:?}");
     assert_eq!(inspection.first_repeated_line, Some(3));
     assert_eq!(inspection.backward_steps, 0);
@@ -256,7 +256,7 @@ fn t265_log_with_repeated_timestamps_reads_whole_at_its_true_rate() {
     };
     let path = common::shared_data("imu/realsense_t265/t265_acc.mat").unwrap();
     let retimed = read_path(&path, &options).unwrap().recording;
-    let again = spincal::inspect::inspect(&retimed, None);
+    let again = spincal::input::inspect::inspect(&retimed, None);
     assert_eq!((again.repeated_times, again.gap_count), (0, 0));
     assert!((retimed.duration_s() / rec.duration_s() - 1.0).abs() < 1e-3);
 }

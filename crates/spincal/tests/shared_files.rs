@@ -13,9 +13,9 @@ use crate::common;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-use spincal::formats::{read_bytes, read_path, read_table, Format, Loaded, ReadOptions};
-use spincal::recording::{ColumnMap, GyroUnit};
-use spincal::table::{read_file, Table, TableOptions};
+use spincal::input::formats::{read_bytes, read_path, read_table, Format, Loaded, ReadOptions};
+use spincal::input::recording::{ColumnMap, GyroUnit};
+use spincal::input::table::{read_file, Table, TableOptions};
 
 /// How a file is read, and what it must give.
 enum How {
@@ -478,7 +478,7 @@ fn logger_files_read_as_they_are() {
     }
     // Under any other name the unit is given by --time-unit (here through the column map).
     let mut o = options(None, Some("clock,ax,ay,az"));
-    o.columns.time_unit = Some(spincal::recording::TimeUnit::Ns);
+    o.columns.time_unit = Some(spincal::input::recording::TimeUnit::Ns);
     let l = read_bytes(
         epoch.replace("timestamp_ns", "clock").as_bytes(),
         "logger.csv",

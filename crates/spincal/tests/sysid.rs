@@ -9,10 +9,10 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde_json::Value;
+use spincal::input::table::{Table, TableOptions};
 use spincal::sysid::{
     filter, fit_and_score, score, ArxParams, ModelKind, ModelSpec, PemParams, PolyModel, SysidModel,
 };
-use spincal::table::{Table, TableOptions};
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

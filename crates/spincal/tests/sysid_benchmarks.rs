@@ -13,10 +13,10 @@
 
 use crate::common;
 
-use spincal::formats::read_table;
+use spincal::input::formats::read_table;
+use spincal::input::table::{read_file, Table, TableOptions};
 use spincal::metrics::rmse;
 use spincal::sysid::{fit_and_score_parts, DataPart, ModelKind, ModelSpec, NarxFocus, ScoredFit};
-use spincal::table::{read_file, Table, TableOptions};
 
 fn table(relative: &str, keys: &[&str]) -> Option<Table> {
     let path = common::shared_data(relative)?;

@@ -14,8 +14,8 @@ use rayon::prelude::*;
 use spincal::campaign::params::Params;
 use spincal::campaign::{calibrate_campaign, CandidateKind, UnitRecording};
 use spincal::correctors::rows::{RowCorrector, RowOutcome, UnitFactors};
+use spincal::input::recording::Recording;
 use spincal::progress::silent;
-use spincal::recording::Recording;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 use spincal::simulate::thermal::{
     simulate_thermal_campaign, ThermalCampaign, ThermalProfile, ThermalRecording,

@@ -1,7 +1,7 @@
 //! The turntable fit recovers what the simulator put in.
 
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
-use spincal::spectrum::{estimate_rotation_rate, RateSearch};
+use spincal::turntable::spectrum::{estimate_rotation_rate, RateSearch};
 use spincal::turntable::{fit_turntable, Direction, DriftMode, FitOptions, TurntableFit};
 
 fn options() -> FitOptions {

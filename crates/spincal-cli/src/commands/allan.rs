@@ -8,8 +8,8 @@ use serde::Serialize;
 use spincal::allan::{
     allan_deviation, allan_figure, noise_params, simulator_profile, write_curve_csv, AllanCurve, NoiseParams,
 };
-use spincal::plot::Figure;
-use spincal::static_detect::{detect_static, StaticOptions};
+use spincal::correctors::static_detect::{detect_static, StaticOptions};
+use spincal::report::plot::Figure;
 
 use super::{format_line, input, InputArgs};
 use crate::ui::{self, UsageError};

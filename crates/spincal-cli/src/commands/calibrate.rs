@@ -3,10 +3,10 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use spincal::ann::{default_grid, small_grid};
 use spincal::calibrate::{calibrate, CalibrationOutput};
 use spincal::campaign::params::{NetworkChoice, Params};
-use spincal::corrector::Axis;
+use spincal::correctors::ann::{default_grid, small_grid};
+use spincal::correctors::corrector::Axis;
 use spincal::report::render_report;
 use spincal::sysid::{ModelKind, ModelSpec};
 use spincal::Recording;
@@ -46,7 +46,7 @@ pub struct CalibrateArgs {
     pub restarts: usize,
     /// Samples each sweep epoch's JᵀJ is formed from (errors and gradient use all); 0 = all. The
     /// chosen architecture is then trained with every sample.
-    #[arg(long, default_value_t = spincal::ann::SWEEP_HESSIAN_SAMPLES)]
+    #[arg(long, default_value_t = spincal::correctors::ann::SWEEP_HESSIAN_SAMPLES)]
     pub sweep_hessian_samples: usize,
     /// Axes to correct, e.g. x,y.
     #[arg(long, default_value = "x,y")]

@@ -28,8 +28,8 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use spincal::correctors::rows::{RowCorrector, RowOutcome, RowStatus, RowValue, UnitFactors};
-use spincal::formats::Loaded;
-use spincal::table::{display_name, Delimiter, Record, RowReader};
+use spincal::input::formats::Loaded;
+use spincal::input::table::{display_name, Delimiter, Record, RowReader};
 use spincal::CorrectorFile;
 use spincal::{ColumnMap, ColumnPlan};
 
@@ -72,7 +72,7 @@ impl CorrectArgs {
             || r.retime
             || r.gx1_accel_gain.is_some()
             || r.gx1_gyro_gain.is_some();
-        let delimited = spincal::formats::delimited_text_format(&self.input, r.format.map(Into::into))
+        let delimited = spincal::input::formats::delimited_text_format(&self.input, r.format.map(Into::into))
             .with_context(|| format!("{}: cannot read", self.input.display()))?
             .is_some();
         Ok(whole_file_flags || !delimited)
@@ -82,7 +82,7 @@ impl CorrectArgs {
     fn column_map(&self) -> anyhow::Result<ColumnMap> {
         let mut map = self.read.column_map()?;
         if self.read.format == Some(FormatArg::Whitespace) && map.table.delimiter.is_none() {
-            map.table.delimiter = Some(spincal::table::Delimiter::Whitespace);
+            map.table.delimiter = Some(spincal::input::table::Delimiter::Whitespace);
         }
         Ok(map)
     }
@@ -216,7 +216,7 @@ impl StreamSummary {
                 self.outside_training_range,
                 self.rows,
                 100.0 * self.outside_training_range as f64 / self.rows.max(1) as f64,
-                100.0 * spincal::ann::EXTRAPOLATION_MARGIN,
+                100.0 * spincal::correctors::ann::EXTRAPOLATION_MARGIN,
             );
         }
         if let Some((line, status)) = self.first_thermal_fallback {
@@ -300,7 +300,7 @@ fn write_row(
 /// The corrected values written for a row, in the file's units: the corrected accelerometer axes,
 /// then the gyro.
 fn corrected_values(
-    axes: &[spincal::corrector::Axis],
+    axes: &[spincal::correctors::corrector::Axis],
     outcome: &RowOutcome,
     gyro_width: usize,
     units: UnitFactors,

@@ -167,7 +167,7 @@ pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
             accel_mps2: fit.reference(k, &rec.time_s),
             gyro_radps: None,
             temperature_c: None,
-            source: spincal::recording::Source::default(),
+            source: spincal::input::recording::Source::default(),
         };
         reference
             .write_csv_path(path, spincal::AccelUnit::G)

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
-use spincal::formats::{self, Loaded, ReadOptions};
-use spincal::recording::ColumnMap;
+use spincal::input::formats::{self, Loaded, ReadOptions};
+use spincal::input::recording::ColumnMap;
 use spincal::Recording;
 
 use super::values::{AccelUnitArg, DelimiterArg, FormatArg, GyroUnitArg, TimeUnitArg};
@@ -185,7 +185,7 @@ impl InputArgs {
 
     /// Reads and inspects the recording: a CSV or whitespace file streamed (the `Loaded` then
     /// holds the recording's source and no samples), any other read whole.
-    pub fn inspect(&self, ui: &Ui) -> anyhow::Result<(Loaded, spincal::inspect::Inspection)> {
+    pub fn inspect(&self, ui: &Ui) -> anyhow::Result<(Loaded, spincal::input::inspect::Inspection)> {
         let options = self.read.options()?;
         let spinner = ui.spinner("reading");
         let found = formats::inspect_path(&self.rec, &options, None)

@@ -18,9 +18,9 @@ pub struct InspectArgs {
 #[derive(Serialize)]
 struct Report<'a> {
     file: String,
-    loaded: &'a spincal::formats::Loaded,
+    loaded: &'a spincal::input::formats::Loaded,
     metadata: &'a [String],
-    inspection: spincal::inspect::Inspection,
+    inspection: spincal::input::inspect::Inspection,
 }
 
 pub fn run(args: &InspectArgs, ui: &ui::Ui) -> anyhow::Result<()> {

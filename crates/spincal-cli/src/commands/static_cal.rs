@@ -6,9 +6,13 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 use spincal::correctors::gyro::GyroInputUnit;
-use spincal::gyro_poses::{fit_gyro_poses, still_poses, GyroBiasSource, GyroPoseFit, GyroPoseOptions};
-use spincal::static_cal::{fit_static, pose_means, spread_about, StaticFit, StaticFitOptions, StaticModel};
-use spincal::static_detect::{detect_static, labelled_intervals, StaticOptions, StillInterval};
+use spincal::correctors::gyro_poses::{
+    fit_gyro_poses, still_poses, GyroBiasSource, GyroPoseFit, GyroPoseOptions,
+};
+use spincal::correctors::static_cal::{
+    fit_static, pose_means, spread_about, StaticFit, StaticFitOptions, StaticModel,
+};
+use spincal::correctors::static_detect::{detect_static, labelled_intervals, StaticOptions, StillInterval};
 
 use super::values::StaticModelArg;
 use super::{format_line, input, InputArgs};
@@ -92,7 +96,7 @@ struct GyroReport<'a> {
 #[derive(Serialize)]
 struct Report<'a> {
     file: String,
-    format: &'a spincal::formats::Loaded,
+    format: &'a spincal::input::formats::Loaded,
     intervals_from: &'a str,
     intervals: &'a [StillInterval],
     /// RMS of |mean| − g before calibration (only when the input is already m/s²).
@@ -266,7 +270,7 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         eprintln!(
             "warning: the poses leave {} poorly determined (1-σ effect on a 1 g reading above {} % of g); record more poses with each axis pointing up and down, or use a smaller model (--model 6)",
             named.join(", "),
-            100.0 * spincal::static_cal::POORLY_DETERMINED_FRACTION_OF_G
+            100.0 * spincal::correctors::static_cal::POORLY_DETERMINED_FRACTION_OF_G
         );
     }
     if let Some(b) = rms_before {

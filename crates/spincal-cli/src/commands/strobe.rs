@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use spincal::strobe::{Rounding, StrobeDisc};
+use spincal::report::strobe::{Rounding, StrobeDisc};
 
 use crate::ui::{self, UsageError};
 
@@ -69,7 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Rounding::Nearest
     };
     let disc = StrobeDisc::new(&args.rpm, args.mains, args.diameter_mm, rounding).map_err(|e| {
-        use spincal::strobe::StrobeError as E;
+        use spincal::report::strobe::StrobeError as E;
         match e {
             E::NonIntegerBars { .. } => anyhow::Error::new(e),
             other => anyhow::Error::new(UsageError(other.to_string())),

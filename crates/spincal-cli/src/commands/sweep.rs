@@ -7,9 +7,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
-use spincal::ann::{parse_grid, sweep, AnnProblem, SweepRow, SweepSettings};
-use spincal::plot::{Figure, HeatMap};
+use spincal::correctors::ann::{parse_grid, sweep, AnnProblem, SweepRow, SweepSettings};
 use spincal::progress::Progress;
+use spincal::report::plot::{Figure, HeatMap};
 
 use super::train::DataArgs;
 use crate::ui::{self, Ui, UsageError};
@@ -31,7 +31,7 @@ pub struct SweepArgs {
     /// Samples each epoch's JᵀJ is formed from (blocks spread over the training part; errors and
     /// gradient use all of it); 0 = all. Screening with a subsampled JᵀJ keeps a full sweep on a
     /// long recording to minutes; `spincal train` then trains the chosen network exactly.
-    #[arg(long, default_value_t = spincal::ann::SWEEP_HESSIAN_SAMPLES)]
+    #[arg(long, default_value_t = spincal::correctors::ann::SWEEP_HESSIAN_SAMPLES)]
     pub hessian_samples: usize,
     /// Print the table as JSON on stdout.
     #[arg(long)]
@@ -42,7 +42,7 @@ pub struct SweepArgs {
 struct SweepOutput<'a> {
     data: String,
     reference: String,
-    axes: Vec<spincal::corrector::Axis>,
+    axes: Vec<spincal::correctors::corrector::Axis>,
     delays: usize,
     restarts: usize,
     base_seed: u64,
@@ -230,7 +230,7 @@ mod tests {
     #[test]
     fn heat_map_places_one_and_two_layer_rows() {
         let row = |hidden: Vec<usize>, fit: f64| SweepRow {
-            architecture: spincal::ann::architecture_label(&hidden),
+            architecture: spincal::correctors::ann::architecture_label(&hidden),
             hidden,
             best_validation_mse: 0.1,
             train_fit_percent: fit,

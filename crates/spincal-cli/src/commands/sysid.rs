@@ -5,11 +5,11 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
-use spincal::formats::read_table;
+use spincal::input::formats::read_table;
+use spincal::input::table::{read_file, TableOptions};
 use spincal::sysid::{
     fit_and_score_parts, DataPart, FitScore, ModelKind, ModelSpec, NarxFocus, ScoredFit, SysidModel,
 };
-use spincal::table::{read_file, TableOptions};
 
 use super::values::{DelimiterArg, SysidModelArg};
 use crate::ui::{self, Ui, UsageError};

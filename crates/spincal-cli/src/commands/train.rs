@@ -5,9 +5,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use serde::Serialize;
-use spincal::ann::{AnnProblem, DivisionMode, LmSettings, Part, PartFits};
-use spincal::corrector::Axis;
-use spincal::linear::LinearModel;
+use spincal::correctors::ann::{AnnProblem, DivisionMode, LmSettings, Part, PartFits};
+use spincal::correctors::corrector::Axis;
+use spincal::correctors::linear::LinearModel;
 use spincal::Recording;
 use spincal::{CorrectorFile, CorrectorModel};
 
@@ -128,7 +128,7 @@ pub fn all_if_zero(samples: usize) -> Option<usize> {
 
 /// Parses `--hidden` (`10,6` or `none`).
 pub fn parse_hidden(text: &str) -> anyhow::Result<Vec<usize>> {
-    spincal::ann::parse_hidden_sizes(text).map_err(|e| UsageError(format!("--hidden {e}")).into())
+    spincal::correctors::ann::parse_hidden_sizes(text).map_err(|e| UsageError(format!("--hidden {e}")).into())
 }
 
 #[derive(Serialize)]
@@ -218,7 +218,11 @@ pub fn run(args: TrainArgs, ui: Ui) -> anyhow::Result<()> {
 fn render(s: &Summary) -> String {
     let mut out = format!("corrector: {}", s.kind);
     if let Some(h) = &s.hidden {
-        out += &format!(" [{}], delays {}", spincal::ann::architecture_label(h), s.delays);
+        out += &format!(
+            " [{}], delays {}",
+            spincal::correctors::ann::architecture_label(h),
+            s.delays
+        );
     }
     out += "\n";
     if let (Some(e), Some(stop)) = (s.epochs, &s.stop) {

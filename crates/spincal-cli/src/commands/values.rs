@@ -2,11 +2,11 @@
 //! library stays free of clap; each mirror converts with `From`.
 
 use clap::ValueEnum;
-use spincal::formats::Format;
-use spincal::recording::{AccelUnit, GyroUnit, TimeUnit};
-use spincal::static_cal::StaticModel;
+use spincal::correctors::static_cal::StaticModel;
+use spincal::input::formats::Format;
+use spincal::input::recording::{AccelUnit, GyroUnit, TimeUnit};
+use spincal::input::table::Delimiter;
 use spincal::sysid::ModelKind;
-use spincal::table::Delimiter;
 use spincal::turntable::{AxesObjective, Direction, DriftMode};
 
 /// Maps a mirror enum onto the library's, variant for variant.

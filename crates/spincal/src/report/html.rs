@@ -652,7 +652,7 @@ fn how_to_apply_section(saved: bool) -> String {
         "<pre>spincal correct --model model.json new.csv -o new-corrected.csv</pre>\n",
         "<p>Every input row comes out with its original columns, the corrected axes added and a ",
         "<code>valid</code> column. In Rust: <code>spincal::CorrectorFile::read_path</code>, then ",
-        "<code>spincal::corrector::Corrector::correct</code>.</p>\n"
+        "<code>spincal::correctors::corrector::Corrector::correct</code>.</p>\n"
     )
     .to_string()
 }

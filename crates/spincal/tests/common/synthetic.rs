@@ -6,7 +6,7 @@
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use spincal::recording::Source;
+use spincal::input::recording::Source;
 use spincal::Recording;
 
 /// (measured, reference) for `n` samples at 100 Hz of a 0.55 Hz turntable (SPEC §2 model:
