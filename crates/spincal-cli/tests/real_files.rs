@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use crate::harness::{fails, run, shared, spincal};
+use crate::harness::{fails, run, run_with_stderr, shared, spincal};
 
 /// The rows of a file written by `correct`: header and fields.
 fn rows(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
@@ -126,21 +126,15 @@ fn logger_csvs_stream_through_correct_with_every_row_kept() {
     let input = dir.path().join("logger.csv");
     std::fs::write(&input, &text).unwrap();
     let out = dir.path().join("corrected.csv");
-    let result = spincal()
-        .arg("correct")
-        .arg("--model")
-        .arg(&model)
-        .arg(&input)
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        result.status.success(),
-        "{}",
-        String::from_utf8_lossy(&result.stderr)
+    let (_, stderr) = run_with_stderr(
+        spincal()
+            .arg("correct")
+            .arg("--model")
+            .arg(&model)
+            .arg(&input)
+            .arg("-o")
+            .arg(&out),
     );
-    let stderr = String::from_utf8_lossy(&result.stderr);
     assert!(
         stderr.contains("58 of 458 rows have no value in a column used"),
         "{stderr}"

@@ -251,9 +251,10 @@ type Three<'py> = (
 
 /// A whole recording from columns: the one path of `recording()` (arrays) and `read()` of a
 /// DataFrame. Every value must be finite (the error names the row and column), time must not go
-/// backwards; without a time column, time is sample number / `sample_rate_hz`.
+/// backwards; without a time column, time is sample number / `sample_rate_hz`. `temperature` is in
+/// the plan's temperature unit (°C without one).
 #[pyfunction]
-#[pyo3(signature = (time, accel, gyro, plan, *, name, format, sample_rate_hz = None))]
+#[pyo3(signature = (time, accel, gyro, plan, *, name, format, sample_rate_hz = None, temperature = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn recording_from_columns(
     time: Option<PyReadonlyArray1<'_, f64>>,
@@ -263,6 +264,7 @@ pub fn recording_from_columns(
     name: &str,
     format: &str,
     sample_rate_hz: Option<f64>,
+    temperature: Option<PyReadonlyArray1<'_, f64>>,
 ) -> PyResult<crate::PyRecording> {
     let accel = [accel.0.as_array(), accel.1.as_array(), accel.2.as_array()];
     let gyro = gyro
@@ -277,6 +279,13 @@ pub fn recording_from_columns(
     }
     if let Some(t) = &time {
         lengths.push((plan.names[0].as_str(), t.as_array().len()));
+    }
+    let temperature_name = match plan.temperature {
+        Some(_) => plan.names.last().cloned().unwrap_or_default(),
+        None => "temperature".to_string(),
+    };
+    if let Some(t) = &temperature {
+        lengths.push((temperature_name.as_str(), t.as_array().len()));
     }
     if let Some((column, len)) = lengths.iter().find(|(_, len)| *len != n) {
         return Err(usage(format!(
@@ -359,16 +368,31 @@ pub fn recording_from_columns(
             },
         ));
     }
+    let temperature_c = match &temperature {
+        Some(t) => {
+            let unit = plan
+                .temperature_unit
+                .as_deref()
+                .and_then(TemperatureUnit::parse)
+                .unwrap_or(TemperatureUnit::C);
+            let values = converted(name, t.as_array(), 1.0, &temperature_name, plan.temperature)?;
+            Some(values.into_iter().map(|v| unit.to_celsius(v)).collect())
+        }
+        None => None,
+    };
     let mut names = plan.names.clone();
     if plan.time.is_none() {
         names[0] = "(sample number / rate)".to_string();
+    }
+    if plan.temperature.is_none() && temperature.is_some() {
+        names.push(temperature_name.clone());
     }
     Ok(crate::PyRecording {
         inner: Recording {
             time_s,
             accel_mps2,
             gyro_radps,
-            temperature_c: None,
+            temperature_c,
             source: spincal::input::recording::Source {
                 name: name.to_string(),
                 format: format.to_string(),

@@ -517,7 +517,8 @@ pub fn calibrate_with_runner(
         (None, _) => (
             chosen.clone(),
             format!(
-                "Saved {chosen}, NOT validated off its training condition: with one recording, nothing shows it holds at another speed, radius or mounting (a network extrapolates outside its training range). Record a second session at another speed or radius and calibrate both, or calibrate a campaign (`spincal calibrate --campaign`)."
+                "Saved {chosen}, NOT validated off its training condition: with one recording, nothing shows it holds at another speed, radius or mounting (a network extrapolates outside its training range). {} Record a second session at another speed or radius and calibrate both, or calibrate a campaign (`spincal calibrate --campaign`).",
+                determined_sentence(&turntable)
             ),
         ),
         (Some(why), None) => (
@@ -599,6 +600,24 @@ pub fn calibrate_with_runner(
         models,
         corrected: corrected_all,
     })
+}
+
+/// Which of the turntable fit's parameters the recording determines, and the fit's own remedy for
+/// those it does not.
+fn determined_sentence(turntable: &TurntableFit) -> String {
+    let known: Vec<&str> = turntable
+        .params
+        .iter()
+        .filter(|p| p.determined)
+        .map(|p| p.name.as_str())
+        .collect();
+    match &turntable.remedy {
+        Some(remedy) => format!("This recording determines {}; {remedy}", known.join(", ")),
+        None => format!(
+            "This recording determines every parameter of the turntable fit ({}).",
+            known.join(", ")
+        ),
+    }
 }
 
 /// Each recording's twin holding another signal (of recording k at times t) at the same samples.

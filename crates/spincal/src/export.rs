@@ -357,7 +357,15 @@ pub fn campaign_files(
     }
     let sensor = &result.joint.sensor;
     let gyro = result.gyro.as_ref().map(|g| &g.model);
-    files.push(("imucal.json", pretty(&imucal_json(sensor, gyro))));
+    let mut imucal = imucal_json(sensor, gyro);
+    if let Some(thermal) = &result.thermal {
+        let comment = imucal["comment"].as_str().unwrap_or_default().to_string();
+        imucal["comment"] = serde_json::json!(format!(
+            "{comment} The campaign was taken to the reference temperature {:.1} °C first: these values hold there only (model.json, and `spincal export --ardupilot/--px4`, carry the change with temperature; imucal and imu_tk cannot).",
+            thermal.fit.model.reference_c
+        ));
+    }
+    files.push(("imucal.json", pretty(&imucal)));
     if let Some((acc, gyr)) = imu_tk_calibs(sensor, gyro) {
         files.push(("imu_tk_acc.calib", acc.to_text()));
         if let Some(gyr) = gyr {

@@ -541,6 +541,15 @@ fn a_single_speed_calibration_never_makes_another_speed_worse() {
             "{}",
             out.result.verdict
         );
+        // It says which parameters this one recording determines, and what it cannot.
+        let fit = &out.result.turntable;
+        assert!(out.result.verdict.contains("This recording determines"));
+        for p in fit.params.iter().filter(|p| p.determined) {
+            assert!(out.result.verdict.contains(&p.name), "{} missing", p.name);
+        }
+        if let Some(remedy) = &fit.remedy {
+            assert!(out.result.verdict.contains(remedy.as_str()));
+        }
         let Some(saved) = &out.saved else {
             assert!(
                 out.result.verdict.starts_with("Nothing saved"),

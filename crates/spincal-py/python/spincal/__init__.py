@@ -197,6 +197,7 @@ def read(
             name=label,
             format=f"{kind} DataFrame",
             sample_rate_hz=sample_rate_hz,
+            temperature=_frames.planned_temperature(source, kind, plan),
         )
     if isinstance(source, (bytearray, memoryview)):
         source = bytes(source)
@@ -226,11 +227,13 @@ def recording(
     *,
     name: str = "array",
     sample_rate_hz: Optional[float] = None,
+    temperature: Any = None,
 ) -> Recording:
     """A :class:`Recording` from arrays (numpy arrays, lists or tuples): ``time`` (n,) in s,
-    ``accel`` (n, 3) in m/s², optional ``gyro`` (n, 3) in rad/s. ``time`` may be None with
-    ``sample_rate_hz`` (time = sample number / rate). Every value must be a finite number and
-    time must not go backwards (:class:`FormatError` names the row and column).
+    ``accel`` (n, 3) in m/s², optional ``gyro`` (n, 3) in rad/s and ``temperature`` (n,) in °C.
+    ``time`` may be None with ``sample_rate_hz`` (time = sample number / rate). Every value must
+    be a finite number and time must not go backwards (:class:`FormatError` names the row and
+    column).
 
     Example::
 
@@ -257,6 +260,7 @@ def recording(
         name=name,
         format="array",
         sample_rate_hz=sample_rate_hz,
+        temperature=None if temperature is None else _frames.as_floats(temperature, "temperature"),
     )
 
 
@@ -616,7 +620,8 @@ class Corrector:
                 time_optional=True,
             )
             t, accel, g = _frames.planned_columns(data, kind, plan)
-            temp = _frames.planned_temperature(data, kind, plan)
+            # Read only when used: a text column named like a temperature must not stop a model without one.
+            temp = _frames.planned_temperature(data, kind, plan) if self.has_thermal else None
             index = cast(Any, data).index if kind == "pandas" else None
         elif isinstance(data, (np.ndarray, list, tuple)):
             if columns is not None or accel_unit is not None or time_unit is not None or gyro_unit is not None or read_options:

@@ -272,3 +272,18 @@ def test_a_thermal_model_corrects_a_frame_by_its_temperature_as_the_cli_does(cli
     with pytest.warns(UserWarning, match="no temperature"):
         bare = corrector.correct(frame[["t_s", "ax_mps2", "ay_mps2", "az_mps2"]])
     assert set(bare.status) == {"no-temperature"}
+
+
+def test_a_frames_temperature_column_is_read_in_its_unit():
+    """`read` keeps a DataFrame's temperature as every reader does (°C, Kelvin by its suffix), and
+    `recording` takes one in °C; a NaN temperature is refused like any other value."""
+    t = np.arange(5) * 0.01
+    frame = pd.DataFrame({"t": t, "ax": 0.0, "ay": 0.0, "az": 9.81, "temp_k": 300.15 + t})
+    kelvin = spincal.read(frame).temperature
+    assert kelvin is not None
+    np.testing.assert_allclose(kelvin, 27.0 + t, atol=1e-12)
+    celsius = spincal.recording(t, [[0.0, 0.0, 9.81]] * 5, temperature=[20.0] * 5).temperature
+    assert celsius is not None and celsius.tolist() == [20.0] * 5
+    frame.loc[2, "temp_k"] = float("nan")
+    with pytest.raises(spincal.FormatError, match="temp_k"):
+        spincal.read(frame)

@@ -767,7 +767,7 @@ pub fn calibrate_campaign(
     let mut clock = Instant::now();
     // Temperature first: everything after runs on readings taken to the reference temperature.
     let stage = thermal_stage(units, &settings.thermal, settings.joint.gravity_mps2);
-    let units = &stage.units[..];
+    let units = stage.normalised_units.as_deref().unwrap_or(units);
     let prepared = prepare(units)?;
     check_prepared(&prepared, settings.joint.gravity_mps2)?;
     observer(Progress::step("joint fit", 0, Some(1)));

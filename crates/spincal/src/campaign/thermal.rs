@@ -35,7 +35,8 @@ pub struct CampaignThermal {
 
 /// The stage's outcome: the recordings to calibrate on, and what was fitted or why nothing was.
 pub struct ThermalStage {
-    pub units: Vec<UnitRecording>,
+    /// The recordings taken to the reference temperature; `None`: calibrate on them as they are.
+    pub normalised_units: Option<Vec<UnitRecording>>,
     pub thermal: Option<CampaignThermal>,
     /// Why no thermal model was fitted, when the campaign has a temperature at all.
     pub note: Option<String>,
@@ -79,7 +80,7 @@ fn still_poses(units: &[UnitRecording]) -> Vec<Recording> {
 /// are, with a note saying why (the rest of the campaign does not need it).
 pub fn thermal_stage(units: &[UnitRecording], settings: &ThermalSettings, gravity_mps2: f64) -> ThermalStage {
     let unchanged = |note: Option<String>| ThermalStage {
-        units: units.to_vec(),
+        normalised_units: None,
         thermal: None,
         note,
     };
@@ -134,7 +135,7 @@ pub fn thermal_stage(units: &[UnitRecording], settings: &ThermalSettings, gravit
         normalised.push(unit.name.clone());
     }
     ThermalStage {
-        units: out,
+        normalised_units: Some(out),
         thermal: Some(CampaignThermal {
             fit,
             normalised,

@@ -153,21 +153,7 @@ impl CausalDieTemperature {
 mod tests {
     use super::*;
     use crate::thermal::die_temperature;
-
-    /// A warm-up T_die = 20 + 25(1 − e^(−t/600)) at 10 Hz seen through a 20 s lag.
-    fn warm_up() -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-        let dt = 0.1;
-        let time: Vec<f64> = (0..30_000).map(|i| i as f64 * dt).collect();
-        let die: Vec<f64> = time
-            .iter()
-            .map(|t| 20.0 + 25.0 * (1.0 - (-t / 600.0).exp()))
-            .collect();
-        let mut reported = vec![die[0]; time.len()];
-        for i in 1..time.len() {
-            reported[i] = reported[i - 1] + dt / 20.0 * (die[i - 1] - reported[i - 1]);
-        }
-        (time, die, reported)
-    }
+    use crate::thermal::tests::{lagging_warm_up as warm_up, WARM_UP_LAG_S};
 
     fn worst(estimate: &[f64], die: &[f64]) -> f64 {
         estimate[1000..21_000]
@@ -178,7 +164,7 @@ mod tests {
     }
 
     fn causal(time: &[f64], reported: &[f64]) -> Vec<f64> {
-        let mut est = CausalDieTemperature::new(20.0, 60.0);
+        let mut est = CausalDieTemperature::new(WARM_UP_LAG_S, 60.0);
         time.iter()
             .zip(reported)
             .map(|(&t, &v)| est.update(t, v))
@@ -195,7 +181,7 @@ mod tests {
         let stepped: Vec<f64> = reported.iter().map(|v| v.round()).collect();
         let from_steps = causal(&time, &stepped);
         let error = worst(&from_steps, &die);
-        let batch = worst(&die_temperature(&time, &stepped, 20.0, 60.0), &die);
+        let batch = worst(&die_temperature(&time, &stepped, WARM_UP_LAG_S, 60.0), &die);
         assert!(
             error < 0.6,
             "stepped: {error} °C (the batch estimate, which looks ahead: {batch})"

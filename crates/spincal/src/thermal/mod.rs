@@ -383,13 +383,13 @@ mod tests {
         assert!((m.bias_change(35.0)[0] - (0.1 - 0.02)).abs() < 1e-15);
     }
 
-    #[test]
-    fn die_temperature_undoes_a_first_order_lag_and_steps() {
-        // A warm-up T_die = 20 + 25(1 − e^(−t/600)) seen through a 20 s lag, then in 1 °C steps.
-        // Judged while steps still come (to 2100 s): after the last one, the temperature is only
-        // known to within half a step.
+    /// The lag of [`lagging_warm_up`]'s temperature sensor, s.
+    pub(super) const WARM_UP_LAG_S: f64 = 20.0;
+
+    /// A warm-up T_die = 20 + 25(1 − e^(−t/600)) at 10 Hz for 3000 s, and the same seen through a
+    /// first-order lag of [`WARM_UP_LAG_S`]: (time, die, reported).
+    pub(super) fn lagging_warm_up() -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         let dt = 0.1;
-        let tau = 20.0;
         let time: Vec<f64> = (0..30_000).map(|i| i as f64 * dt).collect();
         let die: Vec<f64> = time
             .iter()
@@ -397,8 +397,17 @@ mod tests {
             .collect();
         let mut reported = vec![die[0]; time.len()];
         for i in 1..time.len() {
-            reported[i] = reported[i - 1] + dt / tau * (die[i - 1] - reported[i - 1]);
+            reported[i] = reported[i - 1] + dt / WARM_UP_LAG_S * (die[i - 1] - reported[i - 1]);
         }
+        (time, die, reported)
+    }
+
+    #[test]
+    fn die_temperature_undoes_a_first_order_lag_and_steps() {
+        // The warm-up in 1 °C steps. Judged while steps still come (to 2100 s): after the last
+        // one, the temperature is only known to within half a step.
+        let (time, die, reported) = lagging_warm_up();
+        let tau = WARM_UP_LAG_S;
         let stepped: Vec<f64> = reported.iter().map(|v| v.round()).collect();
         let worst = |estimate: &[f64]| {
             estimate[1000..21_000]
