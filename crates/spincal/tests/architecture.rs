@@ -232,3 +232,74 @@ fn every_test_file_runs() {
         "{missing:?} would never run: add `mod …;` to the crate's tests/suite.rs"
     );
 }
+
+/// The library's public items, one line each (`module: pub kind name`), sorted: every `pub`
+/// declaration outside the files' test modules, methods included. `pub(crate)` and narrower are
+/// not public and not listed.
+fn public_surface(src: &Path) -> Vec<String> {
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    let mut lines = Vec::new();
+    for file in &files {
+        let module = module_of(src, file).join("::");
+        let text = std::fs::read_to_string(file).unwrap();
+        // A file's unit tests come last, after `#[cfg(test)]` and `mod tests`.
+        let code = text.split("#[cfg(test)]\nmod tests").next().unwrap_or(&text);
+        for line in code.lines() {
+            let t = line.trim_start();
+            let Some(rest) = t.strip_prefix("pub ") else {
+                continue;
+            };
+            let ident_end = |text: &str| {
+                text.find(|c: char| !(c.is_alphanumeric() || c == '_'))
+                    .unwrap_or(text.len())
+            };
+            let (kind, name) = if let Some(path) = rest.strip_prefix("use ") {
+                ("use", path.trim_end_matches(';').trim().to_string())
+            } else if let Some(f) = rest
+                .strip_prefix("const fn ")
+                .or_else(|| rest.strip_prefix("unsafe fn "))
+            {
+                ("fn", f[..ident_end(f)].to_string())
+            } else {
+                let first = &rest[..ident_end(rest)];
+                let after = rest[first.len()..].trim_start();
+                if after.starts_with(':') && !after.starts_with("::") {
+                    ("field", first.to_string())
+                } else {
+                    (first, after[..ident_end(after)].to_string())
+                }
+            };
+            let module = if module.is_empty() { "spincal" } else { &module };
+            lines.push(format!("{module}: pub {kind} {name}"));
+        }
+    }
+    lines.sort();
+    lines.dedup();
+    lines
+}
+
+/// The public surface is checked into `tests/fixtures/public_api.txt`, so that a change to it
+/// shows in review. After a deliberate change, `SPINCAL_BLESS=1` rewrites the file.
+#[test]
+fn the_public_surface_is_the_listed_one() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let listed_path = root.join("tests/fixtures/public_api.txt");
+    let surface = public_surface(&root.join("src")).join("\n") + "\n";
+    if std::env::var("SPINCAL_BLESS").as_deref() == Ok("1") {
+        std::fs::write(&listed_path, &surface).unwrap();
+    }
+    let listed = std::fs::read_to_string(&listed_path).unwrap_or_default();
+    if listed != surface {
+        let (now, then): (BTreeSet<&str>, BTreeSet<&str>) =
+            (surface.lines().collect(), listed.lines().collect());
+        let added: Vec<&&str> = now.difference(&then).collect();
+        let removed: Vec<&&str> = then.difference(&now).collect();
+        panic!(
+            "the public surface changed: added {added:#?}, removed {removed:#?}; if deliberate, run with SPINCAL_BLESS=1 and commit tests/fixtures/public_api.txt"
+        );
+    }
+    // The scanner sees what it should: a public item, and not a crate-private one.
+    assert!(listed.contains("correctors::rows: pub struct RowCorrector"));
+    assert!(!listed.contains("pub(crate)"));
+}
