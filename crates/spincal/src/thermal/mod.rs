@@ -125,7 +125,7 @@ impl ThermalModel {
                 format!("[{lo}, {hi}]: the minimum exceeds the maximum"),
             ));
         }
-        for t in [lo, (lo + hi) / 2.0, hi] {
+        for t in (0..=20).map(|i| lo + (hi - lo) * i as f64 / 20.0) {
             let gain = self.scale_change(t).map(|r| 1.0 + r);
             if let Some(k) = (0..3).find(|&k| !(gain[k] > 0.5 && gain[k] < 2.0)) {
                 return Err(InvalidField::new(
@@ -381,6 +381,28 @@ mod tests {
         }
         assert_eq!(m.bias_change(25.0), [0.0; 3]);
         assert!((m.bias_change(35.0)[0] - (0.1 - 0.02)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_model_from_a_file_is_checked_field_by_field() {
+        model().validate().unwrap();
+        let refused = |change: &dyn Fn(&mut ThermalModel)| {
+            let mut m = model();
+            change(&mut m);
+            m.validate().unwrap_err().field
+        };
+        assert_eq!(refused(&|m| m.bias_mps2[1] = f64::NAN), "bias_mps2");
+        assert_eq!(
+            refused(&|m| m.bias_per_c[2] = vec![0.0, 0.0, 0.0, 1e-9]),
+            "bias_per_c[2]"
+        );
+        assert_eq!(refused(&|m| m.lag_s = -1.0), "lag_s");
+        assert_eq!(refused(&|m| m.fitted_range_c = [40.0, 10.0]), "fitted_range_c");
+        // A gain that falls through zero within the range.
+        assert_eq!(
+            refused(&|m| m.scale_per_c[0] = vec![0.0, -0.009]),
+            "scale_per_c[0]"
+        );
     }
 
     /// The lag of [`lagging_warm_up`]'s temperature sensor, s.
