@@ -279,7 +279,7 @@ fn thermal_section(r: &CampaignResult, h: &mut String) -> Result<(), PlotError> 
     let m = &t.fit.model;
     let _ = write!(
         h,
-        "<h2>Temperature</h2><p>Every recording with a temperature was taken to the reference temperature {:.1} °C before the rest of the calibration, and model.json applies the same change first. Bias order {}, gain order {}, chosen on the coldest and hottest fifths of the windows, held out (below {:.1} °C and above {:.1} °C); the reported temperature lags the die by τ = {:.0} s (chosen by residual among the candidates), undone as T + τ·dT/dt over {:.0} s. Validated over die temperatures {:.1}–{:.1} °C: <code>spincal correct</code> marks rows outside it. Residual RMS of the thermal fit {:.4} m/s² over {} windows.{}{}</p>",
+        "<h2>Temperature</h2><p>Every recording with a temperature was taken to the reference temperature {:.1} °C before the rest of the calibration, and model.json applies the same change first. Bias order {}, gain order {}, chosen on the coldest and hottest fifths of the windows, held out (below {:.1} °C and above {:.1} °C); the reported temperature lags the die by τ = {:.0} s (chosen by residual among the candidates), undone as T + τ·dT/dt over {:.0} s. Validated over die temperatures {:.1}–{:.1} °C: <code>spincal correct</code> marks rows outside it. Residual RMS of the thermal fit {:.4} m/s² over {} windows. In the held-out figures above, <em>uncorrected</em> is the recording after this step.{}{}</p>",
         m.reference_c,
         t.fit.bias_order,
         t.fit.scale_order,
