@@ -85,7 +85,8 @@ rows were refused. The output is written to a temporary file and renamed when co
 
 Examples:
   spincal correct --model ann.json new.csv -o new-corrected.csv
-  cat new.csv | spincal correct --model linear.json - > out.csv"
+  cat new.csv | spincal correct --model linear.json - > out.csv
+  spincal correct --model warm7-cal/model.json warm7/held-out-40.csv -o held-corrected.csv   # reads temp_c"
     )]
     Correct(commands::correct::CorrectArgs),
     /// A saved corrector as firmware source: C99 (float, double), no_std Rust, x-io Fusion's values.
@@ -93,10 +94,13 @@ Examples:
         after_help = "Writes NAME_f32.h/.c and NAME_f64.h/.c (C99, no dynamic memory, only <math.h>),
 NAME_model.rs (statics for the no_std crate spincal-embedded) and fusion.txt (x-io Fusion's
 misalignment, sensitivity and offset, with what Fusion cannot hold and its largest effect).
+--ardupilot / --px4 write a thermal model (from a campaign that logged its temperature) as the
+flight stacks' INS_TCALn_* / TC_An_* parameters, with what each stack cannot hold stated.
 
 Examples:
   spincal export --model ann.json --out firmware
-  spincal export --model linear.json --out firmware-float --precision float --name imu"
+  spincal export --model linear.json --out firmware-float --precision float --name imu
+  spincal export --model warm7-cal/model.json --ardupilot imu.param --px4 imu.params --px4-device-id 1310988"
     )]
     Export(commands::export::ExportArgs),
 }

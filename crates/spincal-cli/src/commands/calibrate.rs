@@ -21,7 +21,8 @@ use crate::ui::{self, Ui, UsageError};
     after_help = "Examples:\n  spincal calibrate --campaign unit7/campaign.toml --out cal   # still poses + turntable runs, held-out selection\n  \
                         spincal calibrate rec33.csv rec45.csv --radius 0.10 --radius-tol 0.002 --out cal\n  \
                         spincal calibrate rec.csv --sweep full --out cal   # the paper's grid (the paper: --restarts 10)\n  \
-                        spincal calibrate rec.csv --hidden 10,6 --correct-axes x,y --out cal"
+                        spincal calibrate rec.csv --hidden 10,6 --correct-axes x,y --out cal\n  \
+                        spincal calibrate --campaign warm7/campaign.toml --out warm7-cal   # still files with temp_c: corrected for temperature too"
 )]
 pub struct CalibrateArgs {
     /// The turntable fit's options (recordings, columns, rpm, radius, bounds, axes of the objective…).
