@@ -8,7 +8,7 @@
 //!   of samples, evaluated at the newest one;
 //! - a stepped one (it changes on fewer than one sample in ten, the batch rule): the line through
 //!   the midpoints of the last two steps, continued to now and held within half a step of the
-//!   reported level.
+//!   reported level, its slope shrinking when no further step comes.
 //!
 //! In both, T_die = T + τ·Ṫ. Until a stepped temperature has stepped twice, the trailing line
 //! stands in for the steps' line.
@@ -110,13 +110,14 @@ impl CausalDieTemperature {
     fn rebuild(&mut self) {
         let shift = self.window.front().map_or(0.0, |&(t, _)| t);
         self.origin += shift;
-        self.sums = [0.0; 5];
-        let window = std::mem::take(&mut self.window);
-        self.window = window.into_iter().map(|(t, v)| (t - shift, v)).collect();
-        for i in 0..self.window.len() {
-            let (t, v) = self.window[i];
-            self.add(t, v, 1.0);
+        let mut sums = [0.0; 5];
+        for (t, v) in self.window.iter_mut() {
+            *t -= shift;
+            for (s, x) in sums.iter_mut().zip([1.0, *t, *t * *t, *v, *t * *v]) {
+                *s += x;
+            }
         }
+        self.sums = sums;
         self.since_rebuild = 0;
     }
 
@@ -135,12 +136,15 @@ impl CausalDieTemperature {
         (mean_v + slope * (time_s - self.origin - mean_t), slope)
     }
 
-    /// The line through the last two steps' midpoints, once there are two.
+    /// The line through the last two steps' midpoints, once there are two. Its slope is at most
+    /// one step over the time since the last one: a temperature that has not stepped for long is
+    /// not still rising at the rate it once did.
     fn steps_line(&self, time_s: f64, reported_c: f64) -> Option<(f64, f64)> {
         let half = self.step / 2.0;
         match self.knots {
             [Some(a), Some(b)] if b.0 > a.0 => {
-                let slope = (b.1 - a.1) / (b.0 - a.0);
+                let bound = self.step / (time_s - b.0).max(b.0 - a.0);
+                let slope = ((b.1 - a.1) / (b.0 - a.0)).clamp(-bound, bound);
                 let value = (b.1 + slope * (time_s - b.0)).clamp(reported_c - half, reported_c + half);
                 Some((value, slope))
             }
@@ -194,6 +198,33 @@ mod tests {
             .map(|w| (w[1] - w[0]).abs())
             .fold(0.0, f64::max);
         assert!(jump < 0.1, "largest jump {jump} °C");
+    }
+
+    #[test]
+    fn a_temperature_that_stops_stepping_stops_rising() {
+        // A ramp of 0.02 °C/s for 1000 s that then holds, in whole degrees through a 20 s lag:
+        // once the steps stop, the last two steps' slope (and τ times it) must not go on.
+        let dt = 0.1;
+        let time: Vec<f64> = (0..30_000).map(|i| i as f64 * dt).collect();
+        let die: Vec<f64> = time.iter().map(|&t| 20.0 + 0.02 * t.min(1000.0)).collect();
+        let keep = (-dt / WARM_UP_LAG_S).exp();
+        let mut lagged = die[0];
+        let stepped: Vec<f64> = die
+            .iter()
+            .map(|&d| {
+                lagged = keep * lagged + (1.0 - keep) * d;
+                lagged.round()
+            })
+            .collect();
+        let estimate = causal(&time, &stepped);
+        // Long after the hold began, within half a step of the truth (plus τ × one step over the
+        // time since the last: 0.013 °C here). Without the slope's bound it stays 0.9 °C off.
+        let late = estimate[25_000..]
+            .iter()
+            .zip(&die[25_000..])
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(late <= 0.52, "after the hold: {late} °C");
     }
 
     #[test]
