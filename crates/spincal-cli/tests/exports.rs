@@ -319,24 +319,21 @@ fn export_writes_the_flight_stacks_files_from_the_models_thermal_field() {
     value.as_object_mut().unwrap().remove("thermal");
     std::fs::write(&plain, value.to_string()).unwrap();
     let out = dir.path().join("new.param");
-    let stderr = fails(
-        spincal()
-            .args(["export", "--model"])
-            .arg(&plain)
-            .arg("--ardupilot")
-            .arg(&out),
-    );
+    let refusal = || {
+        fails(
+            spincal()
+                .args(["export", "--model"])
+                .arg(&plain)
+                .arg("--ardupilot")
+                .arg(&out),
+        )
+    };
+    let stderr = refusal();
     assert!(stderr.contains("no thermal model"), "{stderr}");
     let quartic = THERMAL_MODEL.replace("[0.0035, 1e-5]", "[0.0035, 1e-5, 0.0, 2e-9]");
     std::fs::write(&plain, quartic).unwrap();
-    let stderr = fails(
-        spincal()
-            .args(["export", "--model"])
-            .arg(&plain)
-            .arg("--ardupilot")
-            .arg(&out),
-    );
     // model.json itself holds at most a cubic: the file is refused by the field.
+    let stderr = refusal();
     assert!(stderr.contains("thermal.bias_per_c[2]"), "{stderr}");
     assert!(!out.exists());
 }
