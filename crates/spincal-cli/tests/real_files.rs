@@ -6,6 +6,18 @@ use std::path::Path;
 
 use crate::harness::{fails, run, run_with_stderr, shared, spincal};
 
+/// `spincal correct --model MODEL INPUT -o OUT`.
+fn correct(model: &Path, input: &Path, out: &Path) -> std::process::Command {
+    let mut cmd = spincal();
+    cmd.arg("correct")
+        .arg("--model")
+        .arg(model)
+        .arg(input)
+        .arg("-o")
+        .arg(out);
+    cmd
+}
+
 /// The rows of a file written by `correct`: header and fields.
 fn rows(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
     let text = std::fs::read_to_string(path).unwrap();
@@ -80,13 +92,7 @@ fn every_shipped_recording_is_calibrated_then_corrected_as_shipped() {
             "{file}: {}",
             String::from_utf8_lossy(&static_run.stderr)
         );
-        run(spincal()
-            .arg("correct")
-            .arg("--model")
-            .arg(&cal)
-            .arg(&path)
-            .arg("-o")
-            .arg(&out));
+        run(&mut correct(&cal, &path, &out));
         assert_eq!(std::fs::read(&path).unwrap(), before, "{file} was changed");
         let (header, body) = rows(&out);
         assert_eq!(body.len(), samples, "{file}: every sample comes out");
@@ -126,15 +132,7 @@ fn logger_csvs_stream_through_correct_with_every_row_kept() {
     let input = dir.path().join("logger.csv");
     std::fs::write(&input, &text).unwrap();
     let out = dir.path().join("corrected.csv");
-    let (_, stderr) = run_with_stderr(
-        spincal()
-            .arg("correct")
-            .arg("--model")
-            .arg(&model)
-            .arg(&input)
-            .arg("-o")
-            .arg(&out),
-    );
+    let (_, stderr) = run_with_stderr(&mut correct(&model, &input, &out));
     assert!(
         stderr.contains("58 of 458 rows have no value in a column used"),
         "{stderr}"
@@ -223,13 +221,7 @@ fn static_exports_match_the_model_it_saves() {
     run(&mut args(&[]));
     // A second run replaces its own files without a word.
     run(&mut args(&[]));
-    run(spincal()
-        .arg("correct")
-        .arg("--model")
-        .arg(&cal)
-        .arg(&path)
-        .arg("-o")
-        .arg(&out));
+    run(&mut correct(&cal, &path, &out));
     let (header, body) = rows(&out);
     let col = |name: &str| {
         header

@@ -106,23 +106,12 @@ fn resolve(header: &[String], name: &str, map: &ColumnMap) -> Result<ColumnPlan,
         accel: plan.accel_columns(),
         gyro: plan.gyro_columns(),
         temperature: plan.temperature_column().map(|(c, _)| c),
-        temperature_unit: plan
-            .temperature_column()
-            .map(|(_, unit)| temperature_unit_name(unit).to_string()),
+        temperature_unit: plan.temperature_column().map(|(_, unit)| unit.name().to_string()),
         time_to_s: plan.time_to_s(),
         accel_to_mps2: plan.accel_to_mps2(),
         gyro_to_radps: plan.gyro_to_radps().unwrap_or(1.0),
         names: plan.names().to_vec(),
     })
-}
-
-fn temperature_unit_name(unit: TemperatureUnit) -> &'static str {
-    match unit {
-        TemperatureUnit::C => "c",
-        TemperatureUnit::K => "k",
-        TemperatureUnit::F => "f",
-        TemperatureUnit::Mpu6050Counts => "mpu6050counts",
-    }
 }
 
 /// Finds time, accel and gyro among a table's columns by the library's rules (as `spincal` reads a

@@ -18,7 +18,7 @@ use spincal::input::recording::Recording;
 use spincal::progress::silent;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 use spincal::simulate::thermal::{
-    simulate_thermal_campaign, ThermalCampaign, ThermalProfile, ThermalRecording,
+    sensor_reports, simulate_thermal_campaign, ThermalCampaign, ThermalProfile, ThermalRecording,
 };
 use spincal::thermal::{fit_thermal, ThermalModel, ThermalSettings};
 use spincal::CorrectorFile;
@@ -334,9 +334,12 @@ fn thermal_coefficients_recovered_within_their_standard_errors() {
     );
 }
 
-/// A campaign of still recordings with a temperature (the warm-up and the posed session) as the
-/// unit's recordings: what `spincal calibrate --campaign` reads.
-fn campaign_units(campaign: &ThermalCampaign, temperature: bool) -> Vec<UnitRecording> {
+/// A campaign of still recordings (the warm-up and the posed session) as the unit's recordings:
+/// what `spincal calibrate --campaign` reads, with or without their temperature; with `truth`, also
+/// the constant true force and the noise (the reading less the true model at the true die
+/// temperature) that the campaign's truth check needs.
+fn campaign_units(campaign: &ThermalCampaign, temperature: bool, truth: bool) -> Vec<UnitRecording> {
+    let model = &campaign.truth;
     std::iter::once(&campaign.warmup)
         .chain(&campaign.poses)
         .enumerate()
@@ -345,16 +348,31 @@ fn campaign_units(campaign: &ThermalCampaign, temperature: bool) -> Vec<UnitReco
             if !temperature {
                 recording.temperature_c = None;
             }
+            let n = recording.len();
+            let noise: Option<[Vec<f64>; 3]> = truth.then(|| {
+                std::array::from_fn(|a| {
+                    (0..n)
+                        .map(|s| recording.accel_mps2[a][s] - model.reading(r.true_force_mps2, r.die_c[s])[a])
+                        .collect()
+                })
+            });
             UnitRecording {
                 name: format!("still-{i:02}.csv"),
-                recording,
+                recording: recording.clone(),
                 turntable: None,
-                truth: None,
-                floor_mps2: None,
-                random_mps2: None,
+                truth: truth.then(|| std::array::from_fn(|a| vec![r.true_force_mps2[a]; n])),
+                floor_mps2: noise.as_ref().map(rms_per_axis),
+                random_mps2: noise,
             }
         })
         .collect()
+}
+
+/// RMS of each axis.
+fn rms_per_axis(values: &[Vec<f64>; 3]) -> [f64; 3] {
+    values
+        .each_ref()
+        .map(|e| (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt())
 }
 
 /// The held-out session streamed through `spincal correct`'s row corrector in time order, as one
@@ -405,8 +423,9 @@ fn a_campaign_with_temperature_saves_a_thermal_model_that_holds_when_streamed() 
             let oracle = band_error(held_out, |j, i| {
                 truth.correct(reading(&held_out[j].recording, i), held_out[j].die_c[i])
             });
-            let calibrated = calibrate_campaign("unit", &campaign_units(&campaign, true), &params, &silent)
-                .expect("campaign with temperature");
+            let calibrated =
+                calibrate_campaign("unit", &campaign_units(&campaign, true, false), &params, &silent)
+                    .expect("campaign with temperature");
             let result = &calibrated.result;
             let thermal = result.thermal.as_ref().expect("a thermal model fitted");
             assert!(thermal.without_temperature.is_empty());
@@ -433,8 +452,9 @@ fn a_campaign_with_temperature_saves_a_thermal_model_that_holds_when_streamed() 
             );
             let ours_values = streamed(file, held_out);
             let ours = band_error(held_out, |j, i| ours_values[j][i]);
-            let plain = calibrate_campaign("unit", &campaign_units(&campaign, false), &params, &silent)
-                .expect("campaign without temperature");
+            let plain =
+                calibrate_campaign("unit", &campaign_units(&campaign, false, false), &params, &silent)
+                    .expect("campaign without temperature");
             assert!(plain.result.thermal.is_none());
             // Without the temperature the verdict may save nothing: the user then has the readings.
             let without = match &plain.saved {
@@ -504,19 +524,7 @@ fn thermal_runs(campaign: &ThermalCampaign, profile: &ThermalProfile, seed: u64)
                 .map(|t| start_c + 2.0 * (t - start_s) / 60.0)
                 .collect();
             let dt = time_s[1] - time_s[0];
-            let keep = (-dt / profile.sensor_lag_s).exp();
-            let mut lagged = die[0];
-            let reported: Vec<f64> = die
-                .iter()
-                .map(|&d| {
-                    lagged = keep * lagged + (1.0 - keep) * d;
-                    if profile.resolution_c > 0.0 {
-                        lagged.round()
-                    } else {
-                        lagged
-                    }
-                })
-                .collect();
+            let reported = sensor_reports(&die, dt, profile.sensor_lag_s, profile.resolution_c);
             let mut accel: [Vec<f64>; 3] = Default::default();
             let mut noise: [Vec<f64>; 3] = Default::default();
             for i in 0..time_s.len() {
@@ -529,9 +537,7 @@ fn thermal_runs(campaign: &ThermalCampaign, profile: &ThermalProfile, seed: u64)
                     noise[a].push(e);
                 }
             }
-            let floor = noise
-                .each_ref()
-                .map(|e| (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt());
+            let floor = rms_per_axis(&noise);
             UnitRecording {
                 name: format!("{}.csv", r.name),
                 recording: Recording {
@@ -550,36 +556,6 @@ fn thermal_runs(campaign: &ThermalCampaign, profile: &ThermalProfile, seed: u64)
         .collect()
 }
 
-/// The still recordings with their truth (the constant true force) and their noise (the reading
-/// less the true model at the true die temperature): what the campaign's truth check needs.
-fn stills_with_truth(campaign: &ThermalCampaign) -> Vec<UnitRecording> {
-    let truth = &campaign.truth;
-    std::iter::once(&campaign.warmup)
-        .chain(&campaign.poses)
-        .enumerate()
-        .map(|(i, r)| {
-            let rec = &r.recording;
-            let n = rec.len();
-            let noise: [Vec<f64>; 3] = std::array::from_fn(|a| {
-                (0..n)
-                    .map(|s| rec.accel_mps2[a][s] - truth.reading(r.true_force_mps2, r.die_c[s])[a])
-                    .collect()
-            });
-            let floor = noise
-                .each_ref()
-                .map(|e| (e.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt());
-            UnitRecording {
-                name: format!("still-{i:02}.csv"),
-                recording: rec.clone(),
-                turntable: None,
-                truth: Some(std::array::from_fn(|a| vec![r.true_force_mps2[a]; n])),
-                floor_mps2: Some(floor),
-                random_mps2: Some(noise),
-            }
-        })
-        .collect()
-}
-
 /// A full thermal campaign (a still warm-up, 60 poses through a second warm-up, four turntable
 /// runs at 19–39 °C) calibrated, and the saved corrector's RMS error against the true specific
 /// force on each held-out condition and axis over the oracle's: the true thermal model at the true
@@ -590,7 +566,7 @@ fn full_thermal_campaign(profile: &ThermalProfile) -> Vec<(u64, String, Vec<f64>
         .into_par_iter()
         .map(|seed| {
             let campaign = simulate_thermal_campaign(profile, 4000 + seed);
-            let mut units = stills_with_truth(&campaign);
+            let mut units = campaign_units(&campaign, true, true);
             units.extend(thermal_runs(&campaign, profile, 4000 + seed));
             let out =
                 calibrate_campaign("unit", &units, &Params::default(), &silent).expect("thermal campaign");

@@ -1,6 +1,7 @@
 //! A campaign's thermal stage, before everything else: when its still recordings carry a
-//! temperature that spans at least [`MIN_SPAN_C`], the thermal model is fitted to their poses
-//! (`thermal::fit_thermal`, orders chosen on the coldest and hottest bands held out) and every
+//! temperature that spans at least `thermal::fit::MIN_SPAN_C` (fit_thermal's own check), the
+//! thermal model is fitted to their poses (`thermal::fit_thermal`, orders chosen on the coldest
+//! and hottest bands held out) and every
 //! recording with a temperature, runs included, is taken to the reference temperature. The joint
 //! fit, the candidates and the held-out verdict then run unchanged on those readings, and the
 //! saved model.json carries the thermal model for `correct` to apply first.
@@ -14,8 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::campaign::prepare::{still_intervals, Prepared, UnitRecording};
 use crate::input::recording::Recording;
-use crate::thermal::fit::MIN_SPAN_C;
-use crate::thermal::{die_temperatures, fit_thermal, ThermalFit, ThermalSettings};
+use crate::thermal::{fit_thermal, ThermalFit, ThermalSettings};
 
 /// What the thermal stage did (results.json `thermal`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -94,22 +94,9 @@ pub fn thermal_stage(units: &[UnitRecording], settings: &ThermalSettings, gravit
         ));
     }
     let refs: Vec<&Recording> = poses.iter().collect();
-    let span = die_temperatures(&refs, 0.0, settings.smoothing_s)
-        .into_iter()
-        .flatten()
-        .flatten()
-        .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], t| {
-            [lo.min(t), hi.max(t)]
-        });
-    // No sample at all leaves the span at −∞: too narrow.
-    if span[1] - span[0] < MIN_SPAN_C {
-        return unchanged(Some(format!(
-            "no thermal model: the still poses span {:.1} °C of temperature, under the {MIN_SPAN_C} °C a thermal fit needs (record a warm-up from a cold start as a still entry)",
-            (span[1] - span[0]).max(0.0)
-        )));
-    }
     let fit = match fit_thermal(&refs, settings, gravity_mps2) {
         Ok(fit) => fit,
+        // Too narrow a span of temperature among them (`ThermalError::NarrowRange`) included.
         Err(e) => return unchanged(Some(format!("no thermal model: {e}"))),
     };
     let model = &fit.model;

@@ -129,6 +129,15 @@ impl TemperatureUnit {
             TemperatureUnit::Mpu6050Counts => value / 340.0 + 36.53,
         }
     }
+    /// Its name as [`TemperatureUnit::parse`] reads it (and as serde writes it).
+    pub fn name(self) -> &'static str {
+        match self {
+            TemperatureUnit::C => "c",
+            TemperatureUnit::K => "k",
+            TemperatureUnit::F => "f",
+            TemperatureUnit::Mpu6050Counts => "mpu6050counts",
+        }
+    }
     pub fn parse(text: &str) -> Option<TemperatureUnit> {
         match text.to_ascii_lowercase().as_str() {
             "c" | "degc" | "°c" | "celsius" => Some(TemperatureUnit::C),

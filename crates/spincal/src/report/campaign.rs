@@ -347,13 +347,15 @@ fn thermal_plot(fit: &crate::thermal::ThermalFit, gain: bool) -> LinePlot {
     let mut plot = LinePlot::new(title, "die temperature, °C", unit).legend(Legend::UpperLeft);
     for (k, axis) in ["x", "y", "z"].into_iter().enumerate() {
         let value = |d: f64| -> (f64, f64) {
+            let v = if gain {
+                m.scale_change(d)[k]
+            } else {
+                m.bias_change(d)[k]
+            };
             let dt = d - m.reference_c;
-            let (mut v, mut var) = (0.0, 0.0);
-            for (j, c) in coefficients[k].iter().enumerate() {
-                let p = dt.powi(j as i32 + 1);
-                v += c * p;
-                var += (errors[k].get(j).copied().unwrap_or(0.0) * p).powi(2);
-            }
+            let var: f64 = (0..coefficients[k].len())
+                .map(|j| (errors[k].get(j).copied().unwrap_or(0.0) * dt.powi(j as i32 + 1)).powi(2))
+                .sum();
             (v * scale, 1.96 * var.sqrt() * scale)
         };
         let (v, band): (Vec<f64>, Vec<f64>) = t.iter().map(|&d| value(d)).unzip();

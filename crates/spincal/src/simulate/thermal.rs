@@ -156,25 +156,26 @@ fn temperatures(profile: &ThermalProfile, n: usize) -> (Vec<f64>, Vec<f64>) {
     let die: Vec<f64> = (0..n)
         .map(|i| profile.start_c + amplitude * (1.0 - (-(i as f64) * dt / profile.warmup_time_s).exp()))
         .collect();
-    let mut lagged = die[0];
-    let reported = die
+    let reported = sensor_reports(&die, dt, profile.sensor_lag_s, profile.resolution_c);
+    (die, reported)
+}
+
+/// What a temperature sensor reports of the die temperatures `die_c`, one every `dt_s`: a
+/// first-order lag of `lag_s` (exact over each sample), rounded to `resolution_c` (0: not rounded).
+pub fn sensor_reports(die_c: &[f64], dt_s: f64, lag_s: f64, resolution_c: f64) -> Vec<f64> {
+    let keep = if lag_s > 0.0 { (-dt_s / lag_s).exp() } else { 0.0 };
+    let mut lagged = die_c.first().copied().unwrap_or_default();
+    die_c
         .iter()
         .map(|&t| {
-            // Exact discretisation of the first-order lag over one sample.
-            let keep = if profile.sensor_lag_s > 0.0 {
-                (-dt / profile.sensor_lag_s).exp()
-            } else {
-                0.0
-            };
             lagged = keep * lagged + (1.0 - keep) * t;
-            if profile.resolution_c > 0.0 {
-                (lagged / profile.resolution_c).round() * profile.resolution_c
+            if resolution_c > 0.0 {
+                (lagged / resolution_c).round() * resolution_c
             } else {
                 lagged
             }
         })
-        .collect();
-    (die, reported)
+        .collect()
 }
 
 /// Still recordings cut from one session: `direction(k)` for the k-th, `pose_s` each with 10 s

@@ -18,6 +18,11 @@ use std::collections::VecDeque;
 /// Samples seen before the stepped/fine decision is trusted.
 const DECIDE_AFTER: usize = 20;
 
+/// What one sample adds to Σ1, Σt, Σt², ΣT, ΣtT.
+fn terms(t: f64, v: f64) -> [f64; 5] {
+    [1.0, t, t * t, v, t * v]
+}
+
 /// The causal die-temperature estimator (see the module documentation).
 #[derive(Debug, Clone)]
 pub struct CausalDieTemperature {
@@ -101,7 +106,7 @@ impl CausalDieTemperature {
     }
 
     fn add(&mut self, t: f64, v: f64, sign: f64) {
-        for (s, x) in self.sums.iter_mut().zip([1.0, t, t * t, v, t * v]) {
+        for (s, x) in self.sums.iter_mut().zip(terms(t, v)) {
             *s += sign * x;
         }
     }
@@ -110,14 +115,12 @@ impl CausalDieTemperature {
     fn rebuild(&mut self) {
         let shift = self.window.front().map_or(0.0, |&(t, _)| t);
         self.origin += shift;
-        let mut sums = [0.0; 5];
-        for (t, v) in self.window.iter_mut() {
-            *t -= shift;
-            for (s, x) in sums.iter_mut().zip([1.0, *t, *t * *t, *v, *t * *v]) {
-                *s += x;
-            }
+        self.sums = [0.0; 5];
+        for i in 0..self.window.len() {
+            self.window[i].0 -= shift;
+            let (t, v) = self.window[i];
+            self.add(t, v, 1.0);
         }
-        self.sums = sums;
         self.since_rebuild = 0;
     }
 
