@@ -391,6 +391,7 @@ pub fn recording_from_columns(
         },
         notes: Vec::new(),
         raw_counts: false,
+        gyro_counts: false,
     })
 }
 

@@ -238,7 +238,7 @@ fn fleet_place(e: &spincal::fleet::FleetError) -> Option<Place> {
     use spincal::fleet::FleetError as F;
     match e {
         F::Campaign(c) => campaign_place(c),
-        F::Load(l) => {
+        F::Run(spincal::campaign::run::CampaignRunError::Load(l)) => {
             // A transparent wrapper: its source() skips the load error itself, so look inside.
             let inner = place_of(l);
             Some(inner).filter(|p| p.path.is_some()).or_else(|| load_place(l))

@@ -15,6 +15,7 @@ use spincal::campaign::params::Params;
 use spincal::campaign::{Campaign, CampaignOutput};
 use spincal::correctors::corrector::Corrector;
 use spincal::input::formats::{Format, ReadOptions};
+use spincal::input::gyro_file::GyroColumns;
 use spincal::input::recording::{GyroUnit, TimeUnit};
 use spincal::sysid::{ModelKind, ModelSpec};
 use spincal::{AccelUnit, CorrectorFile, CorrectorModel, Recording, RecordingError};
@@ -37,6 +38,8 @@ pub(crate) struct PyRecording {
     inner: Recording,
     notes: Vec<String>,
     raw_counts: bool,
+    /// The gyro columns hold raw counts (the reader said so).
+    gyro_counts: bool,
 }
 
 /// Three columns as one (n, 3) array: one copy into a (3, n) block, returned transposed (a
@@ -276,6 +279,7 @@ fn read(
         inner: recording,
         notes: loaded.notes,
         raw_counts: loaded.raw_counts,
+        gyro_counts: loaded.gyro_counts,
     })
 }
 
@@ -319,6 +323,7 @@ fn simulate(
             inner: sim.recording,
             notes: Vec::new(),
             raw_counts: false,
+            gyro_counts: false,
         },
         truth,
     ))
@@ -592,7 +597,7 @@ fn campaign_files(
         .transpose()
         .map_err(errors::model)?;
     let files = py
-        .detach(|| spincal::export::campaign_files(&result, model.as_ref()))
+        .detach(|| spincal::report::campaign::campaign_files(&result, model.as_ref()))
         .map_err(|e| errors::Error::new_err(format!("drawing report.html: {e}")))?;
     Ok(files
         .into_iter()
@@ -608,16 +613,15 @@ fn calibrate_campaign(
     campaign: PathBuf,
     progress: Option<Bound<'_, PyAny>>,
 ) -> PyResult<PyCampaignCalibration> {
+    use spincal::campaign::run::{calibrate_campaign_file, CampaignRunError};
     let campaign = Campaign::read_path(&campaign).map_err(errors::format)?;
-    let units = py
-        .detach(|| spincal::campaign::load_campaign(&campaign))
-        .map_err(errors::format)?;
-    // The CLI's settings for this file (its gravity and datasheet nonlinearity).
-    let settings = spincal::fleet::params_for(&campaign, &Params::default());
     let output = long::run(py, progress.as_ref(), |observer| {
-        spincal::campaign::calibrate_campaign(&campaign.unit, &units, &settings, observer)
+        calibrate_campaign_file(&campaign, &Params::default(), observer)
     })?
-    .map_err(errors::fit)?;
+    .map_err(|e| match e {
+        CampaignRunError::Load(e) => errors::format(e),
+        e => errors::fit(e),
+    })?;
     Ok(PyCampaignCalibration { output })
 }
 
@@ -728,72 +732,98 @@ impl PyCorrector {
     }
 }
 
-/// Classic calibration from still poses: detection (or the file's section labels), then the 6, 9
-/// or 12-parameter fit. Returns (report JSON, the static corrector).
+/// Classic calibration from still poses, as `spincal static` runs it (the library's
+/// `calibrate_static`): detection, the 6, 9 or 12-parameter fit, and the recording's own gyro
+/// when it has one. Settings not given are the library's defaults. Returns (report JSON, the
+/// static corrector with its gyro model).
 #[pyfunction]
-#[pyo3(signature = (recording, *, parameters = 9, gravity_mps2 = spincal::STANDARD_GRAVITY, init_s = 2.0,
-    window_s = 1.0, threshold_factor = 3.0, min_interval_s = 2.0))]
+#[pyo3(signature = (recording, *, parameters = 9, gravity_mps2 = None, init_s = None,
+    window_s = None, threshold_factor = None, min_interval_s = None))]
 #[allow(clippy::too_many_arguments)]
 fn static_calibration(
     py: Python<'_>,
     recording: PyRef<'_, PyRecording>,
     parameters: usize,
-    gravity_mps2: f64,
-    init_s: f64,
-    window_s: f64,
-    threshold_factor: f64,
-    min_interval_s: f64,
+    gravity_mps2: Option<f64>,
+    init_s: Option<f64>,
+    window_s: Option<f64>,
+    threshold_factor: Option<f64>,
+    min_interval_s: Option<f64>,
 ) -> PyResult<(String, PyCorrector)> {
-    use spincal::correctors::static_cal::{fit_static, pose_means, StaticFitOptions, StaticModel};
-    use spincal::correctors::static_detect::{detect_static, StaticOptions};
+    use spincal::correctors::static_cal::StaticModel;
+    use spincal::static_calibration::{calibrate_static, StaticSettings, StillRecording};
     let model = StaticModel::from_n_params(parameters)
         .ok_or_else(|| usage(format!("parameters = {parameters}: expected 6, 9 or 12")))?;
+    let defaults = StaticSettings::default();
+    let settings = StaticSettings {
+        model,
+        gravity_mps2: gravity_mps2.unwrap_or(defaults.gravity_mps2),
+        detection: spincal::correctors::static_detect::StaticOptions {
+            init_s: init_s.unwrap_or(defaults.detection.init_s),
+            window_s: window_s.unwrap_or(defaults.detection.window_s),
+            threshold_factor: threshold_factor.unwrap_or(defaults.detection.threshold_factor),
+            min_interval_s: min_interval_s.unwrap_or(defaults.detection.min_interval_s),
+        },
+        ..defaults
+    };
     let rec = &recording.inner;
-    let options = StaticOptions {
-        init_s,
-        window_s,
-        threshold_factor,
-        min_interval_s,
+    let gyro = GyroColumns::of(rec, recording.gyro_counts, &rec.source.name);
+    let input = StillRecording {
+        recording: rec,
+        raw_counts: recording.raw_counts,
+        labels: None,
+        gyro: gyro.as_ref(),
+        gyro_required: false,
     };
-    let raw_counts = recording.raw_counts;
-    let (intervals, fit) = py.detach(|| {
-        let detection = detect_static(&rec.time_s, &rec.accel_mps2, &options).map_err(errors::usage_error)?;
-        let means = pose_means(&detection.intervals);
-        let fit = fit_static(
-            &means,
-            &StaticFitOptions {
-                model,
-                gravity_mps2,
-                input_unit: if raw_counts { "counts" } else { "m/s^2" }.into(),
-            },
-        )
-        .map_err(errors::fit)?;
-        Ok::<_, PyErr>((detection.intervals, fit))
-    })?;
-    let report = serde_json::json!({ "intervals": intervals, "fit": fit });
+    let calibration = py.detach(|| calibrate_static(&input, &settings).map_err(errors::fit))?;
     let corrector = PyCorrector {
-        file: CorrectorFile::new(CorrectorModel::Static(Box::new(fit.calibration.clone()))),
+        file: calibration.corrector_file(),
     };
-    Ok((json(&report)?, corrector))
+    Ok((json(&calibration)?, corrector))
 }
 
-/// Overlapping Allan deviation of an (n, 3) array sampled every `dt_s`; returns JSON with the
-/// curve and the noise parameters (density, bias instability, random walk).
+/// The noise of a still recording, as `spincal allan` measures it (the library's
+/// `analyse_still`): an (n, 3) array sampled every `dt_s`, motion refused; returns JSON with the
+/// curve (`curve`), the noise parameters (`noise`: density, bias instability, random walk) and
+/// the samples used.
 #[pyfunction]
 #[pyo3(signature = (accel, dt_s, *, per_decade = 10))]
 fn allan(py: Python<'_>, accel: PyReadonlyArray2<'_, f64>, dt_s: f64, per_decade: usize) -> PyResult<String> {
+    use spincal::allan::{analyse_still, AllanSettings, StillNoise};
     if !(dt_s.is_finite() && dt_s > 0.0) {
         return Err(usage(format!(
             "dt_s = {dt_s}: must be a positive number of seconds"
         )));
     }
     let axes = array_to_columns(accel.as_array(), "accel")?;
-    let (curve, params) = py.detach(|| {
-        let curve = spincal::allan::allan_deviation(&axes, dt_s, per_decade).map_err(errors::fit)?;
-        let params = spincal::allan::noise_params(&curve);
-        Ok::<_, PyErr>((curve, params))
-    })?;
-    json(&serde_json::json!({ "curve": curve, "noise": params }))
+    let n = axes[0].len();
+    let recording = Recording {
+        time_s: (0..n).map(|i| i as f64 * dt_s).collect(),
+        accel_mps2: axes,
+        gyro_radps: None,
+        temperature_c: None,
+        source: Default::default(),
+    };
+    let settings = AllanSettings {
+        per_decade,
+        ..AllanSettings::default()
+    };
+    let input = StillNoise {
+        recording: &recording,
+        name: "accel",
+        raw_counts: false,
+        gyro: None,
+        calibration: None,
+    };
+    let analysis = py.detach(|| analyse_still(&input, &settings).map_err(errors::fit))?;
+    let mut value = serde_json::to_value(&analysis).map_err(|e| usage(e.to_string()))?;
+    // Python's name for the read-offs.
+    if let Some(object) = value.as_object_mut() {
+        if let Some(params) = object.remove("params") {
+            object.insert("noise".into(), params);
+        }
+    }
+    json(&value)
 }
 
 /// The paper's Table 1 at any nominal values: each parameter moved by ±`vary_percent`.
@@ -838,10 +868,11 @@ fn sensitivity(
 /// A fleet error as the right exception: files and campaign entries → FormatError, the
 /// calibration → FitError.
 fn fleet_error(e: spincal::fleet::FleetError) -> PyErr {
+    use spincal::campaign::run::CampaignRunError as R;
     use spincal::fleet::FleetError as F;
     match &e {
-        F::NoCampaign { .. } | F::Campaign(_) | F::Load(_) => errors::format(e),
-        F::Calibration { .. } => errors::fit(e),
+        F::NoCampaign { .. } | F::Campaign(_) | F::Run(R::Load(_)) => errors::format(e),
+        F::Run(R::Calibration { .. }) => errors::fit(e),
         _ => errors::Error::new_err(e.to_string()),
     }
 }
@@ -852,7 +883,7 @@ fn fleet_error(e: spincal::fleet::FleetError) -> PyErr {
 fn campaign_inputs(source: PathBuf) -> PyResult<(PathBuf, Vec<PathBuf>)> {
     let path = spincal::fleet::campaign_path(&source).map_err(fleet_error)?;
     let campaign = Campaign::read_path(&path).map_err(errors::format)?;
-    Ok((path, spincal::fleet::campaign_inputs(&campaign)))
+    Ok((path, campaign.inputs()))
 }
 
 /// The unit label of each source, unique in the fleet (a folder's name, …).

@@ -336,59 +336,10 @@ pub fn static_files(
     Some(files)
 }
 
-/// Every file a campaign calibration writes, by name, with its content: model.json (when a
-/// corrector was saved), results.json, report.html, and the linear part of the calibration in
-/// the files other tools read (imucal.json, imu_tk_acc.calib, imu_tk_gyro.calib; see
-/// [`crate::export`]). The CLI, `spincal fleet` and the Python package write the same files.
-#[cfg(feature = "plot")]
-pub fn campaign_files(
-    result: &crate::campaign::CampaignResult,
-    saved: Option<&crate::correctors::model_file::CorrectorFile>,
-) -> Result<Vec<(&'static str, String)>, crate::report::plot::PlotError> {
-    let mut files = Vec::new();
-    if let Some(model) = saved {
-        files.push(("model.json", model.to_json() + "\n"));
-    }
-    files.push(("results.json", pretty(result)));
-    files.push(("report.html", crate::report::campaign::campaign_report(result)?));
-    // Other tools' files only for a calibration that held on held-out conditions.
-    if saved.is_none() {
-        return Ok(files);
-    }
-    let sensor = &result.joint.sensor;
-    let gyro = result.gyro.as_ref().map(|g| &g.model);
-    let mut imucal = imucal_json(sensor, gyro);
-    if let Some(thermal) = &result.thermal {
-        let comment = imucal["comment"].as_str().unwrap_or_default().to_string();
-        imucal["comment"] = serde_json::json!(format!(
-            "{comment} The campaign was taken to the reference temperature {:.1} °C first: these values hold there only (model.json, and `spincal export --ardupilot/--px4`, carry the change with temperature; imucal and imu_tk cannot).",
-            thermal.fit.model.reference_c
-        ));
-    }
-    files.push(("imucal.json", pretty(&imucal)));
-    if let Some((acc, gyr)) = imu_tk_calibs(sensor, gyro) {
-        files.push(("imu_tk_acc.calib", acc.to_text()));
-        if let Some(gyr) = gyr {
-            files.push(("imu_tk_gyro.calib", gyr.to_text()));
-        }
-    }
-    Ok(files)
-}
-
-#[cfg(feature = "plot")]
-fn pretty<T: serde::Serialize>(value: &T) -> String {
+/// A value as pretty JSON with a final newline, as every JSON file spincal writes.
+pub(crate) fn pretty<T: serde::Serialize>(value: &T) -> String {
     serde_json::to_string_pretty(value).expect("results serialise") + "\n"
 }
-
-/// The names [`campaign_files`] may write, to check before any work that none is an input.
-pub const CAMPAIGN_FILE_NAMES: [&str; 6] = [
-    "model.json",
-    "results.json",
-    "report.html",
-    "imucal.json",
-    "imu_tk_acc.calib",
-    "imu_tk_gyro.calib",
-];
 
 #[cfg(test)]
 mod tests {

@@ -27,6 +27,7 @@ pub mod progress;
 #[cfg(feature = "plot")]
 pub mod report;
 pub mod simulate;
+pub mod static_calibration;
 pub mod sysid;
 pub mod thermal;
 pub mod turntable;

@@ -16,8 +16,7 @@
 use std::path::PathBuf;
 
 use spincal::fleet::{
-    calibrate_campaign_file, calibrate_fleet, fleet_table, silent_fleet, FleetSettings, OutlierSettings,
-    UnitOutcome,
+    calibrate_fleet, fleet_table, silent_fleet, FleetSettings, OutlierSettings, UnitOutcome,
 };
 use spincal::simulate::campaign::{CampaignSetup, RunSetup};
 use spincal::simulate::fleet::{simulate_fleet, FleetSetup};
@@ -182,7 +181,7 @@ fn a_fleet_recovers_each_unit_flags_the_faulty_one_and_reports_broken_ones() {
     let started = std::time::Instant::now();
     for outcome in &good {
         let campaign = spincal::campaign::Campaign::read_path(&outcome.source.join("campaign.toml")).unwrap();
-        let alone = calibrate_campaign_file(
+        let alone = spincal::campaign::run::calibrate_campaign_file(
             &campaign,
             &FleetSettings::default().params,
             &spincal::progress::silent,

@@ -6,12 +6,13 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 use spincal::allan::{
-    allan_deviation, allan_figure, noise_params, simulator_profile, write_curve_csv, AllanCurve, NoiseParams,
+    analyse_still, write_curve_csv, AllanAnalysis, AllanSettings, StillNoise, StillNoiseError,
 };
-use spincal::correctors::static_detect::{detect_static, StaticOptions};
+use spincal::input::gyro_file::gyro_columns;
+use spincal::report::allan::allan_figure;
 use spincal::report::plot::Figure;
 
-use super::{format_line, input, InputArgs};
+use super::{format_line, InputArgs};
 use crate::ui::{self, UsageError};
 
 #[derive(Args, Debug)]
@@ -57,44 +58,8 @@ pub struct AllanArgs {
 #[derive(Serialize)]
 struct Report<'a> {
     file: String,
-    sample_rate_hz: f64,
-    samples_used: usize,
-    span_s: [f64; 2],
-    params: &'a NoiseParams,
-    curve: &'a AllanCurve,
-    /// The gyroscope's figures (rad/s units), when the recording has gyro columns.
-    gyro_params: Option<&'a NoiseParams>,
-    gyro_curve: Option<&'a AllanCurve>,
-}
-
-/// A still sensor's spread is about its shortest-τ Allan deviation (white noise: equal; slow
-/// drift: a few times more). Far above it, the recording holds motion, and its Allan deviation
-/// would measure the motion, not the noise.
-const MOTION_FACTOR: f64 = 10.0;
-
-fn refuse_motion(
-    part: &[Vec<f64>; 3],
-    curve: &spincal::allan::AllanCurve,
-    file: &std::path::Path,
-) -> anyhow::Result<()> {
-    for (a, axis) in part.iter().enumerate() {
-        let n = axis.len().max(1) as f64;
-        let mean = axis.iter().sum::<f64>() / n;
-        let spread = (axis.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
-        let Some(&shortest) = curve.adev[a].first() else {
-            continue;
-        };
-        if spread > MOTION_FACTOR * shortest {
-            anyhow::bail!(
-                "{}: the sensor moves: a{} spreads {:.3e} m/s², {:.0}× its shortest-τ Allan deviation (a still sensor stays within about {MOTION_FACTOR}×); an Allan deviation needs the sensor at rest: record it still, or pass --still to use the longest still interval",
-                file.display(),
-                ['x', 'y', 'z'][a],
-                spread,
-                spread / shortest
-            );
-        }
-    }
-    Ok(())
+    #[serde(flatten)]
+    analysis: &'a AllanAnalysis,
 }
 
 pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
@@ -109,124 +74,89 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     inputs.extend(args.calibration.as_deref());
     super::check_outputs(&inputs, &outputs)?;
     let loaded = args.input.load(ui)?;
-    let rec = &loaded.recording;
+    let name = args.input.rec.display().to_string();
     let calibration = match &args.calibration {
-        Some(path) => Some((path, spincal::CorrectorFile::read_path(path)?)),
+        Some(path) => Some((
+            spincal::CorrectorFile::read_path(path)?,
+            path.display().to_string(),
+        )),
         None => None,
     };
-    let accel = match &calibration {
-        Some((path, file)) => {
-            let spincal::CorrectorModel::Static(cal) = &file.corrector else {
-                return Err(UsageError(format!(
-                    "{}: a {} corrector, not a static calibration (from `spincal static -o`)",
-                    path.display(),
-                    file.corrector.kind()
-                ))
-                .into());
-            };
-            cal.apply_axes(&rec.accel_mps2)
-        }
-        None if loaded.raw_counts => {
-            return Err(UsageError(format!(
-                "{}: the values are raw counts; pass --accel-scale or --calibration cal.json",
-                args.input.rec.display()
-            ))
-            .into())
-        }
-        None => rec.accel_mps2.clone(),
-    };
-    let gyro_model = calibration
-        .as_ref()
-        .and_then(|(path, file)| Some((*path, file.gyro.as_ref()?)));
-    let gyro_rec = match input::gyro_columns(
-        args.gyro_file.as_deref(),
-        &loaded,
-        &args.input.rec,
-        args.input.read.retime,
-    )? {
-        Some(columns) => Some(calibrated_gyro(columns, gyro_model)?),
-        None => None,
-    };
-    let (start, end) = if args.still {
-        let d = detect_static(&rec.time_s, &accel, &StaticOptions::default())
-            .context("detecting still intervals")?;
-        let longest = d
-            .intervals
-            .iter()
-            .max_by_key(|i| i.len())
-            .ok_or_else(|| anyhow::anyhow!("no still interval found"))?;
-        (longest.start, longest.end)
-    } else {
-        (0, rec.len())
-    };
-    let part: [Vec<f64>; 3] = std::array::from_fn(|a| accel[a][start..end].to_vec());
-    let dt = 1.0 / rec.sample_rate_hz();
-    let bar = ui.progress(1, "allan");
-    let curve = allan_deviation(&part, dt, args.per_decade)?;
-    bar.finish_and_clear();
-    if !args.still {
-        refuse_motion(&part, &curve, &args.input.rec)?;
+    let gyro = gyro_columns(args.gyro_file.as_deref(), &loaded, &name, args.input.read.retime)?;
+    if let (Some(_), None) = (&args.kalibr, &gyro) {
+        return Err(UsageError(format!(
+            "{name}: no gyro columns, and Kalibr's file needs the gyroscope's noise too (pass --columns t,ax,ay,az,gx,gy,gz)"
+        ))
+        .into());
     }
-    let params = noise_params(&curve);
-    let gyro = match &gyro_rec {
-        Some(g) => {
-            let part: [Vec<f64>; 3] = std::array::from_fn(|a| g[a][start..end].to_vec());
-            let curve = allan_deviation(&part, dt, args.per_decade)?;
-            let params = noise_params(&curve);
-            Some((curve, params))
-        }
-        None => None,
+    let settings = AllanSettings {
+        per_decade: args.per_decade,
+        longest_still: args.still,
+        ..AllanSettings::default()
     };
-    if let Some(path) = &args.kalibr {
-        let Some((_, gyro_params)) = &gyro else {
-            return Err(UsageError(format!(
-                "{}: no gyro columns, and Kalibr's file needs the gyroscope's noise too (pass --columns t,ax,ay,az,gx,gy,gz)",
-                args.input.rec.display()
-            ))
-            .into());
-        };
-        let kalibr =
-            spincal::export::KalibrImu::from_axes(&params, gyro_params, &args.kalibr_topic, 1.0 / dt);
+    let bar = ui.progress(1, "allan");
+    let analysis = analyse_still(
+        &StillNoise {
+            recording: &loaded.recording,
+            name: &name,
+            raw_counts: loaded.raw_counts,
+            gyro: gyro.as_ref(),
+            calibration: calibration.as_ref().map(|(file, path)| (file, path.as_str())),
+        },
+        &settings,
+    )
+    .map_err(|e| match e {
+        StillNoiseError::Moves { .. } => anyhow::anyhow!("{e} (--still)"),
+        StillNoiseError::RawCounts { .. } => {
+            UsageError(format!("{e}: pass --accel-scale or --calibration cal.json")).into()
+        }
+        StillNoiseError::NotStatic { .. }
+        | StillNoiseError::GyroCounts { .. }
+        | StillNoiseError::GyroUnit { .. } => UsageError(e.to_string()).into(),
+        e => e.into(),
+    })?;
+    bar.finish_and_clear();
+    let AllanAnalysis {
+        params,
+        curve,
+        gyro_params,
+        ..
+    } = &analysis;
+    let dt = 1.0 / analysis.sample_rate_hz;
+    if let (Some(path), Some(gyro_params)) = (&args.kalibr, gyro_params) {
+        let kalibr = spincal::export::KalibrImu::from_axes(
+            params,
+            gyro_params,
+            &args.kalibr_topic,
+            analysis.sample_rate_hz,
+        );
         super::write_text(path, &kalibr.to_yaml())?;
     }
     if let Some(path) = &args.curve {
-        spincal::output::write_file(path, |out| write_curve_csv(&curve, out))?;
+        spincal::output::write_file(path, |out| write_curve_csv(curve, out))?;
     }
     if let Some(path) = &args.plot {
-        let figure = allan_figure(
-            &curve,
-            &params,
-            &format!("Allan deviation: {}", args.input.rec.display()),
-        );
+        let figure = allan_figure(curve, params, &format!("Allan deviation: {name}"));
         let svg = figure.to_svg().context("drawing the Allan plot")?;
         super::write_text(path, &svg)?;
         let png = path.with_extension("png");
         figure.to_png(&png, 1000, 700).context("drawing the Allan plot")?;
     }
     if let Some(path) = &args.profile {
-        let profile = simulator_profile(&params, 1.0 / dt);
+        let profile = spincal::simulate::SensorProfile::from_noise(params, analysis.sample_rate_hz);
         super::write_text(path, &(serde_json::to_string_pretty(&profile)? + "\n"))?;
     }
-    let span_s = [rec.time_s[start], rec.time_s[end - 1]];
+    let span_s = analysis.span_s;
     if args.json {
         return ui::print_json(&Report {
-            file: args.input.rec.display().to_string(),
-            sample_rate_hz: 1.0 / dt,
-            samples_used: end - start,
-            span_s,
-            params: &params,
-            curve: &curve,
-            gyro_params: gyro.as_ref().map(|g| &g.1),
-            gyro_curve: gyro.as_ref().map(|g| &g.0),
+            file: name,
+            analysis: &analysis,
         });
     }
     let mut s = format!("{}\n{}\n", args.input.rec.display(), format_line(&loaded));
     s += &format!(
         "samples used: {} ({:.3} – {:.3} s), τ₀ = {:.6} s\n",
-        end - start,
-        span_s[0],
-        span_s[1],
-        dt
+        analysis.samples_used, span_s[0], span_s[1], dt
     );
     for a in 0..3 {
         s += &format!(
@@ -251,7 +181,7 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
             params.random_walk[a]
         );
     }
-    if let Some((_, g)) = &gyro {
+    if let Some(g) = gyro_params {
         for a in 0..3 {
             s += &format!(
                 "gyro {}: noise density {:.4e} rad/s/√Hz, bias instability {}{:.4e} rad/s, rate random walk {}{:.4e} rad/s²/√Hz\n",
@@ -268,46 +198,4 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         s += "≤: no flat part within τ ≤ T/10; a longer still recording is needed for the floor\n";
     }
     ui::print(&s)
-}
-
-/// The gyro in rad/s: `columns` through the calibration's gyro model when there is one. Raw
-/// counts without one are refused, as are a model and readings in different units.
-fn calibrated_gyro(
-    columns: input::GyroColumns,
-    model: Option<(&PathBuf, &spincal::correctors::gyro::GyroModel)>,
-) -> anyhow::Result<[Vec<f64>; 3]> {
-    use spincal::correctors::gyro::GyroInputUnit;
-    let Some((path, model)) = model else {
-        if columns.counts {
-            return Err(UsageError(format!(
-                "{}: the gyro values are raw counts, not rad/s; calibrate the gyroscope first (`spincal static ACC --gyro-file GYRO -o cal.json`, from still poses joined by rotations) and pass --calibration cal.json",
-                columns.source
-            ))
-            .into());
-        }
-        return Ok(columns.values);
-    };
-    let model_counts = model.input_unit == GyroInputUnit::Counts;
-    if model_counts != columns.counts {
-        return Err(UsageError(format!(
-            "{}: the gyro calibration takes readings in {}, but {} holds {}",
-            path.display(),
-            model.input_unit.name(),
-            columns.source,
-            if columns.counts { "raw counts" } else { "rad/s" }
-        ))
-        .into());
-    }
-    let corrector = model
-        .corrector()
-        .ok_or_else(|| anyhow::anyhow!("{}: the gyro sensitivity is singular", path.display()))?;
-    let n = columns.values[0].len();
-    let mut out: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::with_capacity(n));
-    for i in 0..n {
-        let w = corrector.correct(std::array::from_fn(|k| columns.values[k][i]));
-        for k in 0..3 {
-            out[k].push(w[k]);
-        }
-    }
-    Ok(out)
 }

@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use spincal::campaign::params::Params;
+use spincal::campaign::run::calibrate_campaign_file;
 use spincal::campaign::{Campaign, CampaignOutput};
+use spincal::report::campaign::{campaign_files, CAMPAIGN_FILE_NAMES};
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 use spincal::simulate::fleet::WriteError;
 
@@ -26,26 +28,19 @@ pub fn calibrate(file: &Path, out: &Path, json: bool, ui: Ui) -> anyhow::Result<
 /// corrector held on every held-out condition) model.json into `out`.
 pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignOutput> {
     let campaign = Campaign::read_path(file).map_err(|e| UsageError(e.to_string()))?;
-    let outputs = spincal::export::CAMPAIGN_FILE_NAMES.map(|name| out.join(name));
-    let mut inputs: Vec<&Path> = vec![file];
-    for entry in &campaign.recordings {
-        inputs.push(&entry.file);
-        if let Some(t) = &entry.truth {
-            inputs.push(t);
-        }
-    }
+    let outputs = CAMPAIGN_FILE_NAMES.map(|name| out.join(name));
+    let inputs = campaign.inputs();
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     let outputs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).collect();
     super::check_outputs(&inputs, &outputs)?;
     super::create_folder("--out", out)?;
     let bar = ui.progress(1, "calibrating the campaign");
-    let output = spincal::fleet::calibrate_campaign_file(&campaign, &Params::default(), &|p| {
-        crate::ui::show(&bar, p)
-    })?;
+    let output = calibrate_campaign_file(&campaign, &Params::default(), &|p| crate::ui::show(&bar, p))?;
     bar.finish_and_clear();
-    let files = spincal::export::campaign_files(&output.result, output.saved.as_ref())
-        .context("drawing the campaign report")?;
+    let files =
+        campaign_files(&output.result, output.saved.as_ref()).context("drawing the campaign report")?;
     let written: Vec<&str> = files.iter().map(|(name, _)| *name).collect();
-    super::set_aside_stale(out, &spincal::export::CAMPAIGN_FILE_NAMES, &written)?;
+    super::set_aside_stale(out, &CAMPAIGN_FILE_NAMES, &written)?;
     for (name, text) in files {
         super::write_text(&out.join(name), &text)?;
     }

@@ -10,8 +10,8 @@ use clap::Args;
 use indicatif::ProgressStyle;
 use spincal::campaign::Campaign;
 use spincal::fleet::{
-    calibrate_fleet, campaign_inputs, campaign_path, expand_sources, fleet_table, unit_labels, FleetSettings,
-    FleetTable, OutlierSettings, UnitOutcome,
+    calibrate_fleet, campaign_path, expand_sources, fleet_table, unit_labels, FleetSettings, FleetTable,
+    OutlierSettings, UnitOutcome,
 };
 use spincal::progress::Progress;
 use spincal::simulate::campaign::CampaignSetup;
@@ -100,7 +100,7 @@ pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
     let mut inputs: Vec<PathBuf> = Vec::new();
     for source in &sources {
         if let Ok(campaign) = campaign_path(source).and_then(|p| Ok(Campaign::read_path(&p)?)) {
-            inputs.extend(campaign_inputs(&campaign));
+            inputs.extend(campaign.inputs());
         }
     }
     let outputs = outputs_of(&args.out, &labels);
@@ -143,7 +143,7 @@ pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
     for outcome in &outcomes {
         if let Ok(cal) = &outcome.result {
             let dir = args.out.join(&outcome.unit);
-            let files = spincal::export::campaign_files(&cal.result, cal.model.as_ref())
+            let files = spincal::report::campaign::campaign_files(&cal.result, cal.model.as_ref())
                 .context("drawing a unit's report")?;
             let names: Vec<PathBuf> = files.iter().map(|(name, _)| dir.join(name)).collect();
             let inputs: Vec<&Path> = cal.inputs.iter().map(PathBuf::as_path).collect();

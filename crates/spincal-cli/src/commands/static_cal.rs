@@ -5,17 +5,16 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
-use spincal::correctors::gyro::GyroInputUnit;
-use spincal::correctors::gyro_poses::{
-    fit_gyro_poses, still_poses, GyroBiasSource, GyroPoseFit, GyroPoseOptions,
+use spincal::correctors::gyro_poses::{GyroBiasSource, GyroPoseOptions};
+use spincal::correctors::static_cal::StaticModel;
+use spincal::correctors::static_detect::StaticOptions;
+use spincal::input::gyro_file::gyro_columns;
+use spincal::static_calibration::{
+    calibrate_static, GyroCalibration, StaticCalibration, StaticSettings, StillRecording,
 };
-use spincal::correctors::static_cal::{
-    fit_static, pose_means, spread_about, StaticFit, StaticFitOptions, StaticModel,
-};
-use spincal::correctors::static_detect::{detect_static, labelled_intervals, StaticOptions, StillInterval};
 
 use super::values::StaticModelArg;
-use super::{format_line, input, InputArgs};
+use super::{format_line, InputArgs};
 use crate::ui;
 
 #[derive(Args, Debug)]
@@ -84,26 +83,11 @@ pub enum GyroBiasArg {
 }
 
 #[derive(Serialize)]
-struct GyroReport<'a> {
-    source: &'a str,
-    input_unit: &'a str,
-    /// The fit, when it succeeded.
-    fit: Option<&'a GyroPoseFit>,
-    /// Why the recording's own gyro columns could not be calibrated.
-    error: Option<String>,
-}
-
-#[derive(Serialize)]
 struct Report<'a> {
     file: String,
     format: &'a spincal::input::formats::Loaded,
-    intervals_from: &'a str,
-    intervals: &'a [StillInterval],
-    /// RMS of |mean| − g before calibration (only when the input is already m/s²).
-    rms_before_mps2: Option<f64>,
-    fit: &'a StaticFit,
-    /// The gyroscope's calibration, when there is a gyro.
-    gyro: Option<GyroReport<'a>>,
+    #[serde(flatten)]
+    calibration: &'a StaticCalibration,
 }
 
 /// The files `--exports` may write (the gyro's only with a gyro calibration).
@@ -125,103 +109,54 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     let mut inputs = vec![args.input.rec.as_path()];
     inputs.extend(args.gyro_file.as_deref());
     super::check_outputs(&inputs, &outputs)?;
-    let model: StaticModel = args.model.into();
     let loaded = args.input.load(ui)?;
     let rec = &loaded.recording;
-    let (intervals, from) = match (&loaded.labels, args.detect) {
-        (Some(labels), false) => (
-            labelled_intervals(&rec.time_s, &rec.accel_mps2, labels, |l| !l.contains("rot")),
-            "section labels (all but *rot*)",
-        ),
-        _ => {
-            let options = StaticOptions {
-                init_s: args.init,
-                window_s: args.window,
-                threshold_factor: args.threshold_factor,
-                min_interval_s: args.min_interval,
-            };
-            let d =
-                detect_static(&rec.time_s, &rec.accel_mps2, &options).context("detecting still intervals")?;
-            (d.intervals, "moving-variance detection")
-        }
-    };
-    let means = pose_means(&intervals);
-    let fit = fit_static(
-        &means,
-        &StaticFitOptions {
-            model,
-            gravity_mps2: args.gravity,
-            input_unit: if loaded.raw_counts { "counts" } else { "m/s^2" }.into(),
-        },
-    )
-    .with_context(|| format!("fitting {} still intervals from {from}", intervals.len()))?;
-    let rms_before = (!loaded.raw_counts).then(|| {
-        let norms: Vec<f64> = means
-            .iter()
-            .map(|m| (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt())
-            .collect();
-        spread_about(&norms, args.gravity)
-    });
-    let gyro_columns = input::gyro_columns(
+    let gyro_columns = gyro_columns(
         args.gyro_file.as_deref(),
         &loaded,
-        &args.input.rec,
+        &args.input.rec.display().to_string(),
         args.input.read.retime,
     )?;
-    let gyro = gyro_columns.as_ref().map(|columns| {
-        let options = GyroPoseOptions {
+    let settings = StaticSettings {
+        model: args.model.into(),
+        gravity_mps2: args.gravity,
+        detection: StaticOptions {
+            init_s: args.init,
+            window_s: args.window,
+            threshold_factor: args.threshold_factor,
+            min_interval_s: args.min_interval,
+        },
+        detect: args.detect,
+        gyro: GyroPoseOptions {
             bias_from: match args.gyro_bias_from {
                 GyroBiasArg::First => GyroBiasSource::FirstInterval,
                 GyroBiasArg::All => GyroBiasSource::AllIntervals,
             },
             initial_scale: args.gyro_scale,
-            input_unit: if columns.counts {
-                GyroInputUnit::Counts
-            } else {
-                GyroInputUnit::RadPerS
-            },
             ..Default::default()
-        };
-        let poses = still_poses(&intervals, &fit.calibration);
-        let result = fit_gyro_poses(&rec.time_s, &columns.values, &poses, &options)
-            .map_err(anyhow::Error::from)
-            .and_then(|g| match g.model.validate() {
-                Ok(()) => Ok(g),
-                Err(e) => Err(anyhow::anyhow!(
-                    "the fitted gyro model is not usable: {}: {}",
-                    e.field,
-                    e.reason
-                )),
-            });
-        (columns, options.input_unit, result)
-    });
-    let gyro_fit = match &gyro {
-        Some((columns, _, Err(e))) if args.gyro_file.is_some() => {
-            return Err(anyhow::anyhow!("{e:#}"))
-                .with_context(|| format!("calibrating the gyroscope of {}", columns.source))
-        }
-        Some((_, _, Ok(g))) => Some(g),
-        _ => None,
+        },
     };
+    let calibration = calibrate_static(
+        &StillRecording {
+            recording: rec,
+            raw_counts: loaded.raw_counts,
+            labels: loaded.labels.as_deref(),
+            gyro: gyro_columns.as_ref(),
+            gyro_required: args.gyro_file.is_some(),
+        },
+        &settings,
+    )?;
+    let fit = &calibration.fit;
     if let Some(path) = &args.output {
         // The same versioned corrector file as every other corrector: `spincal correct` applies it.
-        let mut file =
-            spincal::CorrectorFile::new(spincal::CorrectorModel::Static(Box::new(fit.calibration.clone())));
-        file.gyro = gyro_fit.map(|g| g.model.clone());
-        file.write_path(path)?;
+        calibration.corrector_file().write_path(path)?;
     }
-    let gyro_report = gyro.as_ref().map(|(columns, unit, result)| GyroReport {
-        source: &columns.source,
-        input_unit: unit.name(),
-        fit: result.as_ref().ok(),
-        error: result.as_ref().err().map(|e| format!("{e:#}")),
-    });
     if let Some(path) = &args.yaml {
         let yaml = fit.calibration.to_kalibr_yaml(rec.sample_rate_hz(), None);
         super::write_text(path, &yaml)?;
     }
     if let Some(dir) = &args.exports {
-        let files = spincal::export::static_files(&fit.calibration, gyro_fit.map(|g| &g.model))
+        let files = spincal::export::static_files(&fit.calibration, calibration.gyro_model())
             .context("the calibration's scale or misalignment cannot be inverted for imucal and imu_tk")?;
         super::create_folder("--exports", dir)?;
         for (name, text) in files {
@@ -232,13 +167,10 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         return ui::print_json(&Report {
             file: args.input.rec.display().to_string(),
             format: &loaded,
-            intervals_from: from,
-            intervals: &intervals,
-            rms_before_mps2: rms_before,
-            fit: &fit,
-            gyro: gyro_report,
+            calibration: &calibration,
         });
     }
+    let (intervals, from) = (&calibration.intervals, &calibration.intervals_from);
     let c = &fit.calibration;
     let mut s = format!("{}\n{}\n", args.input.rec.display(), format_line(&loaded));
     s += &format!("still intervals: {} (from {from})\n", intervals.len());
@@ -255,7 +187,7 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     s += &format!("bias [{}]: {:?}\n", c.input_unit, c.bias);
     s += &format!("scale [m/s² per {}]: {:?}\n", c.input_unit, c.scale);
     s += &format!("misalignment [α_yz, α_zy, α_zx]: {:?}\n", c.misalignment);
-    if model == StaticModel::Nonlinear {
+    if settings.model == StaticModel::Nonlinear {
         s += &format!("nonlinearity [1/(m/s²)]: {:?}\n", c.nonlinearity);
     }
     if fit.param_std.is_empty() {
@@ -273,7 +205,7 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
             100.0 * spincal::correctors::static_cal::POORLY_DETERMINED_FRACTION_OF_G
         );
     }
-    if let Some(b) = rms_before {
+    if let Some(b) = calibration.rms_before_mps2 {
         s += &format!("RMS of |a| − g over the poses before: {b:.6} m/s²\n");
     }
     s += &format!(
@@ -282,16 +214,16 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         fit.iterations,
         fit.stop.describe()
     );
-    if let Some(report) = &gyro_report {
+    if let Some(report) = &calibration.gyro {
         s += &gyro_text(report);
     }
     ui::print(&s)
 }
 
 /// The gyro's calibration as text: b and K with their standard errors, then each rotation.
-fn gyro_text(report: &GyroReport) -> String {
-    let unit = report.input_unit;
-    let Some(g) = report.fit else {
+fn gyro_text(report: &GyroCalibration) -> String {
+    let unit = &report.input_unit;
+    let Some(g) = &report.fit else {
         return format!(
             "gyro ({}): not calibrated: {}\n",
             report.source,

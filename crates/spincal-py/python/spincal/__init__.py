@@ -898,15 +898,18 @@ def static_calibration(
     data: RecordingLike,
     *,
     parameters: int = 9,
-    gravity_mps2: float = 9.80665,
-    init_s: float = 2.0,
-    window_s: float = 1.0,
-    threshold_factor: float = 3.0,
-    min_interval_s: float = 2.0,
+    gravity_mps2: Optional[float] = None,
+    init_s: Optional[float] = None,
+    window_s: Optional[float] = None,
+    threshold_factor: Optional[float] = None,
+    min_interval_s: Optional[float] = None,
 ) -> Tuple[StaticResult, Corrector]:
-    """Classic calibration from still poses (6, 9 or 12 parameters), as ``spincal static``:
-    still intervals found by moving variance, then bias, scale and misalignment fitted to
-    gravity. Returns the :class:`StaticResult` and the ``static`` :class:`Corrector`.
+    """Classic calibration from still poses (6, 9 or 12 parameters), the one call ``spincal
+    static`` makes: still intervals found by moving variance, then bias, scale and misalignment
+    fitted to gravity, and the recording's own gyro (when it has one) from those poses and the
+    rotations between them. A setting left ``None`` takes ``spincal static``'s default (standard
+    gravity, a 3 s initial still period, a 1 s window, threshold ×3, intervals of 2 s or more).
+    Returns the :class:`StaticResult` and the ``static`` :class:`Corrector`.
 
     Example::
 

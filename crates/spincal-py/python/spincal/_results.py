@@ -228,8 +228,9 @@ class CampaignResult(Result):
 
 
 class StaticResult(Result):
-    """Static calibration: ``intervals`` (the still intervals used) and ``fit`` (the calibration,
-    pose norms, residuals)."""
+    """Static calibration: ``intervals`` (the still intervals used) and ``intervals_from``,
+    ``fit`` (the calibration, pose norms, residuals), ``rms_before_mps2``, and ``gyro`` (the
+    gyroscope's fit or why it failed, when the recording has a gyro)."""
 
 
 class AllanResult(Result):

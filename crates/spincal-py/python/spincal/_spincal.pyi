@@ -185,11 +185,11 @@ def static_calibration(
     recording: Recording,
     *,
     parameters: int = 9,
-    gravity_mps2: float = ...,
-    init_s: float = 2.0,
-    window_s: float = 1.0,
-    threshold_factor: float = 3.0,
-    min_interval_s: float = 2.0,
+    gravity_mps2: Optional[float] = None,
+    init_s: Optional[float] = None,
+    window_s: Optional[float] = None,
+    threshold_factor: Optional[float] = None,
+    min_interval_s: Optional[float] = None,
 ) -> Tuple[str, Corrector]: ...
 def allan(accel: npt.NDArray[np.float64], dt_s: float, *, per_decade: int = 10) -> str: ...
 def sensitivity(

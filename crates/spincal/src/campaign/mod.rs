@@ -16,6 +16,7 @@ pub mod joint;
 pub mod load;
 pub mod params;
 pub mod prepare;
+pub mod run;
 pub mod select;
 pub mod thermal;
 pub mod verdict;

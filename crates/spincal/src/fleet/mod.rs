@@ -1,7 +1,7 @@
 //! Fleets: many units, each calibrated from its own campaign (SPEC §7), then compared.
 //!
 //! - [`calibrate_unit`]: one unit from a campaign file, or a folder holding `campaign.toml`. The
-//!   same numbers as `spincal calibrate --campaign` (both go through [`calibrate_campaign_file`]);
+//!   same numbers as `spincal calibrate --campaign` (both go through [`crate::campaign::run::calibrate_campaign_file`]);
 //!   the unit's own work runs on one thread (a one-thread rayon pool), so a fleet's units never
 //!   nest parallelism.
 //! - [`calibrate_fleet`]: every unit, `threads` at a time (one unit per worker, units taken in
@@ -27,10 +27,8 @@ use crate::campaign::params::Params;
 
 use crate::campaign::file::{Campaign, CampaignError};
 use crate::campaign::joint::JointParam;
-use crate::campaign::load::{load_campaign, LoadError};
-use crate::campaign::select::{
-    calibrate_campaign, CampaignCalError, CampaignOutput, CampaignResult, HeldOutScore,
-};
+use crate::campaign::run::{calibrate_campaign_file, CampaignRunError};
+use crate::campaign::select::{CampaignOutput, CampaignResult, HeldOutScore};
 use crate::correctors::model_file::CorrectorFile;
 use crate::output::OutputError;
 use crate::progress::{Observer, Progress};
@@ -62,13 +60,7 @@ pub enum FleetError {
     #[error(transparent)]
     Campaign(#[from] CampaignError),
     #[error(transparent)]
-    Load(#[from] LoadError),
-    #[error("{campaign}: {source}")]
-    Calibration {
-        campaign: String,
-        #[source]
-        source: CampaignCalError,
-    },
+    Run(#[from] CampaignRunError),
     #[error("{campaign}: cannot start the unit's worker thread: {message}")]
     Thread { campaign: String, message: String },
     #[error("{campaign}: internal error (a bug in spincal, please report it): {message}")]
@@ -142,7 +134,7 @@ impl UnitCalibration {
         UnitCalibration {
             unit: campaign.unit.clone(),
             campaign: campaign.path.clone(),
-            inputs: campaign_inputs(campaign),
+            inputs: campaign.inputs(),
             result: output.result,
             model: output.saved,
         }
@@ -158,17 +150,6 @@ pub struct UnitOutcome {
     /// As given: a campaign file or a folder holding `campaign.toml`.
     pub source: PathBuf,
     pub result: Result<UnitCalibration, String>,
-}
-
-/// Every file a campaign reads: the campaign file, its recordings and their truth and
-/// random-error files.
-pub fn campaign_inputs(campaign: &Campaign) -> Vec<PathBuf> {
-    let mut inputs = vec![campaign.path.clone()];
-    for entry in &campaign.recordings {
-        inputs.push(entry.file.clone());
-        inputs.extend(entry.truth.iter().chain(&entry.random_error).cloned());
-    }
-    inputs
 }
 
 /// The `*.toml` files in `folder`, sorted.
@@ -309,42 +290,6 @@ pub fn expand_sources(paths: &[PathBuf], exclude: &[&Path]) -> Sources {
     sources
 }
 
-/// The settings a campaign file is calibrated with: `base` with the file's own gravity and, when it
-/// gives the datasheet's, the nonlinearity prior.
-pub fn params_for(campaign: &Campaign, base: &Params) -> Params {
-    let mut settings = base.clone();
-    settings.joint.gravity_mps2 = campaign.gravity_mps2;
-    if let Some(datasheet) = campaign.nonlinearity {
-        settings.joint.sensor_prior_sd[3] = datasheet.quadratic_per_mps2();
-    }
-    settings
-}
-
-/// Loads a read campaign's recordings and calibrates the unit with [`params_for`]: the one
-/// path of both `spincal calibrate --campaign` and the fleet. Runs on the caller's rayon pool.
-pub fn calibrate_campaign_file(
-    campaign: &Campaign,
-    base: &Params,
-    observer: &Observer,
-) -> Result<CampaignOutput, FleetError> {
-    let clock = std::time::Instant::now();
-    let recordings = load_campaign(campaign)?;
-    let read_seconds = clock.elapsed().as_secs_f64();
-    let mut output = calibrate_campaign(&campaign.unit, &recordings, &params_for(campaign, base), observer)
-        .map_err(|source| FleetError::Calibration {
-        campaign: campaign.path.display().to_string(),
-        source,
-    })?;
-    output.result.stage_seconds.insert(
-        0,
-        crate::progress::StageTime {
-            stage: "read".into(),
-            seconds: read_seconds,
-        },
-    );
-    Ok(output)
-}
-
 fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
     payload
         .downcast_ref::<&str>()
@@ -462,7 +407,8 @@ mod tests {
     fn a_campaigns_inputs_include_its_truth_and_random_error_files() {
         let text = "unit = \"u\"\n[[recording]]\nfile = \"still.csv\"\nkind = \"static\"\ntruth = \"still.truth.csv\"\nrandom_error = \"still.random.csv\"\n";
         let campaign = Campaign::parse(text, Path::new("d/c.toml")).unwrap();
-        let names: Vec<String> = campaign_inputs(&campaign)
+        let names: Vec<String> = campaign
+            .inputs()
             .iter()
             .map(|p| p.display().to_string())
             .collect();

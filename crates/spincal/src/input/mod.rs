@@ -3,6 +3,7 @@
 
 pub mod decimal;
 pub mod formats;
+pub mod gyro_file;
 pub mod inspect;
 pub mod recording;
 pub mod table;

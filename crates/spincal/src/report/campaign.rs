@@ -9,6 +9,8 @@ use super::html::figure;
 use super::plot::{Legend, LinePlot, LineStyle, Series};
 use super::plot::{PlotError, Rgb};
 use crate::campaign::{combined, CampaignResult};
+use crate::correctors::model_file::CorrectorFile;
+use crate::export::{imu_tk_calibs, imucal_json, pretty};
 
 /// A self-contained HTML report: the verdict, held-out errors per corrector, the sensor model.
 pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
@@ -508,3 +510,52 @@ fn gyro_rate_plot(g: &crate::campaign::gyro::GyroFit) -> Option<LinePlot> {
         .legend(Legend::UpperRight),
     )
 }
+
+/// Every file a campaign calibration writes, by name, with its content: model.json (when a
+/// corrector was saved), results.json, report.html, and the linear part of the calibration in
+/// the files other tools read (imucal.json, imu_tk_acc.calib, imu_tk_gyro.calib; see
+/// [`crate::export`]). `spincal calibrate --campaign`, `spincal fleet` and the Python package
+/// write these files.
+pub fn campaign_files(
+    result: &CampaignResult,
+    saved: Option<&CorrectorFile>,
+) -> Result<Vec<(&'static str, String)>, PlotError> {
+    let mut files = Vec::new();
+    if let Some(model) = saved {
+        files.push(("model.json", model.to_json() + "\n"));
+    }
+    files.push(("results.json", pretty(result)));
+    files.push(("report.html", campaign_report(result)?));
+    // Other tools' files only for a calibration that held on held-out conditions.
+    if saved.is_none() {
+        return Ok(files);
+    }
+    let sensor = &result.joint.sensor;
+    let gyro = result.gyro.as_ref().map(|g| &g.model);
+    let mut imucal = imucal_json(sensor, gyro);
+    if let Some(thermal) = &result.thermal {
+        let comment = imucal["comment"].as_str().unwrap_or_default().to_string();
+        imucal["comment"] = serde_json::json!(format!(
+            "{comment} The campaign was taken to the reference temperature {:.1} °C first: these values hold there only (model.json, and `spincal export --ardupilot/--px4`, carry the change with temperature; imucal and imu_tk cannot).",
+            thermal.fit.model.reference_c
+        ));
+    }
+    files.push(("imucal.json", pretty(&imucal)));
+    if let Some((acc, gyr)) = imu_tk_calibs(sensor, gyro) {
+        files.push(("imu_tk_acc.calib", acc.to_text()));
+        if let Some(gyr) = gyr {
+            files.push(("imu_tk_gyro.calib", gyr.to_text()));
+        }
+    }
+    Ok(files)
+}
+
+/// The names [`campaign_files`] may write, to check before any work that none is an input.
+pub const CAMPAIGN_FILE_NAMES: [&str; 6] = [
+    "model.json",
+    "results.json",
+    "report.html",
+    "imucal.json",
+    "imu_tk_acc.calib",
+    "imu_tk_gyro.calib",
+];

@@ -1,6 +1,7 @@
 //! Everything drawn: the calibration report (HTML), line plots and heat maps (SVG and PNG, with an
 //! embedded font), and the stroboscopic disc. Compiled with the default `plot` feature.
 
+pub mod allan;
 pub mod campaign;
 pub mod fleet;
 pub mod html;

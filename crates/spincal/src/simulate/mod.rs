@@ -65,6 +65,22 @@ impl Default for SensorProfile {
 }
 
 impl SensorProfile {
+    /// A simulator sensor profile that imitates the measured noise: the 3DM-GX1 defaults with the white
+    /// noise, the bias drift and the sample rate replaced. White noise of density N gives a per-sample
+    /// standard deviation N·√fs (σ(τ) = N/√τ at τ = 1/fs); the simulator's bounded drift process gets a
+    /// standard deviation equal to the bias instability (its bound is three of them). The simulator has one
+    /// noise level for all axes: the mean over the axes is used.
+    pub fn from_noise(params: &crate::allan::NoiseParams, sample_rate_hz: f64) -> SensorProfile {
+        let g = crate::input::recording::STANDARD_GRAVITY;
+        let mean = |v: &[f64; 3]| (v[0] + v[1] + v[2]) / 3.0;
+        SensorProfile {
+            noise_g: mean(&params.noise_density) * sample_rate_hz.sqrt() / g,
+            bias_drift_g: 3.0 * mean(&params.bias_instability) / g,
+            sample_rate_hz,
+            ..SensorProfile::default()
+        }
+    }
+
     /// A perfect sensor apart from bias, white noise and quantisation: the turntable model is then
     /// exact, which is what parameter-recovery tests need.
     pub fn ideal() -> SensorProfile {

@@ -11,6 +11,9 @@
 
 use serde::{Deserialize, Serialize};
 
+mod still;
+pub use still::{analyse_still, AllanAnalysis, AllanSettings, StillNoise, StillNoiseError};
+
 /// Allan deviation curves of three axes.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct AllanCurve {
@@ -189,53 +192,6 @@ pub fn noise_params(curve: &AllanCurve) -> NoiseParams {
     p
 }
 
-/// A simulator sensor profile that imitates the measured noise: the 3DM-GX1 defaults with the white
-/// noise, the bias drift and the sample rate replaced. White noise of density N gives a per-sample
-/// standard deviation N·√fs (σ(τ) = N/√τ at τ = 1/fs); the simulator's bounded drift process gets a
-/// standard deviation equal to the bias instability (its bound is three of them). The simulator has one
-/// noise level for all axes: the mean over the axes is used.
-pub fn simulator_profile(params: &NoiseParams, sample_rate_hz: f64) -> crate::simulate::SensorProfile {
-    let g = crate::input::recording::STANDARD_GRAVITY;
-    let mean = |v: &[f64; 3]| (v[0] + v[1] + v[2]) / 3.0;
-    crate::simulate::SensorProfile {
-        noise_g: mean(&params.noise_density) * sample_rate_hz.sqrt() / g,
-        bias_drift_g: 3.0 * mean(&params.bias_instability) / g,
-        sample_rate_hz,
-        ..crate::simulate::SensorProfile::default()
-    }
-}
-
-/// The log-log figure of the three curves with the fitted −½ lines (noise density read-off).
-#[cfg(feature = "plot")]
-pub fn allan_figure(curve: &AllanCurve, params: &NoiseParams, title: &str) -> crate::report::plot::LinePlot {
-    use crate::report::plot::{LinePlot, LineStyle, Rgb, Series};
-    let mut plot = LinePlot::new(title, "τ (s)", "Allan deviation σ(τ) (m/s²)")
-        .log_x()
-        .log_y();
-    for a in 0..3 {
-        let axis = ["x", "y", "z"][a];
-        let color = Rgb::palette(a);
-        plot = plot.series(Series::new(axis, curve.tau_s.clone(), curve.adev[a].clone()).color(color));
-        // N/√τ, the white-noise asymptote whose value at τ = 1 s is the noise density.
-        let fit: Vec<f64> = curve
-            .tau_s
-            .iter()
-            .map(|t| params.noise_density[a] / t.sqrt())
-            .collect();
-        plot = plot.series(
-            Series::new(
-                format!("{axis}: N = {:.2e} m/s²/√Hz", params.noise_density[a]),
-                curve.tau_s.clone(),
-                fit,
-            )
-            .color(color)
-            .style(LineStyle::Dashed)
-            .width(1),
-        );
-    }
-    plot
-}
-
 /// Writes the curve as CSV: `tau_s,adev_x,adev_y,adev_z`.
 pub fn write_curve_csv<W: std::io::Write>(curve: &AllanCurve, mut out: W) -> std::io::Result<()> {
     writeln!(out, "tau_s,adev_x,adev_y,adev_z")?;
@@ -280,23 +236,6 @@ mod tests {
             let s0 = curve.adev[a][0] * (curve.tau_s[0]).sqrt();
             assert!((s0 / density[a] - 1.0).abs() < 0.05);
         }
-    }
-
-    #[test]
-    fn figure_draws_as_svg() {
-        use crate::report::plot::Figure;
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
-        let d = Normal::new(0.0, 0.01).unwrap();
-        let axes: [Vec<f64>; 3] = std::array::from_fn(|_| (0..2000).map(|_| d.sample(&mut rng)).collect());
-        let curve = allan_deviation(&axes, 0.01, 10).unwrap();
-        let svg = allan_figure(&curve, &noise_params(&curve), "test")
-            .to_svg()
-            .unwrap();
-        assert!(
-            svg.starts_with("<svg") && svg.contains("m/s²/√Hz"),
-            "{}",
-            &svg[..200.min(svg.len())]
-        );
     }
 
     #[test]

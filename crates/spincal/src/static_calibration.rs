@@ -1,0 +1,274 @@
+//! The classic calibration from still poses, whole: still intervals (the file's section labels, or
+//! moving-variance detection), the 6, 9 or 12-parameter fit, and, when a gyro samples beside the
+//! recording, the gyroscope from those poses and the rotations between them. `spincal static` and
+//! Python's `static_calibration` make this one call.
+
+use serde::Serialize;
+
+use crate::correctors::gyro::{GyroInputUnit, GyroModel};
+use crate::correctors::gyro_poses::{fit_gyro_poses, still_poses, GyroPoseFit, GyroPoseOptions};
+use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
+use crate::correctors::static_cal::{
+    fit_static, pose_means, spread_about, StaticCalError, StaticFit, StaticFitOptions, StaticModel,
+};
+use crate::correctors::static_detect::{
+    detect_static, labelled_intervals, StaticDetectError, StaticOptions, StillInterval,
+};
+use crate::input::gyro_file::GyroColumns;
+use crate::input::recording::Recording;
+
+/// How a still recording is calibrated.
+#[derive(Debug, Clone)]
+pub struct StaticSettings {
+    pub model: StaticModel,
+    /// Local gravity, m/s².
+    pub gravity_mps2: f64,
+    /// Still intervals by moving-variance detection (used when the file has no section labels, or
+    /// `detect` is set).
+    pub detection: StaticOptions,
+    /// Find still intervals by detection even when the file labels its sections.
+    pub detect: bool,
+    /// The gyro's fit (its `input_unit` is taken from the gyro columns).
+    pub gyro: GyroPoseOptions,
+}
+
+impl Default for StaticSettings {
+    fn default() -> Self {
+        StaticSettings {
+            model: StaticModel::Misalignment,
+            gravity_mps2: crate::STANDARD_GRAVITY,
+            detection: StaticOptions::default(),
+            detect: false,
+            gyro: GyroPoseOptions::default(),
+        }
+    }
+}
+
+/// What is calibrated: a recording (raw counts or m/s²), its section labels when the file has
+/// them, and the gyro sampled beside it.
+#[derive(Debug, Clone, Copy)]
+pub struct StillRecording<'a> {
+    pub recording: &'a Recording,
+    /// `accel_mps2` holds raw counts.
+    pub raw_counts: bool,
+    /// Per-sample section labels (imucal's `part`): every section but `*rot*` is still.
+    pub labels: Option<&'a [String]>,
+    pub gyro: Option<&'a GyroColumns>,
+    /// The gyro was asked for (a file of its own): its failure is an error, not a note.
+    pub gyro_required: bool,
+}
+
+/// The gyroscope's calibration, or why the recording's gyro could not be calibrated.
+#[derive(Debug, Clone, Serialize)]
+pub struct GyroCalibration {
+    pub source: String,
+    pub input_unit: String,
+    /// The fit, when it succeeded.
+    pub fit: Option<GyroPoseFit>,
+    /// Why the recording's own gyro columns could not be calibrated.
+    pub error: Option<String>,
+}
+
+/// Everything the calibration found.
+#[derive(Debug, Clone, Serialize)]
+pub struct StaticCalibration {
+    /// `section labels (all but *rot*)` or `moving-variance detection`.
+    pub intervals_from: String,
+    pub intervals: Vec<StillInterval>,
+    /// RMS of |mean| − g before calibration (only when the input is already m/s²).
+    pub rms_before_mps2: Option<f64>,
+    pub fit: StaticFit,
+    /// The gyroscope's calibration, when there is a gyro.
+    pub gyro: Option<GyroCalibration>,
+}
+
+impl StaticCalibration {
+    /// The gyro model, when the gyro was calibrated.
+    pub fn gyro_model(&self) -> Option<&GyroModel> {
+        self.gyro.as_ref()?.fit.as_ref().map(|f| &f.model)
+    }
+
+    /// The versioned corrector file `spincal correct` applies: the static calibration and the
+    /// gyro's.
+    pub fn corrector_file(&self) -> CorrectorFile {
+        let mut file = CorrectorFile::new(CorrectorModel::Static(Box::new(self.fit.calibration.clone())));
+        file.gyro = self.gyro_model().cloned();
+        file
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum StaticCalibrationError {
+    #[error("detecting still intervals: {0}")]
+    Detection(#[from] StaticDetectError),
+    #[error("fitting {intervals} still intervals from {from}: {source}")]
+    Fit {
+        intervals: usize,
+        from: String,
+        #[source]
+        source: StaticCalError,
+    },
+    #[error("calibrating the gyroscope of {source_name}: {reason}")]
+    Gyro { source_name: String, reason: String },
+}
+
+/// Calibrates a still recording (see the module's documentation).
+pub fn calibrate_static(
+    input: &StillRecording<'_>,
+    settings: &StaticSettings,
+) -> Result<StaticCalibration, StaticCalibrationError> {
+    let rec = input.recording;
+    let (intervals, from) = match (input.labels, settings.detect) {
+        (Some(labels), false) => (
+            labelled_intervals(&rec.time_s, &rec.accel_mps2, labels, |l| !l.contains("rot")),
+            "section labels (all but *rot*)",
+        ),
+        _ => (
+            detect_static(&rec.time_s, &rec.accel_mps2, &settings.detection)?.intervals,
+            "moving-variance detection",
+        ),
+    };
+    let means = pose_means(&intervals);
+    let fit = fit_static(
+        &means,
+        &StaticFitOptions {
+            model: settings.model,
+            gravity_mps2: settings.gravity_mps2,
+            input_unit: if input.raw_counts { "counts" } else { "m/s^2" }.into(),
+        },
+    )
+    .map_err(|source| StaticCalibrationError::Fit {
+        intervals: intervals.len(),
+        from: from.to_string(),
+        source,
+    })?;
+    let rms_before_mps2 = (!input.raw_counts).then(|| {
+        let norms: Vec<f64> = means
+            .iter()
+            .map(|m| (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt())
+            .collect();
+        spread_about(&norms, settings.gravity_mps2)
+    });
+    let gyro = match input.gyro {
+        Some(columns) => {
+            let options = GyroPoseOptions {
+                input_unit: if columns.counts {
+                    GyroInputUnit::Counts
+                } else {
+                    GyroInputUnit::RadPerS
+                },
+                ..settings.gyro.clone()
+            };
+            let poses = still_poses(&intervals, &fit.calibration);
+            let result = fit_gyro_poses(&rec.time_s, &columns.values, &poses, &options)
+                .map_err(|e| e.to_string())
+                .and_then(|g| match g.model.validate() {
+                    Ok(()) => Ok(g),
+                    Err(e) => Err(format!(
+                        "the fitted gyro model is not usable: {}: {}",
+                        e.field, e.reason
+                    )),
+                });
+            if let (Err(reason), true) = (&result, input.gyro_required) {
+                return Err(StaticCalibrationError::Gyro {
+                    source_name: columns.source.clone(),
+                    reason: reason.clone(),
+                });
+            }
+            Some(GyroCalibration {
+                source: columns.source.clone(),
+                input_unit: options.input_unit.name().to_string(),
+                fit: result.as_ref().ok().cloned(),
+                error: result.err(),
+            })
+        }
+        None => None,
+    };
+    Ok(StaticCalibration {
+        intervals_from: from.to_string(),
+        intervals,
+        rms_before_mps2,
+        fit,
+        gyro,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simulate::gyro_poses::{simulate_pose_session, PoseSessionSetup};
+
+    fn session(seed: u64) -> (Recording, GyroColumns, PoseSessionSetup) {
+        let setup = PoseSessionSetup::random(seed);
+        let s = simulate_pose_session(&setup, seed).unwrap();
+        let recording = Recording {
+            time_s: s.time_s,
+            accel_mps2: s.accel,
+            gyro_radps: None,
+            temperature_c: None,
+            source: Default::default(),
+        };
+        let gyro = GyroColumns {
+            values: s.gyro,
+            counts: false,
+            source: "gyro.txt".into(),
+        };
+        (recording, gyro, setup)
+    }
+
+    #[test]
+    fn the_pipeline_recovers_the_accelerometer_and_the_gyro_and_saves_both() {
+        let (recording, gyro, setup) = session(3);
+        let input = StillRecording {
+            recording: &recording,
+            raw_counts: true,
+            labels: None,
+            gyro: Some(&gyro),
+            gyro_required: true,
+        };
+        let settings = StaticSettings {
+            gravity_mps2: setup.gravity_mps2,
+            ..StaticSettings::default()
+        };
+        let cal = calibrate_static(&input, &settings).unwrap();
+        assert_eq!(cal.intervals_from, "moving-variance detection");
+        assert!(cal.intervals.len() >= 20, "{} intervals", cal.intervals.len());
+        assert_eq!(cal.rms_before_mps2, None, "raw counts have no |a| before");
+        for k in 0..3 {
+            // 0.5 count of 33 000 is about 1 mg.
+            let bias_error = cal.fit.calibration.bias[k] - setup.accel.bias[k];
+            assert!(
+                bias_error.abs() < 0.5,
+                "accel bias {k} off by {bias_error} counts"
+            );
+            let gyro_error = cal.gyro_model().unwrap().bias_radps[k] - setup.gyro.bias_radps[k];
+            assert!(gyro_error.abs() < 2e-3, "gyro bias {k} off by {gyro_error} rad/s");
+        }
+        let file = cal.corrector_file();
+        assert!(matches!(file.corrector, CorrectorModel::Static(_)));
+        assert_eq!(file.gyro.as_ref(), cal.gyro_model());
+    }
+
+    #[test]
+    fn a_gyro_that_cannot_be_calibrated_is_an_error_only_when_asked_for() {
+        let (recording, mut gyro, _) = session(4);
+        // A gyro that never turns: no rotation to calibrate K from.
+        gyro.values = std::array::from_fn(|_| vec![0.0; recording.len()]);
+        let mut input = StillRecording {
+            recording: &recording,
+            raw_counts: true,
+            labels: None,
+            gyro: Some(&gyro),
+            gyro_required: false,
+        };
+        let settings = StaticSettings::default();
+        let noted = calibrate_static(&input, &settings).unwrap();
+        let report = noted.gyro.as_ref().unwrap();
+        assert!(report.fit.is_none() && report.error.is_some(), "{report:?}");
+        assert!(noted.corrector_file().gyro.is_none());
+        input.gyro_required = true;
+        let err = calibrate_static(&input, &settings).unwrap_err().to_string();
+        assert!(err.contains("calibrating the gyroscope of gyro.txt"), "{err}");
+    }
+}
