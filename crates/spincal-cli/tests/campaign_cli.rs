@@ -57,19 +57,36 @@ fn simulated_campaign_calibrates_end_to_end() {
         .collect();
     assert_eq!(rows.len(), n);
     let rms = |h: &serde_json::Value| {
-        let v: Vec<f64> = h["physics"]["rms_mps2"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+        let v: Vec<f64> = h["physics"]["rms_mps2"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
         (v.iter().map(|x| x * x).sum::<f64>() / 3.0).sqrt()
     };
     let mean = rows.iter().map(|h| rms(h)).sum::<f64>() / n as f64;
-    let worst = rows.iter().map(|h| h["physics"]["ratio"].as_f64().unwrap()).fold(0.0, f64::max);
-    assert!(worst < 1.0, "the saved corrector is worse than uncorrected somewhere: {worst}");
+    let worst = rows
+        .iter()
+        .map(|h| h["physics"]["ratio"].as_f64().unwrap())
+        .fold(0.0, f64::max);
     assert!(
-        verdict.contains(&format!("it leaves {mean:.4} m/s² mean RMS, at worst {worst:.2}× the uncorrected residual")),
+        worst < 1.0,
+        "the saved corrector is worse than uncorrected somewhere: {worst}"
+    );
+    assert!(
+        verdict.contains(&format!(
+            "it leaves {mean:.4} m/s² mean RMS, at worst {worst:.2}× the uncorrected residual"
+        )),
         "{verdict} (mean {mean:.4}, worst {worst:.2})"
     );
     let check = &results["truth_check"];
     let would = check["would_save"].as_str().unwrap_or("nothing");
-    let agrees = if check["agrees"].as_bool().unwrap() { "agrees" } else { "disagrees" };
+    let agrees = if check["agrees"].as_bool().unwrap() {
+        "agrees"
+    } else {
+        "disagrees"
+    };
     assert!(
         verdict.contains(&format!("truth would have saved {would} ({agrees})")),
         "{verdict}"

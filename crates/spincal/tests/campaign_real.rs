@@ -106,7 +106,10 @@ fn mpu6050_held_out_poses_physical_model_against_the_authors() {
             terms.describe()
         );
         // Held out, the model removes most of the uncorrected error.
-        assert!(held_out < 0.5 * uncorrected_rms, "{held_out} vs uncorrected {uncorrected_rms}");
+        assert!(
+            held_out < 0.5 * uncorrected_rms,
+            "{held_out} vs uncorrected {uncorrected_rms}"
+        );
         // On the poses both fitted, the physical model explains gravity better than theirs.
         assert!(in_sample < authors_rms, "{in_sample} vs {authors_rms}");
     }

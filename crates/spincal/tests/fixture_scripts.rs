@@ -29,7 +29,9 @@ fn sha256(path: &Path) -> String {
 fn peer_fixtures_record_the_hash_of_the_scripts_that_made_them() {
     let mut stale = Vec::new();
     for name in FIXTURES {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(name);
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/fixtures")
+            .join(name);
         let fixture: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
         let scripts = fixture["scripts_sha256"]

@@ -210,7 +210,11 @@ fn bj_agrees_with_the_peers() {
         let ours = [test.simulation.fit_percent, test.one_step.fit_percent];
         let peer = |name: &str| -> [f64; 2] {
             let p = &case["peers"][name];
-            ["validation_simulation_fit_percent", "validation_one_step_fit_percent"].map(|k| {
+            [
+                "validation_simulation_fit_percent",
+                "validation_one_step_fit_percent",
+            ]
+            .map(|k| {
                 p[k].as_f64()
                     .filter(|v| v.is_finite())
                     .unwrap_or_else(|| panic!("{orders:?}: {name}'s {k} is {} in bj_peers.json", p[k]))
