@@ -7,6 +7,7 @@ Subcommands:
   epoch RUST_TIMES.json FAERGEMM.json ROUNDS PYRENN_ROUNDS K EXPORT.json...
                                          time pyrenn and numpy epochs, compare with spincal's
 """
+import hashlib
 import json
 import os
 import sys
@@ -14,6 +15,8 @@ import time
 
 import numpy as np
 import pyrenn
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 
 
 # ---------------------------------------------------------------- weights and data
@@ -152,6 +155,11 @@ def peer(export_path, epochs, fixture_path):
         "pyrenn_final_mse": final_mse,
         "pyrenn_mse_history": history,
         "pyrenn_seconds": seconds,
+        # What made it; the Rust test fixture_scripts fails when these change unregenerated.
+        "scripts_sha256": {
+            n: hashlib.sha256(open(os.path.join(ROOT, n), "rb").read()).hexdigest()
+            for n in ["bench/ann/bench.py", "bench/ann/run.sh"]
+        },
     }
     with open(fixture_path, "w") as f:
         json.dump(fixture, f)

@@ -21,9 +21,10 @@ target=${CARGO_TARGET_DIR:-$(pwd)/target}
 out=bench/out/ann
 mkdir -p "$out"
 # The venv is shared with the turntable bench: install what this bench needs when it is missing.
-if ! bench/.venv/bin/python -c "import numpy, pyrenn" 2>/dev/null; then
+# Pinned to the versions pyrenn_peer.json records.
+if ! bench/.venv/bin/python -c "import numpy, pyrenn; assert numpy.__version__ == '2.4.6'" 2>/dev/null; then
     [ -x bench/.venv/bin/python ] || python3 -m venv bench/.venv
-    bench/.venv/bin/pip install -q numpy pyrenn
+    bench/.venv/bin/pip install -q numpy==2.4.6 pyrenn==0.1
 fi
 py=bench/.venv/bin/python
 pin=(taskset -c "$cpu")

@@ -3,6 +3,7 @@
 Run with bench/.venv-sysid (see bench/sysid/setup.sh). Deterministic: fixed numpy seeds; data is
 written at full precision (%.17g) so the Rust tests read exactly the same numbers.
 """
+import hashlib
 import json
 import os
 import sys
@@ -16,6 +17,12 @@ import peers  # noqa: E402
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 OUT = os.path.join(ROOT, "crates", "spincal", "tests", "fixtures", "sysid")
 SHARED = os.environ.get("SPINCAL_SHARED_DATA", os.path.join(ROOT, "..", "shared", "data"))
+
+
+def scripts_sha256():
+    """What made the fixtures; the Rust test fixture_scripts fails when these change unregenerated."""
+    names = ["bench/sysid/make_fixtures.py", "bench/sysid/peers.py", "bench/sysid/setup.sh"]
+    return {n: hashlib.sha256(open(os.path.join(ROOT, n), "rb").read()).hexdigest() for n in names}
 
 
 def write_csv(path, header, cols):
@@ -102,6 +109,7 @@ def bj_fixture():
 
     return {
         "data": "bj_data.csv: first 2000 samples training, next 2000 validation; zero initial conditions",
+        "one_step": "predictor D/C with C's roots outside the unit circle reflected inside (peers.minimum_phase)",
         "true": peers.BJ_TRUE,
         "versions": {p: md.version(p) for p in ["pysib", "sippy-unipi", "numpy", "scipy"]},
         "cases": results,
@@ -113,6 +121,7 @@ def main():
     for name, fn in [("arx_lstsq.json", arx_fixture), ("silverbox_arx.json", silverbox_fixture), ("bj_peers.json", bj_fixture)]:
         value = fn()
         if value is not None:
+            value["scripts_sha256"] = scripts_sha256()
             with open(os.path.join(OUT, name), "w") as f:
                 json.dump(value, f, indent=1)
             print("wrote", name)

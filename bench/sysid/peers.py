@@ -67,11 +67,24 @@ def fit_percent(y, yh):
     return 100.0 * (1.0 - np.linalg.norm(y - yh) / np.linalg.norm(y - y.mean()))
 
 
+def minimum_phase(c):
+    """The monic polynomial with C's roots outside the unit circle reflected inside (r -> 1/conj r):
+    the same noise spectrum up to its variance, and the one whose predictor D/C is stable. A no-op
+    on a minimum-phase C (pysib's, spincal's); SIPPY's C can leave the unit circle (RESULTS.md)."""
+    c = np.trim_zeros(np.asarray(c, dtype=float), "b")
+    roots = np.roots(c)
+    if np.all(np.abs(roots) < 1.0):
+        return c
+    roots = np.where(np.abs(roots) > 1.0, 1.0 / np.conj(roots), roots)
+    return np.real(np.poly(roots))
+
+
 def bj_scores(m, u, y):
-    """Simulation and one-step fit % of an idpoly BJ model from zero initial conditions."""
+    """Simulation and one-step fit % of an idpoly BJ model from zero initial conditions; the
+    one-step predictor uses C's minimum-phase factor (see minimum_phase)."""
     sim = lfilter(m["B"], m["F"], u)
     # e = D/C (y - B/F u), prediction = y - e
-    e = lfilter(m["D"], m["C"], y - sim)
+    e = lfilter(m["D"], minimum_phase(m["C"]), y - sim)
     pred = y - e
     return fit_percent(y, sim), fit_percent(y, pred)
 

@@ -5,6 +5,7 @@
 use spincal::campaign::joint::{fit_joint, JointSettings, SensorTerms};
 use spincal::campaign::params::Params;
 use spincal::campaign::prepare::prepare;
+use spincal::campaign::verdict::Comparison;
 use spincal::campaign::{calibrate_campaign, CandidateKind};
 use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
 use spincal::correctors::physical::{quadratic_from_datasheet, PhysicalCorrector};
@@ -146,6 +147,41 @@ fn a_single_recording_saves_nothing_and_says_what_to_record() {
     assert!(out.result.conditions.is_empty());
 }
 
+/// Whether a held-out comparison is significantly worse than uncorrected, recomputed from its
+/// reported RMS values, ratio standard error and block count; `None` within 5 % of the threshold.
+fn judged_worse(p: &Comparison) -> Option<bool> {
+    let mean_square = |rms: [f64; 3]| rms.iter().map(|v| v * v).sum::<f64>() / 3.0;
+    let (ms_c, ms_u) = (mean_square(p.rms_mps2), mean_square(p.uncorrected_rms_mps2));
+    let r = (ms_c / ms_u).sqrt();
+    assert!(
+        (r - p.ratio).abs() <= 1e-9 * r,
+        "ratio {} vs RMS values {r}",
+        p.ratio
+    );
+    // The standard error of ms_c − ms_u from the ratio's (delta method: se_r = se / (2 r ms_u)).
+    let z = (ms_c - ms_u) / (2.0 * r * ms_u * p.ratio_se);
+    if z <= 0.0 {
+        return Some(false);
+    }
+    assert!(p.blocks >= 2, "{p:?}");
+    // Student's t quantile at 1 − 1e-3 by the Cornish–Fisher series in 1/ν about the normal's
+    // 3.0902 (Abramowitz & Stegun 26.7.5), not the library's bisection.
+    let (x, nu) = (3.090_232_306_167_813_f64, (p.blocks - 1) as f64);
+    let g = [
+        (x.powi(3) + x) / 4.0,
+        (5.0 * x.powi(5) + 16.0 * x.powi(3) + 3.0 * x) / 96.0,
+        (3.0 * x.powi(7) + 19.0 * x.powi(5) + 17.0 * x.powi(3) - 15.0 * x) / 384.0,
+        (79.0 * x.powi(9) + 776.0 * x.powi(7) + 1482.0 * x.powi(5) - 1920.0 * x.powi(3) - 945.0 * x)
+            / 92160.0,
+    ];
+    let t = x + g
+        .iter()
+        .enumerate()
+        .map(|(k, gk)| gk / nu.powi(k as i32 + 1))
+        .sum::<f64>();
+    ((z / t - 1.0).abs() > 0.05 && nu >= 10.0).then_some(z > t)
+}
+
 /// Whatever is saved was never significantly worse than no correction on any held-out condition
 /// by physics, the campaign's physical model (which removes most of the error) is saved, truth
 /// agrees with the choice, and a saved physical corrector survives the model file.
@@ -175,6 +211,24 @@ fn a_saved_corrector_held_on_every_condition_and_round_trips() {
         assert_eq!(rows.len(), out.result.conditions.len());
         let worse = rows.iter().any(|h| h.physics.as_ref().is_none_or(|p| p.worse));
         let savable = summary.candidate != "arx";
+        // Eligibility from the reported numbers alone, by the documented rule (verdict.rs:
+        // worse when the mean-square difference exceeds t(1 − 1e-3, blocks − 1) standard errors).
+        let judged: Vec<Option<bool>> = rows
+            .iter()
+            .map(|h| h.physics.as_ref().and_then(judged_worse))
+            .collect();
+        eprintln!("{}: judged worse per condition {judged:?}", summary.candidate);
+        if judged.iter().all(Option::is_some) {
+            let worse_here = judged.contains(&Some(true));
+            assert_eq!(summary.eligible, !worse_here && savable, "{summary:?} {rows:?}");
+        } else {
+            // Within 5 % of the threshold the approximation below cannot decide; then only a
+            // clearly worse condition is checked.
+            assert!(
+                !(summary.eligible && judged.contains(&Some(true))),
+                "{summary:?} {rows:?}"
+            );
+        }
         assert_eq!(summary.eligible, !worse && savable, "{summary:?}");
         if !savable {
             // The dynamic model is scored on every held-out condition, and its verdict says why

@@ -12,6 +12,7 @@ mod bags;
 mod campaign;
 mod campaign_gyro;
 mod campaign_real;
+mod fixture_scripts;
 mod fleet;
 mod flight_stacks;
 mod gyro_poses;
