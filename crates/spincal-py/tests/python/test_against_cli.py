@@ -123,6 +123,7 @@ def test_campaign_calibration_gives_the_clis_results_json(tmp_path, cli):
     # The joint fit finds the simulation's true bias within a few of its own standard errors.
     for k, axis in enumerate("xyz"):
         fitted = by_name[f"bias_{axis}"]
+        assert fitted.stderr is not None, (axis, fitted)
         assert abs(fitted.value - truth.sensor.bias_mps2[k]) < 4 * fitted.stderr, (axis, fitted, truth.sensor.bias_mps2)
     cal.write(tmp_path / "py")
     assert json.loads((tmp_path / "py" / "results.json").read_text())["unit"] == cli_result["unit"]
