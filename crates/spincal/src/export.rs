@@ -10,10 +10,9 @@
 
 use std::fmt::Write as _;
 
-use crate::correctors::gyro::{inverse, GyroModel};
+use crate::correctors::gyro::GyroModel;
 use crate::correctors::physical::SensorModel;
-
-type M3 = [[f64; 3]; 3];
+use crate::geometry::{from_row_major, inverse, mul, transpose, M3};
 
 /// The noise figures Kalibr's IMU model takes (one value per sensor, continuous time).
 #[derive(Debug, Clone, PartialEq)]
@@ -146,7 +145,7 @@ impl ImuTkCalib {
                 values.len()
             )));
         }
-        let m = |o: usize| -> M3 { std::array::from_fn(|r| std::array::from_fn(|c| values[o + 3 * r + c])) };
+        let m = |o: usize| from_row_major(&values[o..]);
         let scale = m(9);
         for r in 0..3 {
             for c in 0..3 {
@@ -218,8 +217,7 @@ pub fn imu_tk_calibs(
     let gyro = match gyro {
         Some(g) => {
             let k_inv = inverse(&g.sensitivity)?;
-            let qt_k_inv: M3 =
-                std::array::from_fn(|r| std::array::from_fn(|c| (0..3).map(|i| q[i][r] * k_inv[i][c]).sum()));
+            let qt_k_inv = mul(&transpose(&q), &k_inv);
             Some(ImuTkCalib::from_map(&qt_k_inv, g.bias_radps))
         }
         None => None,

@@ -19,6 +19,7 @@ pub mod correctors;
 pub mod export;
 pub mod firmware;
 pub mod fleet;
+pub(crate) mod geometry;
 pub mod input;
 pub mod metrics;
 pub mod optim;

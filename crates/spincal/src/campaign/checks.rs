@@ -9,6 +9,7 @@
 
 use crate::campaign::joint::{mounting_matrix, RunInput};
 use crate::campaign::prepare::{Prepared, UnitRecording};
+use crate::geometry::norm;
 use crate::input::recording::{Recording, STANDARD_GRAVITY};
 use crate::turntable::spectrum::{estimate_rotation_rate, RateSearch};
 
@@ -45,7 +46,7 @@ pub fn check_recordings(units: &[UnitRecording]) -> Result<(), InputError> {
             continue;
         };
         let mut magnitudes: Vec<f64> = (0..gyro[0].len())
-            .map(|s| norm([gyro[0][s], gyro[1][s], gyro[2][s]]))
+            .map(|s| norm(&[gyro[0][s], gyro[1][s], gyro[2][s]]))
             .filter(|v| v.is_finite())
             .collect();
         if magnitudes.is_empty() {
@@ -71,16 +72,12 @@ pub fn check_recordings(units: &[UnitRecording]) -> Result<(), InputError> {
 /// The checks on the poses and runs cut from the recordings; the first failure is returned.
 pub fn check_prepared(prepared: &Prepared, gravity: f64) -> Result<(), InputError> {
     for pose in &prepared.poses {
-        check_magnitude(&pose.name, norm(pose.mean_mps2), gravity, "still pose")?;
+        check_magnitude(&pose.name, norm(&pose.mean_mps2), gravity, "still pose")?;
     }
     for run in &prepared.runs {
         check_run(run, gravity)?;
     }
     Ok(())
-}
-
-fn norm(v: [f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 fn check_magnitude(name: &str, magnitude: f64, expected: f64, what: &str) -> Result<(), InputError> {
@@ -116,7 +113,7 @@ fn check_run(run: &RunInput, gravity: f64) -> Result<(), InputError> {
     let q = mounting_matrix(entry.out, entry.up);
     let up: [f64; 3] = std::array::from_fn(|r| q[r][2]);
     let along = (0..3).map(|k| mean[k] * up[k]).sum::<f64>();
-    let magnitude = norm(mean);
+    let magnitude = norm(&mean);
     let omega = entry.rpm * std::f64::consts::PI / 30.0;
     let expected = (gravity * gravity + (omega * omega * entry.radius_m).powi(2)).sqrt();
     check_magnitude(&run.name, magnitude, expected, "turntable run's mean")?;

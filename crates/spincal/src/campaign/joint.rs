@@ -36,6 +36,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::campaign::file::{SignedAxis, TurntableEntry};
 use crate::correctors::physical::{SensorModel, SENSOR_PARAMS, SENSOR_PARAM_NAMES};
+use crate::geometry::{apply, cross, dot, mul, unit, M3};
 use crate::optim::{golden_section_max, levenberg_marquardt_normal, LmOptions, LmStop, NormalEquations};
 use crate::progress::Observer;
 use crate::turntable::model::{for_each_rotation, Direction};
@@ -386,7 +387,7 @@ pub struct JointFit {
 pub(crate) struct FitState {
     pub params: Vec<f64>,
     pub directions: Vec<f64>,
-    pub mountings: Vec<[[f64; 3]; 3]>,
+    pub mountings: Vec<M3>,
     pub gravity: f64,
     /// The robust covariance over the free parameters `free_index` (in that order).
     pub covariance: Option<Mat<f64>>,
@@ -555,25 +556,11 @@ pub enum JointError {
 }
 
 /// Body ← mounting-frame rotation: columns are `out`, `up × out` and `up` in sensor axes.
-pub fn mounting_matrix(out: SignedAxis, up: SignedAxis) -> [[f64; 3]; 3] {
+pub fn mounting_matrix(out: SignedAxis, up: SignedAxis) -> M3 {
     let o = out.vector();
     let u = up.vector();
-    let y = [
-        u[1] * o[2] - u[2] * o[1],
-        u[2] * o[0] - u[0] * o[2],
-        u[0] * o[1] - u[1] * o[0],
-    ];
+    let y = cross(&u, &o);
     std::array::from_fn(|r| [o[r], y[r], u[r]])
-}
-
-type M3 = [[f64; 3]; 3];
-
-fn mul(a: &M3, b: &M3) -> M3 {
-    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
-}
-
-fn apply(a: &M3, v: &[f64; 3]) -> [f64; 3] {
-    std::array::from_fn(|i| a[i][0] * v[0] + a[i][1] * v[1] + a[i][2] * v[2])
 }
 
 fn rot_x(e: f64) -> (M3, M3) {
@@ -818,13 +805,9 @@ impl PoseFrame {
             .unwrap_or(0);
         let mut a = [0.0; 3];
         a[k] = 1.0;
-        let dot = a[0] * w0[0] + a[1] * w0[1] + a[2] * w0[2];
-        let e1 = normalise([a[0] - dot * w0[0], a[1] - dot * w0[1], a[2] - dot * w0[2]]);
-        let e2 = [
-            w0[1] * e1[2] - w0[2] * e1[1],
-            w0[2] * e1[0] - w0[0] * e1[2],
-            w0[0] * e1[1] - w0[1] * e1[0],
-        ];
+        let along = dot(&a, &w0);
+        let e1 = unit([a[0] - along * w0[0], a[1] - along * w0[1], a[2] - along * w0[2]]);
+        let e2 = cross(&w0, &e1);
         PoseFrame { w0, e1, e2 }
     }
 
@@ -839,11 +822,6 @@ impl PoseFrame {
         };
         (hat.map(|v| g * v), [d(&self.e1), d(&self.e2)])
     }
-}
-
-fn normalise(v: [f64; 3]) -> [f64; 3] {
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    v.map(|x| x / n)
 }
 
 /// The problem as the optimiser sees it.

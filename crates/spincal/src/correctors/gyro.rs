@@ -7,8 +7,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::correctors::corrector::{check_finite, ModelError};
-
-type M3 = [[f64; 3]; 3];
+use crate::geometry::{determinant, inverse, M3};
 
 /// What a gyroscope's readings m are in: rad/s (the model corrects small errors) or raw counts
 /// (the model also carries the conversion: b in counts, K in counts per rad/s).
@@ -136,24 +135,4 @@ impl GyroCorrector {
         let d: [f64; 3] = std::array::from_fn(|k| m[k] - self.bias[k]);
         std::array::from_fn(|i| (0..3).map(|j| self.inverse[i][j] * d[j]).sum())
     }
-}
-
-fn determinant(a: &M3) -> f64 {
-    a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
-        + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
-}
-
-/// The inverse of a 3×3 matrix; `None` when it is (nearly) singular.
-pub(crate) fn inverse(a: &M3) -> Option<M3> {
-    let det = determinant(a);
-    if !(det.is_finite() && det.abs() > 1e-12) {
-        return None;
-    }
-    let c = |i: usize, j: usize| {
-        let (r0, r1) = ((i + 1) % 3, (i + 2) % 3);
-        let (c0, c1) = ((j + 1) % 3, (j + 2) % 3);
-        a[r0][c0] * a[r1][c1] - a[r0][c1] * a[r1][c0]
-    };
-    // Cyclic cofactors carry their sign; the inverse is the transposed cofactor matrix over det.
-    Some(std::array::from_fn(|i| std::array::from_fn(|j| c(j, i) / det)))
 }

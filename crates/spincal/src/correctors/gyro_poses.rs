@@ -29,13 +29,13 @@
 use faer::MatMut;
 use serde::{Deserialize, Serialize};
 
-use crate::correctors::gyro::{inverse, GyroInputUnit, GyroModel};
+use crate::correctors::gyro::{GyroInputUnit, GyroModel};
 use crate::correctors::static_cal::StaticCalibration;
 use crate::correctors::static_detect::StillInterval;
+use crate::geometry::{
+    apply, cross, dot, from_row_major, inverse, quat_exp, quat_mul, rotate_inverse, Quat, IDENTITY, M3,
+};
 use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop};
-
-type M3 = [[f64; 3]; 3];
-type Quat = [f64; 4];
 
 const AXES: [char; 3] = ['x', 'y', 'z'];
 
@@ -203,7 +203,7 @@ struct Problem<'a> {
 }
 
 fn params_to_k(p: &[f64]) -> M3 {
-    std::array::from_fn(|i| std::array::from_fn(|j| p[3 * i + j]))
+    from_row_major(p)
 }
 
 /// The rotation of `m`'s increments under the corrector `a` = K⁻¹, as a unit quaternion taking
@@ -211,7 +211,7 @@ fn params_to_k(p: &[f64]) -> M3 {
 fn integrate(a: &M3, increments: &[[f64; 3]]) -> Quat {
     let mut q = [1.0, 0.0, 0.0, 0.0];
     for d in increments {
-        let phi: [f64; 3] = std::array::from_fn(|i| a[i][0] * d[0] + a[i][1] * d[1] + a[i][2] * d[2]);
+        let phi = apply(a, d);
         q = quat_mul(&q, &quat_exp(phi));
     }
     let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -558,7 +558,7 @@ fn check_span(motions: &[Motion], min_share: f64) -> Result<(), GyroPoseError> {
 /// The smallest eigenvalue of a symmetric 3×3 matrix and its unit eigenvector (Jacobi sweeps).
 fn smallest_eigen(m: &M3) -> (f64, [f64; 3]) {
     let mut a = *m;
-    let mut v: M3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let mut v: M3 = IDENTITY;
     for _ in 0..50 {
         let off = a[0][1].abs() + a[0][2].abs() + a[1][2].abs();
         if off < 1e-15 {
@@ -603,71 +603,22 @@ fn covariance_diagonal(jtj: &faer::Mat<f64>) -> Option<Vec<f64>> {
     Some((0..n).map(|i| inv[(i, i)]).collect())
 }
 
-fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
 /// The angle between two vectors, rad (atan2: accurate near 0 and π).
 fn angle_between(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     let c = cross(a, b);
     dot(&c, &c).sqrt().atan2(dot(a, b))
 }
 
-/// Hamilton product a ⊗ b (scalar first).
-pub(crate) fn quat_mul(a: &Quat, b: &Quat) -> Quat {
-    [
-        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
-        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
-        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
-        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
-    ]
-}
-
-/// The unit quaternion of the rotation vector `phi` (rad).
-pub(crate) fn quat_exp(phi: [f64; 3]) -> Quat {
-    let angle = dot(&phi, &phi).sqrt();
-    let half = 0.5 * angle;
-    // sin(x/2)/x, its series below 1e-4 rad.
-    let k = if angle < 1e-4 {
-        0.5 - angle * angle / 48.0
-    } else {
-        half.sin() / angle
-    };
-    [half.cos(), k * phi[0], k * phi[1], k * phi[2]]
-}
-
-/// q v q*: `v` in the frame `q` maps from into the frame it maps to.
-pub(crate) fn rotate(q: &Quat, v: [f64; 3]) -> [f64; 3] {
-    let p = quat_mul(
-        &quat_mul(q, &[0.0, v[0], v[1], v[2]]),
-        &[q[0], -q[1], -q[2], -q[3]],
-    );
-    [p[1], p[2], p[3]]
-}
-
-/// q* v q, the inverse rotation.
-fn rotate_inverse(q: &Quat, v: [f64; 3]) -> [f64; 3] {
-    rotate(&[q[0], -q[1], -q[2], -q[3]], v)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::rotate;
 
     #[test]
     fn quaternion_steps_compose_to_the_rotation_about_one_axis() {
         // 90° about z in 100 steps: x goes to y, so in the end frame the start's x is −y.
         let steps = vec![[0.0, 0.0, std::f64::consts::FRAC_PI_2 / 100.0]; 100];
-        let identity: M3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-        let q = integrate(&identity, &steps);
+        let q = integrate(&IDENTITY, &steps);
         let moved = rotate(&q, [1.0, 0.0, 0.0]);
         assert!((moved[1] - 1.0).abs() < 1e-12, "{moved:?}");
         let seen = rotate_inverse(&q, [1.0, 0.0, 0.0]);

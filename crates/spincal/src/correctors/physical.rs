@@ -20,6 +20,7 @@ use serde::{Deserialize, Serialize};
 use crate::correctors::corrector::{
     check_finite, Axis, CorrectedSample, Corrector, ModelError, SampleCorrector,
 };
+use crate::geometry::M3;
 
 /// Parameters of the sensor model, in the order the joint fit uses.
 pub const SENSOR_PARAMS: usize = 12;
@@ -98,7 +99,7 @@ impl SensorModel {
     }
 
     /// D (I + M): the linear part of the response, u = b + D (I + M) f.
-    pub fn linear_matrix(&self) -> [[f64; 3]; 3] {
+    pub fn linear_matrix(&self) -> M3 {
         let d = self.scale_error.map(|s| 1.0 + s);
         let [m_yx, m_zx, m_zy] = self.misalignment_rad;
         [

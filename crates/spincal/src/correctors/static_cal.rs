@@ -22,6 +22,7 @@ use crate::correctors::corrector::{
     check_finite, Axis, CorrectedSample, Corrector, ModelError, SampleCorrector,
 };
 use crate::correctors::static_detect::StillInterval;
+use crate::geometry::M3;
 use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop};
 
 /// Which parameters are estimated.
@@ -170,7 +171,7 @@ impl StaticCalibration {
     }
 
     /// T, the non-orthogonality matrix.
-    pub fn misalignment_matrix(&self) -> [[f64; 3]; 3] {
+    pub fn misalignment_matrix(&self) -> M3 {
         let [yz, zy, zx] = self.misalignment;
         [[1.0, -yz, zy], [0.0, 1.0, -zx], [0.0, 0.0, 1.0]]
     }
@@ -199,7 +200,7 @@ impl StaticCalibration {
     }
 
     /// The linear part M = T·K (m/s² per input unit), as Kalibr writes it.
-    pub fn linear_matrix(&self) -> [[f64; 3]; 3] {
+    pub fn linear_matrix(&self) -> M3 {
         let t = self.misalignment_matrix();
         std::array::from_fn(|r| std::array::from_fn(|c| t[r][c] * self.scale[c]))
     }

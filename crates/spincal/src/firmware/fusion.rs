@@ -21,8 +21,9 @@
 use serde::Serialize;
 
 use crate::correctors::corrector::Corrector;
-use crate::correctors::gyro::{inverse, GyroInputUnit};
+use crate::correctors::gyro::GyroInputUnit;
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
+use crate::geometry::{inverse, IDENTITY, M3};
 use crate::input::recording::STANDARD_GRAVITY;
 
 /// Grid points per axis of the training box for the largest effect.
@@ -32,7 +33,7 @@ const GRID: usize = 9;
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FusionCalibration {
     /// Row-major 3 × 3.
-    pub misalignment: [[f64; 3]; 3],
+    pub misalignment: M3,
     pub sensitivity: [f64; 3],
     pub offset: [f64; 3],
     /// The unit Fusion's uncalibrated input must be in (`g`, `deg/s`, or the raw `counts`).
@@ -70,12 +71,8 @@ pub struct FusionValues {
     pub gyroscope: Option<FusionCalibration>,
 }
 
-fn identity() -> [[f64; 3]; 3] {
-    [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
-}
-
 /// (I + M)⁻¹ for the strictly lower-triangular misalignment [m_yx, m_zx, m_zy].
-fn unskew([m_yx, m_zx, m_zy]: [f64; 3]) -> [[f64; 3]; 3] {
+fn unskew([m_yx, m_zx, m_zy]: [f64; 3]) -> M3 {
     [
         [1.0, 0.0, 0.0],
         [-m_yx, 1.0, 0.0],
@@ -85,7 +82,7 @@ fn unskew([m_yx, m_zx, m_zy]: [f64; 3]) -> [[f64; 3]; 3] {
 
 /// An accelerometer calibration whose input is m/s² (or counts when `counts`), in Fusion's g.
 fn in_g(
-    misalignment: [[f64; 3]; 3],
+    misalignment: M3,
     sensitivity: [f64; 3],
     offset_mps2_or_counts: [f64; 3],
     counts: bool,
@@ -156,7 +153,7 @@ pub fn fusion_values(file: &CorrectorFile) -> FusionValues {
             (Some(cal), Some((pa.physical.input_range_mps2, what)))
         }
         CorrectorModel::Linear(l) => {
-            let mut a = identity();
+            let mut a = IDENTITY;
             let mut o = [0.0; 3];
             for (i, ai) in l.axes.iter().enumerate() {
                 o[ai.index()] = l.offset_mps2[i];
@@ -311,7 +308,7 @@ fn max_difference(
 }
 
 /// The affine map a = A m + o nearest the corrector (least squares over the grid of `range`).
-fn affine_fit(model: &CorrectorModel, range: &[[f64; 2]; 3]) -> Option<([[f64; 3]; 3], [f64; 3])> {
+fn affine_fit(model: &CorrectorModel, range: &[[f64; 2]; 3]) -> Option<(M3, [f64; 3])> {
     // Normal equations of [m, 1] (4 unknowns per output), solved by Gaussian elimination.
     let mut ata = [[0.0f64; 4]; 4];
     let mut atb = [[0.0f64; 3]; 4];
@@ -347,7 +344,7 @@ fn affine_fit(model: &CorrectorModel, range: &[[f64; 2]; 3]) -> Option<([[f64; 3
         }
     }
     let solution: [[f64; 3]; 4] = std::array::from_fn(|i| atb[i].map(|v| v / ata[i][i]));
-    let a: [[f64; 3]; 3] = std::array::from_fn(|k| std::array::from_fn(|j| solution[j][k]));
+    let a: M3 = std::array::from_fn(|k| std::array::from_fn(|j| solution[j][k]));
     let o = solution[3];
     let finite = a.iter().flatten().chain(&o).all(|v| v.is_finite());
     finite.then_some((a, o))
@@ -363,7 +360,7 @@ pub fn fusion_text(values: &FusionValues) -> String {
         "x-io Fusion calibration: calibrated = M · ((uncalibrated − offset) ⊙ sensitivity)\n\
          (FusionCalibrationInertial; 1 g = {STANDARD_GRAVITY} m/s²)\n"
     );
-    let matrix = |m: &[[f64; 3]; 3]| {
+    let matrix = |m: &M3| {
         m.iter()
             .map(|r| format!("[{:.9}, {:.9}, {:.9}]", r[0], r[1], r[2]))
             .collect::<Vec<_>>()

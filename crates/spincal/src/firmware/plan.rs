@@ -5,12 +5,13 @@
 //! arithmetic on the same bits.
 
 use crate::correctors::ann::{AnnModel, Scaling, EXTRAPOLATION_MARGIN};
-use crate::correctors::gyro::{inverse, GyroModel};
+use crate::correctors::gyro::GyroModel;
 use crate::correctors::linear::LinearModel;
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::correctors::physical::PhysicalCorrector;
 use crate::correctors::physical_ann::InputCoverage;
 use crate::correctors::static_cal::StaticCalibration;
+use crate::geometry::{inverse, M3};
 
 use super::FirmwareError;
 
@@ -159,13 +160,13 @@ pub(crate) struct StaticPlan {
     pub bias: [f64; 3],
     pub scale: [f64; 3],
     pub nonlinearity: [f64; 3],
-    pub matrix: [[f64; 3]; 3],
+    pub matrix: M3,
 }
 
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct GyroPlan {
     pub bias: [f64; 3],
-    pub inverse: [[f64; 3]; 3],
+    pub inverse: M3,
 }
 
 #[derive(Debug, Clone, PartialEq)]

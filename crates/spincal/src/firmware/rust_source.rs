@@ -6,6 +6,7 @@ use std::fmt::Write;
 
 use super::plan::{AccelPlan, CoveragePlan, GyroPlan, NetworkPlan, PhysicalPlan, Plan};
 use super::Precision;
+use crate::geometry::M3;
 
 fn lit(x: f64, precision: Precision) -> String {
     match precision {
@@ -31,7 +32,7 @@ fn three(values: &[f64], precision: Precision) -> String {
     list(&v, precision)
 }
 
-fn matrix3(m: &[[f64; 3]; 3], precision: Precision) -> String {
+fn matrix3(m: &M3, precision: Precision) -> String {
     let rows: Vec<String> = m.iter().map(|r| list(r, precision)).collect();
     format!("[{}]", rows.join(", "))
 }

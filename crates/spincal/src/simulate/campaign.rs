@@ -20,6 +20,7 @@ use crate::campaign::file::{SignedAxis, TurntableEntry};
 use crate::campaign::joint::{mounting_matrix, RUN_PARAMS};
 use crate::correctors::gyro::GyroModel;
 use crate::correctors::physical::{quadratic_from_datasheet, SensorModel};
+use crate::geometry::{cross, dot, norm, unit, M3};
 use crate::input::recording::{Recording, Source, STANDARD_GRAVITY};
 use crate::simulate::{modulated_rotation, SensorProfile, SimulationError};
 use crate::turntable::model::Direction;
@@ -110,7 +111,7 @@ impl Default for GyroProfile {
 
 impl GyroProfile {
     /// K = diag(1 + s)(I + M₆), the reading per unit of true rate.
-    pub fn sensitivity(&self) -> [[f64; 3]; 3] {
+    pub fn sensitivity(&self) -> M3 {
         let m = self.misalignment_deg.map(f64::to_radians);
         let s = self.scale_error_pct.map(|p| 1.0 + p / 100.0);
         [
@@ -524,12 +525,8 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
             [0.0, 1.0, 0.0]
         };
         let dot: f64 = (0..3).map(|k| any[k] * face[k]).sum();
-        let e1 = normalised(std::array::from_fn(|k| any[k] - dot * face[k]));
-        let e2 = [
-            face[1] * e1[2] - face[2] * e1[1],
-            face[2] * e1[0] - face[0] * e1[2],
-            face[0] * e1[1] - face[1] * e1[0],
-        ];
+        let e1 = unit(std::array::from_fn(|k| any[k] - dot * face[k]));
+        let e2 = cross(&face, &e1);
         let dir: [f64; 3] = std::array::from_fn(|k| {
             face[k] * tilt.cos() + tilt.sin() * (azimuth.cos() * e1[k] + azimuth.sin() * e2[k])
         });
@@ -750,24 +747,14 @@ impl SampledRates {
 /// The body's angular rate that turns gravity's direction from `a` to `b` in `dt` about the great
 /// circle through them (dĝ/dt = −ω × ĝ), rad/s.
 fn turn_rate(a: &[f64; 3], b: &[f64; 3], dt: f64) -> [f64; 3] {
-    let (a, b) = (normalised(*a), normalised(*b));
-    let cross = [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ];
-    let sin = (cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]).sqrt();
+    let (a, b) = (unit(*a), unit(*b));
+    let axis = cross(&a, &b);
+    let sin = norm(&axis);
     if sin < 1e-15 {
         return [0.0; 3];
     }
-    let cos = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let angle = sin.atan2(cos);
-    cross.map(|c| -angle / dt * c / sin)
-}
-
-fn normalised(v: [f64; 3]) -> [f64; 3] {
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    v.map(|x| x / n)
+    let angle = sin.atan2(dot(&a, &b));
+    axis.map(|c| -angle / dt * c / sin)
 }
 
 /// Slope and value at `mid` of the least-squares line through (t, y).

@@ -14,9 +14,9 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::correctors::gyro::{inverse, GyroInputUnit, GyroModel};
-use crate::correctors::gyro_poses::{quat_exp, quat_mul, rotate};
+use crate::correctors::gyro::{GyroInputUnit, GyroModel};
 use crate::correctors::static_cal::{StaticCalibration, StaticModel};
+use crate::geometry::{inverse, quat_exp, quat_mul, rotate};
 
 /// What the session and the sensor are like.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

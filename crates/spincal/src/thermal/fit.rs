@@ -22,6 +22,7 @@ use faer::{Mat, MatMut, Side};
 use serde::{Deserialize, Serialize};
 
 use super::{ThermalModel, REFERENCE_PARAMS};
+use crate::geometry::{cross, unit, M3};
 use crate::input::recording::Recording;
 use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions};
 
@@ -228,31 +229,18 @@ struct Problem<'a> {
     reference_c: f64,
     gravity: f64,
     /// Per recording: the starting direction and two unit vectors across it.
-    frames: Vec<[[f64; 3]; 3]>,
+    frames: Vec<M3>,
 }
 
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn unit(v: [f64; 3]) -> [f64; 3] {
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    v.map(|x| x / n)
-}
-
-fn frame(direction: [f64; 3]) -> [[f64; 3]; 3] {
+fn frame(direction: [f64; 3]) -> M3 {
     let u = unit(direction);
     let helper = if u[0].abs() < 0.6 {
         [1.0, 0.0, 0.0]
     } else {
         [0.0, 1.0, 0.0]
     };
-    let e1 = unit(cross(u, helper));
-    [u, e1, cross(u, e1)]
+    let e1 = unit(cross(&u, &helper));
+    [u, e1, cross(&u, &e1)]
 }
 
 impl Problem<'_> {
