@@ -1,0 +1,361 @@
+//! The joint fit's driver: checks, starting values, two weighted passes and the result.
+
+// Per-axis and per-parameter arrays are indexed together; iterators would obscure that.
+#![allow(clippy::needless_range_loop)]
+
+use faer::Mat;
+
+use super::covariance::sandwich;
+use super::input::{bias_random_walk, difference_noise, PoseInput, RunInput};
+use super::kinematics::{mounting_matrix, PoseFrame};
+use super::layout::{
+    pose_offset, run_offset, session_times, sessions, GEOMETRY, POSE_PARAMS, POSE_PARAM_NAMES, RUN_PARAMS,
+    RUN_PARAM_NAMES, SESSION_PARAMS,
+};
+use super::problem::{JointProblem, Want};
+use super::result::{FitState, JointFit, JointParam, PoseFit, RunFit};
+use super::settings::{JointSettings, SensorTerms};
+use super::start::run_start;
+use super::JointError;
+use crate::correctors::physical::{SensorModel, SENSOR_PARAMS, SENSOR_PARAM_NAMES};
+use crate::geometry::M3;
+use crate::optim::{levenberg_marquardt_normal, LmOptions};
+use crate::progress::Observer;
+use crate::turntable::model::Direction;
+
+/// The least share of a pose residual's variance taken as left by the fit (its leverage at most
+/// 0.95), so that a pose the fit nearly interpolates does not inflate the component without bound.
+const MIN_KEPT_VARIANCE: f64 = 0.05;
+
+/// Fits the sensor model and every run and pose jointly.
+pub fn fit_joint(
+    runs: &[RunInput],
+    poses: &[PoseInput],
+    settings: &JointSettings,
+    observer: &Observer,
+) -> Result<JointFit, JointError> {
+    fit_joint_from(runs, poses, settings, None, observer)
+}
+
+/// As [`fit_joint`], starting from another fit of the same runs and poses (its parameters, with
+/// the terms this fit does not estimate set to zero): a nested model then starts in the basin the
+/// larger one found.
+pub fn fit_joint_from(
+    runs: &[RunInput],
+    poses: &[PoseInput],
+    settings: &JointSettings,
+    start: Option<&JointFit>,
+    observer: &Observer,
+) -> Result<JointFit, JointError> {
+    fit_joint_with(runs, poses, settings, start, true, observer)
+}
+
+/// One run's geometry alone, as a rigid platter would move a perfect sensor: radius within its
+/// tolerance, rate, platter tilt, mount rotation within its prior, wow, and no bias offset or
+/// drift (held at zero). What this fit cannot explain is a sensor error it could not absorb:
+/// the truth-free check of a corrected run.
+pub(crate) fn fit_run_geometry(run: &RunInput, settings: &JointSettings) -> Result<JointFit, JointError> {
+    let settings = JointSettings {
+        terms: SensorTerms::NONE,
+        ..settings.clone()
+    };
+    fit_joint_with(
+        std::slice::from_ref(run),
+        &[],
+        &settings,
+        None,
+        false,
+        &crate::progress::silent,
+    )
+}
+
+fn fit_joint_with(
+    runs: &[RunInput],
+    poses: &[PoseInput],
+    settings: &JointSettings,
+    start: Option<&JointFit>,
+    run_offsets_free: bool,
+    observer: &Observer,
+) -> Result<JointFit, JointError> {
+    if runs.is_empty() && poses.is_empty() {
+        return Err(JointError::Empty);
+    }
+    for (name, value, ok, why) in [
+        (
+            "gravity_mps2",
+            settings.gravity_mps2,
+            settings.gravity_mps2 > 0.0,
+            "must be positive",
+        ),
+        (
+            "bias_instability_mps2",
+            settings.bias_instability_mps2,
+            settings.bias_instability_mps2 > 0.0,
+            "must be positive",
+        ),
+        (
+            "mount_tilt_rad",
+            settings.mount_tilt_rad,
+            settings.mount_tilt_rad > 0.0,
+            "must be positive",
+        ),
+        (
+            "block_s",
+            settings.block_s,
+            settings.block_s > 0.0,
+            "must be positive",
+        ),
+    ] {
+        if !(ok && value.is_finite()) {
+            return Err(JointError::Setting { name, value, why });
+        }
+    }
+    for run in runs {
+        let used = run.keep.iter().filter(|&&k| k).count();
+        if used < 100 {
+            return Err(JointError::Run {
+                name: run.name.clone(),
+                why: format!("{used} usable samples; a turntable run needs at least 100"),
+            });
+        }
+    }
+    let g = settings.gravity_mps2;
+    let mountings: Vec<M3> = runs
+        .iter()
+        .map(|r| mounting_matrix(r.entry.out, r.entry.up))
+        .collect();
+    let mut p = vec![
+        0.0;
+        SENSOR_PARAMS
+            + runs.len() * RUN_PARAMS
+            + poses.len() * POSE_PARAMS
+            + SESSION_PARAMS * sessions(poses)
+    ];
+    let mut directions = Vec::with_capacity(runs.len());
+    if let Some(previous) = start.filter(|f| f.state.params.len() == p.len()) {
+        // A nested model starts where the full one ended (the runs' own starts are not needed).
+        p.copy_from_slice(&previous.state.params);
+        directions.clone_from(&previous.state.directions);
+        for k in 0..SENSOR_PARAMS {
+            if !settings.terms.free(k) {
+                p[k] = 0.0;
+            }
+        }
+    } else {
+        for (i, run) in runs.iter().enumerate() {
+            let (start, direction) = run_start(run, g);
+            p[run_offset(i)..run_offset(i) + RUN_PARAMS].copy_from_slice(&start);
+            directions.push(direction);
+        }
+    }
+    let block_samples = runs
+        .iter()
+        .map(|r| {
+            let rate = crate::input::recording::sample_interval(&r.time_s);
+            ((settings.block_s / rate).round() as usize).max(10)
+        })
+        .collect();
+    let mut problem = JointProblem {
+        runs,
+        poses,
+        gravity: g,
+        bias_sigma: settings.bias_instability_mps2,
+        mount_tilt_sigma: settings.mount_tilt_rad,
+        sensor_prior_sd: settings.sensor_prior_sd,
+        sensor_free: std::array::from_fn(|k| settings.terms.free(k)),
+        directions,
+        mountings,
+        pose_frames: poses.iter().map(|p| PoseFrame::new(p.mean_mps2)).collect(),
+        pose_sigma: poses.iter().map(|p| p.sigma_mean_mps2).collect(),
+        pose_tau: session_times(poses),
+        run_sigma: runs
+            .iter()
+            .map(|r| difference_noise(&r.accel_mps2, &r.keep))
+            .collect(),
+        block_samples,
+    };
+    let run_params_end = run_offset(runs.len());
+    let is_run_offset = |k: usize| {
+        (SENSOR_PARAMS..run_params_end).contains(&k) && (k - SENSOR_PARAMS) % RUN_PARAMS >= GEOMETRY
+    };
+    let free: Vec<bool> = (0..p.len())
+        .map(|k| {
+            if k < SENSOR_PARAMS {
+                settings.terms.free(k)
+            } else {
+                run_offsets_free || !is_run_offset(k)
+            }
+        })
+        .collect();
+    let options = LmOptions {
+        max_iterations: settings.max_iterations,
+        cost_tolerance: 1e-12,
+        step_tolerance: 1e-10,
+        gradient_tolerance: 0.0,
+        ..LmOptions::default()
+    };
+    // First pass with the white-noise weights, then reweight each run by its residual RMS (which
+    // includes drift and unmodelled motion) and solve again from there.
+    let first = levenberg_marquardt_normal(&problem, &p, Some(&free), &options, observer);
+    p = first.params;
+    for i in 0..runs.len() {
+        let mut sums = [0.0f64; 3];
+        let mut n = 0.0f64;
+        problem.run_residuals(&p, i, |_, r| {
+            for k in 0..3 {
+                sums[k] += r[k] * r[k];
+            }
+            n += 1.0;
+        });
+        problem.run_sigma[i] = sums.map(|s| (s / n.max(1.0)).sqrt().max(1e-6));
+    }
+    // Poses scatter by more than their means' noise when the bias wanders between them: a variance
+    // component per session and axis, from the residuals divided by the share of their variance
+    // the fit leaves them (1 − leverage; about 1/3 when only a pose's own two angles took theirs,
+    // far less when the poses alone determine the sensor).
+    let leverage = problem.pose_leverage(&p, &first.jtj, &free);
+    let walk = bias_random_walk(poses);
+    for session in 0..sessions(poses) {
+        let members: Vec<usize> = (0..poses.len())
+            .filter(|&i| poses[i].session == session)
+            .collect();
+        if members.len() < 2 {
+            continue;
+        }
+        // A random walk of rate D leaves, about the session's fitted line over its span T, a
+        // mean squared deviation of D·T/15 at the poses.
+        let span = members
+            .iter()
+            .map(|&i| poses[i].time_s)
+            .fold(f64::NEG_INFINITY, f64::max)
+            - members
+                .iter()
+                .map(|&i| poses[i].time_s)
+                .fold(f64::INFINITY, f64::min);
+        let walked = walk.map_or(0.0, |d| d * span / 15.0);
+        let mut extra = [0.0f64; 3];
+        for &i in &members {
+            let r = problem.pose_residual(&p, i);
+            for k in 0..3 {
+                // A residual keeps 1 − h of its variance; the rest went into the fit.
+                let kept = match &leverage {
+                    Some(h) => (1.0 - h[i][k]).max(MIN_KEPT_VARIANCE),
+                    None => 1.0 / 3.0,
+                };
+                extra[k] += r[k] * r[k] / kept - poses[i].sigma_mean_mps2[k].powi(2);
+            }
+        }
+        for &i in &members {
+            for k in 0..3 {
+                let component = (extra[k] / members.len() as f64).max(walked);
+                problem.pose_sigma[i][k] = (poses[i].sigma_mean_mps2[k].powi(2) + component).sqrt();
+            }
+        }
+    }
+    // The second pass starts at the first one's minimum: little damping, or the strongly
+    // correlated bias, offset and drift directions crawl.
+    let second = LmOptions {
+        initial_damping: 1e-6,
+        // The residuals are now weighted to about unit variance, so these are standard errors:
+        // stop where no Gauss–Newton step would move a parameter by 1e-8 of its own. (The first
+        // pass only sets the weights, which its last 1e-5 SE hardly move.)
+        polish_se_tolerance: 1e-8,
+        ..options.clone()
+    };
+    let report = levenberg_marquardt_normal(&problem, &p, Some(&free), &second, observer);
+    let p = report.params;
+
+    // Robust covariance over the free parameters.
+    let n = p.len();
+    let mut meat = Mat::<f64>::zeros(n, n);
+    problem.evaluate(&p, Want::Meat(&mut meat));
+    let index: Vec<usize> = (0..n).filter(|&k| free[k]).collect();
+    let cov = sandwich(&report.jtj, &meat, &index);
+    let m_rows: usize = runs
+        .iter()
+        .map(|r| 3 * r.keep.iter().filter(|&&k| k).count())
+        .sum::<usize>()
+        + 3 * poses.len();
+    let dof = m_rows.saturating_sub(index.len());
+    let se = |k: usize| -> Option<f64> {
+        let pos = index.iter().position(|&i| i == k)?;
+        let v = cov.as_ref()?[(pos, pos)];
+        (v.is_finite() && v >= 0.0).then(|| v.sqrt())
+    };
+    let param = |name: &str, k: usize| JointParam {
+        name: name.to_string(),
+        value: p[k],
+        std_error: se(k),
+        free: free[k],
+    };
+    let sensor_params = (0..SENSOR_PARAMS)
+        .map(|k| param(SENSOR_PARAM_NAMES[k], k))
+        .collect();
+    let run_fits = runs
+        .iter()
+        .enumerate()
+        .map(|(i, run)| {
+            let o = run_offset(i);
+            let mut sums = [0.0f64; 3];
+            let mut count = 0usize;
+            problem.run_residuals(&p, i, |_, r| {
+                for k in 0..3 {
+                    sums[k] += r[k] * r[k];
+                }
+                count += 1;
+            });
+            RunFit {
+                name: run.name.clone(),
+                direction: Direction::from_sign(problem.directions[i]),
+                params: (0..RUN_PARAMS)
+                    .map(|j| param(RUN_PARAM_NAMES[j], o + j))
+                    .collect(),
+                residual_rms_mps2: sums.map(|s| (s / count.max(1) as f64).sqrt()),
+                samples_used: count,
+            }
+        })
+        .collect();
+    let pose_fits = poses
+        .iter()
+        .enumerate()
+        .map(|(pi, pose)| {
+            let o = pose_offset(runs.len(), pi);
+            PoseFit {
+                name: pose.name.clone(),
+                params: (0..POSE_PARAMS)
+                    .map(|j| param(POSE_PARAM_NAMES[j], o + j))
+                    .collect(),
+                specific_force_mps2: problem.pose_frames[pi].force(p[o], p[o + 1], g).0,
+            }
+        })
+        .collect();
+    let blocks = problem.block_samples.first().copied().unwrap_or(0);
+    Ok(JointFit {
+        sensor: SensorModel::from_params(&p),
+        sensor_params,
+        runs: run_fits,
+        poses: pose_fits,
+        terms: settings.terms,
+        chi2: report.sse,
+        dof,
+        iterations: first.iterations + report.iterations,
+        stop: report.stop,
+        covariance: format!(
+            "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run, each still pose and each prior a block of its own (batch-means HAC); each pose weighted by its mean's error and the bias's wander between poses ({})",
+            settings.block_s,
+            blocks,
+            match walk {
+                Some(d) => format!("random walk {d:.2e} (m/s²)²/s, measured within the poses"),
+                None => "from the first pass's pose residuals".into(),
+            }
+        ),
+        state: FitState {
+            params: p,
+            directions: problem.directions.clone(),
+            mountings: problem.mountings.clone(),
+            gravity: g,
+            covariance: cov,
+            free_index: index,
+        },
+    })
+}

@@ -1,0 +1,477 @@
+//! The joint problem as the optimiser sees it: weighted residuals of runs, poses and priors,
+//! accumulated into the normal equations (or the covariance's block scores) sample by sample.
+
+// Per-axis and per-parameter arrays are indexed together; iterators would obscure that.
+#![allow(clippy::needless_range_loop)]
+
+use faer::Mat;
+
+use super::covariance::inverse_on;
+use super::input::{PoseInput, RunInput};
+use super::kinematics::{PoseFrame, RunGeometry};
+use super::layout::{
+    mid_time, pose_offset, run_offset, run_offset_at, session_offset, sessions, GEOMETRY, POSE_PARAMS,
+    RUN_PARAMS, SESSION_PARAMS,
+};
+use crate::correctors::physical::{SensorModel, SENSOR_PARAMS};
+use crate::geometry::M3;
+use crate::optim::NormalEquations;
+use crate::turntable::model::for_each_rotation;
+
+/// The problem as the optimiser sees it.
+pub(crate) struct JointProblem<'a> {
+    pub(super) runs: &'a [RunInput],
+    pub(super) poses: &'a [PoseInput],
+    pub(super) gravity: f64,
+    pub(super) bias_sigma: f64,
+    pub(super) mount_tilt_sigma: f64,
+    /// Prior widths of bias, scale, misalignment and nonlinearity.
+    pub(super) sensor_prior_sd: [f64; 4],
+    pub(super) sensor_free: [bool; SENSOR_PARAMS],
+    pub(super) directions: Vec<f64>,
+    pub(super) mountings: Vec<M3>,
+    pub(super) pose_frames: Vec<PoseFrame>,
+    /// Per pose and axis, the standard error of its mean (after the variance component), m/s².
+    pub(super) pose_sigma: Vec<[f64; 3]>,
+    /// Per pose, its time from the middle of its session, s.
+    pub(super) pose_tau: Vec<f64>,
+    /// Per run and axis, the residual noise, m/s².
+    pub(super) run_sigma: Vec<[f64; 3]>,
+    pub(super) block_samples: Vec<usize>,
+}
+
+/// A still session's drift rate has a prior of the bias instability per this many seconds.
+const SESSION_DRIFT_S: f64 = 100.0;
+
+/// Accumulates rows into a local dense system, then scatters it into the global one.
+struct LocalSystem {
+    index: Vec<usize>,
+    /// The local JᵀJ, full (both triangles).
+    gram: Mat<f64>,
+    grad: Vec<f64>,
+    sse: f64,
+    /// Rows not yet added to `gram`: `filled` of [`BATCH_ROWS`].
+    batch: Mat<f64>,
+    residuals: Vec<f64>,
+    filled: usize,
+}
+
+/// Rows are gathered this many at a time and their Gram matrix added by one matrix product
+/// (faer's SIMD kernels): a rank-1 update per row was half of the joint fit's time.
+const BATCH_ROWS: usize = 64;
+
+impl LocalSystem {
+    fn new(index: Vec<usize>) -> LocalSystem {
+        let n = index.len();
+        LocalSystem {
+            index,
+            gram: Mat::zeros(n, n),
+            grad: vec![0.0; n],
+            sse: 0.0,
+            batch: Mat::zeros(BATCH_ROWS, n),
+            residuals: vec![0.0; BATCH_ROWS],
+            filled: 0,
+        }
+    }
+
+    fn add_row(&mut self, row: &[f64], residual: f64) {
+        for (a, v) in row.iter().enumerate() {
+            self.batch[(self.filled, a)] = *v;
+        }
+        self.residuals[self.filled] = residual;
+        self.filled += 1;
+        self.sse += residual * residual;
+        if self.filled == BATCH_ROWS {
+            self.flush();
+        }
+    }
+
+    /// Adds the gathered rows to JᵀJ and Jᵀr.
+    fn flush(&mut self) {
+        if self.filled == 0 {
+            return;
+        }
+        let rows = self.batch.as_ref().subrows(0, self.filled);
+        faer::linalg::matmul::matmul(
+            self.gram.as_mut(),
+            faer::Accum::Add,
+            rows.transpose(),
+            rows,
+            1.0,
+            faer::Par::Seq,
+        );
+        for (a, g) in self.grad.iter_mut().enumerate() {
+            let column = rows.col(a);
+            *g += (0..self.filled)
+                .map(|i| column[i] * self.residuals[i])
+                .sum::<f64>();
+        }
+        self.filled = 0;
+    }
+
+    fn scatter(&mut self, jtj: &mut Mat<f64>, jtr: &mut [f64]) {
+        self.flush();
+        let n = self.index.len();
+        for a in 0..n {
+            jtr[self.index[a]] += self.grad[a];
+            for b in a..n {
+                let v = self.gram[(a, b)];
+                let (i, j) = (self.index[a], self.index[b]);
+                jtj[(i, j)] += v;
+                if i != j {
+                    jtj[(j, i)] += v;
+                }
+            }
+        }
+    }
+}
+
+/// A weighted row of axis `k` up to the recording's own offsets: ∂m_k/∂(b, s, M, q) given u_k
+/// and f_B, then the recording's parameters through `derivatives` (∂f_B per parameter, in the
+/// order they follow the sensor's). `slope` is h'(u_k)·weight.
+#[allow(clippy::too_many_arguments)]
+fn model_row(
+    row: &mut [f64],
+    k: usize,
+    sensor: &SensorModel,
+    slope: f64,
+    weight: f64,
+    u: f64,
+    force: &[f64; 3],
+    derivatives: &[[f64; 3]],
+) {
+    row.fill(0.0);
+    let scale = 1.0 + sensor.scale_error[k];
+    row[k] = slope;
+    row[3 + k] = slope * sensor.skewed(*force)[k];
+    match k {
+        1 => row[6] = slope * scale * force[0],
+        2 => {
+            row[7] = slope * scale * force[0];
+            row[8] = slope * scale * force[1];
+        }
+        _ => {}
+    }
+    row[9 + k] = weight * u * u;
+    for (j, dj) in derivatives.iter().enumerate() {
+        row[SENSOR_PARAMS + j] = slope * scale * sensor.skewed(*dj)[k];
+    }
+}
+
+/// What one evaluation of the problem produces.
+pub(crate) enum Want<'a> {
+    Sse,
+    Normal(&'a mut Mat<f64>, &'a mut [f64]),
+    /// Σ over blocks of s sᵀ (s: the block's score Jᵀr), into the matrix.
+    Meat(&'a mut Mat<f64>),
+}
+
+impl Want<'_> {
+    /// A prior `value / sigma` as one more residual on parameter `param`; returns its square.
+    fn add_prior(&mut self, param: usize, value: f64, sigma: f64) -> f64 {
+        let r = value / sigma;
+        match self {
+            Want::Sse => {}
+            Want::Normal(jtj, jtr) => {
+                jtj[(param, param)] += 1.0 / (sigma * sigma);
+                jtr[param] += r / sigma;
+            }
+            // A prior's information is its stated variance, not the realised score².
+            Want::Meat(meat) => meat[(param, param)] += 1.0 / (sigma * sigma),
+        }
+        r * r
+    }
+}
+
+impl JointProblem<'_> {
+    pub(crate) fn n_params(&self) -> usize {
+        SENSOR_PARAMS
+            + self.runs.len() * RUN_PARAMS
+            + self.poses.len() * POSE_PARAMS
+            + SESSION_PARAMS * sessions(self.poses)
+    }
+
+    pub(crate) fn geometry(&self, p: &[f64], i: usize) -> RunGeometry {
+        let o = run_offset(i);
+        RunGeometry::new(
+            &self.mountings[i],
+            &p[o..o + RUN_PARAMS],
+            self.directions[i],
+            self.gravity,
+        )
+    }
+
+    /// The parameters a still pose's residuals depend on: the sensor's, its two angles and its
+    /// session's offset and drift rate (the order of [`JointProblem::pose_rows`]' entries).
+    fn pose_index(&self, pi: usize) -> Vec<usize> {
+        let o = pose_offset(self.runs.len(), pi);
+        let so = session_offset(self.runs.len(), self.poses.len(), self.poses[pi].session);
+        (0..SENSOR_PARAMS)
+            .chain(o..o + POSE_PARAMS)
+            .chain(so..so + SESSION_PARAMS)
+            .collect()
+    }
+
+    /// Pose `pi`'s weighted residual rows, one per axis: `visit(axis, row over pose_index, r)`.
+    fn pose_rows(
+        &self,
+        p: &[f64],
+        sensor: &SensorModel,
+        pi: usize,
+        mut visit: impl FnMut(usize, &[f64], f64),
+    ) {
+        let pose = &self.poses[pi];
+        let o = pose_offset(self.runs.len(), pi);
+        let so = session_offset(self.runs.len(), self.poses.len(), pose.session);
+        let (force, d) = self.pose_frames[pi].force(p[o], p[o + 1], self.gravity);
+        let dt = self.pose_tau[pi];
+        let delta: [f64; 3] = std::array::from_fn(|k| p[so + k] + p[so + 3 + k] * dt);
+        let u = sensor.linear_response(force, delta);
+        let mut row = vec![0.0; SENSOR_PARAMS + POSE_PARAMS + SESSION_PARAMS];
+        for k in 0..3 {
+            let q = sensor.quadratic_per_mps2[k];
+            let w = 1.0 / self.pose_sigma[pi][k];
+            let r = (u[k] + q * u[k] * u[k] - pose.mean_mps2[k]) * w;
+            let slope = (1.0 + 2.0 * q * u[k]) * w;
+            model_row(&mut row, k, sensor, slope, w, u[k], &force, &d);
+            row[SENSOR_PARAMS + POSE_PARAMS + k] = slope;
+            row[SENSOR_PARAMS + POSE_PARAMS + 3 + k] = slope * dt;
+            visit(k, &row, r);
+        }
+    }
+
+    /// Leverage of each pose's residual per axis: h = jᵀ (JᵀJ)⁻¹ j over the free parameters, with
+    /// `jtj` the weighted normal matrix at `p`. The share of that residual the fit itself
+    /// absorbs; `None` when `jtj` is singular.
+    pub(super) fn pose_leverage(&self, p: &[f64], jtj: &Mat<f64>, free: &[bool]) -> Option<Vec<[f64; 3]>> {
+        let index: Vec<usize> = (0..p.len()).filter(|&k| free[k]).collect();
+        let covariance = inverse_on(jtj, &index)?;
+        let position: Vec<Option<usize>> = {
+            let mut position = vec![None; p.len()];
+            for (a, &k) in index.iter().enumerate() {
+                position[k] = Some(a);
+            }
+            position
+        };
+        let sensor = SensorModel::from_params(p);
+        let mut out = Vec::with_capacity(self.poses.len());
+        for pi in 0..self.poses.len() {
+            let columns = self.pose_index(pi);
+            let mut h = [0.0; 3];
+            self.pose_rows(p, &sensor, pi, |k, row, _| {
+                let mut sum = 0.0;
+                for (a, &ka) in columns.iter().enumerate() {
+                    let Some(ia) = position[ka] else { continue };
+                    for (b, &kb) in columns.iter().enumerate() {
+                        if let Some(ib) = position[kb] {
+                            sum += row[a] * covariance[(ia, ib)] * row[b];
+                        }
+                    }
+                }
+                h[k] = sum;
+            });
+            out.push(h);
+        }
+        Some(out)
+    }
+
+    /// Model − measured mean of pose `i`, m/s².
+    pub(crate) fn pose_residual(&self, p: &[f64], i: usize) -> [f64; 3] {
+        let sensor = SensorModel::from_params(p);
+        let o = pose_offset(self.runs.len(), i);
+        let so = session_offset(self.runs.len(), self.poses.len(), self.poses[i].session);
+        let (force, _) = self.pose_frames[i].force(p[o], p[o + 1], self.gravity);
+        let dt = self.pose_tau[i];
+        let u = sensor.linear_response(force, std::array::from_fn(|k| p[so + k] + p[so + 3 + k] * dt));
+        std::array::from_fn(|k| {
+            u[k] + sensor.quadratic_per_mps2[k] * u[k] * u[k] - self.poses[i].mean_mps2[k]
+        })
+    }
+
+    /// Residuals of run i, per sample and axis (unweighted, model − measured), with a callback.
+    pub(crate) fn run_residuals(&self, p: &[f64], i: usize, mut f: impl FnMut(usize, [f64; 3])) {
+        let sensor = SensorModel::from_params(p);
+        let geo = self.geometry(p, i);
+        let run = &self.runs[i];
+        let o = run_offset(i);
+        let mid = mid_time(&run.time_s);
+        for (s, &t) in run.time_s.iter().enumerate() {
+            if !run.keep[s] {
+                continue;
+            }
+            let delta = run_offset_at(p, o, t - mid);
+            let u = sensor.linear_response(geo.force(t - mid), delta);
+            let r: [f64; 3] = std::array::from_fn(|k| {
+                u[k] + sensor.quadratic_per_mps2[k] * u[k] * u[k] - run.accel_mps2[k][s]
+            });
+            f(s, r);
+        }
+    }
+
+    pub(crate) fn evaluate(&self, p: &[f64], mut want: Want<'_>) -> f64 {
+        let sensor = SensorModel::from_params(p);
+        let mut sse = 0.0;
+        if let Want::Normal(jtj, jtr) = &mut want {
+            jtj.fill(0.0);
+            jtr.fill(0.0);
+        }
+        if let Want::Meat(meat) = &mut want {
+            meat.fill(0.0);
+        }
+        let scale = sensor.scale_error.map(|s| 1.0 + s);
+        for i in 0..self.runs.len() {
+            let run = &self.runs[i];
+            let o = run_offset(i);
+            let geo = self.geometry(p, i);
+            let mid = mid_time(&run.time_s);
+            let index: Vec<usize> = (0..SENSOR_PARAMS).chain(o..o + RUN_PARAMS).collect();
+            let mut local = LocalSystem::new(index.clone());
+            let mut block = vec![0.0; index.len()];
+            let mut in_block = 0;
+            let mut row = vec![0.0; index.len()];
+            let sigma = self.run_sigma[i];
+            let want_rows = !matches!(want, Want::Sse);
+            // sin ωτ and cos ωτ by the turntable model's block recurrence (exact sin_cos every 64
+            // samples, or every sample off a uniform grid).
+            for_each_rotation(&run.time_s, mid, geo.omega, 0.0, |s, s1, c1| {
+                if !run.keep[s] {
+                    return;
+                }
+                let tau = run.time_s[s] - mid;
+                let delta = run_offset_at(p, o, tau);
+                if !want_rows {
+                    let u = sensor.linear_response(geo.force_at(s1, c1), delta);
+                    for k in 0..3 {
+                        let r = (u[k] + sensor.quadratic_per_mps2[k] * u[k] * u[k] - run.accel_mps2[k][s])
+                            / sigma[k];
+                        sse += r * r;
+                    }
+                    return;
+                }
+                let (force, d) = geo.force_and_derivatives_at(tau, s1, c1);
+                let skewed = sensor.skewed(force);
+                let u: [f64; 3] =
+                    std::array::from_fn(|k| sensor.bias_mps2[k] + delta[k] + scale[k] * skewed[k]);
+                for k in 0..3 {
+                    let q = sensor.quadratic_per_mps2[k];
+                    let w = 1.0 / sigma[k];
+                    let r = (u[k] + q * u[k] * u[k] - run.accel_mps2[k][s]) * w;
+                    let slope = (1.0 + 2.0 * q * u[k]) * w;
+                    model_row(&mut row, k, &sensor, slope, w, u[k], &force, &d);
+                    row[SENSOR_PARAMS + GEOMETRY + k] = slope;
+                    row[SENSOR_PARAMS + GEOMETRY + 3 + k] = slope * tau;
+                    match &mut want {
+                        Want::Meat(_) => {
+                            for (b, v) in block.iter_mut().zip(&row) {
+                                *b += v * r;
+                            }
+                        }
+                        _ => local.add_row(&row, r),
+                    }
+                }
+                in_block += 1;
+                if in_block == self.block_samples[i] {
+                    if let Want::Meat(meat) = &mut want {
+                        add_outer(meat, &index, &block);
+                    }
+                    block.fill(0.0);
+                    in_block = 0;
+                }
+            });
+            if in_block > 0 {
+                if let Want::Meat(meat) = &mut want {
+                    add_outer(meat, &index, &block);
+                }
+            }
+            // Priors: radius within its tolerance, the run's bias offset within the instability.
+            let entry = &run.entry;
+            sse += want.add_prior(o, p[o] - entry.radius_m, entry.radius_tol_m);
+            sse += want.add_prior(o + 5, p[o + 5], self.mount_tilt_sigma);
+            sse += want.add_prior(o + 6, p[o + 6], self.mount_tilt_sigma);
+            for k in 0..3 {
+                sse += want.add_prior(o + GEOMETRY + k, p[o + GEOMETRY + k], self.bias_sigma);
+            }
+            if let Want::Normal(jtj, jtr) = &mut want {
+                local.scatter(jtj, jtr);
+                sse += local.sse;
+            }
+        }
+        let n_runs = self.runs.len();
+        let n_poses = self.poses.len();
+        for pi in 0..self.poses.len() {
+            if matches!(want, Want::Sse) {
+                sse += self
+                    .pose_residual(p, pi)
+                    .iter()
+                    .zip(&self.pose_sigma[pi])
+                    .map(|(r, sigma)| (r / sigma).powi(2))
+                    .sum::<f64>();
+                continue;
+            }
+            let index = self.pose_index(pi);
+            let mut local = LocalSystem::new(index.clone());
+            let mut block = vec![0.0; index.len()];
+            self.pose_rows(p, &sensor, pi, |_, row, r| {
+                local.add_row(row, r);
+                for (b, v) in block.iter_mut().zip(row) {
+                    *b += v * r;
+                }
+            });
+            match &mut want {
+                Want::Normal(jtj, jtr) => {
+                    local.scatter(jtj, jtr);
+                    sse += local.sse;
+                }
+                Want::Meat(meat) => add_outer(meat, &index, &block),
+                Want::Sse => {}
+            }
+        }
+        // Weak priors on the sensor's terms (0 ± a datasheet-sized width): where the campaign says
+        // nothing they keep a term near zero instead of wandering; where it speaks they are
+        // negligible.
+        for k in 0..SENSOR_PARAMS {
+            if !self.sensor_free[k] {
+                continue;
+            }
+            sse += want.add_prior(k, p[k], self.sensor_prior_sd[k / 3]);
+        }
+        // Each still session's bias offset within the instability, and its drift rate within the
+        // instability per SESSION_DRIFT_S (poses alone say little about a slope).
+        for session in 0..sessions(self.poses) {
+            let so = session_offset(n_runs, n_poses, session);
+            for k in 0..SESSION_PARAMS {
+                let param = so + k;
+                let sigma = if k < 3 {
+                    self.bias_sigma
+                } else {
+                    self.bias_sigma / SESSION_DRIFT_S
+                };
+                sse += want.add_prior(param, p[param], sigma);
+            }
+        }
+        sse
+    }
+}
+
+fn add_outer(meat: &mut Mat<f64>, index: &[usize], score: &[f64]) {
+    for (a, &i) in index.iter().enumerate() {
+        if score[a] == 0.0 {
+            continue;
+        }
+        for (b, &j) in index.iter().enumerate() {
+            meat[(i, j)] += score[a] * score[b];
+        }
+    }
+}
+
+impl NormalEquations for JointProblem<'_> {
+    fn n_params(&self) -> usize {
+        JointProblem::n_params(self)
+    }
+    fn sse(&self, p: &[f64]) -> f64 {
+        self.evaluate(p, Want::Sse)
+    }
+    fn normal_equations(&self, p: &[f64], jtj: &mut Mat<f64>, jtr: &mut [f64]) -> f64 {
+        self.evaluate(p, Want::Normal(jtj, jtr))
+    }
+}
