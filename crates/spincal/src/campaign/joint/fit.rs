@@ -69,6 +69,8 @@ pub(crate) fn fit_run_geometry(run: &RunInput, settings: &JointSettings) -> Resu
     )
 }
 
+/// The fit's stages: checks, starting values, a first pass at white-noise weights, reweighting
+/// from its residuals, a second pass, then the robust covariance and the result.
 fn fit_joint_with(
     runs: &[RunInput],
     poses: &[PoseInput],
@@ -77,6 +79,77 @@ fn fit_joint_with(
     run_offsets_free: bool,
     observer: &Observer,
 ) -> Result<JointFit, JointError> {
+    check_inputs(runs, poses, settings)?;
+    let (p, directions) = starting_values(runs, poses, settings, start);
+    let mut problem = first_pass_problem(runs, poses, settings, directions);
+    let free = free_parameters(p.len(), runs.len(), settings, run_offsets_free);
+    let options = LmOptions {
+        max_iterations: settings.max_iterations,
+        cost_tolerance: 1e-12,
+        step_tolerance: 1e-10,
+        gradient_tolerance: 0.0,
+        ..LmOptions::default()
+    };
+    // First pass with the white-noise weights, then reweight each run by its residual RMS (which
+    // includes drift and unmodelled motion) and solve again from there.
+    let first = levenberg_marquardt_normal(&problem, &p, Some(&free), &options, observer);
+    let p = first.params;
+    reweight_runs(&mut problem, &p);
+    let walk = bias_random_walk(poses);
+    reweight_poses(&mut problem, &p, &first.jtj, &free, walk);
+    // The second pass starts at the first one's minimum: little damping, or the strongly
+    // correlated bias, offset and drift directions crawl.
+    let second = LmOptions {
+        initial_damping: 1e-6,
+        // The residuals are now weighted to about unit variance, so these are standard errors:
+        // stop where no Gauss–Newton step would move a parameter by 1e-8 of its own. (The first
+        // pass only sets the weights, which its last 1e-5 SE hardly move.)
+        polish_se_tolerance: 1e-8,
+        ..options.clone()
+    };
+    let report = levenberg_marquardt_normal(&problem, &p, Some(&free), &second, observer);
+    let p = report.params;
+    let (cov, index) = robust_covariance(&problem, &p, &report.jtj, &free);
+    let m_rows: usize = runs
+        .iter()
+        .map(|r| 3 * r.keep.iter().filter(|&&k| k).count())
+        .sum::<usize>()
+        + 3 * poses.len();
+    let dof = m_rows.saturating_sub(index.len());
+    let blocks = problem.block_samples.first().copied().unwrap_or(0);
+    let (sensor_params, run_fits, pose_fits) = fitted_params(&problem, &p, &free, cov.as_ref(), &index);
+    Ok(JointFit {
+        sensor: SensorModel::from_params(&p),
+        sensor_params,
+        runs: run_fits,
+        poses: pose_fits,
+        terms: settings.terms,
+        chi2: report.sse,
+        dof,
+        iterations: first.iterations + report.iterations,
+        stop: report.stop,
+        covariance: format!(
+            "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run, each still pose and each prior a block of its own (batch-means HAC); each pose weighted by its mean's error and the bias's wander between poses ({})",
+            settings.block_s,
+            blocks,
+            match walk {
+                Some(d) => format!("random walk {d:.2e} (m/s²)²/s, measured within the poses"),
+                None => "from the first pass's pose residuals".into(),
+            }
+        ),
+        state: FitState {
+            params: p,
+            directions: problem.directions.clone(),
+            mountings: problem.mountings.clone(),
+            gravity: settings.gravity_mps2,
+            covariance: cov,
+            free_index: index,
+        },
+    })
+}
+
+/// The settings in range and every run with enough usable samples.
+fn check_inputs(runs: &[RunInput], poses: &[PoseInput], settings: &JointSettings) -> Result<(), JointError> {
     if runs.is_empty() && poses.is_empty() {
         return Err(JointError::Empty);
     }
@@ -119,11 +192,18 @@ fn fit_joint_with(
             });
         }
     }
+    Ok(())
+}
+
+/// The parameter vector's start and each run's rotation sense: from `start` when it fits these
+/// runs and poses (its terms this fit holds set to zero), else from each run's demodulation.
+fn starting_values(
+    runs: &[RunInput],
+    poses: &[PoseInput],
+    settings: &JointSettings,
+    start: Option<&JointFit>,
+) -> (Vec<f64>, Vec<f64>) {
     let g = settings.gravity_mps2;
-    let mountings: Vec<M3> = runs
-        .iter()
-        .map(|r| mounting_matrix(r.entry.out, r.entry.up))
-        .collect();
     let mut p = vec![
         0.0;
         SENSOR_PARAMS
@@ -148,6 +228,22 @@ fn fit_joint_with(
             directions.push(direction);
         }
     }
+    (p, directions)
+}
+
+/// The problem weighted by each run's white noise (first differences) and each pose's mean's
+/// standard error.
+fn first_pass_problem<'a>(
+    runs: &'a [RunInput],
+    poses: &'a [PoseInput],
+    settings: &JointSettings,
+    directions: Vec<f64>,
+) -> JointProblem<'a> {
+    let g = settings.gravity_mps2;
+    let mountings: Vec<M3> = runs
+        .iter()
+        .map(|r| mounting_matrix(r.entry.out, r.entry.up))
+        .collect();
     let block_samples = runs
         .iter()
         .map(|r| {
@@ -155,7 +251,7 @@ fn fit_joint_with(
             ((settings.block_s / rate).round() as usize).max(10)
         })
         .collect();
-    let mut problem = JointProblem {
+    JointProblem {
         runs,
         poses,
         gravity: g,
@@ -173,12 +269,17 @@ fn fit_joint_with(
             .map(|r| difference_noise(&r.accel_mps2, &r.keep))
             .collect(),
         block_samples,
-    };
-    let run_params_end = run_offset(runs.len());
+    }
+}
+
+/// Which parameters the fit estimates: the chosen sensor terms, and every recording's parameter
+/// except, when `run_offsets_free` is false, the runs' bias offsets and drifts.
+fn free_parameters(n: usize, n_runs: usize, settings: &JointSettings, run_offsets_free: bool) -> Vec<bool> {
+    let run_params_end = run_offset(n_runs);
     let is_run_offset = |k: usize| {
         (SENSOR_PARAMS..run_params_end).contains(&k) && (k - SENSOR_PARAMS) % RUN_PARAMS >= GEOMETRY
     };
-    let free: Vec<bool> = (0..p.len())
+    (0..n)
         .map(|k| {
             if k < SENSOR_PARAMS {
                 settings.terms.free(k)
@@ -186,22 +287,15 @@ fn fit_joint_with(
                 run_offsets_free || !is_run_offset(k)
             }
         })
-        .collect();
-    let options = LmOptions {
-        max_iterations: settings.max_iterations,
-        cost_tolerance: 1e-12,
-        step_tolerance: 1e-10,
-        gradient_tolerance: 0.0,
-        ..LmOptions::default()
-    };
-    // First pass with the white-noise weights, then reweight each run by its residual RMS (which
-    // includes drift and unmodelled motion) and solve again from there.
-    let first = levenberg_marquardt_normal(&problem, &p, Some(&free), &options, observer);
-    p = first.params;
-    for i in 0..runs.len() {
+        .collect()
+}
+
+/// Each run's weights from its residual RMS at `p` (drift and unmodelled motion included).
+fn reweight_runs(problem: &mut JointProblem<'_>, p: &[f64]) {
+    for i in 0..problem.runs.len() {
         let mut sums = [0.0f64; 3];
         let mut n = 0.0f64;
-        problem.run_residuals(&p, i, |_, r| {
+        problem.run_residuals(p, i, |_, r| {
             for k in 0..3 {
                 sums[k] += r[k] * r[k];
             }
@@ -209,12 +303,21 @@ fn fit_joint_with(
         });
         problem.run_sigma[i] = sums.map(|s| (s / n.max(1.0)).sqrt().max(1e-6));
     }
-    // Poses scatter by more than their means' noise when the bias wanders between them: a variance
-    // component per session and axis, from the residuals divided by the share of their variance
-    // the fit leaves them (1 − leverage; about 1/3 when only a pose's own two angles took theirs,
-    // far less when the poses alone determine the sensor).
-    let leverage = problem.pose_leverage(&p, &first.jtj, &free);
-    let walk = bias_random_walk(poses);
+}
+
+/// Poses scatter by more than their means' noise when the bias wanders between them: a variance
+/// component per session and axis, from the residuals divided by the share of their variance
+/// the fit leaves them (1 − leverage; about 1/3 when only a pose's own two angles took theirs,
+/// far less when the poses alone determine the sensor).
+fn reweight_poses(
+    problem: &mut JointProblem<'_>,
+    p: &[f64],
+    jtj: &Mat<f64>,
+    free: &[bool],
+    walk: Option<f64>,
+) {
+    let poses = problem.poses;
+    let leverage = problem.pose_leverage(p, jtj, free);
     for session in 0..sessions(poses) {
         let members: Vec<usize> = (0..poses.len())
             .filter(|&i| poses[i].session == session)
@@ -235,7 +338,7 @@ fn fit_joint_with(
         let walked = walk.map_or(0.0, |d| d * span / 15.0);
         let mut extra = [0.0f64; 3];
         for &i in &members {
-            let r = problem.pose_residual(&p, i);
+            let r = problem.pose_residual(p, i);
             for k in 0..3 {
                 // A residual keeps 1 − h of its variance; the rest went into the fit.
                 let kept = match &leverage {
@@ -252,34 +355,36 @@ fn fit_joint_with(
             }
         }
     }
-    // The second pass starts at the first one's minimum: little damping, or the strongly
-    // correlated bias, offset and drift directions crawl.
-    let second = LmOptions {
-        initial_damping: 1e-6,
-        // The residuals are now weighted to about unit variance, so these are standard errors:
-        // stop where no Gauss–Newton step would move a parameter by 1e-8 of its own. (The first
-        // pass only sets the weights, which its last 1e-5 SE hardly move.)
-        polish_se_tolerance: 1e-8,
-        ..options.clone()
-    };
-    let report = levenberg_marquardt_normal(&problem, &p, Some(&free), &second, observer);
-    let p = report.params;
+}
 
-    // Robust covariance over the free parameters.
+/// The sandwich covariance over the free parameters at `p` and those parameters' indices.
+fn robust_covariance(
+    problem: &JointProblem<'_>,
+    p: &[f64],
+    jtj: &Mat<f64>,
+    free: &[bool],
+) -> (Option<Mat<f64>>, Vec<usize>) {
     let n = p.len();
     let mut meat = Mat::<f64>::zeros(n, n);
-    problem.evaluate(&p, Want::Meat(&mut meat));
+    problem.evaluate(p, Want::Meat(&mut meat));
     let index: Vec<usize> = (0..n).filter(|&k| free[k]).collect();
-    let cov = sandwich(&report.jtj, &meat, &index);
-    let m_rows: usize = runs
-        .iter()
-        .map(|r| 3 * r.keep.iter().filter(|&&k| k).count())
-        .sum::<usize>()
-        + 3 * poses.len();
-    let dof = m_rows.saturating_sub(index.len());
+    let cov = sandwich(jtj, &meat, &index);
+    (cov, index)
+}
+
+/// The sensor's, each run's and each pose's parameters with their standard errors, and each
+/// run's residual RMS.
+fn fitted_params(
+    problem: &JointProblem<'_>,
+    p: &[f64],
+    free: &[bool],
+    cov: Option<&Mat<f64>>,
+    index: &[usize],
+) -> (Vec<JointParam>, Vec<RunFit>, Vec<PoseFit>) {
+    let (runs, poses, g) = (problem.runs, problem.poses, problem.gravity);
     let se = |k: usize| -> Option<f64> {
         let pos = index.iter().position(|&i| i == k)?;
-        let v = cov.as_ref()?[(pos, pos)];
+        let v = cov?[(pos, pos)];
         (v.is_finite() && v >= 0.0).then(|| v.sqrt())
     };
     let param = |name: &str, k: usize| JointParam {
@@ -298,7 +403,7 @@ fn fit_joint_with(
             let o = run_offset(i);
             let mut sums = [0.0f64; 3];
             let mut count = 0usize;
-            problem.run_residuals(&p, i, |_, r| {
+            problem.run_residuals(p, i, |_, r| {
                 for k in 0..3 {
                     sums[k] += r[k] * r[k];
                 }
@@ -329,33 +434,5 @@ fn fit_joint_with(
             }
         })
         .collect();
-    let blocks = problem.block_samples.first().copied().unwrap_or(0);
-    Ok(JointFit {
-        sensor: SensorModel::from_params(&p),
-        sensor_params,
-        runs: run_fits,
-        poses: pose_fits,
-        terms: settings.terms,
-        chi2: report.sse,
-        dof,
-        iterations: first.iterations + report.iterations,
-        stop: report.stop,
-        covariance: format!(
-            "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run, each still pose and each prior a block of its own (batch-means HAC); each pose weighted by its mean's error and the bias's wander between poses ({})",
-            settings.block_s,
-            blocks,
-            match walk {
-                Some(d) => format!("random walk {d:.2e} (m/s²)²/s, measured within the poses"),
-                None => "from the first pass's pose residuals".into(),
-            }
-        ),
-        state: FitState {
-            params: p,
-            directions: problem.directions.clone(),
-            mountings: problem.mountings.clone(),
-            gravity: g,
-            covariance: cov,
-            free_index: index,
-        },
-    })
+    (sensor_params, run_fits, pose_fits)
 }
