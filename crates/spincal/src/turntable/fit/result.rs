@@ -1,0 +1,107 @@
+//! A turntable fit's result: the fitted parameters, per-recording outcomes and drift found.
+
+use serde::{Deserialize, Serialize};
+
+use super::options::AxesObjective;
+use crate::input::inspect::Inspection;
+use crate::optim::LmStop;
+use crate::turntable::model::{evaluate, Mounting, Session};
+use crate::turntable::spectrum::RateEstimate;
+
+/// One fitted parameter as reported.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct FittedParam {
+    pub name: String,
+    pub value: f64,
+    /// One standard error; `None` when the data do not determine the parameter.
+    pub std_error: Option<f64>,
+    pub unit: String,
+    pub lower: f64,
+    pub upper: f64,
+    pub at_bound: bool,
+    pub determined: bool,
+}
+
+/// Drift found on one axis of one recording.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct DriftFinding {
+    pub recording: usize,
+    pub axis: char,
+    /// Change over the whole recording, m/s².
+    pub change_mps2: f64,
+    pub std_error_mps2: f64,
+    pub significant: bool,
+}
+
+/// Per-recording outcome.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RecordingFit {
+    pub name: String,
+    pub rate: RateEstimate,
+    pub inspection: Inspection,
+    pub session: Session,
+    /// Model fit % per axis x, y, z (SPEC §4).
+    pub fit_percent: [f64; 3],
+    /// RMS of measured − model per axis, m/s².
+    pub residual_rms_mps2: [f64; 3],
+}
+
+/// The complete result of a turntable fit.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TurntableFit {
+    pub gravity_mps2: f64,
+    pub axes: AxesObjective,
+    pub mounting: Mounting,
+    pub recordings: Vec<RecordingFit>,
+    /// Free parameters in fit order, with errors.
+    pub params: Vec<FittedParam>,
+    /// Correlation matrix of the free parameters (NaN rows for undetermined ones).
+    pub correlation: Vec<Vec<f64>>,
+    /// Names of parameters the data did not determine, and what to do about it.
+    pub undetermined: Vec<String>,
+    pub remedy: Option<String>,
+    pub drift: Vec<DriftFinding>,
+    /// Weighted squared error after Nelder–Mead and after Levenberg–Marquardt.
+    pub cost_nelder_mead: f64,
+    pub cost_final: f64,
+    pub nelder_mead_iterations: usize,
+    pub lm_iterations: usize,
+    pub lm_stop: LmStop,
+    /// Noise standard deviation per recording and axis used as weights, m/s².
+    pub noise_mps2: Vec<[f64; 3]>,
+    /// Starting values handed to Nelder–Mead (free parameters, SI), for reproduction by peers.
+    pub start: Vec<f64>,
+}
+
+impl TurntableFit {
+    /// The fitted model at the samples of recording `k`, m/s², including the sensor's offsets and
+    /// drift: what the sensor should read (used for the model-against-measurement fit).
+    pub fn model(&self, k: usize, time_s: &[f64]) -> [Vec<f64>; 3] {
+        let mut out = [Vec::new(), Vec::new(), Vec::new()];
+        evaluate(
+            &self.recordings[k].session,
+            &self.mounting,
+            self.gravity_mps2,
+            time_s,
+            &mut out,
+        );
+        out
+    }
+
+    /// The reference acceleration at the samples of recording `k`, m/s²: the turntable's physical
+    /// specific force alone. Offsets and drift are sensor errors, so they are left out; the
+    /// correctors learn to remove them.
+    pub fn reference(&self, k: usize, time_s: &[f64]) -> [Vec<f64>; 3] {
+        let session = Session {
+            drift_mps2_per_s: [0.0; 3],
+            ..self.recordings[k].session
+        };
+        let mounting = Mounting {
+            offset_mps2: [0.0; 3],
+            ..self.mounting
+        };
+        let mut out = [Vec::new(), Vec::new(), Vec::new()];
+        evaluate(&session, &mounting, self.gravity_mps2, time_s, &mut out);
+        out
+    }
+}
