@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 
 use std::path::{Path, PathBuf};
 
+use crate::geometry::unit;
 use crate::input::recording::{AccelUnit, Recording, Source, STANDARD_GRAVITY};
 use crate::simulate::fleet::{create_folder_for, WriteError};
 use crate::simulate::{check, SimulationError};
@@ -142,11 +143,6 @@ pub struct ThermalCampaign {
 
 fn normal(rng: &mut ChaCha8Rng) -> f64 {
     StandardNormal.sample(rng)
-}
-
-fn unit(v: [f64; 3]) -> [f64; 3] {
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    v.map(|x| x / n)
 }
 
 /// The session's die temperature and the sensor's report of it, per sample.

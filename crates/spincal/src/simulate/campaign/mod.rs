@@ -16,239 +16,22 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::campaign::file::{SignedAxis, TurntableEntry};
+use crate::campaign::file::TurntableEntry;
 use crate::campaign::joint::{mounting_matrix, RUN_PARAMS};
 use crate::correctors::gyro::GyroModel;
 use crate::correctors::physical::{quadratic_from_datasheet, SensorModel};
-use crate::geometry::{cross, dot, norm, unit, M3};
+use crate::geometry::{cross, dot, norm, unit};
 use crate::input::recording::{Recording, Source, STANDARD_GRAVITY};
 use crate::simulate::{modulated_rotation, SensorProfile, SimulationError};
-use crate::turntable::model::Direction;
 
 /// Seconds the simulated hand takes to turn the sensor from one still pose to the next.
 const TURN_S: f64 = 2.0;
 
-/// One turntable run of a simulated campaign.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct RunSetup {
-    pub rpm: f64,
-    pub radius_m: f64,
-    /// The ruler's tolerance written to the campaign file; the true radius is drawn within it.
-    pub radius_tol_m: f64,
-    pub out: SignedAxis,
-    pub up: SignedAxis,
-    pub direction: Direction,
-    pub tilt_deg: f64,
-    /// Steady speed error, % of nominal.
-    pub speed_error_pct: f64,
-    /// Once-per-revolution speed modulation, % peak.
-    pub wow_pct: f64,
-    pub flutter_pct: f64,
-    pub flutter_hz: f64,
-    /// Standard deviation of the sensor's tilt on its mount, deg.
-    pub mount_tilt_deg: f64,
-    pub duration_s: f64,
-}
+mod process;
+mod setup;
 
-impl Default for RunSetup {
-    fn default() -> Self {
-        RunSetup {
-            rpm: 100.0 / 3.0,
-            radius_m: 0.10,
-            radius_tol_m: 0.002,
-            out: SignedAxis { axis: 0, sign: 1 },
-            up: SignedAxis { axis: 2, sign: 1 },
-            direction: Direction::Cw,
-            tilt_deg: 2.0,
-            speed_error_pct: 0.5,
-            wow_pct: 0.1,
-            flutter_pct: 0.05,
-            flutter_hz: 6.0,
-            mount_tilt_deg: 0.5,
-            duration_s: 60.0,
-        }
-    }
-}
-
-/// The gyroscope: m = b + K ω + drift + noise, K = diag(1 + s)(I + M₆) in the accelerometer's
-/// body frame (the frame the joint fit defines), ω the true angular rate, rad/s. The Earth's rotation
-/// (≤ 7.3·10⁻⁵ rad/s) is left out: a still pose reads the bias alone.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct GyroProfile {
-    /// Whether the unit records a gyroscope at all.
-    pub recorded: bool,
-    /// Constant bias per axis, deg/s.
-    pub bias_dps: [f64; 3],
-    /// Scale-factor error per axis, %.
-    pub scale_error_pct: [f64; 3],
-    /// Cross-axis sensitivity (small angles), deg: x to y and z, y to x and z, z to x and y.
-    pub misalignment_deg: [f64; 6],
-    /// White noise, deg/s RMS per sample.
-    pub noise_dps: f64,
-    /// Bound of the slow bias drift (Ornstein–Uhlenbeck clipped to ±this, the accelerometer's
-    /// correlation time), deg/s.
-    pub bias_drift_dps: f64,
-    /// Full-scale range ±, deg/s; 16-bit quantisation over it.
-    pub range_dps: f64,
-}
-
-impl Default for GyroProfile {
-    /// A consumer MEMS gyroscope (MPU-6050 class) at ±500 °/s.
-    fn default() -> Self {
-        GyroProfile {
-            recorded: true,
-            bias_dps: [0.8, -0.5, 0.3],
-            scale_error_pct: [0.5, -0.8, 0.6],
-            misalignment_deg: [0.4, -0.3, 0.5, 0.2, -0.4, 0.3],
-            noise_dps: 0.05,
-            bias_drift_dps: 0.02,
-            range_dps: 500.0,
-        }
-    }
-}
-
-impl GyroProfile {
-    /// K = diag(1 + s)(I + M₆), the reading per unit of true rate.
-    pub fn sensitivity(&self) -> M3 {
-        let m = self.misalignment_deg.map(f64::to_radians);
-        let s = self.scale_error_pct.map(|p| 1.0 + p / 100.0);
-        [
-            [s[0], s[0] * m[0], s[0] * m[1]],
-            [s[1] * m[2], s[1], s[1] * m[3]],
-            [s[2] * m[4], s[2] * m[5], s[2]],
-        ]
-    }
-
-    /// The profile as the calibration's model (bias in rad/s).
-    pub fn model(&self) -> GyroModel {
-        GyroModel {
-            bias_radps: self.bias_dps.map(f64::to_radians),
-            sensitivity: self.sensitivity(),
-            input_unit: crate::correctors::gyro::GyroInputUnit::RadPerS,
-        }
-    }
-}
-
-/// The gyroscope as a sample-by-sample process (its own random stream, so that adding it leaves
-/// the accelerometer's samples unchanged).
-struct GyroProcess {
-    model: GyroModel,
-    drift: [f64; 3],
-    decay: f64,
-    innovation: f64,
-    bound: f64,
-    noise: f64,
-    lsb: f64,
-    max_code: f64,
-    dt: f64,
-    rng: ChaCha8Rng,
-}
-
-impl GyroProcess {
-    fn new(profile: &GyroProfile, decay: f64, dt: f64, seed: u64) -> GyroProcess {
-        let bound = profile.bias_drift_dps.to_radians();
-        let full_scale = profile.range_dps.to_radians();
-        let mut process = GyroProcess {
-            model: profile.model(),
-            drift: [0.0; 3],
-            decay,
-            innovation: bound / 3.0 * (1.0 - decay * decay).sqrt(),
-            bound,
-            noise: profile.noise_dps.to_radians(),
-            lsb: 2.0 * full_scale / 65536.0,
-            max_code: 32767.0,
-            dt,
-            rng: ChaCha8Rng::seed_from_u64(seed ^ 0x6779_726f_5f73_696d),
-        };
-        process.rng.set_stream(1);
-        process.idle(1e4);
-        process
-    }
-
-    fn idle(&mut self, seconds: f64) {
-        if self.bound <= 0.0 {
-            return;
-        }
-        let decay = self.decay.powf(seconds / self.dt);
-        for k in 0..3 {
-            let z: f64 = StandardNormal.sample(&mut self.rng);
-            self.drift[k] = (decay * self.drift[k] + self.bound / 3.0 * (1.0 - decay * decay).sqrt() * z)
-                .clamp(-self.bound, self.bound);
-        }
-    }
-
-    /// One reading of true rate `w` (body frame, rad/s).
-    fn read(&mut self, w: [f64; 3]) -> [f64; 3] {
-        let ideal = self.model.measure(w);
-        std::array::from_fn(|k| {
-            if self.bound > 0.0 {
-                let z: f64 = StandardNormal.sample(&mut self.rng);
-                self.drift[k] =
-                    (self.decay * self.drift[k] + self.innovation * z).clamp(-self.bound, self.bound);
-            }
-            let z: f64 = StandardNormal.sample(&mut self.rng);
-            let analog = ideal[k] + self.drift[k] + self.noise * z;
-            (analog / self.lsb)
-                .round()
-                .clamp(-self.max_code - 1.0, self.max_code)
-                * self.lsb
-        })
-    }
-}
-
-/// A campaign: still poses, then turntable runs.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct CampaignSetup {
-    pub unit: String,
-    pub sensor: SensorProfile,
-    pub gyro: GyroProfile,
-    /// Still poses, in one recording: the six faces up in turn (then six edges, 45° between two
-    /// axes), each tilted at random by up to `pose_tilt_deg`, held `pose_duration_s`, turned from
-    /// one to the next in 2 s.
-    pub poses: usize,
-    pub pose_tilt_deg: f64,
-    pub pose_duration_s: f64,
-    pub runs: Vec<RunSetup>,
-    /// Time between recordings (the bias drift goes on), s.
-    pub gap_s: f64,
-    pub gravity_mps2: f64,
-}
-
-impl Default for CampaignSetup {
-    /// One unit: twelve still poses (six faces, six edges) and turntable runs at 33⅓ and 45 rpm at
-    /// two radii in three mountings (z up twice; on its side with x up, with y up), so that each
-    /// gyro axis is along the spindle once, and holding out a speed or a radius leaves two
-    /// mountings.
-    fn default() -> Self {
-        let axis = |t: &str| SignedAxis::parse(t).unwrap_or(SignedAxis { axis: 0, sign: 1 });
-        let run = |rpm: f64, radius_m: f64, out: &str, up: &str| RunSetup {
-            rpm,
-            radius_m,
-            out: axis(out),
-            up: axis(up),
-            ..RunSetup::default()
-        };
-        CampaignSetup {
-            unit: "simulated-unit".into(),
-            sensor: SensorProfile::default(),
-            gyro: GyroProfile::default(),
-            poses: 12,
-            pose_tilt_deg: 25.0,
-            pose_duration_s: 5.0,
-            runs: vec![
-                run(100.0 / 3.0, 0.06, "+x", "+z"),
-                run(100.0 / 3.0, 0.12, "+z", "+x"),
-                run(45.0, 0.06, "-z", "+y"),
-                run(45.0, 0.12, "+y", "+z"),
-            ],
-            gap_s: 20.0,
-            gravity_mps2: STANDARD_GRAVITY,
-        }
-    }
-}
+use process::{GyroProcess, SampledRates, SensorProcess};
+pub use setup::{CampaignSetup, GyroProfile, RunSetup};
 
 /// A simulated recording of the campaign.
 #[derive(Debug, Clone)]
@@ -332,61 +115,6 @@ pub fn profile_sensor_model(profile: &SensorProfile) -> SensorModel {
         scale_error: [l[0][0] - 1.0, l[1][1] - 1.0, l[2][2] - 1.0],
         misalignment_rad: [l[1][0] / l[1][1], l[2][0] / l[2][2], l[2][1] / l[2][2]],
         quadratic_per_mps2: [quadratic; 3],
-    }
-}
-
-/// The sensor as a sample-by-sample process: drift state, noise and quantisation.
-struct SensorProcess<'a> {
-    profile: &'a SensorProfile,
-    model: SensorModel,
-    drift: [f64; 3],
-    decay: f64,
-    innovation: f64,
-    bound: f64,
-    lsb: f64,
-    max_code: f64,
-    dt: f64,
-}
-
-impl SensorProcess<'_> {
-    /// Lets the drift run on through a gap of `seconds`.
-    fn idle(&mut self, seconds: f64, rng: &mut ChaCha8Rng) {
-        if self.bound <= 0.0 {
-            return;
-        }
-        let steps = seconds / self.dt;
-        let decay = self.decay.powf(steps);
-        let stationary = self.bound / 3.0;
-        for k in 0..3 {
-            let z: f64 = StandardNormal.sample(rng);
-            self.drift[k] = (decay * self.drift[k] + stationary * (1.0 - decay * decay).sqrt() * z)
-                .clamp(-self.bound, self.bound);
-        }
-    }
-
-    /// One reading of true force `f`; returns the reading, the unpredictable error per axis
-    /// (drift + white noise) and whether it saturated.
-    fn read(&mut self, f: [f64; 3], rng: &mut ChaCha8Rng) -> ([f64; 3], [f64; 3], bool) {
-        let mut out = [0.0; 3];
-        let mut random = [0.0; 3];
-        let mut saturated = false;
-        let u = self.model.linear_response(f, [0.0; 3]);
-        for k in 0..3 {
-            if self.bound > 0.0 {
-                let z: f64 = StandardNormal.sample(rng);
-                self.drift[k] =
-                    (self.decay * self.drift[k] + self.innovation * z).clamp(-self.bound, self.bound);
-            }
-            let z: f64 = StandardNormal.sample(rng);
-            let noise = self.profile.noise_g * STANDARD_GRAVITY * z;
-            let uk = u[k] + self.drift[k];
-            let analog = uk + self.model.quadratic_per_mps2[k] * uk * uk + noise;
-            random[k] = self.drift[k] + noise;
-            let code = (analog / self.lsb).round();
-            saturated |= code.abs() > self.max_code;
-            out[k] = code.clamp(-self.max_code - 1.0, self.max_code) * self.lsb;
-        }
-        (out, random, saturated)
     }
 }
 
@@ -713,37 +441,6 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
 }
 
 /// Three axes of samples.
-type Axes = [Vec<f64>; 3];
-
-/// Gyro readings and true rates of one recording, filled sample by sample.
-struct SampledRates {
-    read: Option<[Vec<f64>; 3]>,
-    truth: Option<[Vec<f64>; 3]>,
-}
-
-impl SampledRates {
-    fn new(recorded: bool, n: usize) -> SampledRates {
-        let zeros = || [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-        SampledRates {
-            read: recorded.then(zeros),
-            truth: recorded.then(zeros),
-        }
-    }
-
-    fn push(&mut self, s: usize, truth: [f64; 3], read: [f64; 3]) {
-        if let (Some(r), Some(t)) = (self.read.as_mut(), self.truth.as_mut()) {
-            for c in 0..3 {
-                r[c][s] = read[c];
-                t[c][s] = truth[c];
-            }
-        }
-    }
-
-    fn finish(self) -> (Option<Axes>, Option<Axes>) {
-        (self.read, self.truth)
-    }
-}
-
 /// The body's angular rate that turns gravity's direction from `a` to `b` in `dt` about the great
 /// circle through them (dĝ/dt = −ω × ĝ), rad/s.
 fn turn_rate(a: &[f64; 3], b: &[f64; 3], dt: f64) -> [f64; 3] {
