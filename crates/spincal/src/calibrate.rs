@@ -30,7 +30,7 @@ use crate::turntable::fit_turntable;
 use crate::turntable::sensitivity::{sensitivity_table, SensitivityInput, SensitivityRow};
 
 /// Version of the `results.json` layout.
-pub const RESULTS_VERSION: u32 = 1;
+pub(crate) const RESULTS_VERSION: u32 = 1;
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -174,7 +174,7 @@ pub struct CalibrationOutput {
 /// Runs every job of a network sweep and returns each job's run exactly once, in any order:
 /// [`run_sweep_locally`] on this machine's threads, or a runner that ships [`SweepJobs`](crate::correctors::ann::SweepJobs) to
 /// other processes (the Python package's Ray runner). The result does not depend on which.
-pub type SweepRunner<'a> =
+pub(crate) type SweepRunner<'a> =
     dyn Fn(&AnnProblem, &SweepSettings, &Observer) -> Result<Vec<SweepRun>, AnnError> + Sync + 'a;
 
 /// Runs the whole calibration. `observer` hears about every stage and step.

@@ -112,7 +112,7 @@ pub enum CampaignCalError {
 
 /// The prior on q of the first, data-only fit, 1/(m/s²): far beyond any datasheet, so that it
 /// regularises only what the campaign cannot see at all.
-pub const DATA_ONLY_Q_PRIOR_SD: f64 = 1e-2;
+pub(crate) const DATA_ONLY_Q_PRIOR_SD: f64 = 1e-2;
 
 /// Who decided the nonlinearity q (results.json).
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -1041,7 +1041,7 @@ fn offset_spread(joint: &JointFit, runs: usize) -> f64 {
 
 /// Candidates whose mean residual against physics is within this fraction of the best one's are
 /// told apart by nothing physics can see (the means differ by less than their noise).
-pub const INDISTINGUISHABLE: f64 = 0.02;
+pub(crate) const INDISTINGUISHABLE: f64 = 0.02;
 
 /// Among candidates physics cannot tell apart, the order of preference: a model whose held-out
 /// error its covariance predicts (the physical family) before one whose error cannot be stated,
