@@ -283,6 +283,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(feature = "plot")]
     fn figure_draws_as_svg() {
         use crate::report::plot::Figure;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);

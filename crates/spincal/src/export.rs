@@ -375,7 +375,6 @@ pub fn campaign_files(
     Ok(files)
 }
 
-#[cfg(feature = "plot")]
 fn pretty<T: serde::Serialize>(value: &T) -> String {
     serde_json::to_string_pretty(value).expect("results serialise") + "\n"
 }
