@@ -38,16 +38,25 @@ esac
 trap '[ -n "$loader" ] && kill "$loader" 2>/dev/null || true' EXIT
 sleep 1
 echo "load before: $(uptime); other core: $LOAD; pandas $("$VENV/bin/python" -c 'import pandas; print(pandas.__version__)')"
-spincal() { taskset -c "$CPU" "$BIN" read "$OUT" "$REPS" csv | awk '$1 == "spincal-csv" { print $2 }'; }
-pandas() { taskset -c "$CPU" "$VENV/bin/python" bench/io/peers.py "$OUT" "$REPS" pandas | awk '{ print $2 }'; }
-ratios=()
+# Each side prints its best wall seconds and its least on-CPU seconds (time not spent running, as
+# when another process shares the pinned core, counts in the first only).
+spincal() { taskset -c "$CPU" "$BIN" read "$OUT" "$REPS" csv | awk '$1 == "spincal-csv" { print $2, $4 }'; }
+pandas() { taskset -c "$CPU" "$VENV/bin/python" bench/io/peers.py "$OUT" "$REPS" pandas | awk '{ print $2, $4 }'; }
+walls=() cpus=()
 for r in $(seq "$ROUNDS"); do
     if (( r % 2 )); then s=$(spincal); p=$(pandas); else p=$(pandas); s=$(spincal); fi
-    ratio=$(awk -v p="$p" -v s="$s" 'BEGIN { printf "%.3f", p / s }')
-    ratios+=("$ratio")
-    echo "round $r: spincal $s s, pandas $p s, ratio $ratio"
+    read -r sw sc <<< "$s"
+    read -r pw pc <<< "$p"
+    wall=$(awk -v p="$pw" -v s="$sw" 'BEGIN { printf "%.3f", p / s }')
+    cpu=$(awk -v p="$pc" -v s="$sc" 'BEGIN { printf "%.3f", p / s }')
+    walls+=("$wall") cpus+=("$cpu")
+    echo "round $r: spincal $sw s wall / $sc s CPU, pandas $pw / $pc s, ratio $wall wall, $cpu CPU"
 done
-printf '%s\n' "${ratios[@]}" | sort -n | awk '{ v[NR] = $1 } END {
-    printf "ratio (pandas / spincal, best of %s each): least %s, median %s, largest %s over %d rounds\n",
-        "'"$REPS"'", v[1], (NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2), v[NR], NR }'
+spread() {
+    sort -n | awk -v what="$1" '{ v[NR] = $1 } END {
+        printf "%s ratio (pandas / spincal): least %s, median %s, largest %s over %d rounds\n",
+            what, v[1], (NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2), v[NR], NR }'
+}
+printf '%s\n' "${walls[@]}" | spread "wall"
+printf '%s\n' "${cpus[@]}" | spread "on-CPU"
 echo "load after: $(uptime)"
