@@ -1,6 +1,7 @@
 """Times numpy.loadtxt and pandas.read_csv on bench.csv with read_bench's rule (best and median of
 REPEATS, file read included, and the least on-CPU seconds from /proc/self/schedstat as read_bench
-reads it); prints `name best_seconds median_seconds cpu_seconds megabytes samples`."""
+reads it); prints `name best_seconds median_seconds cpu_seconds megabytes samples`. With a third
+argument `pandas`, pandas only (bench/io/spread.sh)."""
 import os
 import statistics
 import sys
@@ -31,9 +32,11 @@ def timed(repeats, f):
 
 def main():
     path, repeats = os.path.join(sys.argv[1], "bench.csv"), int(sys.argv[2])
+    pandas_only = sys.argv[3:] == ["pandas"]
     mb = os.path.getsize(path) / 1e6
-    best, median, cpu, a = timed(repeats, lambda: np.loadtxt(path, delimiter=",", skiprows=1))
-    print(f"numpy-loadtxt {best:.6f} {median:.6f} {cpu:.6f} {mb:.3f} {a.shape[0]}")
+    if not pandas_only:
+        best, median, cpu, a = timed(repeats, lambda: np.loadtxt(path, delimiter=",", skiprows=1))
+        print(f"numpy-loadtxt {best:.6f} {median:.6f} {cpu:.6f} {mb:.3f} {a.shape[0]}")
     best, median, cpu, df = timed(repeats, lambda: pd.read_csv(path))
     print(f"pandas-read_csv {best:.6f} {median:.6f} {cpu:.6f} {mb:.3f} {len(df)}")
 

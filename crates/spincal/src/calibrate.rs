@@ -30,7 +30,7 @@ use crate::turntable::fit_turntable;
 use crate::turntable::sensitivity::{sensitivity_table, SensitivityInput, SensitivityRow};
 
 /// Version of the `results.json` layout.
-pub const RESULTS_VERSION: u32 = 1;
+pub(crate) const RESULTS_VERSION: u32 = 1;
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -174,7 +174,7 @@ pub struct CalibrationOutput {
 /// Runs every job of a network sweep and returns each job's run exactly once, in any order:
 /// [`run_sweep_locally`] on this machine's threads, or a runner that ships [`SweepJobs`](crate::correctors::ann::SweepJobs) to
 /// other processes (the Python package's Ray runner). The result does not depend on which.
-pub type SweepRunner<'a> =
+pub(crate) type SweepRunner<'a> =
     dyn Fn(&AnnProblem, &SweepSettings, &Observer) -> Result<Vec<SweepRun>, AnnError> + Sync + 'a;
 
 /// Runs the whole calibration. `observer` hears about every stage and step.
@@ -215,33 +215,7 @@ pub fn calibrate_with_runner(
         settings.division,
     )?;
 
-    // Network: sweep (optional), then the chosen architecture trained with restarts.
-    let (sweep_rows, hidden, restarts) = match &settings.network {
-        NetworkChoice::Sweep {
-            grid,
-            restarts,
-            hessian_samples,
-        } => {
-            let sweep_settings = SweepSettings {
-                grid: grid.clone(),
-                restarts: *restarts,
-                base_seed: settings.seed,
-                lm: LmSettings {
-                    hessian_samples: *hessian_samples,
-                    ..settings.lm.clone()
-                },
-            };
-            let runs = runner(&problem, &sweep_settings, observer)?;
-            let rows = reduce_sweep(&problem, &sweep_settings, runs)?;
-            let best = rows
-                .iter()
-                .min_by(|a, b| a.best_validation_mse.total_cmp(&b.best_validation_mse))
-                .map(|r| r.hidden.clone())
-                .unwrap_or_else(|| vec![10, 6]);
-            (rows, best, *restarts)
-        }
-        NetworkChoice::Fixed { hidden, restarts } => (Vec::new(), hidden.clone(), *restarts),
-    };
+    let (sweep_rows, hidden, restarts) = choose_network(&problem, settings, observer, runner)?;
     if !sweep_rows.is_empty() {
         stages.push(StageTime {
             stage: "network sweep".into(),
@@ -259,58 +233,10 @@ pub fn calibrate_with_runner(
     let linear_seconds = clock.elapsed().as_secs_f64();
 
     let division = problem.division.clone();
-    let part_rows =
-        |ranges: &[Range<usize>]| -> Vec<usize> { ranges.iter().flat_map(|r| r.clone()).collect() };
-    let parts = [
-        part_rows(&division.train),
-        part_rows(&division.validation),
-        part_rows(&division.test),
-    ];
     let axes_idx: Vec<usize> = settings.correct_axes.iter().map(|a| a.index()).collect();
-    // Scores of a full-length estimate (per corrected axis) on the three parts.
-    let score_static = |estimate: &[Vec<f64>]| -> [PartScore; 3] {
-        let part = |rows: &[usize]| {
-            let mut fits = Vec::new();
-            let mut errors = Vec::new();
-            for (c, &a) in axes_idx.iter().enumerate() {
-                let y: Vec<f64> = rows.iter().map(|&i| reference.accel_mps2[a][i]).collect();
-                let e: Vec<f64> = rows.iter().map(|&i| estimate[c][i]).collect();
-                fits.push(fit_percent(&y, &e));
-                errors.push(rmse(&y, &e));
-            }
-            PartScore::new(fits, errors)
-        };
-        [part(&parts[0]), part(&parts[1]), part(&parts[2])]
-    };
-    let static_row = |model: &str, structure: String, estimate: &[Vec<f64>], seconds: f64, savable: bool| {
-        let [train, validation, test] = score_static(estimate);
-        ComparisonRow {
-            model: model.to_string(),
-            structure,
-            kind: "static".into(),
-            train,
-            validation,
-            test,
-            train_one_step: None,
-            test_one_step: None,
-            seconds,
-            savable,
-            failed: None,
-            warnings: Vec::new(),
-        }
-    };
-    let axes_of =
-        |out: &Corrected| -> Vec<Vec<f64>> { axes_idx.iter().map(|&a| out.accel_mps2[a].clone()).collect() };
-    let corrected_axes = |c: &dyn Corrector, rec: &Recording| axes_of(&c.correct(rec));
-    let mut comparison = Vec::new();
+    let split = SplitScoring::new(reference, &division, &axes_idx);
+    let corrected_axes = |c: &dyn Corrector, rec: &Recording| split.axes_of(&c.correct(rec));
     let uncorrected: Vec<Vec<f64>> = axes_idx.iter().map(|&a| measured.accel_mps2[a].clone()).collect();
-    comparison.push(static_row(
-        "uncorrected",
-        "measured signal".into(),
-        &uncorrected,
-        0.0,
-        false,
-    ));
     let network_label = format!(
         "{}-input [{}] {}-output, {} delays, {} restarts",
         settings.correct_axes.len() * (settings.delays + 1),
@@ -319,82 +245,30 @@ pub fn calibrate_with_runner(
         settings.delays,
         restarts
     );
-    comparison.push(static_row(
-        "ANN",
-        network_label,
-        &corrected_axes(&network, measured),
-        network_seconds,
-        true,
-    ));
-    comparison.push(static_row(
-        "linear",
-        format!("offset + {0}×{0} matrix", settings.correct_axes.len()),
-        &corrected_axes(&linear, measured),
-        linear_seconds,
-        true,
-    ));
-
-    // System identification, one SISO model per axis, each started from the seed of every
-    // random choice.
-    let mut sysid_models = Vec::new();
-    for (m, spec) in settings.sysid.iter().enumerate() {
-        let spec = &ModelSpec {
-            seed: settings.seed,
-            ..spec.clone()
-        };
-        observer(Progress::step(
-            "system identification",
-            m,
-            Some(settings.sysid.len()),
-        ));
-        let name = spec.kind.name().to_string();
-        match fit_sysid_per_axis(
-            spec,
-            measured,
-            reference,
-            &axes_idx,
-            &division,
-            settings.init_samples,
-        ) {
-            Ok((row, fitted)) => {
-                comparison.push(row);
-                sysid_models.push((name, fitted));
-            }
-            // A model that cannot be fitted to this data is reported, not fatal.
-            Err(source) => {
-                let nan = || PartScore::new(vec![f64::NAN; axes_idx.len()], vec![f64::NAN; axes_idx.len()]);
-                comparison.push(ComparisonRow {
-                    model: name,
-                    structure: format!("{:?}", spec.orders),
-                    kind: "dynamic".into(),
-                    train: nan(),
-                    validation: nan(),
-                    test: nan(),
-                    train_one_step: None,
-                    test_one_step: None,
-                    seconds: 0.0,
-                    savable: false,
-                    failed: Some(source.to_string()),
-                    warnings: Vec::new(),
-                });
-            }
-        }
-    }
+    let mut comparison = vec![
+        split.row("uncorrected", "measured signal".into(), &uncorrected, 0.0, false),
+        split.row(
+            "ANN",
+            network_label,
+            &corrected_axes(&network, measured),
+            network_seconds,
+            true,
+        ),
+        split.row(
+            "linear",
+            format!("offset + {0}×{0} matrix", settings.correct_axes.len()),
+            &corrected_axes(&linear, measured),
+            linear_seconds,
+            true,
+        ),
+    ];
+    let (sysid_rows, sysid_models) =
+        sysid_candidates(settings, measured, reference, &axes_idx, &division, observer);
+    comparison.extend(sysid_rows);
 
     // Selection on validation only.
-    let best_of = |rows: &mut dyn Iterator<Item = &ComparisonRow>| -> String {
-        rows.filter(|r| r.model != "uncorrected")
-            .filter(|r| r.validation.fit_percent_mean.is_finite())
-            .max_by(|a, b| {
-                a.validation
-                    .fit_percent_mean
-                    .total_cmp(&b.validation.fit_percent_mean)
-            })
-            .map(|r| r.model.clone())
-            .unwrap_or_default()
-    };
-    let best_overall = best_of(&mut comparison.iter().filter(|r| r.warnings.is_empty()));
-    let chosen = best_of(&mut comparison.iter().filter(|r| r.savable));
+    let best_overall = best_on_validation(&mut comparison.iter().filter(|r| r.warnings.is_empty()));
+    let chosen = best_on_validation(&mut comparison.iter().filter(|r| r.savable));
     // Each corrector's own time, as its comparison row has it.
     for row in comparison.iter().filter(|r| r.seconds > 0.0) {
         stages.push(StageTime {
@@ -402,136 +276,15 @@ pub fn calibrate_with_runner(
             seconds: row.seconds,
         });
     }
-    // Cross-condition: trained on recording 1, tested on each other recording.
     let cross_clock = Instant::now();
-    let mut cross_condition = Vec::new();
-    for (k, other) in recordings.iter().enumerate().skip(1) {
-        observer(Progress::step(
-            "cross-condition",
-            k - 1,
-            Some(recordings.len() - 1),
-        ));
-        let other_ref = &references[k];
-        let whole = |estimate: &[Vec<f64>], from: usize| {
-            let mut fits = Vec::new();
-            let mut errors = Vec::new();
-            for (c, &a) in axes_idx.iter().enumerate() {
-                let y = &other_ref.accel_mps2[a][from..];
-                let e = &estimate[c][from..];
-                fits.push(fit_percent(y, e));
-                errors.push(rmse(y, e));
-            }
-            PartScore::new(fits, errors)
-        };
-        let row = |model: &str, score: PartScore| CrossRow {
-            model: model.to_string(),
-            trained_on: measured.source.name.clone(),
-            tested_on: other.source.name.clone(),
-            score,
-            outside_training_range_percent: None,
-        };
-        let raw: Vec<Vec<f64>> = axes_idx.iter().map(|&a| other.accel_mps2[a].clone()).collect();
-        cross_condition.push(row("uncorrected", whole(&raw, settings.delays)));
-        let by_network = network.correct(other);
-        cross_condition.push(CrossRow {
-            outside_training_range_percent: Some(
-                100.0 * by_network.outside_training_range as f64 / other.len().max(1) as f64,
-            ),
-            ..row("ANN", whole(&axes_of(&by_network), settings.delays))
-        });
-        cross_condition.push(row(
-            "linear",
-            whole(&corrected_axes(&linear, other), settings.delays),
-        ));
-        for (name, models) in &sysid_models {
-            let mut estimate = Vec::new();
-            for (c, &a) in axes_idx.iter().enumerate() {
-                let sim = models[c]
-                    .simulate(
-                        &[&other.accel_mps2[a]],
-                        crate::sysid::SimInit::Measured {
-                            y: &other_ref.accel_mps2[a],
-                            n: settings.init_samples,
-                        },
-                    )
-                    .map_err(|source| CalibrateError::Sysid {
-                        model: name.clone(),
-                        source,
-                    })?;
-                estimate.push(sim);
-            }
-            cross_condition.push(row(
-                name,
-                whole(&estimate, settings.init_samples.max(settings.delays)),
-            ));
-        }
-    }
-
-    // What is saved: the best on validation unless another recording shows it worse than no
-    // correction; then the other static corrector if that one held; else nothing.
-    let worse_elsewhere = |model: &str| -> Option<String> {
-        cross_condition.iter().filter(|r| r.model == model).find_map(|r| {
-            let raw = cross_condition
-                .iter()
-                .find(|u| u.model == "uncorrected" && u.tested_on == r.tested_on)?;
-            let held = r.score.rmse_mps2_mean <= raw.score.rmse_mps2_mean;
-            (!held).then(|| {
-                format!(
-                    "{model} makes {} worse than uncorrected ({:.4} against {:.4} m/s² RMS)",
-                    r.tested_on, r.score.rmse_mps2_mean, raw.score.rmse_mps2_mean
-                )
-            })
-        })
+    let trained = Trained {
+        network: &network,
+        linear: &linear,
+        sysid: &sysid_models,
     };
-    let other = if chosen == "ANN" { "linear" } else { "ANN" };
-    let validated = recordings.len() > 1;
-    let (chosen, verdict) = match (worse_elsewhere(&chosen), worse_elsewhere(other)) {
-        (None, _) if validated => {
-            // Where a network was not applied (outside its training range), "no worse" is only
-            // "unchanged": say how much of the other recordings that was.
-            let outside: Vec<String> = cross_condition
-                .iter()
-                .filter(|r| r.model == chosen)
-                .filter_map(|r| {
-                    r.outside_training_range_percent
-                        .filter(|&p| p > 0.0)
-                        .map(|p| format!("{p:.0} % of {}", r.tested_on))
-                })
-                .collect();
-            let caveat = if outside.is_empty() {
-                String::new()
-            } else {
-                format!(
-                    " It was not applied outside its training range ({}): those readings pass through uncorrected; a campaign (`spincal calibrate --campaign`) calibrates what one speed cannot.",
-                    outside.join(", ")
-                )
-            };
-            (
-                chosen.clone(),
-                format!(
-                    "Saved {chosen}: the best on validation, and no worse than uncorrected on the {} other recording(s) it never trained on.{caveat}",
-                    recordings.len() - 1
-                ),
-            )
-        }
-        (None, _) => (
-            chosen.clone(),
-            format!(
-                "Saved {chosen}, NOT validated off its training condition: with one recording, nothing shows it holds at another speed, radius or mounting (a network extrapolates outside its training range). {} Record a second session at another speed or radius and calibrate both, or calibrate a campaign (`spincal calibrate --campaign`).",
-                determined_sentence(&turntable)
-            ),
-        ),
-        (Some(why), None) => (
-            other.to_string(),
-            format!("Saved {other}, not {chosen}: {why}; {other} is no worse than uncorrected on every other recording."),
-        ),
-        (Some(why), Some(why_other)) => (
-            "none".to_string(),
-            format!(
-                "Nothing saved: {why}; {why_other}. A corrector trained on one condition does not carry to the others: calibrate a campaign (`spincal calibrate --campaign`) with still poses and runs at several speeds and radii."
-            ),
-        ),
-    };
+    let cross_condition =
+        cross_condition_rows(recordings, &references, &axes_idx, settings, &trained, observer)?;
+    let (chosen, verdict) = saving_decision(&chosen, &cross_condition, recordings.len(), &turntable);
     let saved = match chosen.as_str() {
         "ANN" => Some(CorrectorModel::Ann(Box::new(network.clone()))),
         "linear" => Some(CorrectorModel::Linear(Box::new(linear.clone()))),
@@ -553,25 +306,12 @@ pub fn calibrate_with_runner(
         gravity_mps2: turntable.gravity_mps2,
         vary: 0.15,
     });
-    let summaries = recordings
-        .iter()
-        .zip(&turntable.recordings)
-        .map(|(rec, fit)| RecordingSummary {
-            name: rec.source.name.clone(),
-            samples: rec.len(),
-            duration_s: rec.duration_s(),
-            sample_rate_hz: fit.inspection.sample_rate_hz,
-            rpm_from_spectrum: fit.rate.rpm,
-            omega_from_spectrum_radps: fit.rate.omega_radps,
-            gaps: fit.inspection.gaps.len(),
-            saturated_samples: fit.inspection.saturation.iter().map(|s| s.samples).sum(),
-            warnings: fit.inspection.warnings(&rec.source.name),
-        })
-        .collect();
+    let summaries = recording_summaries(recordings, &turntable);
     stages.push(StageTime {
         stage: "cross-condition".into(),
         seconds: cross_clock.elapsed().as_secs_f64(),
     });
+    let validated = recordings.len() > 1;
     let result = CalibrationResult {
         results_version: RESULTS_VERSION,
         spincal_version: env!("CARGO_PKG_VERSION").to_string(),
@@ -600,6 +340,356 @@ pub fn calibrate_with_runner(
         models,
         corrected: corrected_all,
     })
+}
+
+/// The network's architecture: the settings' one, or the best on validation of a sweep run by
+/// `runner` (with its rows); and the restarts to train it with.
+fn choose_network(
+    problem: &AnnProblem,
+    settings: &Params,
+    observer: &Observer,
+    runner: &SweepRunner,
+) -> Result<(Vec<SweepRow>, Vec<usize>, usize), CalibrateError> {
+    Ok(match &settings.network {
+        NetworkChoice::Sweep {
+            grid,
+            restarts,
+            hessian_samples,
+        } => {
+            let sweep_settings = SweepSettings {
+                grid: grid.clone(),
+                restarts: *restarts,
+                base_seed: settings.seed,
+                lm: LmSettings {
+                    hessian_samples: *hessian_samples,
+                    ..settings.lm.clone()
+                },
+            };
+            let runs = runner(problem, &sweep_settings, observer)?;
+            let rows = reduce_sweep(problem, &sweep_settings, runs)?;
+            let best = rows
+                .iter()
+                .min_by(|a, b| a.best_validation_mse.total_cmp(&b.best_validation_mse))
+                .map(|r| r.hidden.clone())
+                .unwrap_or_else(|| vec![10, 6]);
+            (rows, best, *restarts)
+        }
+        NetworkChoice::Fixed { hidden, restarts } => (Vec::new(), hidden.clone(), *restarts),
+    })
+}
+
+/// Scores of full-length estimates on the three parts of the 60/20/20 division, against the
+/// reference of the recording trained on.
+struct SplitScoring<'a> {
+    reference: &'a Recording,
+    parts: [Vec<usize>; 3],
+    axes: &'a [usize],
+}
+
+impl<'a> SplitScoring<'a> {
+    fn new(reference: &'a Recording, division: &Division, axes: &'a [usize]) -> SplitScoring<'a> {
+        let rows =
+            |ranges: &[Range<usize>]| -> Vec<usize> { ranges.iter().flat_map(|r| r.clone()).collect() };
+        SplitScoring {
+            reference,
+            parts: [
+                rows(&division.train),
+                rows(&division.validation),
+                rows(&division.test),
+            ],
+            axes,
+        }
+    }
+
+    /// The corrected axes of a corrector's output.
+    fn axes_of(&self, out: &Corrected) -> Vec<Vec<f64>> {
+        self.axes.iter().map(|&a| out.accel_mps2[a].clone()).collect()
+    }
+
+    fn part(&self, estimate: &[Vec<f64>], rows: &[usize]) -> PartScore {
+        let mut fits = Vec::new();
+        let mut errors = Vec::new();
+        for (c, &a) in self.axes.iter().enumerate() {
+            let y: Vec<f64> = rows.iter().map(|&i| self.reference.accel_mps2[a][i]).collect();
+            let e: Vec<f64> = rows.iter().map(|&i| estimate[c][i]).collect();
+            fits.push(fit_percent(&y, &e));
+            errors.push(rmse(&y, &e));
+        }
+        PartScore::new(fits, errors)
+    }
+
+    /// The comparison row of a static corrector (simulation and one-step coincide).
+    fn row(
+        &self,
+        model: &str,
+        structure: String,
+        estimate: &[Vec<f64>],
+        seconds: f64,
+        savable: bool,
+    ) -> ComparisonRow {
+        ComparisonRow {
+            model: model.to_string(),
+            structure,
+            kind: "static".into(),
+            train: self.part(estimate, &self.parts[0]),
+            validation: self.part(estimate, &self.parts[1]),
+            test: self.part(estimate, &self.parts[2]),
+            train_one_step: None,
+            test_one_step: None,
+            seconds,
+            savable,
+            failed: None,
+            warnings: Vec::new(),
+        }
+    }
+}
+
+/// System identification, one SISO model per axis, each started from the seed of every random
+/// choice: a comparison row per model (a model that cannot be fitted to this data is reported
+/// with its reason, not fatal) and the fitted ones.
+fn sysid_candidates(
+    settings: &Params,
+    measured: &Recording,
+    reference: &Recording,
+    axes_idx: &[usize],
+    division: &Division,
+    observer: &Observer,
+) -> (Vec<ComparisonRow>, Vec<(String, Vec<SysidModel>)>) {
+    let mut rows = Vec::new();
+    let mut models = Vec::new();
+    for (m, spec) in settings.sysid.iter().enumerate() {
+        let spec = &ModelSpec {
+            seed: settings.seed,
+            ..spec.clone()
+        };
+        observer(Progress::step(
+            "system identification",
+            m,
+            Some(settings.sysid.len()),
+        ));
+        let name = spec.kind.name().to_string();
+        match fit_sysid_per_axis(
+            spec,
+            measured,
+            reference,
+            axes_idx,
+            division,
+            settings.init_samples,
+        ) {
+            Ok((row, fitted)) => {
+                rows.push(row);
+                models.push((name, fitted));
+            }
+            Err(source) => {
+                let nan = || PartScore::new(vec![f64::NAN; axes_idx.len()], vec![f64::NAN; axes_idx.len()]);
+                rows.push(ComparisonRow {
+                    model: name,
+                    structure: format!("{:?}", spec.orders),
+                    kind: "dynamic".into(),
+                    train: nan(),
+                    validation: nan(),
+                    test: nan(),
+                    train_one_step: None,
+                    test_one_step: None,
+                    seconds: 0.0,
+                    savable: false,
+                    failed: Some(source.to_string()),
+                    warnings: Vec::new(),
+                });
+            }
+        }
+    }
+    (rows, models)
+}
+
+/// The best on validation fit among `rows` (uncorrected and unscored rows aside), or "".
+fn best_on_validation(rows: &mut dyn Iterator<Item = &ComparisonRow>) -> String {
+    rows.filter(|r| r.model != "uncorrected")
+        .filter(|r| r.validation.fit_percent_mean.is_finite())
+        .max_by(|a, b| {
+            a.validation
+                .fit_percent_mean
+                .total_cmp(&b.validation.fit_percent_mean)
+        })
+        .map(|r| r.model.clone())
+        .unwrap_or_default()
+}
+
+/// The correctors trained on the first recording.
+struct Trained<'a> {
+    network: &'a crate::correctors::ann::AnnModel,
+    linear: &'a LinearModel,
+    sysid: &'a [(String, Vec<SysidModel>)],
+}
+
+/// Cross-condition: every corrector trained on the first recording, scored on each other one
+/// against its own reference.
+fn cross_condition_rows(
+    recordings: &[Recording],
+    references: &[Recording],
+    axes_idx: &[usize],
+    settings: &Params,
+    trained: &Trained<'_>,
+    observer: &Observer,
+) -> Result<Vec<CrossRow>, CalibrateError> {
+    let measured = &recordings[0];
+    let axes_of =
+        |out: &Corrected| -> Vec<Vec<f64>> { axes_idx.iter().map(|&a| out.accel_mps2[a].clone()).collect() };
+    let mut cross_condition = Vec::new();
+    for (k, other) in recordings.iter().enumerate().skip(1) {
+        observer(Progress::step(
+            "cross-condition",
+            k - 1,
+            Some(recordings.len() - 1),
+        ));
+        let other_ref = &references[k];
+        let whole = |estimate: &[Vec<f64>], from: usize| {
+            let mut fits = Vec::new();
+            let mut errors = Vec::new();
+            for (c, &a) in axes_idx.iter().enumerate() {
+                let y = &other_ref.accel_mps2[a][from..];
+                let e = &estimate[c][from..];
+                fits.push(fit_percent(y, e));
+                errors.push(rmse(y, e));
+            }
+            PartScore::new(fits, errors)
+        };
+        let row = |model: &str, score: PartScore| CrossRow {
+            model: model.to_string(),
+            trained_on: measured.source.name.clone(),
+            tested_on: other.source.name.clone(),
+            score,
+            outside_training_range_percent: None,
+        };
+        let raw: Vec<Vec<f64>> = axes_idx.iter().map(|&a| other.accel_mps2[a].clone()).collect();
+        cross_condition.push(row("uncorrected", whole(&raw, settings.delays)));
+        let by_network = trained.network.correct(other);
+        cross_condition.push(CrossRow {
+            outside_training_range_percent: Some(
+                100.0 * by_network.outside_training_range as f64 / other.len().max(1) as f64,
+            ),
+            ..row("ANN", whole(&axes_of(&by_network), settings.delays))
+        });
+        cross_condition.push(row(
+            "linear",
+            whole(&axes_of(&trained.linear.correct(other)), settings.delays),
+        ));
+        for (name, models) in trained.sysid {
+            let mut estimate = Vec::new();
+            for (c, &a) in axes_idx.iter().enumerate() {
+                let sim = models[c]
+                    .simulate(
+                        &[&other.accel_mps2[a]],
+                        crate::sysid::SimInit::Measured {
+                            y: &other_ref.accel_mps2[a],
+                            n: settings.init_samples,
+                        },
+                    )
+                    .map_err(|source| CalibrateError::Sysid {
+                        model: name.clone(),
+                        source,
+                    })?;
+                estimate.push(sim);
+            }
+            cross_condition.push(row(
+                name,
+                whole(&estimate, settings.init_samples.max(settings.delays)),
+            ));
+        }
+    }
+    Ok(cross_condition)
+}
+
+/// What is saved, and the verdict: the best on validation unless another recording shows it
+/// worse than no correction; then the other static corrector if that one held; else nothing.
+fn saving_decision(
+    chosen: &str,
+    cross_condition: &[CrossRow],
+    recordings: usize,
+    turntable: &TurntableFit,
+) -> (String, String) {
+    let worse_elsewhere = |model: &str| -> Option<String> {
+        cross_condition.iter().filter(|r| r.model == model).find_map(|r| {
+            let raw = cross_condition
+                .iter()
+                .find(|u| u.model == "uncorrected" && u.tested_on == r.tested_on)?;
+            let held = r.score.rmse_mps2_mean <= raw.score.rmse_mps2_mean;
+            (!held).then(|| {
+                format!(
+                    "{model} makes {} worse than uncorrected ({:.4} against {:.4} m/s² RMS)",
+                    r.tested_on, r.score.rmse_mps2_mean, raw.score.rmse_mps2_mean
+                )
+            })
+        })
+    };
+    let other = if chosen == "ANN" { "linear" } else { "ANN" };
+    let validated = recordings > 1;
+    match (worse_elsewhere(chosen), worse_elsewhere(other)) {
+        (None, _) if validated => {
+            // Where a network was not applied (outside its training range), "no worse" is only
+            // "unchanged": say how much of the other recordings that was.
+            let outside: Vec<String> = cross_condition
+                .iter()
+                .filter(|r| r.model == chosen)
+                .filter_map(|r| {
+                    r.outside_training_range_percent
+                        .filter(|&p| p > 0.0)
+                        .map(|p| format!("{p:.0} % of {}", r.tested_on))
+                })
+                .collect();
+            let caveat = if outside.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " It was not applied outside its training range ({}): those readings pass through uncorrected; a campaign (`spincal calibrate --campaign`) calibrates what one speed cannot.",
+                    outside.join(", ")
+                )
+            };
+            (
+                chosen.to_string(),
+                format!(
+                    "Saved {chosen}: the best on validation, and no worse than uncorrected on the {} other recording(s) it never trained on.{caveat}",
+                    recordings - 1
+                ),
+            )
+        }
+        (None, _) => (
+            chosen.to_string(),
+            format!(
+                "Saved {chosen}, NOT validated off its training condition: with one recording, nothing shows it holds at another speed, radius or mounting (a network extrapolates outside its training range). {} Record a second session at another speed or radius and calibrate both, or calibrate a campaign (`spincal calibrate --campaign`).",
+                determined_sentence(turntable)
+            ),
+        ),
+        (Some(why), None) => (
+            other.to_string(),
+            format!("Saved {other}, not {chosen}: {why}; {other} is no worse than uncorrected on every other recording."),
+        ),
+        (Some(why), Some(why_other)) => (
+            "none".to_string(),
+            format!(
+                "Nothing saved: {why}; {why_other}. A corrector trained on one condition does not carry to the others: calibrate a campaign (`spincal calibrate --campaign`) with still poses and runs at several speeds and radii."
+            ),
+        ),
+    }
+}
+
+/// Where each recording stood, for the report.
+fn recording_summaries(recordings: &[Recording], turntable: &TurntableFit) -> Vec<RecordingSummary> {
+    recordings
+        .iter()
+        .zip(&turntable.recordings)
+        .map(|(rec, fit)| RecordingSummary {
+            name: rec.source.name.clone(),
+            samples: rec.len(),
+            duration_s: rec.duration_s(),
+            sample_rate_hz: fit.inspection.sample_rate_hz,
+            rpm_from_spectrum: fit.rate.rpm,
+            omega_from_spectrum_radps: fit.rate.omega_radps,
+            gaps: fit.inspection.gaps.len(),
+            saturated_samples: fit.inspection.saturation.iter().map(|s| s.samples).sum(),
+            warnings: fit.inspection.warnings(&rec.source.name),
+        })
+        .collect()
 }
 
 /// Which of the turntable fit's parameters the recording determines, and the fit's own remedy for

@@ -5,6 +5,8 @@
 
 // Index loops over several parallel arrays read better than zipped iterators in numerical code.
 #![allow(clippy::needless_range_loop)]
+// Every unsafe operation, inside an unsafe fn too, sits in a block with its SAFETY comment.
+#![deny(unsafe_op_in_unsafe_fn)]
 
 // The README's library example runs as a doc test.
 #[doc = include_str!("../../../README.md")]
@@ -27,6 +29,7 @@ pub mod output;
 pub mod progress;
 #[cfg(feature = "plot")]
 pub mod report;
+mod simd;
 pub mod simulate;
 pub mod static_calibration;
 pub mod sysid;

@@ -145,7 +145,7 @@ fn student_t_upper(t: f64, nu: f64) -> f64 {
 }
 
 /// The `p` quantile (p > 0.5) of Student's t with `nu` degrees of freedom, by bisection.
-pub fn student_t_quantile(p: f64, nu: f64) -> f64 {
+pub(crate) fn student_t_quantile(p: f64, nu: f64) -> f64 {
     let tail = 1.0 - p;
     if !(tail > 0.0 && tail < 0.5 && nu > 0.0) {
         return f64::INFINITY;

@@ -240,7 +240,7 @@ pub fn create_folder(path: &Path) -> Result<(), OutputError> {
 }
 
 /// The mark spincal's HTML reports carry in their head.
-pub const HTML_GENERATOR: &str = "<meta name=\"generator\" content=\"spincal\">";
+pub(crate) const HTML_GENERATOR: &str = "<meta name=\"generator\" content=\"spincal\">";
 
 /// A file's length and FNV-1a 64-bit hash (hex): how a spincal JSON file names a file it was
 /// written with (a simulation's truth names its recording).
@@ -277,7 +277,7 @@ pub fn named_fingerprints(paths: &[&Path]) -> std::io::Result<Vec<NamedFingerpri
 }
 
 /// The fingerprint of the file at `path`, read in pieces.
-pub fn fingerprint(path: &Path) -> std::io::Result<Fingerprint> {
+pub(crate) fn fingerprint(path: &Path) -> std::io::Result<Fingerprint> {
     use std::io::Read;
     let mut file = File::open(path)?;
     let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
@@ -366,7 +366,7 @@ fn claim_of(claimer: &Path, file: &Path) -> Option<bool> {
 /// - any file that a spincal JSON file among `companions` (or `<stem>.truth.json` beside it) names
 ///   with its current length and hash, in a `recording` field (a simulated recording) or an
 ///   `outputs` list (a sweep's table and heat maps); once named, only that content counts.
-pub fn written_by_spincal(path: &Path, companions: &[&Path]) -> bool {
+pub(crate) fn written_by_spincal(path: &Path, companions: &[&Path]) -> bool {
     use std::io::Read;
     let mut head = Vec::with_capacity(4096);
     if File::open(path)

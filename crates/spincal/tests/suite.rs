@@ -8,6 +8,7 @@ mod common;
 mod ann;
 mod ann_peer;
 mod architecture;
+#[cfg(feature = "bags")]
 mod bags;
 mod campaign;
 mod campaign_gyro;

@@ -63,7 +63,7 @@ pub enum AllanError {
 
 /// Cluster sizes m, about `per_decade` per decade, from 1 to N/10: beyond that fewer than ten
 /// independent clusters remain and σ(τ) is too uncertain to read a floor from.
-pub fn cluster_sizes(n: usize, per_decade: usize) -> Vec<usize> {
+pub(crate) fn cluster_sizes(n: usize, per_decade: usize) -> Vec<usize> {
     let max = n / 10;
     let mut out: Vec<usize> = Vec::new();
     let mut k = 0.0;
@@ -81,7 +81,7 @@ pub fn cluster_sizes(n: usize, per_decade: usize) -> Vec<usize> {
 }
 
 /// Overlapping Allan deviation of one signal sampled every `dt_s` at cluster sizes `ms`.
-pub fn overlapping_adev(y: &[f64], dt_s: f64, ms: &[usize]) -> Vec<f64> {
+pub(crate) fn overlapping_adev(y: &[f64], dt_s: f64, ms: &[usize]) -> Vec<f64> {
     let mean = y.iter().sum::<f64>() / y.len() as f64;
     // Removing the mean leaves σ unchanged and keeps θ small.
     let mut theta = Vec::with_capacity(y.len() + 1);
@@ -108,10 +108,14 @@ pub fn overlapping_adev(y: &[f64], dt_s: f64, ms: &[usize]) -> Vec<f64> {
 }
 
 /// Fewest samples for a curve of at least three points (m = 1, 2, 3 ≤ N/10).
-pub const MIN_SAMPLES: usize = 30;
+pub(crate) const MIN_SAMPLES: usize = 30;
 
 /// Allan deviation of three axes (sensor frame, any unit) sampled every `dt_s`.
-pub fn allan_deviation(axes: &[Vec<f64>; 3], dt_s: f64, per_decade: usize) -> Result<AllanCurve, AllanError> {
+pub(crate) fn allan_deviation(
+    axes: &[Vec<f64>; 3],
+    dt_s: f64,
+    per_decade: usize,
+) -> Result<AllanCurve, AllanError> {
     if !(dt_s.is_finite() && dt_s > 0.0) {
         return Err(AllanError::BadInterval(dt_s));
     }
@@ -130,7 +134,7 @@ pub fn allan_deviation(axes: &[Vec<f64>; 3], dt_s: f64, per_decade: usize) -> Re
 }
 
 /// Reads noise density and bias instability off each curve.
-pub fn noise_params(curve: &AllanCurve) -> NoiseParams {
+pub(crate) fn noise_params(curve: &AllanCurve) -> NoiseParams {
     let mut p = NoiseParams {
         noise_density: [0.0; 3],
         bias_instability: [0.0; 3],

@@ -16,15 +16,15 @@ use crate::turntable::spectrum::{estimate_rotation_rate, RateSearch};
 /// A reading's magnitude may differ from what physics requires by this fraction before it is
 /// refused: beyond what a faulty but calibratable part shows (a fleet's outlier with 0.1 g bias
 /// and 5 % scale error reads 10 % high), far below a unit mix-up's factor 9.8.
-pub const MAGNITUDE_TOLERANCE: f64 = 0.25;
+pub(crate) const MAGNITUDE_TOLERANCE: f64 = 0.25;
 /// The angle between the mean reading of a run and its declared `up`, deg, beyond which the
 /// mounting is refused (sensors sit within a few degrees of how they are declared).
-pub const UP_TOLERANCE_DEG: f64 = 30.0;
+pub(crate) const UP_TOLERANCE_DEG: f64 = 30.0;
 /// A still recording whose gyro reads more than this, deg/s, is turning (MEMS gyro biases stay
 /// within ±20 °/s).
-pub const STILL_GYRO_DPS: f64 = 30.0;
+pub(crate) const STILL_GYRO_DPS: f64 = 30.0;
 /// The largest relative difference between a run's nominal and measured rate.
-pub const RPM_TOLERANCE: f64 = 0.05;
+pub(crate) const RPM_TOLERANCE: f64 = 0.05;
 
 /// One input that physics contradicts.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -39,7 +39,7 @@ pub struct InputError {
 
 /// The checks on whole recordings (before they are cut into poses): duplicates, and a `static`
 /// recording whose gyro turns.
-pub fn check_recordings(units: &[UnitRecording]) -> Result<(), InputError> {
+pub(crate) fn check_recordings(units: &[UnitRecording]) -> Result<(), InputError> {
     check_duplicates(units)?;
     for unit in units.iter().filter(|u| u.turntable.is_none()) {
         let Some(gyro) = &unit.recording.gyro_radps else {
@@ -70,7 +70,7 @@ pub fn check_recordings(units: &[UnitRecording]) -> Result<(), InputError> {
 }
 
 /// The checks on the poses and runs cut from the recordings; the first failure is returned.
-pub fn check_prepared(prepared: &Prepared, gravity: f64) -> Result<(), InputError> {
+pub(crate) fn check_prepared(prepared: &Prepared, gravity: f64) -> Result<(), InputError> {
     for pose in &prepared.poses {
         check_magnitude(&pose.name, norm(&pose.mean_mps2), gravity, "still pose")?;
     }

@@ -9,6 +9,7 @@
 //! alone (and, in simulations, against truth too). `params` holds the settings of every
 //! calibration, a campaign's or the paper's one-recording protocol (`crate::calibrate`).
 
+pub mod candidate;
 pub mod checks;
 pub mod file;
 pub mod gyro;
@@ -22,12 +23,11 @@ pub mod thermal;
 pub mod verdict;
 
 pub use crate::correctors::physical::{PhysicalCorrector, SensorModel};
+pub use candidate::CandidateKind;
 pub use file::{Campaign, CampaignEntry, CampaignError, EntryKind, SignedAxis, TurntableEntry};
 pub use gyro::{fit_gyro, GyroFit, GyroModel, GyroSettings};
 pub use joint::{fit_joint, JointFit, JointSettings, PoseInput, RunInput, SensorTerms};
 pub use load::{load_campaign, LoadError};
 pub use prepare::UnitRecording;
-pub use select::{
-    calibrate_campaign, CampaignOutput, CampaignResult, CandidateKind, HeldOutScore, TruthCheck,
-};
+pub use select::{calibrate_campaign, CampaignOutput, CampaignResult, HeldOutScore, TruthCheck};
 pub use verdict::{combined, Comparison};

@@ -34,7 +34,7 @@ pub struct CampaignThermal {
 }
 
 /// The stage's outcome: the recordings to calibrate on, and what was fitted or why nothing was.
-pub struct ThermalStage {
+pub(crate) struct ThermalStage {
     /// The recordings taken to the reference temperature; `None`: calibrate on them as they are.
     pub normalised_units: Option<Vec<UnitRecording>>,
     pub thermal: Option<CampaignThermal>,
@@ -78,7 +78,11 @@ fn still_poses(units: &[UnitRecording]) -> Vec<Recording> {
 /// Fits the thermal model where the campaign allows and takes every recording with a temperature
 /// to its reference temperature. A thermal fit that cannot be made leaves the recordings as they
 /// are, with a note saying why (the rest of the campaign does not need it).
-pub fn thermal_stage(units: &[UnitRecording], settings: &ThermalSettings, gravity_mps2: f64) -> ThermalStage {
+pub(crate) fn thermal_stage(
+    units: &[UnitRecording],
+    settings: &ThermalSettings,
+    gravity_mps2: f64,
+) -> ThermalStage {
     let unchanged = |note: Option<String>| ThermalStage {
         normalised_units: None,
         thermal: None,
@@ -140,7 +144,10 @@ const BAND_FRACTION: f64 = 0.2;
 /// The coldest and the hottest fifth of the still poses by mean die temperature, each as a label
 /// and its poses (indices into the prepared poses), to be held out (with at least five poses that
 /// have a temperature).
-pub fn temperature_bands(prepared: &Prepared, die_c: &[Option<Vec<f64>>]) -> Vec<(String, Vec<usize>)> {
+pub(crate) fn temperature_bands(
+    prepared: &Prepared,
+    die_c: &[Option<Vec<f64>>],
+) -> Vec<(String, Vec<usize>)> {
     let mut poses: Vec<(f64, usize)> = prepared
         .pose_origin
         .iter()

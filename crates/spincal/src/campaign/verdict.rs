@@ -46,7 +46,7 @@ use crate::metrics::student_t_quantile;
 const POSE_BLOCK_S: f64 = 1.0;
 
 /// One-sided false-alarm probability of "worse than uncorrected" on one condition.
-pub const WORSE_FALSE_ALARM: f64 = 1e-3;
+pub(crate) const WORSE_FALSE_ALARM: f64 = 1e-3;
 
 /// The samples of one held-out condition in a fixed order (its runs, then its poses) and how they
 /// group into blocks for the standard errors.

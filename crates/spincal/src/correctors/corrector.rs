@@ -83,7 +83,7 @@ impl ModelError {
 }
 
 /// `prefix` and `field` joined as a path: `a` + `b` → `a.b`, `a` + `[1]` → `a[1]`.
-pub fn join_field(prefix: &str, field: &str) -> String {
+pub(crate) fn join_field(prefix: &str, field: &str) -> String {
     if prefix.is_empty() {
         field.to_string()
     } else if field.is_empty() {
@@ -96,7 +96,7 @@ pub fn join_field(prefix: &str, field: &str) -> String {
 }
 
 /// Every value finite; the error names the first that is not (`field[i]`).
-pub fn check_finite(field: &str, values: &[f64]) -> Result<(), ModelError> {
+pub(crate) fn check_finite(field: &str, values: &[f64]) -> Result<(), ModelError> {
     match values.iter().position(|v| !v.is_finite()) {
         Some(i) => Err(ModelError::new(
             format!("{field}[{i}]"),
@@ -108,7 +108,7 @@ pub fn check_finite(field: &str, values: &[f64]) -> Result<(), ModelError> {
 
 /// A list of `found` entries where `needed` are required; `why` completes "but … need N", e.g.
 /// `2 axes`.
-pub fn check_len(field: &str, found: usize, needed: usize, why: &str) -> Result<(), ModelError> {
+pub(crate) fn check_len(field: &str, found: usize, needed: usize, why: &str) -> Result<(), ModelError> {
     if found == needed {
         Ok(())
     } else {
@@ -123,7 +123,7 @@ pub fn check_len(field: &str, found: usize, needed: usize, why: &str) -> Result<
 }
 
 /// "1 axis", "2 axes": for messages.
-pub fn axes_phrase(n: usize) -> String {
+pub(crate) fn axes_phrase(n: usize) -> String {
     if n == 1 {
         "1 axis".into()
     } else {
@@ -132,7 +132,7 @@ pub fn axes_phrase(n: usize) -> String {
 }
 
 /// A model's corrected axes: at least one, none twice.
-pub fn check_model_axes(field: &str, axes: &[Axis]) -> Result<(), ModelError> {
+pub(crate) fn check_model_axes(field: &str, axes: &[Axis]) -> Result<(), ModelError> {
     if axes.is_empty() {
         return Err(ModelError::new(
             field,

@@ -27,7 +27,7 @@ pub enum PairingError {
 }
 
 /// At least one axis, none twice.
-pub fn check_axes(axes: &[Axis]) -> Result<(), PairingError> {
+pub(crate) fn check_axes(axes: &[Axis]) -> Result<(), PairingError> {
     if axes.is_empty() {
         return Err(PairingError::NoAxes);
     }
@@ -40,7 +40,7 @@ pub fn check_axes(axes: &[Axis]) -> Result<(), PairingError> {
 }
 
 /// The two recordings must hold the same samples; times agree to 1 µs or 1e-6 relative.
-pub fn check_pairing(measured: &Recording, reference: &Recording) -> Result<(), PairingError> {
+pub(crate) fn check_pairing(measured: &Recording, reference: &Recording) -> Result<(), PairingError> {
     if measured.len() != reference.len() {
         return Err(PairingError::LengthMismatch {
             measured: measured.len(),

@@ -22,7 +22,7 @@ use crate::correctors::physical_ann::PhysicalAnnCorrector;
 use crate::correctors::static_cal::StaticCalibration;
 
 /// The corrector file format this build writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+pub(crate) const FORMAT_VERSION: u32 = 1;
 
 /// Every kind of saved corrector, tagged by `kind`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

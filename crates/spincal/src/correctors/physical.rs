@@ -23,10 +23,10 @@ use crate::correctors::corrector::{
 use crate::geometry::M3;
 
 /// Parameters of the sensor model, in the order the joint fit uses.
-pub const SENSOR_PARAMS: usize = 12;
+pub(crate) const SENSOR_PARAMS: usize = 12;
 
 /// Names of the 12 sensor parameters, in fit order, with their units.
-pub const SENSOR_PARAM_NAMES: [&str; SENSOR_PARAMS] = [
+pub(crate) const SENSOR_PARAM_NAMES: [&str; SENSOR_PARAMS] = [
     "bias_x (m/s²)",
     "bias_y (m/s²)",
     "bias_z (m/s²)",

@@ -37,7 +37,7 @@ pub struct InputCoverage {
 }
 
 /// Cells per axis of [`InputCoverage`]; 16³ = 4096 cells at most in a file.
-pub const COVERAGE_CELLS: usize = 16;
+pub(crate) const COVERAGE_CELLS: usize = 16;
 
 impl InputCoverage {
     /// The coverage of `inputs` (three columns of equal length).

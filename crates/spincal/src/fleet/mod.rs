@@ -36,7 +36,7 @@ use crate::progress::{Observer, Progress};
 pub use table::{fleet_table, FleetRow, FleetTable, OutlierFlag, OutlierSettings, ParameterStats};
 
 /// The file a unit folder must hold.
-pub const CAMPAIGN_FILE: &str = "campaign.toml";
+pub(crate) const CAMPAIGN_FILE: &str = "campaign.toml";
 
 /// Settings of a fleet calibration.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
@@ -201,7 +201,7 @@ pub fn campaign_path(source: &Path) -> Result<PathBuf, FleetError> {
 
 /// A unit's name from its source: a folder's name; for `…/campaign.toml`, its folder's name; for
 /// any other file, its stem.
-pub fn unit_label(source: &Path) -> String {
+pub(crate) fn unit_label(source: &Path) -> String {
     let named = |p: &Path| p.file_name().map(|n| n.to_string_lossy().into_owned());
     let label = if source.is_dir() {
         named(source)
@@ -331,7 +331,7 @@ pub fn calibrate_unit(
 
 /// What [`calibrate_fleet`] reports: the unit's index in `sources`, and its progress. When a unit
 /// ends, its last report is the stage `"done"` or `"failed"` with `done == total == 1`.
-pub type FleetObserver<'a> = dyn Fn(usize, Progress<'_>) + Sync + 'a;
+pub(crate) type FleetObserver<'a> = dyn Fn(usize, Progress<'_>) + Sync + 'a;
 
 /// A fleet observer that shows nothing.
 pub fn silent_fleet(_: usize, _: Progress<'_>) {}

@@ -139,7 +139,7 @@ pub struct FleetTable {
 }
 
 /// A parameter name with its unit stated: the names without one are dimensionless fractions.
-pub fn parameter_label(k: usize) -> String {
+pub(crate) fn parameter_label(k: usize) -> String {
     let name = SENSOR_PARAM_NAMES[k];
     if name.contains('(') {
         name.to_string()
@@ -176,7 +176,7 @@ fn mad_correction(n: usize) -> f64 {
 }
 
 /// Median and robust spread of finite values (`None` when there are none).
-pub fn robust_centre_spread(values: &[f64]) -> Option<(f64, f64)> {
+pub(crate) fn robust_centre_spread(values: &[f64]) -> Option<(f64, f64)> {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
     if v.is_empty() {
         return None;

@@ -9,14 +9,14 @@ use crate::input::recording::{sample_interval, time_quantum, Recording, STANDARD
 
 /// A sample interval longer than this many sampling intervals is a gap (or, with a clock coarser
 /// than the rate, longer than one interval plus one tick).
-pub const GAP_FACTOR: f64 = 1.5;
+pub(crate) const GAP_FACTOR: f64 = 1.5;
 
 /// Least number of successive samples at exactly an axis's extreme for it to count as a rail
 /// (a clipped sensor repeats its rail value).
-pub const RAIL_SAMPLES: usize = 3;
+pub(crate) const RAIL_SAMPLES: usize = 3;
 
 /// With a known range, a sample at or beyond this share of it is saturated.
-pub const RANGE_SHARE: f64 = 0.999;
+pub(crate) const RANGE_SHARE: f64 = 0.999;
 
 /// Gaps listed individually; the rest are only counted.
 pub(crate) const LISTED_GAPS: usize = 20;
@@ -81,7 +81,7 @@ pub struct TemperatureSummary {
 }
 
 /// Range and resolution of a temperature column; `None` when it is empty.
-pub fn temperature_summary(temperature_c: &[f64]) -> Option<TemperatureSummary> {
+pub(crate) fn temperature_summary(temperature_c: &[f64]) -> Option<TemperatureSummary> {
     let mut values: Vec<f64> = temperature_c.to_vec();
     values.sort_by(f64::total_cmp);
     values.dedup();
@@ -235,7 +235,7 @@ pub fn inspect(recording: &Recording, range_mps2: Option<f64>) -> Inspection {
 
 /// Which samples are saturated on any axis, by the same rule as [`inspect`]; the fit leaves them
 /// out (a clipped sample carries the rail, not the motion).
-pub fn saturated_mask(recording: &Recording, range_mps2: Option<f64>) -> Vec<bool> {
+pub(crate) fn saturated_mask(recording: &Recording, range_mps2: Option<f64>) -> Vec<bool> {
     let mut mask = vec![false; recording.len()];
     for axis in &recording.accel_mps2 {
         if axis.is_empty() {
@@ -296,7 +296,7 @@ fn flat_tops(axis: &[f64], min: f64, max: f64) -> Vec<(usize, f64)> {
 /// exactly 1 in whole numbers (a sample index), steps of half a second or more (milliseconds read
 /// as seconds, or a sample index), steps under 10 µs (seconds read as milliseconds or
 /// microseconds). The same rule for every command that fits a turntable.
-pub fn time_advice(recording: &Recording) -> Option<String> {
+pub(crate) fn time_advice(recording: &Recording) -> Option<String> {
     let t = &recording.time_s;
     if t.len() < 2 {
         return None;
@@ -335,7 +335,7 @@ pub fn time_advice(recording: &Recording) -> Option<String> {
 
 /// How a time column's repeated stamps could spoil a rate: `Some` advice when more than a tenth of
 /// the steps repeat a stamp (a coarse clock), pointing to `--retime`.
-pub fn repeated_stamps_advice(recording: &Recording) -> Option<String> {
+pub(crate) fn repeated_stamps_advice(recording: &Recording) -> Option<String> {
     let t = &recording.time_s;
     let repeats = t.windows(2).filter(|w| w[1] == w[0]).count();
     (t.len() > 1 && repeats * 10 > t.len() - 1).then(|| {

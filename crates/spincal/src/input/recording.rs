@@ -659,7 +659,7 @@ pub fn sample_interval(t: &[f64]) -> f64 {
 }
 
 /// The least positive step: the timestamps' resolution when the clock is coarser than the rate.
-pub fn time_quantum(t: &[f64]) -> f64 {
+pub(crate) fn time_quantum(t: &[f64]) -> f64 {
     t.windows(2)
         .map(|w| w[1] - w[0])
         .filter(|d| *d > 0.0)

@@ -300,7 +300,7 @@ pub fn levenberg_marquardt_normal(
 }
 
 /// Most undamped Gauss–Newton steps of [`LmOptions::polish_se_tolerance`].
-pub const POLISH_STEPS: usize = 5;
+pub(crate) const POLISH_STEPS: usize = 5;
 
 /// Relative rise of the cost a polish step may show (rounding of the cost's sum) and still be
 /// taken.

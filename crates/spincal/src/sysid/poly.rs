@@ -20,7 +20,7 @@ pub fn filter(b: &[f64], a: &[f64], x: &[f64]) -> Vec<f64> {
 }
 
 /// [`filter`] into a preallocated buffer of the same length as `x`.
-pub fn filter_into(b: &[f64], a: &[f64], x: &[f64], out: &mut [f64]) {
+pub(crate) fn filter_into(b: &[f64], a: &[f64], x: &[f64], out: &mut [f64]) {
     assert_eq!(x.len(), out.len(), "filter_into: lengths differ");
     let a0 = a[0];
     let b: Vec<f64> = b.iter().map(|v| v / a0).collect();
@@ -53,7 +53,7 @@ pub fn poly_mul(p: &[f64], q: &[f64]) -> Vec<f64> {
 
 /// True when every root of the monic `a` (in z, i.e. of zⁿ + a₁zⁿ⁻¹ + …) lies strictly inside the
 /// unit circle. Schur–Cohn step-down: all reflection coefficients must have |k| < 1.
-pub fn is_stable(a: &[f64]) -> bool {
+pub(crate) fn is_stable(a: &[f64]) -> bool {
     let mut p: Vec<f64> = a.iter().map(|v| v / a[0]).collect();
     while p.len() > 1 {
         let n = p.len() - 1;
@@ -89,7 +89,7 @@ pub fn roots(a: &[f64]) -> Result<Vec<(f64, f64)>, SysidError> {
 }
 
 /// Monic polynomial with the given roots (complex roots must come in conjugate pairs).
-pub fn from_roots(roots: &[(f64, f64)]) -> Vec<f64> {
+pub(crate) fn from_roots(roots: &[(f64, f64)]) -> Vec<f64> {
     let mut re = vec![1.0];
     let mut im = vec![0.0];
     for &(rr, ri) in roots {
@@ -110,7 +110,7 @@ pub fn from_roots(roots: &[(f64, f64)]) -> Vec<f64> {
 
 /// Reflects roots outside the unit circle to 1/z̄ (same magnitude response up to a gain, as MATLAB's
 /// `fstab`), and pulls roots on or near the circle to radius `max_radius`.
-pub fn stabilize(a: &[f64], max_radius: f64) -> Result<Vec<f64>, SysidError> {
+pub(crate) fn stabilize(a: &[f64], max_radius: f64) -> Result<Vec<f64>, SysidError> {
     if is_stable(a) && roots_radius(a)? <= max_radius {
         return Ok(a.iter().map(|v| v / a[0]).collect());
     }

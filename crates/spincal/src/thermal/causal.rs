@@ -25,7 +25,7 @@ fn terms(t: f64, v: f64) -> [f64; 5] {
 
 /// The causal die-temperature estimator (see the module documentation).
 #[derive(Debug, Clone)]
-pub struct CausalDieTemperature {
+pub(crate) struct CausalDieTemperature {
     lag_s: f64,
     smoothing_s: f64,
     /// (time relative to `origin`, reported) within the trailing window.

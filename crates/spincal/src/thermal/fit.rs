@@ -455,7 +455,7 @@ fn quantile(values: &[f64], q: f64) -> f64 {
 }
 
 /// The narrowest die-temperature span a thermal model is fitted over, °C.
-pub const MIN_SPAN_C: f64 = 3.0;
+pub(crate) const MIN_SPAN_C: f64 = 3.0;
 
 /// Fits the thermal model to still recordings (each in one orientation) that carry a temperature.
 pub fn fit_thermal(

@@ -34,11 +34,11 @@ use crate::input::recording::STANDARD_GRAVITY;
 pub const ARDUPILOT_REFERENCE_C: f64 = 35.0;
 /// ArduPilot stores each coefficient × 1e6 (`SCALE_FACTOR`), so parameter editors show plain
 /// numbers.
-pub const ARDUPILOT_SCALE: f64 = 1.0e6;
+pub(crate) const ARDUPILOT_SCALE: f64 = 1.0e6;
 /// The highest power of temperature either stack holds.
-pub const MAX_ORDER: usize = 3;
+pub(crate) const MAX_ORDER: usize = 3;
 /// PX4 republishes the thermal offset only after the temperature moved this far, °C.
-pub const PX4_REPUBLISH_C: f64 = 1.0;
+pub(crate) const PX4_REPUBLISH_C: f64 = 1.0;
 /// Warm-up rate at which the lag's effect is stated in the files' headers, °C/s (1 °C/min).
 const EXAMPLE_RATE_C_PER_S: f64 = 1.0 / 60.0;
 /// Points on the fitted range where the left-out sizes are evaluated (their maxima).
@@ -147,7 +147,7 @@ pub struct Px4Target {
 /// The coefficients c_1, c_2, … of β(x + shift) = c_0 + Σ_{i≥1} c_i x^i, for β(y) = Σ_{j≥1}
 /// `coefficients[j−1]`·y^j; the constant c_0 = β(shift) is dropped (both stacks' polynomials have
 /// none). Exact up to rounding: each c_i = Σ_{j≥i} C(j, i)·shift^(j−i)·β_j.
-pub fn shifted_polynomial(coefficients: &[f64], shift: f64) -> Vec<f64> {
+pub(crate) fn shifted_polynomial(coefficients: &[f64], shift: f64) -> Vec<f64> {
     (1..=coefficients.len())
         .map(|i| {
             (i..=coefficients.len())

@@ -31,7 +31,7 @@ pub use fit::{fit_thermal, OrderScore, ThermalError, ThermalFit, ThermalSettings
 
 /// Sensor parameters at the reference temperature that the thermal model carries (no
 /// nonlinearity: still poses at 1 g cannot tell it from bias and scale).
-pub const REFERENCE_PARAMS: usize = 9;
+pub(crate) const REFERENCE_PARAMS: usize = 9;
 
 /// The thermal sensor model (see the module documentation).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -79,7 +79,7 @@ impl InvalidField {
 }
 
 /// The highest order of β and ρ a model may hold.
-pub const MAX_ORDER: usize = 3;
+pub(crate) const MAX_ORDER: usize = 3;
 
 impl ThermalModel {
     /// Checks a model read from a file: finite values, orders up to [`MAX_ORDER`], a lag and a

@@ -77,7 +77,7 @@ pub struct Mounting {
 
 /// Partial derivatives of (a_x, a_y, a_z) at one sample with respect to each model quantity.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct SampleDerivatives {
+pub(crate) struct SampleDerivatives {
     /// The model itself, a_x, a_y, a_z (m/s²), equal to [`for_each_sample`]'s.
     pub value: [f64; 3],
     pub radius: [f64; 3],
@@ -126,7 +126,7 @@ pub fn levels(session: &Session, mounting: &Mounting, gravity: f64) -> ([f64; 3]
 }
 
 /// Calls `f(i, [a_x, a_y, a_z])` with the model at every sample, in order, without allocating.
-pub fn for_each_sample(
+pub(crate) fn for_each_sample(
     session: &Session,
     mounting: &Mounting,
     gravity: f64,
@@ -153,7 +153,7 @@ pub fn for_each_sample(
 }
 
 /// Calls `f(i, sin u_i, cos u_i)` for u_i = ω (t_i − t0) + offset, for every sample in order.
-pub fn for_each_rotation(
+pub(crate) fn for_each_rotation(
     time_s: &[f64],
     t0: f64,
     omega: f64,
@@ -204,7 +204,7 @@ fn uniform_step(time_s: &[f64]) -> Option<f64> {
 }
 
 /// First sample time and the middle of the recording (the drift's origin).
-pub fn time_origin(time_s: &[f64]) -> (f64, f64) {
+pub(crate) fn time_origin(time_s: &[f64]) -> (f64, f64) {
     match (time_s.first(), time_s.last()) {
         (Some(&a), Some(&b)) => (a, 0.5 * (a + b)),
         _ => (0.0, 0.0),
@@ -212,7 +212,7 @@ pub fn time_origin(time_s: &[f64]) -> (f64, f64) {
 }
 
 /// Derivatives of the three axes at every sample: calls `f(i, &SampleDerivatives)`.
-pub fn for_each_derivative(
+pub(crate) fn for_each_derivative(
     session: &Session,
     mounting: &Mounting,
     gravity: f64,

@@ -77,7 +77,7 @@ struct AxisSums {
 
 /// Precomputed moments of one recording.
 #[derive(Debug, Clone)]
-pub struct CostMoments {
+pub(crate) struct CostMoments {
     omega_centre: f64,
     omega_half_width: f64,
     /// Block centres in t′ (time since the first sample), s.

@@ -64,12 +64,12 @@ pub enum SpectrumError {
 }
 
 /// How far up the spectrum a [`RateEstimate`] keeps, in multiples of the rotation frequency.
-pub const SPECTRUM_KEPT_HARMONICS: f64 = 8.0;
+pub(crate) const SPECTRUM_KEPT_HARMONICS: f64 = 8.0;
 
 /// Recordings up to this many samples get one FFT of the whole (about 90 bytes per sample beside
 /// the recording); longer ones are searched in segments of this length (see
 /// [`estimate_rotation_rate`]). 2²⁰ samples are 2.9 h at 100 Hz.
-pub const WHOLE_SPECTRUM_SAMPLES: usize = 1 << 20;
+pub(crate) const WHOLE_SPECTRUM_SAMPLES: usize = 1 << 20;
 
 /// Estimates the rotation rate of a recording from its x and y axes.
 ///
@@ -90,7 +90,7 @@ pub fn estimate_rotation_rate(
 
 /// [`estimate_rotation_rate`] with the segment length given (tests use short ones).
 #[doc(hidden)]
-pub fn estimate_rotation_rate_in_segments(
+pub(crate) fn estimate_rotation_rate_in_segments(
     recording: &Recording,
     search: RateSearch,
     segment: usize,

@@ -5,7 +5,7 @@
 //! column after column, each a fused multiply-subtract (a − l₀c₀, then − l₁c₁, …, each rounded
 //! once), so the factor is the same to the bit whatever the vector width, and on every machine.
 //! The loops run compiled for the CPU's vector extension ([`pulp::Arch`]); where the products'
-//! wide kernels run ([`super::gram::has_avx512`]), the trailing matrix is updated four of its
+//! wide kernels run ([`crate::simd::has_avx512`]), the trailing matrix is updated four of its
 //! columns at a time in 512-bit registers, each panel value loaded once for the four.
 
 use pulp::{Arch, Simd, WithSimd};
@@ -43,7 +43,7 @@ impl Cholesky {
             n,
             a: &mut self.factor,
             #[cfg(target_arch = "x86_64")]
-            wide: super::gram::has_avx512(),
+            wide: crate::simd::has_avx512(),
         })
     }
 
@@ -135,8 +135,8 @@ fn factor_in_place(n: usize, a: &mut [f64], wide: bool) -> bool {
         while j < n {
             #[cfg(target_arch = "x86_64")]
             if wide && width == PANEL && j + GROUP <= n {
-                // SAFETY: `wide` only where the CPU has AVX-512F and x86-64-v3; the group's
-                // columns lie in `rest` and the panel's rows up to n.
+                // SAFETY: `wide` only where `simd::has_avx512` says the CPU has the kernel's
+                // features; each panel column holds n values.
                 unsafe { trailing_group_avx512(&panel, rest, n, k1, j) };
                 j += GROUP;
                 continue;
@@ -167,60 +167,71 @@ fn factor_in_place(n: usize, a: &mut [f64], wide: bool) -> bool {
     true
 }
 
-/// Trailing columns `j..j + GROUP` (of `rest`, which starts at column `k1`) minus the whole
-/// panel's updates, each entry's four in panel order: the triangle on and below the diagonal one
-/// entry at a time, the rows below it eight at a time for all four columns, so that each panel
-/// value is loaded once for them.
-///
-/// # Safety
-/// The CPU must have AVX-512F and x86-64-v3; `j + GROUP <= n`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
-unsafe fn trailing_group_avx512(panel: &[&[f64]; PANEL], rest: &mut [f64], n: usize, k1: usize, j: usize) {
-    use std::arch::x86_64::*;
-    assert!(j + GROUP <= n && rest.len() >= (j + GROUP - k1) * n);
-    let mut c = [[0.0; PANEL]; GROUP];
-    for g in 0..GROUP {
-        for p in 0..PANEL {
-            c[g][p] = panel[p][j + g];
-        }
-    }
-    for g in 0..GROUP {
-        for i in j + g..j + GROUP {
-            let t = &mut rest[(j + g - k1) * n + i];
+crate::simd::avx512_kernel! {
+    /// Trailing columns `j..j + GROUP` (of `rest`, which starts at column `k1`) minus the whole
+    /// panel's updates, each entry's four in panel order: the triangle on and below the diagonal
+    /// one entry at a time, the rows below it eight at a time for all four columns, so that each
+    /// panel value is loaded once for them.
+    ///
+    /// # Safety
+    /// Each panel column holds at least n values; the CPU has the kernel's features.
+    unsafe fn trailing_group_avx512(
+        panel: &[&[f64]; PANEL],
+        rest: &mut [f64],
+        n: usize,
+        k1: usize,
+        j: usize,
+    ) {
+        use std::arch::x86_64::*;
+        assert!(j + GROUP <= n && rest.len() >= (j + GROUP - k1) * n);
+        let mut c = [[0.0; PANEL]; GROUP];
+        for g in 0..GROUP {
             for p in 0..PANEL {
-                *t = minus_product(*t, panel[p][i], c[g][p]);
+                c[g][p] = panel[p][j + g];
             }
-        }
-    }
-    let start = j + GROUP;
-    let mut cv = [[_mm512_setzero_pd(); PANEL]; GROUP];
-    for g in 0..GROUP {
-        for p in 0..PANEL {
-            cv[g][p] = _mm512_set1_pd(c[g][p]);
-        }
-    }
-    let targets = rest.as_mut_ptr();
-    let mut r = start;
-    while r < n {
-        let mask: __mmask8 = if n - r >= 8 {
-            0xff
-        } else {
-            ((1u32 << (n - r)) - 1) as u8
-        };
-        let mut l = [_mm512_setzero_pd(); PANEL];
-        for p in 0..PANEL {
-            l[p] = _mm512_maskz_loadu_pd(mask, panel[p].as_ptr().add(r));
         }
         for g in 0..GROUP {
-            let at = targets.add((j + g - k1) * n + r);
-            let mut t = _mm512_maskz_loadu_pd(mask, at);
-            for p in 0..PANEL {
-                t = _mm512_fnmadd_pd(l[p], cv[g][p], t);
+            for i in j + g..j + GROUP {
+                let t = &mut rest[(j + g - k1) * n + i];
+                for p in 0..PANEL {
+                    *t = minus_product(*t, panel[p][i], c[g][p]);
+                }
             }
-            _mm512_mask_storeu_pd(at, mask, t);
         }
-        r += 8;
+        let start = j + GROUP;
+        let mut cv = [[_mm512_setzero_pd(); PANEL]; GROUP];
+        for g in 0..GROUP {
+            for p in 0..PANEL {
+                cv[g][p] = _mm512_set1_pd(c[g][p]);
+            }
+        }
+        let targets = rest.as_mut_ptr();
+        let mut r = start;
+        while r < n {
+            let mask: __mmask8 = if n - r >= 8 {
+                0xff
+            } else {
+                ((1u32 << (n - r)) - 1) as u8
+            };
+            let mut l = [_mm512_setzero_pd(); PANEL];
+            for p in 0..PANEL {
+                // SAFETY: r < n ≤ the column's length, and the mask reads rows r..n only.
+                l[p] = unsafe { _mm512_maskz_loadu_pd(mask, panel[p].as_ptr().add(r)) };
+            }
+            for g in 0..GROUP {
+                // SAFETY: row r < n of column j + g < n lies in `rest` (asserted above), and the
+                // mask touches rows r..n only.
+                unsafe {
+                    let at = targets.add((j + g - k1) * n + r);
+                    let mut t = _mm512_maskz_loadu_pd(mask, at);
+                    for p in 0..PANEL {
+                        t = _mm512_fnmadd_pd(l[p], cv[g][p], t);
+                    }
+                    _mm512_mask_storeu_pd(at, mask, t);
+                }
+            }
+            r += 8;
+        }
     }
 }
 

@@ -117,12 +117,10 @@ impl Fma4 for pulp::x86::V3 {
     }
 }
 
-/// AVX2 lanes on an Intel CPU that also has AVX-512F: the wide tile then runs in 512-bit
-/// registers, two dot products to a register (the low four lanes for one column of `b`, the high
-/// four for the next), so that each sum takes the same fused multiply-adds in the same order as
-/// with four lanes and the result stays the same to the bit on every machine. AMD's Zen 4 runs a
-/// 512-bit operation as two 256-bit halves, so there the inserts would only cost; it keeps the
-/// four-lane tiles.
+/// AVX2 lanes where the wide kernels run ([`crate::simd::has_avx512`]): the wide tile then runs
+/// in 512-bit registers, two dot products to a register (the low four lanes for one column of
+/// `b`, the high four for the next), so that each sum takes the same fused multiply-adds in the
+/// same order as with four lanes and the result stays the same to the bit on every machine.
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
 pub(crate) struct Avx512(pulp::x86::V3);
@@ -130,27 +128,8 @@ pub(crate) struct Avx512(pulp::x86::V3);
 #[cfg(target_arch = "x86_64")]
 impl Avx512 {
     pub(crate) fn try_new(v3: pulp::x86::V3) -> Option<Avx512> {
-        (std::arch::is_x86_feature_detected!("avx512f") && is_intel()).then_some(Avx512(v3))
+        crate::simd::has_avx512().then_some(Avx512(v3))
     }
-}
-
-/// Whether the wide kernels run here: AVX-512F on an Intel CPU, with x86-64-v3 (asked once).
-#[cfg(target_arch = "x86_64")]
-pub(crate) fn has_avx512() -> bool {
-    static WIDE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *WIDE.get_or_init(|| pulp::x86::V3::try_new().and_then(Avx512::try_new).is_some())
-}
-
-/// Whether the CPU's vendor string is Intel's (asked once: `cpuid` exits to the hypervisor in a
-/// virtual machine).
-#[cfg(target_arch = "x86_64")]
-fn is_intel() -> bool {
-    static INTEL: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *INTEL.get_or_init(|| {
-        let vendor = std::arch::x86_64::__cpuid(0);
-        // "GenuineIntel" as cpuid returns it, in EBX, EDX, ECX.
-        (vendor.ebx, vendor.edx, vendor.ecx) == (0x756e_6547, 0x4965_6e69, 0x6c65_746e)
-    })
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -184,100 +163,105 @@ impl Fma4 for Avx512 {
         b: [&[f64]; J],
         len: usize,
     ) -> [[f64; J]; R] {
-        // SAFETY: an `Avx512` is made only where the CPU has AVX-512F (`Avx512::try_new`) and
-        // x86-64-v3 (it holds a `V3`).
+        // SAFETY: an `Avx512` is made only where `simd::has_avx512` says the CPU has the kernel's
+        // features.
         unsafe { tile_avx512(a, b, len) }
     }
 }
 
-/// [`Fma4::tile`] in 512-bit registers: R × J dot products in R·J / 2 registers, each holding
-/// two of them (the low four lanes for one column of `b`, the high four for the next). Row r of a column pair goes into lane
-/// r mod 4 with a fused multiply-add (the last step zero-padded), and each sum's lanes are added
-/// as (l0 + l1) + (l2 + l3), exactly as with four lanes. Plain loops and no closures, so that
-/// every intrinsic inlines here.
-///
-/// # Safety
-/// The CPU must have AVX-512F and x86-64-v3.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
-unsafe fn tile_avx512<const R: usize, const J: usize>(
-    a: [&[f64]; R],
-    b: [&[f64]; J],
-    len: usize,
-) -> [[f64; J]; R] {
-    use std::arch::x86_64::*;
-    const { assert!(J.is_multiple_of(NR) && J <= JB && R <= WMR) };
-    let quads = len / 4;
-    // a's columns first, b's from WMR on.
-    let mut columns = [&[][..]; WMR + JB];
-    columns[..R].copy_from_slice(&a);
-    columns[WMR..WMR + J].copy_from_slice(&b);
-    let used = |k: usize| k < R || (WMR..WMR + J).contains(&k);
-    let mut starts = [std::ptr::null::<f64>(); WMR + JB];
-    for k in (0..WMR + JB).filter(|&k| used(k)) {
-        assert!(columns[k].len() >= len);
-        starts[k] = columns[k].as_ptr();
-    }
-    // J / 2 pairs of sums a row (the rest of the array stays unused for J < JB).
-    let mut acc = [[_mm512_setzero_pd(); JB / 2]; R];
-    for q in 0..quads {
-        tile_step::<R, J>(&mut acc, &starts, q * 4);
-    }
-    if quads * 4 < len {
-        // The last rows as one zero-padded step.
-        let mut padded = [[0.0f64; 4]; WMR + JB];
+crate::simd::avx512_kernel! {
+    /// [`Fma4::tile`] in 512-bit registers: R × J dot products in R·J / 2 registers, each holding
+    /// two of them (the low four lanes for one column of `b`, the high four for the next). Row r
+    /// of a column pair goes into lane r mod 4 with a fused multiply-add (the last step
+    /// zero-padded), and each sum's lanes are added as (l0 + l1) + (l2 + l3), exactly as with
+    /// four lanes. Plain loops and no closures, so that every intrinsic inlines here.
+    fn tile_avx512<const R: usize, const J: usize>(
+        a: [&[f64]; R],
+        b: [&[f64]; J],
+        len: usize,
+    ) -> [[f64; J]; R] {
+        use std::arch::x86_64::*;
+        const { assert!(J.is_multiple_of(NR) && J <= JB && R <= WMR) };
+        let quads = len / 4;
+        // a's columns first, b's from WMR on.
+        let mut columns = [&[][..]; WMR + JB];
+        columns[..R].copy_from_slice(&a);
+        columns[WMR..WMR + J].copy_from_slice(&b);
+        let used = |k: usize| k < R || (WMR..WMR + J).contains(&k);
+        let mut starts = [std::ptr::null::<f64>(); WMR + JB];
         for k in (0..WMR + JB).filter(|&k| used(k)) {
-            for r in quads * 4..len {
-                padded[k][r - quads * 4] = columns[k][r];
+            assert!(columns[k].len() >= len);
+            starts[k] = columns[k].as_ptr();
+        }
+        // J / 2 pairs of sums a row (the rest of the array stays unused for J < JB).
+        let mut acc = [[_mm512_setzero_pd(); JB / 2]; R];
+        for q in 0..quads {
+            // SAFETY: every used column holds `len` ≥ q·4 + 4 values (asserted above).
+            unsafe { tile_step::<R, J>(&mut acc, &starts, q * 4) };
+        }
+        if quads * 4 < len {
+            // The last rows as one zero-padded step.
+            let mut padded = [[0.0f64; 4]; WMR + JB];
+            for k in (0..WMR + JB).filter(|&k| used(k)) {
+                for r in quads * 4..len {
+                    padded[k][r - quads * 4] = columns[k][r];
+                }
+                starts[k] = padded[k].as_ptr();
             }
-            starts[k] = padded[k].as_ptr();
+            // SAFETY: every used column now starts a padded row of four.
+            unsafe { tile_step::<R, J>(&mut acc, &starts, 0) };
         }
-        tile_step::<R, J>(&mut acc, &starts, 0);
+        // Column j's four lanes of each row, summed by the one definition of that sum.
+        let mut sums = [[0.0; J]; R];
+        for i in 0..R {
+            let mut lanes = [[0.0; 4]; J];
+            for p in 0..J / 2 {
+                // SAFETY: lanes 2p and 2p + 1 are the eight values stored (2p + 1 < J).
+                unsafe { _mm512_storeu_pd(lanes[2 * p..].as_mut_ptr().cast(), acc[i][p]) };
+            }
+            for half in 0..J / 4 {
+                let quad = [
+                    lanes[4 * half],
+                    lanes[4 * half + 1],
+                    lanes[4 * half + 2],
+                    lanes[4 * half + 3],
+                ];
+                sums[i][4 * half..4 * half + 4].copy_from_slice(&Portable.sums(quad));
+            }
+        }
+        sums
     }
-    // Column j's four lanes of each row, summed by the one definition of that sum.
-    let mut sums = [[0.0; J]; R];
-    for i in 0..R {
-        let mut lanes = [[0.0; 4]; J];
-        for p in 0..J / 2 {
-            _mm512_storeu_pd(lanes[2 * p..].as_mut_ptr().cast(), acc[i][p]);
-        }
-        for half in 0..J / 4 {
-            let quad = [
-                lanes[4 * half],
-                lanes[4 * half + 1],
-                lanes[4 * half + 2],
-                lanes[4 * half + 3],
-            ];
-            sums[i][4 * half..4 * half + 4].copy_from_slice(&Portable.sums(quad));
-        }
-    }
-    sums
-}
 
-/// One step of [`tile_avx512`]: rows `at..at + 4` of every column (`starts`: a's R from 0, then
-/// b's J from WMR).
-///
-/// # Safety
-/// AVX-512F, and four readable values from `at` in every column.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
-#[inline]
-unsafe fn tile_step<const R: usize, const J: usize>(
-    acc: &mut [[std::arch::x86_64::__m512d; JB / 2]; R],
-    starts: &[*const f64; WMR + JB],
-    at: usize,
-) {
-    use std::arch::x86_64::*;
-    let mut pairs = [_mm512_setzero_pd(); JB / 2];
-    for (p, pair) in pairs.iter_mut().enumerate().take(J / 2) {
-        let low = _mm256_loadu_pd(starts[WMR + 2 * p].add(at));
-        let high = _mm256_loadu_pd(starts[WMR + 2 * p + 1].add(at));
-        *pair = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(low), high);
-    }
-    for i in 0..R {
-        let both = _mm512_broadcast_f64x4(_mm256_loadu_pd(starts[i].add(at)));
-        for p in 0..J / 2 {
-            acc[i][p] = _mm512_fmadd_pd(both, pairs[p], acc[i][p]);
+    /// One step of [`tile_avx512`]: rows `at..at + 4` of every column (`starts`: a's R from 0,
+    /// then b's J from WMR).
+    ///
+    /// # Safety
+    /// Four readable values from `at` in every used column; the CPU has the kernel's features.
+    #[inline]
+    unsafe fn tile_step<const R: usize, const J: usize>(
+        acc: &mut [[std::arch::x86_64::__m512d; JB / 2]; R],
+        starts: &[*const f64; WMR + JB],
+        at: usize,
+    ) {
+        use std::arch::x86_64::*;
+        let mut pairs = [_mm512_setzero_pd(); JB / 2];
+        for (p, pair) in pairs.iter_mut().enumerate().take(J / 2) {
+            // SAFETY: columns WMR + 2p and WMR + 2p + 1 are used; the caller vouches for them.
+            let (low, high) = unsafe {
+                (
+                    _mm256_loadu_pd(starts[WMR + 2 * p].add(at)),
+                    _mm256_loadu_pd(starts[WMR + 2 * p + 1].add(at)),
+                )
+            };
+            *pair = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(low), high);
+        }
+        for i in 0..R {
+            // SAFETY: column i is used; the caller vouches for it.
+            let column = unsafe { _mm256_loadu_pd(starts[i].add(at)) };
+            let both = _mm512_broadcast_f64x4(column);
+            for p in 0..J / 2 {
+                acc[i][p] = _mm512_fmadd_pd(both, pairs[p], acc[i][p]);
+            }
         }
     }
 }
@@ -456,22 +440,6 @@ fn dot_step<F: Fma4>(f: F, acc: &mut [[F::V; NR]; MR], av: [F::V; MR], bv: [F::V
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    #[cfg(target_arch = "x86_64")]
-    fn intel_is_read_from_the_vendor_string() {
-        let vendor = std::arch::x86_64::__cpuid(0);
-        let mut name = Vec::new();
-        for register in [vendor.ebx, vendor.edx, vendor.ecx] {
-            name.extend_from_slice(&register.to_le_bytes());
-        }
-        assert_eq!(
-            is_intel(),
-            name == b"GenuineIntel",
-            "{}",
-            String::from_utf8_lossy(&name)
-        );
-    }
 
     #[test]
     fn padded_shapes_are_whole_tiles() {

@@ -150,7 +150,7 @@ fn hessian_subsample(n: usize, block: usize, target: Option<usize>) -> (usize, f
 
 /// The most memory a workspace keeps for a trial pass's activations (64 MiB: a 2-[10, 6]-2
 /// network's for 400,000 samples); larger training sets recompute the forward pass.
-pub const ACTIVATION_CACHE_BYTES: usize = 64 << 20;
+pub(crate) const ACTIVATION_CACHE_BYTES: usize = 64 << 20;
 
 /// Every buffer an LM run needs, sized for one network shape and block length.
 pub struct LmWorkspace {

@@ -337,7 +337,7 @@ fn best_run<'a>(reports: impl Iterator<Item = &'a TrainingReport>) -> usize {
 
 /// The seed of restart `restart`: a SplitMix64 mix of the base seed and the restart index, so the
 /// same architecture and restart get the same start in `train` and in `sweep`.
-pub fn restart_seed(base_seed: u64, restart: usize) -> u64 {
+pub(crate) fn restart_seed(base_seed: u64, restart: usize) -> u64 {
     fn mix(mut z: u64) -> u64 {
         z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
         z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);

@@ -30,87 +30,87 @@ pub fn tanh(x: f64) -> f64 {
 #[inline(always)]
 pub fn tanh_in_place(values: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
-    if crate::correctors::ann::gram::has_avx512() {
-        // SAFETY: checked just above.
+    if crate::simd::has_avx512() {
+        // SAFETY: the CPU has the kernel's features (checked just above).
         unsafe { tanh_in_place_avx512(values) };
         return;
     }
     tanh_chunks(values);
 }
 
-/// [`tanh_in_place`] in 512-bit registers: the same operations, so the same bits.
-///
-/// # Safety
-/// The CPU must have AVX-512F and x86-64-v3.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
-unsafe fn tanh_in_place_avx512(values: &mut [f64]) {
-    use std::arch::x86_64::*;
-    // Written out: left to itself, LLVM vectorises across chunks with gathers and scatters.
-    let (pairs, rest) = values.as_chunks_mut::<16>();
-    for pair in pairs {
-        let at = pair.as_mut_ptr();
-        let (low, high) = (_mm512_loadu_pd(at), _mm512_loadu_pd(at.add(8)));
-        let [low, high] = tanh_avx512([low, high]);
-        _mm512_storeu_pd(at, low);
-        _mm512_storeu_pd(at.add(8), high);
+crate::simd::avx512_kernel! {
+    /// [`tanh_in_place`] in 512-bit registers: the same operations, so the same bits.
+    fn tanh_in_place_avx512(values: &mut [f64]) {
+        use std::arch::x86_64::*;
+        // Written out: left to itself, LLVM vectorises across chunks with gathers and scatters.
+        let (pairs, rest) = values.as_chunks_mut::<16>();
+        for pair in pairs {
+            let at = pair.as_mut_ptr();
+            // SAFETY: `at` starts 16 values.
+            let (low, high) = unsafe { (_mm512_loadu_pd(at), _mm512_loadu_pd(at.add(8))) };
+            let [low, high] = tanh_avx512([low, high]);
+            // SAFETY: as for the loads.
+            unsafe {
+                _mm512_storeu_pd(at, low);
+                _mm512_storeu_pd(at.add(8), high);
+            }
+        }
+        let (chunks, rest) = rest.as_chunks_mut::<8>();
+        for chunk in chunks {
+            // SAFETY: a chunk is eight values.
+            let [t] = tanh_avx512([unsafe { _mm512_loadu_pd(chunk.as_ptr()) }]);
+            // SAFETY: as for the load.
+            unsafe { _mm512_storeu_pd(chunk.as_mut_ptr(), t) };
+        }
+        for v in rest {
+            *v = tanh(*v);
+        }
     }
-    let (chunks, rest) = rest.as_chunks_mut::<8>();
-    for chunk in chunks {
-        let [t] = tanh_avx512([_mm512_loadu_pd(chunk.as_ptr())]);
-        _mm512_storeu_pd(chunk.as_mut_ptr(), t);
-    }
-    for v in rest {
-        *v = tanh(*v);
-    }
-}
 
-/// [`tanh_lanes`] of N vectors of eight, operation for operation (no fused multiply-adds), so
-/// that each lane has the bits of the scalar call.
-///
-/// # Safety
-/// The CPU must have AVX-512F.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,sse3,ssse3,sse4.1,sse4.2")]
-#[inline]
-unsafe fn tanh_avx512<const N: usize>(x: [std::arch::x86_64::__m512d; N]) -> [std::arch::x86_64::__m512d; N] {
-    use std::arch::x86_64::*;
-    let splat = _mm512_set1_pd;
-    let sign = _mm512_set1_epi64(i64::MIN);
-    let (add, sub, mul) = (_mm512_add_pd, _mm512_sub_pd, _mm512_mul_pd);
-    let mut out = x;
-    for (out, &x) in out.iter_mut().zip(&x) {
-        let magnitude = _mm512_castsi512_pd(_mm512_andnot_si512(sign, _mm512_castpd_si512(x)));
-        // min(20, |x|) returns |x| when it is NaN, as the scalar comparison does.
-        let y = mul(splat(-2.0), _mm512_min_pd(splat(20.0), magnitude));
-        let shifted = add(mul(y, splat(std::f64::consts::LOG2_E)), splat(ROUNDER));
-        let k = sub(shifted, splat(ROUNDER));
-        let r = sub(sub(y, mul(k, splat(LN2_HI))), mul(k, splat(LN2_LO)));
-        let r2 = mul(r, r);
-        let r4 = mul(r2, r2);
-        let pair = |j: usize| add(splat(TANH_C[j]), mul(splat(TANH_C[j + 1]), r));
-        let (p0, p2, p4, p6, p8, p10) = (pair(0), pair(2), pair(4), pair(6), pair(8), pair(10));
-        let low = add(add(p0, mul(p2, r2)), mul(add(p4, mul(p6, r2)), r4));
-        let high = add(p8, mul(p10, r2));
-        let p = add(low, mul(high, mul(r4, r4)));
-        let expm1_r = add(r, mul(r2, p));
-        let k_int = _mm512_sub_epi64(
-            _mm512_castpd_si512(shifted),
-            _mm512_set1_epi64(ROUNDER.to_bits() as i64),
-        );
-        let scale = _mm512_castsi512_pd(_mm512_slli_epi64::<52>(_mm512_add_epi64(
-            k_int,
-            _mm512_set1_epi64(1023),
-        )));
-        let u = add(mul(scale, expm1_r), sub(scale, splat(1.0)));
-        let negative_u = _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(u), sign));
-        let t = _mm512_div_pd(negative_u, add(splat(2.0), u));
-        *out = _mm512_castsi512_pd(_mm512_or_si512(
-            _mm512_andnot_si512(sign, _mm512_castpd_si512(t)),
-            _mm512_and_si512(sign, _mm512_castpd_si512(x)),
-        ));
+    /// [`tanh_lanes`] of N vectors of eight, operation for operation (no fused multiply-adds),
+    /// so that each lane has the bits of the scalar call.
+    #[inline]
+    fn tanh_avx512<const N: usize>(
+        x: [std::arch::x86_64::__m512d; N],
+    ) -> [std::arch::x86_64::__m512d; N] {
+        use std::arch::x86_64::*;
+        let splat = _mm512_set1_pd;
+        let sign = _mm512_set1_epi64(i64::MIN);
+        let (add, sub, mul) = (_mm512_add_pd, _mm512_sub_pd, _mm512_mul_pd);
+        let mut out = x;
+        for (out, &x) in out.iter_mut().zip(&x) {
+            let magnitude = _mm512_castsi512_pd(_mm512_andnot_si512(sign, _mm512_castpd_si512(x)));
+            // min(20, |x|) returns |x| when it is NaN, as the scalar comparison does.
+            let y = mul(splat(-2.0), _mm512_min_pd(splat(20.0), magnitude));
+            let shifted = add(mul(y, splat(std::f64::consts::LOG2_E)), splat(ROUNDER));
+            let k = sub(shifted, splat(ROUNDER));
+            let r = sub(sub(y, mul(k, splat(LN2_HI))), mul(k, splat(LN2_LO)));
+            let r2 = mul(r, r);
+            let r4 = mul(r2, r2);
+            let pair = |j: usize| add(splat(TANH_C[j]), mul(splat(TANH_C[j + 1]), r));
+            let (p0, p2, p4, p6, p8, p10) = (pair(0), pair(2), pair(4), pair(6), pair(8), pair(10));
+            let low = add(add(p0, mul(p2, r2)), mul(add(p4, mul(p6, r2)), r4));
+            let high = add(p8, mul(p10, r2));
+            let p = add(low, mul(high, mul(r4, r4)));
+            let expm1_r = add(r, mul(r2, p));
+            let k_int = _mm512_sub_epi64(
+                _mm512_castpd_si512(shifted),
+                _mm512_set1_epi64(ROUNDER.to_bits() as i64),
+            );
+            let scale = _mm512_castsi512_pd(_mm512_slli_epi64::<52>(_mm512_add_epi64(
+                k_int,
+                _mm512_set1_epi64(1023),
+            )));
+            let u = add(mul(scale, expm1_r), sub(scale, splat(1.0)));
+            let negative_u = _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(u), sign));
+            let t = _mm512_div_pd(negative_u, add(splat(2.0), u));
+            *out = _mm512_castsi512_pd(_mm512_or_si512(
+                _mm512_andnot_si512(sign, _mm512_castpd_si512(t)),
+                _mm512_and_si512(sign, _mm512_castpd_si512(x)),
+            ));
+        }
+        out
     }
-    out
 }
 
 #[inline(always)]

@@ -24,9 +24,9 @@ use crate::input::recording::{Recording, Source, STANDARD_GRAVITY};
 
 /// One timer tick, s.
 pub const TICK_S: f64 = 0.0065536;
-pub const CMD_STAB_VECTORS: u8 = 0x02;
-pub const CMD_INST_VECTORS: u8 = 0x03;
-pub const CMD_READ_EEPROM: u8 = 0x28;
+pub(crate) const CMD_STAB_VECTORS: u8 = 0x02;
+pub(crate) const CMD_INST_VECTORS: u8 = 0x03;
+pub(crate) const CMD_READ_EEPROM: u8 = 0x28;
 /// EEPROM address of AccelGainScale.
 pub const EEPROM_ACCEL_GAIN: u16 = 230;
 /// EEPROM address of GyroGainScale.
@@ -419,7 +419,7 @@ fn finish(packet: &mut Vec<u8>) {
 }
 
 /// Builds one EEPROM reply packet.
-pub fn encode_eeprom_reply(value: u16, ticks: u16) -> Vec<u8> {
+pub(crate) fn encode_eeprom_reply(value: u16, ticks: u16) -> Vec<u8> {
     let mut p = vec![CMD_READ_EEPROM];
     p.extend_from_slice(&value.to_be_bytes());
     p.extend_from_slice(&ticks.to_be_bytes());
@@ -428,7 +428,13 @@ pub fn encode_eeprom_reply(value: u16, ticks: u16) -> Vec<u8> {
 }
 
 /// Builds one vectors packet from raw counts.
-pub fn encode_vectors(command: u8, mag: [i16; 3], accel: [i16; 3], rate: [i16; 3], ticks: u16) -> Vec<u8> {
+pub(crate) fn encode_vectors(
+    command: u8,
+    mag: [i16; 3],
+    accel: [i16; 3],
+    rate: [i16; 3],
+    ticks: u16,
+) -> Vec<u8> {
     let mut p = Vec::with_capacity(VECTORS_LEN);
     p.push(command);
     for v in mag.iter().chain(&accel).chain(&rate) {

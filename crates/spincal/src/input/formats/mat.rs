@@ -22,7 +22,7 @@ use std::io::Read;
 use crate::input::table::{Delimiter, Table};
 
 /// The text every v5 MAT-file starts with.
-pub const MAGIC: &[u8] = b"MATLAB 5.0 MAT-file";
+pub(crate) const MAGIC: &[u8] = b"MATLAB 5.0 MAT-file";
 
 /// Size of the v5 header.
 const HEADER_BYTES: usize = 128;
@@ -96,7 +96,7 @@ pub struct MatFile {
 }
 
 /// True when the bytes start like a v5 MAT-file (the v7.3 HDF5 kind too: it has the same text).
-pub fn is_mat(bytes: &[u8]) -> bool {
+pub(crate) fn is_mat(bytes: &[u8]) -> bool {
     bytes.starts_with(MAGIC)
 }
 
@@ -574,7 +574,7 @@ pub fn parse(bytes: &[u8], file: &str) -> Result<MatFile, MatError> {
 
 /// [`parse`], with `limit` bytes for all the compressed elements' inflated bytes (and as much
 /// again for the f64 values read from them) instead of [`MAX_INFLATED_BYTES`].
-pub fn parse_limited(bytes: &[u8], file: &str, limit: u64) -> Result<MatFile, MatError> {
+pub(crate) fn parse_limited(bytes: &[u8], file: &str, limit: u64) -> Result<MatFile, MatError> {
     let not = |why: String| MatError::NotMat {
         file: file.to_string(),
         why,

@@ -8,7 +8,11 @@
 // Axis loops index several parallel per-axis arrays at once; iterators would obscure that.
 #![allow(clippy::needless_range_loop)]
 
+// The ROS bag readers (and the SQLite and compressors they need) with the `bags` feature;
+// without it a bag is still detected, and refused.
+#[cfg(feature = "bags")]
 pub mod bag;
+pub mod bag_detect;
 pub mod gx1;
 pub mod mat;
 pub mod streamed;
@@ -117,7 +121,7 @@ pub fn delimited_text_format(
     std::fs::File::open(path)?
         .take(DETECT_BYTES as u64)
         .read_to_end(&mut head)?;
-    if bag::Storage::sniff(&head).is_some() {
+    if bag_detect::Storage::sniff(&head).is_some() {
         return Ok(None);
     }
     let detection = given.is_none().then(|| detect(&head));
@@ -137,7 +141,7 @@ pub fn detect(head: &[u8]) -> Detection {
     if mat::is_mat(head) {
         return found(Format::Mat, "starts with 'MATLAB 5.0 MAT-file'");
     }
-    if let Some(storage) = bag::Storage::sniff(head) {
+    if let Some(storage) = bag_detect::Storage::sniff(head) {
         return found(Format::RosBag, &format!("{} magic at byte 0", storage.name()));
     }
     // Text files have no NUL and no control bytes other than tab/CR/LF; the GX1 stream is full of them.
@@ -262,8 +266,12 @@ pub enum FormatError {
     Gx1(#[from] Gx1Error),
     #[error(transparent)]
     Mat(#[from] mat::MatError),
+    #[cfg(feature = "bags")]
     #[error(transparent)]
     Bag(#[from] bag::BagError),
+    #[cfg(not(feature = "bags"))]
+    #[error("{file}: a ROS bag, and this build of spincal lacks the `bags` feature that reads them")]
+    BagsNotBuilt { file: String },
     #[error("{file}: no sample rate: the file has no time column and no `Fs,<Hz>` line; pass --sample-rate")]
     NoSampleRate { file: String },
     #[error("{file}:{line}: sample rate '{text}' is not a positive number")]
@@ -294,22 +302,13 @@ pub enum FormatError {
 /// Reads a file in the given or detected format.
 pub fn read_path(path: &Path, options: &ReadOptions) -> Result<Loaded, FormatError> {
     let file = path.display().to_string();
-    // A ROS 2 bag directory, or a bag file (an sqlite3 bag is opened in place, not copied).
-    if bag::is_bag_dir(path)
+    // A ROS 2 bag directory, or a bag file.
+    if bag_detect::is_bag_dir(path)
         || options.format == Some(Format::RosBag)
         || (options.format.is_none() && sniff_bag(path))
     {
         check_options(options)?;
-        let read = bag::read_path(path, options.topic.as_deref(), options.salvage)?;
-        let detection = options.format.is_none().then(|| Detection {
-            format: Format::RosBag,
-            reason: if path.is_dir() {
-                format!("directory with metadata.yaml ({})", read.storage.name())
-            } else {
-                format!("{} magic at byte 0", read.storage.name())
-            },
-        });
-        return finish(bag_loaded(read), detection, options);
+        return read_bag_path(path, options);
     }
     let bytes = crate::input::table::read_file(path).map_err(|source| FormatError::Io {
         file: file.clone(),
@@ -353,12 +352,15 @@ pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loa
             l
         }
         Format::Mat => read_mat(bytes, file, options)?,
+        #[cfg(feature = "bags")]
         Format::RosBag => bag_loaded(bag::read_bytes(
             bytes,
             file,
             options.topic.as_deref(),
             options.salvage,
         )?),
+        #[cfg(not(feature = "bags"))]
+        Format::RosBag => return Err(FormatError::BagsNotBuilt { file: file.into() }),
     };
     finish(loaded, detection, options)
 }
@@ -377,9 +379,32 @@ fn sniff_bag(path: &Path) -> bool {
             Ok(k) => n += k,
         }
     }
-    bag::Storage::sniff(&head[..n]).is_some()
+    bag_detect::Storage::sniff(&head[..n]).is_some()
 }
 
+/// Reads a bag file or a ROS 2 bag directory (an sqlite3 bag is opened in place, not copied).
+#[cfg(feature = "bags")]
+fn read_bag_path(path: &Path, options: &ReadOptions) -> Result<Loaded, FormatError> {
+    let read = bag::read_path(path, options.topic.as_deref(), options.salvage)?;
+    let detection = options.format.is_none().then(|| Detection {
+        format: Format::RosBag,
+        reason: if path.is_dir() {
+            format!("directory with metadata.yaml ({})", read.storage.name())
+        } else {
+            format!("{} magic at byte 0", read.storage.name())
+        },
+    });
+    finish(bag_loaded(read), detection, options)
+}
+
+#[cfg(not(feature = "bags"))]
+fn read_bag_path(path: &Path, _: &ReadOptions) -> Result<Loaded, FormatError> {
+    Err(FormatError::BagsNotBuilt {
+        file: path.display().to_string(),
+    })
+}
+
+#[cfg(feature = "bags")]
 fn bag_loaded(read: bag::BagRead) -> Loaded {
     let mut l = Loaded::new(read.recording, Format::RosBag, false);
     l.notes = read.notes;
@@ -806,6 +831,24 @@ mod tests {
     }
 
     use super::*;
+
+    #[test]
+    #[cfg(not(feature = "bags"))]
+    fn a_bag_is_detected_and_refused_by_name_without_the_bags_feature() {
+        let bytes = [bag_detect::MCAP_MAGIC, &[0u8; 32][..]].concat();
+        assert_eq!(detect(&bytes).format, Format::RosBag);
+        let e = read_bytes(&bytes, "imu.mcap", &ReadOptions::default()).unwrap_err();
+        assert!(
+            matches!(&e, FormatError::BagsNotBuilt { file } if file == "imu.mcap"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("`bags` feature"), "{e}");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("imu.bag");
+        std::fs::write(&path, b"#ROSBAG V2.0\n").unwrap();
+        let e = read_path(&path, &ReadOptions::default()).unwrap_err();
+        assert!(e.to_string().starts_with(&path.display().to_string()), "{e}");
+    }
 
     fn read(text: &[u8]) -> Loaded {
         read_bytes(text, "f", &ReadOptions::default()).unwrap()

@@ -40,13 +40,13 @@ use crate::input::recording::{sample_interval, Recording, Source};
 use crate::input::table::{Delimiter, RowReader, Table, TableOptions};
 
 /// Rows converted at a time.
-pub const BLOCK_ROWS: usize = 1 << 14;
+pub(crate) const BLOCK_ROWS: usize = 1 << 14;
 
 /// Values a median search keeps in memory (2 MiB); beyond, it narrows by histogram and rereads.
-pub const KEEP: usize = 1 << 18;
+pub(crate) const KEEP: usize = 1 << 18;
 
 /// Distinct temperatures counted per pass.
-pub const KEEP_DISTINCT: usize = 1 << 16;
+pub(crate) const KEEP_DISTINCT: usize = 1 << 16;
 
 /// Windows of [`sample_interval`] once a recording has 513 samples or more.
 const WINDOW: usize = 64;

@@ -11,9 +11,7 @@ use std::collections::HashMap;
 use ::mcap::records::{op, Record};
 
 use super::{BagError, Collector};
-
-/// The MCAP magic at both ends of the file.
-pub const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+use crate::input::formats::bag_detect::MCAP_MAGIC;
 
 struct State {
     /// schema id → (name, encoding)
@@ -32,14 +30,14 @@ fn corrupt(file: &str, at: String, what: impl Into<String>) -> BagError {
 
 /// Reads every message of an MCAP file into `c`.
 pub fn scan(bytes: &[u8], file: &str, c: &mut Collector) -> Result<(), BagError> {
-    if !bytes.starts_with(MAGIC) {
+    if !bytes.starts_with(MCAP_MAGIC) {
         return Err(corrupt(file, "byte 0".into(), "no MCAP magic"));
     }
     let mut state = State {
         schemas: HashMap::new(),
         channels: HashMap::new(),
     };
-    let mut pos = MAGIC.len();
+    let mut pos = MCAP_MAGIC.len();
     loop {
         // Damage at the end (a cut, a lost footer) leaves every record before it whole.
         if pos == bytes.len() {
@@ -57,7 +55,7 @@ pub fn scan(bytes: &[u8], file: &str, c: &mut Collector) -> Result<(), BagError>
         match opcode {
             op::FOOTER => {
                 let end = body_at + body.len();
-                if bytes.len() - end < MAGIC.len() || &bytes[end..end + MAGIC.len()] != MAGIC {
+                if bytes.len() - end < MCAP_MAGIC.len() || &bytes[end..end + MCAP_MAGIC.len()] != MCAP_MAGIC {
                     return c.damaged_end(corrupt(
                         file,
                         format!("byte {end}"),

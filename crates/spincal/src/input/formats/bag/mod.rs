@@ -21,43 +21,10 @@ pub mod sqlite;
 use std::collections::HashMap;
 use std::path::Path;
 
+use crate::input::formats::bag_detect::Storage;
 use crate::input::recording::{Recording, Source};
 
 pub use msg::{DecodeError, Decoded, Encoding, MsgKind};
-
-/// How a bag stores its messages.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Storage {
-    /// ROS 2, MCAP storage (`.mcap`).
-    Mcap,
-    /// ROS 2, sqlite3 storage (`.db3`).
-    Sqlite3,
-    /// ROS 1 bag format 2.0 (`.bag`).
-    Ros1,
-}
-
-impl Storage {
-    pub fn name(self) -> &'static str {
-        match self {
-            Storage::Mcap => "ROS 2 mcap",
-            Storage::Sqlite3 => "ROS 2 sqlite3",
-            Storage::Ros1 => "ROS 1 bag 2.0",
-        }
-    }
-
-    /// The storage a file's first bytes announce, if any.
-    pub fn sniff(head: &[u8]) -> Option<Storage> {
-        if head.starts_with(mcap::MAGIC) {
-            Some(Storage::Mcap)
-        } else if head.starts_with(sqlite::MAGIC) {
-            Some(Storage::Sqlite3)
-        } else if head.starts_with(ros1::MAGIC_PREFIX) {
-            Some(Storage::Ros1)
-        } else {
-            None
-        }
-    }
-}
 
 /// Everything that can go wrong reading a bag. Each names the file, and where inside it.
 #[derive(Debug, thiserror::Error)]
@@ -787,11 +754,6 @@ fn scan(
         },
         Storage::Ros1 => ros1::scan(bytes, file, c),
     }
-}
-
-/// Whether `path` is a ROS 2 bag directory (it holds `metadata.yaml`).
-pub fn is_bag_dir(path: &Path) -> bool {
-    path.is_dir() && path.join("metadata.yaml").is_file()
 }
 
 /// Reads a bag file, or a ROS 2 bag directory (its `metadata.yaml` names the storage files, read

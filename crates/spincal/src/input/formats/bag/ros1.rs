@@ -12,8 +12,6 @@ use std::collections::HashMap;
 
 use super::{BagError, Collector};
 
-/// Every ROS 1 bag starts with this; format 2.0 continues `2.0\n`.
-pub const MAGIC_PREFIX: &[u8] = b"#ROSBAG V";
 const MAGIC: &[u8] = b"#ROSBAG V2.0\n";
 
 const OP_MSG_DATA: u8 = 0x02;

@@ -8,9 +8,6 @@ use rusqlite::{Connection, OpenFlags};
 
 use super::{BagError, Collector};
 
-/// The first 16 bytes of every SQLite 3 database.
-pub const MAGIC: &[u8] = b"SQLite format 3\0";
-
 fn sql_error(file: &str, what: &str) -> impl Fn(rusqlite::Error) -> BagError {
     let (file, what) = (file.to_string(), what.to_string());
     move |source| BagError::Sqlite {
