@@ -44,11 +44,11 @@ fn campaign_calibration_loads_in_imucal_applies_to_the_gyro_and_writes_imu_tk_fi
     let (campaign, out) = calibrated_campaign(dir.path());
     let results: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
-    let sensor: spincal::campaign::SensorModel =
+    let sensor: spincal::correctors::physical::SensorModel =
         serde_json::from_value(results["joint"]["sensor"].clone()).unwrap();
-    let gyro: spincal::campaign::GyroModel =
+    let gyro: spincal::correctors::gyro::GyroModel =
         serde_json::from_value(results["gyro"]["model"].clone()).unwrap();
-    let linear = spincal::campaign::SensorModel {
+    let linear = spincal::correctors::physical::SensorModel {
         quadratic_per_mps2: [0.0; 3],
         ..sensor
     };

@@ -123,7 +123,7 @@ pub struct RecordingSummary {
     pub warnings: Vec<String>,
 }
 
-pub use crate::progress::StageTime;
+use crate::progress::StageTime;
 
 /// Everything a calibration found: the single source of every number in the report.
 #[derive(Debug, Clone, Serialize, Deserialize)]

@@ -146,7 +146,7 @@ pub fn run_calibration(
 ) -> anyhow::Result<CalibrationOutput> {
     super::create_folder("--out", out)?;
     let mut output = calibrate_with_progress(recordings, settings, ui, "calibrating")?;
-    let stage = |stage: &str, seconds: f64| spincal::calibrate::StageTime {
+    let stage = |stage: &str, seconds: f64| spincal::progress::StageTime {
         stage: stage.to_string(),
         seconds,
     };

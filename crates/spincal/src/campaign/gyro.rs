@@ -26,7 +26,7 @@ use faer::Mat;
 use serde::{Deserialize, Serialize};
 
 use crate::campaign::joint::{mid_time, JointFit, JointParam, PoseInput, RunInput};
-pub use crate::correctors::gyro::{GyroCorrector, GyroModel};
+use crate::correctors::gyro::GyroModel;
 
 /// Settings of the gyroscope fit.
 #[derive(Debug, Clone, Serialize, Deserialize)]

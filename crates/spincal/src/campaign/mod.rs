@@ -22,10 +22,9 @@ pub mod select;
 pub mod thermal;
 pub mod verdict;
 
-pub use crate::correctors::physical::{PhysicalCorrector, SensorModel};
 pub use candidate::CandidateKind;
 pub use file::{Campaign, CampaignEntry, CampaignError, EntryKind, SignedAxis, TurntableEntry};
-pub use gyro::{fit_gyro, GyroFit, GyroModel, GyroSettings};
+pub use gyro::{fit_gyro, GyroFit, GyroSettings};
 pub use joint::{fit_joint, JointFit, JointSettings, PoseInput, RunInput, SensorTerms};
 pub use load::{load_campaign, LoadError};
 pub use prepare::UnitRecording;

@@ -7,7 +7,8 @@ use faer::linalg::matmul::matmul;
 use faer::prelude::Solve;
 use faer::{Accum, Mat, Par, Side};
 
-use super::{LeastSquares, Observer, Progress};
+use super::LeastSquares;
+use crate::progress::{Observer, Progress};
 
 /// Stopping and damping settings.
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]

@@ -22,6 +22,3 @@ pub trait LeastSquares {
     /// Writes ∂r/∂p (`n_residuals × n_params`) into `out`.
     fn jacobian(&self, p: &[f64], out: MatMut<'_, f64>);
 }
-
-/// Solvers report each iteration through the crate's one progress shape.
-pub use crate::progress::{Observer, Progress};

@@ -2,7 +2,7 @@
 //! simplex) run on unconstrained variables that fminsearchbnd's transform maps into the box:
 //! both bounds x = lo + (hi − lo)(sin z + 1)/2, one bound x = lo + z² or hi − z², equal bounds fixed.
 
-use super::{Observer, Progress};
+use crate::progress::{Observer, Progress};
 
 /// Per-parameter box; `f64::NEG_INFINITY` / `f64::INFINITY` for a missing side.
 #[derive(Debug, Clone)]

@@ -11,7 +11,7 @@ use super::narx::{NarxFocus, NarxModel, NarxParams};
 use super::poly::{PolyModel, SimInit};
 use super::{ArxParams, PemParams, SysidError};
 use crate::metrics::{fit_percent, rmse};
-use crate::optim::Observer;
+use crate::progress::Observer;
 
 /// The model families.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -18,7 +18,8 @@ use super::arx::lstsq;
 use super::pem::PemParams;
 use super::poly::{filter, is_stable, SimInit};
 use super::{check_data, SysidError};
-use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop, Observer};
+use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop};
+use crate::progress::Observer;
 
 /// Orders and settings of a Hammerstein–Wiener fit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -21,7 +21,8 @@ use serde::{Deserialize, Serialize};
 use super::arx::lstsq;
 use super::poly::SimInit;
 use super::{check_data, SysidError};
-use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop, Observer};
+use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop};
+use crate::progress::Observer;
 
 /// Orders and training settings of a nonlinear ARX model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -18,7 +18,8 @@ use serde::{Deserialize, Serialize};
 use super::arx::{regressors, ArxParams};
 use super::poly::{filter, is_stable, poly_mul, stabilize, PolyModel, SimInit};
 use super::{check_data, SysidError};
-use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop, Observer};
+use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions, LmStop};
+use crate::progress::Observer;
 
 /// Orders and solver limits of a prediction-error fit. `nb`, `nf`, `nk` have one entry per input.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

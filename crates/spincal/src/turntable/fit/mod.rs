@@ -15,8 +15,9 @@ use crate::input::inspect::{inspect, saturated_mask};
 use crate::input::recording::Recording;
 use crate::optim::{
     levenberg_marquardt_normal, nelder_mead_bounded, Bounds, LmOptions, LmReport, NelderMeadOptions,
-    NelderMeadReport, Observer,
+    NelderMeadReport,
 };
+use crate::progress::Observer;
 use findings::{drift_findings, estimates, recording_fits, remedy_for};
 use parameters::{build_problem, parameter_table};
 use problem::Problem;
