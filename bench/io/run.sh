@@ -9,16 +9,7 @@ cd "$(dirname "$0")/../.."
 ROWS=${1:-1000000}
 REPEATS=${2:-5}
 CPU=${3:-1}
-OUT=bench/out/io
-VENV=bench/.venv-io
-if [ ! -x "$VENV/bin/python" ]; then
-    python3 -m venv "$VENV"
-    "$VENV/bin/pip" install -q numpy pandas
-fi
-cargo build --release -q -p spincal --example read_bench
-BIN=${CARGO_TARGET_DIR:-target}/release/examples/read_bench
-mkdir -p "$OUT"
-$BIN gen "$OUT" "$ROWS"
+source bench/io/prepare.sh
 echo "load before: $(uptime)"
 {
     taskset -c "$CPU" "$BIN" read "$OUT" "$REPEATS"

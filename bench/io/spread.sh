@@ -14,16 +14,8 @@ ROUNDS=${2:-8}
 REPS=${3:-3}
 CPU=${4:-1}
 LOAD=${5:-none}
-OUT=bench/out/io
-VENV=bench/.venv-io
-if [ ! -x "$VENV/bin/python" ]; then
-    python3 -m venv "$VENV"
-    "$VENV/bin/pip" install -q numpy pandas
-fi
-cargo build --release -q -p spincal --example read_bench
-BIN=${CARGO_TARGET_DIR:-target}/release/examples/read_bench
-mkdir -p "$OUT"
-[ -f "$OUT/bench.csv" ] || "$BIN" gen "$OUT" "$ROWS"
+KEEP_CSV=1
+source bench/io/prepare.sh
 other=$(( CPU == 0 ? 1 : 0 ))
 loader=""
 case "$LOAD" in
