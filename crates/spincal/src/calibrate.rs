@@ -235,7 +235,7 @@ pub fn calibrate_with_runner(
     let division = problem.division.clone();
     let axes_idx: Vec<usize> = settings.correct_axes.iter().map(|a| a.index()).collect();
     let split = SplitScoring::new(reference, &division, &axes_idx);
-    let corrected_axes = |c: &dyn Corrector, rec: &Recording| split.axes_of(&c.correct(rec));
+    let corrected_axes = |c: &dyn Corrector, rec: &Recording| axes_of(&c.correct(rec), &axes_idx);
     let uncorrected: Vec<Vec<f64>> = axes_idx.iter().map(|&a| measured.accel_mps2[a].clone()).collect();
     let network_label = format!(
         "{}-input [{}] {}-output, {} delays, {} restarts",
@@ -378,6 +378,11 @@ fn choose_network(
     })
 }
 
+/// The corrected axes of a corrector's output.
+fn axes_of(out: &Corrected, axes: &[usize]) -> Vec<Vec<f64>> {
+    axes.iter().map(|&a| out.accel_mps2[a].clone()).collect()
+}
+
 /// Scores of full-length estimates on the three parts of the 60/20/20 division, against the
 /// reference of the recording trained on.
 struct SplitScoring<'a> {
@@ -399,11 +404,6 @@ impl<'a> SplitScoring<'a> {
             ],
             axes,
         }
-    }
-
-    /// The corrected axes of a corrector's output.
-    fn axes_of(&self, out: &Corrected) -> Vec<Vec<f64>> {
-        self.axes.iter().map(|&a| out.accel_mps2[a].clone()).collect()
     }
 
     fn part(&self, estimate: &[Vec<f64>], rows: &[usize]) -> PartScore {
@@ -533,8 +533,6 @@ fn cross_condition_rows(
     observer: &Observer,
 ) -> Result<Vec<CrossRow>, CalibrateError> {
     let measured = &recordings[0];
-    let axes_of =
-        |out: &Corrected| -> Vec<Vec<f64>> { axes_idx.iter().map(|&a| out.accel_mps2[a].clone()).collect() };
     let mut cross_condition = Vec::new();
     for (k, other) in recordings.iter().enumerate().skip(1) {
         observer(Progress::step(
@@ -568,11 +566,14 @@ fn cross_condition_rows(
             outside_training_range_percent: Some(
                 100.0 * by_network.outside_training_range as f64 / other.len().max(1) as f64,
             ),
-            ..row("ANN", whole(&axes_of(&by_network), settings.delays))
+            ..row("ANN", whole(&axes_of(&by_network, axes_idx), settings.delays))
         });
         cross_condition.push(row(
             "linear",
-            whole(&axes_of(&trained.linear.correct(other)), settings.delays),
+            whole(
+                &axes_of(&trained.linear.correct(other), axes_idx),
+                settings.delays,
+            ),
         ));
         for (name, models) in trained.sysid {
             let mut estimate = Vec::new();
