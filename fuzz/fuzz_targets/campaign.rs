@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
-use spincal::campaign::{Campaign, EntryKind};
+use spincal::campaign::file::{Campaign, EntryKind};
 
 fuzz_target!(|data: &[u8]| {
     let text = String::from_utf8_lossy(data);

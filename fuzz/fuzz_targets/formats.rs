@@ -4,10 +4,11 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use spincal::input::formats::{read_bytes, Format, Gx1Options, ReadOptions};
+use spincal::input::formats::{read_bytes, Format, ReadOptions};
+use spincal::input::formats::gx1::Gx1Options;
 use spincal::input::recording::{GyroUnit, TimeUnit};
 use spincal::input::table::Delimiter;
-use spincal::{AccelUnit, ColumnMap};
+use spincal::input::recording::{AccelUnit, ColumnMap};
 
 /// Values for scales, offsets and rates: ordinary, extreme and invalid.
 const VALUES: [f64; 16] = [

@@ -5,7 +5,8 @@
 
 use libfuzzer_sys::fuzz_target;
 use spincal::correctors::corrector::Corrector;
-use spincal::{CorrectorFile, CorrectorModel, Recording};
+use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
+use spincal::input::recording::Recording;
 
 /// Finite readings, m/s²: rest, gravity on each axis, extremes.
 const SAMPLES: [[f64; 3]; 6] = [
@@ -43,6 +44,7 @@ fuzz_target!(|data: &[u8]| {
         time_s: (0..n).map(|i| i as f64 * 0.01).collect(),
         accel_mps2: std::array::from_fn(|c| (0..n).map(|i| SAMPLES[i % SAMPLES.len()][c]).collect()),
         gyro_radps: None,
+        temperature_c: None,
         source: Default::default(),
     };
     let corrected = corrector.correct(&recording);

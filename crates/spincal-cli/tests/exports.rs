@@ -282,7 +282,7 @@ fn export_writes_the_flight_stacks_files_from_the_models_thermal_field() {
         stdout.contains("gain's change"),
         "what is left out is shown: {stdout}"
     );
-    let thermal = spincal::CorrectorFile::read_path(&model)
+    let thermal = spincal::correctors::model_file::CorrectorFile::read_path(&model)
         .unwrap()
         .thermal
         .unwrap();

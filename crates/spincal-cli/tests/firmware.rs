@@ -18,6 +18,7 @@ use spincal::correctors::corrector::{Axis, Corrector};
 use spincal::correctors::division::DivisionMode;
 use spincal::correctors::gyro::{GyroInputUnit, GyroModel};
 use spincal::correctors::linear::LinearModel;
+use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
 use spincal::correctors::physical::{PhysicalCorrector, SensorModel};
 use spincal::correctors::physical_ann::{InputCoverage, PhysicalAnnCorrector};
 use spincal::correctors::static_cal::{StaticCalibration, StaticModel};
@@ -25,7 +26,6 @@ use spincal::firmware::{export_firmware, fusion_values, ExportOptions};
 use spincal::input::recording::{Recording, STANDARD_GRAVITY};
 use spincal::simulate::campaign::profile_sensor_model;
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
-use spincal::{CorrectorFile, CorrectorModel};
 
 /// The kinds, by the name their files and symbols get.
 const KINDS: [&str; 6] = [

@@ -301,9 +301,11 @@ fn the_readme_command_table_names_each_subcommand_exactly_once() {
 #[test]
 fn the_readme_names_every_model_file_kind() {
     // The kinds the model file reads, from the reader's own refusal of an unknown kind.
-    let err = serde_json::from_str::<spincal::CorrectorModel>(r#"{"kind": "no-such-kind"}"#)
-        .unwrap_err()
-        .to_string();
+    let err = serde_json::from_str::<spincal::correctors::model_file::CorrectorModel>(
+        r#"{"kind": "no-such-kind"}"#,
+    )
+    .unwrap_err()
+    .to_string();
     let expected = err.split("expected one of").nth(1).expect(&err);
     let mut kinds: Vec<&str> = expected.split('`').skip(1).step_by(2).collect();
     kinds.sort();

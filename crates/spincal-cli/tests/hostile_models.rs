@@ -7,8 +7,8 @@ use std::path::Path;
 
 use assert_cmd::Command;
 use serde_json::{json, Value};
+use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
 use spincal::correctors::static_cal::{StaticCalibration, StaticModel};
-use spincal::{CorrectorFile, CorrectorModel};
 
 fn spincal() -> Command {
     Command::cargo_bin("spincal").unwrap()

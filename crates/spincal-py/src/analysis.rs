@@ -3,7 +3,7 @@
 use numpy::PyReadonlyArray2;
 use pyo3::prelude::*;
 
-use spincal::Recording;
+use spincal::input::recording::Recording;
 
 use crate::errors::usage;
 use crate::recording::array_to_columns;
@@ -61,7 +61,7 @@ pub(crate) fn allan(
 /// The paper's Table 1 at any nominal values: each parameter moved by ±`vary_percent`.
 #[pyfunction]
 #[pyo3(signature = (*, radius_m = 0.10, tilt_deg = 5.0, rpm = 33.3, beta_deg = 0.0,
-    gravity_mps2 = spincal::STANDARD_GRAVITY, vary_percent = 15.0))]
+    gravity_mps2 = spincal::input::recording::STANDARD_GRAVITY, vary_percent = 15.0))]
 pub(crate) fn sensitivity(
     radius_m: f64,
     tilt_deg: f64,

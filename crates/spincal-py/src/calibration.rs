@@ -7,11 +7,13 @@ use numpy::PyArray2;
 use pyo3::prelude::*;
 
 use spincal::calibrate::CalibrationOutput;
+use spincal::campaign::file::Campaign;
 use spincal::campaign::params::Params;
-use spincal::campaign::{Campaign, CampaignOutput};
+use spincal::campaign::select::CampaignOutput;
+use spincal::correctors::model_file::CorrectorFile;
 use spincal::input::gyro_file::GyroColumns;
+use spincal::input::recording::Recording;
 use spincal::sysid::{ModelKind, ModelSpec};
-use spincal::{CorrectorFile, Recording};
 
 use crate::corrector::PyCorrector;
 use crate::errors::usage;
@@ -45,13 +47,13 @@ pub(crate) fn fit_turntable<'py>(
     let recordings = inner_recordings(&recordings)?;
     let (fit, references) = long::run(py, progress.as_ref(), |observer| {
         let refs: Vec<&Recording> = recordings.iter().collect();
-        let fit = spincal::turntable::fit_turntable(&refs, &options, observer)?;
+        let fit = spincal::turntable::fit::fit_turntable(&refs, &options, observer)?;
         let references: Vec<[Vec<f64>; 3]> = recordings
             .iter()
             .enumerate()
             .map(|(k, r)| fit.reference(k, &r.time_s))
             .collect();
-        Ok::<_, spincal::turntable::FitError>((fit, references))
+        Ok::<_, spincal::turntable::fit::FitError>((fit, references))
     })?
     .map_err(errors::fit)?;
     Ok((
@@ -103,7 +105,7 @@ impl PyCalibration {
             serde_json::to_string_pretty(&self.output.result).map_err(|e| usage(e.to_string()))? + "\n";
         write_text(&folder.join("results.json"), &results)?;
         let html = py
-            .detach(|| spincal::report::render_report(&self.output, &self.recordings))
+            .detach(|| spincal::report::html::render_report(&self.output, &self.recordings))
             .map_err(|e| errors::Error::new_err(format!("report: {e}")))?;
         write_text(&folder.join("report.html"), &html)
     }
@@ -245,7 +247,7 @@ pub(crate) fn campaign_files(
     results_json: &str,
     model_json: Option<&str>,
 ) -> PyResult<Vec<(String, String)>> {
-    let result: spincal::campaign::CampaignResult = serde_json::from_str(results_json)
+    let result: spincal::campaign::select::CampaignResult = serde_json::from_str(results_json)
         .map_err(|e| usage(format!("results.json is not a campaign result: {e}")))?;
     let model = model_json
         .map(|m| CorrectorFile::from_json(m, "model.json"))

@@ -11,7 +11,7 @@ use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::prelude::*;
 
 use spincal::input::recording::TemperatureUnit;
-use spincal::{ColumnMap, Recording, RecordingError};
+use spincal::input::recording::{ColumnMap, Recording, RecordingError};
 
 use crate::errors::{self, usage, Kind, Place};
 
@@ -78,7 +78,8 @@ fn column_map(
     }
     map.accel_unit = accel_unit
         .map(|u| {
-            spincal::AccelUnit::parse(u).ok_or_else(|| usage(format!("accel_unit {u:?}: expected g or mps2")))
+            spincal::input::recording::AccelUnit::parse(u)
+                .ok_or_else(|| usage(format!("accel_unit {u:?}: expected g or mps2")))
         })
         .transpose()?;
     map.time_unit = time_unit
@@ -99,7 +100,7 @@ fn column_map(
 /// The library's plan for a table with header `header`, exactly as `spincal` reads a file with
 /// that header line, in the binding's shape.
 fn resolve(header: &[String], name: &str, map: &ColumnMap) -> Result<ColumnPlan, RecordingError> {
-    let plan = spincal::ColumnPlan::new(header, header.len(), name, map)?;
+    let plan = spincal::input::recording::ColumnPlan::new(header, header.len(), name, map)?;
     let time = plan.time_column();
     Ok(ColumnPlan {
         time: (header.get(time).map(String::as_str) != Some(NO_TIME)).then_some(time),
@@ -436,7 +437,7 @@ fn three_columns(py: Python<'_>, flat: Vec<f64>, n: usize) -> Bound<'_, PyArray2
 #[allow(clippy::too_many_arguments)]
 pub fn correct_rows<'py>(
     py: Python<'py>,
-    file: &spincal::CorrectorFile,
+    file: &spincal::correctors::model_file::CorrectorFile,
     time: Option<ArrayView1<'_, f64>>,
     accel: [ArrayView1<'_, f64>; 3],
     gyro: Option<[ArrayView1<'_, f64>; 3]>,

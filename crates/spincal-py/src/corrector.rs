@@ -6,7 +6,7 @@ use numpy::PyReadonlyArray1;
 use pyo3::prelude::*;
 
 use spincal::correctors::corrector::Corrector;
-use spincal::{CorrectorFile, CorrectorModel};
+use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
 
 use crate::{columns, errors, json};
 

@@ -8,10 +8,11 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 
-use spincal::campaign::{CampaignError, LoadError};
+use spincal::campaign::file::CampaignError;
+use spincal::campaign::load::LoadError;
 use spincal::input::formats::FormatError as ReadError;
+use spincal::input::recording::RecordingError;
 use spincal::input::table::{Location, TableError};
-use spincal::RecordingError;
 
 create_exception!(
     spincal,

@@ -4,8 +4,8 @@ use std::path::PathBuf;
 
 use pyo3::prelude::*;
 
-use spincal::campaign::Campaign;
-use spincal::CorrectorFile;
+use spincal::campaign::file::Campaign;
+use spincal::correctors::model_file::CorrectorFile;
 
 use crate::errors::usage;
 use crate::simulation::with_overrides;
@@ -74,7 +74,7 @@ pub(crate) fn fleet_table(
     for (label, source, results, model, error) in outcomes {
         let result = match (results, error) {
             (Some(text), None) => {
-                let result: spincal::campaign::CampaignResult = serde_json::from_str(&text)
+                let result: spincal::campaign::select::CampaignResult = serde_json::from_str(&text)
                     .map_err(|e| usage(format!("{label}: results.json is not a campaign result: {e}")))?;
                 let model = model
                     .map(|m| CorrectorFile::from_json(&m, &format!("{label}/model.json")))

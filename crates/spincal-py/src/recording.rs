@@ -8,8 +8,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
 use spincal::input::formats::{Format, ReadOptions};
+use spincal::input::recording::{AccelUnit, Recording, RecordingError};
 use spincal::input::recording::{GyroUnit, TimeUnit};
-use spincal::{AccelUnit, Recording, RecordingError};
 
 use crate::errors::{self, usage};
 

@@ -16,8 +16,9 @@ use std::time::Instant;
 
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
-use spincal::correctors::ann::{AnnProblem, DivisionMode, Layout, LmSettings, LmWorkspace};
+use spincal::correctors::ann::{AnnProblem, Layout, LmSettings, LmWorkspace};
 use spincal::correctors::corrector::Axis;
+use spincal::correctors::division::DivisionMode;
 
 const XY: [Axis; 2] = [Axis::X, Axis::Y];
 
@@ -220,7 +221,7 @@ fn main() {
             // Synthetic measured/reference pair for CLI runs (sweep timing).
             let n: usize = args[1].parse().expect("sample count");
             let (measured, reference) = synthetic::turntable_pair(n, 42);
-            let unit = spincal::AccelUnit::Mps2;
+            let unit = spincal::input::recording::AccelUnit::Mps2;
             measured
                 .write_csv_path(format!("{}-measured.csv", args[2]).as_ref(), unit)
                 .expect("write");

@@ -11,8 +11,8 @@
 //! bound), `--bias-instability X` (the fit's, m/s²), `--q-prior X` (the nonlinearity prior's
 //! width, 1/(m/s²)), `--detail` (every held-out row).
 
-use spincal::campaign::calibrate_campaign;
 use spincal::campaign::params::Params;
+use spincal::campaign::select::calibrate_campaign;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 
 fn main() {

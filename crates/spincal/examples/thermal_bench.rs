@@ -29,9 +29,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use serde_json::json;
+use spincal::input::recording::{ColumnMap, Recording, STANDARD_GRAVITY};
 use spincal::simulate::thermal::{simulate_thermal_campaign, ThermalProfile, ThermalTruth};
 use spincal::thermal::{die_temperatures, fit_thermal, ThermalModel, ThermalSettings};
-use spincal::{ColumnMap, Recording, STANDARD_GRAVITY};
 
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);

@@ -25,8 +25,9 @@
 use rand::{Rng, SeedableRng};
 use spincal::campaign::params::Params;
 use spincal::campaign::prepare::prepare;
+use spincal::campaign::select::calibrate_campaign;
 use spincal::campaign::select::conditions;
-use spincal::campaign::{calibrate_campaign, combined};
+use spincal::campaign::verdict::combined;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, RunSetup, SimulatedCampaign};
 
 /// An independently drawn unit: 7 poses and 4 runs (two speeds, two radii, z up and x up).
@@ -39,7 +40,7 @@ fn drawn_setup(seed: u64) -> CampaignSetup {
     setup.sensor.misalignment_deg = std::array::from_fn(|_| rng.gen_range(-0.6..0.6));
     setup.sensor.noise_g = 0.02 / g;
     setup.poses = 7;
-    let axis = |t: &str| spincal::campaign::SignedAxis::parse(t).expect("a valid axis");
+    let axis = |t: &str| spincal::campaign::file::SignedAxis::parse(t).expect("a valid axis");
     let run = |rpm: f64, radius_m: f64, out: &str, up: &str| RunSetup {
         rpm,
         radius_m,

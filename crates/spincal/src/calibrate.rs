@@ -15,18 +15,19 @@ use serde::{Deserialize, Serialize};
 
 use crate::campaign::params::{NetworkChoice, ParamError, Params};
 use crate::correctors::ann::{
-    architecture_label, reduce_sweep, run_sweep_locally, AnnError, AnnProblem, Division, LmSettings,
-    SweepRow, SweepRun, SweepSettings,
+    architecture_label, reduce_sweep, run_sweep_locally, AnnError, AnnProblem, LmSettings, SweepRow,
+    SweepRun, SweepSettings,
 };
 use crate::correctors::corrector::{Axis, Corrected, Corrector};
+use crate::correctors::division::Division;
 use crate::correctors::linear::{LinearError, LinearModel};
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::input::recording::Recording;
 use crate::metrics::{fit_percent, rmse};
 use crate::progress::{Observer, Progress};
 use crate::sysid::{fit_and_score, score, ModelSpec, Scores, SysidError, SysidModel};
+use crate::turntable::fit::fit_turntable;
 use crate::turntable::fit::{FitError, TurntableFit};
-use crate::turntable::fit_turntable;
 use crate::turntable::sensitivity::{sensitivity_table, SensitivityInput, SensitivityRow};
 
 /// Version of the `results.json` layout.

@@ -36,20 +36,18 @@ pub mod sysid;
 pub mod thermal;
 pub mod turntable;
 
-// The types of the common flow at the top; every module's items at one path, the module's own.
-pub use correctors::model_file::{CorrectorFile, CorrectorModel};
-
+// Every public item has one path, its module's own (tests/architecture.rs); the prelude is the
+// one deliberate second path, for the common flow.
 /// The common flow in one import (`use spincal::prelude::*;`): read a recording, calibrate one
 /// recording or a campaign, load a model and correct rows with it.
 pub mod prelude {
     pub use crate::calibrate::calibrate;
+    pub use crate::campaign::load::load_campaign;
     pub use crate::campaign::params::Params;
-    pub use crate::campaign::{calibrate_campaign, load_campaign};
+    pub use crate::campaign::select::calibrate_campaign;
     pub use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
     pub use crate::correctors::rows::{RowCorrector, RowOutcome, RowStatus, UnitFactors};
     pub use crate::input::formats::read_path;
     pub use crate::input::recording::{ColumnMap, Recording};
     pub use crate::progress::silent;
 }
-
-pub use input::recording::{AccelUnit, ColumnMap, ColumnPlan, Recording, RecordingError, STANDARD_GRAVITY};

@@ -8,7 +8,7 @@
 //!   other non-regular targets are streamed to directly and never removed. The only file this
 //!   module ever removes is its own temporary file.
 //! - [`claim_outputs`] runs before any work too: an existing output that spincal did not write
-//!   (recognised by its content, [`written_by_spincal`]) is refused unless the caller forces it,
+//!   (recognised by its content, `written_by_spincal`) is refused unless the caller forces it,
 //!   and then each one replaced is returned so the caller can say so.
 //! - [`create_folder`] makes an output folder, refusing a path that is a file.
 //! - [`remove_temporaries`] removes the temporary files being written right now (a signal handler
@@ -251,7 +251,7 @@ pub struct Fingerprint {
 }
 
 /// A file written beside a spincal JSON file, named in its `outputs` list so that a later run
-/// recognises it as spincal's ([`written_by_spincal`]).
+/// recognises it as spincal's (`written_by_spincal`).
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct NamedFingerprint {
     /// The file's name (no folder).
@@ -423,7 +423,7 @@ fn is_spincal_comment(line: &str) -> bool {
 }
 
 /// A header spincal's CSV writers write: `correct`'s (ending in `valid`, `status`) or a
-/// recording's ([`crate::Recording::write_csv`]).
+/// recording's ([`crate::input::recording::Recording::write_csv`]).
 fn is_spincal_csv_header(line: &str) -> bool {
     let fields: Vec<&str> = line
         .split([',', ' ', '\t', ';'])
@@ -452,7 +452,7 @@ pub struct Replaced {
 
 /// Checks, before any work, that writing `outputs` loses nothing: each one must be absent, empty,
 /// not a regular file (a pipe or device is streamed to), or written by spincal
-/// ([`written_by_spincal`], with the other outputs as companions). Any other existing file is
+/// (`written_by_spincal`, with the other outputs as companions). Any other existing file is
 /// refused by name, unless `force`: then it is returned so the caller can say it is replaced.
 pub fn claim_outputs(outputs: &[&Path], force: bool) -> Result<Vec<Replaced>, OutputError> {
     let mut replaced = Vec::new();

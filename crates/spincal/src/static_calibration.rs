@@ -36,7 +36,7 @@ impl Default for StaticSettings {
     fn default() -> Self {
         StaticSettings {
             model: StaticModel::Misalignment,
-            gravity_mps2: crate::STANDARD_GRAVITY,
+            gravity_mps2: crate::input::recording::STANDARD_GRAVITY,
             detection: StaticOptions::default(),
             detect: false,
             gyro: GyroPoseOptions::default(),

@@ -1,14 +1,14 @@
 //! The network corrector end to end on synthetic turntable data.
 
 use crate::common::synthetic::turntable_pair;
-use spincal::correctors::ann::lm::full_jacobian;
 use spincal::correctors::ann::{
-    reduce_sweep, run_sweep_job, sweep, AnnError, AnnProblem, DivisionMode, LmSettings, LmWorkspace, Part,
+    full_jacobian, reduce_sweep, run_sweep_job, sweep, AnnError, AnnProblem, LmSettings, LmWorkspace,
     StopReason, SweepJobs, SweepRow, SweepRun, SweepSettings,
 };
 use spincal::correctors::corrector::{Axis, Corrector};
+use spincal::correctors::division::{DivisionMode, Part};
 use spincal::correctors::linear::LinearModel;
-use spincal::{CorrectorFile, CorrectorModel};
+use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
 
 const XY: [Axis; 2] = [Axis::X, Axis::Y];
 
@@ -506,7 +506,7 @@ fn a_single_speed_calibration_never_makes_another_speed_worse() {
     use spincal::calibrate::calibrate;
     use spincal::campaign::params::{NetworkChoice, Params};
     use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
-    use spincal::turntable::{FitOptions, RadiusPrior};
+    use spincal::turntable::fit::{FitOptions, RadiusPrior};
     let settings = Params {
         fit: FitOptions {
             radius: Some(RadiusPrior {

@@ -10,8 +10,9 @@ use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use common::synthetic::turntable_pair;
-use spincal::correctors::ann::{AnnProblem, Dataset, DivisionMode, LmSettings, LmWorkspace};
+use spincal::correctors::ann::{AnnProblem, Dataset, LmSettings, LmWorkspace};
 use spincal::correctors::corrector::Axis;
+use spincal::correctors::division::DivisionMode;
 
 struct Counting;
 

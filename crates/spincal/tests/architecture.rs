@@ -234,14 +234,20 @@ fn every_test_file_runs() {
 }
 
 /// The library's public items, one line each (`module: pub kind name`), sorted: every `pub`
-/// declaration outside the files' test modules, methods included. `pub(crate)` and narrower are
+/// declaration outside the files' test modules, methods included, under its nearest public module. `pub(crate)` and narrower are
 /// not public and not listed.
 fn public_surface(src: &Path) -> Vec<String> {
+    let public = public_modules(src);
     let mut files = Vec::new();
     rust_files(src, &mut files);
     let mut lines = Vec::new();
     for file in &files {
-        let module = module_of(src, file).join("::");
+        // A private file of a folder module shows under the public module that re-exports it.
+        let mut module = module_of(src, file);
+        while !public.contains(&module) {
+            module.pop();
+        }
+        let module = module.join("::");
         let text = std::fs::read_to_string(file).unwrap();
         // A file's unit tests come last, after `#[cfg(test)]` and `mod tests`.
         let code = text.split("#[cfg(test)]\nmod tests").next().unwrap_or(&text);
@@ -301,5 +307,145 @@ fn the_public_surface_is_the_listed_one() {
     }
     // The scanner sees what it should: a public item, and not a crate-private one.
     assert!(listed.contains("correctors::rows: pub struct RowCorrector"));
+    assert!(listed.contains("optim: pub fn levenberg_marquardt"));
     assert!(!listed.contains("pub(crate)"));
+}
+
+/// Every module's visibility from outside the crate: a module is public when its own `mod`
+/// declaration and all its parents' are `pub`.
+fn public_modules(src: &Path) -> BTreeSet<Vec<String>> {
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    let mut declared: BTreeMap<Vec<String>, bool> = BTreeMap::new();
+    for file in &files {
+        let module = module_of(src, file);
+        let text = std::fs::read_to_string(file).unwrap();
+        let code = text.split("#[cfg(test)]\nmod tests").next().unwrap_or(&text);
+        for line in code.lines() {
+            let t = line.trim_start();
+            let (public, rest) = match t.strip_prefix("pub mod ") {
+                Some(rest) => (true, rest),
+                None => match t.strip_prefix("mod ").or_else(|| {
+                    t.strip_prefix("pub(")
+                        .and_then(|r| r.split_once(") mod "))
+                        .map(|(_, r)| r)
+                }) {
+                    Some(rest) => (false, rest),
+                    None => continue,
+                },
+            };
+            let name: String = rest
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            let mut path = module.clone();
+            path.push(name);
+            declared.insert(path, public);
+        }
+    }
+    let mut public = BTreeSet::from([Vec::new()]);
+    // Parents sort before their children, so each parent is settled first.
+    for (path, is_pub) in &declared {
+        if *is_pub && public.contains(&path[..path.len() - 1]) {
+            public.insert(path.clone());
+        }
+    }
+    public
+}
+
+/// Items that a public module re-exports (`pub use`) from another public module: each is then
+/// reachable by two paths. The prelude is the one deliberate exception. Returns
+/// `re-exporting module: pub use path` for each.
+fn second_paths(src: &Path) -> Vec<String> {
+    let public = public_modules(src);
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    let mut found = Vec::new();
+    for file in &files {
+        let module = module_of(src, file);
+        if !public.contains(&module) {
+            continue;
+        }
+        let text = std::fs::read_to_string(file).unwrap();
+        let code = text.split("#[cfg(test)]\nmod tests").next().unwrap_or(&text);
+        // The prelude, an inline module, is the deliberate second path for the common flow.
+        let code = match code.split_once("pub mod prelude {") {
+            Some((head, tail)) => format!("{head}{}", tail.split_once("\n}\n").map_or("", |(_, t)| t)),
+            None => code.to_string(),
+        };
+        for (at, _) in code.match_indices("pub use ") {
+            if !code[..at].ends_with('\n') {
+                continue;
+            }
+            let statement = &code[at + "pub use ".len()..];
+            let statement = &statement[..statement.find(';').unwrap_or(statement.len())];
+            let source = statement
+                .split('{')
+                .next()
+                .unwrap_or(statement)
+                .trim()
+                .trim_end_matches("::");
+            let mut path: Vec<String> = match source.split_once("::") {
+                Some(("crate", r)) => r.split("::").map(String::from).collect(),
+                Some(("self", r)) => module
+                    .iter()
+                    .cloned()
+                    .chain(r.split("::").map(String::from))
+                    .collect(),
+                _ => module
+                    .iter()
+                    .cloned()
+                    .chain(source.split("::").map(String::from))
+                    .collect(),
+            };
+            // `pub use a::b::Item;` names an item, not a module.
+            if !statement.contains('{') {
+                path.pop();
+            }
+            if public.contains(&path) && path != module {
+                let name = if module.is_empty() {
+                    "spincal".to_string()
+                } else {
+                    module.join("::")
+                };
+                found.push(format!(
+                    "{name}: pub use {}",
+                    statement.split_whitespace().collect::<Vec<_>>().join(" ")
+                ));
+            }
+        }
+    }
+    found.sort();
+    found
+}
+
+/// One path per public item: no public module re-exports another public module's items (the
+/// prelude aside), so `spincal::a::X` and `spincal::b::X` never name the same thing.
+#[test]
+fn every_public_item_has_one_path() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let second = second_paths(&root.join("src"));
+    assert!(second.is_empty(), "items reachable by a second path: {second:#?}");
+}
+
+#[test]
+fn the_scanner_finds_a_second_path_and_allows_a_facade_and_the_prelude() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path();
+    std::fs::create_dir(src.join("b")).unwrap();
+    std::fs::write(
+        src.join("lib.rs"),
+        "pub mod a;\npub mod b;\npub mod prelude {\n    pub use crate::a::A;\n}\n",
+    )
+    .unwrap();
+    std::fs::write(src.join("a.rs"), "pub struct A;\npub struct X;\n").unwrap();
+    std::fs::write(
+        src.join("b/mod.rs"),
+        "mod part;\npub use part::B;\npub use crate::a::{\n    X,\n};\n",
+    )
+    .unwrap();
+    std::fs::write(src.join("b/part.rs"), "pub struct B;\n").unwrap();
+    assert_eq!(second_paths(src), ["b: pub use crate::a::{ X, }"]);
+    let surface = public_surface(src);
+    assert!(surface.contains(&"b: pub struct B".to_string()), "{surface:?}");
 }

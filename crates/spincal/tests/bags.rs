@@ -10,9 +10,9 @@ use std::sync::OnceLock;
 
 use spincal::input::formats::bag::BagError;
 use spincal::input::formats::{read_bytes, read_path, Format, FormatError, Loaded, ReadOptions};
+use spincal::input::recording::{AccelUnit, Recording};
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
 use spincal::turntable::spectrum::{estimate_rotation_rate, RateSearch};
-use spincal::{AccelUnit, Recording};
 
 const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
 

@@ -2,11 +2,12 @@
 //! the fitted sensor model corrects a run it never saw, and nothing is saved that could not be
 //! checked on a held-out condition.
 
+use spincal::campaign::candidate::CandidateKind;
 use spincal::campaign::joint::{fit_joint, JointSettings, SensorTerms};
 use spincal::campaign::params::Params;
 use spincal::campaign::prepare::prepare;
+use spincal::campaign::select::calibrate_campaign;
 use spincal::campaign::verdict::Comparison;
-use spincal::campaign::{calibrate_campaign, CandidateKind};
 use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
 use spincal::correctors::physical::{quadratic_from_datasheet, PhysicalCorrector};
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, RunSetup};
@@ -14,7 +15,11 @@ use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, RunSetup};
 use crate::common::campaign_units as units;
 
 /// Simulates the campaign with `seed` and calibrates it (truth attached) with `settings`.
-fn calibrated(setup: &CampaignSetup, seed: u64, settings: &Params) -> spincal::campaign::CampaignOutput {
+fn calibrated(
+    setup: &CampaignSetup,
+    seed: u64,
+    settings: &Params,
+) -> spincal::campaign::select::CampaignOutput {
     let sim = simulate_campaign(setup, seed).unwrap();
     calibrate_campaign("u", &units(&sim, true), settings, &spincal::progress::silent).unwrap()
 }
@@ -86,8 +91,8 @@ fn the_fitted_sensor_model_corrects_an_unseen_run() {
         setup.runs.push(RunSetup {
             rpm: 78.0,
             radius_m: 0.10,
-            out: spincal::campaign::SignedAxis::parse("+y").unwrap(),
-            up: spincal::campaign::SignedAxis::parse("-x").unwrap(),
+            out: spincal::campaign::file::SignedAxis::parse("+y").unwrap(),
+            up: spincal::campaign::file::SignedAxis::parse("-x").unwrap(),
             ..RunSetup::default()
         });
         let sim = simulate_campaign(&setup, seed).unwrap();
@@ -446,8 +451,9 @@ fn the_verdict_is_the_same_without_truth_files() {
 /// Twenty default campaigns (seeds 0–19), each calibrated once with the physical model, the
 /// physical model without q and the 12-parameter map (the datasheet's nonlinearity as q's prior, as
 /// a campaign file states it), shared by the tests below.
-fn twenty_campaigns() -> &'static [spincal::campaign::CampaignOutput] {
-    static OUTPUTS: std::sync::OnceLock<Vec<spincal::campaign::CampaignOutput>> = std::sync::OnceLock::new();
+fn twenty_campaigns() -> &'static [spincal::campaign::select::CampaignOutput] {
+    static OUTPUTS: std::sync::OnceLock<Vec<spincal::campaign::select::CampaignOutput>> =
+        std::sync::OnceLock::new();
     OUTPUTS.get_or_init(|| {
         let setup = CampaignSetup::default();
         let mut settings = Params {
@@ -527,7 +533,7 @@ fn inputs_that_physics_contradicts_are_refused_with_the_key() {
     setup.runs.truncate(2);
     let sim = simulate_campaign(&setup, 1).unwrap();
     let settings = Params::default();
-    let refused = |units: Vec<spincal::campaign::UnitRecording>| -> (String, String) {
+    let refused = |units: Vec<spincal::campaign::prepare::UnitRecording>| -> (String, String) {
         match calibrate_campaign("u", &units, &settings, &spincal::progress::silent) {
             Err(CampaignCalError::Input(e)) => (e.key.to_string(), e.to_string()),
             Err(e) => panic!("refused for another reason: {e}"),

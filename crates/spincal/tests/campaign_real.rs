@@ -17,7 +17,7 @@ fn norm(a: [f64; 3]) -> f64 {
     (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
 }
 
-fn pose(rec: &spincal::Recording, iv: &StillInterval, to_si: f64) -> PoseInput {
+fn pose(rec: &spincal::input::recording::Recording, iv: &StillInterval, to_si: f64) -> PoseInput {
     let n = iv.len() as f64;
     PoseInput {
         name: format!("{:.1}–{:.1} s", iv.t_start_s, iv.t_end_s),

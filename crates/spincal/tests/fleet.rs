@@ -180,7 +180,8 @@ fn a_fleet_recovers_each_unit_flags_the_faulty_one_and_reports_broken_ones() {
     // Each unit alone, on the CLI's path (all threads, conditions in parallel): the same bytes.
     let started = std::time::Instant::now();
     for outcome in &good {
-        let campaign = spincal::campaign::Campaign::read_path(&outcome.source.join("campaign.toml")).unwrap();
+        let campaign =
+            spincal::campaign::file::Campaign::read_path(&outcome.source.join("campaign.toml")).unwrap();
         let alone = spincal::campaign::run::calibrate_campaign_file(
             &campaign,
             &FleetSettings::default().params,

@@ -6,12 +6,14 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use crate::common::synthetic::turntable_pair;
 use serde_json::{json, Value};
-use spincal::correctors::ann::{AnnError, AnnProblem, DivisionMode, LmSettings, MAX_DELAYS};
+use spincal::correctors::ann::{AnnError, AnnProblem, LmSettings, MAX_DELAYS};
 use spincal::correctors::corrector::{Axis, Corrector};
+use spincal::correctors::division::DivisionMode;
 use spincal::correctors::linear::LinearModel;
 use spincal::correctors::model_file::CorrectorError;
+use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
 use spincal::correctors::static_cal::{StaticCalibration, StaticModel};
-use spincal::{CorrectorFile, CorrectorModel, Recording};
+use spincal::input::recording::Recording;
 
 /// Written in place of a string marker: JSON that parses as a number, but no finite f64.
 const INFINITE: &str = "1e999";

@@ -119,7 +119,7 @@ fn recovers(truth: &PolyModel, params: &PemParams, seeds: std::ops::Range<u64>, 
 }
 
 fn poly_mul(p: &[f64], q: &[f64]) -> Vec<f64> {
-    spincal::sysid::poly::poly_mul(p, q)
+    spincal::sysid::poly_mul(p, q)
 }
 
 fn poly(a: &[f64], b: &[f64], c: &[f64], d: &[f64], f: &[f64], nk: usize) -> PolyModel {

@@ -11,18 +11,20 @@
 #![allow(clippy::needless_range_loop)]
 
 use rayon::prelude::*;
+use spincal::campaign::candidate::CandidateKind;
 use spincal::campaign::params::Params;
-use spincal::campaign::{calibrate_campaign, CandidateKind, UnitRecording};
+use spincal::campaign::prepare::UnitRecording;
+use spincal::campaign::select::calibrate_campaign;
+use spincal::correctors::model_file::CorrectorFile;
 use spincal::correctors::rows::{RowCorrector, RowOutcome, UnitFactors};
 use spincal::input::recording::Recording;
+use spincal::input::recording::STANDARD_GRAVITY;
 use spincal::progress::silent;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 use spincal::simulate::thermal::{
     sensor_reports, simulate_thermal_campaign, ThermalCampaign, ThermalProfile, ThermalRecording,
 };
 use spincal::thermal::{fit_thermal, ThermalModel, ThermalSettings};
-use spincal::CorrectorFile;
-use spincal::STANDARD_GRAVITY;
 
 /// RMS over the held-out bands of 1 s means of (corrected − true) force, m/s², and the
 /// per-sample RMS (noise in); `correct(j, i)` is sample i of held-out recording j, corrected.

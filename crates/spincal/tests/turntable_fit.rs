@@ -1,8 +1,9 @@
 //! The turntable fit recovers what the simulator put in.
 
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
+use spincal::turntable::fit::{fit_turntable, DriftMode, FitOptions, TurntableFit};
+use spincal::turntable::model::Direction;
 use spincal::turntable::spectrum::{estimate_rotation_rate, RateSearch};
-use spincal::turntable::{fit_turntable, Direction, DriftMode, FitOptions, TurntableFit};
 
 fn options() -> FitOptions {
     FitOptions {
@@ -232,7 +233,7 @@ fn saturated_samples_are_left_out_of_the_fit() {
         };
         let mut sim = simulate(&SensorProfile::default(), &table, seed).unwrap();
         // 200 samples clipped at a rail well above the signal (a knock during the recording).
-        let rail = 2.0 * spincal::STANDARD_GRAVITY;
+        let rail = 2.0 * spincal::input::recording::STANDARD_GRAVITY;
         for i in 3000..3200 {
             sim.recording.accel_mps2[0][i] = rail;
         }

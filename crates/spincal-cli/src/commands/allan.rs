@@ -77,7 +77,7 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     let name = args.input.rec.display().to_string();
     let calibration = match &args.calibration {
         Some(path) => Some((
-            spincal::CorrectorFile::read_path(path)?,
+            spincal::correctors::model_file::CorrectorFile::read_path(path)?,
             path.display().to_string(),
         )),
         None => None,

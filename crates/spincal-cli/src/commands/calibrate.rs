@@ -7,9 +7,9 @@ use spincal::calibrate::{calibrate, CalibrationOutput};
 use spincal::campaign::params::{NetworkChoice, Params};
 use spincal::correctors::ann::{default_grid, small_grid};
 use spincal::correctors::corrector::Axis;
-use spincal::report::render_report;
+use spincal::input::recording::Recording;
+use spincal::report::html::render_report;
 use spincal::sysid::{ModelKind, ModelSpec};
-use spincal::Recording;
 
 use super::fit::TurntableArgs;
 use super::train::{all_if_zero, parse_hidden};

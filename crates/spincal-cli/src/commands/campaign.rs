@@ -6,9 +6,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use spincal::campaign::file::Campaign;
 use spincal::campaign::params::Params;
 use spincal::campaign::run::calibrate_campaign_file;
-use spincal::campaign::{Campaign, CampaignOutput};
+use spincal::campaign::select::CampaignOutput;
 use spincal::report::campaign::{campaign_files, CAMPAIGN_FILE_NAMES};
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 use spincal::simulate::fleet::WriteError;

@@ -27,11 +27,11 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
+use spincal::correctors::model_file::CorrectorFile;
 use spincal::correctors::rows::{RowCorrector, RowOutcome, RowStatus, RowValue, UnitFactors};
 use spincal::input::formats::Loaded;
+use spincal::input::recording::{ColumnMap, ColumnPlan};
 use spincal::input::table::{display_name, Delimiter, Record, RowReader};
-use spincal::CorrectorFile;
-use spincal::{ColumnMap, ColumnPlan};
 
 use super::input::ReadArgs;
 use super::values::FormatArg;
@@ -342,7 +342,10 @@ fn stream(
         rows.header.clone()
     };
     // Networks and linear maps were trained in m/s²; a static calibration states its own unit.
-    let unit_matters = !matches!(model.corrector, spincal::CorrectorModel::Static(_));
+    let unit_matters = !matches!(
+        model.corrector,
+        spincal::correctors::model_file::CorrectorModel::Static(_)
+    );
     if unit_matters && rows.header.is_empty() && map.accel_unit.is_none() {
         return Err(UsageError(format!(
             "{name}: no header line, so the acceleration unit cannot be known; pass --accel-unit g or --accel-unit mps2 (and --columns if the columns are not t,ax,ay,az)"
@@ -472,7 +475,7 @@ fn correct_loaded(
 ) -> anyhow::Result<StreamSummary> {
     let rec = &loaded.recording;
     let static_input = match &model.corrector {
-        spincal::CorrectorModel::Static(s) => Some(s.input_unit.as_str()),
+        spincal::correctors::model_file::CorrectorModel::Static(s) => Some(s.input_unit.as_str()),
         _ => None,
     };
     let counts_expected = static_input == Some("counts");

@@ -6,9 +6,9 @@ use std::path::PathBuf;
 
 use clap::Args;
 use spincal::campaign::params::Params;
+use spincal::input::recording::AccelUnit;
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
-use spincal::turntable::{FitOptions, RadiusPrior};
-use spincal::AccelUnit;
+use spincal::turntable::fit::{FitOptions, RadiusPrior};
 
 use super::calibrate::{run_calibration, summary};
 use crate::ui::{self, Ui};

@@ -5,10 +5,10 @@
 use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
+use spincal::correctors::model_file::CorrectorFile;
 use spincal::firmware::{export_firmware, write_export, ExportOptions, Precision};
 use spincal::thermal::flight_stacks::{self, ArduPilotTarget, FlightStackError, Px4Target, StackFile};
 use spincal::thermal::ThermalModel;
-use spincal::CorrectorFile;
 
 use crate::ui::{self, UsageError};
 

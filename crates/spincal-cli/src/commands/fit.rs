@@ -4,9 +4,9 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
+use spincal::input::recording::STANDARD_GRAVITY;
 use spincal::turntable::fit::FittedParam;
-use spincal::turntable::{fit_turntable, FitOptions, RadiusPrior, TurntableFit};
-use spincal::STANDARD_GRAVITY;
+use spincal::turntable::fit::{fit_turntable, FitOptions, RadiusPrior, TurntableFit};
 
 use super::input::ReadArgs;
 use super::values::{DriftArg, ObjectiveAxesArg};
@@ -162,7 +162,7 @@ pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
     spinner.finish_and_clear();
     for (k, path) in args.reference_csv.iter().enumerate() {
         let rec = &recordings[k];
-        let reference = spincal::Recording {
+        let reference = spincal::input::recording::Recording {
             time_s: rec.time_s.clone(),
             accel_mps2: fit.reference(k, &rec.time_s),
             gyro_radps: None,
@@ -170,7 +170,7 @@ pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
             source: spincal::input::recording::Source::default(),
         };
         reference
-            .write_csv_path(path, spincal::AccelUnit::G)
+            .write_csv_path(path, spincal::input::recording::AccelUnit::G)
             .with_context(|| format!("writing the reference of {}", rec.source.name))?;
     }
     if let Some(path) = &args.output {

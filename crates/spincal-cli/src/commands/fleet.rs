@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 use indicatif::ProgressStyle;
-use spincal::campaign::Campaign;
+use spincal::campaign::file::Campaign;
 use spincal::fleet::{
     calibrate_fleet, campaign_path, expand_sources, fleet_table, unit_labels, FleetSettings, FleetTable,
     OutlierSettings, UnitOutcome,

@@ -7,7 +7,7 @@ use anyhow::Context;
 use clap::Args;
 use spincal::input::formats::{self, Loaded, ReadOptions};
 use spincal::input::recording::ColumnMap;
-use spincal::Recording;
+use spincal::input::recording::Recording;
 
 use super::values::{AccelUnitArg, DelimiterArg, FormatArg, GyroUnitArg, TimeUnitArg};
 use crate::ui::{Ui, UsageError};
@@ -115,7 +115,7 @@ impl ReadArgs {
             accel_scale: self.accel_scale,
             accel_offset: self.accel_offset,
             sample_rate_hz: self.sample_rate,
-            gx1: formats::Gx1Options {
+            gx1: formats::gx1::Gx1Options {
                 accel_gain_scale: self.gx1_accel_gain,
                 gyro_gain_scale: self.gx1_gyro_gain,
                 command: None,
@@ -188,7 +188,7 @@ impl InputArgs {
     pub fn inspect(&self, ui: &Ui) -> anyhow::Result<(Loaded, spincal::input::inspect::Inspection)> {
         let options = self.read.options()?;
         let spinner = ui.spinner("reading");
-        let found = formats::inspect_path(&self.rec, &options, None)
+        let found = formats::streamed::inspect_path(&self.rec, &options, None)
             .with_context(|| format!("reading {}", self.rec.display()));
         spinner.finish_and_clear();
         found

@@ -75,7 +75,7 @@ pub fn run(args: &InspectArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         s += &format!(
             "possible saturation: a{} at {:.4} g in {} samples, the first at line {}\n",
             sat.axis,
-            sat.limit_mps2 / spincal::STANDARD_GRAVITY,
+            sat.limit_mps2 / spincal::input::recording::STANDARD_GRAVITY,
             sat.samples,
             sat.first_line
         );

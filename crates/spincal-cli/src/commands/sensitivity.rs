@@ -1,8 +1,8 @@
 //! `spincal sensitivity`: the paper's Table 1 for any nominal values.
 
 use clap::Args;
+use spincal::input::recording::STANDARD_GRAVITY;
 use spincal::turntable::sensitivity::{sensitivity_table, SensitivityInput};
-use spincal::STANDARD_GRAVITY;
 
 use crate::ui::{self, UsageError};
 

@@ -4,9 +4,9 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
+use spincal::input::recording::AccelUnit;
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
-use spincal::turntable::Direction;
-use spincal::AccelUnit;
+use spincal::turntable::model::Direction;
 
 use super::values::{AccelUnitArg, DirectionArg};
 use crate::ui::{self, UsageError};

@@ -22,7 +22,7 @@ pub struct StaticArgs {
     #[command(flatten)]
     pub input: InputArgs,
     /// Local gravity, m/s².
-    #[arg(long, default_value_t = spincal::STANDARD_GRAVITY, value_parser = super::values::positive, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = spincal::input::recording::STANDARD_GRAVITY, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub gravity: f64,
     /// Parameters: 6 (bias, scale), 9 (+ misalignment, imu_tk) or 12 (+ quadratic nonlinearity).
     #[arg(long, value_enum, default_value = "9")]

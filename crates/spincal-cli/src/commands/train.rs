@@ -5,11 +5,12 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use serde::Serialize;
-use spincal::correctors::ann::{AnnProblem, DivisionMode, LmSettings, Part, PartFits};
+use spincal::correctors::ann::{AnnProblem, LmSettings};
 use spincal::correctors::corrector::Axis;
+use spincal::correctors::division::{DivisionMode, Part, PartFits};
 use spincal::correctors::linear::LinearModel;
-use spincal::Recording;
-use spincal::{CorrectorFile, CorrectorModel};
+use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
+use spincal::input::recording::Recording;
 
 use super::input::ReadArgs;
 use crate::ui::{self, Ui, UsageError};

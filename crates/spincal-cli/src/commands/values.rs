@@ -7,7 +7,8 @@ use spincal::input::formats::Format;
 use spincal::input::recording::{AccelUnit, GyroUnit, TimeUnit};
 use spincal::input::table::Delimiter;
 use spincal::sysid::ModelKind;
-use spincal::turntable::{AxesObjective, Direction, DriftMode};
+use spincal::turntable::fit::{AxesObjective, DriftMode};
+use spincal::turntable::model::Direction;
 
 /// Maps a mirror enum onto the library's, variant for variant.
 macro_rules! mirror {

@@ -12,8 +12,9 @@ use serde::{Deserialize, Serialize};
 use crate::campaign::joint::{
     fit_joint, fit_joint_from, JointFit, JointSettings, PoseInput, RunInput, SensorCovariance, SensorTerms,
 };
-use crate::correctors::ann::{AnnProblem, DivisionMode, LmSettings};
+use crate::correctors::ann::{AnnProblem, LmSettings};
 use crate::correctors::corrector::{Axis, Corrector};
+use crate::correctors::division::DivisionMode;
 use crate::correctors::linear::LinearModel;
 use crate::correctors::model_file::CorrectorModel;
 use crate::correctors::physical::PhysicalCorrector;

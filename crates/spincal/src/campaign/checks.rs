@@ -4,7 +4,7 @@
 //! - a turntable run must read gravity along its declared `up` and its constant magnitude in the
 //!   declared unit;
 //! - a `static` recording must not turn (its gyro, where it has one);
-//! - a turntable run's measured rotation rate must be within [`RPM_TOLERANCE`] of its nominal `rpm`;
+//! - a turntable run's measured rotation rate must be within `RPM_TOLERANCE` of its nominal `rpm`;
 //! - no recording may be listed twice (the same samples under two entries).
 
 use crate::campaign::joint::{mounting_matrix, RunInput};

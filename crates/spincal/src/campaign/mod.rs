@@ -21,12 +21,3 @@ pub mod run;
 pub mod select;
 pub mod thermal;
 pub mod verdict;
-
-pub use candidate::CandidateKind;
-pub use file::{Campaign, CampaignEntry, CampaignError, EntryKind, SignedAxis, TurntableEntry};
-pub use gyro::{fit_gyro, GyroFit, GyroSettings};
-pub use joint::{fit_joint, JointFit, JointSettings, PoseInput, RunInput, SensorTerms};
-pub use load::{load_campaign, LoadError};
-pub use prepare::UnitRecording;
-pub use select::{calibrate_campaign, CampaignOutput, CampaignResult, HeldOutScore, TruthCheck};
-pub use verdict::{combined, Comparison};

@@ -6,11 +6,12 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::campaign::candidate::CandidateKind;
 use crate::campaign::gyro::GyroSettings;
 use crate::campaign::joint::JointSettings;
-use crate::campaign::CandidateKind;
-use crate::correctors::ann::{small_grid, DivisionMode, LmSettings, SWEEP_HESSIAN_SAMPLES};
+use crate::correctors::ann::{small_grid, LmSettings, SWEEP_HESSIAN_SAMPLES};
 use crate::correctors::corrector::Axis;
+use crate::correctors::division::DivisionMode;
 use crate::sysid::{ModelKind, ModelSpec};
 use crate::turntable::fit::FitOptions;
 

@@ -6,7 +6,7 @@
 //! What physics requires, per held-out sample (no sensor parameter is refitted, so nothing can
 //! absorb a sensor error but the geometry a real platter has):
 //! - **a turntable run**: the best rigid-platter motion of a perfect sensor
-//!   ([`fit_run_geometry`]): the rotation rate (measured from the data), the radius within the
+//!   (`fit_run_geometry`): the rotation rate (measured from the data), the radius within the
 //!   ruler's tolerance, the platter's tilt, the mount's rotation within its prior, wow; no bias
 //!   offset, drift or scale freedom. It sees a scale or bias error along the spindle (the constant
 //!   part must be g cos α with sin α fixed by the rotating part's amplitude), a radial error beyond
@@ -23,7 +23,7 @@
 //!
 //! **Significance.** A corrector is "worse than uncorrected" on a condition only when the mean of
 //! its squared residual minus the uncorrected one's exceeds Student's t quantile at one-sided
-//! probability [`WORSE_FALSE_ALARM`] (blocks − 1 degrees of freedom) times that difference's
+//! probability `WORSE_FALSE_ALARM` (blocks − 1 degrees of freedom) times that difference's
 //! standard error. The standard error has two parts: batch means (the difference summed per block
 //! of `block_s` seconds of a run, of one second of a still pose), which account for residuals
 //! correlated within a block by wow or noise; and the recording's bias offset, which no block sees because it

@@ -78,7 +78,7 @@ impl SensorModel {
         quadratic_per_mps2: [0.0; 3],
     };
 
-    /// From the fit's parameter vector (first [`SENSOR_PARAMS`] values).
+    /// From the fit's parameter vector (first `SENSOR_PARAMS` values).
     pub fn from_params(p: &[f64]) -> SensorModel {
         SensorModel {
             bias_mps2: [p[0], p[1], p[2]],

@@ -2,7 +2,7 @@
 //! for the `no_std` crate `spincal-embedded`, and the values x-io Fusion takes.
 //!
 //! [`export_firmware`] turns a [`CorrectorFile`] into files (names and text); [`write_export`]
-//! writes them. The coefficients are derived once ([`plan`]) by the library's own arithmetic, and
+//! writes them. The coefficients are derived once (`plan`) by the library's own arithmetic, and
 //! every generated function does the library stream's operations in its order, so:
 //!
 //! - the `double` C and the `f64` Rust give `spincal correct`'s corrections (tested to 1e-9
@@ -15,7 +15,7 @@
 //!   the physical correction outside its input range, its covered cells or its output range.
 
 mod c_source;
-pub mod fusion;
+mod fusion;
 mod numerics;
 mod plan;
 mod rust_source;

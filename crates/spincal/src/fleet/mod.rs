@@ -9,13 +9,13 @@
 //!   panics) is reported in its [`UnitOutcome`]; the others go on. Results do not depend on the
 //!   thread count: each unit's result is that of [`calibrate_unit`] alone.
 //! - [`table::fleet_table`]: every sensor parameter with its standard error per unit, fleet
-//!   statistics and outliers (rule in [`table`]).
+//!   statistics and outliers (rule in [`fleet_table`]).
 //!
 //! Worker threads are plain scoped threads, not a rayon pool: a rayon worker that waits on
 //! another pool (the unit's one-thread pool) steals further units meanwhile, and so would run
 //! more units at once than it has threads.
 
-pub mod table;
+mod table;
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -145,7 +145,7 @@ impl UnitCalibration {
 /// located error that stopped it.
 #[derive(Debug, Clone, Serialize)]
 pub struct UnitOutcome {
-    /// The unit's name in the fleet ([`unit_label`], made unique): its output folder's name.
+    /// The unit's name in the fleet (`unit_label`, made unique): its output folder's name.
     pub unit: String,
     /// As given: a campaign file or a folder holding `campaign.toml`.
     pub source: PathBuf,

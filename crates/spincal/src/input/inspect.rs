@@ -21,7 +21,7 @@ pub(crate) const RANGE_SHARE: f64 = 0.999;
 /// Gaps listed individually; the rest are only counted.
 pub(crate) const LISTED_GAPS: usize = 20;
 
-/// A gap: a sample interval longer than [`GAP_FACTOR`] times the median.
+/// A gap: a sample interval longer than `GAP_FACTOR` times the median.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Gap {
     /// 1-based source line (or sample number) of the sample after the gap.
@@ -150,8 +150,8 @@ impl Inspection {
 
 /// Finds gaps, saturated samples and constant axes.
 ///
-/// With `range_mps2` given, a sample at or beyond [`RANGE_SHARE`] of it is saturated; without,
-/// an axis is saturated where [`RAIL_SAMPLES`] or more successive samples sit exactly at its
+/// With `range_mps2` given, a sample at or beyond `RANGE_SHARE` of it is saturated; without,
+/// an axis is saturated where `RAIL_SAMPLES` or more successive samples sit exactly at its
 /// extreme value (a flat top). A constant axis is reported as constant, not as saturated.
 pub fn inspect(recording: &Recording, range_mps2: Option<f64>) -> Inspection {
     let dt = sample_interval(&recording.time_s);

@@ -23,7 +23,7 @@ pub struct LmOptions {
     pub initial_damping: f64,
     /// After the damped iterations stop, undamped Gauss–Newton steps while one would still move
     /// some parameter by more than this many standard errors (of unit-weight residuals, from
-    /// (JᵀJ)⁻¹), at most [`POLISH_STEPS`] and within `max_iterations`; 0 turns this off. A cost
+    /// (JᵀJ)⁻¹), at most `POLISH_STEPS` and within `max_iterations`; 0 turns this off. A cost
     /// rule cannot see how far the minimum still is (a step of d standard errors changes the cost
     /// by about d²), this can.
     pub polish_se_tolerance: f64,

@@ -3,9 +3,9 @@
 //! A problem implements [`LeastSquares`] (residuals and their Jacobian); solvers report progress
 //! through an observer callback and never print.
 
-pub mod golden;
-pub mod lm;
-pub mod nelder_mead;
+mod golden;
+mod lm;
+mod nelder_mead;
 
 pub use golden::golden_section_max;
 pub use lm::{levenberg_marquardt, levenberg_marquardt_normal, LmOptions, LmReport, LmStop, NormalEquations};

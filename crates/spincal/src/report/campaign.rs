@@ -8,7 +8,8 @@ use super::escape;
 use super::html::figure;
 use super::plot::{Legend, LinePlot, LineStyle, Series};
 use super::plot::{PlotError, Rgb};
-use crate::campaign::{combined, CampaignResult};
+use crate::campaign::select::CampaignResult;
+use crate::campaign::verdict::combined;
 use crate::correctors::model_file::CorrectorFile;
 use crate::export::{imu_tk_calibs, imucal_json, pretty};
 
@@ -212,7 +213,7 @@ fn held_out_plot(r: &CampaignResult, against_truth: bool) -> Option<LinePlot> {
     if conditions.is_empty() || (against_truth && r.held_out.iter().all(|s| s.truth.is_none())) {
         return None;
     }
-    let comparison = |s: &crate::campaign::HeldOutScore| {
+    let comparison = |s: &crate::campaign::select::HeldOutScore| {
         if against_truth {
             s.truth.clone()
         } else {
@@ -220,7 +221,7 @@ fn held_out_plot(r: &CampaignResult, against_truth: bool) -> Option<LinePlot> {
         }
     };
     let index = |c: &str| conditions.iter().position(|&k| k == c);
-    let per_condition = |value: &dyn Fn(&crate::campaign::HeldOutScore) -> Option<f64>| {
+    let per_condition = |value: &dyn Fn(&crate::campaign::select::HeldOutScore) -> Option<f64>| {
         let mut y = vec![f64::NAN; conditions.len()];
         for s in &r.held_out {
             if let (Some(i), Some(v)) = (index(&s.condition), value(s)) {

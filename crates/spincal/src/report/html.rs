@@ -9,11 +9,12 @@
 use super::escape;
 use crate::calibrate::{CalibrationOutput, CalibrationResult, ComparisonRow, PartScore};
 use crate::campaign::params::NetworkChoice;
-use crate::correctors::ann::Part;
+use crate::correctors::division::Part;
 use crate::input::recording::{Recording, STANDARD_GRAVITY};
 use crate::report::plot::{Figure, HeatMap, LinePlot, PlotError, Rgb, Series};
 use crate::turntable::fit::FittedParam;
-use crate::turntable::{Direction, TurntableFit};
+use crate::turntable::fit::TurntableFit;
+use crate::turntable::model::Direction;
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
@@ -651,7 +652,7 @@ fn how_to_apply_section(saved: bool) -> String {
         "(a versioned corrector file). Apply it to new recordings, streaming, row by row:</p>\n",
         "<pre>spincal correct --model model.json new.csv -o new-corrected.csv</pre>\n",
         "<p>Every input row comes out with its original columns, the corrected axes added and a ",
-        "<code>valid</code> column. In Rust: <code>spincal::CorrectorFile::read_path</code>, then ",
+        "<code>valid</code> column. In Rust: <code>spincal::correctors::model_file::CorrectorFile::read_path</code>, then ",
         "<code>spincal::correctors::corrector::Corrector::correct</code>.</p>\n"
     )
     .to_string()

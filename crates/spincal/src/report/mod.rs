@@ -8,8 +8,6 @@ pub mod html;
 pub mod plot;
 pub mod strobe;
 
-pub use html::render_report;
-
 /// Text made safe inside HTML elements and attribute values.
 pub(crate) fn escape(text: &str) -> String {
     text.replace('&', "&amp;")

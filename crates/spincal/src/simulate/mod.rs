@@ -160,7 +160,7 @@ pub struct Truth {
 
 /// The truth sidecar of a simulated recording as JSON: the truth's fields, `spincal_version`, and
 /// `recording` naming the recording file it goes with (name, length and hash, see
-/// [`crate::output::fingerprint`]), by which a later run recognises both files as spincal's.
+/// `fingerprint`), by which a later run recognises both files as spincal's.
 pub fn truth_json(truth: &Truth, recording: &std::path::Path) -> std::io::Result<String> {
     let mut value = serde_json::to_value(truth).map_err(std::io::Error::other)?;
     let fingerprint = crate::output::fingerprint(recording)?;

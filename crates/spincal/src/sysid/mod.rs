@@ -8,12 +8,12 @@
 //!
 //! Signals: `u` is one slice per input, `y` the output, all of one length, sampled uniformly.
 
-pub mod arx;
-pub mod compare;
-pub mod hw;
-pub mod narx;
-pub mod pem;
-pub mod poly;
+mod arx;
+mod compare;
+mod hw;
+mod narx;
+mod pem;
+mod poly;
 mod tsqr;
 
 pub use arx::{ArxFit, ArxParams};
@@ -24,7 +24,7 @@ pub use compare::{
 pub use hw::{HwFit, HwModel, HwParams, PiecewiseLinear};
 pub use narx::{NarxFit, NarxFocus, NarxModel, NarxParams};
 pub use pem::{PemFit, PemParams};
-pub use poly::{filter, PolyModel, SimInit};
+pub use poly::{filter, poly_mul, PolyModel, SimInit};
 
 /// Everything that can go wrong while identifying a model.
 #[derive(Debug, thiserror::Error)]

@@ -13,14 +13,14 @@
 //! one (dT_rep/dt = (T_die − T_rep)/τ), and in steps (1 °C on many boards). Inverting the lag,
 //! T_die = T_rep + τ·dT_rep/dt, needs the rate of a stepped signal, so both the value and the rate
 //! come from a local straight line fitted to the reported temperature over a centred window
-//! ([`die_temperature`]); τ is chosen by the fit ([`fit`]). The window is 60 s, short against a
+//! ([`die_temperature`]); τ is chosen by the fit ([`fit_thermal`]). The window is 60 s, short against a
 //! warm-up's time constant (minutes), whose curvature a longer one would flatten. A temperature
 //! in whole degrees that barely moves holds still for many minutes, and no window can smooth that:
 //! it is known only from when its steps happen, so such a temperature is first replaced by the line
 //! through its steps' midpoints ([`dequantised`]).
 
 pub mod causal;
-pub mod fit;
+mod fit;
 pub mod flight_stacks;
 
 use serde::{Deserialize, Serialize};
@@ -82,7 +82,7 @@ impl InvalidField {
 pub(crate) const MAX_ORDER: usize = 3;
 
 impl ThermalModel {
-    /// Checks a model read from a file: finite values, orders up to [`MAX_ORDER`], a lag and a
+    /// Checks a model read from a file: finite values, orders up to `MAX_ORDER`, a lag and a
     /// smoothing that are not negative, an ordered range, and a gain that stays positive over it.
     /// Fields are named as in the file (`bias_per_c[2]`).
     pub fn validate(&self) -> Result<(), InvalidField> {

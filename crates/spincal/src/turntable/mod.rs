@@ -5,6 +5,3 @@ pub mod model;
 pub mod moments;
 pub mod sensitivity;
 pub mod spectrum;
-
-pub use fit::{fit_turntable, AxesObjective, DriftMode, FitError, FitOptions, RadiusPrior, TurntableFit};
-pub use model::{Direction, Mounting, Session};

@@ -39,7 +39,7 @@ pub struct RateEstimate {
     pub omega_radps: f64,
     /// Peak power over the median power in the search band (a detection margin).
     pub peak_to_median: f64,
-    /// One-sided summed x+y power spectrum from 0 to [`SPECTRUM_KEPT_HARMONICS`] × the rotation
+    /// One-sided summed x+y power spectrum from 0 to `SPECTRUM_KEPT_HARMONICS` × the rotation
     /// frequency: frequencies, Hz… (kept in memory for plots, not written to JSON)
     #[serde(skip)]
     pub spectrum_hz: Vec<f64>,
@@ -73,7 +73,7 @@ pub(crate) const WHOLE_SPECTRUM_SAMPLES: usize = 1 << 20;
 
 /// Estimates the rotation rate of a recording from its x and y axes.
 ///
-/// Up to [`WHOLE_SPECTRUM_SAMPLES`] samples, the x and y power spectra of the whole recording are
+/// Up to `WHOLE_SPECTRUM_SAMPLES` samples, the x and y power spectra of the whole recording are
 /// summed and the highest line in the band is refined on the recording's DTFT. A longer recording
 /// would need several times its own memory for that FFT, so its spectrum is the sum over
 /// segments of that length (Bartlett's average: the same line, finer detection statistics, coarser

@@ -6,8 +6,8 @@
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use spincal::input::recording::Recording;
 use spincal::input::recording::Source;
-use spincal::Recording;
 
 /// (measured, reference) for `n` samples at 100 Hz of a 0.55 Hz turntable (SPEC §2 model:
 /// r = 0.1 m, α = 5°, β = 20°) with slow wow so that no two turns are identical.

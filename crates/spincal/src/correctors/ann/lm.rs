@@ -296,7 +296,7 @@ impl LmWorkspace {
         sse
     }
 
-    /// At most `bytes` kept for a trial pass's activations ([`ACTIVATION_CACHE_BYTES`] by
+    /// At most `bytes` kept for a trial pass's activations (`ACTIVATION_CACHE_BYTES` by
     /// default; 0 recomputes every forward pass). Results do not depend on it, bit for bit.
     pub fn set_activation_budget(&mut self, bytes: usize) {
         self.activation_budget = bytes;

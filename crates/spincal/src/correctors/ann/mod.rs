@@ -6,11 +6,11 @@
 //! [`sweep`] trains a grid of architectures in parallel.
 
 mod cholesky;
-pub mod data;
+mod data;
 mod factored;
 mod gram;
-pub mod lm;
-pub mod network;
+mod lm;
+pub(crate) mod network;
 mod sweep;
 
 use rand::SeedableRng;
@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 pub use data::{Dataset, Scaling};
-pub use lm::{JtjConvention, LmSettings, LmWorkspace, StopReason, TrainingReport};
+pub use lm::{full_jacobian, JtjConvention, LmSettings, LmWorkspace, StopReason, TrainingReport};
 pub use network::{Layout, Network, MAX_HIDDEN_LAYERS};
 pub use sweep::{
     architecture_label, default_grid, parse_grid, parse_hidden_sizes, reduce_sweep, run_sweep_job,
@@ -30,8 +30,9 @@ pub use sweep::{
 use crate::correctors::corrector::{
     axes_phrase, check_model_axes, Axis, CorrectedSample, Corrector, ModelError, SampleCorrector,
 };
-use crate::correctors::division::{check_axes, check_pairing, PairingError};
-pub use crate::correctors::division::{Division, DivisionMode, Part, PartFits};
+use crate::correctors::division::{
+    check_axes, check_pairing, Division, DivisionMode, PairingError, Part, PartFits,
+};
 use crate::input::recording::Recording;
 use crate::metrics::fit_percent;
 
@@ -176,7 +177,7 @@ impl AnnProblem {
         Ok(Layout::new(self.train.n_inputs, hidden, self.train.n_outputs))
     }
 
-    /// Nguyen–Widrow initial weights of restart `restart` (seeded by [`restart_seed`]).
+    /// Nguyen–Widrow initial weights of restart `restart` (seeded by `restart_seed`).
     pub fn initial_weights(&self, layout: &Layout, base_seed: u64, restart: usize) -> Vec<f64> {
         let mut rng = ChaCha8Rng::seed_from_u64(restart_seed(base_seed, restart));
         layout.nguyen_widrow(&mut rng)

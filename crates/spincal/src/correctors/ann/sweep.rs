@@ -6,8 +6,9 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{best_run, AnnError, AnnProblem, Layout, LmSettings, Part, StopReason, TrainingReport};
+use super::{best_run, AnnError, AnnProblem, Layout, LmSettings, StopReason, TrainingReport};
 use crate::correctors::corrector::Axis;
+use crate::correctors::division::Part;
 use crate::correctors::division::{check_axes, DivisionMode};
 use crate::progress::{Observer, Progress};
 

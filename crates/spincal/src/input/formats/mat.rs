@@ -34,7 +34,7 @@ const HEADER_BYTES: usize = 128;
 /// said; an array's dimensions are checked against what is left before its values are allocated.
 /// So a zlib bomb (a 0.93 MB file of 30 M × 4 zeros inflates to 960 MB) is refused in constant
 /// memory. Uncompressed elements have no such limit: their values are bounded by the file's own
-/// size (at most 8 bytes of f64 per byte of data). [`parse_limited`] takes another limit.
+/// size (at most 8 bytes of f64 per byte of data). `parse_limited` takes another limit.
 pub const MAX_INFLATED_BYTES: u64 = 64 << 20;
 
 /// What is wrong with a MAT-file.

@@ -23,9 +23,7 @@ use serde::Serialize;
 
 use crate::input::recording::{ColumnMap, Recording, RecordingError, Source, TemperatureUnit};
 use crate::input::table::{read_labelled, Delimiter, Table, TableError, TableOptions};
-
-pub use gx1::{Gx1EncodeOptions, Gx1Error, Gx1Fault, Gx1Options, Gx1Report};
-pub use streamed::inspect_path;
+use gx1::{Gx1Error, Gx1Options, Gx1Report};
 
 /// The file formats spincal reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

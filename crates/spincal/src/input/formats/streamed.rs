@@ -1,7 +1,7 @@
 //! `spincal inspect` on a delimited text file (formats `csv` and `whitespace`) in constant memory:
 //! the file is read row by row ([`RowReader`]) as many times as the figures need, never held.
 //!
-//! Rows go through the same conversion as the whole-file reader, a block of [`BLOCK_ROWS`] rows
+//! Rows go through the same conversion as the whole-file reader, a block of `BLOCK_ROWS` rows
 //! at a time ([`Recording::from_table_timed`] on each block), so columns, units and values are
 //! the same; time is checked across blocks as [`Recording::check_time`] checks it. The figures are
 //! [`inspect`]'s, computed from the rows:
@@ -11,11 +11,11 @@
 //!   (one per 64 samples), the norms whose median tells raw counts in a whitespace file, the
 //!   temperature's distinct values;
 //! - medians are exact, not estimated: each is the k-th smallest value in `f64::total_cmp` order,
-//!   found by [`Kth`]: the values are kept when at most [`KEEP`] of them are in play, else a
+//!   found by `Kth`: the values are kept when at most `KEEP` of them are in play, else a
 //!   histogram of 2¹⁶ buckets on the next 16 bits of their order key narrows the range and the
 //!   file is read again (at most four such passes for 64-bit keys; a 1 GB recording's rates, one
 //!   per 64 samples, fit in the first). The temperature's distinct values are counted the same
-//!   way: at most [`KEEP_DISTINCT`] per pass, the smallest first.
+//!   way: at most `KEEP_DISTINCT` per pass, the smallest first.
 //! - the last pass: gaps (they need the median interval and the clock's tick) and flat tops
 //!   (they need each axis's extremes).
 //!

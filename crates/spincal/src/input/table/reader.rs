@@ -30,7 +30,7 @@ pub enum Record {
 /// Streams the rows of a table one at a time, in constant memory.
 ///
 /// Construction reads ahead to the first data row to learn the separator, header and width. Rows
-/// are parsed from one reused byte buffer by the same byte-level parser as [`TableHead::rows`].
+/// are parsed from one reused byte buffer by the same byte-level parser as `TableHead::rows`.
 pub struct RowReader<R: BufRead> {
     pub(super) reader: R,
     pub(super) file: String,

@@ -23,8 +23,7 @@ use std::path::Path;
 
 use crate::input::formats::bag_detect::Storage;
 use crate::input::recording::{Recording, Source};
-
-pub use msg::{DecodeError, Decoded, Encoding, MsgKind};
+use msg::{Encoding, MsgKind};
 
 /// Everything that can go wrong reading a bag. Each names the file, and where inside it.
 #[derive(Debug, thiserror::Error)]
