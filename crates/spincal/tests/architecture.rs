@@ -233,24 +233,33 @@ fn every_test_file_runs() {
     );
 }
 
-/// The library's public items, one line each (`module: pub kind name`), sorted: every `pub`
-/// declaration outside the files' test modules, methods included, under its nearest public module. `pub(crate)` and narrower are
-/// not public and not listed.
-fn public_surface(src: &Path) -> Vec<String> {
-    let public = public_modules(src);
+/// Each library file's module and its code, without the unit tests that come last (after
+/// `#[cfg(test)]` and `mod tests`).
+fn library_code(src: &Path) -> Vec<(Vec<String>, String)> {
     let mut files = Vec::new();
     rust_files(src, &mut files);
+    files
+        .iter()
+        .map(|file| {
+            let text = std::fs::read_to_string(file).unwrap();
+            let code = text.split("#[cfg(test)]\nmod tests").next().unwrap_or(&text);
+            (module_of(src, file), code.to_string())
+        })
+        .collect()
+}
+
+/// The library's public items, one line each (`module: pub kind name`), sorted: every `pub`
+/// declaration outside the files' test modules, methods included, under its nearest public
+/// module. `pub(crate)` and narrower are not public and not listed.
+fn public_surface(src: &Path) -> Vec<String> {
+    let public = public_modules(src);
     let mut lines = Vec::new();
-    for file in &files {
+    for (mut module, code) in library_code(src) {
         // A private file of a folder module shows under the public module that re-exports it.
-        let mut module = module_of(src, file);
         while !public.contains(&module) {
             module.pop();
         }
         let module = module.join("::");
-        let text = std::fs::read_to_string(file).unwrap();
-        // A file's unit tests come last, after `#[cfg(test)]` and `mod tests`.
-        let code = text.split("#[cfg(test)]\nmod tests").next().unwrap_or(&text);
         for line in code.lines() {
             let t = line.trim_start();
             let Some(rest) = t.strip_prefix("pub ") else {
@@ -314,13 +323,8 @@ fn the_public_surface_is_the_listed_one() {
 /// Every module's visibility from outside the crate: a module is public when its own `mod`
 /// declaration and all its parents' are `pub`.
 fn public_modules(src: &Path) -> BTreeSet<Vec<String>> {
-    let mut files = Vec::new();
-    rust_files(src, &mut files);
     let mut declared: BTreeMap<Vec<String>, bool> = BTreeMap::new();
-    for file in &files {
-        let module = module_of(src, file);
-        let text = std::fs::read_to_string(file).unwrap();
-        let code = text.split("#[cfg(test)]\nmod tests").next().unwrap_or(&text);
+    for (module, code) in library_code(src) {
         for line in code.lines() {
             let t = line.trim_start();
             let (public, rest) = match t.strip_prefix("pub mod ") {
@@ -358,16 +362,11 @@ fn public_modules(src: &Path) -> BTreeSet<Vec<String>> {
 /// `re-exporting module: pub use path` for each.
 fn second_paths(src: &Path) -> Vec<String> {
     let public = public_modules(src);
-    let mut files = Vec::new();
-    rust_files(src, &mut files);
     let mut found = Vec::new();
-    for file in &files {
-        let module = module_of(src, file);
+    for (module, code) in library_code(src) {
         if !public.contains(&module) {
             continue;
         }
-        let text = std::fs::read_to_string(file).unwrap();
-        let code = text.split("#[cfg(test)]\nmod tests").next().unwrap_or(&text);
         // The prelude, an inline module, is the deliberate second path for the common flow.
         let code = match code.split_once("pub mod prelude {") {
             Some((head, tail)) => format!("{head}{}", tail.split_once("\n}\n").map_or("", |(_, t)| t)),
