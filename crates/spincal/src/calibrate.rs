@@ -14,6 +14,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::campaign::params::{NetworkChoice, ParamError, Params};
+use crate::campaign::verdict::{compare, Comparison};
 use crate::correctors::ann::{
     architecture_label, reduce_sweep, run_sweep_locally, AnnError, AnnProblem, LmSettings, SweepRow,
     SweepRun, SweepSettings,
@@ -108,6 +109,11 @@ pub struct CrossRow {
     /// [`crate::correctors::ann::EXTRAPOLATION_MARGIN`] of the training range outside it (%).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub outside_training_range_percent: Option<f64>,
+    /// Against no correction on the same samples, with the campaign verdict's significance rule
+    /// (`campaign::verdict`): blocks of `joint.block_s` seconds; no offset term, since each
+    /// recording's reference carries its own fitted offset. `None` for the uncorrected row.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub against_uncorrected: Option<Comparison>,
 }
 
 /// Where a recording stood, for the report.
@@ -542,7 +548,11 @@ fn cross_condition_rows(
             Some(recordings.len() - 1),
         ));
         let other_ref = &references[k];
-        let whole = |estimate: &[Vec<f64>], from: usize| {
+        let block = time_blocks(&other.time_s, settings.joint.block_s);
+        let raw: Vec<Vec<f64>> = axes_idx.iter().map(|&a| other.accel_mps2[a].clone()).collect();
+        let raw_residuals = residuals(&raw, other_ref, axes_idx, settings.delays);
+        // Each corrector scored from sample `from` on, and against no correction on those samples.
+        let row = |model: &str, estimate: &[Vec<f64>], from: usize| {
             let mut fits = Vec::new();
             let mut errors = Vec::new();
             for (c, &a) in axes_idx.iter().enumerate() {
@@ -551,30 +561,31 @@ fn cross_condition_rows(
                 fits.push(fit_percent(y, e));
                 errors.push(rmse(y, e));
             }
-            PartScore::new(fits, errors)
+            let against_uncorrected = (model != "uncorrected").then(|| {
+                let own = residuals(estimate, other_ref, axes_idx, from);
+                compare(&own, &raw_residuals, &block, 0.0)
+            });
+            CrossRow {
+                model: model.to_string(),
+                trained_on: measured.source.name.clone(),
+                tested_on: other.source.name.clone(),
+                score: PartScore::new(fits, errors),
+                outside_training_range_percent: None,
+                against_uncorrected: against_uncorrected.flatten(),
+            }
         };
-        let row = |model: &str, score: PartScore| CrossRow {
-            model: model.to_string(),
-            trained_on: measured.source.name.clone(),
-            tested_on: other.source.name.clone(),
-            score,
-            outside_training_range_percent: None,
-        };
-        let raw: Vec<Vec<f64>> = axes_idx.iter().map(|&a| other.accel_mps2[a].clone()).collect();
-        cross_condition.push(row("uncorrected", whole(&raw, settings.delays)));
+        cross_condition.push(row("uncorrected", &raw, settings.delays));
         let by_network = trained.network.correct(other);
         cross_condition.push(CrossRow {
             outside_training_range_percent: Some(
                 100.0 * by_network.outside_training_range as f64 / other.len().max(1) as f64,
             ),
-            ..row("ANN", whole(&axes_of(&by_network, axes_idx), settings.delays))
+            ..row("ANN", &axes_of(&by_network, axes_idx), settings.delays)
         });
         cross_condition.push(row(
             "linear",
-            whole(
-                &axes_of(&trained.linear.correct(other), axes_idx),
-                settings.delays,
-            ),
+            &axes_of(&trained.linear.correct(other), axes_idx),
+            settings.delays,
         ));
         for (name, models) in trained.sysid {
             let mut estimate = Vec::new();
@@ -593,13 +604,41 @@ fn cross_condition_rows(
                     })?;
                 estimate.push(sim);
             }
-            cross_condition.push(row(
-                name,
-                whole(&estimate, settings.init_samples.max(settings.delays)),
-            ));
+            cross_condition.push(row(name, &estimate, settings.init_samples.max(settings.delays)));
         }
     }
     Ok(cross_condition)
+}
+
+/// Block number per sample: whole blocks of `block_s` seconds from the first sample.
+fn time_blocks(time_s: &[f64], block_s: f64) -> Vec<usize> {
+    let start = time_s.first().copied().unwrap_or(0.0);
+    time_s
+        .iter()
+        .map(|t| ((t - start) / block_s).floor().max(0.0) as usize)
+        .collect()
+}
+
+/// Per-sample residuals of `estimate` (one series per corrected axis) against the reference, from
+/// sample `from` on; uncorrected axes count as zero, a non-finite residual as no sample.
+fn residuals(
+    estimate: &[Vec<f64>],
+    reference: &Recording,
+    axes_idx: &[usize],
+    from: usize,
+) -> Vec<Option<[f64; 3]>> {
+    (0..reference.len())
+        .map(|s| {
+            if s < from {
+                return None;
+            }
+            let mut e = [0.0; 3];
+            for (c, &a) in axes_idx.iter().enumerate() {
+                e[a] = estimate[c][s] - reference.accel_mps2[a][s];
+            }
+            e.iter().all(|v| v.is_finite()).then_some(e)
+        })
+        .collect()
 }
 
 /// What is saved, and the verdict: the best on validation unless another recording shows it
@@ -610,16 +649,14 @@ fn saving_decision(
     recordings: usize,
     turntable: &TurntableFit,
 ) -> (String, String) {
+    // Worse only where the difference is significant against its own uncertainty.
     let worse_elsewhere = |model: &str| -> Option<String> {
         cross_condition.iter().filter(|r| r.model == model).find_map(|r| {
-            let raw = cross_condition
-                .iter()
-                .find(|u| u.model == "uncorrected" && u.tested_on == r.tested_on)?;
-            let held = r.score.rmse_mps2_mean <= raw.score.rmse_mps2_mean;
-            (!held).then(|| {
+            let c = r.against_uncorrected.as_ref()?;
+            c.worse.then(|| {
                 format!(
-                    "{model} makes {} worse than uncorrected ({:.4} against {:.4} m/s² RMS)",
-                    r.tested_on, r.score.rmse_mps2_mean, raw.score.rmse_mps2_mean
+                    "{model} makes {} worse than uncorrected ({:.2}× ± {:.2} the uncorrected RMS error, significant over {} blocks)",
+                    r.tested_on, c.ratio, c.ratio_se, c.blocks
                 )
             })
         })
@@ -865,6 +902,75 @@ fn sysid_warnings(
 mod tests {
     use super::*;
     use crate::sysid::PolyModel;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+
+    /// Another recording's cross-condition rule, over 20 seeds: a corrector that only adds noise
+    /// far below the sensor's (0.0002 against 0.02 m/s²) is "worse" by the plain comparison about
+    /// half the time, by the significance rule at most once; one that adds a 0.01 m/s² bias is
+    /// worse every time.
+    #[test]
+    fn cross_condition_worse_only_when_significant() {
+        let n = 20_000;
+        let time_s: Vec<f64> = (0..n).map(|i| i as f64 * 0.01).collect();
+        let truth: Vec<f64> = time_s.iter().map(|t| (3.5 * t).sin()).collect();
+        let reference = Recording {
+            time_s: time_s.clone(),
+            accel_mps2: [truth.clone(), truth.clone(), vec![9.8; n]],
+            gyro_radps: None,
+            temperature_c: None,
+            source: Default::default(),
+        };
+        let axes = [0, 1];
+        let block = time_blocks(&time_s, 5.0);
+        let (mut plain_worse, mut significant_worse, mut bias_found) = (0, 0, 0);
+        for seed in 0..20 {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let noise = Normal::new(0.0, 0.02).unwrap();
+            let raw: Vec<Vec<f64>> = axes
+                .iter()
+                .map(|&a| {
+                    reference.accel_mps2[a]
+                        .iter()
+                        .map(|v| v + noise.sample(&mut rng))
+                        .collect()
+                })
+                .collect();
+            let uncorrected = residuals(&raw, &reference, &axes, 0);
+            let mut judged = |offset: f64, jitter: f64| {
+                let jitter = Normal::new(0.0, jitter).unwrap();
+                let estimate: Vec<Vec<f64>> = raw
+                    .iter()
+                    .map(|axis| {
+                        axis.iter()
+                            .map(|v| v + offset + jitter.sample(&mut rng))
+                            .collect()
+                    })
+                    .collect();
+                compare(
+                    &residuals(&estimate, &reference, &axes, 0),
+                    &uncorrected,
+                    &block,
+                    0.0,
+                )
+                .unwrap()
+            };
+            let slightly = judged(0.0, 0.0002);
+            assert_eq!((slightly.samples, slightly.blocks), (n, 40));
+            plain_worse += usize::from(slightly.ratio > 1.0);
+            significant_worse += usize::from(slightly.worse);
+            bias_found += usize::from(judged(0.01, 0.0).worse);
+        }
+        assert!(
+            plain_worse >= 5,
+            "the plain rule called {plain_worse} of 20 worse"
+        );
+        assert!(
+            significant_worse <= 1,
+            "the significance rule called {significant_worse} of 20 worse"
+        );
+        assert_eq!(bias_found, 20);
+    }
 
     /// An ARX model y(t) = −a₁y(t−1) − a₂y(t−2) + b₁u(t−1), scored on one "validation" part.
     fn warnings_for(a: Vec<f64>, b1: f64, u: &[f64], y: &[f64]) -> Vec<String> {

@@ -60,6 +60,14 @@ pub fn cross_condition_text(rows: &[CrossRow]) -> String {
                 "{:<12} {:>9.2} %  on {}",
                 c.model, c.score.fit_percent_mean, c.tested_on
             ));
+            if let Some(a) = &c.against_uncorrected {
+                text.push_str(&format!(
+                    "  {:.2}× ± {:.2} uncorrected{}",
+                    a.ratio,
+                    a.ratio_se,
+                    if a.worse { ", significantly worse" } else { "" }
+                ));
+            }
             if let Some(outside) = c.outside_training_range_percent.filter(|p| *p > 0.0) {
                 text.push_str(&format!(
                     "  ({outside:.1} % of samples outside the training range)"

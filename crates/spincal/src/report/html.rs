@@ -582,15 +582,24 @@ fn cross_condition_table(r: &CalibrationResult) -> String {
     if r.cross_condition.is_empty() {
         return String::new();
     }
-    let mut html = String::from("<h3>Cross-condition: trained on recording 1, tested on another speed or radius</h3>\n<p>A corrector that only learned to emit one sine fails here; a single-recording split cannot show that.</p>\n<table><tr><th>model</th><th>tested on</th><th>fit (%)</th><th>samples outside the network's training range (%)</th></tr>\n");
+    let mut html = String::from("<h3>Cross-condition: trained on recording 1, tested on another speed or radius</h3>\n<p>A corrector that only learned to emit one sine fails here; a single-recording split cannot show that.</p>\n<p>“× uncorrected” is the corrector's RMS error over the uncorrected one's on the same samples, ± its standard error (batch means over blocks); “worse” only where the difference is significant (one-sided, false-alarm probability 0.001).</p>\n<table><tr><th>model</th><th>tested on</th><th>fit (%)</th><th>× uncorrected</th><th>samples outside the network's training range (%)</th></tr>\n");
     for (i, c) in r.cross_condition.iter().enumerate() {
         let p = format!("/cross_condition/{i}");
         let outside = match c.outside_training_range_percent {
             Some(v) => num(&format!("{p}/outside_training_range_percent"), v, 1),
             None => "—".to_string(),
         };
+        let against = match &c.against_uncorrected {
+            Some(a) => format!(
+                "{} ± {}{}",
+                num(&format!("{p}/against_uncorrected/ratio"), a.ratio, 2),
+                num(&format!("{p}/against_uncorrected/ratio_se"), a.ratio_se, 2),
+                if a.worse { " <b>worse</b>" } else { "" }
+            ),
+            None => "—".to_string(),
+        };
         html.push_str(&format!(
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{outside}</td></tr>\n",
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{against}</td><td>{outside}</td></tr>\n",
             escape(&c.model),
             escape(&c.tested_on),
             num(
