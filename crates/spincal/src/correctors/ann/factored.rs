@@ -213,6 +213,9 @@ impl Values<'_> {
 /// A product's key: its layer and, for JᵀJ, the other layer (None for Jᵀe).
 type ProductKey = (usize, Option<usize>);
 
+/// A sum's key: its product's, then the D index and the A index.
+type SumKey = (ProductKey, (usize, usize), (usize, usize));
+
 /// The products as they are added, and where each sum lies.
 struct PlanBuilder {
     columns: BlockColumns,
@@ -220,7 +223,7 @@ struct PlanBuilder {
     sums: usize,
     multiply_adds: (usize, usize),
     /// Where the sum of each (layer pair or layer's Jᵀe, D index, A index) lies.
-    sum_index: std::collections::HashMap<(ProductKey, (usize, usize), (usize, usize)), u32>,
+    sum_index: std::collections::HashMap<SumKey, u32>,
 }
 
 impl PlanBuilder {
