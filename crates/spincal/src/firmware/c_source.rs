@@ -73,129 +73,149 @@ impl Names {
 /// The fields of the coefficient struct, in order.
 fn fields(plan: &Plan) -> Vec<Field> {
     let mut out = Vec::new();
-    let physical = |out: &mut Vec<Field>, p: &PhysicalPlan| {
-        out.push(real("phys_bias", &[3], p.bias.to_vec(), "b, m/s^2"));
-        out.push(real(
-            "phys_one_plus_scale",
-            &[3],
-            p.one_plus_scale.to_vec(),
-            "1 + s",
-        ));
-        out.push(real(
-            "phys_misalignment",
-            &[3],
-            p.misalignment.to_vec(),
-            "m_yx, m_zx, m_zy, rad",
-        ));
-        if !p.is_linear() {
-            out.push(real("phys_quadratic", &[3], p.quadratic.to_vec(), "q, 1/(m/s^2)"));
-        }
-        out.push(real(
-            "phys_lower",
-            &[3],
-            p.lower.to_vec(),
-            "readings below are outside the training range (10 % margin)",
-        ));
-        out.push(real("phys_upper", &[3], p.upper.to_vec(), "and above"));
-    };
-    let network = |out: &mut Vec<Field>, n: &NetworkPlan| {
-        out.push(real(
-            "net_weights",
-            &[n.weights.len()],
-            n.weights.clone(),
-            "per layer: weight matrix row-major (unit x input), then biases",
-        ));
-        let k = n.axes.len();
-        out.push(real(
-            "net_input_gain",
-            &[k],
-            n.input_gain.clone(),
-            "scaled = gain * x + offset",
-        ));
-        out.push(real("net_input_offset", &[k], n.input_offset.clone(), ""));
-        out.push(real(
-            "net_output_min",
-            &[k],
-            n.output_min.clone(),
-            "x = min + (scaled + 1) * span / 2",
-        ));
-        out.push(real("net_output_span", &[k], n.output_span.clone(), ""));
-        out.push(real(
-            "net_output_gain",
-            &[k],
-            n.output_gain.clone(),
-            "the output scaling's forward map",
-        ));
-        out.push(real("net_output_offset", &[k], n.output_offset.clone(), ""));
-    };
     match &plan.accel {
-        AccelPlan::Physical(p) => physical(&mut out, p),
-        AccelPlan::Linear(l) => {
-            let k = l.axes.len();
-            out.push(real("lin_offset", &[k], l.offset.clone(), "m/s^2"));
-            out.push(real(
-                "lin_matrix",
-                &[k, k],
-                l.matrix.iter().flatten().copied().collect(),
-                "row i: the corrected axes' weights in corrected axis i",
-            ));
-        }
-        AccelPlan::Static(s) => {
-            out.push(real("st_bias", &[3], s.bias.to_vec(), "b, input units"));
-            out.push(real(
-                "st_scale",
-                &[3],
-                s.scale.to_vec(),
-                "s, m/s^2 per input unit",
-            ));
-            out.push(real(
-                "st_nonlinearity",
-                &[3],
-                s.nonlinearity.to_vec(),
-                "q, 1/(m/s^2)",
-            ));
-            out.push(real(
-                "st_matrix",
-                &[3, 3],
-                s.matrix.iter().flatten().copied().collect(),
-                "T, misalignment",
-            ));
-        }
-        AccelPlan::Ann(n) => network(&mut out, n),
+        AccelPlan::Physical(p) => physical_fields(&mut out, p),
+        AccelPlan::Linear(l) => linear_fields(&mut out, l),
+        AccelPlan::Static(s) => static_fields(&mut out, s),
+        AccelPlan::Ann(n) => network_fields(&mut out, n),
         AccelPlan::PhysicalAnn(pa) => {
             let (p, n, c) = (&pa.0, &pa.1, &pa.2);
-            physical(&mut out, p);
-            network(&mut out, n);
-            out.push(real(
-                "cov_lower",
-                &[3],
-                c.lower.to_vec(),
-                "the coverage box, m/s^2",
-            ));
-            out.push(real("cov_width", &[3], c.width.to_vec(), ""));
-            out.push(Field {
-                name: "cov_covered".into(),
-                dims: vec![c.bits.len()],
-                values: Values::Bytes(c.bits.clone()),
-                doc: "bit c % 8 of byte c / 8: cell c = x + cells * (y + cells * z) covered".into(),
-            });
+            physical_fields(&mut out, p);
+            network_fields(&mut out, n);
+            coverage_fields(&mut out, c);
         }
     }
     if let Some(g) = &plan.gyro {
-        out.push(real(
-            "gyro_bias",
-            &[3],
-            g.bias.to_vec(),
-            "b, the gyro's input unit",
-        ));
-        out.push(real(
-            "gyro_inverse",
-            &[3, 3],
-            g.inverse.iter().flatten().copied().collect(),
-            "K^-1",
-        ));
+        gyro_fields(&mut out, g);
     }
     out
+}
+
+/// The inverse sensor model's bias, scale, misalignment, quadratic term and training range.
+fn physical_fields(out: &mut Vec<Field>, p: &PhysicalPlan) {
+    out.push(real("phys_bias", &[3], p.bias.to_vec(), "b, m/s^2"));
+    out.push(real(
+        "phys_one_plus_scale",
+        &[3],
+        p.one_plus_scale.to_vec(),
+        "1 + s",
+    ));
+    out.push(real(
+        "phys_misalignment",
+        &[3],
+        p.misalignment.to_vec(),
+        "m_yx, m_zx, m_zy, rad",
+    ));
+    if !p.is_linear() {
+        out.push(real("phys_quadratic", &[3], p.quadratic.to_vec(), "q, 1/(m/s^2)"));
+    }
+    out.push(real(
+        "phys_lower",
+        &[3],
+        p.lower.to_vec(),
+        "readings below are outside the training range (10 % margin)",
+    ));
+    out.push(real("phys_upper", &[3], p.upper.to_vec(), "and above"));
+}
+
+/// The network's weights and its input and output scalings.
+fn network_fields(out: &mut Vec<Field>, n: &NetworkPlan) {
+    out.push(real(
+        "net_weights",
+        &[n.weights.len()],
+        n.weights.clone(),
+        "per layer: weight matrix row-major (unit x input), then biases",
+    ));
+    let k = n.axes.len();
+    out.push(real(
+        "net_input_gain",
+        &[k],
+        n.input_gain.clone(),
+        "scaled = gain * x + offset",
+    ));
+    out.push(real("net_input_offset", &[k], n.input_offset.clone(), ""));
+    out.push(real(
+        "net_output_min",
+        &[k],
+        n.output_min.clone(),
+        "x = min + (scaled + 1) * span / 2",
+    ));
+    out.push(real("net_output_span", &[k], n.output_span.clone(), ""));
+    out.push(real(
+        "net_output_gain",
+        &[k],
+        n.output_gain.clone(),
+        "the output scaling's forward map",
+    ));
+    out.push(real("net_output_offset", &[k], n.output_offset.clone(), ""));
+}
+
+/// The linear corrector's offset and matrix.
+fn linear_fields(out: &mut Vec<Field>, l: &LinearPlan) {
+    let k = l.axes.len();
+    out.push(real("lin_offset", &[k], l.offset.clone(), "m/s^2"));
+    out.push(real(
+        "lin_matrix",
+        &[k, k],
+        l.matrix.iter().flatten().copied().collect(),
+        "row i: the corrected axes' weights in corrected axis i",
+    ));
+}
+
+/// The still-pose calibration's bias, scale, nonlinearity and misalignment matrix.
+fn static_fields(out: &mut Vec<Field>, s: &StaticPlan) {
+    out.push(real("st_bias", &[3], s.bias.to_vec(), "b, input units"));
+    out.push(real(
+        "st_scale",
+        &[3],
+        s.scale.to_vec(),
+        "s, m/s^2 per input unit",
+    ));
+    out.push(real(
+        "st_nonlinearity",
+        &[3],
+        s.nonlinearity.to_vec(),
+        "q, 1/(m/s^2)",
+    ));
+    out.push(real(
+        "st_matrix",
+        &[3, 3],
+        s.matrix.iter().flatten().copied().collect(),
+        "T, misalignment",
+    ));
+}
+
+/// The coverage box and the bit set of its covered cells.
+fn coverage_fields(out: &mut Vec<Field>, c: &CoveragePlan) {
+    out.push(real(
+        "cov_lower",
+        &[3],
+        c.lower.to_vec(),
+        "the coverage box, m/s^2",
+    ));
+    out.push(real("cov_width", &[3], c.width.to_vec(), ""));
+    out.push(Field {
+        name: "cov_covered".into(),
+        dims: vec![c.bits.len()],
+        values: Values::Bytes(c.bits.clone()),
+        doc: "bit c % 8 of byte c / 8: cell c = x + cells * (y + cells * z) covered".into(),
+    });
+}
+
+/// The gyro model's bias and inverse sensitivity.
+fn gyro_fields(out: &mut Vec<Field>, g: &GyroPlan) {
+    out.push(real(
+        "gyro_bias",
+        &[3],
+        g.bias.to_vec(),
+        "b, the gyro's input unit",
+    ));
+    out.push(real(
+        "gyro_inverse",
+        &[3, 3],
+        g.inverse.iter().flatten().copied().collect(),
+        "K^-1",
+    ));
 }
 
 fn initializer(field: &Field, precision: Precision) -> String {

@@ -20,9 +20,13 @@
 
 use serde::Serialize;
 
+use crate::correctors::ann::AnnModel;
 use crate::correctors::corrector::Corrector;
 use crate::correctors::gyro::GyroInputUnit;
+use crate::correctors::linear::LinearModel;
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
+use crate::correctors::physical::SensorModel;
+use crate::correctors::static_cal::StaticCalibration;
 use crate::geometry::{inverse, IDENTITY, M3};
 use crate::input::recording::STANDARD_GRAVITY;
 
@@ -114,128 +118,148 @@ type Domain = ([[f64; 2]; 3], String);
 
 /// The Fusion values of a saved corrector.
 pub fn fusion_values(file: &CorrectorFile) -> FusionValues {
-    let g = STANDARD_GRAVITY;
-    let mut note = None;
-    let mut not_held = Vec::new();
-    let (accelerometer, domain): (Option<FusionCalibration>, Option<Domain>) = match &file.corrector {
+    let (accelerometer, note, not_held) = match accelerometer_values(file) {
+        Ok((cal, domain)) => {
+            let not_held = domain
+                .map(|(range, what)| not_held(&file.corrector, &cal, &range, what))
+                .into_iter()
+                .collect();
+            (Some(cal), None, not_held)
+        }
+        Err(note) => (None, Some(note), Vec::new()),
+    };
+    FusionValues {
+        accelerometer,
+        accelerometer_note: note,
+        not_held,
+        gyroscope: gyroscope_values(file),
+    }
+}
+
+/// The accelerometer's Fusion values and, when the corrector does more than they hold, the range
+/// and words for it; else why no affine map can stand for the corrector.
+fn accelerometer_values(file: &CorrectorFile) -> Result<(FusionCalibration, Option<Domain>), String> {
+    match &file.corrector {
         CorrectorModel::Physical(p) => {
             let s = &p.sensor;
-            let cal = in_g(
-                unskew(s.misalignment_rad),
-                s.scale_error.map(|e| 1.0 / (1.0 + e)),
-                s.bias_mps2,
-                false,
-            );
-            let range = p.input_range_mps2;
-            let what = (s.quadratic_per_mps2 != [0.0; 3]).then(|| {
-                format!(
-                    "the quadratic term q = [{:.3e}, {:.3e}, {:.3e}] 1/(m/s²)",
-                    s.quadratic_per_mps2[0], s.quadratic_per_mps2[1], s.quadratic_per_mps2[2]
-                )
-            });
-            (Some(cal), what.map(|w| (range, w)))
+            let what = (s.quadratic_per_mps2 != [0.0; 3]).then(|| quadratic_term(s.quadratic_per_mps2));
+            Ok((sensor_values(s), what.map(|w| (p.input_range_mps2, w))))
         }
         CorrectorModel::PhysicalAnn(pa) => {
             let s = &pa.physical.sensor;
-            let cal = in_g(
-                unskew(s.misalignment_rad),
-                s.scale_error.map(|e| 1.0 / (1.0 + e)),
-                s.bias_mps2,
-                false,
-            );
             let mut what = String::from("the network on the physical model's residual");
             if s.quadratic_per_mps2 != [0.0; 3] {
-                what = format!(
-                    "the quadratic term q = [{:.3e}, {:.3e}, {:.3e}] 1/(m/s²) and {what}",
-                    s.quadratic_per_mps2[0], s.quadratic_per_mps2[1], s.quadratic_per_mps2[2]
-                );
+                what = format!("{} and {what}", quadratic_term(s.quadratic_per_mps2));
             }
-            (Some(cal), Some((pa.physical.input_range_mps2, what)))
+            Ok((sensor_values(s), Some((pa.physical.input_range_mps2, what))))
         }
-        CorrectorModel::Linear(l) => {
-            let mut a = IDENTITY;
-            let mut o = [0.0; 3];
-            for (i, ai) in l.axes.iter().enumerate() {
-                o[ai.index()] = l.offset_mps2[i];
-                for (j, aj) in l.axes.iter().enumerate() {
-                    a[ai.index()][aj.index()] = l.matrix[i][j];
-                }
-            }
-            match inverse(&a) {
-                Some(inv) => {
-                    let offset: [f64; 3] =
-                        std::array::from_fn(|i| -(0..3).map(|j| inv[i][j] * o[j]).sum::<f64>());
-                    (Some(in_g(a, [1.0; 3], offset, false)), None)
-                }
-                None => {
-                    note = Some("the linear corrector's matrix is singular: Fusion's offset (subtracted before the matrix) cannot express its offset".into());
-                    (None, None)
-                }
-            }
-        }
-        CorrectorModel::Static(s) => {
-            let counts = s.input_unit != "m/s^2";
-            let cal = in_g(s.misalignment_matrix(), s.scale, s.bias, counts);
-            let what = (s.nonlinearity != [0.0; 3]).then(|| {
-                format!(
-                    "the quadratic term q = [{:.3e}, {:.3e}, {:.3e}] 1/(m/s²)",
-                    s.nonlinearity[0], s.nonlinearity[1], s.nonlinearity[2]
-                )
-            });
-            // Still poses span ±1 g on each axis: the readings that give ±g.
-            let range: [[f64; 2]; 3] = std::array::from_fn(|k| {
-                let (a, b) = (s.bias[k] - g / s.scale[k], s.bias[k] + g / s.scale[k]);
-                [a.min(b), a.max(b)]
-            });
-            (Some(cal), what.map(|w| (range, w)))
-        }
-        CorrectorModel::Ann(a) => {
-            let range: [[f64; 2]; 3] = std::array::from_fn(|k| {
-                match a.axes.iter().position(|x| x.index() == k) {
-                    Some(c) => [a.input_scaling.min[c], a.input_scaling.max[c]],
-                    // An axis the network does not read passes through: any range shows that.
-                    None => [-g, g],
-                }
-            });
-            match affine_fit(&file.corrector, &range) {
-                Some((m, o)) => {
-                    let offset = inverse(&m)
-                        .map(|inv| std::array::from_fn(|i| -(0..3).map(|j| inv[i][j] * o[j]).sum::<f64>()));
-                    match offset {
-                        Some(offset) => (
-                            Some(in_g(m, [1.0; 3], offset, false)),
-                            Some((
-                                range,
-                                "the network (Fusion's values are its nearest affine map)".to_string(),
-                            )),
-                        ),
-                        None => {
-                            note = Some("the network's nearest affine map is singular".into());
-                            (None, None)
-                        }
-                    }
-                }
-                None => {
-                    note = Some("the network gives no finite correction over its training range".into());
-                    (None, None)
-                }
-            }
-        }
-    };
-    if let (Some(cal), Some((range, what))) = (&accelerometer, domain) {
-        let counts = cal.input_unit == "counts";
-        let max = max_difference(&file.corrector, cal, &range, counts);
-        let unit = if counts { "counts" } else { "m/s²" };
-        not_held.push(NotHeld {
-            what,
-            max_effect_mps2: max,
-            over: format!(
-                "readings x {:.4}…{:.4}, y {:.4}…{:.4}, z {:.4}…{:.4} {unit}",
-                range[0][0], range[0][1], range[1][0], range[1][1], range[2][0], range[2][1]
-            ),
-        });
+        CorrectorModel::Linear(l) => linear_values(l),
+        CorrectorModel::Static(s) => Ok(static_values(s)),
+        CorrectorModel::Ann(a) => ann_values(file, a),
     }
-    let gyroscope = file.gyro.as_ref().and_then(|gm| {
+}
+
+/// The words for a sensor model's quadratic term.
+fn quadratic_term(q: [f64; 3]) -> String {
+    format!(
+        "the quadratic term q = [{:.3e}, {:.3e}, {:.3e}] 1/(m/s²)",
+        q[0], q[1], q[2]
+    )
+}
+
+/// A fitted sensor model's inverse as Fusion's values (its quadratic term aside).
+fn sensor_values(s: &SensorModel) -> FusionCalibration {
+    in_g(
+        unskew(s.misalignment_rad),
+        s.scale_error.map(|e| 1.0 / (1.0 + e)),
+        s.bias_mps2,
+        false,
+    )
+}
+
+/// A linear corrector (matrix, then offset) as Fusion's offset-then-matrix.
+fn linear_values(l: &LinearModel) -> Result<(FusionCalibration, Option<Domain>), String> {
+    let mut a = IDENTITY;
+    let mut o = [0.0; 3];
+    for (i, ai) in l.axes.iter().enumerate() {
+        o[ai.index()] = l.offset_mps2[i];
+        for (j, aj) in l.axes.iter().enumerate() {
+            a[ai.index()][aj.index()] = l.matrix[i][j];
+        }
+    }
+    match inverse(&a) {
+        Some(inv) => {
+            let offset: [f64; 3] = std::array::from_fn(|i| -(0..3).map(|j| inv[i][j] * o[j]).sum::<f64>());
+            Ok((in_g(a, [1.0; 3], offset, false), None))
+        }
+        None => Err("the linear corrector's matrix is singular: Fusion's offset (subtracted before the matrix) cannot express its offset".into()),
+    }
+}
+
+/// A still-pose calibration, its nonlinearity over the readings that give ±g.
+fn static_values(s: &StaticCalibration) -> (FusionCalibration, Option<Domain>) {
+    let g = STANDARD_GRAVITY;
+    let counts = s.input_unit != "m/s^2";
+    let cal = in_g(s.misalignment_matrix(), s.scale, s.bias, counts);
+    let what = (s.nonlinearity != [0.0; 3]).then(|| quadratic_term(s.nonlinearity));
+    // Still poses span ±1 g on each axis: the readings that give ±g.
+    let range: [[f64; 2]; 3] = std::array::from_fn(|k| {
+        let (a, b) = (s.bias[k] - g / s.scale[k], s.bias[k] + g / s.scale[k]);
+        [a.min(b), a.max(b)]
+    });
+    (cal, what.map(|w| (range, w)))
+}
+
+/// A network's nearest affine map over its training range.
+fn ann_values(file: &CorrectorFile, a: &AnnModel) -> Result<(FusionCalibration, Option<Domain>), String> {
+    let g = STANDARD_GRAVITY;
+    let range: [[f64; 2]; 3] = std::array::from_fn(|k| {
+        match a.axes.iter().position(|x| x.index() == k) {
+            Some(c) => [a.input_scaling.min[c], a.input_scaling.max[c]],
+            // An axis the network does not read passes through: any range shows that.
+            None => [-g, g],
+        }
+    });
+    let Some((m, o)) = affine_fit(&file.corrector, &range) else {
+        return Err("the network gives no finite correction over its training range".into());
+    };
+    let offset =
+        inverse(&m).map(|inv| std::array::from_fn(|i| -(0..3).map(|j| inv[i][j] * o[j]).sum::<f64>()));
+    match offset {
+        Some(offset) => Ok((
+            in_g(m, [1.0; 3], offset, false),
+            Some((
+                range,
+                "the network (Fusion's values are its nearest affine map)".to_string(),
+            )),
+        )),
+        None => Err("the network's nearest affine map is singular".into()),
+    }
+}
+
+/// What Fusion's values do not hold: its largest effect over `range`.
+fn not_held(
+    corrector: &CorrectorModel,
+    cal: &FusionCalibration,
+    range: &[[f64; 2]; 3],
+    what: String,
+) -> NotHeld {
+    let counts = cal.input_unit == "counts";
+    let max = max_difference(corrector, cal, range, counts);
+    let unit = if counts { "counts" } else { "m/s²" };
+    NotHeld {
+        what,
+        max_effect_mps2: max,
+        over: format!(
+            "readings x {:.4}…{:.4}, y {:.4}…{:.4}, z {:.4}…{:.4} {unit}",
+            range[0][0], range[0][1], range[1][0], range[1][1], range[2][0], range[2][1]
+        ),
+    }
+}
+
+/// The gyro model's inverse in deg/s, when it has one.
+fn gyroscope_values(file: &CorrectorFile) -> Option<FusionCalibration> {
+    file.gyro.as_ref().and_then(|gm| {
         let inv = inverse(&gm.sensitivity)?;
         let deg = 180.0 / std::f64::consts::PI;
         Some(match gm.input_unit {
@@ -254,13 +278,7 @@ pub fn fusion_values(file: &CorrectorFile) -> FusionValues {
                 output_unit: "deg/s".into(),
             },
         })
-    });
-    FusionValues {
-        accelerometer,
-        accelerometer_note: note,
-        not_held,
-        gyroscope,
-    }
+    })
 }
 
 /// The grid over `range`: GRID points per axis, ends included.

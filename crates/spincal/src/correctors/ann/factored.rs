@@ -137,32 +137,201 @@ fn decode(layout: &Layout, p: usize) -> (usize, usize, usize) {
     }
 }
 
+/// The block values a layout's factor columns are made of.
+struct Values<'a> {
+    layout: &'a Layout,
+    last: usize,
+    outputs: usize,
+}
+
+impl Values<'_> {
+    /// Output o's sensitivity to unit i of layer l; None where it is zero.
+    fn sensitivity(&self, l: usize, o: usize, i: usize) -> Option<Source> {
+        if l == self.last {
+            (i == o).then_some(Source::One)
+        } else {
+            Some(Source::Sensitivity {
+                output: o,
+                unit: self.layout.sizes[1..l].iter().sum::<usize>() + i,
+            })
+        }
+    }
+
+    /// Input j of layer l: an activation of the layer below, or one for the bias.
+    fn input(&self, l: usize, j: usize) -> Source {
+        let sizes = &self.layout.sizes;
+        if j < sizes[l - 1] {
+            Source::Activation {
+                at: sizes[..l - 1].iter().sum::<usize>() + j,
+            }
+        } else {
+            Source::One
+        }
+    }
+
+    /// The D and A factors of JᵀJ's block between layers l ≥ m (lower triangles when l = m).
+    fn hessian_factors(&self, l: usize, m: usize) -> (FactorTerms, FactorTerms) {
+        let sizes = &self.layout.sizes;
+        let mut d = Vec::new();
+        for i in 0..sizes[l] {
+            for k in 0..if l == m { i + 1 } else { sizes[m] } {
+                let terms: Vec<(Source, Source)> = (0..self.outputs)
+                    .filter_map(|o| Some((self.sensitivity(l, o, i)?, self.sensitivity(m, o, k)?)))
+                    .collect();
+                if !terms.is_empty() {
+                    d.push(((i, k), terms));
+                }
+            }
+        }
+        let mut a = Vec::new();
+        for j in 0..=sizes[l - 1] {
+            for q in 0..if l == m { j + 1 } else { sizes[m - 1] + 1 } {
+                a.push(((j, q), vec![(self.input(l, j), self.input(m, q))]));
+            }
+        }
+        (d, a)
+    }
+
+    /// The D and A factors of layer l's part of Jᵀe.
+    fn gradient_factors(&self, l: usize) -> (FactorTerms, FactorTerms) {
+        let sizes = &self.layout.sizes;
+        let d: FactorTerms = (0..sizes[l])
+            .map(|i| {
+                let terms = (0..self.outputs)
+                    .filter_map(|o| Some((self.sensitivity(l, o, i)?, Source::Error { output: o })))
+                    .collect();
+                ((i, 0), terms)
+            })
+            .collect();
+        let a = (0..=sizes[l - 1])
+            .map(|j| ((j, 0), vec![(self.input(l, j), Source::One)]))
+            .collect();
+        (d, a)
+    }
+}
+
+/// A product's key: its layer and, for JᵀJ, the other layer (None for Jᵀe).
+type ProductKey = (usize, Option<usize>);
+
+/// A sum's key: its product's, then the D index and the A index.
+type SumKey = (ProductKey, (usize, usize), (usize, usize));
+
+/// The products as they are added, and where each sum lies.
+struct PlanBuilder {
+    columns: BlockColumns,
+    products: Vec<Product>,
+    sums: usize,
+    multiply_adds: (usize, usize),
+    /// Where the sum of each (layer pair or layer's Jᵀe, D index, A index) lies.
+    sum_index: std::collections::HashMap<SumKey, u32>,
+}
+
+impl PlanBuilder {
+    /// The buffer column of a factor column that is one block value (times one), if it is.
+    fn value_column(&self, terms: &[(Source, Source)]) -> Option<usize> {
+        let [(x, y)] = terms else { return None };
+        match (x, y) {
+            (Source::One, v) | (v, Source::One) => Some(self.columns.of(*v)),
+            _ => None,
+        }
+    }
+
+    fn add_product(&mut self, key: ProductKey, d: FactorTerms, a: FactorTerms) {
+        let (nd, na) = (d.len(), a.len());
+        let d_keys: Vec<(usize, usize)> = d.iter().map(|(key, _)| *key).collect();
+        let a_keys: Vec<(usize, usize)> = a.iter().map(|(key, _)| *key).collect();
+        let (d_rows, d_cols) = gram::padded_shape(nd, na);
+        let (a_rows, a_cols) = gram::padded_shape(na, nd);
+        let d_is_rows = d_rows * d_cols <= a_rows * a_cols;
+        // Each factor column's buffer column: the value's own, or the next formed one.
+        let mut formed = Vec::new();
+        let mut at_column = |terms: Vec<(Source, Source)>| {
+            self.value_column(&terms).unwrap_or_else(|| {
+                let column = self.columns.formed + formed.len();
+                formed.push((column, terms));
+                column
+            })
+        };
+        let d_columns: Vec<usize> = d.into_iter().map(|(_, terms)| at_column(terms)).collect();
+        let a_columns: Vec<usize> = a.into_iter().map(|(_, terms)| at_column(terms)).collect();
+        let padded = |side: &[usize], to: usize| -> Vec<usize> {
+            (0..to)
+                .map(|c| side.get(c).copied().unwrap_or(ZERO_COLUMN))
+                .collect()
+        };
+        let (rows, cols) = if d_is_rows {
+            (padded(&d_columns, d_rows), padded(&a_columns, d_cols))
+        } else {
+            (padded(&a_columns, a_rows), padded(&d_columns, a_cols))
+        };
+        let width = cols.len();
+        for (di, ik) in d_keys.iter().enumerate() {
+            for (ai, jq) in a_keys.iter().enumerate() {
+                let at = if d_is_rows {
+                    di * width + ai
+                } else {
+                    ai * width + di
+                };
+                self.sum_index.insert((key, *ik, *jq), (self.sums + at) as u32);
+            }
+        }
+        self.multiply_adds.0 += rows.len() * cols.len();
+        self.multiply_adds.1 += nd * na;
+        self.columns.total = self.columns.total.max(self.columns.formed + formed.len());
+        let at = self.sums;
+        self.sums += rows.len() * width;
+        self.products.push(Product {
+            formed,
+            at,
+            hessian: key.1.is_some(),
+            rows,
+            cols,
+        });
+    }
+
+    /// For entry (p, r) of JᵀJ with r ≤ p, row after row: the index of its sum, or [`ZERO`].
+    fn jtj_positions(&self, layout: &Layout) -> Vec<u32> {
+        let n_p = layout.n_params();
+        let mut jtj_at = Vec::with_capacity(n_p * (n_p + 1) / 2);
+        for p in 0..n_p {
+            let (l, i1, j1) = decode(layout, p);
+            for r in 0..=p {
+                let (m, i2, j2) = decode(layout, r);
+                let (ik, jq) = if l == m {
+                    ((i1.max(i2), i1.min(i2)), (j1.max(j2), j1.min(j2)))
+                } else {
+                    ((i1, i2), (j1, j2))
+                };
+                jtj_at.push(
+                    self.sum_index
+                        .get(&((l, Some(m)), ik, jq))
+                        .copied()
+                        .unwrap_or(ZERO),
+                );
+            }
+        }
+        jtj_at
+    }
+
+    /// For every parameter: the index of its Jᵀe sum.
+    fn jte_positions(&self, layout: &Layout) -> Vec<u32> {
+        (0..layout.n_params())
+            .map(|p| {
+                let (l, i, j) = decode(layout, p);
+                self.sum_index[&((l, None), (i, 0), (j, 0))]
+            })
+            .collect()
+    }
+}
+
 impl FactoredPlan {
     pub(crate) fn new(layout: &Layout) -> FactoredPlan {
         let last = layout.n_layers();
         let outputs = layout.outputs();
-        let sizes = &layout.sizes;
-        let first_unit = |l: usize| sizes[1..l].iter().sum::<usize>();
-        let first_activation = |l: usize| sizes[..l].iter().sum::<usize>();
-        // Output o's sensitivity to unit i of layer l; None where it is zero.
-        let sensitivity = |l: usize, o: usize, i: usize| -> Option<Source> {
-            if l == last {
-                (i == o).then_some(Source::One)
-            } else {
-                Some(Source::Sensitivity {
-                    output: o,
-                    unit: first_unit(l) + i,
-                })
-            }
-        };
-        let input = |l: usize, j: usize| {
-            if j < sizes[l - 1] {
-                Source::Activation {
-                    at: first_activation(l - 1) + j,
-                }
-            } else {
-                Source::One
-            }
+        let values = Values {
+            layout,
+            last,
+            outputs,
         };
         let n_act = layout.n_activations();
         let hidden_units = layout.hidden_units();
@@ -175,136 +344,34 @@ impl FactoredPlan {
             hidden_units,
         };
         columns.total = columns.formed;
-        // The buffer column of a factor column that is one block value (times one), if it is.
-        let value_column = move |terms: &[(Source, Source)]| -> Option<usize> {
-            let [(x, y)] = terms else { return None };
-            match (x, y) {
-                (Source::One, v) | (v, Source::One) => Some(columns.of(*v)),
-                _ => None,
-            }
-        };
-        let mut products = Vec::new();
-        let mut sums = 0;
-        let mut multiply_adds = (0, 0);
-        // Where the sum of each (layer pair or layer's Jᵀe, D index, A index) lies.
-        let mut sum_index = std::collections::HashMap::new();
-        let mut add_product = |key: (usize, Option<usize>), d: FactorTerms, a: FactorTerms| {
-            let (nd, na) = (d.len(), a.len());
-            let d_keys: Vec<(usize, usize)> = d.iter().map(|(key, _)| *key).collect();
-            let a_keys: Vec<(usize, usize)> = a.iter().map(|(key, _)| *key).collect();
-            let (d_rows, d_cols) = gram::padded_shape(nd, na);
-            let (a_rows, a_cols) = gram::padded_shape(na, nd);
-            let d_is_rows = d_rows * d_cols <= a_rows * a_cols;
-            // Each factor column's buffer column: the value's own, or the next formed one.
-            let mut formed = Vec::new();
-            let mut at_column = |terms: Vec<(Source, Source)>| {
-                value_column(&terms).unwrap_or_else(|| {
-                    let column = columns.formed + formed.len();
-                    formed.push((column, terms));
-                    column
-                })
-            };
-            let d_columns: Vec<usize> = d.into_iter().map(|(_, terms)| at_column(terms)).collect();
-            let a_columns: Vec<usize> = a.into_iter().map(|(_, terms)| at_column(terms)).collect();
-            let padded = |side: &[usize], to: usize| -> Vec<usize> {
-                (0..to)
-                    .map(|c| side.get(c).copied().unwrap_or(ZERO_COLUMN))
-                    .collect()
-            };
-            let (rows, cols) = if d_is_rows {
-                (padded(&d_columns, d_rows), padded(&a_columns, d_cols))
-            } else {
-                (padded(&a_columns, a_rows), padded(&d_columns, a_cols))
-            };
-            let width = cols.len();
-            for (di, ik) in d_keys.iter().enumerate() {
-                for (ai, jq) in a_keys.iter().enumerate() {
-                    let at = if d_is_rows {
-                        di * width + ai
-                    } else {
-                        ai * width + di
-                    };
-                    sum_index.insert((key, *ik, *jq), (sums + at) as u32);
-                }
-            }
-            multiply_adds.0 += rows.len() * cols.len();
-            multiply_adds.1 += nd * na;
-            columns.total = columns.total.max(columns.formed + formed.len());
-            let at = sums;
-            sums += rows.len() * width;
-            products.push(Product {
-                formed,
-                at,
-                hessian: key.1.is_some(),
-                rows,
-                cols,
-            });
+        let mut plan = PlanBuilder {
+            columns,
+            products: Vec::new(),
+            sums: 0,
+            multiply_adds: (0, 0),
+            sum_index: std::collections::HashMap::new(),
         };
         for l in 1..=last {
             for m in 1..=l {
-                let mut d = Vec::new();
-                for i in 0..sizes[l] {
-                    for k in 0..if l == m { i + 1 } else { sizes[m] } {
-                        let terms: Vec<(Source, Source)> = (0..outputs)
-                            .filter_map(|o| Some((sensitivity(l, o, i)?, sensitivity(m, o, k)?)))
-                            .collect();
-                        if !terms.is_empty() {
-                            d.push(((i, k), terms));
-                        }
-                    }
-                }
-                let mut a = Vec::new();
-                for j in 0..=sizes[l - 1] {
-                    for q in 0..if l == m { j + 1 } else { sizes[m - 1] + 1 } {
-                        a.push(((j, q), vec![(input(l, j), input(m, q))]));
-                    }
-                }
-                add_product((l, Some(m)), d, a);
+                let (d, a) = values.hessian_factors(l, m);
+                plan.add_product((l, Some(m)), d, a);
             }
-            let d: FactorTerms = (0..sizes[l])
-                .map(|i| {
-                    let terms = (0..outputs)
-                        .filter_map(|o| Some((sensitivity(l, o, i)?, Source::Error { output: o })))
-                        .collect();
-                    ((i, 0), terms)
-                })
-                .collect();
-            let a = (0..=sizes[l - 1])
-                .map(|j| ((j, 0), vec![(input(l, j), Source::One)]))
-                .collect();
-            add_product((l, None), d, a);
+            let (d, a) = values.gradient_factors(l);
+            plan.add_product((l, None), d, a);
         }
-        let n_p = layout.n_params();
-        let mut jtj_at = Vec::with_capacity(n_p * (n_p + 1) / 2);
-        for p in 0..n_p {
-            let (l, i1, j1) = decode(layout, p);
-            for r in 0..=p {
-                let (m, i2, j2) = decode(layout, r);
-                let (ik, jq) = if l == m {
-                    ((i1.max(i2), i1.min(i2)), (j1.max(j2), j1.min(j2)))
-                } else {
-                    ((i1, i2), (j1, j2))
-                };
-                jtj_at.push(sum_index.get(&((l, Some(m)), ik, jq)).copied().unwrap_or(ZERO));
-            }
-        }
-        let jte_at = (0..n_p)
-            .map(|p| {
-                let (l, i, j) = decode(layout, p);
-                sum_index[&((l, None), (i, 0), (j, 0))]
-            })
-            .collect();
-        debug_assert!((0..n_p).all(|p| {
+        let jtj_at = plan.jtj_positions(layout);
+        let jte_at = plan.jte_positions(layout);
+        debug_assert!((0..layout.n_params()).all(|p| {
             let (l, i, j) = decode(layout, p);
             parameter(layout, l, i, j) == p
         }));
         FactoredPlan {
-            products,
+            products: plan.products,
             jtj_at,
             jte_at,
-            sums,
-            columns,
-            multiply_adds,
+            sums: plan.sums,
+            columns: plan.columns,
+            multiply_adds: plan.multiply_adds,
         }
     }
 

@@ -152,6 +152,14 @@ fn hessian_subsample(n: usize, block: usize, target: Option<usize>) -> (usize, f
 /// network's for 400,000 samples); larger training sets recompute the forward pass.
 pub(crate) const ACTIVATION_CACHE_BYTES: usize = 64 << 20;
 
+/// How each epoch's damped steps are tried: the damping's scale (1, or the element count for
+/// the mean convention) and whether a trial pass keeps its activations for the next epoch.
+#[derive(Clone, Copy)]
+struct Trial {
+    mu_scale: f64,
+    reuse_activations: bool,
+}
+
 /// Every buffer an LM run needs, sized for one network shape and block length.
 pub struct LmWorkspace {
     layout: Layout,
@@ -352,15 +360,11 @@ impl LmWorkspace {
         let mut validation_mse = Vec::with_capacity(settings.max_epochs + 1);
         let has_validation = !validation.is_empty();
         let mut mu = settings.mu_initial;
-        // Room to keep a trial pass's activations, when they fit the budget (once per workspace
-        // and training-set size: epochs allocate nothing).
-        let kept = train.len() * self.layout.n_activations();
-        if kept * std::mem::size_of::<f64>() <= self.activation_budget {
-            self.trial_activations.resize(kept, 0.0);
-        } else {
-            self.trial_activations.clear();
-        }
-        let reuse_trial = !self.trial_activations.is_empty();
+        let reuse_trial = self.make_room_for_trial_activations(train);
+        let trial = Trial {
+            mu_scale,
+            reuse_activations: reuse_trial,
+        };
 
         let mut sse = self.normal_equations(weights, train, settings.hessian_samples);
         train_mse.push(sse / elements);
@@ -381,36 +385,7 @@ impl LmWorkspace {
             if gradient < settings.min_gradient {
                 break StopReason::MinGradient;
             }
-            // trainlm: damp harder until a step lowers the training error.
-            let mut accepted = None;
-            while mu <= settings.mu_max {
-                if self.solve_damped(mu * mu_scale) {
-                    for (i, (t, w)) in self.trial.iter_mut().zip(weights.iter()).enumerate() {
-                        *t = w + self.step[i];
-                    }
-                    // A rejected step's error is not used: stop summing once it reaches `sse`.
-                    let activations = if reuse_trial {
-                        &mut self.trial_activations
-                    } else {
-                        &mut self.activations
-                    };
-                    let trial_sse = sse_of(
-                        &self.layout,
-                        &self.trial,
-                        train,
-                        activations,
-                        self.block_samples,
-                        sse,
-                    );
-                    if trial_sse < sse {
-                        mu *= settings.mu_decrease;
-                        accepted = Some(trial_sse);
-                        break;
-                    }
-                }
-                mu *= settings.mu_increase;
-            }
-            let Some(new_sse) = accepted else {
+            let Some(new_sse) = self.damped_step(weights, train, sse, &mut mu, trial, settings) else {
                 break StopReason::MuMax;
             };
             weights.copy_from_slice(&self.trial);
@@ -450,6 +425,58 @@ impl LmWorkspace {
             validation_mse,
             final_mu: mu,
         }
+    }
+
+    /// Room to keep a trial pass's activations, when they fit the budget (once per workspace and
+    /// training-set size: epochs allocate nothing). Whether there is.
+    fn make_room_for_trial_activations(&mut self, train: &Dataset) -> bool {
+        let kept = train.len() * self.layout.n_activations();
+        if kept * std::mem::size_of::<f64>() <= self.activation_budget {
+            self.trial_activations.resize(kept, 0.0);
+        } else {
+            self.trial_activations.clear();
+        }
+        !self.trial_activations.is_empty()
+    }
+
+    /// trainlm: damp harder until a step lowers the training error. The step's weights are left
+    /// in `self.trial` and its error returned; None once `mu` passes its maximum.
+    fn damped_step(
+        &mut self,
+        weights: &[f64],
+        train: &Dataset,
+        sse: f64,
+        mu: &mut f64,
+        trial: Trial,
+        settings: &LmSettings,
+    ) -> Option<f64> {
+        while *mu <= settings.mu_max {
+            if self.solve_damped(*mu * trial.mu_scale) {
+                for (i, (t, w)) in self.trial.iter_mut().zip(weights.iter()).enumerate() {
+                    *t = w + self.step[i];
+                }
+                // A rejected step's error is not used: stop summing once it reaches `sse`.
+                let activations = if trial.reuse_activations {
+                    &mut self.trial_activations
+                } else {
+                    &mut self.activations
+                };
+                let trial_sse = sse_of(
+                    &self.layout,
+                    &self.trial,
+                    train,
+                    activations,
+                    self.block_samples,
+                    sse,
+                );
+                if trial_sse < sse {
+                    *mu *= settings.mu_decrease;
+                    return Some(trial_sse);
+                }
+            }
+            *mu *= settings.mu_increase;
+        }
+        None
     }
 
     /// Mean squared error over all samples and outputs (NaN for no data).

@@ -254,21 +254,7 @@ fn parse_valid(p: &[u8], offset: usize) -> Gx1Packet {
 /// starting at 0). `file` names the source in errors and in `Source`.
 pub fn decode(bytes: &[u8], file: &str, options: &Gx1Options) -> Result<(Recording, Gx1Report), Gx1Error> {
     let (packets, faults) = scan(bytes);
-    let mut report = Gx1Report {
-        faults,
-        ..Default::default()
-    };
-    let mut first_eeprom = None;
-    for p in &packets {
-        match p {
-            Gx1Packet::Vectors(v) if v.command == CMD_STAB_VECTORS => report.stab_packets += 1,
-            Gx1Packet::Vectors(_) => report.inst_packets += 1,
-            Gx1Packet::Eeprom { offset, value, .. } => {
-                report.eeprom_values.push(*value);
-                first_eeprom.get_or_insert((*offset, *value));
-            }
-        }
-    }
+    let (mut report, first_eeprom) = count_packets(&packets, faults);
     if report.stab_packets + report.inst_packets == 0 {
         return Err(Gx1Error::NoPackets {
             file: file.into(),
@@ -282,6 +268,67 @@ pub fn decode(bytes: &[u8], file: &str, options: &Gx1Options) -> Result<(Recordi
         None if report.inst_packets >= report.stab_packets => CMD_INST_VECTORS,
         None => CMD_STAB_VECTORS,
     };
+    let (gain, gain_source) = accel_gain(&packets, first_eeprom, options, file)?;
+    report.accel_gain_scale = gain;
+    report.gain_source = gain_source;
+    report.command = command;
+
+    let accel_k = STANDARD_GRAVITY * gain as f64 / GAIN_NUMERATOR;
+    let gyro_k = options
+        .gyro_gain_scale
+        .filter(|g| *g > 0)
+        .map(|g| g as f64 / GAIN_NUMERATOR);
+    let samples = samples(&packets, command, (accel_k, gyro_k), file, &mut report)?;
+    let recording = Recording {
+        time_s: samples.time_s,
+        accel_mps2: samples.accel,
+        gyro_radps: gyro_k.map(|_| samples.gyro),
+        temperature_c: None,
+        source: Source {
+            name: file.into(),
+            format: "3dm-gx1".into(),
+            columns: vec![
+                "timer".into(),
+                "accel x".into(),
+                "accel y".into(),
+                "accel z".into(),
+            ],
+            metadata: vec![format!("AccelGainScale {gain} ({})", report.gain_source)],
+            lines: Vec::new(),
+            incomplete_rows: Default::default(),
+        },
+    };
+    Ok((recording, report))
+}
+
+/// The report's packet counts and EEPROM values, and the first EEPROM reply (offset, value).
+fn count_packets(packets: &[Gx1Packet], faults: Vec<Gx1Fault>) -> (Gx1Report, Option<(usize, u16)>) {
+    let mut report = Gx1Report {
+        faults,
+        ..Default::default()
+    };
+    let mut first_eeprom = None;
+    for p in packets {
+        match p {
+            Gx1Packet::Vectors(v) if v.command == CMD_STAB_VECTORS => report.stab_packets += 1,
+            Gx1Packet::Vectors(_) => report.inst_packets += 1,
+            Gx1Packet::Eeprom { offset, value, .. } => {
+                report.eeprom_values.push(*value);
+                first_eeprom.get_or_insert((*offset, *value));
+            }
+        }
+    }
+    (report, first_eeprom)
+}
+
+/// The accelerometer's gain scale and where it came from: given, or the stream's EEPROM replies
+/// (which must agree).
+fn accel_gain(
+    packets: &[Gx1Packet],
+    first_eeprom: Option<(usize, u16)>,
+    options: &Gx1Options,
+    file: &str,
+) -> Result<(u16, String), Gx1Error> {
     let eeprom_replies: Vec<(usize, u16)> = packets
         .iter()
         .filter_map(|p| match p {
@@ -312,22 +359,35 @@ pub fn decode(bytes: &[u8], file: &str, options: &Gx1Options) -> Result<(Recordi
             source_desc: gain_source,
         });
     }
-    report.accel_gain_scale = gain;
-    report.gain_source = gain_source;
-    report.command = command;
+    Ok((gain, gain_source))
+}
 
-    let accel_k = STANDARD_GRAVITY * gain as f64 / GAIN_NUMERATOR;
-    let gyro_k = options
-        .gyro_gain_scale
-        .filter(|g| *g > 0)
-        .map(|g| g as f64 / GAIN_NUMERATOR);
+/// The chosen command's samples in SI units.
+struct Samples {
+    time_s: Vec<f64>,
+    accel: [Vec<f64>; 3],
+    /// Empty without a gyro gain.
+    gyro: [Vec<f64>; 3],
+}
+
+/// The samples of the `command` packets, time from the unwrapped timer; `factors` are the
+/// accelerometer's (counts to m/s²) and the gyro's, if read. Repeated ticks are counted in
+/// `report`.
+fn samples(
+    packets: &[Gx1Packet],
+    command: u8,
+    factors: (f64, Option<f64>),
+    file: &str,
+    report: &mut Gx1Report,
+) -> Result<Samples, Gx1Error> {
+    let (accel_k, gyro_k) = factors;
     let n = packets.len();
     let mut time_s = Vec::with_capacity(n);
     let mut accel: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::with_capacity(n));
     let mut gyro: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::new());
     let mut ticks_total: u64 = 0;
     let mut last: Option<u16> = None;
-    for p in &packets {
+    for p in packets {
         let Gx1Packet::Vectors(v) = p else { continue };
         if v.command != command {
             continue;
@@ -361,26 +421,7 @@ pub fn decode(bytes: &[u8], file: &str, options: &Gx1Options) -> Result<(Recordi
             }
         }
     }
-    let recording = Recording {
-        time_s,
-        accel_mps2: accel,
-        gyro_radps: gyro_k.map(|_| gyro),
-        temperature_c: None,
-        source: Source {
-            name: file.into(),
-            format: "3dm-gx1".into(),
-            columns: vec![
-                "timer".into(),
-                "accel x".into(),
-                "accel y".into(),
-                "accel z".into(),
-            ],
-            metadata: vec![format!("AccelGainScale {gain} ({})", report.gain_source)],
-            lines: Vec::new(),
-            incomplete_rows: Default::default(),
-        },
-    };
-    Ok((recording, report))
+    Ok(Samples { time_s, accel, gyro })
 }
 
 /// Encoder settings.
