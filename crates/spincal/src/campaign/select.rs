@@ -396,23 +396,20 @@ pub fn calibrate_campaign(
     };
     let held_out = scoring.score(&conditions, observer);
     lap("held-out conditions", &mut stages);
-
     let summaries: Vec<CandidateSummary> = candidates
         .iter()
         .map(|cand| summarise(cand.kind(), &held_out, conditions.len()))
         .collect();
     let best = choose_by_physics(&summaries);
     let truth_check = truth_check(&summaries, &held_out, best, conditions.len());
+    let found = Found {
+        n_conditions: conditions.len(),
+        truth_check: truth_check.as_ref(),
+        thermal: stage.thermal.as_ref(),
+        gyro: gyro.as_ref(),
+    };
     let (saved, verdict) = match best {
-        Some(best) => {
-            let found = Found {
-                n_conditions: conditions.len(),
-                truth_check: truth_check.as_ref(),
-                thermal: stage.thermal.as_ref(),
-                gyro: gyro.as_ref(),
-            };
-            save_best(best, settings, &prepared, &joint, &found, observer)
-        }
+        Some(best) => save_best(best, settings, &prepared, &joint, &found, observer),
         None if conditions.is_empty() => (None, no_conditions_verdict(&prepared, &undetermined)),
         None => (
             None,
