@@ -206,10 +206,7 @@ pub fn calibrate_with_runner(
     observer(Progress::step("turntable fit", 0, Some(1)));
     let clock = Instant::now();
     let turntable = fit_turntable(&refs, &settings.fit, observer)?;
-    let mut stages = vec![StageTime {
-        stage: "turntable fit".into(),
-        seconds: clock.elapsed().as_secs_f64(),
-    }];
+    let mut stages = vec![stage_time("turntable fit", clock)];
     let sweep_clock = Instant::now();
     let references = with_signal(recordings, |k, t| turntable.reference(k, t));
     let models = with_signal(recordings, |k, t| turntable.model(k, t));
@@ -224,51 +221,16 @@ pub fn calibrate_with_runner(
 
     let (sweep_rows, hidden, restarts) = choose_network(&problem, settings, observer, runner)?;
     if !sweep_rows.is_empty() {
-        stages.push(StageTime {
-            stage: "network sweep".into(),
-            seconds: sweep_clock.elapsed().as_secs_f64(),
-        });
+        stages.push(stage_time("network sweep", sweep_clock));
     }
-    observer(Progress::step("network", 0, Some(1)));
-    let clock = Instant::now();
-    let network = problem.train(&hidden, restarts, settings.seed, &settings.lm)?;
-    let network_seconds = clock.elapsed().as_secs_f64();
-
-    observer(Progress::step("linear", 0, Some(1)));
-    let clock = Instant::now();
-    let linear = LinearModel::fit(measured, reference, &settings.correct_axes, settings.division)?;
-    let linear_seconds = clock.elapsed().as_secs_f64();
+    let statics = train_static(
+        &problem, measured, reference, &hidden, restarts, settings, observer,
+    )?;
 
     let division = problem.division.clone();
     let axes_idx: Vec<usize> = settings.correct_axes.iter().map(|a| a.index()).collect();
     let split = SplitScoring::new(reference, &division, &axes_idx);
-    let corrected_axes = |c: &dyn Corrector, rec: &Recording| axes_of(&c.correct(rec), &axes_idx);
-    let uncorrected: Vec<Vec<f64>> = axes_idx.iter().map(|&a| measured.accel_mps2[a].clone()).collect();
-    let network_label = format!(
-        "{}-input [{}] {}-output, {} delays, {} restarts",
-        settings.correct_axes.len() * (settings.delays + 1),
-        architecture_label(&hidden),
-        settings.correct_axes.len(),
-        settings.delays,
-        restarts
-    );
-    let mut comparison = vec![
-        split.row("uncorrected", "measured signal".into(), &uncorrected, 0.0, false),
-        split.row(
-            "ANN",
-            network_label,
-            &corrected_axes(&network, measured),
-            network_seconds,
-            true,
-        ),
-        split.row(
-            "linear",
-            format!("offset + {0}×{0} matrix", settings.correct_axes.len()),
-            &corrected_axes(&linear, measured),
-            linear_seconds,
-            true,
-        ),
-    ];
+    let mut comparison = static_rows(&split, &statics, measured, settings);
     let (sysid_rows, sysid_models) =
         sysid_candidates(settings, measured, reference, &axes_idx, &division, observer);
     comparison.extend(sysid_rows);
@@ -285,40 +247,17 @@ pub fn calibrate_with_runner(
     }
     let cross_clock = Instant::now();
     let trained = Trained {
-        network: &network,
-        linear: &linear,
+        network: &statics.network,
+        linear: &statics.linear,
         sysid: &sysid_models,
     };
     let cross_condition =
         cross_condition_rows(recordings, &references, &axes_idx, settings, &trained, observer)?;
     let (chosen, verdict) = saving_decision(&chosen, &cross_condition, recordings.len(), &turntable);
-    let saved = match chosen.as_str() {
-        "ANN" => Some(CorrectorModel::Ann(Box::new(network.clone()))),
-        "linear" => Some(CorrectorModel::Linear(Box::new(linear.clone()))),
-        _ => None,
-    }
-    .map(CorrectorFile::new);
-    let corrected_all = match chosen.as_str() {
-        "ANN" => network.correct(measured).accel_mps2,
-        "linear" => linear.correct(measured).accel_mps2,
-        _ => measured.accel_mps2.clone(),
-    };
-
-    let first = &turntable.recordings[0];
-    let sensitivity = sensitivity_table(&SensitivityInput {
-        radius_m: first.session.radius_m,
-        tilt_rad: first.session.tilt_rad,
-        omega_radps: first.session.omega_radps,
-        beta_rad: turntable.mounting.beta_rad,
-        gravity_mps2: turntable.gravity_mps2,
-        vary: 0.15,
-    });
+    let (saved, corrected_all) = saved_corrector(&chosen, &statics, measured);
+    let sensitivity = first_session_sensitivity(&turntable);
     let summaries = recording_summaries(recordings, &turntable);
-    stages.push(StageTime {
-        stage: "cross-condition".into(),
-        seconds: cross_clock.elapsed().as_secs_f64(),
-    });
-    let validated = recordings.len() > 1;
+    stages.push(stage_time("cross-condition", cross_clock));
     let result = CalibrationResult {
         results_version: RESULTS_VERSION,
         spincal_version: env!("CARGO_PKG_VERSION").to_string(),
@@ -334,7 +273,7 @@ pub fn calibrate_with_runner(
         comparison,
         cross_condition,
         chosen,
-        validated_off_training_condition: validated && saved.is_some(),
+        validated_off_training_condition: recordings.len() > 1 && saved.is_some(),
         verdict,
         best_overall,
         seconds_total: started.elapsed().as_secs_f64(),
@@ -346,6 +285,127 @@ pub fn calibrate_with_runner(
         references,
         models,
         corrected: corrected_all,
+    })
+}
+
+/// The time since `clock` as stage `stage`'s.
+fn stage_time(stage: &str, clock: Instant) -> StageTime {
+    StageTime {
+        stage: stage.into(),
+        seconds: clock.elapsed().as_secs_f64(),
+    }
+}
+
+/// The two static correctors trained on the first recording, with their training times.
+struct StaticCorrectors {
+    network: crate::correctors::ann::AnnModel,
+    /// The network's inputs, architecture, outputs, delays and restarts, in words.
+    network_label: String,
+    network_seconds: f64,
+    linear: LinearModel,
+    linear_seconds: f64,
+}
+
+/// Trains the network of architecture `hidden` and the linear corrector on the first recording,
+/// `measured` against `reference`.
+fn train_static(
+    problem: &AnnProblem,
+    measured: &Recording,
+    reference: &Recording,
+    hidden: &[usize],
+    restarts: usize,
+    settings: &Params,
+    observer: &Observer,
+) -> Result<StaticCorrectors, CalibrateError> {
+    observer(Progress::step("network", 0, Some(1)));
+    let clock = Instant::now();
+    let network = problem.train(hidden, restarts, settings.seed, &settings.lm)?;
+    let network_seconds = clock.elapsed().as_secs_f64();
+
+    observer(Progress::step("linear", 0, Some(1)));
+    let clock = Instant::now();
+    let linear = LinearModel::fit(measured, reference, &settings.correct_axes, settings.division)?;
+    let linear_seconds = clock.elapsed().as_secs_f64();
+    let network_label = format!(
+        "{}-input [{}] {}-output, {} delays, {} restarts",
+        settings.correct_axes.len() * (settings.delays + 1),
+        architecture_label(hidden),
+        settings.correct_axes.len(),
+        settings.delays,
+        restarts
+    );
+    Ok(StaticCorrectors {
+        network,
+        network_label,
+        network_seconds,
+        linear,
+        linear_seconds,
+    })
+}
+
+/// The comparison rows of the uncorrected signal and the two static correctors.
+fn static_rows(
+    split: &SplitScoring,
+    statics: &StaticCorrectors,
+    measured: &Recording,
+    settings: &Params,
+) -> Vec<ComparisonRow> {
+    let corrected_axes = |c: &dyn Corrector, rec: &Recording| axes_of(&c.correct(rec), split.axes);
+    let uncorrected: Vec<Vec<f64>> = split
+        .axes
+        .iter()
+        .map(|&a| measured.accel_mps2[a].clone())
+        .collect();
+    vec![
+        split.row("uncorrected", "measured signal".into(), &uncorrected, 0.0, false),
+        split.row(
+            "ANN",
+            statics.network_label.clone(),
+            &corrected_axes(&statics.network, measured),
+            statics.network_seconds,
+            true,
+        ),
+        split.row(
+            "linear",
+            format!("offset + {0}×{0} matrix", settings.correct_axes.len()),
+            &corrected_axes(&statics.linear, measured),
+            statics.linear_seconds,
+            true,
+        ),
+    ]
+}
+
+/// The corrector file of the chosen static corrector (none for "none"), and the first
+/// recording as it corrects it.
+fn saved_corrector(
+    chosen: &str,
+    statics: &StaticCorrectors,
+    measured: &Recording,
+) -> (Option<CorrectorFile>, [Vec<f64>; 3]) {
+    let saved = match chosen {
+        "ANN" => Some(CorrectorModel::Ann(Box::new(statics.network.clone()))),
+        "linear" => Some(CorrectorModel::Linear(Box::new(statics.linear.clone()))),
+        _ => None,
+    }
+    .map(CorrectorFile::new);
+    let corrected = match chosen {
+        "ANN" => statics.network.correct(measured).accel_mps2,
+        "linear" => statics.linear.correct(measured).accel_mps2,
+        _ => measured.accel_mps2.clone(),
+    };
+    (saved, corrected)
+}
+
+/// The sensitivity table at the first recording's session.
+fn first_session_sensitivity(turntable: &TurntableFit) -> Vec<SensitivityRow> {
+    let first = &turntable.recordings[0];
+    sensitivity_table(&SensitivityInput {
+        radius_m: first.session.radius_m,
+        tilt_rad: first.session.tilt_rad,
+        omega_radps: first.session.omega_radps,
+        beta_rad: turntable.mounting.beta_rad,
+        gravity_mps2: turntable.gravity_mps2,
+        vary: 0.15,
     })
 }
 

@@ -264,52 +264,9 @@ impl Campaign {
             text,
         };
         let base = path.parent().unwrap_or(Path::new(""));
-        let unit = match &raw.unit {
-            Some(u) if u.get_ref().trim().is_empty() => return Err(at.at(u.span(), "unit", "empty")),
-            Some(u) => u.get_ref().clone(),
-            None => path
-                .file_stem()
-                .map_or("unit".into(), |s| s.to_string_lossy().into_owned()),
-        };
-        let gravity_mps2 = match &raw.gravity_mps2 {
-            Some(_) => at.number(
-                &raw.gravity_mps2,
-                0..0,
-                "gravity_mps2",
-                |g| (9.7..9.9).contains(&g),
-                "local gravity lies between 9.7 and 9.9 m/s²",
-            )?,
-            None => STANDARD_GRAVITY,
-        };
-        // Both datasheet numbers or neither: one alone cannot size the prior.
-        let alone = |span, given: &str, missing: &str| {
-            at.at(
-                span,
-                given,
-                format!("needs `{missing}` too: the two size the nonlinearity's prior together"),
-            )
-        };
-        let nonlinearity = match (&raw.range_g, &raw.nonlinearity_pct_fs) {
-            (None, None) => None,
-            (Some(r), None) => return Err(alone(r.span(), "range_g", "nonlinearity_pct_fs")),
-            (None, Some(n)) => return Err(alone(n.span(), "nonlinearity_pct_fs", "range_g")),
-            (Some(_), Some(_)) => Some(DatasheetNonlinearity {
-                range_g: at.number(
-                    &raw.range_g,
-                    0..0,
-                    "range_g",
-                    |r| r > 0.0 && r <= 1000.0,
-                    "the datasheet range lies above 0 and at most 1000 g",
-                )?,
-                pct_fs: at.number(
-                    &raw.nonlinearity_pct_fs,
-                    0..0,
-                    "nonlinearity_pct_fs",
-                    |n| n > 0.0 && n < 100.0,
-                    "a nonlinearity lies above 0 and below 100 % of full scale",
-                )?,
-            }),
-        };
+        let unit = at.unit(&raw, path)?;
+        let gravity_mps2 = at.gravity(&raw)?;
+        let nonlinearity = at.nonlinearity(&raw)?;
         if raw.recording.is_empty() {
             return Err(CampaignError::Entry {
                 file,
@@ -320,152 +277,7 @@ impl Campaign {
         }
         let mut recordings = Vec::with_capacity(raw.recording.len());
         for spanned in &raw.recording {
-            let span = spanned.span();
-            let e = spanned.get_ref();
-            let (name, name_span) = at.required(&e.file, span.clone(), "file")?;
-            if name.trim().is_empty() {
-                return Err(at.at(name_span, "file", "empty"));
-            }
-            let resolve = |p: &str| {
-                let p = Path::new(p);
-                if p.is_absolute() {
-                    p.to_path_buf()
-                } else {
-                    base.join(p)
-                }
-            };
-            let (kind_text, kind_span) = at.required(&e.kind, span.clone(), "kind")?;
-            let turntable_only = [
-                ("rpm", e.rpm.as_ref().map(Spanned::span)),
-                ("radius_m", e.radius_m.as_ref().map(Spanned::span)),
-                ("radius_tol_m", e.radius_tol_m.as_ref().map(Spanned::span)),
-                ("out", e.out.as_ref().map(Spanned::span)),
-                ("up", e.up.as_ref().map(Spanned::span)),
-                ("direction", e.direction.as_ref().map(Spanned::span)),
-            ];
-            let kind = match kind_text.as_str() {
-                "static" => {
-                    if let Some((key, Some(s))) = turntable_only.iter().find(|(_, s)| s.is_some()) {
-                        return Err(at.at(
-                            s.clone(),
-                            key,
-                            "only a turntable recording has this key (kind = \"static\")",
-                        ));
-                    }
-                    EntryKind::Static
-                }
-                "turntable" => {
-                    let rpm = at.number(
-                        &e.rpm,
-                        span.clone(),
-                        "rpm",
-                        |v| v > 0.0 && v <= 1000.0,
-                        "must be positive and at most 1000",
-                    )?;
-                    let radius_m = at.number(
-                        &e.radius_m,
-                        span.clone(),
-                        "radius_m",
-                        |v| (0.0..=2.0).contains(&v),
-                        "must be between 0 and 2 m",
-                    )?;
-                    let radius_tol_m = at.number(
-                        &e.radius_tol_m,
-                        span.clone(),
-                        "radius_tol_m",
-                        |v| v > 0.0 && v <= 2.0,
-                        "must be positive (the ruler's tolerance), at most 2 m",
-                    )?;
-                    let axis =
-                        |value: &Option<Spanned<String>>, key: &str| -> Result<SignedAxis, CampaignError> {
-                            let (text, s) = at.required(value, span.clone(), key)?;
-                            SignedAxis::parse(&text).ok_or_else(|| {
-                                at.at(
-                                    s,
-                                    key,
-                                    format!("'{text}': expected one of +x, -x, +y, -y, +z, -z"),
-                                )
-                            })
-                        };
-                    let out = axis(&e.out, "out")?;
-                    let up = axis(&e.up, "up")?;
-                    if out.axis == up.axis {
-                        let s = e.up.as_ref().map_or(span.clone(), Spanned::span);
-                        return Err(at.at(
-                            s,
-                            "up",
-                            format!(
-                                "{} is along out = {}: the two must be different axes",
-                                up.name(),
-                                out.name()
-                            ),
-                        ));
-                    }
-                    let direction = match &e.direction {
-                        None => None,
-                        Some(d) => Some(match d.get_ref().as_str() {
-                            "cw" => Direction::Cw,
-                            "ccw" => Direction::Ccw,
-                            other => {
-                                return Err(at.at(
-                                    d.span(),
-                                    "direction",
-                                    format!("'{other}': expected cw or ccw"),
-                                ))
-                            }
-                        }),
-                    };
-                    EntryKind::Turntable(TurntableEntry {
-                        rpm,
-                        radius_m,
-                        radius_tol_m,
-                        out,
-                        up,
-                        direction,
-                    })
-                }
-                other => {
-                    return Err(at.at(
-                        kind_span,
-                        "kind",
-                        format!("'{other}': expected static or turntable"),
-                    ))
-                }
-            };
-            let accel_unit = match &e.accel_unit {
-                None => None,
-                Some(u) => Some(AccelUnit::parse(u.get_ref()).ok_or_else(|| {
-                    at.at(
-                        u.span(),
-                        "accel_unit",
-                        format!("'{}': expected g or m/s^2", u.get_ref()),
-                    )
-                })?),
-            };
-            let noise_floor_mps2 = match &e.noise_floor_mps2 {
-                None => None,
-                Some(v) => {
-                    let values = v.get_ref();
-                    if values.len() != 3 || values.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
-                        return Err(at.at(
-                            v.span(),
-                            "noise_floor_mps2",
-                            "expected three finite non-negative numbers [x, y, z]",
-                        ));
-                    }
-                    Some([values[0], values[1], values[2]])
-                }
-            };
-            recordings.push(CampaignEntry {
-                file: resolve(&name),
-                line: line_column(text, span.start).0,
-                kind,
-                columns: e.columns.as_ref().map(|c| c.get_ref().clone()),
-                accel_unit,
-                truth: e.truth.as_ref().map(|t| resolve(t.get_ref())),
-                noise_floor_mps2,
-                random_error: e.random_error.as_ref().map(|t| resolve(t.get_ref())),
-            });
+            recordings.push(at.entry(spanned, base)?);
         }
         Ok(Campaign {
             unit,
@@ -473,6 +285,218 @@ impl Campaign {
             gravity_mps2,
             nonlinearity,
             recordings,
+        })
+    }
+}
+
+/// `p`, taken relative to `base` unless absolute.
+fn resolve(base: &Path, p: &str) -> PathBuf {
+    let p = Path::new(p);
+    if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        base.join(p)
+    }
+}
+
+/// The campaign's top-level keys, then one `[[recording]]` table at a time.
+impl Locator<'_> {
+    /// The unit's name, or the file's stem when not given.
+    fn unit(&self, raw: &RawCampaign, path: &Path) -> Result<String, CampaignError> {
+        Ok(match &raw.unit {
+            Some(u) if u.get_ref().trim().is_empty() => return Err(self.at(u.span(), "unit", "empty")),
+            Some(u) => u.get_ref().clone(),
+            None => path
+                .file_stem()
+                .map_or("unit".into(), |s| s.to_string_lossy().into_owned()),
+        })
+    }
+
+    fn gravity(&self, raw: &RawCampaign) -> Result<f64, CampaignError> {
+        Ok(match &raw.gravity_mps2 {
+            Some(_) => self.number(
+                &raw.gravity_mps2,
+                0..0,
+                "gravity_mps2",
+                |g| (9.7..9.9).contains(&g),
+                "local gravity lies between 9.7 and 9.9 m/s²",
+            )?,
+            None => STANDARD_GRAVITY,
+        })
+    }
+
+    fn nonlinearity(&self, raw: &RawCampaign) -> Result<Option<DatasheetNonlinearity>, CampaignError> {
+        // Both datasheet numbers or neither: one alone cannot size the prior.
+        let alone = |span, given: &str, missing: &str| {
+            self.at(
+                span,
+                given,
+                format!("needs `{missing}` too: the two size the nonlinearity's prior together"),
+            )
+        };
+        Ok(match (&raw.range_g, &raw.nonlinearity_pct_fs) {
+            (None, None) => None,
+            (Some(r), None) => return Err(alone(r.span(), "range_g", "nonlinearity_pct_fs")),
+            (None, Some(n)) => return Err(alone(n.span(), "nonlinearity_pct_fs", "range_g")),
+            (Some(_), Some(_)) => Some(DatasheetNonlinearity {
+                range_g: self.number(
+                    &raw.range_g,
+                    0..0,
+                    "range_g",
+                    |r| r > 0.0 && r <= 1000.0,
+                    "the datasheet range lies above 0 and at most 1000 g",
+                )?,
+                pct_fs: self.number(
+                    &raw.nonlinearity_pct_fs,
+                    0..0,
+                    "nonlinearity_pct_fs",
+                    |n| n > 0.0 && n < 100.0,
+                    "a nonlinearity lies above 0 and below 100 % of full scale",
+                )?,
+            }),
+        })
+    }
+
+    /// One `[[recording]]` table, its paths resolved against `base`.
+    fn entry(&self, spanned: &Spanned<RawEntry>, base: &Path) -> Result<CampaignEntry, CampaignError> {
+        let span = spanned.span();
+        let e = spanned.get_ref();
+        let (name, name_span) = self.required(&e.file, span.clone(), "file")?;
+        if name.trim().is_empty() {
+            return Err(self.at(name_span, "file", "empty"));
+        }
+        let kind = self.kind(e, span.clone())?;
+        let accel_unit = match &e.accel_unit {
+            None => None,
+            Some(u) => Some(AccelUnit::parse(u.get_ref()).ok_or_else(|| {
+                self.at(
+                    u.span(),
+                    "accel_unit",
+                    format!("'{}': expected g or m/s^2", u.get_ref()),
+                )
+            })?),
+        };
+        let noise_floor_mps2 = match &e.noise_floor_mps2 {
+            None => None,
+            Some(v) => {
+                let values = v.get_ref();
+                if values.len() != 3 || values.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+                    return Err(self.at(
+                        v.span(),
+                        "noise_floor_mps2",
+                        "expected three finite non-negative numbers [x, y, z]",
+                    ));
+                }
+                Some([values[0], values[1], values[2]])
+            }
+        };
+        Ok(CampaignEntry {
+            file: resolve(base, &name),
+            line: line_column(self.text, span.start).0,
+            kind,
+            columns: e.columns.as_ref().map(|c| c.get_ref().clone()),
+            accel_unit,
+            truth: e.truth.as_ref().map(|t| resolve(base, t.get_ref())),
+            noise_floor_mps2,
+            random_error: e.random_error.as_ref().map(|t| resolve(base, t.get_ref())),
+        })
+    }
+
+    /// The entry's kind: a static one must not carry turntable keys.
+    fn kind(&self, e: &RawEntry, span: Range<usize>) -> Result<EntryKind, CampaignError> {
+        let (kind_text, kind_span) = self.required(&e.kind, span.clone(), "kind")?;
+        let turntable_only = [
+            ("rpm", e.rpm.as_ref().map(Spanned::span)),
+            ("radius_m", e.radius_m.as_ref().map(Spanned::span)),
+            ("radius_tol_m", e.radius_tol_m.as_ref().map(Spanned::span)),
+            ("out", e.out.as_ref().map(Spanned::span)),
+            ("up", e.up.as_ref().map(Spanned::span)),
+            ("direction", e.direction.as_ref().map(Spanned::span)),
+        ];
+        match kind_text.as_str() {
+            "static" => {
+                if let Some((key, Some(s))) = turntable_only.iter().find(|(_, s)| s.is_some()) {
+                    return Err(self.at(
+                        s.clone(),
+                        key,
+                        "only a turntable recording has this key (kind = \"static\")",
+                    ));
+                }
+                Ok(EntryKind::Static)
+            }
+            "turntable" => Ok(EntryKind::Turntable(self.turntable(e, span)?)),
+            other => Err(self.at(
+                kind_span,
+                "kind",
+                format!("'{other}': expected static or turntable"),
+            )),
+        }
+    }
+
+    /// A turntable entry's speed, radius, mounting and (optional) sense of rotation.
+    fn turntable(&self, e: &RawEntry, span: Range<usize>) -> Result<TurntableEntry, CampaignError> {
+        let rpm = self.number(
+            &e.rpm,
+            span.clone(),
+            "rpm",
+            |v| v > 0.0 && v <= 1000.0,
+            "must be positive and at most 1000",
+        )?;
+        let radius_m = self.number(
+            &e.radius_m,
+            span.clone(),
+            "radius_m",
+            |v| (0.0..=2.0).contains(&v),
+            "must be between 0 and 2 m",
+        )?;
+        let radius_tol_m = self.number(
+            &e.radius_tol_m,
+            span.clone(),
+            "radius_tol_m",
+            |v| v > 0.0 && v <= 2.0,
+            "must be positive (the ruler's tolerance), at most 2 m",
+        )?;
+        let axis = |value: &Option<Spanned<String>>, key: &str| -> Result<SignedAxis, CampaignError> {
+            let (text, s) = self.required(value, span.clone(), key)?;
+            SignedAxis::parse(&text).ok_or_else(|| {
+                self.at(
+                    s,
+                    key,
+                    format!("'{text}': expected one of +x, -x, +y, -y, +z, -z"),
+                )
+            })
+        };
+        let out = axis(&e.out, "out")?;
+        let up = axis(&e.up, "up")?;
+        if out.axis == up.axis {
+            let s = e.up.as_ref().map_or(span.clone(), Spanned::span);
+            return Err(self.at(
+                s,
+                "up",
+                format!(
+                    "{} is along out = {}: the two must be different axes",
+                    up.name(),
+                    out.name()
+                ),
+            ));
+        }
+        let direction = match &e.direction {
+            None => None,
+            Some(d) => Some(match d.get_ref().as_str() {
+                "cw" => Direction::Cw,
+                "ccw" => Direction::Ccw,
+                other => {
+                    return Err(self.at(d.span(), "direction", format!("'{other}': expected cw or ccw")))
+                }
+            }),
+        };
+        Ok(TurntableEntry {
+            rpm,
+            radius_m,
+            radius_tol_m,
+            out,
+            up,
+            direction,
         })
     }
 }

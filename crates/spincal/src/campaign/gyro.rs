@@ -26,7 +26,7 @@ use faer::Mat;
 use serde::{Deserialize, Serialize};
 
 use crate::campaign::joint::{mid_time, JointFit, JointParam, PoseInput, RunInput};
-use crate::correctors::gyro::GyroModel;
+use crate::correctors::gyro::{GyroCorrector, GyroModel};
 
 /// Settings of the gyroscope fit.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -217,12 +217,14 @@ impl System {
     }
 }
 
+/// A pose: its session (renumbered), mean and standard error per axis, time from its session's
+/// middle.
+type PoseRow = (usize, [f64; 3], [f64; 3], f64);
+
 /// Everything the fit needs.
 struct Problem<'a> {
     runs: Vec<GyroRun<'a>>,
-    /// Per pose: its session (renumbered), mean and standard error per axis, time from its
-    /// session's middle.
-    poses: Vec<(usize, [f64; 3], [f64; 3], f64)>,
+    poses: Vec<PoseRow>,
     layout: Layout,
     settings: &'a GyroSettings,
     joint: &'a JointFit,
@@ -448,6 +450,67 @@ pub fn fit_gyro(
     joint: &JointFit,
     settings: &GyroSettings,
 ) -> Result<Option<GyroFit>, GyroError> {
+    check_settings(settings)?;
+    let gyro_runs = gyro_runs(runs, joint)?;
+    if gyro_runs.is_empty() {
+        return Ok(None);
+    }
+    let (pose_rows, sessions) = gyro_pose_rows(poses);
+    let mut problem = Problem {
+        layout: Layout {
+            runs: gyro_runs.len(),
+            sessions,
+        },
+        run_sigma: gyro_runs
+            .iter()
+            .map(|run| {
+                crate::campaign::joint::difference_noise(run.gyro, &run.input.keep).map(|v| v.max(1e-9))
+            })
+            .collect(),
+        runs: gyro_runs,
+        poses: pose_rows,
+        settings,
+        joint,
+    };
+    let l = &problem.layout;
+    let mut x0 = vec![0.0; l.n()];
+    for k in 0..3 {
+        x0[l.axis(k) + 1 + k] = 1.0;
+    }
+    // First pass with white-noise weights, then each run weighted by its residual RMS (which
+    // includes drift and unmodelled motion), solved again from there.
+    let (x, _) = problem.solve(x0, ITERATIONS)?;
+    problem.run_sigma = problem.residual_rms(&x);
+    let (x, h_inv) = problem.solve(x, ITERATIONS)?;
+    let meat = problem.meat(&x);
+    let mut cov = &h_inv * &meat * &h_inv;
+    problem.add_rate_uncertainty(&x, &mut cov)?;
+
+    let l = &problem.layout;
+    let model = GyroModel {
+        bias_radps: std::array::from_fn(|k| x[l.axis(k)]),
+        sensitivity: std::array::from_fn(|k| std::array::from_fn(|j| x[l.axis(k) + 1 + j])),
+        input_unit: crate::correctors::gyro::GyroInputUnit::RadPerS,
+    };
+    let (params, session_drift) = reported_params(l, &x, &cov);
+    let corrector = model.corrector().ok_or(GyroError::Singular)?;
+    let (rate_checks, spun) = problem.rate_checks(&x, &corrector);
+    let undetermined = undetermined(&params, problem.poses.is_empty(), spun, settings);
+    Ok(Some(GyroFit {
+        model,
+        params,
+        session_drift,
+        rate_checks,
+        undetermined,
+        covariance: format!(
+            "robust sandwich (scores summed over {:.1} s blocks of each run, each still pose a block); each run's mount tilts refitted within the joint fit's covariance; the joint fit's uncertainty in each run's speed and wow carried over by the delta method",
+            settings.block_s
+        ),
+    }))
+}
+
+/// Every setting must be finite and positive.
+fn check_settings(settings: &GyroSettings) -> Result<(), GyroError> {
     for (name, value) in [
         ("bias_instability_radps", settings.bias_instability_radps),
         ("prior_sd[0]", settings.prior_sd[0]),
@@ -464,6 +527,11 @@ pub fn fit_gyro(
             });
         }
     }
+    Ok(())
+}
+
+/// The runs with gyro columns, each with the joint fit's parameters and tilt information.
+fn gyro_runs<'a>(runs: &'a [RunInput], joint: &JointFit) -> Result<Vec<GyroRun<'a>>, GyroError> {
     let mut gyro_runs = Vec::new();
     for (index, run) in runs.iter().enumerate() {
         let Some(gyro) = &run.gyro_radps else { continue };
@@ -497,9 +565,11 @@ pub fn fit_gyro(
         gyro_run.refresh(joint);
         gyro_runs.push(gyro_run);
     }
-    if gyro_runs.is_empty() {
-        return Ok(None);
-    }
+    Ok(gyro_runs)
+}
+
+/// The poses with gyro readings as `Problem::poses` has them, and how many sessions they span.
+fn gyro_pose_rows(poses: &[PoseInput]) -> (Vec<PoseRow>, usize) {
     let gyro_poses: Vec<_> = poses
         .iter()
         .filter_map(|p| Some((p, p.gyro_mean_radps?, p.gyro_sigma_mean_radps?)))
@@ -525,81 +595,11 @@ pub fn fit_gyro(
             )
         })
         .collect();
-    let mut problem = Problem {
-        layout: Layout {
-            runs: gyro_runs.len(),
-            sessions: session_ids.len(),
-        },
-        run_sigma: gyro_runs
-            .iter()
-            .map(|run| {
-                crate::campaign::joint::difference_noise(run.gyro, &run.input.keep).map(|v| v.max(1e-9))
-            })
-            .collect(),
-        runs: gyro_runs,
-        poses: pose_rows,
-        settings,
-        joint,
-    };
-    let l = &problem.layout;
-    let mut x0 = vec![0.0; l.n()];
-    for k in 0..3 {
-        x0[l.axis(k) + 1 + k] = 1.0;
-    }
-    // First pass with white-noise weights, then each run weighted by its residual RMS (which
-    // includes drift and unmodelled motion), solved again from there.
-    let (x, _) = problem.solve(x0, ITERATIONS)?;
-    problem.run_sigma = problem.residual_rms(&x);
-    let (x, h_inv) = problem.solve(x, ITERATIONS)?;
-    let meat = problem.meat(&x);
-    let mut cov = &h_inv * &meat * &h_inv;
+    (pose_rows, session_ids.len())
+}
 
-    // The joint fit's uncertainty in each run's speed (ω and wow), carried over by the delta
-    // method: ∂x̂/∂φ by central differences of the whole solution.
-    let n = problem.layout.n();
-    for r in 0..problem.runs.len() {
-        let index = problem.runs[r].index;
-        let Some(phi_cov) = joint.run_covariance(index, &RATE_PARAMS) else {
-            continue;
-        };
-        let mut jac = vec![[0.0f64; RATE_PARAMS.len()]; n];
-        for (c, &param) in RATE_PARAMS.iter().enumerate() {
-            let h = phi_cov[c][c].sqrt();
-            if !(h > 0.0 && h.is_finite()) {
-                continue;
-            }
-            let original = problem.runs[r].params[param];
-            let mut sides = Vec::with_capacity(2);
-            for sign in [1.0, -1.0] {
-                problem.runs[r].params[param] = original + sign * h;
-                problem.runs[r].refresh(joint);
-                sides.push(problem.solve(x.clone(), 2)?.0);
-            }
-            problem.runs[r].params[param] = original;
-            problem.runs[r].refresh(joint);
-            for i in 0..n {
-                jac[i][c] = (sides[0][i] - sides[1][i]) / (2.0 * h);
-            }
-        }
-        for i in 0..n {
-            for j in 0..n {
-                let mut v = 0.0;
-                for a in 0..RATE_PARAMS.len() {
-                    for b in 0..RATE_PARAMS.len() {
-                        v += jac[i][a] * phi_cov[a][b] * jac[j][b];
-                    }
-                }
-                cov[(i, j)] += v;
-            }
-        }
-    }
-
-    let l = &problem.layout;
-    let model = GyroModel {
-        bias_radps: std::array::from_fn(|k| x[l.axis(k)]),
-        sensitivity: std::array::from_fn(|k| std::array::from_fn(|j| x[l.axis(k) + 1 + j])),
-        input_unit: crate::correctors::gyro::GyroInputUnit::RadPerS,
-    };
+/// b and K (with names and standard errors from `cov`), then each session's drift rate per axis.
+fn reported_params(l: &Layout, x: &[f64], cov: &Mat<f64>) -> (Vec<JointParam>, Vec<JointParam>) {
     let se = |i: usize| {
         let v = cov[(i, i)];
         (v.is_finite() && v >= 0.0).then(|| v.sqrt())
@@ -631,52 +631,93 @@ pub fn fit_gyro(
             });
         }
     }
-    let corrector = model.corrector().ok_or(GyroError::Singular)?;
-    let mut spun = [false; 3];
-    let rate_checks = problem
-        .runs
-        .iter()
-        .enumerate()
-        .map(|(r, run)| {
-            let t0 = l.tilt(r);
-            let u = run.direction([x[t0], x[t0 + 1]]);
-            for j in 0..3 {
-                spun[j] |= u[j].abs() > 0.9;
-            }
-            let (mut raw, mut calibrated, mut count) = (0.0, 0.0, 0.0);
-            for (s, _) in run.input.time_s.iter().enumerate() {
-                if !run.input.keep[s] {
+    (params, session_drift)
+}
+
+impl Problem<'_> {
+    /// The joint fit's uncertainty in each run's speed (ω and wow), carried over into `cov` by
+    /// the delta method: ∂x̂/∂φ by central differences of the whole solution.
+    fn add_rate_uncertainty(&mut self, x: &[f64], cov: &mut Mat<f64>) -> Result<(), GyroError> {
+        let joint = self.joint;
+        let n = self.layout.n();
+        for r in 0..self.runs.len() {
+            let index = self.runs[r].index;
+            let Some(phi_cov) = joint.run_covariance(index, &RATE_PARAMS) else {
+                continue;
+            };
+            let mut jac = vec![[0.0f64; RATE_PARAMS.len()]; n];
+            for (c, &param) in RATE_PARAMS.iter().enumerate() {
+                let h = phi_cov[c][c].sqrt();
+                if !(h > 0.0 && h.is_finite()) {
                     continue;
                 }
-                let m = [run.gyro[0][s], run.gyro[1][s], run.gyro[2][s]];
-                let c = corrector.correct(m);
-                raw += (0..3).map(|k| m[k] * u[k]).sum::<f64>();
-                calibrated += (0..3).map(|k| c[k] * u[k]).sum::<f64>();
-                count += 1.0;
+                let original = self.runs[r].params[param];
+                let mut sides = Vec::with_capacity(2);
+                for sign in [1.0, -1.0] {
+                    self.runs[r].params[param] = original + sign * h;
+                    self.runs[r].refresh(joint);
+                    sides.push(self.solve(x.to_vec(), 2)?.0);
+                }
+                self.runs[r].params[param] = original;
+                self.runs[r].refresh(joint);
+                for i in 0..n {
+                    jac[i][c] = (sides[0][i] - sides[1][i]) / (2.0 * h);
+                }
             }
-            let omega = joint.runs[run.index].params[1].clone();
-            GyroRateCheck {
-                run: run.input.name.clone(),
-                accel_rate_radps: omega.value,
-                accel_rate_se_radps: omega.std_error,
-                raw_gyro_rate_radps: raw / f64::max(count, 1.0),
-                calibrated_gyro_rate_radps: calibrated / f64::max(count, 1.0),
-                residual_rms_radps: problem.run_sigma[r],
+            for i in 0..n {
+                for j in 0..n {
+                    let mut v = 0.0;
+                    for a in 0..RATE_PARAMS.len() {
+                        for b in 0..RATE_PARAMS.len() {
+                            v += jac[i][a] * phi_cov[a][b] * jac[j][b];
+                        }
+                    }
+                    cov[(i, j)] += v;
+                }
             }
-        })
-        .collect();
-    let undetermined = undetermined(&params, problem.poses.is_empty(), spun, settings);
-    Ok(Some(GyroFit {
-        model,
-        params,
-        session_drift,
-        rate_checks,
-        undetermined,
-        covariance: format!(
-            "robust sandwich (scores summed over {:.1} s blocks of each run, each still pose a block); each run's mount tilts refitted within the joint fit's covariance; the joint fit's uncertainty in each run's speed and wow carried over by the delta method",
-            settings.block_s
-        ),
-    }))
+        }
+        Ok(())
+    }
+
+    /// Per run, the accelerometer's rate against the raw and calibrated gyro about the spindle;
+    /// and which body axes some run's spindle lay along.
+    fn rate_checks(&self, x: &[f64], corrector: &GyroCorrector) -> (Vec<GyroRateCheck>, [bool; 3]) {
+        let l = &self.layout;
+        let mut spun = [false; 3];
+        let rate_checks = self
+            .runs
+            .iter()
+            .enumerate()
+            .map(|(r, run)| {
+                let t0 = l.tilt(r);
+                let u = run.direction([x[t0], x[t0 + 1]]);
+                for j in 0..3 {
+                    spun[j] |= u[j].abs() > 0.9;
+                }
+                let (mut raw, mut calibrated, mut count) = (0.0, 0.0, 0.0);
+                for (s, _) in run.input.time_s.iter().enumerate() {
+                    if !run.input.keep[s] {
+                        continue;
+                    }
+                    let m = [run.gyro[0][s], run.gyro[1][s], run.gyro[2][s]];
+                    let c = corrector.correct(m);
+                    raw += (0..3).map(|k| m[k] * u[k]).sum::<f64>();
+                    calibrated += (0..3).map(|k| c[k] * u[k]).sum::<f64>();
+                    count += 1.0;
+                }
+                let omega = self.joint.runs[run.index].params[1].clone();
+                GyroRateCheck {
+                    run: run.input.name.clone(),
+                    accel_rate_radps: omega.value,
+                    accel_rate_se_radps: omega.std_error,
+                    raw_gyro_rate_radps: raw / f64::max(count, 1.0),
+                    calibrated_gyro_rate_radps: calibrated / f64::max(count, 1.0),
+                    residual_rms_radps: self.run_sigma[r],
+                }
+            })
+            .collect();
+        (rate_checks, spun)
+    }
 }
 
 fn undetermined(

@@ -28,7 +28,7 @@ use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
 use crate::campaign::thermal::{temperature_bands, thermal_stage, CampaignThermal};
 use crate::campaign::verdict::{
     combined, compare, condition_samples, predicted_mean_square, predicted_ratio, rms_and_floor,
-    sample_errors, Comparison, Prediction, SampleErrors, Segment,
+    sample_errors, Comparison, ConditionSamples, Prediction, SampleErrors, Segment,
 };
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::progress::{Observer, Progress};
@@ -384,186 +384,37 @@ pub fn calibrate_campaign(
         Err(e) => (None, Some(e.to_string())),
     };
     lap("gyro fit", &mut stages);
-    let mut conditions = conditions(&prepared);
-    if let Some(thermal) = &stage.thermal {
-        conditions.extend(
-            temperature_bands(&prepared, &thermal.die_c)
-                .into_iter()
-                .map(|(label, poses)| Condition {
-                    label,
-                    runs: Vec::new(),
-                    poses,
-                }),
-        );
-    }
-    let offset_sd = offset_spread(&joint, prepared.runs.len()).max(settings.joint.bias_instability_mps2);
+    let conditions = held_out_conditions(&prepared, stage.thermal.as_ref());
     let candidates: Vec<Box<dyn Candidate + Sync>> =
         settings.candidates.iter().map(|&k| candidate(k)).collect();
-
-    // Conditions are independent: in parallel, collected in order (the same result on any
-    // number of threads).
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    let total = conditions.len();
-    let per_condition: Vec<Vec<HeldOutScore>> = conditions
-        .par_iter()
-        .map(|condition| {
-            let training = TrainingSet::new(
-                subset(&prepared.runs, &condition.runs),
-                subset(&prepared.poses, &condition.poses),
-                &settings.joint,
-            );
-            let samples = condition_samples(
-                &condition.runs,
-                &condition.poses,
-                &prepared,
-                units,
-                &settings.joint,
-            );
-            let uncorrected = errors_on(None, condition, &prepared, units, &settings.joint);
-            let rows = candidates
-                .iter()
-                .map(|cand| {
-                    let mut row = HeldOutScore {
-                        condition: condition.label.clone(),
-                        candidate: cand.kind().name().to_string(),
-                        physics: None,
-                        truth: None,
-                        predicted: None,
-                        floor_mps2: None,
-                        note: None,
-                    };
-                    let uncorrected = match &uncorrected {
-                        Ok(u) => u,
-                        Err(e) => {
-                            row.note = Some(format!("the uncorrected signal could not be scored: {e}"));
-                            return row;
-                        }
-                    };
-                    let (measured, uncorrected) = uncorrected;
-                    let scored = cand
-                        .train(&training, &crate::progress::silent)
-                        .map_err(|e| format!("training failed: {e}"))
-                        .and_then(|model| {
-                            errors_on(Some(&model), condition, &prepared, units, &settings.joint)
-                                .map(|scored| (model, scored))
-                                .map_err(|e| format!("scoring failed: {e}"))
-                        });
-                    match scored {
-                        Ok((model, (segments, errors))) => {
-                            row.physics =
-                                compare(&errors.physics, &uncorrected.physics, &samples.block, offset_sd);
-                            if let (Some(t), Some(u)) = (&errors.truth, &uncorrected.truth) {
-                                row.truth = compare(t, u, &samples.block, offset_sd);
-                                row.floor_mps2 =
-                                    rms_and_floor(t, samples.random.as_deref()).and_then(|r| r.1);
-                            }
-                            if let Trained::Corrector {
-                                model: CorrectorModel::Physical(physical),
-                                covariance: Some(covariance),
-                            } = &model
-                            {
-                                let ms = predicted_mean_square(&physical.sensor, covariance, measured);
-                                row.predicted = predicted_ratio(&segments, measured, &errors.physics, ms)
-                                    .map(|ratio| Prediction {
-                                        predicted_rms_mps2: ms.sqrt(),
-                                        ratio,
-                                    });
-                            }
-                            if row.physics.is_none() {
-                                row.note = Some("no sample could be scored".into());
-                            }
-                        }
-                        Err(e) => row.note = Some(e),
-                    }
-                    row
-                })
-                .collect();
-            let finished = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-            observer(Progress::step("held-out conditions", finished, Some(total)));
-            rows
-        })
-        .collect();
-    let held_out: Vec<HeldOutScore> = per_condition.into_iter().flatten().collect();
+    let scoring = HeldOutScoring {
+        prepared: &prepared,
+        units,
+        joint: &settings.joint,
+        candidates: &candidates,
+        offset_sd: offset_spread(&joint, prepared.runs.len()).max(settings.joint.bias_instability_mps2),
+    };
+    let held_out = scoring.score(&conditions, observer);
     lap("held-out conditions", &mut stages);
-
     let summaries: Vec<CandidateSummary> = candidates
         .iter()
         .map(|cand| summarise(cand.kind(), &held_out, conditions.len()))
         .collect();
     let best = choose_by_physics(&summaries);
     let truth_check = truth_check(&summaries, &held_out, best, conditions.len());
+    let found = Found {
+        n_conditions: conditions.len(),
+        truth_check: truth_check.as_ref(),
+        thermal: stage.thermal.as_ref(),
+        gyro: gyro.as_ref(),
+    };
     let (saved, verdict) = match best {
-        Some(best) => {
-            let kind = settings
-                .candidates
-                .iter()
-                .copied()
-                .find(|k| k.name() == best.candidate)
-                .unwrap_or(CandidateKind::PhysicalLinear);
-            // Every recording's joint fit is the one made above: the final training reuses it.
-            let training = TrainingSet::with_fit(
-                prepared.runs.clone(),
-                prepared.poses.clone(),
-                &settings.joint,
-                joint.clone(),
-            );
-            observer(Progress::step("final training", 0, Some(1)));
-            match candidate(kind).train(&training, observer) {
-                Ok(Trained::Dynamic(_)) => (
-                    None,
-                    format!("Nothing saved: {} cannot be saved as a corrector", kind.name()),
-                ),
-                Ok(Trained::Corrector { model, .. }) => {
-                    let verdict = format!(
-                        "Saved {} ({}), validated on {} conditions it never trained on: judged by physics alone (still poses' |f| against gravity, turntable runs against a rigid platter's motion with no sensor freedom), it leaves {:.4} m/s² mean RMS, at worst {:.2}× the uncorrected residual and never significantly worse. Trained on every recording of the campaign.{}",
-                        kind.name(),
-                        kind.describe(),
-                        conditions.len(),
-                        best.mean_rms_mps2.unwrap_or(f64::NAN),
-                        best.worst_ratio_to_uncorrected.unwrap_or(f64::NAN),
-                        truth_sentence(truth_check.as_ref())
-                    );
-                    let verdict = verdict + &thermal_sentence(stage.thermal.as_ref());
-                    let mut file = CorrectorFile::new(model);
-                    file.thermal = stage.thermal.as_ref().map(|t| t.fit.model.clone());
-                    file.gyro = gyro
-                        .as_ref()
-                        .map(|g| g.model.clone())
-                        .filter(|m| m.validate().is_ok());
-                    (Some(file), verdict)
-                }
-                Err(e) => (
-                    None,
-                    format!("Nothing saved: the final training of {} failed: {e}", kind.name()),
-                ),
-            }
-        }
+        Some(best) => save_best(best, settings, &prepared, &joint, &found, observer),
         None if conditions.is_empty() => (None, no_conditions_verdict(&prepared, &undetermined)),
-        None => {
-            let reasons: Vec<String> = summaries
-                .iter()
-                .map(|s| format!("{}: {}", s.candidate, s.why_not.as_deref().unwrap_or("?")))
-                .collect();
-            // A held-out group of poses that defeats every corrector: the rest could not pin the
-            // sensor down without it.
-            let poses_failed = reasons.iter().any(|r| r.contains("on \"poses "));
-            let next = if poses_failed {
-                format!(
-                    " Record next: more still poses ({} now; twelve, the six faces and six edges, leave each held-out third determined).",
-                    prepared.poses.len()
-                )
-            } else {
-                String::new()
-            };
-            (
-                None,
-                format!(
-                    "Nothing saved: every candidate is significantly worse than no correction on at least one held-out condition, judged by physics ({}).{next}{}",
-                    reasons.join("; "),
-                    truth_sentence(truth_check.as_ref())
-                ),
-            )
-        }
+        None => (
+            None,
+            nothing_saved_verdict(&summaries, &prepared, truth_check.as_ref()),
+        ),
     };
     lap("final training", &mut stages);
     let saved_name = saved.as_ref().and(best).map(|b| b.candidate.clone());
@@ -590,6 +441,234 @@ pub fn calibrate_campaign(
         },
         saved,
     })
+}
+
+/// The held-out groups of [`conditions`], then the temperature bands when a thermal model was
+/// fitted.
+fn held_out_conditions(prepared: &Prepared, thermal: Option<&CampaignThermal>) -> Vec<Condition> {
+    let mut conditions = conditions(prepared);
+    if let Some(thermal) = thermal {
+        conditions.extend(
+            temperature_bands(prepared, &thermal.die_c)
+                .into_iter()
+                .map(|(label, poses)| Condition {
+                    label,
+                    runs: Vec::new(),
+                    poses,
+                }),
+        );
+    }
+    conditions
+}
+
+/// What scoring the candidates on a held-out condition needs besides the condition.
+struct HeldOutScoring<'a> {
+    prepared: &'a Prepared,
+    units: &'a [UnitRecording],
+    joint: &'a JointSettings,
+    candidates: &'a [Box<dyn Candidate + Sync>],
+    /// The spread of the per-run bias offsets, which a comparison allows for, m/s².
+    offset_sd: f64,
+}
+
+impl HeldOutScoring<'_> {
+    /// Every candidate on every condition, condition by condition.
+    fn score(&self, conditions: &[Condition], observer: &Observer) -> Vec<HeldOutScore> {
+        // Conditions are independent: in parallel, collected in order (the same result on any
+        // number of threads).
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let total = conditions.len();
+        let per_condition: Vec<Vec<HeldOutScore>> = conditions
+            .par_iter()
+            .map(|condition| {
+                let rows = self.condition(condition);
+                let finished = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                observer(Progress::step("held-out conditions", finished, Some(total)));
+                rows
+            })
+            .collect();
+        per_condition.into_iter().flatten().collect()
+    }
+
+    /// Every candidate trained without the condition and scored on it.
+    fn condition(&self, condition: &Condition) -> Vec<HeldOutScore> {
+        let prepared = self.prepared;
+        let training = TrainingSet::new(
+            subset(&prepared.runs, &condition.runs),
+            subset(&prepared.poses, &condition.poses),
+            self.joint,
+        );
+        let samples = condition_samples(
+            &condition.runs,
+            &condition.poses,
+            prepared,
+            self.units,
+            self.joint,
+        );
+        let uncorrected = errors_on(None, condition, prepared, self.units, self.joint);
+        self.candidates
+            .iter()
+            .map(|cand| {
+                let row = HeldOutScore {
+                    condition: condition.label.clone(),
+                    candidate: cand.kind().name().to_string(),
+                    physics: None,
+                    truth: None,
+                    predicted: None,
+                    floor_mps2: None,
+                    note: None,
+                };
+                match &uncorrected {
+                    Ok(uncorrected) => {
+                        self.candidate(row, cand.as_ref(), condition, &training, &samples, uncorrected)
+                    }
+                    Err(e) => HeldOutScore {
+                        note: Some(format!("the uncorrected signal could not be scored: {e}")),
+                        ..row
+                    },
+                }
+            })
+            .collect()
+    }
+
+    /// One candidate's `row`: trained on `training`, its errors on the condition against the
+    /// uncorrected signal's (`measured`, `uncorrected`).
+    fn candidate(
+        &self,
+        mut row: HeldOutScore,
+        cand: &(dyn Candidate + Sync),
+        condition: &Condition,
+        training: &TrainingSet,
+        samples: &ConditionSamples,
+        (measured, uncorrected): &(Vec<Segment>, SampleErrors),
+    ) -> HeldOutScore {
+        let offset_sd = self.offset_sd;
+        let scored = cand
+            .train(training, &crate::progress::silent)
+            .map_err(|e| format!("training failed: {e}"))
+            .and_then(|model| {
+                errors_on(Some(&model), condition, self.prepared, self.units, self.joint)
+                    .map(|scored| (model, scored))
+                    .map_err(|e| format!("scoring failed: {e}"))
+            });
+        match scored {
+            Ok((model, (segments, errors))) => {
+                row.physics = compare(&errors.physics, &uncorrected.physics, &samples.block, offset_sd);
+                if let (Some(t), Some(u)) = (&errors.truth, &uncorrected.truth) {
+                    row.truth = compare(t, u, &samples.block, offset_sd);
+                    row.floor_mps2 = rms_and_floor(t, samples.random.as_deref()).and_then(|r| r.1);
+                }
+                if let Trained::Corrector {
+                    model: CorrectorModel::Physical(physical),
+                    covariance: Some(covariance),
+                } = &model
+                {
+                    let ms = predicted_mean_square(&physical.sensor, covariance, measured);
+                    row.predicted =
+                        predicted_ratio(&segments, measured, &errors.physics, ms).map(|ratio| Prediction {
+                            predicted_rms_mps2: ms.sqrt(),
+                            ratio,
+                        });
+                }
+                if row.physics.is_none() {
+                    row.note = Some("no sample could be scored".into());
+                }
+            }
+            Err(e) => row.note = Some(e),
+        }
+        row
+    }
+}
+
+/// What the saved corrector's verdict and file carry beside the corrector itself.
+struct Found<'a> {
+    n_conditions: usize,
+    truth_check: Option<&'a TruthCheck>,
+    thermal: Option<&'a CampaignThermal>,
+    gyro: Option<&'a GyroFit>,
+}
+
+/// The chosen candidate trained on every recording: the corrector file and the verdict, or why
+/// nothing was saved.
+fn save_best(
+    best: &CandidateSummary,
+    settings: &Params,
+    prepared: &Prepared,
+    joint: &JointFit,
+    found: &Found,
+    observer: &Observer,
+) -> (Option<CorrectorFile>, String) {
+    let kind = settings
+        .candidates
+        .iter()
+        .copied()
+        .find(|k| k.name() == best.candidate)
+        .unwrap_or(CandidateKind::PhysicalLinear);
+    // Every recording's joint fit is the one made above: the final training reuses it.
+    let training = TrainingSet::with_fit(
+        prepared.runs.clone(),
+        prepared.poses.clone(),
+        &settings.joint,
+        joint.clone(),
+    );
+    observer(Progress::step("final training", 0, Some(1)));
+    match candidate(kind).train(&training, observer) {
+        Ok(Trained::Dynamic(_)) => (
+            None,
+            format!("Nothing saved: {} cannot be saved as a corrector", kind.name()),
+        ),
+        Ok(Trained::Corrector { model, .. }) => {
+            let verdict = format!(
+                "Saved {} ({}), validated on {} conditions it never trained on: judged by physics alone (still poses' |f| against gravity, turntable runs against a rigid platter's motion with no sensor freedom), it leaves {:.4} m/s² mean RMS, at worst {:.2}× the uncorrected residual and never significantly worse. Trained on every recording of the campaign.{}",
+                kind.name(),
+                kind.describe(),
+                found.n_conditions,
+                best.mean_rms_mps2.unwrap_or(f64::NAN),
+                best.worst_ratio_to_uncorrected.unwrap_or(f64::NAN),
+                truth_sentence(found.truth_check)
+            );
+            let verdict = verdict + &thermal_sentence(found.thermal);
+            let mut file = CorrectorFile::new(model);
+            file.thermal = found.thermal.map(|t| t.fit.model.clone());
+            file.gyro = found
+                .gyro
+                .map(|g| g.model.clone())
+                .filter(|m| m.validate().is_ok());
+            (Some(file), verdict)
+        }
+        Err(e) => (
+            None,
+            format!("Nothing saved: the final training of {} failed: {e}", kind.name()),
+        ),
+    }
+}
+
+/// Why no candidate was saved although there were conditions to hold out.
+fn nothing_saved_verdict(
+    summaries: &[CandidateSummary],
+    prepared: &Prepared,
+    truth_check: Option<&TruthCheck>,
+) -> String {
+    let reasons: Vec<String> = summaries
+        .iter()
+        .map(|s| format!("{}: {}", s.candidate, s.why_not.as_deref().unwrap_or("?")))
+        .collect();
+    // A held-out group of poses that defeats every corrector: the rest could not pin the
+    // sensor down without it.
+    let poses_failed = reasons.iter().any(|r| r.contains("on \"poses "));
+    let next = if poses_failed {
+        format!(
+            " Record next: more still poses ({} now; twelve, the six faces and six edges, leave each held-out third determined).",
+            prepared.poses.len()
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "Nothing saved: every candidate is significantly worse than no correction on at least one held-out condition, judged by physics ({}).{next}{}",
+        reasons.join("; "),
+        truth_sentence(truth_check)
+    )
 }
 
 /// What the saved model does about temperature, for the verdict.

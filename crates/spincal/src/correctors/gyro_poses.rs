@@ -281,7 +281,62 @@ pub fn fit_gyro_poses(
     poses: &[StillPose],
     options: &GyroPoseOptions,
 ) -> Result<GyroPoseFit, GyroPoseError> {
-    let n = time_s.len();
+    check_options(options)?;
+    check_readings(time_s, gyro)?;
+    let ups = pose_ups(poses, time_s.len())?;
+    let found = poses.len().saturating_sub(1);
+    let needed = options.min_rotations.max(6);
+    if found < needed {
+        return Err(GyroPoseError::TooFewRotations { needed, found });
+    }
+    let dt = crate::input::recording::sample_interval(time_s);
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(GyroPoseError::BadSampleInterval(dt));
+    }
+
+    let (bias, bias_se) = still_bias(gyro, poses, options.bias_from);
+    let motions = motions(time_s, gyro, poses, &ups, bias, dt, options.max_step_intervals)?;
+    check_span(&motions, options.min_axis_share)?;
+
+    let problem = Problem { motions: &motions };
+    let initial_scale = match options.initial_scale {
+        Some(s) => s.abs(),
+        None => estimate_scale(&motions),
+    };
+    let (report, initial_signs) = problem.best_fit(initial_scale, options)?;
+    let k = params_to_k(&report.params);
+    let Some(predicted) = problem.predictions(&report.params) else {
+        return Err(GyroPoseError::Diverged);
+    };
+    let a = inverse(&k).ok_or(GyroPoseError::Diverged)?;
+    let dof = (2 * motions.len()).saturating_sub(9).max(1);
+    let sigma2 = report.sse / dof as f64;
+    let variances = covariance_diagonal(&report.jtj).unwrap_or_else(|| vec![f64::NAN; 9]);
+    let sensitivity_se: M3 =
+        std::array::from_fn(|i| std::array::from_fn(|j| (variances[3 * i + j] * sigma2).sqrt()));
+
+    let rotations = rotation_checks(&motions, &predicted, &a, time_s, poses);
+    let rms_residual_deg =
+        (rotations.iter().map(|r| r.residual_deg.powi(2)).sum::<f64>() / rotations.len() as f64).sqrt();
+    Ok(GyroPoseFit {
+        model: GyroModel {
+            bias_radps: bias,
+            sensitivity: k,
+            input_unit: options.input_unit,
+        },
+        bias_from: options.bias_from,
+        bias_se,
+        sensitivity_se,
+        rotations,
+        rms_residual_deg,
+        initial_scale,
+        initial_signs,
+        iterations: report.iterations,
+        stop: report.stop,
+    })
+}
+
+fn check_options(options: &GyroPoseOptions) -> Result<(), GyroPoseError> {
     // The share may be 0 (no span check); the scale's sign is ignored but 0 would start nowhere.
     let checks = [
         (
@@ -305,6 +360,12 @@ pub fn fit_gyro_poses(
             return Err(GyroPoseError::BadOption { name, value });
         }
     }
+    Ok(())
+}
+
+/// One gyro sample per time, every time and reading finite.
+fn check_readings(time_s: &[f64], gyro: &[Vec<f64>; 3]) -> Result<(), GyroPoseError> {
+    let n = time_s.len();
     if let Some(axis) = gyro.iter().find(|g| g.len() != n) {
         return Err(GyroPoseError::LengthMismatch {
             found: axis.len(),
@@ -327,6 +388,11 @@ pub fn fit_gyro_poses(
             });
         }
     }
+    Ok(())
+}
+
+/// Each pose's gravity direction; the poses must lie in order within the `n` samples.
+fn pose_ups(poses: &[StillPose], n: usize) -> Result<Vec<[f64; 3]>, GyroPoseError> {
     let mut previous_end = 0;
     let mut ups = Vec::with_capacity(poses.len());
     for (index, pose) in poses.iter().enumerate() {
@@ -348,23 +414,26 @@ pub fn fit_gyro_poses(
         }
         ups.push(pose.accel_mps2.map(|v| v / norm));
     }
-    let found = poses.len().saturating_sub(1);
-    let needed = options.min_rotations.max(6);
-    if found < needed {
-        return Err(GyroPoseError::TooFewRotations { needed, found });
-    }
-    let dt = crate::input::recording::sample_interval(time_s);
-    if !(dt.is_finite() && dt > 0.0) {
-        return Err(GyroPoseError::BadSampleInterval(dt));
-    }
+    Ok(ups)
+}
 
-    let (bias, bias_se) = still_bias(gyro, poses, options.bias_from);
+/// The motion between each pair of consecutive poses, refused where a gap breaks it.
+fn motions(
+    time_s: &[f64],
+    gyro: &[Vec<f64>; 3],
+    poses: &[StillPose],
+    ups: &[[f64; 3]],
+    bias: [f64; 3],
+    dt: f64,
+    max_step_intervals: f64,
+) -> Result<Vec<Motion>, GyroPoseError> {
+    let found = poses.len().saturating_sub(1);
     let mut motions = Vec::with_capacity(found);
     for r in 0..found {
         let (first, last) = (poses[r].end - 1, poses[r + 1].start);
         for k in first..last {
             let step = time_s[k + 1] - time_s[k];
-            if step > options.max_step_intervals * dt || step < 0.0 {
+            if step > max_step_intervals * dt || step < 0.0 {
                 return Err(GyroPoseError::GapInMotion {
                     rotation: r,
                     from_pose: r,
@@ -384,70 +453,73 @@ pub fn fit_gyro_poses(
             up_after: ups[r + 1],
         });
     }
-    check_span(&motions, options.min_axis_share)?;
+    Ok(motions)
+}
 
-    let problem = Problem { motions: &motions };
-    let initial_scale = match options.initial_scale {
-        Some(s) => s.abs(),
-        None => estimate_scale(&motions),
-    };
-    let lm = LmOptions {
-        max_iterations: 200,
-        ..Default::default()
-    };
-    // Each axis's sign is unknown and the cost has local minima (a rotation wrong by a turn fits
-    // as well as a right one), so the starts are K = diag(±s) for the eight sign patterns and a
-    // grid of s from a quarter to four times the estimate (and 1 for rad/s); LM runs from the
-    // three cheapest, and the lowest cost wins.
-    let mut scales: Vec<f64> = (0..=32)
-        .map(|k| initial_scale * 16f64.powf(k as f64 / 32.0) / 4.0)
-        .collect();
-    if options.input_unit == GyroInputUnit::RadPerS && options.initial_scale.is_none() {
-        scales.push(1.0);
-    }
-    let mut starts: Vec<(f64, Vec<f64>, [f64; 3])> = Vec::new();
-    let mut r = vec![0.0; problem.n_residuals()];
-    for pattern in 0..8 {
-        let signs: [f64; 3] = std::array::from_fn(|a| if pattern >> a & 1 == 1 { -1.0 } else { 1.0 });
-        for &scale in &scales {
-            let mut p0 = vec![0.0; 9];
-            for a in 0..3 {
-                p0[4 * a] = signs[a] * scale;
-            }
-            problem.residuals(&p0, &mut r);
-            let sse: f64 = r.iter().map(|v| v * v).sum();
-            if sse.is_finite() {
-                starts.push((sse, p0, signs));
+impl Problem<'_> {
+    /// The lowest-cost LM fit over the starts, with the signs of the start it came from.
+    fn best_fit(
+        &self,
+        initial_scale: f64,
+        options: &GyroPoseOptions,
+    ) -> Result<(crate::optim::LmReport, [f64; 3]), GyroPoseError> {
+        let lm = LmOptions {
+            max_iterations: 200,
+            ..Default::default()
+        };
+        // Each axis's sign is unknown and the cost has local minima (a rotation wrong by a turn
+        // fits as well as a right one), so the starts are K = diag(±s) for the eight sign
+        // patterns and a grid of s from a quarter to four times the estimate (and 1 for rad/s);
+        // LM runs from the three cheapest, and the lowest cost wins.
+        let mut scales: Vec<f64> = (0..=32)
+            .map(|k| initial_scale * 16f64.powf(k as f64 / 32.0) / 4.0)
+            .collect();
+        if options.input_unit == GyroInputUnit::RadPerS && options.initial_scale.is_none() {
+            scales.push(1.0);
+        }
+        let mut starts: Vec<(f64, Vec<f64>, [f64; 3])> = Vec::new();
+        let mut r = vec![0.0; self.n_residuals()];
+        for pattern in 0..8 {
+            let signs: [f64; 3] = std::array::from_fn(|a| if pattern >> a & 1 == 1 { -1.0 } else { 1.0 });
+            for &scale in &scales {
+                let mut p0 = vec![0.0; 9];
+                for a in 0..3 {
+                    p0[4 * a] = signs[a] * scale;
+                }
+                self.residuals(&p0, &mut r);
+                let sse: f64 = r.iter().map(|v| v * v).sum();
+                if sse.is_finite() {
+                    starts.push((sse, p0, signs));
+                }
             }
         }
-    }
-    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut best: Option<(crate::optim::LmReport, [f64; 3])> = None;
-    for (_, p0, signs) in starts.into_iter().take(3) {
-        let report = levenberg_marquardt(&problem, &p0, &lm, &crate::progress::silent);
-        let usable = report.sse.is_finite() && report.params.iter().all(|v| v.is_finite());
-        if usable && best.as_ref().is_none_or(|(b, _)| report.sse < b.sse) {
-            best = Some((report, signs));
+        starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut best: Option<(crate::optim::LmReport, [f64; 3])> = None;
+        for (_, p0, signs) in starts.into_iter().take(3) {
+            let report = levenberg_marquardt(self, &p0, &lm, &crate::progress::silent);
+            let usable = report.sse.is_finite() && report.params.iter().all(|v| v.is_finite());
+            if usable && best.as_ref().is_none_or(|(b, _)| report.sse < b.sse) {
+                best = Some((report, signs));
+            }
         }
+        best.ok_or(GyroPoseError::Diverged)
     }
-    let (report, initial_signs) = best.ok_or(GyroPoseError::Diverged)?;
-    let k = params_to_k(&report.params);
-    let Some(predicted) = problem.predictions(&report.params) else {
-        return Err(GyroPoseError::Diverged);
-    };
-    let a = inverse(&k).ok_or(GyroPoseError::Diverged)?;
-    let dof = (2 * motions.len()).saturating_sub(9).max(1);
-    let sigma2 = report.sse / dof as f64;
-    let variances = covariance_diagonal(&report.jtj).unwrap_or_else(|| vec![f64::NAN; 9]);
-    let sensitivity_se: M3 =
-        std::array::from_fn(|i| std::array::from_fn(|j| (variances[3 * i + j] * sigma2).sqrt()));
+}
 
-    let rotations: Vec<RotationCheck> = motions
+/// Each rotation after the fit (`a` = K⁻¹, `predicted` the up directions it predicts).
+fn rotation_checks(
+    motions: &[Motion],
+    predicted: &[[f64; 3]],
+    a: &M3,
+    time_s: &[f64],
+    poses: &[StillPose],
+) -> Vec<RotationCheck> {
+    motions
         .iter()
-        .zip(&predicted)
+        .zip(predicted)
         .enumerate()
         .map(|(r, (m, u))| {
-            let q = integrate(&a, &m.increments);
+            let q = integrate(a, &m.increments);
             RotationCheck {
                 from_pose: r,
                 to_pose: r + 1,
@@ -458,25 +530,7 @@ pub fn fit_gyro_poses(
                 residual_deg: angle_between(u, &m.up_after).to_degrees(),
             }
         })
-        .collect();
-    let rms_residual_deg =
-        (rotations.iter().map(|r| r.residual_deg.powi(2)).sum::<f64>() / rotations.len() as f64).sqrt();
-    Ok(GyroPoseFit {
-        model: GyroModel {
-            bias_radps: bias,
-            sensitivity: k,
-            input_unit: options.input_unit,
-        },
-        bias_from: options.bias_from,
-        bias_se,
-        sensitivity_se,
-        rotations,
-        rms_residual_deg,
-        initial_scale,
-        initial_signs,
-        iterations: report.iterations,
-        stop: report.stop,
-    })
+        .collect()
 }
 
 /// The bias and its standard error from the still samples `source` names.

@@ -208,151 +208,10 @@ fn fmt(v: f64) -> String {
 /// The fleet table of these outcomes.
 pub fn fleet_table(units: &[UnitOutcome], settings: &OutlierSettings) -> FleetTable {
     let parameters: Vec<String> = (0..SENSOR_PARAMS).map(parameter_label).collect();
-    let mut rows: Vec<FleetRow> = units
-        .iter()
-        .map(|u| match &u.result {
-            Ok(cal) => {
-                let params = cal.sensor_params();
-                let value = |k: usize| params.get(k).map(|p| p.value).filter(|v| v.is_finite());
-                let se = |k: usize| params.get(k).and_then(|p| p.std_error).filter(|v| v.is_finite());
-                let held_out = cal.saved().and_then(|name| {
-                    cal.result
-                        .candidates
-                        .iter()
-                        .find(|c| c.candidate == name)
-                        .and_then(|c| c.mean_rms_mps2)
-                });
-                FleetRow {
-                    unit: u.unit.clone(),
-                    source: u.source.display().to_string(),
-                    campaign_unit: Some(cal.unit.clone()),
-                    ok: true,
-                    saved: cal.saved().map(str::to_string),
-                    held_out_rms_mps2: held_out,
-                    values: (0..SENSOR_PARAMS).map(value).collect(),
-                    std_errors: (0..SENSOR_PARAMS).map(se).collect(),
-                    flags: Vec::new(),
-                    error: None,
-                }
-            }
-            Err(message) => FleetRow {
-                unit: u.unit.clone(),
-                source: u.source.display().to_string(),
-                campaign_unit: None,
-                ok: false,
-                saved: None,
-                held_out_rms_mps2: None,
-                values: vec![None; SENSOR_PARAMS],
-                std_errors: vec![None; SENSOR_PARAMS],
-                flags: Vec::new(),
-                error: Some(message.clone()),
-            },
-        })
-        .collect();
-
+    let mut rows: Vec<FleetRow> = units.iter().map(fleet_row).collect();
     let mut stats = Vec::with_capacity(SENSOR_PARAMS);
-    for k in 0..SENSOR_PARAMS {
-        let present: Vec<(usize, f64, Option<f64>)> = rows
-            .iter()
-            .enumerate()
-            .filter_map(|(i, r)| r.values[k].map(|v| (i, v, r.std_errors[k])))
-            .collect();
-        let values: Vec<f64> = present.iter().map(|p| p.1).collect();
-        let centre = robust_centre_spread(&values);
-        let ses: Vec<f64> = present.iter().filter_map(|p| p.2).collect();
-        let median_se = robust_centre_spread(&ses).map(|(m, _)| m);
-        let judged = centre.is_some() && present.len() >= settings.min_units.max(1);
-        // The screen: units within `screen` robust spreads of the median.
-        let passes: Vec<bool> = match centre {
-            Some((m, spread)) => present
-                .iter()
-                .map(|p| (p.1 - m).abs() <= settings.screen * spread)
-                .collect(),
-            None => vec![false; present.len()],
-        };
-        let screened: Vec<f64> = present
-            .iter()
-            .zip(&passes)
-            .filter(|(_, &ok)| ok)
-            .map(|(p, _)| p.1)
-            .collect();
-        let screened_units = screened.len();
-        let (screened_mean, screened_sd) = mean_sd(&screened);
-        let limits = match (screened_mean, screened_sd) {
-            (Some(mean), Some(sd)) if judged && screened_units >= 3 => {
-                let c = student_t_quantile(
-                    1.0 - settings.false_alarm_probability / 2.0,
-                    (screened_units - 1) as f64,
-                );
-                let half = c * sd * (1.0 + 1.0 / screened_units as f64).sqrt();
-                Some([mean - half, mean + half])
-            }
-            _ => None,
-        };
-        if judged {
-            for (j, &(i, x, se)) in present.iter().enumerate() {
-                let reference: Vec<f64> = present
-                    .iter()
-                    .enumerate()
-                    .filter(|&(other, _)| other != j && passes[other])
-                    .map(|(_, p)| p.1)
-                    .collect();
-                let k_ref = reference.len();
-                let (Some(mean), Some(sd)) = mean_sd(&reference) else {
-                    continue;
-                };
-                if k_ref < 3 {
-                    continue;
-                }
-                let var = sd * sd;
-                let scale = (var * (1.0 + 1.0 / k_ref as f64) + se.unwrap_or(0.0).powi(2)).sqrt();
-                if scale.is_nan() || scale <= 0.0 {
-                    continue;
-                }
-                let z = (x - mean) / scale;
-                let critical =
-                    student_t_quantile(1.0 - settings.false_alarm_probability / 2.0, (k_ref - 1) as f64);
-                if z.abs() > critical {
-                    let flag = OutlierFlag {
-                        unit: rows[i].unit.clone(),
-                        parameter: parameters[k].clone(),
-                        value: x,
-                        std_error: se,
-                        reference_units: k_ref,
-                        reference_mean: mean,
-                        reference_sd: var.sqrt(),
-                        score: z,
-                        critical,
-                        reason: format!(
-                            "{} = {}{}: z = {:+.1} against the {} other units (mean {}, sd {}); flagged beyond {:.1}",
-                            parameters[k],
-                            fmt(x),
-                            se.map_or(String::new(), |se| format!(" ± {}", fmt(se))),
-                            z,
-                            k_ref,
-                            fmt(mean),
-                            fmt(var.sqrt()),
-                            critical
-                        ),
-                    };
-                    rows[i].flags.push(flag);
-                }
-            }
-        }
-        stats.push(ParameterStats {
-            parameter: parameters[k].clone(),
-            units: present.len(),
-            median: centre.map(|c| c.0),
-            spread: centre.map(|c| c.1),
-            screened_units,
-            screened_mean,
-            screened_sd,
-            limits,
-            min: values.iter().copied().reduce(f64::min),
-            max: values.iter().copied().reduce(f64::max),
-            median_std_error: median_se,
-            judged,
-        });
+    for (k, parameter) in parameters.iter().enumerate() {
+        stats.push(parameter_stats(k, parameter, &mut rows, settings));
     }
     let outliers = rows.iter().flat_map(|r| r.flags.iter().cloned()).collect();
     let units_ok = rows.iter().filter(|r| r.ok).count();
@@ -368,6 +227,170 @@ pub fn fleet_table(units: &[UnitOutcome], settings: &OutlierSettings) -> FleetTa
             settings.false_alarm_probability, settings.screen, settings.min_units
         ),
         settings: settings.clone(),
+    }
+}
+
+/// A unit's row: its sensor parameters and what it saved, or why it failed.
+fn fleet_row(u: &UnitOutcome) -> FleetRow {
+    match &u.result {
+        Ok(cal) => {
+            let params = cal.sensor_params();
+            let value = |k: usize| params.get(k).map(|p| p.value).filter(|v| v.is_finite());
+            let se = |k: usize| params.get(k).and_then(|p| p.std_error).filter(|v| v.is_finite());
+            let held_out = cal.saved().and_then(|name| {
+                cal.result
+                    .candidates
+                    .iter()
+                    .find(|c| c.candidate == name)
+                    .and_then(|c| c.mean_rms_mps2)
+            });
+            FleetRow {
+                unit: u.unit.clone(),
+                source: u.source.display().to_string(),
+                campaign_unit: Some(cal.unit.clone()),
+                ok: true,
+                saved: cal.saved().map(str::to_string),
+                held_out_rms_mps2: held_out,
+                values: (0..SENSOR_PARAMS).map(value).collect(),
+                std_errors: (0..SENSOR_PARAMS).map(se).collect(),
+                flags: Vec::new(),
+                error: None,
+            }
+        }
+        Err(message) => FleetRow {
+            unit: u.unit.clone(),
+            source: u.source.display().to_string(),
+            campaign_unit: None,
+            ok: false,
+            saved: None,
+            held_out_rms_mps2: None,
+            values: vec![None; SENSOR_PARAMS],
+            std_errors: vec![None; SENSOR_PARAMS],
+            flags: Vec::new(),
+            error: Some(message.clone()),
+        },
+    }
+}
+
+/// Parameter `k` over the fleet: its robust centre, the screened units' mean and limits; flags
+/// the rows of units that lie beyond the others.
+fn parameter_stats(
+    k: usize,
+    parameter: &str,
+    rows: &mut [FleetRow],
+    settings: &OutlierSettings,
+) -> ParameterStats {
+    let present: Vec<(usize, f64, Option<f64>)> = rows
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| r.values[k].map(|v| (i, v, r.std_errors[k])))
+        .collect();
+    let values: Vec<f64> = present.iter().map(|p| p.1).collect();
+    let centre = robust_centre_spread(&values);
+    let ses: Vec<f64> = present.iter().filter_map(|p| p.2).collect();
+    let median_se = robust_centre_spread(&ses).map(|(m, _)| m);
+    let judged = centre.is_some() && present.len() >= settings.min_units.max(1);
+    // The screen: units within `screen` robust spreads of the median.
+    let passes: Vec<bool> = match centre {
+        Some((m, spread)) => present
+            .iter()
+            .map(|p| (p.1 - m).abs() <= settings.screen * spread)
+            .collect(),
+        None => vec![false; present.len()],
+    };
+    let screened: Vec<f64> = present
+        .iter()
+        .zip(&passes)
+        .filter(|(_, &ok)| ok)
+        .map(|(p, _)| p.1)
+        .collect();
+    let screened_units = screened.len();
+    let (screened_mean, screened_sd) = mean_sd(&screened);
+    let limits = match (screened_mean, screened_sd) {
+        (Some(mean), Some(sd)) if judged && screened_units >= 3 => {
+            let c = student_t_quantile(
+                1.0 - settings.false_alarm_probability / 2.0,
+                (screened_units - 1) as f64,
+            );
+            let half = c * sd * (1.0 + 1.0 / screened_units as f64).sqrt();
+            Some([mean - half, mean + half])
+        }
+        _ => None,
+    };
+    if judged {
+        flag_outliers(parameter, &present, &passes, rows, settings);
+    }
+    ParameterStats {
+        parameter: parameter.to_string(),
+        units: present.len(),
+        median: centre.map(|c| c.0),
+        spread: centre.map(|c| c.1),
+        screened_units,
+        screened_mean,
+        screened_sd,
+        limits,
+        min: values.iter().copied().reduce(f64::min),
+        max: values.iter().copied().reduce(f64::max),
+        median_std_error: median_se,
+        judged,
+    }
+}
+
+/// Flags each unit whose value of the parameter lies beyond the prediction interval of the other
+/// screened units (`passes`), on its row.
+fn flag_outliers(
+    parameter: &str,
+    present: &[(usize, f64, Option<f64>)],
+    passes: &[bool],
+    rows: &mut [FleetRow],
+    settings: &OutlierSettings,
+) {
+    for (j, &(i, x, se)) in present.iter().enumerate() {
+        let reference: Vec<f64> = present
+            .iter()
+            .enumerate()
+            .filter(|&(other, _)| other != j && passes[other])
+            .map(|(_, p)| p.1)
+            .collect();
+        let k_ref = reference.len();
+        let (Some(mean), Some(sd)) = mean_sd(&reference) else {
+            continue;
+        };
+        if k_ref < 3 {
+            continue;
+        }
+        let var = sd * sd;
+        let scale = (var * (1.0 + 1.0 / k_ref as f64) + se.unwrap_or(0.0).powi(2)).sqrt();
+        if scale.is_nan() || scale <= 0.0 {
+            continue;
+        }
+        let z = (x - mean) / scale;
+        let critical = student_t_quantile(1.0 - settings.false_alarm_probability / 2.0, (k_ref - 1) as f64);
+        if z.abs() > critical {
+            let flag = OutlierFlag {
+                unit: rows[i].unit.clone(),
+                parameter: parameter.to_string(),
+                value: x,
+                std_error: se,
+                reference_units: k_ref,
+                reference_mean: mean,
+                reference_sd: var.sqrt(),
+                score: z,
+                critical,
+                reason: format!(
+                    "{} = {}{}: z = {:+.1} against the {} other units (mean {}, sd {}); flagged beyond {:.1}",
+                    parameter,
+                    fmt(x),
+                    se.map_or(String::new(), |se| format!(" ± {}", fmt(se))),
+                    z,
+                    k_ref,
+                    fmt(mean),
+                    fmt(var.sqrt()),
+                    critical
+                ),
+            };
+            rows[i].flags.push(flag);
+        }
     }
 }
 

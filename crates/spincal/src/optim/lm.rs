@@ -153,21 +153,57 @@ pub fn levenberg_marquardt_normal(
     observer: &Observer,
 ) -> LmReport {
     let n = problem.n_params();
-    let clip = |p: &mut [f64]| {
-        if let (Some(lo), Some(hi)) = (&options.lower, &options.upper) {
+    let limits = Limits { free, options };
+    let mut p = p0.to_vec();
+    limits.clip(&mut p);
+    let mut state = LmState {
+        p,
+        jtj: Mat::<f64>::zeros(n, n),
+        g: vec![0.0; n],
+        trial: vec![0.0; n],
+        sse: f64::NAN,
+        iterations: 0,
+    };
+    let stop = damped_iterations(problem, &limits, &mut state, observer);
+    state.sse = problem.normal_equations(&state.p, &mut state.jtj, &mut state.g);
+    if options.polish_se_tolerance > 0.0 && state.sse.is_finite() {
+        polish(problem, &limits, &mut state);
+    }
+    LmReport {
+        params: state.p,
+        sse: state.sse,
+        iterations: state.iterations,
+        stop,
+        jtj: state.jtj,
+    }
+}
+
+/// The box and the fixed parameters, as every step sees them.
+struct Limits<'a> {
+    free: Option<&'a [bool]>,
+    options: &'a LmOptions,
+}
+
+impl Limits<'_> {
+    fn clip(&self, p: &mut [f64]) {
+        if let (Some(lo), Some(hi)) = (&self.options.lower, &self.options.upper) {
             for i in 0..p.len() {
                 p[i] = p[i].clamp(lo[i], hi[i]);
             }
         }
-    };
-    let fixed = |k: usize| free.is_some_and(|f| !f[k]);
-    // Fixed parameters, and those on a bound whose descent direction points out of the box, stay
-    // put.
-    let pinned_at = |p: &[f64], g: &[f64]| -> Vec<bool> {
-        (0..n)
+    }
+
+    fn fixed(&self, k: usize) -> bool {
+        self.free.is_some_and(|f| !f[k])
+    }
+
+    /// Fixed parameters, and those on a bound whose descent direction points out of the box,
+    /// stay put.
+    fn pinned_at(&self, p: &[f64], g: &[f64]) -> Vec<bool> {
+        (0..g.len())
             .map(|k| {
-                fixed(k)
-                    || match (&options.lower, &options.upper) {
+                self.fixed(k)
+                    || match (&self.options.lower, &self.options.upper) {
                         (Some(lo), Some(hi)) => {
                             (p[k] <= lo[k] && g[k] > 0.0) || (p[k] >= hi[k] && g[k] < 0.0)
                         }
@@ -175,35 +211,58 @@ pub fn levenberg_marquardt_normal(
                     }
             })
             .collect()
-    };
-    let mut p = p0.to_vec();
-    clip(&mut p);
-    let mut jtj = Mat::<f64>::zeros(n, n);
-    let mut g = vec![0.0; n];
-    let mut trial = vec![0.0; n];
+    }
+}
 
-    let mut sse = f64::NAN;
+/// The iterate and its normal equations, carried from the damped iterations to the polish.
+struct LmState {
+    p: Vec<f64>,
+    jtj: Mat<f64>,
+    /// The gradient Jᵀr at `p`.
+    g: Vec<f64>,
+    /// Scratch for a trial point.
+    trial: Vec<f64>,
+    sse: f64,
+    iterations: usize,
+}
+
+/// The damped iterations (Nielsen's rule) until a tolerance or the iteration limit stops them.
+fn damped_iterations(
+    problem: &dyn NormalEquations,
+    limits: &Limits,
+    state: &mut LmState,
+    observer: &Observer,
+) -> LmStop {
+    let options = limits.options;
+    let LmState {
+        p,
+        jtj,
+        g,
+        trial,
+        sse,
+        iterations,
+    } = state;
+    let n = g.len();
     let mut mu = options.initial_damping;
     let mut nu = 2.0;
     let mut stop = LmStop::MaxIterations;
-    let mut iterations = 0;
     let mut need_jacobian = true;
 
-    while iterations < options.max_iterations {
+    while *iterations < options.max_iterations {
         if need_jacobian {
-            sse = problem.normal_equations(&p, &mut jtj, &mut g);
+            *sse = problem.normal_equations(p, jtj, g);
             need_jacobian = false;
             let largest = (0..n)
-                .filter(|&k| !fixed(k))
+                .filter(|&k| !limits.fixed(k))
                 .fold(0.0f64, |a, k| a.max(g[k].abs()));
             if largest < options.gradient_tolerance {
                 stop = LmStop::GradientTolerance;
                 break;
             }
         }
-        iterations += 1;
-        let pinned = pinned_at(&p, &g);
-        let Some(delta) = damped_step(&jtj, &g, mu, &pinned) else {
+        *iterations += 1;
+        let pinned = limits.pinned_at(p, g);
+        let Some(delta) = damped_step(jtj, g, mu, &pinned) else {
             mu *= nu;
             nu *= 2.0;
             if mu > 1e30 {
@@ -215,35 +274,27 @@ pub fn levenberg_marquardt_normal(
         for k in 0..n {
             trial[k] = p[k] + delta[k];
         }
-        clip(&mut trial);
+        limits.clip(trial);
         let step: Vec<f64> = (0..n).map(|k| trial[k] - p[k]).collect();
-        let sse_trial = problem.sse(&trial);
-        // Predicted decrease of the quadratic model for the (clipped) step.
-        let mut predicted = 0.0;
-        for a in 0..n {
-            let mut jtj_step = 0.0;
-            for b in 0..n {
-                jtj_step += jtj[(a, b)] * step[b];
-            }
-            predicted -= step[a] * (2.0 * g[a] + jtj_step);
-        }
-        let rho = (sse - sse_trial) / predicted.max(f64::MIN_POSITIVE);
-        if sse_trial.is_finite() && sse_trial < sse {
-            let relative = (sse - sse_trial) / sse.max(f64::MIN_POSITIVE);
+        let sse_trial = problem.sse(trial);
+        let predicted = predicted_decrease(jtj, g, &step);
+        let rho = (*sse - sse_trial) / predicted.max(f64::MIN_POSITIVE);
+        if sse_trial.is_finite() && sse_trial < *sse {
+            let relative = (*sse - sse_trial) / (*sse).max(f64::MIN_POSITIVE);
             let small_step = step
                 .iter()
-                .zip(&p)
+                .zip(p.iter())
                 .all(|(d, x)| d.abs() <= options.step_tolerance * (x.abs() + options.step_tolerance));
-            p.copy_from_slice(&trial);
-            sse = sse_trial;
+            p.copy_from_slice(trial);
+            *sse = sse_trial;
             mu *= (1.0 / 3.0f64).max(1.0 - (2.0 * rho - 1.0).powi(3));
             nu = 2.0;
             need_jacobian = true;
             observer(Progress {
                 stage: "Levenberg–Marquardt",
-                done: iterations,
+                done: *iterations,
                 total: Some(options.max_iterations),
-                cost: Some(sse),
+                cost: Some(*sse),
             });
             if relative < options.cost_tolerance {
                 stop = LmStop::CostTolerance;
@@ -262,41 +313,61 @@ pub fn levenberg_marquardt_normal(
             }
         }
     }
-    sse = problem.normal_equations(&p, &mut jtj, &mut g);
-    if options.polish_se_tolerance > 0.0 && sse.is_finite() {
-        // Polish steps count as iterations, so `max_iterations: 0` still means none at all.
-        for _ in 0..POLISH_STEPS.min(options.max_iterations.saturating_sub(iterations)) {
-            let pinned = pinned_at(&p, &g);
-            let Some((delta, variance)) = gauss_newton_step(&jtj, &g, &pinned) else {
-                break;
-            };
-            let largest = (0..n)
-                .filter(|&k| !pinned[k] && variance[k] > 0.0)
-                .fold(0.0f64, |a, k| a.max(delta[k].abs() / variance[k].sqrt()));
-            if largest <= options.polish_se_tolerance {
-                break;
-            }
-            for k in 0..n {
-                trial[k] = p[k] + delta[k];
-            }
-            clip(&mut trial);
-            // This close to the minimum a step lowers the cost by (d SE)² ≈ 1e-9 for d = 3e-5,
-            // below the rounding of a sum over many residuals; only a real rise stops the polish.
-            let sse_trial = problem.sse(&trial);
-            if sse_trial.is_nan() || sse_trial > sse * (1.0 + POLISH_COST_SLACK) {
-                break;
-            }
-            p.copy_from_slice(&trial);
-            iterations += 1;
-            sse = problem.normal_equations(&p, &mut jtj, &mut g);
+    stop
+}
+
+/// Predicted decrease of the quadratic model for the (clipped) step.
+fn predicted_decrease(jtj: &Mat<f64>, g: &[f64], step: &[f64]) -> f64 {
+    let n = step.len();
+    let mut predicted = 0.0;
+    for a in 0..n {
+        let mut jtj_step = 0.0;
+        for b in 0..n {
+            jtj_step += jtj[(a, b)] * step[b];
         }
+        predicted -= step[a] * (2.0 * g[a] + jtj_step);
     }
-    LmReport {
-        params: p,
+    predicted
+}
+
+/// Undamped Gauss–Newton steps from the damped iterations' end while a step still moves some
+/// parameter by more than [`LmOptions::polish_se_tolerance`] standard errors.
+fn polish(problem: &dyn NormalEquations, limits: &Limits, state: &mut LmState) {
+    let options = limits.options;
+    let LmState {
+        p,
+        jtj,
+        g,
+        trial,
         sse,
         iterations,
-        stop,
-        jtj,
+    } = state;
+    let n = g.len();
+    // Polish steps count as iterations, so `max_iterations: 0` still means none at all.
+    for _ in 0..POLISH_STEPS.min(options.max_iterations.saturating_sub(*iterations)) {
+        let pinned = limits.pinned_at(p, g);
+        let Some((delta, variance)) = gauss_newton_step(jtj, g, &pinned) else {
+            break;
+        };
+        let largest = (0..n)
+            .filter(|&k| !pinned[k] && variance[k] > 0.0)
+            .fold(0.0f64, |a, k| a.max(delta[k].abs() / variance[k].sqrt()));
+        if largest <= options.polish_se_tolerance {
+            break;
+        }
+        for k in 0..n {
+            trial[k] = p[k] + delta[k];
+        }
+        limits.clip(trial);
+        // This close to the minimum a step lowers the cost by (d SE)² ≈ 1e-9 for d = 3e-5,
+        // below the rounding of a sum over many residuals; only a real rise stops the polish.
+        let sse_trial = problem.sse(trial);
+        if sse_trial.is_nan() || sse_trial > *sse * (1.0 + POLISH_COST_SLACK) {
+            break;
+        }
+        p.copy_from_slice(trial);
+        *iterations += 1;
+        *sse = problem.normal_equations(p, jtj, g);
     }
 }
 

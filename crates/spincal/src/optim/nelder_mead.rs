@@ -199,19 +199,66 @@ fn simplex(
     if n == 0 {
         return (Vec::new(), f(z0), 0, true);
     }
-    let (rho, chi, gamma, sigma) = (1.0, 2.0, 0.5, 0.5);
-    let mut points: Vec<Vec<f64>> = vec![z0.to_vec()];
-    for k in 0..n {
-        let mut p = z0.to_vec();
-        p[k] = if p[k] != 0.0 { 1.05 * p[k] } else { 0.00025 };
-        points.push(p);
-    }
-    let mut values: Vec<f64> = points.iter().map(|p| f(p)).collect();
+    let mut simplex = Simplex::around(f, z0);
     let max_iterations = options.max_iterations_per_param * n;
     let mut iterations = 0;
-    let mut order: Vec<usize> = (0..=n).collect();
     let mut converged = false;
     loop {
+        if simplex.sort_and_check(options) {
+            converged = true;
+            break;
+        }
+        if iterations >= max_iterations {
+            break;
+        }
+        iterations += 1;
+        simplex.iterate(f);
+        observer(Progress {
+            stage: "Nelder–Mead",
+            done: iterations,
+            total: Some(max_iterations),
+            cost: Some(simplex.values.iter().copied().fold(f64::INFINITY, f64::min)),
+        });
+    }
+    let Simplex {
+        points,
+        values,
+        mut order,
+    } = simplex;
+    order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
+    (points[order[0]].clone(), values[order[0]], iterations, converged)
+}
+
+/// The simplex's n + 1 points, their costs, and their order from best to worst (as of the last
+/// sort).
+struct Simplex {
+    points: Vec<Vec<f64>>,
+    values: Vec<f64>,
+    order: Vec<usize>,
+}
+
+impl Simplex {
+    /// `z0` and, per coordinate, `z0` with that coordinate moved by 5 % (0.00025 from zero).
+    fn around(f: &mut dyn FnMut(&[f64]) -> f64, z0: &[f64]) -> Simplex {
+        let n = z0.len();
+        let mut points: Vec<Vec<f64>> = vec![z0.to_vec()];
+        for k in 0..n {
+            let mut p = z0.to_vec();
+            p[k] = if p[k] != 0.0 { 1.05 * p[k] } else { 0.00025 };
+            points.push(p);
+        }
+        let values: Vec<f64> = points.iter().map(|p| f(p)).collect();
+        Simplex {
+            points,
+            values,
+            order: (0..=n).collect(),
+        }
+    }
+
+    /// Sorts the points by cost; whether every other point lies within the tolerances of the
+    /// best, in cost and in each coordinate.
+    fn sort_and_check(&mut self, options: &NelderMeadOptions) -> bool {
+        let (points, values, order) = (&self.points, &self.values, &mut self.order);
         order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
         let best = order[0];
         let spread_f = order[1..]
@@ -222,14 +269,17 @@ fn simplex(
             .iter()
             .flat_map(|&i| points[i].iter().zip(&points[best]).map(|(a, b)| (a - b).abs()))
             .fold(0.0, f64::max);
-        if spread_f <= options.tol_f && spread_x <= options.tol_x {
-            converged = true;
-            break;
-        }
-        if iterations >= max_iterations {
-            break;
-        }
-        iterations += 1;
+        spread_f <= options.tol_f && spread_x <= options.tol_x
+    }
+
+    /// One iteration on the sorted simplex: the worst point reflected through the others'
+    /// centroid, expanded or contracted; when none of those improves it, a shrink towards the
+    /// best.
+    fn iterate(&mut self, f: &mut dyn FnMut(&[f64]) -> f64) {
+        let (rho, chi, gamma) = (1.0, 2.0, 0.5);
+        let (points, values, order) = (&mut self.points, &mut self.values, &self.order);
+        let n = order.len() - 1;
+        let best = order[0];
         let worst = order[n];
         let second_worst = order[n - 1];
         let mut centroid = vec![0.0; n];
@@ -279,23 +329,22 @@ fn simplex(
             }
         }
         if shrink {
-            let anchor = points[best].clone();
-            for &i in &order[1..] {
-                for k in 0..n {
-                    points[i][k] = anchor[k] + sigma * (points[i][k] - anchor[k]);
-                }
-                values[i] = f(&points[i]);
-            }
+            self.shrink(f);
         }
-        observer(Progress {
-            stage: "Nelder–Mead",
-            done: iterations,
-            total: Some(max_iterations),
-            cost: Some(values.iter().copied().fold(f64::INFINITY, f64::min)),
-        });
     }
-    order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
-    (points[order[0]].clone(), values[order[0]], iterations, converged)
+
+    /// Every point but the best moved halfway towards it, and costed again.
+    fn shrink(&mut self, f: &mut dyn FnMut(&[f64]) -> f64) {
+        let sigma = 0.5;
+        let n = self.order.len() - 1;
+        let anchor = self.points[self.order[0]].clone();
+        for &i in &self.order[1..] {
+            for k in 0..n {
+                self.points[i][k] = anchor[k] + sigma * (self.points[i][k] - anchor[k]);
+            }
+            self.values[i] = f(&self.points[i]);
+        }
+    }
 }
 
 #[cfg(test)]

@@ -25,8 +25,26 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
         unit = escape(&r.unit),
         verdict = escape(&r.verdict)
     );
+    candidates_section(r, &mut h);
+    held_out_section(r, &mut h)?;
+    sensor_section(r, &mut h)?;
+    thermal_section(r, &mut h)?;
+    undetermined_section(r, &mut h);
+    if let Some(g) = &r.gyro {
+        gyro_section(g, &mut h)?;
+    }
+    timing_and_recordings_section(r, &mut h);
+    Ok(h)
+}
+
+/// A number to `digits` places, or a dash.
+fn value(v: Option<f64>, digits: usize) -> String {
+    v.map_or("–".into(), |v| format!("{v:.digits$}"))
+}
+
+/// Each candidate over every held-out condition, and how they were judged.
+fn candidates_section(r: &CampaignResult, h: &mut String) {
     h.push_str("<h2>Correctors on held-out conditions</h2><table><tr><th>corrector</th><th>what it is</th><th>mean residual RMS against physics, m/s²</th><th>worst ratio to uncorrected</th><th>mean RMS against truth, m/s²</th><th>eligible</th><th>why not</th></tr>");
-    let value = |v: Option<f64>, digits: usize| v.map_or("–".into(), |v| format!("{v:.digits$}"));
     for c in &r.candidates {
         let _ = write!(
             h,
@@ -41,6 +59,10 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
         );
     }
     h.push_str("</table><p>Each corrector is trained on every condition but one and judged on the one left out, by physics alone: a still pose's specific force must have gravity's magnitude; a turntable run must move as a rigid platter moves a perfect sensor (rate measured from the data, radius within the ruler's tolerance, platter tilt, mount rotation within its prior, no bias, scale or drift freedom). The uncorrected signal gets the same check on the same samples; <em>ratio</em> is the corrector's residual RMS over the uncorrected one's; <em>predicted</em> (the physical model only) adds the error its parameters' covariance predicts and measures the uncorrected signal against the corrected one's physics reference, the figure comparable with the truth ratio; and a corrector is <em>significantly worse</em> when its excess mean square exceeds Student's t at one-sided 0.1 % times its batch-means standard error. Against truth (simulations only) is the same on the true specific force, which the verdict never uses. The <em>floor</em> is the RMS of the error no static corrector can remove (white noise and bias drift) on those samples.</p>");
+}
+
+/// The held-out plots, then each candidate on each held-out condition.
+fn held_out_section(r: &CampaignResult, h: &mut String) -> Result<(), PlotError> {
     if let Some(plot) = held_out_plot(r, false) {
         h.push_str(&figure(
             &plot,
@@ -83,6 +105,11 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
             escape(s.note.as_deref().unwrap_or(""))
         );
     }
+    Ok(())
+}
+
+/// The joint fit's sensor parameters, with their plots.
+fn sensor_section(r: &CampaignResult, h: &mut String) -> Result<(), PlotError> {
     h.push_str("</table><h2>Sensor model (joint fit of every recording)</h2>");
     let _ = write!(
         h,
@@ -113,7 +140,11 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
             "What the joint fit leaves on each turntable run, per axis (numbered as in the list of recordings at the end): a run far above the others holds something the model does not (a loose mount, a wobble, a temperature change).",
         )?);
     }
-    thermal_section(r, &mut h)?;
+    Ok(())
+}
+
+/// What the campaign leaves undetermined, with what to record.
+fn undetermined_section(r: &CampaignResult, h: &mut String) {
     if !r.undetermined.is_empty() {
         h.push_str("<h2>What this campaign does not determine</h2><ul>");
         for (name, advice) in &r.undetermined {
@@ -126,51 +157,58 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
         }
         h.push_str("</ul>");
     }
-    if let Some(g) = &r.gyro {
+}
+
+/// The gyroscope's parameters and its cross-check against the accelerometer's rate.
+fn gyro_section(g: &crate::campaign::gyro::GyroFit, h: &mut String) -> Result<(), PlotError> {
+    let _ = write!(
+        h,
+        "<h2>Gyroscope</h2><p>m = b + K ω, ω in the accelerometer's body frame. Each turntable run's rotation rate, measured by the accelerometer, is the reference about the spindle; still poses give the bias. Standard errors: {}.</p><table><tr><th>parameter</th><th>value</th><th>standard error</th></tr>",
+        escape(&g.covariance)
+    );
+    for p in g.params.iter().chain(&g.session_drift) {
         let _ = write!(
             h,
-            "<h2>Gyroscope</h2><p>m = b + K ω, ω in the accelerometer's body frame. Each turntable run's rotation rate, measured by the accelerometer, is the reference about the spindle; still poses give the bias. Standard errors: {}.</p><table><tr><th>parameter</th><th>value</th><th>standard error</th></tr>",
-            escape(&g.covariance)
+            "<tr><td>{}</td><td>{:.6e}</td><td>{}</td></tr>",
+            escape(&p.name),
+            p.value,
+            p.std_error.map_or("–".into(), |v| format!("{v:.2e}"))
         );
-        for p in g.params.iter().chain(&g.session_drift) {
-            let _ = write!(
-                h,
-                "<tr><td>{}</td><td>{:.6e}</td><td>{}</td></tr>",
-                escape(&p.name),
-                p.value,
-                p.std_error.map_or("–".into(), |v| format!("{v:.2e}"))
-            );
-        }
-        h.push_str("</table><h3>Cross-check: the gyro against the accelerometer's rate</h3><table><tr><th>run</th><th>rate from the accelerometer, rad/s</th><th>raw gyro about the spindle</th><th>calibrated gyro</th><th>residual RMS x y z, rad/s</th></tr>");
-        for c in &g.rate_checks {
-            let _ = write!(
-                h,
-                "<tr><td>{}</td><td>{:.6} ± {}</td><td>{:.6}</td><td>{:.6}</td><td>{:.2e} {:.2e} {:.2e}</td></tr>",
-                escape(&c.run),
-                c.accel_rate_radps,
-                c.accel_rate_se_radps.map_or("–".into(), |v| format!("{v:.1e}")),
-                c.raw_gyro_rate_radps,
-                c.calibrated_gyro_rate_radps,
-                c.residual_rms_radps[0],
-                c.residual_rms_radps[1],
-                c.residual_rms_radps[2]
-            );
-        }
-        h.push_str("</table>");
-        if let Some(plot) = gyro_rate_plot(g) {
-            h.push_str(&figure(
-                &plot,
-                "The gyroscope about the spindle minus the rate the accelerometer measured, per run: raw and calibrated, with the accelerometer rate's 95 % interval around zero. A calibrated gyro sits on zero within that interval.",
-            )?);
-        }
-        if !g.undetermined.is_empty() {
-            h.push_str("<ul>");
-            for (name, advice) in &g.undetermined {
-                let _ = write!(h, "<li>{}: {}</li>", escape(name), escape(advice));
-            }
-            h.push_str("</ul>");
-        }
     }
+    h.push_str("</table><h3>Cross-check: the gyro against the accelerometer's rate</h3><table><tr><th>run</th><th>rate from the accelerometer, rad/s</th><th>raw gyro about the spindle</th><th>calibrated gyro</th><th>residual RMS x y z, rad/s</th></tr>");
+    for c in &g.rate_checks {
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{:.6} ± {}</td><td>{:.6}</td><td>{:.6}</td><td>{:.2e} {:.2e} {:.2e}</td></tr>",
+            escape(&c.run),
+            c.accel_rate_radps,
+            c.accel_rate_se_radps.map_or("–".into(), |v| format!("{v:.1e}")),
+            c.raw_gyro_rate_radps,
+            c.calibrated_gyro_rate_radps,
+            c.residual_rms_radps[0],
+            c.residual_rms_radps[1],
+            c.residual_rms_radps[2]
+        );
+    }
+    h.push_str("</table>");
+    if let Some(plot) = gyro_rate_plot(g) {
+        h.push_str(&figure(
+            &plot,
+            "The gyroscope about the spindle minus the rate the accelerometer measured, per run: raw and calibrated, with the accelerometer rate's 95 % interval around zero. A calibrated gyro sits on zero within that interval.",
+        )?);
+    }
+    if !g.undetermined.is_empty() {
+        h.push_str("<ul>");
+        for (name, advice) in &g.undetermined {
+            let _ = write!(h, "<li>{}: {}</li>", escape(name), escape(advice));
+        }
+        h.push_str("</ul>");
+    }
+    Ok(())
+}
+
+/// Where the time went, and the recordings.
+fn timing_and_recordings_section(r: &CampaignResult, h: &mut String) {
     h.push_str("<h2>Where the time went</h2><table><tr><th>stage</th><th>time (s)</th></tr>");
     for s in &r.stage_seconds {
         let _ = write!(
@@ -198,7 +236,6 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
         let _ = write!(h, "<li>{} (still pose)</li>", escape(&pose.name));
     }
     h.push_str("</ul></body></html>\n");
-    Ok(h)
 }
 
 /// Held-out error per condition for every corrector with the uncorrected signal: against physics,

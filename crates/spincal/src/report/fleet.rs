@@ -119,7 +119,17 @@ pub fn fleet_html(table: &FleetTable) -> Result<String, PlotError> {
         table.flagged_units().len()
     ));
     h.push_str(&format!("<p>{}</p>", escape(&table.rule)));
+    units_section(table, &mut h);
+    flagged_section(table, &mut h);
+    statistics_section(table, &mut h);
+    plots_section(table, &mut h)?;
+    parameters_section(table, &mut h);
+    h.push_str("</body></html>\n");
+    Ok(h)
+}
 
+/// One row per unit: its status, saved corrector, held-out error and flags.
+fn units_section(table: &FleetTable, h: &mut String) {
     h.push_str("<h2>Units</h2><table><tr><th>row</th><th>unit</th><th>status</th><th>saved corrector</th><th>held-out RMS, m/s²</th><th>flagged on</th></tr>");
     for (i, row) in table.rows.iter().enumerate() {
         let class = if !row.ok {
@@ -144,7 +154,10 @@ pub fn fleet_html(table: &FleetTable) -> Result<String, PlotError> {
         ));
     }
     h.push_str("</table>");
+}
 
+/// Why each flagged unit was flagged.
+fn flagged_section(table: &FleetTable, h: &mut String) {
     if !table.outliers.is_empty() {
         h.push_str("<h2>Flagged</h2><ul>");
         for f in &table.outliers {
@@ -156,7 +169,10 @@ pub fn fleet_html(table: &FleetTable) -> Result<String, PlotError> {
         }
         h.push_str("</ul>");
     }
+}
 
+/// Each parameter's fleet statistics.
+fn statistics_section(table: &FleetTable, h: &mut String) {
     h.push_str("<h2>Fleet statistics</h2><table><tr><th>parameter</th><th>units</th><th>median</th><th>spread (robust SD)</th><th>screened units</th><th>their SD</th><th>median SE</th><th>min</th><th>max</th><th>judged</th></tr>");
     for (k, s) in table.stats.iter().enumerate() {
         h.push_str(&format!(
@@ -174,7 +190,10 @@ pub fn fleet_html(table: &FleetTable) -> Result<String, PlotError> {
         ));
     }
     h.push_str("</table>");
+}
 
+/// Each parameter's plot across the fleet.
+fn plots_section(table: &FleetTable, h: &mut String) -> Result<(), PlotError> {
     h.push_str("<h2>Each parameter across the fleet</h2><p>One point per calibrated unit (x: its row in the table above) with ±1 standard error; the dashed black line is the fleet median, the grey ones the flagging limits (against every unit that passed the screen) for a unit whose own error is negligible. Flagged units are drawn in orange.</p>");
     for k in 0..table.parameters.len() {
         if let Some(plot) = parameter_plot(table, k) {
@@ -185,7 +204,11 @@ pub fn fleet_html(table: &FleetTable) -> Result<String, PlotError> {
             ));
         }
     }
+    Ok(())
+}
 
+/// Every unit's parameters with their standard errors.
+fn parameters_section(table: &FleetTable, h: &mut String) {
     h.push_str("<h2>Every parameter with its standard error</h2><table><tr><th>unit</th>");
     for p in &table.parameters {
         h.push_str(&format!("<th>{}</th><th>SE</th>", escape(p)));
@@ -214,6 +237,5 @@ pub fn fleet_html(table: &FleetTable) -> Result<String, PlotError> {
         }
         h.push_str("</tr>");
     }
-    h.push_str("</table></body></html>\n");
-    Ok(h)
+    h.push_str("</table>");
 }

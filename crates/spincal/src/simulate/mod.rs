@@ -234,6 +234,45 @@ pub fn simulate(
     table: &TurntableSetup,
     seed: u64,
 ) -> Result<Simulation, SimulationError> {
+    check_settings(sensor, table)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let n = (table.duration_s * sensor.sample_rate_hz).round() as usize;
+    let dt = 1.0 / sensor.sample_rate_hz;
+    let time_s: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
+    let omega = table.rpm * (1.0 + table.speed_error_pct / 100.0) * 2.0 * std::f64::consts::PI / 60.0;
+    let modulations = draw_modulations(table, omega, &mut rng);
+    let true_accel = platter_force(table, omega, &modulations, &time_s);
+    let (accel, saturated) = read_sensor(sensor, &true_accel, dt, &mut rng);
+    let (beta, tilt) = (table.beta_deg.to_radians(), table.tilt_deg.to_radians());
+    let phase0 = table.tilt_azimuth_deg.to_radians();
+    let truth = Truth {
+        seed,
+        sensor: sensor.clone(),
+        turntable: table.clone(),
+        session: Session {
+            radius_m: table.radius_m,
+            omega_radps: omega,
+            tilt_rad: tilt,
+            phase_rad: phase0,
+            direction: table.direction,
+            drift_mps2_per_s: [0.0; 3],
+        },
+        mounting: Mounting {
+            beta_rad: beta,
+            offset_mps2: sensor.bias_g.map(|b| b * G),
+        },
+        saturated_samples: saturated,
+    };
+    let recording = simulated_recording(seed, time_s, accel);
+    Ok(Simulation {
+        recording,
+        truth,
+        true_accel_mps2: true_accel,
+    })
+}
+
+/// Refuses settings the simulation cannot run, by name.
+fn check_settings(sensor: &SensorProfile, table: &TurntableSetup) -> Result<(), SimulationError> {
     check(
         "sample_rate_hz",
         sensor.sample_rate_hz,
@@ -283,25 +322,33 @@ pub fn simulate(
         sensor.bias_drift_time_s > 0.0,
         "must be positive",
     )?;
+    Ok(())
+}
 
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let n = (table.duration_s * sensor.sample_rate_hz).round() as usize;
-    let dt = 1.0 / sensor.sample_rate_hz;
-    let time_s: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
-    let g = table.gravity_mps2;
-    let omega = table.rpm * (1.0 + table.speed_error_pct / 100.0) * 2.0 * std::f64::consts::PI / 60.0;
+/// Wow (at the platter's own rate unless set) and flutter, each with a random phase.
+fn draw_modulations(table: &TurntableSetup, omega: f64, rng: &mut ChaCha8Rng) -> [(f64, f64, f64); 2] {
     let wow_hz = if table.wow_hz > 0.0 {
         table.wow_hz
     } else {
         omega / (2.0 * std::f64::consts::PI)
     };
-    let wow_phase: f64 = 2.0 * std::f64::consts::PI * rand::Rng::r#gen::<f64>(&mut rng);
-    let flutter_phase: f64 = 2.0 * std::f64::consts::PI * rand::Rng::r#gen::<f64>(&mut rng);
-    let modulations = [
+    let wow_phase: f64 = 2.0 * std::f64::consts::PI * rand::Rng::r#gen::<f64>(rng);
+    let flutter_phase: f64 = 2.0 * std::f64::consts::PI * rand::Rng::r#gen::<f64>(rng);
+    [
         (table.wow_pct / 100.0, wow_hz, wow_phase),
         (table.flutter_pct / 100.0, table.flutter_hz, flutter_phase),
-    ];
+    ]
+}
 
+/// The true specific force on the platter per sample, sensor frame, m/s².
+fn platter_force(
+    table: &TurntableSetup,
+    omega: f64,
+    modulations: &[(f64, f64, f64)],
+    time_s: &[f64],
+) -> [Vec<f64>; 3] {
+    let n = time_s.len();
+    let g = table.gravity_mps2;
     let s = table.direction.sign();
     let beta = table.beta_deg.to_radians();
     let (sin_b, cos_b) = beta.sin_cos();
@@ -310,7 +357,7 @@ pub fn simulate(
     let phase0 = table.tilt_azimuth_deg.to_radians();
     let mut true_accel = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
     for (i, &t) in time_s.iter().enumerate() {
-        let (rate, angle, rate_dot) = modulated_rotation(omega, &modulations, t, phase0);
+        let (rate, angle, rate_dot) = modulated_rotation(omega, modulations, t, phase0);
         let centripetal = rate * rate * table.radius_m;
         let tangential = table.radius_m * rate_dot;
         let u = angle - beta;
@@ -318,7 +365,18 @@ pub fn simulate(
         true_accel[1][i] = centripetal * sin_b + s * amplitude * u.cos() + s * tangential * cos_b;
         true_accel[2][i] = g * tilt.cos();
     }
+    true_accel
+}
 
+/// The sensor's readings of `true_accel` (sensitivity, bias, drift, nonlinearity, noise,
+/// quantisation), and how many samples saturated.
+fn read_sensor(
+    sensor: &SensorProfile,
+    true_accel: &[Vec<f64>; 3],
+    dt: f64,
+    rng: &mut ChaCha8Rng,
+) -> ([Vec<f64>; 3], usize) {
+    let n = true_accel[0].len();
     let mis = sensor.misalignment_deg.map(f64::to_radians);
     let scale = sensor.scale_error_pct.map(|p| 1.0 + p / 100.0);
     let sensitivity = [
@@ -343,12 +401,12 @@ pub fn simulate(
         let mut sample_saturated = false;
         for k in 0..3 {
             if drift_bound > 0.0 {
-                let z: f64 = StandardNormal.sample(&mut rng);
+                let z: f64 = StandardNormal.sample(rng);
                 drift[k] = (decay * drift[k] + innovation * z).clamp(-drift_bound, drift_bound);
             }
             let sensed: f64 =
                 (0..3).map(|j| sensitivity[k][j] * f[j]).sum::<f64>() + sensor.bias_g[k] * G + drift[k];
-            let noise: f64 = StandardNormal.sample(&mut rng);
+            let noise: f64 = StandardNormal.sample(rng);
             let analog = sensed + quadratic * sensed * sensed + sensor.noise_g * G * noise;
             let code = (analog / lsb).round();
             if code.abs() > max_code {
@@ -358,26 +416,12 @@ pub fn simulate(
         }
         saturated += usize::from(sample_saturated);
     }
+    (accel, saturated)
+}
 
-    let truth = Truth {
-        seed,
-        sensor: sensor.clone(),
-        turntable: table.clone(),
-        session: Session {
-            radius_m: table.radius_m,
-            omega_radps: omega,
-            tilt_rad: tilt,
-            phase_rad: phase0,
-            direction: table.direction,
-            drift_mps2_per_s: [0.0; 3],
-        },
-        mounting: Mounting {
-            beta_rad: beta,
-            offset_mps2: sensor.bias_g.map(|b| b * G),
-        },
-        saturated_samples: saturated,
-    };
-    let recording = Recording {
+/// The simulated readings as a recording of the usual columns.
+fn simulated_recording(seed: u64, time_s: Vec<f64>, accel: [Vec<f64>; 3]) -> Recording {
+    Recording {
         time_s,
         accel_mps2: accel,
         gyro_radps: None,
@@ -392,12 +436,7 @@ pub fn simulate(
             lines: Vec::new(),
             incomplete_rows: Default::default(),
         },
-    };
-    Ok(Simulation {
-        recording,
-        truth,
-        true_accel_mps2: true_accel,
-    })
+    }
 }
 
 #[cfg(test)]

@@ -469,84 +469,28 @@ pub fn fit_thermal(
         Some([kb, ks]) => (kb, ks),
         None => (settings.max_bias_order, settings.max_scale_order),
     };
-    let mut lag_scores = Vec::new();
-    let mut best: Option<(f64, Vec<Window>, Solved)> = None;
-    for &lag in &settings.lags_s {
-        let all = windows(stills, settings, lag)?;
-        let temps: Vec<f64> = all.iter().map(|w| w.die_c).collect();
-        let (lo, hi) = (quantile(&temps, 0.0), quantile(&temps, 1.0));
-        if kb + ks > 0 && hi - lo < MIN_SPAN_C {
-            return Err(ThermalError::NarrowRange {
-                span_c: hi - lo,
-                needed_c: MIN_SPAN_C,
-            });
-        }
-        let reference = settings.reference_c.unwrap_or_else(|| quantile(&temps, 0.5));
-        let (_, solved) = solve(&all, kb, ks, reference, gravity);
-        lag_scores.push((lag, solved.rms));
-        if best.as_ref().is_none_or(|(rms, ..)| solved.rms < *rms) {
-            best = Some((solved.rms, all, solved));
-        }
-    }
-    let (_, all, at_best_lag) = best.expect("at least one lag (checked)");
+    let (lag_scores, all, at_best_lag) = best_lag(stills, settings, (kb, ks), gravity)?;
     let lag_s = lag_scores
         .iter()
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map(|s| s.0)
         .unwrap_or(0.0);
     let temps: Vec<f64> = all.iter().map(|w| w.die_c).collect();
-    let reference_c = settings.reference_c.unwrap_or_else(|| quantile(&temps, 0.5));
-    let range = [quantile(&temps, 0.0), quantile(&temps, 1.0)];
+    let search = OrderSearch {
+        settings,
+        reference_c: settings.reference_c.unwrap_or_else(|| quantile(&temps, 0.5)),
+        lag_s,
+        range: [quantile(&temps, 0.0), quantile(&temps, 1.0)],
+        gravity,
+    };
     let bands = [
         quantile(&temps, settings.held_out_fraction),
         quantile(&temps, 1.0 - settings.held_out_fraction),
     ];
-    // The orders: fitted inside the bands, scored on the coldest and hottest windows.
-    let inside = renumbered(
-        all.iter()
-            .copied()
-            .filter(|w| w.die_c >= bands[0] && w.die_c <= bands[1]),
-    );
-    let outside = renumbered(
-        all.iter()
-            .copied()
-            .filter(|w| w.die_c < bands[0] || w.die_c > bands[1]),
-    );
-    let mut order_scores = Vec::new();
-    let candidates = if settings.orders.is_some() {
-        Vec::new()
-    } else {
-        (0..=kb).flat_map(|b| (0..=ks).map(move |s| (b, s))).collect()
-    };
-    for (bias_order, scale_order) in candidates {
-        let score = if outside.is_empty() || inside.is_empty() {
-            f64::NAN
-        } else {
-            let (problem, solved) = solve(&inside, bias_order, scale_order, reference_c, gravity);
-            held_out_rms(
-                &problem.model(&solved.params, lag_s, settings.smoothing_s, range),
-                &outside,
-                gravity,
-            )
-        };
-        order_scores.push(OrderScore {
-            bias_order,
-            scale_order,
-            held_out_rms_mps2: score,
-        });
-    }
-    let best_score = order_scores
-        .iter()
-        .map(|s| s.held_out_rms_mps2)
-        .filter(|s| s.is_finite())
-        .fold(f64::INFINITY, f64::min);
-    let chosen = order_scores
-        .iter()
-        .filter(|s| s.held_out_rms_mps2 <= 1.02 * best_score)
-        .min_by_key(|s| (s.bias_order + s.scale_order, s.bias_order))
-        .map(|s| (s.bias_order, s.scale_order))
-        .unwrap_or((kb, ks));
+    let order_scores = search.order_scores(&all, bands, (kb, ks));
+    let chosen = chosen_orders(&order_scores, (kb, ks));
     // The lag's fit at these orders is the final one when they are the orders it used.
+    let (reference_c, range) = (search.reference_c, search.range);
     let (problem, solved) = if chosen == (kb, ks) {
         (problem(&all, kb, ks, reference_c, gravity), at_best_lag)
     } else {
@@ -570,4 +514,104 @@ pub fn fit_thermal(
         residual_rms_mps2: solved.rms,
         windows: all.len(),
     })
+}
+
+/// (lag, residual RMS) per lag tried.
+type LagScores = Vec<(f64, f64)>;
+
+/// Each lag's residual RMS at `orders` (bias, scale) on every window, and the windows and fit of
+/// the best lag.
+fn best_lag(
+    stills: &[&Recording],
+    settings: &ThermalSettings,
+    (kb, ks): (usize, usize),
+    gravity: f64,
+) -> Result<(LagScores, Vec<Window>, Solved), ThermalError> {
+    let mut lag_scores = Vec::new();
+    let mut best: Option<(f64, Vec<Window>, Solved)> = None;
+    for &lag in &settings.lags_s {
+        let all = windows(stills, settings, lag)?;
+        let temps: Vec<f64> = all.iter().map(|w| w.die_c).collect();
+        let (lo, hi) = (quantile(&temps, 0.0), quantile(&temps, 1.0));
+        if kb + ks > 0 && hi - lo < MIN_SPAN_C {
+            return Err(ThermalError::NarrowRange {
+                span_c: hi - lo,
+                needed_c: MIN_SPAN_C,
+            });
+        }
+        let reference = settings.reference_c.unwrap_or_else(|| quantile(&temps, 0.5));
+        let (_, solved) = solve(&all, kb, ks, reference, gravity);
+        lag_scores.push((lag, solved.rms));
+        if best.as_ref().is_none_or(|(rms, ..)| solved.rms < *rms) {
+            best = Some((solved.rms, all, solved));
+        }
+    }
+    let (_, all, at_best_lag) = best.expect("at least one lag (checked)");
+    Ok((lag_scores, all, at_best_lag))
+}
+
+/// What every order's held-out score shares: the lag and temperatures the model is made at.
+struct OrderSearch<'a> {
+    settings: &'a ThermalSettings,
+    reference_c: f64,
+    lag_s: f64,
+    range: [f64; 2],
+    gravity: f64,
+}
+
+impl OrderSearch<'_> {
+    /// The orders up to (`kb`, `ks`) (none when the settings fix them): fitted inside the `bands`,
+    /// scored on the coldest and hottest windows.
+    fn order_scores(&self, all: &[Window], bands: [f64; 2], (kb, ks): (usize, usize)) -> Vec<OrderScore> {
+        let inside = renumbered(
+            all.iter()
+                .copied()
+                .filter(|w| w.die_c >= bands[0] && w.die_c <= bands[1]),
+        );
+        let outside = renumbered(
+            all.iter()
+                .copied()
+                .filter(|w| w.die_c < bands[0] || w.die_c > bands[1]),
+        );
+        let mut order_scores = Vec::new();
+        let candidates = if self.settings.orders.is_some() {
+            Vec::new()
+        } else {
+            (0..=kb).flat_map(|b| (0..=ks).map(move |s| (b, s))).collect()
+        };
+        for (bias_order, scale_order) in candidates {
+            let score = if outside.is_empty() || inside.is_empty() {
+                f64::NAN
+            } else {
+                let (problem, solved) =
+                    solve(&inside, bias_order, scale_order, self.reference_c, self.gravity);
+                held_out_rms(
+                    &problem.model(&solved.params, self.lag_s, self.settings.smoothing_s, self.range),
+                    &outside,
+                    self.gravity,
+                )
+            };
+            order_scores.push(OrderScore {
+                bias_order,
+                scale_order,
+                held_out_rms_mps2: score,
+            });
+        }
+        order_scores
+    }
+}
+
+/// The lowest orders within 2 % of the best held-out score, or `max` when none was scored.
+fn chosen_orders(order_scores: &[OrderScore], max: (usize, usize)) -> (usize, usize) {
+    let best_score = order_scores
+        .iter()
+        .map(|s| s.held_out_rms_mps2)
+        .filter(|s| s.is_finite())
+        .fold(f64::INFINITY, f64::min);
+    order_scores
+        .iter()
+        .filter(|s| s.held_out_rms_mps2 <= 1.02 * best_score)
+        .min_by_key(|s| (s.bias_order + s.scale_order, s.bias_order))
+        .map(|s| (s.bias_order, s.scale_order))
+        .unwrap_or(max)
 }

@@ -318,114 +318,137 @@ impl JointProblem<'_> {
         if let Want::Meat(meat) = &mut want {
             meat.fill(0.0);
         }
-        let scale = sensor.scale_error.map(|s| 1.0 + s);
+        // `sse` is carried through the stages in order: one running sum, as in a single loop.
         for i in 0..self.runs.len() {
-            let run = &self.runs[i];
-            let o = run_offset(i);
-            let geo = self.geometry(p, i);
-            let mid = mid_time(&run.time_s);
-            let index: Vec<usize> = (0..SENSOR_PARAMS).chain(o..o + RUN_PARAMS).collect();
-            let mut local = LocalSystem::new(index.clone());
-            let mut block = vec![0.0; index.len()];
-            let mut in_block = 0;
-            let mut row = vec![0.0; index.len()];
-            let sigma = self.run_sigma[i];
-            let want_rows = !matches!(want, Want::Sse);
-            // sin ωτ and cos ωτ by the turntable model's block recurrence (exact sin_cos every 64
-            // samples, or every sample off a uniform grid).
-            for_each_rotation(&run.time_s, mid, geo.omega, 0.0, |s, s1, c1| {
-                if !run.keep[s] {
-                    return;
-                }
-                let tau = run.time_s[s] - mid;
-                let delta = run_offset_at(p, o, tau);
-                if !want_rows {
-                    let u = sensor.linear_response(geo.force_at(s1, c1), delta);
-                    for k in 0..3 {
-                        let r = (u[k] + sensor.quadratic_per_mps2[k] * u[k] * u[k] - run.accel_mps2[k][s])
-                            / sigma[k];
-                        sse += r * r;
-                    }
-                    return;
-                }
-                let (force, d) = geo.force_and_derivatives_at(tau, s1, c1);
-                let skewed = sensor.skewed(force);
-                let u: [f64; 3] =
-                    std::array::from_fn(|k| sensor.bias_mps2[k] + delta[k] + scale[k] * skewed[k]);
+            sse = self.run_terms(p, i, &sensor, &mut want, sse);
+        }
+        for pi in 0..self.poses.len() {
+            sse = self.pose_terms(p, pi, &sensor, &mut want, sse);
+        }
+        self.sensor_and_session_priors(p, &mut want, sse)
+    }
+
+    /// Run `i`'s samples and priors, into `want`; returns `sse` with their squares added.
+    fn run_terms(&self, p: &[f64], i: usize, sensor: &SensorModel, want: &mut Want<'_>, mut sse: f64) -> f64 {
+        let scale = sensor.scale_error.map(|s| 1.0 + s);
+        let run = &self.runs[i];
+        let o = run_offset(i);
+        let geo = self.geometry(p, i);
+        let mid = mid_time(&run.time_s);
+        let index: Vec<usize> = (0..SENSOR_PARAMS).chain(o..o + RUN_PARAMS).collect();
+        let mut local = LocalSystem::new(index.clone());
+        let mut block = vec![0.0; index.len()];
+        let mut in_block = 0;
+        let mut row = vec![0.0; index.len()];
+        let sigma = self.run_sigma[i];
+        let want_rows = !matches!(*want, Want::Sse);
+        // sin ωτ and cos ωτ by the turntable model's block recurrence (exact sin_cos every 64
+        // samples, or every sample off a uniform grid).
+        for_each_rotation(&run.time_s, mid, geo.omega, 0.0, |s, s1, c1| {
+            if !run.keep[s] {
+                return;
+            }
+            let tau = run.time_s[s] - mid;
+            let delta = run_offset_at(p, o, tau);
+            if !want_rows {
+                let u = sensor.linear_response(geo.force_at(s1, c1), delta);
                 for k in 0..3 {
-                    let q = sensor.quadratic_per_mps2[k];
-                    let w = 1.0 / sigma[k];
-                    let r = (u[k] + q * u[k] * u[k] - run.accel_mps2[k][s]) * w;
-                    let slope = (1.0 + 2.0 * q * u[k]) * w;
-                    model_row(&mut row, k, &sensor, slope, w, u[k], &force, &d);
-                    row[SENSOR_PARAMS + GEOMETRY + k] = slope;
-                    row[SENSOR_PARAMS + GEOMETRY + 3 + k] = slope * tau;
-                    match &mut want {
-                        Want::Meat(_) => {
-                            for (b, v) in block.iter_mut().zip(&row) {
-                                *b += v * r;
-                            }
+                    let r =
+                        (u[k] + sensor.quadratic_per_mps2[k] * u[k] * u[k] - run.accel_mps2[k][s]) / sigma[k];
+                    sse += r * r;
+                }
+                return;
+            }
+            let (force, d) = geo.force_and_derivatives_at(tau, s1, c1);
+            let skewed = sensor.skewed(force);
+            let u: [f64; 3] = std::array::from_fn(|k| sensor.bias_mps2[k] + delta[k] + scale[k] * skewed[k]);
+            for k in 0..3 {
+                let q = sensor.quadratic_per_mps2[k];
+                let w = 1.0 / sigma[k];
+                let r = (u[k] + q * u[k] * u[k] - run.accel_mps2[k][s]) * w;
+                let slope = (1.0 + 2.0 * q * u[k]) * w;
+                model_row(&mut row, k, sensor, slope, w, u[k], &force, &d);
+                row[SENSOR_PARAMS + GEOMETRY + k] = slope;
+                row[SENSOR_PARAMS + GEOMETRY + 3 + k] = slope * tau;
+                match &mut *want {
+                    Want::Meat(_) => {
+                        for (b, v) in block.iter_mut().zip(&row) {
+                            *b += v * r;
                         }
-                        _ => local.add_row(&row, r),
                     }
+                    _ => local.add_row(&row, r),
                 }
-                in_block += 1;
-                if in_block == self.block_samples[i] {
-                    if let Want::Meat(meat) = &mut want {
-                        add_outer(meat, &index, &block);
-                    }
-                    block.fill(0.0);
-                    in_block = 0;
-                }
-            });
-            if in_block > 0 {
-                if let Want::Meat(meat) = &mut want {
+            }
+            in_block += 1;
+            if in_block == self.block_samples[i] {
+                if let Want::Meat(meat) = &mut *want {
                     add_outer(meat, &index, &block);
                 }
+                block.fill(0.0);
+                in_block = 0;
             }
-            // Priors: radius within its tolerance, the run's bias offset within the instability.
-            let entry = &run.entry;
-            sse += want.add_prior(o, p[o] - entry.radius_m, entry.radius_tol_m);
-            sse += want.add_prior(o + 5, p[o + 5], self.mount_tilt_sigma);
-            sse += want.add_prior(o + 6, p[o + 6], self.mount_tilt_sigma);
-            for k in 0..3 {
-                sse += want.add_prior(o + GEOMETRY + k, p[o + GEOMETRY + k], self.bias_sigma);
+        });
+        if in_block > 0 {
+            if let Want::Meat(meat) = &mut *want {
+                add_outer(meat, &index, &block);
             }
-            if let Want::Normal(jtj, jtr) = &mut want {
+        }
+        // Priors: radius within its tolerance, the run's bias offset within the instability.
+        let entry = &run.entry;
+        sse += want.add_prior(o, p[o] - entry.radius_m, entry.radius_tol_m);
+        sse += want.add_prior(o + 5, p[o + 5], self.mount_tilt_sigma);
+        sse += want.add_prior(o + 6, p[o + 6], self.mount_tilt_sigma);
+        for k in 0..3 {
+            sse += want.add_prior(o + GEOMETRY + k, p[o + GEOMETRY + k], self.bias_sigma);
+        }
+        if let Want::Normal(jtj, jtr) = &mut *want {
+            local.scatter(jtj, jtr);
+            sse += local.sse;
+        }
+        sse
+    }
+
+    /// Pose `pi`'s residuals, into `want`; returns `sse` with their squares added.
+    fn pose_terms(
+        &self,
+        p: &[f64],
+        pi: usize,
+        sensor: &SensorModel,
+        want: &mut Want<'_>,
+        mut sse: f64,
+    ) -> f64 {
+        if matches!(*want, Want::Sse) {
+            sse += self
+                .pose_residual(p, pi)
+                .iter()
+                .zip(&self.pose_sigma[pi])
+                .map(|(r, sigma)| (r / sigma).powi(2))
+                .sum::<f64>();
+            return sse;
+        }
+        let index = self.pose_index(pi);
+        let mut local = LocalSystem::new(index.clone());
+        let mut block = vec![0.0; index.len()];
+        self.pose_rows(p, sensor, pi, |_, row, r| {
+            local.add_row(row, r);
+            for (b, v) in block.iter_mut().zip(row) {
+                *b += v * r;
+            }
+        });
+        match &mut *want {
+            Want::Normal(jtj, jtr) => {
                 local.scatter(jtj, jtr);
                 sse += local.sse;
             }
+            Want::Meat(meat) => add_outer(meat, &index, &block),
+            Want::Sse => {}
         }
-        let n_runs = self.runs.len();
-        let n_poses = self.poses.len();
-        for pi in 0..self.poses.len() {
-            if matches!(want, Want::Sse) {
-                sse += self
-                    .pose_residual(p, pi)
-                    .iter()
-                    .zip(&self.pose_sigma[pi])
-                    .map(|(r, sigma)| (r / sigma).powi(2))
-                    .sum::<f64>();
-                continue;
-            }
-            let index = self.pose_index(pi);
-            let mut local = LocalSystem::new(index.clone());
-            let mut block = vec![0.0; index.len()];
-            self.pose_rows(p, &sensor, pi, |_, row, r| {
-                local.add_row(row, r);
-                for (b, v) in block.iter_mut().zip(row) {
-                    *b += v * r;
-                }
-            });
-            match &mut want {
-                Want::Normal(jtj, jtr) => {
-                    local.scatter(jtj, jtr);
-                    sse += local.sse;
-                }
-                Want::Meat(meat) => add_outer(meat, &index, &block),
-                Want::Sse => {}
-            }
-        }
+        sse
+    }
+
+    /// The sensor's and the still sessions' priors, into `want`; returns `sse` with their squares
+    /// added.
+    fn sensor_and_session_priors(&self, p: &[f64], want: &mut Want<'_>, mut sse: f64) -> f64 {
         // Weak priors on the sensor's terms (0 ± a datasheet-sized width): where the campaign says
         // nothing they keep a term near zero instead of wandering; where it speaks they are
         // negligible.
@@ -438,7 +461,7 @@ impl JointProblem<'_> {
         // Each still session's bias offset within the instability, and its drift rate within the
         // instability per SESSION_DRIFT_S (poses alone say little about a slope).
         for session in 0..sessions(self.poses) {
-            let so = session_offset(n_runs, n_poses, session);
+            let so = session_offset(self.runs.len(), self.poses.len(), session);
             for k in 0..SESSION_PARAMS {
                 let param = so + k;
                 let sigma = if k < 3 {

@@ -147,6 +147,40 @@ fn recording(name: &str, time_s: Vec<f64>, accel: [Vec<f64>; 3], gyro: Option<[V
 
 /// Simulates the campaign. Deterministic for a given seed.
 pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCampaign, SimulationError> {
+    check_setup(setup)?;
+    let mut timeline = Timeline::start(setup, seed);
+    let mut recordings = Vec::new();
+    // The still poses: one recording, the sensor turned by hand from one pose to the next.
+    let directions = pose_directions(setup, &mut timeline.rng);
+    let mut true_poses = Vec::new();
+    if !directions.is_empty() {
+        let forces;
+        (forces, true_poses) = pose_forces(setup, &directions);
+        recordings.push(timeline.still_poses(&forces));
+        timeline.idle();
+    }
+    let mut true_runs = Vec::new();
+    for (index, run) in setup.runs.iter().enumerate() {
+        let (recording, geometry) = timeline.turntable_run(index, run);
+        true_runs.push(geometry);
+        recordings.push(recording);
+        timeline.idle();
+    }
+    Ok(SimulatedCampaign {
+        recordings,
+        truth: CampaignTruth {
+            seed,
+            setup: setup.clone(),
+            sensor: timeline.model,
+            gyro: timeline.gyro.as_ref().map(|g| g.model.clone()),
+            runs: true_runs,
+            poses: true_poses,
+        },
+    })
+}
+
+/// Refuses a setup the processes cannot run: rates, ranges and durations must be positive.
+fn check_setup(setup: &CampaignSetup) -> Result<(), SimulationError> {
     let profile = &setup.sensor;
     let invalid = |name, value, why| Err(SimulationError::Invalid { name, value, why });
     if !(profile.sample_rate_hz > 0.0 && profile.sample_rate_hz.is_finite()) {
@@ -189,39 +223,193 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
             );
         }
     }
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let g = setup.gravity_mps2;
-    let dt = 1.0 / profile.sample_rate_hz;
-    let full_scale = profile.range_g * STANDARD_GRAVITY;
-    let bound = profile.bias_drift_g * STANDARD_GRAVITY;
-    let decay = (-dt / profile.bias_drift_time_s).exp();
-    let model = profile_sensor_model(profile);
-    let mut sensor = SensorProcess {
-        profile,
-        model,
-        drift: [0.0; 3],
-        decay,
-        innovation: bound / 3.0 * (1.0 - decay * decay).sqrt(),
-        bound,
-        lsb: 2.0 * full_scale / 2f64.powi(profile.bits as i32),
-        max_code: 2f64.powi(profile.bits as i32 - 1) - 1.0,
-        dt,
-    };
-    // Start the drift from its stationary distribution.
-    sensor.idle(10.0 * profile.bias_drift_time_s, &mut rng);
-    let mut gyro = gyro_profile
-        .recorded
-        .then(|| GyroProcess::new(gyro_profile, decay, dt, seed));
-    // Gaps between recordings: both drifts go on.
-    let idle = |sensor: &mut SensorProcess, gyro: &mut Option<GyroProcess>, rng: &mut ChaCha8Rng| {
-        sensor.idle(setup.gap_s, rng);
-        if let Some(gyro) = gyro {
-            gyro.idle(setup.gap_s);
-        }
-    };
+    Ok(())
+}
 
-    let mut recordings = Vec::new();
-    let mut true_poses = Vec::new();
+/// The unit as it goes through the campaign: its drifts carry on from one recording to the next,
+/// and one random stream serves every recording in turn.
+struct Timeline<'a> {
+    setup: &'a CampaignSetup,
+    model: SensorModel,
+    sensor: SensorProcess<'a>,
+    gyro: Option<GyroProcess>,
+    rng: ChaCha8Rng,
+    g: f64,
+    dt: f64,
+}
+
+impl<'a> Timeline<'a> {
+    /// The processes before the first recording, their drifts already stationary.
+    fn start(setup: &'a CampaignSetup, seed: u64) -> Timeline<'a> {
+        let profile = &setup.sensor;
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let g = setup.gravity_mps2;
+        let dt = 1.0 / profile.sample_rate_hz;
+        let full_scale = profile.range_g * STANDARD_GRAVITY;
+        let bound = profile.bias_drift_g * STANDARD_GRAVITY;
+        let decay = (-dt / profile.bias_drift_time_s).exp();
+        let model = profile_sensor_model(profile);
+        let mut sensor = SensorProcess {
+            profile,
+            model,
+            drift: [0.0; 3],
+            decay,
+            innovation: bound / 3.0 * (1.0 - decay * decay).sqrt(),
+            bound,
+            lsb: 2.0 * full_scale / 2f64.powi(profile.bits as i32),
+            max_code: 2f64.powi(profile.bits as i32 - 1) - 1.0,
+            dt,
+        };
+        // Start the drift from its stationary distribution.
+        sensor.idle(10.0 * profile.bias_drift_time_s, &mut rng);
+        let gyro_profile = &setup.gyro;
+        let gyro = gyro_profile
+            .recorded
+            .then(|| GyroProcess::new(gyro_profile, decay, dt, seed));
+        Timeline {
+            setup,
+            model,
+            sensor,
+            gyro,
+            rng,
+            g,
+            dt,
+        }
+    }
+
+    /// Gaps between recordings: both drifts go on.
+    fn idle(&mut self) {
+        self.sensor.idle(self.setup.gap_s, &mut self.rng);
+        if let Some(gyro) = &mut self.gyro {
+            gyro.idle(self.setup.gap_s);
+        }
+    }
+
+    /// The still-poses recording of the true specific forces `forces`, one per sample.
+    fn still_poses(&mut self, forces: &[[f64; 3]]) -> SimulatedRecording {
+        let dt = self.dt;
+        let n = forces.len();
+        let mut accel = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut truth = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut rates = SampledRates::new(self.gyro.is_some(), n);
+        let mut random = Vec::with_capacity(n);
+        for (s, force) in forces.iter().enumerate() {
+            let (a, e, _) = self.sensor.read(*force, &mut self.rng);
+            for c in 0..3 {
+                accel[c][s] = a[c];
+                truth[c][s] = force[c];
+            }
+            random.push(e);
+            if let Some(gyro) = self.gyro.as_mut() {
+                // While the hand turns it, gravity's direction in the body frame moves along a
+                // great circle: the body turns the other way about that circle's axis.
+                let w = if s == 0 {
+                    [0.0; 3]
+                } else {
+                    turn_rate(&forces[s - 1], force, dt)
+                };
+                rates.push(s, w, gyro.read(w));
+            }
+        }
+        let name = "still-poses".to_string();
+        let (gyro_read, gyro_true) = rates.finish();
+        SimulatedRecording {
+            turntable: None,
+            recording: recording(&name, (0..n).map(|s| s as f64 * dt).collect(), accel, gyro_read),
+            true_accel_mps2: truth,
+            true_gyro_radps: gyro_true,
+            random_mps2: per_axis(&random),
+            name,
+        }
+    }
+
+    /// One turntable run: its recording and its truth in the joint fit's parametrisation.
+    fn turntable_run(&mut self, index: usize, run: &RunSetup) -> (SimulatedRecording, [f64; RUN_PARAMS]) {
+        let drawn = DrawnRun::draw(run, &mut self.rng);
+        let mut samples = self.sample_run(run, &drawn);
+        let geometry = run_truth(&drawn, &mut samples);
+        let entry = TurntableEntry {
+            rpm: run.rpm,
+            radius_m: run.radius_m,
+            radius_tol_m: run.radius_tol_m,
+            out: run.out,
+            up: run.up,
+            direction: None,
+        };
+        let name = format!(
+            "run-{}-{}rpm-r{:.3}-out{}-up{}",
+            index + 1,
+            run.rpm.round(),
+            run.radius_m,
+            run.out.name(),
+            run.up.name()
+        );
+        let (gyro_read, gyro_true) = samples.rates.finish();
+        let recording = SimulatedRecording {
+            turntable: Some(entry),
+            recording: recording(&name, samples.time_s, samples.accel, gyro_read),
+            true_accel_mps2: samples.truth,
+            true_gyro_radps: gyro_true,
+            random_mps2: per_axis(&samples.random),
+            name,
+        };
+        (recording, geometry)
+    }
+
+    /// Reads the sensor (and gyroscope) sample by sample as the platter turns.
+    fn sample_run(&mut self, run: &RunSetup, drawn: &DrawnRun) -> RunSamples {
+        let g = self.g;
+        let (radius, omega, tilt, sigma) = (drawn.radius, drawn.omega, drawn.tilt, drawn.sigma);
+        let rotation = &drawn.rotation;
+        let n = (run.duration_s * self.setup.sensor.sample_rate_hz).round() as usize;
+        let time_s: Vec<f64> = (0..n).map(|s| s as f64 * self.dt).collect();
+        let mut accel = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut truth = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut random = Vec::with_capacity(n);
+        let mut drift = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let mut rates = SampledRates::new(self.gyro.is_some(), n);
+        let mut theta = Vec::with_capacity(n);
+        for (s, &t) in time_s.iter().enumerate() {
+            let (rate, angle, rate_dot) = modulated_rotation(omega, &drawn.modulations, t, 0.0);
+            let vartheta = drawn.azimuth - sigma * angle;
+            theta.push(vartheta);
+            let (sn, cs) = vartheta.sin_cos();
+            let amplitude = g * tilt.sin();
+            // The tangential acceleration r ω̇ along the direction of motion, σ ẑ × x̂.
+            let platter = [
+                -rate * rate * radius + amplitude * cs,
+                amplitude * sn + sigma * radius * rate_dot,
+                g * tilt.cos(),
+            ];
+            let force: [f64; 3] = std::array::from_fn(|r| (0..3).map(|c| rotation[r][c] * platter[c]).sum());
+            let (a, e, _) = self.sensor.read(force, &mut self.rng);
+            for c in 0..3 {
+                accel[c][s] = a[c];
+                truth[c][s] = force[c];
+                drift[c][s] = self.sensor.drift[c];
+            }
+            random.push(e);
+            if let Some(gyro) = self.gyro.as_mut() {
+                // The platter turns at σ·rate about the spindle, the mounting frame's third axis.
+                let w: [f64; 3] = std::array::from_fn(|r| sigma * rate * rotation[r][2]);
+                rates.push(s, w, gyro.read(w));
+            }
+        }
+        RunSamples {
+            time_s,
+            accel,
+            truth,
+            random,
+            drift,
+            rates,
+            theta,
+        }
+    }
+}
+
+/// The pose directions: a face (then an edge, 45° between two axes), tilted at random up to the
+/// limit.
+fn pose_directions(setup: &CampaignSetup, rng: &mut ChaCha8Rng) -> Vec<[f64; 3]> {
     let faces: [[f64; 3]; 6] = [
         [0.0, 0.0, 1.0],
         [0.0, 0.0, -1.0],
@@ -230,7 +418,6 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
         [0.0, 1.0, 0.0],
         [0.0, -1.0, 0.0],
     ];
-    // The still poses: one recording, the sensor turned by hand from one pose to the next.
     let mut directions = Vec::with_capacity(setup.poses);
     let h = std::f64::consts::FRAC_1_SQRT_2;
     let edges: [[f64; 3]; 6] = [
@@ -242,7 +429,6 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
         [0.0, -h, -h],
     ];
     for p in 0..setup.poses {
-        // A face (then an edge, 45° between two axes), tilted at random up to the limit.
         let face = if p % 12 < 6 { faces[p % 6] } else { edges[p % 6] };
         let tilt = setup.pose_tilt_deg.to_radians() * rng.gen::<f64>().sqrt();
         let azimuth = 2.0 * std::f64::consts::PI * rng.gen::<f64>();
@@ -260,70 +446,60 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
         });
         directions.push(dir);
     }
-    if !directions.is_empty() {
-        let hold = (setup.pose_duration_s * profile.sample_rate_hz).round() as usize;
-        let turn = (TURN_S * profile.sample_rate_hz).round() as usize;
-        let mut forces: Vec<[f64; 3]> = Vec::new();
-        for (p, dir) in directions.iter().enumerate() {
-            if p > 0 {
-                // Along the great circle from the previous pose (normalised linear blend).
-                let prev = directions[p - 1];
-                for s in 1..=turn {
-                    let x = s as f64 / (turn + 1) as f64;
-                    let w: [f64; 3] = std::array::from_fn(|k| (1.0 - x) * prev[k] + x * dir[k]);
-                    let n = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt().max(1e-9);
-                    forces.push(w.map(|v| g * v / n));
-                }
-            }
-            forces.extend(std::iter::repeat_n(dir.map(|v| g * v), hold));
-            true_poses.push(dir.map(|v| g * v));
-        }
-        let n = forces.len();
-        let mut accel = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-        let mut truth = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-        let mut rates = SampledRates::new(gyro.is_some(), n);
-        let mut random = Vec::with_capacity(n);
-        for (s, force) in forces.iter().enumerate() {
-            let (a, e, _) = sensor.read(*force, &mut rng);
-            for c in 0..3 {
-                accel[c][s] = a[c];
-                truth[c][s] = force[c];
-            }
-            random.push(e);
-            if let Some(gyro) = gyro.as_mut() {
-                // While the hand turns it, gravity's direction in the body frame moves along a
-                // great circle: the body turns the other way about that circle's axis.
-                let w = if s == 0 {
-                    [0.0; 3]
-                } else {
-                    turn_rate(&forces[s - 1], force, dt)
-                };
-                rates.push(s, w, gyro.read(w));
-            }
-        }
-        let name = "still-poses".to_string();
-        let (gyro_read, gyro_true) = rates.finish();
-        recordings.push(SimulatedRecording {
-            turntable: None,
-            recording: recording(&name, (0..n).map(|s| s as f64 * dt).collect(), accel, gyro_read),
-            true_accel_mps2: truth,
-            true_gyro_radps: gyro_true,
-            random_mps2: per_axis(&random),
-            name,
-        });
-        idle(&mut sensor, &mut gyro, &mut rng);
-    }
+    directions
+}
 
-    let mut true_runs = Vec::new();
-    for (index, run) in setup.runs.iter().enumerate() {
+/// The true specific force per sample of the still-poses recording (each pose held, the turns
+/// between them), and the force of each pose.
+fn pose_forces(setup: &CampaignSetup, directions: &[[f64; 3]]) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    let g = setup.gravity_mps2;
+    let rate_hz = setup.sensor.sample_rate_hz;
+    let hold = (setup.pose_duration_s * rate_hz).round() as usize;
+    let turn = (TURN_S * rate_hz).round() as usize;
+    let mut forces: Vec<[f64; 3]> = Vec::new();
+    let mut true_poses = Vec::new();
+    for (p, dir) in directions.iter().enumerate() {
+        if p > 0 {
+            // Along the great circle from the previous pose (normalised linear blend).
+            let prev = directions[p - 1];
+            for s in 1..=turn {
+                let x = s as f64 / (turn + 1) as f64;
+                let w: [f64; 3] = std::array::from_fn(|k| (1.0 - x) * prev[k] + x * dir[k]);
+                let n = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt().max(1e-9);
+                forces.push(w.map(|v| g * v / n));
+            }
+        }
+        forces.extend(std::iter::repeat_n(dir.map(|v| g * v), hold));
+        true_poses.push(dir.map(|v| g * v));
+    }
+    (forces, true_poses)
+}
+
+/// One run's random draws and the geometry that follows from them.
+struct DrawnRun {
+    radius: f64,
+    omega: f64,
+    tilt: f64,
+    azimuth: f64,
+    /// Sense of rotation, ±1.
+    sigma: f64,
+    /// Wow, then flutter: (depth, frequency Hz, phase).
+    modulations: [(f64, f64, f64); 2],
+    rotation: [[f64; 3]; 3],
+    /// r, α, β, ε₁, ε₂ set; ω, ϑ₀, the wow and the drift come from the samples.
+    geometry: [f64; RUN_PARAMS],
+}
+
+impl DrawnRun {
+    fn draw(run: &RunSetup, rng: &mut ChaCha8Rng) -> DrawnRun {
         let radius = run.radius_m + run.radius_tol_m * (2.0 * rng.gen::<f64>() - 1.0) / 2.0;
         let omega = run.rpm * (1.0 + run.speed_error_pct / 100.0) * 2.0 * std::f64::consts::PI / 60.0;
         let tilt = run.tilt_deg.to_radians();
         let azimuth = 2.0 * std::f64::consts::PI * rng.gen::<f64>();
         let beta = 2.0 * std::f64::consts::PI * rng.gen::<f64>() - std::f64::consts::PI;
         let mount_tilt = run.mount_tilt_deg.to_radians();
-        let eps1: f64 = mount_tilt * Distribution::<f64>::sample(&StandardNormal, &mut rng);
-        let eps2: f64 = mount_tilt * Distribution::<f64>::sample(&StandardNormal, &mut rng);
+        let eps1: f64 = mount_tilt * Distribution::<f64>::sample(&StandardNormal, rng);
+        let eps2: f64 = mount_tilt * Distribution::<f64>::sample(&StandardNormal, rng);
         let wow_phase = 2.0 * std::f64::consts::PI * rng.gen::<f64>();
         let flutter_phase = 2.0 * std::f64::consts::PI * rng.gen::<f64>();
         let modulations = [
@@ -344,100 +520,61 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
         geometry[6] = eps2;
         // Only the rotation part of the geometry is used below (ω and ϑ come per sample).
         let rotation = crate::campaign::joint::rotation_of(&q, &geometry);
-        let n = (run.duration_s * profile.sample_rate_hz).round() as usize;
-        let time_s: Vec<f64> = (0..n).map(|s| s as f64 * dt).collect();
-        let mid = 0.5 * (time_s[0] + time_s[n.saturating_sub(1)]);
-        let mut accel = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-        let mut truth = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-        let mut random = Vec::with_capacity(n);
-        let mut drift_series = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-        let mut rates = SampledRates::new(gyro.is_some(), n);
-        let mut theta = Vec::with_capacity(n);
-        for (s, &t) in time_s.iter().enumerate() {
-            let (rate, angle, rate_dot) = modulated_rotation(omega, &modulations, t, 0.0);
-            let vartheta = azimuth - sigma * angle;
-            theta.push(vartheta);
-            let (sn, cs) = vartheta.sin_cos();
-            let amplitude = g * tilt.sin();
-            // The tangential acceleration r ω̇ along the direction of motion, σ ẑ × x̂.
-            let platter = [
-                -rate * rate * radius + amplitude * cs,
-                amplitude * sn + sigma * radius * rate_dot,
-                g * tilt.cos(),
-            ];
-            let force: [f64; 3] = std::array::from_fn(|r| (0..3).map(|c| rotation[r][c] * platter[c]).sum());
-            let (a, e, _) = sensor.read(force, &mut rng);
-            for c in 0..3 {
-                accel[c][s] = a[c];
-                truth[c][s] = force[c];
-                drift_series[c][s] = sensor.drift[c];
-            }
-            random.push(e);
-            if let Some(gyro) = gyro.as_mut() {
-                // The platter turns at σ·rate about the spindle, the mounting frame's third axis.
-                let w: [f64; 3] = std::array::from_fn(|r| sigma * rate * rotation[r][2]);
-                rates.push(s, w, gyro.read(w));
-            }
+        DrawnRun {
+            radius,
+            omega,
+            tilt,
+            azimuth,
+            sigma,
+            modulations,
+            rotation,
+            geometry,
         }
-        // The wow in the fit's terms: m(τ) = w_c cos ωτ + w_s sin ωτ with τ from the middle.
-        let (wow_m, wow_p) = (modulations[0].0, modulations[0].2);
-        let wow_c = wow_m * (omega * mid + wow_p).sin();
-        let wow_s = wow_m * (omega * mid + wow_p).cos();
-        // ϑ without the wow's periodic part is a line: its value at the middle is ϑ₀.
-        for (s, &t) in time_s.iter().enumerate() {
-            let (s1, c1) = (omega * (t - mid)).sin_cos();
-            theta[s] += sigma * (wow_c * s1 - wow_s * c1);
-        }
-        let (w_fit, phase_fit) = line_fit(&time_s, &theta, mid);
-        geometry[1] = -sigma * w_fit;
-        geometry[3] = phase_fit;
-        geometry[7] = wow_c;
-        geometry[8] = wow_s;
-        // The drift as the fit sees it: a line through the run, its value at the middle and slope.
-        for c in 0..3 {
-            let (slope, at_mid) = line_fit(&time_s, &drift_series[c], mid);
-            geometry[9 + c] = at_mid;
-            geometry[12 + c] = slope;
-        }
-        true_runs.push(geometry);
-        let entry = TurntableEntry {
-            rpm: run.rpm,
-            radius_m: run.radius_m,
-            radius_tol_m: run.radius_tol_m,
-            out: run.out,
-            up: run.up,
-            direction: None,
-        };
-        let name = format!(
-            "run-{}-{}rpm-r{:.3}-out{}-up{}",
-            index + 1,
-            run.rpm.round(),
-            run.radius_m,
-            run.out.name(),
-            run.up.name()
-        );
-        let (gyro_read, gyro_true) = rates.finish();
-        recordings.push(SimulatedRecording {
-            turntable: Some(entry),
-            recording: recording(&name, time_s, accel, gyro_read),
-            true_accel_mps2: truth,
-            true_gyro_radps: gyro_true,
-            random_mps2: per_axis(&random),
-            name,
-        });
-        idle(&mut sensor, &mut gyro, &mut rng);
     }
-    Ok(SimulatedCampaign {
-        recordings,
-        truth: CampaignTruth {
-            seed,
-            setup: setup.clone(),
-            sensor: model,
-            gyro: gyro.as_ref().map(|g| g.model.clone()),
-            runs: true_runs,
-            poses: true_poses,
-        },
-    })
+}
+
+/// One run as sampled: the readings, the truth, and the angle and drift the fit's terms are
+/// taken from.
+struct RunSamples {
+    time_s: Vec<f64>,
+    accel: [Vec<f64>; 3],
+    truth: [Vec<f64>; 3],
+    random: Vec<[f64; 3]>,
+    drift: [Vec<f64>; 3],
+    rates: SampledRates,
+    theta: Vec<f64>,
+}
+
+/// The run's truth in the fit's terms: ω and ϑ₀ of the angle less its wow (taken off `theta` in
+/// place), the wow, and the drift as a line.
+fn run_truth(drawn: &DrawnRun, samples: &mut RunSamples) -> [f64; RUN_PARAMS] {
+    let (omega, sigma) = (drawn.omega, drawn.sigma);
+    let time_s = &samples.time_s;
+    let n = time_s.len();
+    let mid = 0.5 * (time_s[0] + time_s[n.saturating_sub(1)]);
+    let mut geometry = drawn.geometry;
+    let theta = &mut samples.theta;
+    // The wow in the fit's terms: m(τ) = w_c cos ωτ + w_s sin ωτ with τ from the middle.
+    let (wow_m, wow_p) = (drawn.modulations[0].0, drawn.modulations[0].2);
+    let wow_c = wow_m * (omega * mid + wow_p).sin();
+    let wow_s = wow_m * (omega * mid + wow_p).cos();
+    // ϑ without the wow's periodic part is a line: its value at the middle is ϑ₀.
+    for (s, &t) in time_s.iter().enumerate() {
+        let (s1, c1) = (omega * (t - mid)).sin_cos();
+        theta[s] += sigma * (wow_c * s1 - wow_s * c1);
+    }
+    let (w_fit, phase_fit) = line_fit(time_s, theta, mid);
+    geometry[1] = -sigma * w_fit;
+    geometry[3] = phase_fit;
+    geometry[7] = wow_c;
+    geometry[8] = wow_s;
+    // The drift as the fit sees it: a line through the run, its value at the middle and slope.
+    for c in 0..3 {
+        let (slope, at_mid) = line_fit(time_s, &samples.drift[c], mid);
+        geometry[9 + c] = at_mid;
+        geometry[12 + c] = slope;
+    }
+    geometry
 }
 
 /// Three axes of samples.
