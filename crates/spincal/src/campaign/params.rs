@@ -128,6 +128,14 @@ impl Params {
     /// Checks every setting; the first one that cannot be used is named.
     pub fn check(&self) -> Result<(), ParamError> {
         self.check_fit()?;
+        self.check_axes()?;
+        self.check_network()?;
+        self.check_sysid()?;
+        self.check_campaign()
+    }
+
+    /// At least one axis to correct, none named twice.
+    fn check_axes(&self) -> Result<(), ParamError> {
         if self.correct_axes.is_empty() {
             return Err(refuse(
                 "correct_axes",
@@ -142,6 +150,11 @@ impl Params {
                 "an axis is named twice",
             ));
         }
+        Ok(())
+    }
+
+    /// A sweep's grid and restarts, or the fixed network's layers and restarts.
+    fn check_network(&self) -> Result<(), ParamError> {
         let layers_ok = |hidden: &[usize]| hidden.iter().all(|&n| n > 0);
         match &self.network {
             NetworkChoice::Sweep {
@@ -183,6 +196,11 @@ impl Params {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// System identification needs the contiguous division and a measured start.
+    fn check_sysid(&self) -> Result<(), ParamError> {
         if !self.sysid.is_empty() && self.division != DivisionMode::Contiguous {
             return Err(refuse(
                 "division",
@@ -197,6 +215,11 @@ impl Params {
                 "a simulation starts from at least one measured output",
             ));
         }
+        Ok(())
+    }
+
+    /// The campaign's settings: joint fit, candidates, gyroscope and thermal model.
+    fn check_campaign(&self) -> Result<(), ParamError> {
         let j = &self.joint;
         positive([
             ("joint.gravity_mps2", j.gravity_mps2),

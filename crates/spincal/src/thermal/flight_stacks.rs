@@ -374,6 +374,21 @@ pub fn ardupilot(model: &ThermalModel, target: ArduPilotTarget) -> Result<StackF
 /// comments, then `system component name value type` lines, tab separated). Coefficients in
 /// m/s² per °C^j, temperatures in °C. Gyro thermal parameters (`TC_G*`) are not written.
 pub fn px4(model: &ThermalModel, target: Px4Target) -> Result<StackFile, FlightStackError> {
+    check_px4_target(&target)?;
+    check(model, "PX4")?;
+    let params = px4_params(model, &target);
+    let left = left_out(model);
+    let lines = px4_comments(model, &target, &left);
+    let text = px4_text(&lines, &params, &target);
+    Ok(StackFile {
+        params,
+        text,
+        left_out: left,
+    })
+}
+
+/// An accelerometer PX4 has thermal parameters for, and a device id it would match.
+fn check_px4_target(target: &Px4Target) -> Result<(), FlightStackError> {
     if target.accel > 3 {
         return Err(FlightStackError::Target {
             what: "PX4 accelerometer",
@@ -388,7 +403,11 @@ pub fn px4(model: &ThermalModel, target: Px4Target) -> Result<StackFile, FlightS
             why: "no sensor has id 0, so PX4 would apply nothing; give the accelerometer's CAL_ACCn_ID",
         });
     }
-    check(model, "PX4")?;
+    Ok(())
+}
+
+/// `TC_A_ENABLE`, then accelerometer n's id, temperatures and coefficients.
+fn px4_params(model: &ThermalModel, target: &Px4Target) -> Vec<Param> {
     let n = target.accel;
     let coefficients = cubic(model);
     let [low, high] = model.fitted_range_c;
@@ -429,7 +448,12 @@ pub fn px4(model: &ThermalModel, target: Px4Target) -> Result<StackFile, FlightS
             });
         }
     }
-    let left = left_out(model);
+    params
+}
+
+/// The file's comments: how PX4 applies the parameters, and what the model leaves out.
+fn px4_comments(model: &ThermalModel, target: &Px4Target, left: &LeftOut) -> Vec<String> {
+    let n = target.accel;
     let staircase = left.bias_slope_mps2_per_c.map(|s| s * PX4_REPUBLISH_C);
     let mut lines = vec![
         format!(
@@ -451,16 +475,21 @@ pub fn px4(model: &ThermalModel, target: Px4Target) -> Result<StackFile, FlightS
     ];
     lines.extend(left_out_lines(
         model,
-        &left,
+        left,
         &format!("CAL_ACC{n}_OFF, CAL_ACC{n}_SCALE"),
     ));
     lines.push("  gyro: spincal's thermal model has no gyro terms; TC_G* is not written".into());
+    lines
+}
+
+/// The comments, then QGroundControl's tab-separated parameter lines.
+fn px4_text(lines: &[String], params: &[Param], target: &Px4Target) -> String {
     let mut text = String::new();
-    for line in &lines {
+    for line in lines {
         let _ = writeln!(text, "# {line}");
     }
     text.push_str("#\n# Vehicle-Id Component-Id Name Value Type\n");
-    for p in &params {
+    for p in params {
         let _ = writeln!(
             text,
             "{}\t{}\t{}\t{}\t{}",
@@ -471,11 +500,7 @@ pub fn px4(model: &ThermalModel, target: Px4Target) -> Result<StackFile, FlightS
             p.kind.mavlink_code()
         );
     }
-    Ok(StackFile {
-        params,
-        text,
-        left_out: left,
-    })
+    text
 }
 
 #[cfg(test)]
