@@ -79,21 +79,40 @@ pub fn print_json<T: serde::Serialize>(value: &T) -> anyhow::Result<()> {
 }
 
 /// Maps a command's result to the process exit code, printing the error chain.
+/// The library names its parameters (`sample_rate_hz`); on the command line they are flags. Only
+/// names whose flag is spelled otherwise, and that no library message uses in another sense.
+const PARAMETER_FLAGS: [(&str, &str); 5] = [
+    ("`sample_rate_hz`", "`--sample-rate`"),
+    ("`time_unit`", "`--time-unit`"),
+    ("`topic`", "`--topic`"),
+    ("`force`", "`--force`"),
+    ("`axes`", "`--objective-axes`"),
+];
+
+/// A library message in the command line's words.
+pub fn in_flags(message: &str) -> String {
+    PARAMETER_FLAGS
+        .iter()
+        .fold(message.to_string(), |text, (parameter, flag)| {
+            text.replace(parameter, flag)
+        })
+}
+
 pub fn exit_code(result: anyhow::Result<()>) -> i32 {
     match result {
         Ok(()) => 0,
         Err(e) => {
             if e.downcast_ref::<UsageError>().is_some() {
-                eprintln!("error: {e}");
+                eprintln!("error: {}", in_flags(&e.to_string()));
                 return 2;
             }
             if e.downcast_ref::<RowsRefused>().is_some() || e.downcast_ref::<UnitsFailed>().is_some() {
-                eprintln!("error: {e}");
+                eprintln!("error: {}", in_flags(&e.to_string()));
                 return 3;
             }
-            eprintln!("error: {e}");
+            eprintln!("error: {}", in_flags(&e.to_string()));
             for cause in e.chain().skip(1) {
-                eprintln!("  caused by: {cause}");
+                eprintln!("  caused by: {}", in_flags(&cause.to_string()));
             }
             1
         }

@@ -84,7 +84,7 @@ fn bags_read_inspect_and_fit_like_their_csv() {
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8(out.stderr).unwrap();
     assert!(
-        err.contains("2 IMU topics; choose one with --topic: /imu (sensor_msgs/msg/Imu, 3000 messages); /imu_b (sensor_msgs/msg/Imu, 3000 messages)"),
+        err.contains("2 IMU topics; choose one as `--topic`: /imu (sensor_msgs/msg/Imu, 3000 messages); /imu_b (sensor_msgs/msg/Imu, 3000 messages)"),
         "{err}"
     );
     let text = stdout(spincal().arg("inspect").arg(&two).args(["--topic", "/imu_b"]));

@@ -372,7 +372,7 @@ fn a_time_column_that_is_not_seconds_is_refused_with_the_flag_that_fixes_it() {
         (
             "millis.csv",
             retimed(&text, |_, t| format!("{}", (t * 1000.0).round())),
-            "--time-unit ms",
+            "`--time-unit` ms",
             &["--time-unit", "ms"],
         ),
         (

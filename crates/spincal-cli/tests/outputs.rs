@@ -62,7 +62,7 @@ fn simulate_never_replaces_a_recording_it_did_not_write_but_replaces_its_own() {
         err.contains("my-recording.csv") && err.contains("spincal did not write it"),
         "{err}"
     );
-    assert!(err.contains("--force"), "{err}");
+    assert!(err.contains("set `--force` to replace it"), "{err}");
     assert_eq!(read(&real), REAL.as_bytes());
     assert_eq!(listing(dir.path()), ["my-recording.csv"], "nothing else written");
 

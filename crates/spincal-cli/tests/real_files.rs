@@ -174,7 +174,7 @@ fn a_file_without_a_time_column_is_corrected_at_the_rate_given() {
             .arg("-o")
             .arg(&out),
     );
-    assert!(e.contains("--sample-rate"), "{e}");
+    assert!(e.contains("`--sample-rate`"), "{e}");
     run(spincal()
         .args([
             "correct",

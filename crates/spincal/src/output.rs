@@ -31,7 +31,7 @@ pub enum OutputError {
     Directory { path: String },
     #[error("{path}: a symbolic link to a missing file ({target}); remove the link or name another output")]
     DanglingLink { path: String, target: String },
-    #[error("{path}: exists and spincal did not write it ({why}); spincal does not replace it: choose another path, move the file away, or give --force to replace it")]
+    #[error("{path}: exists and spincal did not write it ({why}); spincal does not replace it: choose another path, move the file away, or set `force` to replace it")]
     NotWrittenBySpincal { path: String, why: String },
     #[error("{path}: is a file, not a folder; name a folder for the outputs (it is made if missing)")]
     NotAFolder { path: String },

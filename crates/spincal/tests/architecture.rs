@@ -448,3 +448,22 @@ fn the_scanner_finds_a_second_path_and_allows_a_facade_and_the_prelude() {
     let surface = public_surface(src);
     assert!(surface.contains(&"b: pub struct B".to_string()), "{surface:?}");
 }
+
+/// The library's errors name its parameters (`sample_rate_hz`), never a front end's flags
+/// (`--sample-rate`): the CLI and Python each put them in their own words.
+#[test]
+fn library_errors_name_parameters_not_flags() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut flagged = Vec::new();
+    for (module, code) in library_code(&root.join("src")) {
+        for line in code.lines().filter(|l| l.trim_start().starts_with("#[error(")) {
+            let names_a_flag = line
+                .match_indices("--")
+                .any(|(at, _)| line[at + 2..].starts_with(|c: char| c.is_ascii_lowercase()));
+            if names_a_flag {
+                flagged.push(format!("{}: {}", module.join("::"), line.trim()));
+            }
+        }
+    }
+    assert!(flagged.is_empty(), "errors that name a CLI flag: {flagged:#?}");
+}

@@ -185,7 +185,7 @@ fn several_imu_topics_are_listed_and_one_is_chosen() {
                 || text.contains(&format!("/imu (sensor_msgs/Imu, {n} messages)")),
             "{text}"
         );
-        assert!(text.contains("/imu_b (") && text.contains("--topic"), "{text}");
+        assert!(text.contains("/imu_b (") && text.contains("`topic`"), "{text}");
         assert!(text.starts_with(&path.display().to_string()), "{text}");
 
         let a = read(&path, Some("/imu")).unwrap().recording;

@@ -237,7 +237,7 @@ pub fn render(fit: &TurntableFit) -> String {
             r.rate.peak_to_median
         ));
         for w in r.inspection.warnings(&r.name) {
-            text.push_str(&format!("  warning: {w}\n"));
+            text.push_str(&format!("  warning: {}\n", crate::ui::in_flags(&w)));
         }
     }
     text.push_str(&format!(

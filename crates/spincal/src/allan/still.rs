@@ -73,7 +73,7 @@ pub enum StillNoiseError {
     NotStatic { file: String, kind: String },
     #[error("{file}: the values are raw counts; give the accelerometer's scale, or a static calibration")]
     RawCounts { file: String },
-    #[error("{source_name}: the gyro values are raw counts, not rad/s; calibrate the gyroscope first (`spincal static ACC --gyro-file GYRO -o cal.json`, from still poses joined by rotations) and apply that calibration")]
+    #[error("{source_name}: the gyro values are raw counts, not rad/s; calibrate the gyroscope first (a static calibration given the gyro file: still poses joined by rotations) and apply that calibration")]
     GyroCounts { source_name: String },
     #[error("{file}: the gyro calibration takes readings in {model_unit}, but {source_name} holds {held}")]
     GyroUnit {

@@ -320,7 +320,7 @@ impl StaticFit {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum StaticCalError {
-    #[error("the model of {} needs {needed} still poses or more, but only {found} still poses were found; record more poses or use a smaller model (--model 6)", model.describe())]
+    #[error("the model of {} needs {needed} still poses or more, but only {found} still poses were found; record more poses or use a smaller `model` (6 parameters)", model.describe())]
     TooFewPoses {
         model: StaticModel,
         needed: usize,

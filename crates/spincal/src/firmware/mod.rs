@@ -92,7 +92,7 @@ pub enum FirmwareError {
         field: String,
         reason: String,
     },
-    #[error("--name {name:?}: not a C identifier (letters, digits and _, not starting with a digit)")]
+    #[error("`name` {name:?}: not a C identifier (letters, digits and _, not starting with a digit)")]
     Name { name: String },
     #[error("no precision asked for: export float, double or both")]
     NoPrecision,

@@ -303,7 +303,7 @@ pub(crate) fn time_advice(recording: &Recording) -> Option<String> {
     }
     if recording.duration_s() == 0.0 {
         return Some(format!(
-            "every timestamp is {}: the time column is not a clock; give the sample rate (--sample-rate HZ: time = sample number / rate)",
+            "every timestamp is {}: the time column is not a clock; give the sample rate (`sample_rate_hz`: time = sample number / rate)",
             t[0]
         ));
     }
@@ -314,19 +314,19 @@ pub(crate) fn time_advice(recording: &Recording) -> Option<String> {
     let whole = t.iter().all(|v| v.fract() == 0.0);
     if whole && dt == 1.0 {
         return Some(
-            "the time column counts 0, 1, 2, … in steps of exactly 1: a sample index, not seconds; give the sample rate (--sample-rate HZ: time = sample number / rate)"
+            "the time column counts 0, 1, 2, … in steps of exactly 1: a sample index, not seconds; give the sample rate (`sample_rate_hz`: time = sample number / rate)"
                 .to_string(),
         );
     }
     if dt >= 0.5 {
         return Some(format!(
-            "the time column steps by {dt} s ({:.3} Hz), too slow for a turntable recording: if it counts milliseconds give --time-unit ms (microseconds: --time-unit us); if it counts samples, give --sample-rate HZ",
+            "the time column steps by {dt} s ({:.3} Hz), too slow for a turntable recording: if it counts milliseconds give `time_unit` ms (microseconds: us); if it counts samples, give `sample_rate_hz`",
             1.0 / dt
         ));
     }
     if dt < 1e-5 {
         return Some(format!(
-            "the time column steps by {dt:e} s ({:.0} Hz), faster than an IMU logs: if it counts seconds give --time-unit s (milliseconds: --time-unit ms); or give --sample-rate HZ",
+            "the time column steps by {dt:e} s ({:.0} Hz), faster than an IMU logs: if it counts seconds give `time_unit` s (milliseconds: ms); or give `sample_rate_hz`",
             1.0 / dt
         ));
     }

@@ -67,7 +67,7 @@ impl Default for ThermalSettings {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ThermalError {
-    #[error("{file}: no temperature column (name one `temp`, `temperature` or `temp_c`, or list it as the last of --columns)")]
+    #[error("{file}: no temperature column (name one `temp`, `temperature` or `temp_c`, or list it as the last of `columns`)")]
     NoTemperature { file: String },
     #[error("{file}: shorter than one {window_s} s window")]
     TooShort { file: String, window_s: f64 },

@@ -174,7 +174,9 @@ pub enum FormatError {
     #[cfg(not(feature = "bags"))]
     #[error("{file}: a ROS bag, and this build of spincal lacks the `bags` feature that reads them")]
     BagsNotBuilt { file: String },
-    #[error("{file}: no sample rate: the file has no time column and no `Fs,<Hz>` line; pass --sample-rate")]
+    #[error(
+        "{file}: no sample rate: the file has no time column and no `Fs,<Hz>` line; give `sample_rate_hz`"
+    )]
     NoSampleRate { file: String },
     #[error("{file}:{line}: sample rate '{text}' is not a positive number")]
     BadSampleRate { file: String, line: usize, text: String },

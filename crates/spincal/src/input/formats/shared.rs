@@ -51,7 +51,7 @@ pub(super) fn finish(
             .cloned()
             .unwrap_or_default();
         loaded.notes.push(format!(
-            "time = sample number / {rate} Hz (--sample-rate given; the `{column}` column is not used)"
+            "time = sample number / {rate} Hz (`sample_rate_hz` given; the `{column}` column is not used)"
         ));
     }
     apply_scale(&mut loaded, options)?;

@@ -65,15 +65,15 @@ pub enum RecordingError {
         key: String,
         available: String,
     },
-    #[error("{file}: cannot tell which columns hold time and acceleration (columns: {available}); pass --columns t,ax,ay,az")]
+    #[error("{file}: cannot tell which columns hold time and acceleration (columns: {available}); name them in `columns`: t,ax,ay,az")]
     AmbiguousColumns { file: String, available: String },
-    #[error("{file}: no time column among {available} (the acceleration is in {accel}); pass --columns T,{accel} naming the time column (with --time-unit ms, us or ns if it is not in s), or, when the file has none, any column as T with --sample-rate HZ")]
+    #[error("{file}: no time column among {available} (the acceleration is in {accel}); name the time column first in `columns`: T,{accel} (with `time_unit` ms, us or ns if it is not in s), or, when the file has none, any column as T with `sample_rate_hz`")]
     NoTimeColumn {
         file: String,
         available: String,
         accel: String,
     },
-    #[error("--columns needs 4, 5, 7 or 8 entries (t,ax,ay,az[,gx,gy,gz][,temperature]), got {0}")]
+    #[error("`columns` needs 4, 5, 7 or 8 entries (t,ax,ay,az[,gx,gy,gz][,temperature]), got {0}")]
     ColumnCount(usize),
     #[error("{at}: time goes backwards ({previous} s, then {current} s)")]
     TimeNotIncreasing {

@@ -104,7 +104,7 @@ impl Default for FitOptions {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum FitError {
-    #[error("{file}: a{axis} is constant (a dead or disconnected channel): there is no rotation to fit on it; check the recording or leave the axis out of the objective (--objective-axes)")]
+    #[error("{file}: a{axis} is constant (a dead or disconnected channel): there is no rotation to fit on it; check the recording or leave the axis out of the objective (`axes`)")]
     ConstantAxis { file: String, axis: char },
     #[error("{file}: no rotation found: the strongest line in the search band ({rpm:.2} rpm) is only {peak_to_median:.1}× the spectrum's median (at least {MIN_PEAK_TO_MEDIAN} is needed); {advice}")]
     NoRotation {

@@ -67,7 +67,7 @@ pub enum BagError {
     Unsupported { file: String, what: String },
     #[error("{file}: no IMU topic (sensor_msgs/Imu, or geometry_msgs/Vector3Stamped accelerometer [+ gyro]); topics: {topics}")]
     NoImuTopic { file: String, topics: String },
-    #[error("{file}: {count} IMU topics; choose one with --topic: {topics}")]
+    #[error("{file}: {count} IMU topics; choose one as `topic`: {topics}")]
     SeveralTopics {
         file: String,
         count: usize,
