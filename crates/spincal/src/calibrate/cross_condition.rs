@@ -3,7 +3,7 @@
 
 use super::{axes_of, determined_sentence, CalibrateError, CrossRow, PartScore};
 use crate::campaign::params::Params;
-use crate::campaign::verdict::compare;
+use crate::campaign::verdict::{compare, push_blocks};
 use crate::correctors::corrector::Corrector;
 use crate::correctors::linear::LinearModel;
 use crate::input::recording::Recording;
@@ -38,7 +38,8 @@ pub(super) fn cross_condition_rows(
             Some(recordings.len() - 1),
         ));
         let other_ref = &references[k];
-        let block = time_blocks(&other.time_s, settings.joint.block_s);
+        let mut block = Vec::new();
+        push_blocks(&mut block, &other.time_s, settings.joint.block_s);
         let raw: Vec<Vec<f64>> = axes_idx.iter().map(|&a| other.accel_mps2[a].clone()).collect();
         let raw_residuals = residuals(&raw, other_ref, axes_idx, settings.delays);
         // Each corrector scored from sample `from` on, and against no correction on those samples.
@@ -98,15 +99,6 @@ pub(super) fn cross_condition_rows(
         }
     }
     Ok(cross_condition)
-}
-
-/// Block number per sample: whole blocks of `block_s` seconds from the first sample.
-fn time_blocks(time_s: &[f64], block_s: f64) -> Vec<usize> {
-    let start = time_s.first().copied().unwrap_or(0.0);
-    time_s
-        .iter()
-        .map(|t| ((t - start) / block_s).floor().max(0.0) as usize)
-        .collect()
 }
 
 /// Per-sample residuals of `estimate` (one series per corrected axis) against the reference, from
@@ -225,7 +217,8 @@ mod tests {
             source: Default::default(),
         };
         let axes = [0, 1];
-        let block = time_blocks(&time_s, 5.0);
+        let mut block = Vec::new();
+        push_blocks(&mut block, &time_s, 5.0);
         let (mut plain_worse, mut significant_worse, mut bias_found) = (0, 0, 0);
         for seed in 0..20 {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);

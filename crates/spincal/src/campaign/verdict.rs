@@ -74,6 +74,15 @@ pub(crate) struct Segment {
     pub valid: Vec<bool>,
 }
 
+/// Appends the block number of each sample of one recording segment: blocks of `block_s` seconds
+/// (at least 10 samples), numbered on from the last block already in `block`.
+pub(crate) fn push_blocks(block: &mut Vec<usize>, time_s: &[f64], block_s: f64) {
+    let next = block.last().map_or(0, |b| b + 1);
+    let dt = crate::input::recording::sample_interval(time_s);
+    let per_block = ((block_s / dt).round() as usize).max(10);
+    block.extend((0..time_s.len()).map(|s| next + s / per_block));
+}
+
 /// The layout of a condition's samples.
 pub(crate) fn condition_samples(
     runs: &[usize],
@@ -84,15 +93,11 @@ pub(crate) fn condition_samples(
 ) -> ConditionSamples {
     let mut block = Vec::new();
     let mut random: Option<Vec<[f64; 3]>> = Some(Vec::new());
-    let mut next = 0usize;
     for &i in runs {
         let run = &prepared.runs[i];
         let unit = &units[prepared.run_origin[i]];
-        let dt = crate::input::recording::sample_interval(&run.time_s);
-        let per_block = ((joint.block_s / dt).round() as usize).max(10);
         let n = run.time_s.len();
-        block.extend((0..n).map(|s| next + s / per_block));
-        next += n.div_ceil(per_block);
+        push_blocks(&mut block, &run.time_s, joint.block_s);
         random = match (random, &unit.random_mps2) {
             (Some(mut r), Some(u)) => {
                 r.extend((0..n).map(|s| [u[0][s], u[1][s], u[2][s]]));
@@ -104,12 +109,11 @@ pub(crate) fn condition_samples(
     for &p in poses {
         let origin = &prepared.pose_origin[p];
         let unit = &units[origin.recording];
-        let len = origin.end - origin.start;
-        let time = &unit.recording.time_s[origin.start..origin.end];
-        let dt = crate::input::recording::sample_interval(time);
-        let per_block = ((POSE_BLOCK_S / dt).round() as usize).max(10);
-        block.extend((0..len).map(|s| next + s / per_block));
-        next += len.div_ceil(per_block);
+        push_blocks(
+            &mut block,
+            &unit.recording.time_s[origin.start..origin.end],
+            POSE_BLOCK_S,
+        );
         random = match (random, &unit.random_mps2) {
             (Some(mut r), Some(u)) => {
                 r.extend((origin.start..origin.end).map(|s| [u[0][s], u[1][s], u[2][s]]));
