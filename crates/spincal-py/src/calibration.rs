@@ -6,7 +6,6 @@ use std::path::{Path, PathBuf};
 use numpy::PyArray2;
 use pyo3::prelude::*;
 
-use spincal::calibrate::CalibrationOutput;
 use spincal::campaign::file::Campaign;
 use spincal::campaign::params::Params;
 use spincal::campaign::select::CampaignOutput;
@@ -62,11 +61,20 @@ pub(crate) fn fit_turntable<'py>(
     ))
 }
 
-/// A finished calibration: results (JSON), the saved corrector, and the report.
+/// A finished calibration of turntable recordings: results (JSON: the campaign envelope with the
+/// paper's figures under `paper`), the saved corrector, the signals and the report.
 #[pyclass(name = "Calibration", module = "spincal._spincal", frozen)]
 pub(crate) struct PyCalibration {
-    output: CalibrationOutput,
-    recordings: Vec<Recording>,
+    output: CampaignOutput,
+}
+
+impl PyCalibration {
+    fn signals(&self) -> PyResult<&spincal::campaign::paper::PaperSignals> {
+        self.output
+            .paper_signals
+            .as_deref()
+            .ok_or_else(|| errors::Error::new_err("this calibration has no paper-protocol signals"))
+    }
 }
 
 #[pymethods]
@@ -75,39 +83,43 @@ impl PyCalibration {
     fn result_json(&self) -> PyResult<String> {
         json(&self.output.result)
     }
-    /// The saved corrector (model.json), or None when every corrector was worse than uncorrected
-    /// on another recording (the verdict says why).
+    /// The saved corrector (model.json), or None when no corrector held on every held-out
+    /// condition (the verdict says why).
     fn corrector(&self) -> Option<PyCorrector> {
         self.output.saved.clone().map(|file| PyCorrector { file })
     }
     /// The reference (turntable physics, m/s²) per recording, (n, 3) each.
-    fn references<'py>(&self, py: Python<'py>) -> Vec<Bound<'py, PyArray2<f64>>> {
-        self.output
+    fn references<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyArray2<f64>>>> {
+        Ok(self
+            .signals()?
             .references
             .iter()
             .map(|r| columns_to_array(py, &r.accel_mps2))
-            .collect()
+            .collect())
     }
-    /// The chosen corrector applied to the first recording, (n, 3) m/s².
-    fn corrected<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        columns_to_array(py, &self.output.corrected)
+    /// The saved corrector applied to the first recording (the recording itself when nothing
+    /// was saved), (n, 3) m/s².
+    fn corrected<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        Ok(columns_to_array(py, &self.signals()?.corrected))
     }
-    /// Writes model.json, results.json and report.html into `folder` (created), as the CLI does.
+    /// Writes what `spincal calibrate` writes into `folder` (created): model.json when saved,
+    /// results.json, report.html, and imucal.json and imu_tk files when saved.
     fn write(&self, py: Python<'_>, folder: PathBuf) -> PyResult<()> {
         std::fs::create_dir_all(&folder)
             .map_err(|e| errors::OutputError::new_err(format!("{}: cannot create: {e}", folder.display())))?;
-        if let Some(saved) = &self.output.saved {
-            saved
-                .write_path(&folder.join("model.json"))
-                .map_err(errors::output)?;
-        }
-        let results =
-            serde_json::to_string_pretty(&self.output.result).map_err(|e| usage(e.to_string()))? + "\n";
-        write_text(&folder.join("results.json"), &results)?;
-        let html = py
-            .detach(|| spincal::report::html::render_report(&self.output, &self.recordings))
+        let files = py
+            .detach(|| {
+                spincal::report::campaign::campaign_files(
+                    &self.output.result,
+                    self.output.saved.as_ref(),
+                    self.output.paper_signals.as_deref(),
+                )
+            })
             .map_err(|e| errors::Error::new_err(format!("report: {e}")))?;
-        write_text(&folder.join("report.html"), &html)
+        for (name, text) in files {
+            write_text(&folder.join(name), &text)?;
+        }
+        Ok(())
     }
 }
 
@@ -172,7 +184,7 @@ pub(crate) fn calibrate<'py>(
         return Err(e);
     }
     let output = outcome.map_err(errors::fit)?;
-    Ok(PyCalibration { output, recordings })
+    Ok(PyCalibration { output })
 }
 
 /// Hands a sweep's jobs to a Python runner, `runner(jobs_json, n_jobs) -> [run_json, ...]`, and
@@ -254,7 +266,7 @@ pub(crate) fn campaign_files(
         .transpose()
         .map_err(errors::model)?;
     let files = py
-        .detach(|| spincal::report::campaign::campaign_files(&result, model.as_ref()))
+        .detach(|| spincal::report::campaign::campaign_files(&result, model.as_ref(), None))
         .map_err(|e| errors::Error::new_err(format!("drawing report.html: {e}")))?;
     Ok(files
         .into_iter()

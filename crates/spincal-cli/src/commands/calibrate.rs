@@ -3,12 +3,13 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use spincal::calibrate::{calibrate, CalibrationOutput};
+use spincal::calibrate::calibrate;
 use spincal::campaign::params::{NetworkChoice, Params};
+use spincal::campaign::select::CampaignOutput;
 use spincal::correctors::ann::{default_grid, small_grid};
 use spincal::correctors::corrector::Axis;
 use spincal::input::recording::Recording;
-use spincal::report::html::render_report;
+use spincal::report::campaign::{campaign_files, CAMPAIGN_FILE_NAMES};
 use spincal::sysid::{ModelKind, ModelSpec};
 
 use super::fit::TurntableArgs;
@@ -122,19 +123,19 @@ impl CalibrateArgs {
 }
 
 /// Runs the library's calibration with a progress bar that names each stage.
-pub fn calibrate_with_progress(
+fn calibrate_with_progress(
     recordings: &[Recording],
     settings: &Params,
     ui: Ui,
-    label: &str,
-) -> anyhow::Result<CalibrationOutput> {
-    let bar = ui.progress(1, label);
+) -> anyhow::Result<CampaignOutput> {
+    let bar = ui.progress(1, "calibrating");
     let output = calibrate(recordings, settings, &|p| crate::ui::show(&bar, p))?;
     bar.finish_and_clear();
     Ok(output)
 }
 
-/// Runs a calibration with progress bars and writes the three output files.
+/// Runs a calibration with progress bars and writes its files (those of a campaign: model.json
+/// when saved, results.json, report.html, and the other tools' files when saved).
 /// `read_seconds` is how long reading the recordings took, when they were read (a stage of its
 /// own in results.json).
 pub fn run_calibration(
@@ -143,56 +144,55 @@ pub fn run_calibration(
     out: &Path,
     read_seconds: Option<f64>,
     ui: Ui,
-) -> anyhow::Result<CalibrationOutput> {
+) -> anyhow::Result<CampaignOutput> {
     super::create_folder("--out", out)?;
-    let mut output = calibrate_with_progress(recordings, settings, ui, "calibrating")?;
-    let stage = |stage: &str, seconds: f64| spincal::progress::StageTime {
-        stage: stage.to_string(),
-        seconds,
-    };
+    let mut output = calibrate_with_progress(recordings, settings, ui)?;
     if let Some(seconds) = read_seconds {
-        output.result.stage_seconds.insert(0, stage("read", seconds));
+        output.result.stage_seconds.insert(
+            0,
+            spincal::progress::StageTime {
+                stage: "read".to_string(),
+                seconds,
+            },
+        );
     }
-    match &output.saved {
-        Some(file) => file.write_path(&out.join("model.json"))?,
-        None => super::set_aside_stale(out, &["model.json"], &[])?,
+    let files = campaign_files(
+        &output.result,
+        output.saved.as_ref(),
+        output.paper_signals.as_deref(),
+    )?;
+    let written: Vec<&str> = files.iter().map(|(name, _)| *name).collect();
+    super::set_aside_stale(out, &CAMPAIGN_FILE_NAMES, &written)?;
+    for (name, text) in files {
+        super::write_text(&out.join(name), &text)?;
     }
-    let clock = std::time::Instant::now();
-    let html = render_report(&output, recordings)?;
-    // The report lists the stages before it; its own time goes into results.json.
-    output
-        .result
-        .stage_seconds
-        .push(stage("report", clock.elapsed().as_secs_f64()));
-    let results = serde_json::to_string_pretty(&output.result)? + "\n";
-    super::write_text(&out.join("results.json"), &results)?;
-    super::write_text(&out.join("report.html"), &html)?;
     Ok(output)
 }
 
-/// A short summary for the terminal.
-pub fn summary(output: &CalibrationOutput, out: &Path) -> String {
-    let r = &output.result;
-    let mut text = format!("{}\n\n", r.verdict);
-    text.push_str(
-        "model        train fit %  validation fit %  test fit %   (simulation for dynamic models)\n",
-    );
-    for row in &r.comparison {
+/// A short summary for the terminal: the verdict and held-out table, then the paper's figures.
+pub fn summary(output: &CampaignOutput, out: &Path) -> String {
+    let mut text = super::campaign::summary(output, out);
+    if let Some(paper) = &output.result.paper {
+        text.push_str("\nthe paper's protocol (60/20/20 on the first recording; reported, not what decided the saving):\n");
+        text.push_str(
+            "model        train fit %  validation fit %  test fit %   (simulation for dynamic models)\n",
+        );
+        for row in &paper.comparison {
+            text.push_str(&format!(
+                "{:<12} {:>11.2} {:>17.2} {:>11.2}\n",
+                row.model,
+                row.train.fit_percent_mean,
+                row.validation.fit_percent_mean,
+                row.test.fit_percent_mean
+            ));
+            text.push_str(&super::tables::row_notes(row));
+        }
+        text.push_str(&super::tables::cross_condition_text(&paper.cross_condition));
         text.push_str(&format!(
-            "{:<12} {:>11.2} {:>17.2} {:>11.2}\n",
-            row.model, row.train.fit_percent_mean, row.validation.fit_percent_mean, row.test.fit_percent_mean
+            "best on validation: {} (among correctors a file can hold, no worse than uncorrected on another recording); best overall without warnings: {}\n",
+            paper.best_on_validation, paper.best_overall
         ));
-        text.push_str(&super::tables::row_notes(row));
     }
-    text.push_str(&super::tables::cross_condition_text(&r.cross_condition));
-    let dir = out.display();
-    text.push_str(&format!(
-        "\nchosen: {} (best on validation among savable correctors no worse than uncorrected on another recording; best overall without warnings: {})\n\
-         wrote {}{dir}/results.json, {dir}/report.html\n",
-        r.chosen,
-        r.best_overall,
-        if output.saved.is_some() { format!("{dir}/model.json, ") } else { String::new() },
-    ));
     text
 }
 
@@ -203,7 +203,7 @@ pub fn run(args: CalibrateArgs, ui: Ui) -> anyhow::Result<()> {
     super::fit::require_recordings(&args.fit.recordings)?;
     let settings = args.params()?;
     let inputs: Vec<&Path> = args.fit.recordings.iter().map(PathBuf::as_path).collect();
-    let outputs = ["model.json", "results.json", "report.html"].map(|name| args.out.join(name));
+    let outputs = CAMPAIGN_FILE_NAMES.map(|name| args.out.join(name));
     let outputs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).collect();
     super::check_outputs(&inputs, &outputs)?;
     if args.out.exists() && !args.out.is_dir() {

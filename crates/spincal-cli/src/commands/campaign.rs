@@ -39,7 +39,7 @@ pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignO
     let output = calibrate_campaign_file(&campaign, &Params::default(), &|p| crate::ui::show(&bar, p))?;
     bar.finish_and_clear();
     let files =
-        campaign_files(&output.result, output.saved.as_ref()).context("drawing the campaign report")?;
+        campaign_files(&output.result, output.saved.as_ref(), None).context("drawing the campaign report")?;
     let written: Vec<&str> = files.iter().map(|(name, _)| *name).collect();
     super::set_aside_stale(out, &CAMPAIGN_FILE_NAMES, &written)?;
     for (name, text) in files {

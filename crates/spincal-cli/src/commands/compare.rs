@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::calibrate::{calibrate_with_progress, CalibrateArgs};
+use super::calibrate::CalibrateArgs;
 use super::tables::{table_csv, table_text};
 use crate::ui::{self, Ui};
 
@@ -45,15 +45,17 @@ pub fn run(args: CompareArgs, ui: Ui) -> anyhow::Result<()> {
         .iter()
         .map(|p| fit.read.read(p))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let output = calibrate_with_progress(&recordings, &settings, ui, "comparing")?;
+    let bar = ui.progress(1, "comparing");
+    let paper = spincal::calibrate::paper_protocol(&recordings, &settings, &|p| crate::ui::show(&bar, p))?;
+    bar.finish_and_clear();
     if let Some(path) = &args.csv {
-        super::write_text(path, &table_csv(&output.result.comparison))?;
+        super::write_text(path, &table_csv(&paper.comparison))?;
     }
     if fit.json {
         return ui::print_json(&serde_json::json!({
-            "comparison": output.result.comparison,
-            "cross_condition": output.result.cross_condition,
+            "comparison": paper.comparison,
+            "cross_condition": paper.cross_condition,
         }));
     }
-    ui::print(&table_text(&output.result))
+    ui::print(&table_text(&paper))
 }

@@ -100,7 +100,7 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
         super::campaign::summary(&campaign, &campaign_out)
     ))?;
     ui::print(&format!(
-        "\n== The paper's protocol (one recording, 60/20/20) ==\n{}",
+        "\n== The paper's protocol (two turntable recordings: held out in turn, and 60/20/20 on the first) ==\n{}",
         summary(&output, &args.out)
     ))?;
     ui::print(&format!(

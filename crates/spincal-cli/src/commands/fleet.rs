@@ -143,7 +143,7 @@ pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
     for outcome in &outcomes {
         if let Ok(cal) = &outcome.result {
             let dir = args.out.join(&outcome.unit);
-            let files = spincal::report::campaign::campaign_files(&cal.result, cal.model.as_ref())
+            let files = spincal::report::campaign::campaign_files(&cal.result, cal.model.as_ref(), None)
                 .context("drawing a unit's report")?;
             let names: Vec<PathBuf> = files.iter().map(|(name, _)| dir.join(name)).collect();
             let inputs: Vec<&Path> = cal.inputs.iter().map(PathBuf::as_path).collect();

@@ -1,6 +1,6 @@
 //! The comparison of correctors as text and CSV, shared by `calibrate`, `compare` and `demo`.
 
-use spincal::calibrate::{CalibrationResult, ComparisonRow, CrossRow, PartScore};
+use spincal::campaign::paper::{ComparisonRow, CrossRow, PaperProtocol, PartScore};
 
 fn fit_or_dash(score: Option<&PartScore>) -> String {
     match score {
@@ -80,7 +80,7 @@ pub fn cross_condition_text(rows: &[CrossRow]) -> String {
 }
 
 /// The table for people.
-pub fn table_text(result: &CalibrationResult) -> String {
+pub fn table_text(result: &PaperProtocol) -> String {
     let mut text = format!(
         "{:<12} {:<34} {:>9} {:>9} {:>9} {:>10} {:>10} {:>11} {:>8}\n",
         "model",

@@ -11,10 +11,11 @@ Example::
     import spincal
     rec, truth = spincal.simulate(seed=7)
     cal = spincal.calibrate([rec], radius_m=0.10, hidden=[4], restarts=1)
-    print(cal.result.chosen)
-    fixed = cal.corrector.correct(frame)           # a pandas/polars DataFrame, an array, a recording
+    print(cal.result.verdict)   # one recording: nothing saved, and what to record next
+    cal.write("cal")            # results.json, report.html (model.json when saved)
+    unit = spincal.calibrate_campaign("unit7/campaign.toml")   # still poses and turntable runs
+    fixed = unit.corrector.correct(frame)          # a pandas/polars DataFrame, an array, a recording
     out = fixed.to_pandas()                        # corrected columns, valid, status; frame's index
-    cal.write("cal")            # model.json, results.json, report.html
 
 Fleets on a Ray cluster: ``spincal.ray`` (``pip install "spincal[ray]"``).
 """
@@ -35,7 +36,7 @@ from . import _frames, _spincal
 from ._params import Axes, Orders, calibration_changes, default_params, fit_changes, orders_list
 from ._results import (
     AllanResult,
-    CalibrationResult,
+    PaperProtocol,
     CampaignResult,
     Parameter,
     Parameters,
@@ -72,7 +73,7 @@ __all__ = [
     "Parameter",
     "Parameters",
     "TurntableFit",
-    "CalibrationResult",
+    "PaperProtocol",
     "CampaignResult",
     "StaticResult",
     "AllanResult",
@@ -697,16 +698,17 @@ def correct(model: Union[Corrector, PathLike], data: Any, **options: Any) -> Cor
 
 
 class Calibration:
-    """A finished calibration: ``result`` (results.json as a :class:`CalibrationResult`),
-    ``corrector`` (the saved :class:`Corrector`, or None when every corrector was worse than
-    uncorrected on another recording; ``result.verdict`` says why), ``references`` and ``corrected`` arrays, and
-    :meth:`write` for model.json, results.json and report.html."""
+    """A finished calibration of turntable recordings: ``result`` (results.json as a
+    :class:`CampaignResult`, the one result of every calibration, with the paper's figures as
+    ``result.paper``), ``corrector`` (the saved :class:`Corrector`, or None when no corrector held
+    on every held-out condition; ``result.verdict`` says why), ``references`` and ``corrected``
+    arrays, and :meth:`write` for the files ``spincal calibrate`` writes."""
 
     __slots__ = ("_inner", "result", "corrector")
 
     def __init__(self, inner: "_spincal.Calibration"):
         self._inner = inner
-        self.result = CalibrationResult._from_json(inner.result_json())
+        self.result = CampaignResult._from_json(inner.result_json())
         saved = inner.corrector()
         self.corrector = None if saved is None else Corrector(saved)
 
@@ -717,7 +719,8 @@ class Calibration:
 
     @property
     def corrected(self) -> np.ndarray:
-        """The chosen corrector applied to the first recording, (n, 3) m/s²."""
+        """The saved corrector applied to the first recording (the recording itself when nothing
+        was saved), (n, 3) m/s²."""
         return self._inner.corrected()
 
     def to_dict(self) -> Dict[str, Any]:
@@ -725,11 +728,12 @@ class Calibration:
         return self.result.to_dict()
 
     def write(self, folder: PathLike) -> None:
-        """Writes model.json, results.json and report.html into ``folder`` (as the CLI)."""
+        """Writes what ``spincal calibrate`` writes into ``folder`` (model.json and the other tools'
+        files when saved, results.json, report.html)."""
         self._inner.write(os.fspath(folder))
 
     def __repr__(self) -> str:
-        return f"Calibration(chosen={self.result.chosen!r}, best_overall={self.result.best_overall!r})"
+        return f"Calibration(saved={self.result.saved!r})"
 
 
 class CampaignCalibration:
@@ -851,7 +855,9 @@ def calibrate(
 
         >>> rec, truth = spincal.simulate(seed=3)
         >>> cal = spincal.calibrate([rec], radius_m=0.10, hidden=[4], restarts=1)
-        >>> cal.result.chosen in {row.model for row in cal.result.comparison}
+        >>> cal.result.saved is None                  # one recording holds no second condition
+        True
+        >>> cal.result.paper.best_on_validation in {row.model for row in cal.result.paper.comparison}
         True
     """
     if isinstance(recordings, (str, bytes, os.PathLike)) or _frames.frame_kind(recordings) is not None:

@@ -182,10 +182,12 @@ class TurntableFit(Result):
         return Parameters._from_library(self._data["params"])
 
 
-class CalibrationResult(Result):
-    """Every number of a calibration: the content of results.json (``comparison``, ``chosen``,
-    ``turntable``, ``sweep``, ``cross_condition``, ``division`` …); ``parameters`` (the turntable
-    fit's parameters by name) and ``to_pandas()`` (the comparison table)."""
+class PaperProtocol(Result):
+    """The paper's figures of a calibration of turntable recordings (results.json's ``paper``:
+    ``comparison``, ``best_on_validation``, ``turntable``, ``sweep``, ``cross_condition``,
+    ``division`` …); ``parameters`` (the turntable fit's parameters by name) and ``to_pandas()``
+    (the comparison table). Reported for its figures: what is saved is decided on held-out
+    conditions (:class:`CampaignResult`'s ``saved`` and ``verdict``)."""
 
     @property
     def parameters(self) -> Parameters:
@@ -210,9 +212,17 @@ class CalibrationResult(Result):
 
 
 class CampaignResult(Result):
-    """A campaign calibration's results.json: ``joint`` (the sensor model with standard errors),
-    ``held_out`` scores, ``candidates``, ``saved``, ``verdict``, ``undetermined``;
-    ``parameters`` (the sensor model by name) and ``gyro_parameters``."""
+    """A calibration's results.json, from a campaign or from turntable recordings alone (the
+    paper's protocol, run as a campaign of turntable runs): ``joint`` (the sensor model with
+    standard errors), ``held_out`` scores, ``candidates``, ``saved``, ``verdict``,
+    ``undetermined``; ``parameters`` (the sensor model by name), ``gyro_parameters`` and
+    ``paper`` (the paper's figures where its protocol ran)."""
+
+    @property
+    def paper(self) -> Optional[PaperProtocol]:
+        """The paper protocol's figures (:class:`PaperProtocol`), or None for a campaign file."""
+        paper = self._data.get("paper")
+        return None if paper is None else PaperProtocol(paper)
 
     @property
     def parameters(self) -> Parameters:

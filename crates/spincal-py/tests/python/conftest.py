@@ -49,6 +49,18 @@ def simulated(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
+def trained(tmp_path_factory, simulated, cli):
+    """A network trained by the CLI on the simulated session against its turntable fit's reference
+    (`spincal fit --reference-csv`, then `spincal train`): model.json's folder. A calibration of
+    turntable recordings alone saves nothing (no held-out condition determines the sensor)."""
+    path, _, _ = simulated
+    out = tmp_path_factory.mktemp("cli-train")
+    cli("fit", path, "--radius", "0.1", "--reference-csv", out / "ref.csv")
+    cli("train", "--data", path, "--reference", out / "ref.csv", "--hidden", "4", "--restarts", "1", "-o", out / "model.json")
+    return out
+
+
+@pytest.fixture(scope="session")
 def calibrated(tmp_path_factory, simulated, cli):
     """The CLI's calibration of the simulated session (a small network, so it is quick)."""
     path, _, _ = simulated

@@ -2,6 +2,7 @@
 
 import csv
 import json
+import os
 
 import numpy as np
 import pytest
@@ -40,9 +41,9 @@ def test_read_gives_the_simulated_samples_and_dataframes_are_read_by_name(simula
     assert np.array_equal(from_frame.time, rec.time)
 
 
-def test_correcting_an_array_equals_spincal_correct_to_the_last_bit(simulated, calibrated, cli, tmp_path):
+def test_correcting_an_array_equals_spincal_correct_to_the_last_bit(simulated, trained, cli, tmp_path):
     path, rec, _ = simulated
-    model = calibrated / "model.json"
+    model = trained / "model.json"
     out = tmp_path / "corrected.csv"
     cli("correct", "--model", model, path, "-o", out)
     rows = _read_corrected(out)
@@ -73,29 +74,32 @@ def test_calibration_gives_the_clis_results_json(simulated, calibrated):
     cal = spincal.calibrate([str(path)], radius_m=0.1, sweep="none", hidden="4", restarts=1)
     cli_result = json.loads((calibrated / "results.json").read_text())
     assert _without_timing(cal.to_dict()) == _without_timing(cli_result)
-    assert cal.result.chosen == cli_result["chosen"]
-    # The turntable fit's parameters by name, and the comparison as a table, from the same numbers.
-    radius = cal.result.parameters["radius"]
-    cli_radius = next(p for p in cli_result["turntable"]["params"] if p["name"] == "radius")
+    # One recording holds no second condition: nothing saved, and the verdict says so first.
+    assert cal.result.saved is None and cli_result["saved"] is None and cal.corrector is None
+    assert not (calibrated / "model.json").exists()
+    assert cal.result.verdict.startswith("Nothing saved")
+    # The paper's figures: the turntable fit's parameters by name and the comparison as a table.
+    paper = cal.result.paper
+    assert paper is not None
+    radius = paper.parameters["radius"]
+    cli_radius = next(p for p in cli_result["paper"]["turntable"]["params"] if p["name"] == "radius")
     assert (radius.value, radius.stderr, radius.unit) == (cli_radius["value"], cli_radius["std_error"], cli_radius["unit"])
-    table = cal.result.to_pandas()
-    assert list(table.index) == [row["model"] for row in cli_result["comparison"]]
-    first = cli_result["comparison"][0]
+    table = paper.to_pandas()
+    assert list(table.index) == [row["model"] for row in cli_result["paper"]["comparison"]]
+    first = cli_result["paper"]["comparison"][0]
     assert table.iloc[0]["validation_fit_percent"] == first["validation"]["fit_percent_mean"]
-    assert cal.corrector is not None
-    assert cal.corrector.to_dict()["corrector"] == json.loads((calibrated / "model.json").read_text())["corrector"]
 
 
 def test_calibration_writes_the_report(simulated, tmp_path):
     _, rec, _ = simulated
     cal = spincal.calibrate([rec], radius_m=0.1, sweep="none", hidden="3", restarts=1)
     cal.write(tmp_path / "out")
-    for name in ["model.json", "results.json", "report.html"]:
-        assert (tmp_path / "out" / name).stat().st_size > 0
-    assert "<html" in (tmp_path / "out" / "report.html").read_text()[:2000].lower()
-    reloaded = spincal.load_corrector(tmp_path / "out" / "model.json")
-    assert cal.corrector is not None
-    assert np.array_equal(reloaded.correct(rec.accel).accel, cal.corrector.correct(rec.accel).accel)
+    assert sorted(os.listdir(tmp_path / "out")) == ["report.html", "results.json"]
+    report = (tmp_path / "out" / "report.html").read_text()
+    assert "<html" in report[:2000].lower() and "The paper's protocol" in report
+    # Nothing saved: the corrected signal is the recording itself.
+    assert cal.corrector is None
+    assert np.array_equal(cal.corrected, rec.accel)
 
 
 def test_campaign_calibration_gives_the_clis_results_json(tmp_path, cli):

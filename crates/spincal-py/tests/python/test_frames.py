@@ -220,10 +220,15 @@ def test_lists_and_tuples_are_arrays(small_corrector):
 
 
 @pytest.fixture(scope="module")
-def small_corrector():
-    """The corrector of a quick calibration of a simulated session (a small network on x and y)."""
+def small_corrector(cli, tmp_path_factory):
+    """A small network on x and y trained by the CLI on a simulated session against its turntable
+    fit's reference."""
     rec, _ = spincal.simulate(seed=4, turntable={"duration_s": 20.0})
-    return spincal.calibrate([rec], radius_m=0.10, hidden=[2], restarts=1).corrector
+    folder = tmp_path_factory.mktemp("small")
+    rec.write_csv(folder / "rec.csv", unit="mps2")
+    cli("fit", folder / "rec.csv", "--radius", "0.1", "--reference-csv", folder / "ref.csv")
+    cli("train", "--data", folder / "rec.csv", "--reference", folder / "ref.csv", "--hidden", "2", "--restarts", "1", "-o", folder / "model.json")
+    return spincal.load_corrector(folder / "model.json")
 
 
 def test_the_output_frame_keeps_the_index_and_the_status(small_corrector):

@@ -89,7 +89,8 @@ def test_keywords_and_params_give_the_same_calibration():
         arx="2,2,1",
     )
     assert _untimed(by_keywords.result.to_dict()) == _untimed(by_params.result.to_dict())
-    assert by_keywords.corrector is not None and by_keywords.corrector.axes == ["x"]
+    paper = by_keywords.result.paper
+    assert paper is not None and paper.axes == ["x"]
     np.testing.assert_array_equal(by_keywords.corrected, by_params.corrected)
 
 

@@ -1,7 +1,8 @@
 //! The paper protocol's held-out check: every corrector trained on the first recording, scored on
 //! each other recording against its reference, and what is saved because of it.
 
-use super::{axes_of, determined_sentence, CalibrateError, CrossRow, PartScore};
+use super::{axes_of, CalibrateError};
+use crate::campaign::paper::{CrossRow, PartScore};
 use crate::campaign::params::Params;
 use crate::campaign::verdict::{compare, push_blocks};
 use crate::correctors::corrector::Corrector;
@@ -10,7 +11,6 @@ use crate::input::recording::Recording;
 use crate::metrics::{fit_percent, rmse};
 use crate::progress::{Observer, Progress};
 use crate::sysid::SysidModel;
-use crate::turntable::fit::TurntableFit;
 
 /// The correctors trained on the first recording.
 pub(super) struct Trained<'a> {
@@ -123,74 +123,21 @@ fn residuals(
         .collect()
 }
 
-/// What is saved, and the verdict: the best on validation unless another recording shows it
-/// worse than no correction; then the other static corrector if that one held; else nothing.
-pub(super) fn saving_decision(
-    chosen: &str,
-    cross_condition: &[CrossRow],
-    recordings: usize,
-    turntable: &TurntableFit,
-) -> (String, String) {
-    // Worse only where the difference is significant against its own uncertainty.
-    let worse_elsewhere = |model: &str| -> Option<String> {
-        cross_condition.iter().filter(|r| r.model == model).find_map(|r| {
-            let c = r.against_uncorrected.as_ref()?;
-            c.worse.then(|| {
-                format!(
-                    "{model} makes {} worse than uncorrected ({:.2}× ± {:.2} the uncorrected RMS error, significant over {} blocks)",
-                    r.tested_on, c.ratio, c.ratio_se, c.blocks
-                )
-            })
-        })
+/// The paper's choice among the correctors a file can hold: `best` (the best on validation),
+/// unless another recording shows it significantly worse than no correction; then the other
+/// static corrector if that one held; else "none".
+pub(super) fn best_unless_worse_elsewhere(best: &str, cross_condition: &[CrossRow]) -> String {
+    let worse_elsewhere = |model: &str| {
+        cross_condition
+            .iter()
+            .filter(|r| r.model == model)
+            .any(|r| r.against_uncorrected.as_ref().is_some_and(|c| c.worse))
     };
-    let other = if chosen == "ANN" { "linear" } else { "ANN" };
-    let validated = recordings > 1;
-    match (worse_elsewhere(chosen), worse_elsewhere(other)) {
-        (None, _) if validated => {
-            // Where a network was not applied (outside its training range), "no worse" is only
-            // "unchanged": say how much of the other recordings that was.
-            let outside: Vec<String> = cross_condition
-                .iter()
-                .filter(|r| r.model == chosen)
-                .filter_map(|r| {
-                    r.outside_training_range_percent
-                        .filter(|&p| p > 0.0)
-                        .map(|p| format!("{p:.0} % of {}", r.tested_on))
-                })
-                .collect();
-            let caveat = if outside.is_empty() {
-                String::new()
-            } else {
-                format!(
-                    " It was not applied outside its training range ({}): those readings pass through uncorrected; a campaign (`spincal calibrate --campaign`) calibrates what one speed cannot.",
-                    outside.join(", ")
-                )
-            };
-            (
-                chosen.to_string(),
-                format!(
-                    "Saved {chosen}: the best on validation, and no worse than uncorrected on the {} other recording(s) it never trained on.{caveat}",
-                    recordings - 1
-                ),
-            )
-        }
-        (None, _) => (
-            chosen.to_string(),
-            format!(
-                "Saved {chosen}, NOT validated off its training condition: with one recording, nothing shows it holds at another speed, radius or mounting (a network extrapolates outside its training range). {} Record a second session at another speed or radius and calibrate both, or calibrate a campaign (`spincal calibrate --campaign`).",
-                determined_sentence(turntable)
-            ),
-        ),
-        (Some(why), None) => (
-            other.to_string(),
-            format!("Saved {other}, not {chosen}: {why}; {other} is no worse than uncorrected on every other recording."),
-        ),
-        (Some(why), Some(why_other)) => (
-            "none".to_string(),
-            format!(
-                "Nothing saved: {why}; {why_other}. A corrector trained on one condition does not carry to the others: calibrate a campaign (`spincal calibrate --campaign`) with still poses and runs at several speeds and radii."
-            ),
-        ),
+    let other = if best == "ANN" { "linear" } else { "ANN" };
+    match (worse_elsewhere(best), worse_elsewhere(other)) {
+        (false, _) => best.to_string(),
+        (true, false) => other.to_string(),
+        (true, true) => "none".to_string(),
     }
 }
 

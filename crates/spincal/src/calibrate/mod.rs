@@ -1,31 +1,34 @@
-//! The whole calibration (SPEC §1): recordings → rotation rate → turntable fit → reference →
-//! every corrector trained and compared → the best on validation chosen (never on test).
+//! The paper's protocol (SPEC §1) on the campaign spine. Its recordings are a campaign of
+//! turntable runs without poses, calibrated by `campaign::select::calibrate_campaign`: held-out
+//! conditions decide what is saved, and the result is the campaign's envelope. Beside it the
+//! paper's own figures are computed and reported (`campaign::paper::PaperProtocol`): recordings
+//! → rotation rate → turntable fit → reference → every corrector trained on the first recording
+//! with the 60/20/20 division and compared (the best on validation named, never on test); with
+//! two or more recordings each is also tested on the others (cross-condition, SPEC §6).
 //!
-//! Correctors are trained on the first recording with the 60/20/20 division; with two or more
-//! recordings each corrector trained on the first is also tested on the others (cross-condition,
-//! SPEC §6). System-identification models map one measured axis to its reference axis (SISO) and
-//! are scored by simulation from `init_samples` measured outputs and by one-step prediction; only
-//! simulation is available when correcting new data (no reference exists then), so selection uses
-//! simulation fit for them. Network and linear correctors are static maps: both kinds coincide.
+//! System-identification models map one measured axis to its reference axis (SISO) and are scored
+//! by simulation from `init_samples` measured outputs and by one-step prediction; only simulation
+//! is available when correcting new data (no reference exists then), so selection uses simulation
+//! fit for them. Network and linear correctors are static maps: both kinds coincide.
 
 use std::ops::Range;
 use std::time::Instant;
 
-use serde::{Deserialize, Serialize};
-
+use crate::campaign::file::{SignedAxis, TurntableEntry};
+use crate::campaign::paper::{ComparisonRow, PaperProtocol, PaperSignals, PartScore, RecordingSummary};
 use crate::campaign::params::{NetworkChoice, ParamError, Params};
-use crate::campaign::verdict::Comparison;
+use crate::campaign::prepare::UnitRecording;
+use crate::campaign::select::{calibrate_campaign, CampaignCalError, CampaignOutput};
 use crate::correctors::ann::{
     architecture_label, reduce_sweep, run_sweep_locally, AnnError, AnnProblem, LmSettings, SweepRow,
     SweepRun, SweepSettings,
 };
-use crate::correctors::corrector::{Axis, Corrected, Corrector};
+use crate::correctors::corrector::{Corrected, Corrector};
 use crate::correctors::division::Division;
 use crate::correctors::linear::{LinearError, LinearModel};
-use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::input::recording::Recording;
 use crate::metrics::{fit_percent, rmse};
-use crate::progress::{Observer, Progress};
+use crate::progress::{Observer, Progress, StageTime};
 use crate::sysid::SysidError;
 use crate::turntable::fit::fit_turntable;
 use crate::turntable::fit::{FitError, TurntableFit};
@@ -34,11 +37,12 @@ use crate::turntable::sensitivity::{sensitivity_table, SensitivityInput, Sensiti
 mod cross_condition;
 mod sysid;
 
-use cross_condition::{cross_condition_rows, saving_decision, Trained};
+use cross_condition::{best_unless_worse_elsewhere, cross_condition_rows, Trained};
 use sysid::sysid_candidates;
 
-/// Version of the `results.json` layout.
-pub(crate) const RESULTS_VERSION: u32 = 1;
+/// Version of the paper figures' layout in `results.json` (2: under the campaign envelope's
+/// `paper`, the saving decision the envelope's).
+pub(crate) const RESULTS_VERSION: u32 = 2;
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -57,131 +61,8 @@ pub enum CalibrateError {
     },
     #[error(transparent)]
     Params(#[from] ParamError),
-}
-
-/// Fit % and RMSE of one prediction kind on one part, per corrected axis and their mean.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct PartScore {
-    pub fit_percent: Vec<f64>,
-    pub fit_percent_mean: f64,
-    pub rmse_mps2: Vec<f64>,
-    pub rmse_mps2_mean: f64,
-}
-
-impl PartScore {
-    fn new(fit: Vec<f64>, rmse: Vec<f64>) -> PartScore {
-        PartScore {
-            fit_percent_mean: fit.iter().sum::<f64>() / fit.len() as f64,
-            rmse_mps2_mean: rmse.iter().sum::<f64>() / rmse.len() as f64,
-            fit_percent: fit,
-            rmse_mps2: rmse,
-        }
-    }
-}
-
-/// One row of the comparison (the paper's Table 2, extended).
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct ComparisonRow {
-    pub model: String,
-    pub structure: String,
-    /// `static` (network, linear, uncorrected: simulation and one-step coincide) or `dynamic`.
-    pub kind: String,
-    pub train: PartScore,
-    pub validation: PartScore,
-    pub test: PartScore,
-    /// One-step-prediction scores (dynamic models only).
-    pub train_one_step: Option<PartScore>,
-    pub test_one_step: Option<PartScore>,
-    pub seconds: f64,
-    /// Whether this corrector can be saved and applied to new data by `spincal correct`.
-    pub savable: bool,
-    /// Why the model could not be fitted (its scores are then NaN).
-    pub failed: Option<String>,
-    /// Why the scores should not be taken at face value: a simulation that diverges, or a model
-    /// that fits the validation part above 50 % with its input held constant (it generates the
-    /// turntable's sine instead of correcting the sensor). Such rows are not "best overall".
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub warnings: Vec<String>,
-}
-
-/// A corrector trained on the first recording, applied to another one.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct CrossRow {
-    pub model: String,
-    pub trained_on: String,
-    pub tested_on: String,
-    pub score: PartScore,
-    /// Networks only: the share of samples whose input lay more than
-    /// [`crate::correctors::ann::EXTRAPOLATION_MARGIN`] of the training range outside it (%).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub outside_training_range_percent: Option<f64>,
-    /// Against no correction on the same samples, with the campaign verdict's significance rule
-    /// (`campaign::verdict`): blocks of `joint.block_s` seconds; no offset term, since each
-    /// recording's reference carries its own fitted offset. `None` for the uncorrected row.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub against_uncorrected: Option<Comparison>,
-}
-
-/// Where a recording stood, for the report.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct RecordingSummary {
-    pub name: String,
-    pub samples: usize,
-    pub duration_s: f64,
-    pub sample_rate_hz: f64,
-    pub rpm_from_spectrum: f64,
-    pub omega_from_spectrum_radps: f64,
-    pub gaps: usize,
-    pub saturated_samples: usize,
-    pub warnings: Vec<String>,
-}
-
-use crate::progress::StageTime;
-
-/// Everything a calibration found: the single source of every number in the report.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct CalibrationResult {
-    pub results_version: u32,
-    pub spincal_version: String,
-    pub seed: u64,
-    pub axes: Vec<Axis>,
-    pub recordings: Vec<RecordingSummary>,
-    pub turntable: TurntableFit,
-    pub sensitivity: Vec<SensitivityRow>,
-    pub division: Division,
-    pub network: NetworkChoice,
-    pub sweep: Vec<SweepRow>,
-    pub network_architecture: String,
-    pub comparison: Vec<ComparisonRow>,
-    pub cross_condition: Vec<CrossRow>,
-    /// The corrector saved (best validation fit % among savable correctors that are no worse than
-    /// uncorrected on any other recording), or "none".
-    pub chosen: String,
-    /// Whether the saved corrector was checked on a recording it was not trained on.
-    pub validated_off_training_condition: bool,
-    /// What was saved and how far it can be trusted, first in the report and on the terminal.
-    pub verdict: String,
-    /// The best on validation overall (may be a compare-only model), among rows without warnings.
-    pub best_overall: String,
-    pub seconds_total: f64,
-    /// Where the time went: read (by the caller), turntable fit, network sweep and training,
-    /// each corrector, cross-condition scoring, report (by the caller).
-    #[serde(default)]
-    pub stage_seconds: Vec<StageTime>,
-}
-
-/// Signals for the report's plots (not numbers shown as text).
-#[derive(Debug, Clone)]
-pub struct CalibrationOutput {
-    pub result: CalibrationResult,
-    /// `None` when every savable corrector was worse than uncorrected on another recording.
-    pub saved: Option<CorrectorFile>,
-    /// Reference (the turntable's physical acceleration, without sensor offsets) per recording.
-    pub references: Vec<Recording>,
-    /// The fitted model including offsets and drift (what the sensor should read) per recording.
-    pub models: Vec<Recording>,
-    /// The chosen corrector applied to the first recording.
-    pub corrected: [Vec<f64>; 3],
+    #[error(transparent)]
+    Campaign(#[from] CampaignCalError),
 }
 
 /// Runs every job of a network sweep and returns each job's run exactly once, in any order:
@@ -190,24 +71,147 @@ pub struct CalibrationOutput {
 pub(crate) type SweepRunner<'a> =
     dyn Fn(&AnnProblem, &SweepSettings, &Observer) -> Result<Vec<SweepRun>, AnnError> + Sync + 'a;
 
+/// The paper's figures alone (`spincal compare`): no held-out conditions, nothing saved.
+pub fn paper_protocol(
+    recordings: &[Recording],
+    settings: &Params,
+    observer: &Observer,
+) -> Result<PaperProtocol, CalibrateError> {
+    settings.check()?;
+    Ok(paper_figures(recordings, settings, observer, &run_sweep_locally)?.0)
+}
+
 /// Runs the whole calibration. `observer` hears about every stage and step.
 pub fn calibrate(
     recordings: &[Recording],
     settings: &Params,
     observer: &Observer,
-) -> Result<CalibrationOutput, CalibrateError> {
+) -> Result<CampaignOutput, CalibrateError> {
     calibrate_with_runner(recordings, settings, observer, &run_sweep_locally)
 }
 
-/// [`calibrate`] with the network sweep's jobs run by `runner`.
+/// [`calibrate`] with the network sweep's jobs run by `runner`: the paper's figures, then the
+/// recordings as a campaign of turntable runs through the spine, which decides what is saved.
 pub fn calibrate_with_runner(
     recordings: &[Recording],
     settings: &Params,
     observer: &Observer,
     runner: &SweepRunner,
-) -> Result<CalibrationOutput, CalibrateError> {
+) -> Result<CampaignOutput, CalibrateError> {
     settings.check()?;
     let started = Instant::now();
+    let (paper, references, models) = paper_figures(recordings, settings, observer, runner)?;
+    let units = paper_units(recordings, &paper.turntable, settings);
+    let spine = Params {
+        joint: crate::campaign::joint::JointSettings {
+            gravity_mps2: paper.turntable.gravity_mps2,
+            ..settings.joint.clone()
+        },
+        ..settings.clone()
+    };
+    let unit = recordings.first().map_or("", |r| r.source.name.as_str());
+    let mut output = calibrate_campaign(unit, &units, &spine, observer)?;
+    let r = &mut output.result;
+    r.verdict = paper_verdict(
+        &r.verdict,
+        recordings.len(),
+        &paper,
+        settings.fit.radius.is_some(),
+    );
+    r.stage_seconds.splice(0..0, paper.stage_seconds.iter().cloned());
+    r.seconds_total = started.elapsed().as_secs_f64();
+    let corrected = match &output.saved {
+        Some(file) => file.corrector.correct(&recordings[0]).accel_mps2,
+        None => recordings[0].accel_mps2.clone(),
+    };
+    output.result.paper = Some(Box::new(paper));
+    output.paper_signals = Some(Box::new(PaperSignals {
+        recordings: recordings.to_vec(),
+        references,
+        models,
+        corrected,
+    }));
+    Ok(output)
+}
+
+/// The radius tolerance given to a run when no ruler was named (`fit.radius`), relative to the
+/// turntable fit's radius: scale errors in the platter plane below it are invisible then.
+pub const UNMEASURED_RADIUS_TOLERANCE: f64 = 0.05;
+
+/// The recordings as a campaign's turntable runs: the speed measured from the spectrum, the axis
+/// nearest gravity `up` (the run's in-plane angle is fitted, so `out` is any axis across it),
+/// and the radius the settings name or, without one, the turntable fit's within
+/// [`UNMEASURED_RADIUS_TOLERANCE`].
+fn paper_units(recordings: &[Recording], turntable: &TurntableFit, settings: &Params) -> Vec<UnitRecording> {
+    recordings
+        .iter()
+        .zip(&turntable.recordings)
+        .map(|(recording, fit)| {
+            let mean: [f64; 3] = std::array::from_fn(|k| {
+                recording.accel_mps2[k].iter().sum::<f64>() / recording.len().max(1) as f64
+            });
+            let axis = (0..3)
+                .max_by(|&a, &b| mean[a].abs().total_cmp(&mean[b].abs()))
+                .unwrap_or(2);
+            let up = SignedAxis {
+                axis,
+                sign: if mean[axis] >= 0.0 { 1 } else { -1 },
+            };
+            let out = SignedAxis {
+                axis: (axis + 1) % 3,
+                sign: 1,
+            };
+            let (radius_m, radius_tol_m) = match &settings.fit.radius {
+                Some(prior) => (prior.value_m, prior.tolerance_m),
+                None => (
+                    fit.session.radius_m,
+                    UNMEASURED_RADIUS_TOLERANCE * fit.session.radius_m.abs(),
+                ),
+            };
+            UnitRecording {
+                name: recording.source.name.clone(),
+                recording: recording.clone(),
+                turntable: Some(TurntableEntry {
+                    rpm: fit.rate.rpm,
+                    radius_m,
+                    radius_tol_m,
+                    out,
+                    up,
+                    direction: None,
+                }),
+                truth: None,
+                floor_mps2: None,
+                random_mps2: None,
+            }
+        })
+        .collect()
+}
+
+/// The spine's verdict with what the paper's protocol adds: which turntable parameters one
+/// recording determines, and how far the radius was known.
+fn paper_verdict(spine: &str, recordings: usize, paper: &PaperProtocol, ruler: bool) -> String {
+    let mut verdict = spine.to_string();
+    if recordings == 1 {
+        verdict.push(' ');
+        verdict.push_str(&paper.determined);
+    }
+    if !ruler {
+        verdict.push_str(&format!(
+            " No radius was given (fit.radius), so each run's radius is the turntable fit's within {:.0} %: a scale error of the axes in the platter plane below that is not seen.",
+            100.0 * UNMEASURED_RADIUS_TOLERANCE
+        ));
+    }
+    verdict
+}
+
+/// The paper's figures: the turntable fit, the 60/20/20 comparison on the first recording and
+/// the cross-condition scores; with each recording's reference and fitted model.
+fn paper_figures(
+    recordings: &[Recording],
+    settings: &Params,
+    observer: &Observer,
+    runner: &SweepRunner,
+) -> Result<(PaperProtocol, Vec<Recording>, Vec<Recording>), CalibrateError> {
     let refs: Vec<&Recording> = recordings.iter().collect();
     observer(Progress::step("turntable fit", 0, Some(1)));
     let clock = Instant::now();
@@ -243,7 +247,7 @@ pub fn calibrate_with_runner(
 
     // Selection on validation only.
     let best_overall = best_on_validation(&mut comparison.iter().filter(|r| r.warnings.is_empty()));
-    let chosen = best_on_validation(&mut comparison.iter().filter(|r| r.savable));
+    let best_savable = best_on_validation(&mut comparison.iter().filter(|r| r.savable));
     // Each corrector's own time, as its comparison row has it.
     for row in comparison.iter().filter(|r| r.seconds > 0.0) {
         stages.push(StageTime {
@@ -259,39 +263,26 @@ pub fn calibrate_with_runner(
     };
     let cross_condition =
         cross_condition_rows(recordings, &references, &axes_idx, settings, &trained, observer)?;
-    let (chosen, verdict) = saving_decision(&chosen, &cross_condition, recordings.len(), &turntable);
-    let (saved, corrected_all) = saved_corrector(&chosen, &statics, measured);
-    let sensitivity = first_session_sensitivity(&turntable);
-    let summaries = recording_summaries(recordings, &turntable);
     stages.push(stage_time("cross-condition", cross_clock));
-    let result = CalibrationResult {
+    let paper = PaperProtocol {
         results_version: RESULTS_VERSION,
-        spincal_version: env!("CARGO_PKG_VERSION").to_string(),
         seed: settings.seed,
         axes: settings.correct_axes.clone(),
-        recordings: summaries,
+        recordings: recording_summaries(recordings, &turntable),
+        sensitivity: first_session_sensitivity(&turntable),
+        determined: determined_sentence(&turntable),
         turntable,
-        sensitivity,
         division,
         network: settings.network.clone(),
         sweep: sweep_rows,
         network_architecture: architecture_label(&hidden),
+        best_on_validation: best_unless_worse_elsewhere(&best_savable, &cross_condition),
         comparison,
         cross_condition,
-        chosen,
-        validated_off_training_condition: recordings.len() > 1 && saved.is_some(),
-        verdict,
         best_overall,
-        seconds_total: started.elapsed().as_secs_f64(),
         stage_seconds: stages,
     };
-    Ok(CalibrationOutput {
-        result,
-        saved,
-        references,
-        models,
-        corrected: corrected_all,
-    })
+    Ok((paper, references, models))
 }
 
 /// The time since `clock` as stage `stage`'s.
@@ -379,27 +370,6 @@ fn static_rows(
             true,
         ),
     ]
-}
-
-/// The corrector file of the chosen static corrector (none for "none"), and the first
-/// recording as it corrects it.
-fn saved_corrector(
-    chosen: &str,
-    statics: &StaticCorrectors,
-    measured: &Recording,
-) -> (Option<CorrectorFile>, [Vec<f64>; 3]) {
-    let saved = match chosen {
-        "ANN" => Some(CorrectorModel::Ann(Box::new(statics.network.clone()))),
-        "linear" => Some(CorrectorModel::Linear(Box::new(statics.linear.clone()))),
-        _ => None,
-    }
-    .map(CorrectorFile::new);
-    let corrected = match chosen {
-        "ANN" => statics.network.correct(measured).accel_mps2,
-        "linear" => statics.linear.correct(measured).accel_mps2,
-        _ => measured.accel_mps2.clone(),
-    };
-    (saved, corrected)
 }
 
 /// The sensitivity table at the first recording's session.

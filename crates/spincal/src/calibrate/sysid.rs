@@ -3,7 +3,7 @@
 
 use std::ops::Range;
 
-use super::{ComparisonRow, PartScore};
+use crate::campaign::paper::{ComparisonRow, PartScore};
 use crate::campaign::params::Params;
 use crate::correctors::corrector::Axis;
 use crate::correctors::division::Division;

@@ -17,7 +17,7 @@ use crate::correctors::corrector::{Axis, Corrector};
 use crate::correctors::division::DivisionMode;
 use crate::correctors::linear::LinearModel;
 use crate::correctors::model_file::CorrectorModel;
-use crate::correctors::physical::PhysicalCorrector;
+use crate::correctors::physical::{PhysicalCorrector, SensorModel};
 use crate::correctors::physical_ann::{InputCoverage, PhysicalAnnCorrector};
 use crate::input::recording::Recording;
 use crate::progress::Observer;
@@ -168,6 +168,53 @@ impl Trained {
             Trained::Corrector { model, .. } => Some(model),
             Trained::Dynamic(_) => None,
         }
+    }
+
+    /// The sensor model of the physical family's correction (the whole corrector, or the part
+    /// under a network) with its parameters' covariance, when the training gave one.
+    pub fn physical_part(&self) -> Option<(&SensorModel, &SensorCovariance)> {
+        let Trained::Corrector {
+            model,
+            covariance: Some(covariance),
+        } = self
+        else {
+            return None;
+        };
+        match model {
+            CorrectorModel::Physical(physical) => Some((&physical.sensor, covariance)),
+            CorrectorModel::PhysicalAnn(both) => Some((&both.physical.sensor, covariance)),
+            _ => None,
+        }
+    }
+
+    /// The largest departure from the identity of a static corrector's gain, ∂output/∂input by
+    /// central differences at each of `readings` (`None` for a dynamic model). A sensor's static
+    /// errors are a few per cent: a gain far from one means the corrector discards (or amplifies)
+    /// a measurement where its training data held that axis still, which no held-out recording
+    /// that also holds it still can show.
+    pub fn gain_error(&self, readings: &[[f64; 3]]) -> Option<f64> {
+        let Trained::Corrector { model, .. } = self else {
+            return None;
+        };
+        const STEP_MPS2: f64 = 1e-3;
+        let mut stream = model.stream();
+        let mut worst: f64 = 0.0;
+        for reading in readings {
+            for j in 0..3 {
+                let mut at = |delta: f64| {
+                    let mut input = *reading;
+                    input[j] += delta;
+                    stream.correct_sample(input).accel_mps2
+                };
+                let (high, low) = (at(STEP_MPS2), at(-STEP_MPS2));
+                for i in 0..3 {
+                    let gain = (high[i] - low[i]) / (2.0 * STEP_MPS2);
+                    let identity = if i == j { 1.0 } else { 0.0 };
+                    worst = worst.max((gain - identity).abs());
+                }
+            }
+        }
+        Some(worst)
     }
 
     /// A recording's accelerometer after this candidate, and which samples it could correct.
@@ -392,13 +439,16 @@ impl Candidate for PhysicalAnnCandidate {
                 },
             )
             .map_err(|e| format!("network on top of physics: {e}"))?;
-        Ok(Trained::corrector(CorrectorModel::PhysicalAnn(Box::new(
-            PhysicalAnnCorrector {
+        // Its physical part's uncertainty is what predicts its error off the network's range.
+        let covariance = fit.sensor_covariance().map(Box::new);
+        Ok(Trained::Corrector {
+            model: CorrectorModel::PhysicalAnn(Box::new(PhysicalAnnCorrector {
                 physical,
                 network,
                 coverage,
-            },
-        ))))
+            })),
+            covariance,
+        })
     }
 }
 

@@ -11,10 +11,12 @@
 
 pub mod candidate;
 pub mod checks;
+pub mod choice;
 pub mod file;
 pub mod gyro;
 pub mod joint;
 pub mod load;
+pub mod paper;
 pub mod params;
 pub mod prepare;
 pub mod run;

@@ -25,10 +25,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::campaign::params::Params;
 
+use crate::campaign::choice::HeldOutScore;
 use crate::campaign::file::{Campaign, CampaignError};
 use crate::campaign::joint::JointParam;
 use crate::campaign::run::{calibrate_campaign_file, CampaignRunError};
-use crate::campaign::select::{CampaignOutput, CampaignResult, HeldOutScore};
+use crate::campaign::select::{CampaignOutput, CampaignResult};
 use crate::correctors::model_file::CorrectorFile;
 use crate::output::OutputError;
 use crate::progress::{Observer, Progress};

@@ -1,27 +1,30 @@
-//! The campaign report (`spincal calibrate --campaign`, `spincal fleet`, the Python package): the
-//! verdict, every corrector on held-out conditions (table and plot), the sensor model, the
-//! gyroscope, time per stage. Self-contained HTML.
+//! The calibration report (`spincal calibrate`, with or without `--campaign`, `spincal fleet`, the
+//! Python package): the verdict, every corrector on held-out conditions (table and plot), the
+//! sensor model, the gyroscope, time per stage, and the paper's sections where its protocol ran.
+//! Self-contained HTML.
 
 use std::fmt::Write as _;
 
 use super::escape;
-use super::html::figure;
+use super::html::{figure, paper_sections};
 use super::plot::{Legend, LinePlot, LineStyle, Series};
 use super::plot::{PlotError, Rgb};
+use crate::campaign::paper::PaperSignals;
 use crate::campaign::select::CampaignResult;
 use crate::campaign::verdict::combined;
 use crate::correctors::model_file::CorrectorFile;
 use crate::export::{imu_tk_calibs, imucal_json, pretty};
 
-/// A self-contained HTML report: the verdict, held-out errors per corrector, the sensor model.
-pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
+/// A self-contained HTML report: the verdict, held-out errors per corrector, the sensor model;
+/// then the paper's sections where its protocol ran.
+pub fn campaign_report(r: &CampaignResult, paper: Option<&PaperSignals>) -> Result<String, PlotError> {
     let mut h = String::new();
     let _ = write!(
         h,
-        "<!doctype html><html><head><meta charset=\"utf-8\"><meta name=\"generator\" content=\"spincal\"><title>spincal campaign: {unit}</title>\
+        "<!doctype html><html><head><meta charset=\"utf-8\"><meta name=\"generator\" content=\"spincal\"><title>spincal calibration: {unit}</title>\
          <style>body{{font-family:sans-serif;max-width:70em;margin:2em auto}}table{{border-collapse:collapse}}\
          td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}th{{background:#eee}}.bad{{color:#b00}}</style></head><body>\
-         <h1>Campaign calibration: {unit}</h1><h2>Verdict</h2><p>{verdict}</p>",
+         <h1>Calibration: {unit}</h1><h2>Verdict</h2><p>{verdict}</p>",
         unit = escape(&r.unit),
         verdict = escape(&r.verdict)
     );
@@ -34,6 +37,10 @@ pub fn campaign_report(r: &CampaignResult) -> Result<String, PlotError> {
         gyro_section(g, &mut h)?;
     }
     timing_and_recordings_section(r, &mut h);
+    if let (Some(paper), Some(signals)) = (&r.paper, paper) {
+        h.push_str(&paper_sections(paper, signals, r.saved.as_deref())?);
+    }
+    h.push_str("</body></html>\n");
     Ok(h)
 }
 
@@ -235,7 +242,7 @@ fn timing_and_recordings_section(r: &CampaignResult, h: &mut String) {
     for pose in &r.joint.poses {
         let _ = write!(h, "<li>{} (still pose)</li>", escape(&pose.name));
     }
-    h.push_str("</ul></body></html>\n");
+    h.push_str("</ul>");
 }
 
 /// Held-out error per condition for every corrector with the uncorrected signal: against physics,
@@ -250,7 +257,7 @@ fn held_out_plot(r: &CampaignResult, against_truth: bool) -> Option<LinePlot> {
     if conditions.is_empty() || (against_truth && r.held_out.iter().all(|s| s.truth.is_none())) {
         return None;
     }
-    let comparison = |s: &crate::campaign::select::HeldOutScore| {
+    let comparison = |s: &crate::campaign::choice::HeldOutScore| {
         if against_truth {
             s.truth.clone()
         } else {
@@ -258,7 +265,7 @@ fn held_out_plot(r: &CampaignResult, against_truth: bool) -> Option<LinePlot> {
         }
     };
     let index = |c: &str| conditions.iter().position(|&k| k == c);
-    let per_condition = |value: &dyn Fn(&crate::campaign::select::HeldOutScore) -> Option<f64>| {
+    let per_condition = |value: &dyn Fn(&crate::campaign::choice::HeldOutScore) -> Option<f64>| {
         let mut y = vec![f64::NAN; conditions.len()];
         for s in &r.held_out {
             if let (Some(i), Some(v)) = (index(&s.condition), value(s)) {
@@ -549,21 +556,22 @@ fn gyro_rate_plot(g: &crate::campaign::gyro::GyroFit) -> Option<LinePlot> {
     )
 }
 
-/// Every file a campaign calibration writes, by name, with its content: model.json (when a
-/// corrector was saved), results.json, report.html, and the linear part of the calibration in
+/// Every file a calibration writes, by name, with its content: model.json (when a corrector was
+/// saved), results.json, report.html (with the paper's sections when `paper` holds its signals), and the linear part of the calibration in
 /// the files other tools read (imucal.json, imu_tk_acc.calib, imu_tk_gyro.calib; see
 /// [`crate::export`]). `spincal calibrate --campaign`, `spincal fleet` and the Python package
 /// write these files.
 pub fn campaign_files(
     result: &CampaignResult,
     saved: Option<&CorrectorFile>,
+    paper: Option<&PaperSignals>,
 ) -> Result<Vec<(&'static str, String)>, PlotError> {
     let mut files = Vec::new();
     if let Some(model) = saved {
         files.push(("model.json", model.to_json() + "\n"));
     }
     files.push(("results.json", pretty(result)));
-    files.push(("report.html", campaign_report(result)?));
+    files.push(("report.html", campaign_report(result, paper)?));
     // Other tools' files only for a calibration that held on held-out conditions.
     if saved.is_none() {
         return Ok(files);

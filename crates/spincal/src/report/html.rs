@@ -1,13 +1,14 @@
-//! The calibration report: one self-contained HTML file, read top to bottom, plots inline as SVG.
+//! The paper protocol's sections of the calibration report (`report::campaign` draws the page and
+//! its verdict): plots inline as SVG.
 //!
-//! Every number shown comes from [`CalibrationResult`] (what `results.json` holds) and is written
-//! as `<span data-json="/json/pointer" data-digits="d">`, so a test can check each against the
-//! JSON file: one source, no second computation. A number shown in other units than the SI value
+//! Every number shown comes from [`PaperProtocol`] (what `results.json` holds under `paper`) and
+//! is written as `<span data-json="/paper/json/pointer" data-digits="d">`, so a test can check
+//! each against the JSON file: one source, no second computation. A number shown in other units than the SI value
 //! it comes from (degrees, g) also carries `data-scale="factor"`: the page shows value × factor.
 //! Plots draw the signals behind those numbers.
 
 use super::escape;
-use crate::calibrate::{CalibrationOutput, CalibrationResult, ComparisonRow, PartScore};
+use crate::campaign::paper::{ComparisonRow, PaperProtocol, PaperSignals, PartScore};
 use crate::campaign::params::NetworkChoice;
 use crate::correctors::division::Part;
 use crate::input::recording::{Recording, STANDARD_GRAVITY};
@@ -96,52 +97,45 @@ fn direction_words(direction: Direction) -> &'static str {
     }
 }
 
-/// Renders the report of a calibration of `recordings`.
-pub fn render_report(output: &CalibrationOutput, recordings: &[Recording]) -> Result<String, PlotError> {
-    let r = &output.result;
-    Ok([
-        title_section(r),
-        recordings_section(r, recordings)?,
-        spectrum_section(r)?,
-        model_fit_section(output, recordings)?,
-        parameters_section(&r.turntable),
-        sensitivity_section(r),
-        division_section(r, recordings)?,
-        sweep_section(r)?,
-        comparison_section(r),
-        corrected_section(output, recordings)?,
-        how_to_apply_section(output.saved.is_some()),
-        "</body></html>\n".to_string(),
+/// The paper protocol's sections, for the campaign report of a calibration that ran it.
+/// `saved`: the saved corrector's name.
+pub(crate) fn paper_sections(
+    paper: &PaperProtocol,
+    signals: &PaperSignals,
+    saved: Option<&str>,
+) -> Result<String, PlotError> {
+    let recordings = &signals.recordings;
+    let html = [
+        summary_section(paper),
+        recordings_section(paper, recordings)?,
+        spectrum_section(paper)?,
+        model_fit_section(paper, signals)?,
+        parameters_section(&paper.turntable),
+        sensitivity_section(paper),
+        division_section(paper, recordings)?,
+        sweep_section(paper)?,
+        comparison_section(paper),
+        corrected_section(paper, signals, saved)?,
+        how_to_apply_section(saved.is_some()),
     ]
-    .concat())
+    .concat();
+    // The sections are written with pointers from the paper's own root and numbered headings of
+    // their own: both sit one level down in the campaign's page and results.json.
+    Ok(html
+        .replace("data-json=\"/", "data-json=\"/paper/")
+        .replace("<h2>", "<h3>")
+        .replace("</h2>", "</h3>"))
 }
 
-/// The page head and the summary paragraph.
-fn title_section(r: &CalibrationResult) -> String {
-    let mut html = String::from(concat!(
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"generator\" content=\"spincal\">",
-        "<title>spincal calibration report</title><style>",
-        "body{font-family:sans-serif;max-width:1000px;margin:2em auto;color:#222;line-height:1.45}",
-        "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}",
-        "th{background:#eee}td:first-child,th:first-child{text-align:left}figure{margin:1em 0}",
-        "figcaption{font-size:90%;color:#555}code,pre{background:#f4f4f4;padding:2px 4px}",
-        ".chosen{background:#e6f4ea;font-weight:bold}</style></head><body>\n",
-        "<h1>spincal calibration report</h1>\n"
-    ));
-    html.push_str(&format!(
-        "<h2>Verdict</h2>\n<p><b>{}</b></p>\n",
-        escape(&r.verdict)
-    ));
-    html.push_str(&format!(
-        "<p>spincal {} · seed {} · corrected axes {} · total time {} s. Chosen corrector: <b>{}</b> \
-         (best validation fit among correctors that can be saved and are no worse than uncorrected on another recording); best on validation among all models without warnings (section 8): <b>{}</b>.</p>\n",
-        escape(&r.spincal_version),
+/// The paper protocol's heading, what it chose and where its time went.
+fn summary_section(r: &PaperProtocol) -> String {
+    let mut html = format!(
+        "<h2>The paper's protocol: 60/20/20 on the first recording</h2>\n<p>Reported for its figures (the paper's Tables 1–3): what is saved is decided on held-out conditions above. Seed {} · corrected axes {}. Best on validation among correctors a file can hold and no worse than uncorrected on another recording: <b>{}</b>; best on validation among all models without warnings (section 8): <b>{}</b>.</p>\n",
         num("/seed", r.seed as f64, 0),
         escape(&r.axes.iter().map(|a| a.name()).collect::<Vec<_>>().join(", ")),
-        num("/seconds_total", r.seconds_total, 1),
-        escape(&r.chosen),
+        escape(&r.best_on_validation),
         escape(&r.best_overall)
-    ));
+    );
     if !r.stage_seconds.is_empty() {
         html.push_str("<table><tr><th>stage</th><th>time (s)</th></tr>\n");
         for (k, s) in r.stage_seconds.iter().enumerate() {
@@ -157,7 +151,7 @@ fn title_section(r: &CalibrationResult) -> String {
 }
 
 /// 1. The recordings: a summary table and each axis of each recording in its own panel.
-fn recordings_section(r: &CalibrationResult, recordings: &[Recording]) -> Result<String, PlotError> {
+fn recordings_section(r: &PaperProtocol, recordings: &[Recording]) -> Result<String, PlotError> {
     let mut html = String::from("<h2>1. The recordings</h2>\n<table><tr><th>recording</th><th>samples</th><th>duration (s)</th><th>sample rate (Hz)</th><th>gaps</th><th>saturated samples</th></tr>\n");
     for (k, s) in r.recordings.iter().enumerate() {
         let p = format!("/recordings/{k}");
@@ -199,7 +193,7 @@ fn recordings_section(r: &CalibrationResult, recordings: &[Recording]) -> Result
 }
 
 /// 2. The rotation rate found in the spectrum of each recording.
-fn spectrum_section(r: &CalibrationResult) -> Result<String, PlotError> {
+fn spectrum_section(r: &PaperProtocol) -> Result<String, PlotError> {
     let mut html = String::from("<h2>2. Rotation rate from the spectrum</h2>\n");
     for (k, rf) in r.turntable.recordings.iter().enumerate() {
         let p = format!("/recordings/{k}");
@@ -236,10 +230,10 @@ fn spectrum_section(r: &CalibrationResult) -> Result<String, PlotError> {
 }
 
 /// 3. The fitted turntable model against the measurement: fit % per axis and plots.
-fn model_fit_section(output: &CalibrationOutput, recordings: &[Recording]) -> Result<String, PlotError> {
+fn model_fit_section(paper: &PaperProtocol, signals: &PaperSignals) -> Result<String, PlotError> {
     let mut html = String::from("<h2>3. Turntable model against measurement</h2>\n");
     html.push_str("<table><tr><th>recording</th><th>fit x (%)</th><th>fit y (%)</th><th>fit z (%)</th><th>sense of rotation</th></tr>\n");
-    for (k, rf) in output.result.turntable.recordings.iter().enumerate() {
+    for (k, rf) in paper.turntable.recordings.iter().enumerate() {
         let p = format!("/turntable/recordings/{k}/fit_percent");
         html.push_str(&format!(
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
@@ -251,7 +245,7 @@ fn model_fit_section(output: &CalibrationOutput, recordings: &[Recording]) -> Re
         ));
     }
     html.push_str("</table><p>z carries only g cos α plus offset and noise, so its fit % is near zero by construction.</p>\n");
-    let (Some(rec), Some(model)) = (recordings.first(), output.models.first()) else {
+    let (Some(rec), Some(model)) = (signals.recordings.first(), signals.models.first()) else {
         return Ok(html);
     };
     let span = window(&rec.time_s, rec.time_s[0], rec.time_s[0] + 20.0);
@@ -381,7 +375,7 @@ fn parameters_section(fit: &TurntableFit) -> String {
 }
 
 /// 5. How the signal moves with each parameter (the paper's Table 1).
-fn sensitivity_section(r: &CalibrationResult) -> String {
+fn sensitivity_section(r: &PaperProtocol) -> String {
     let mut html = String::from("<h2>5. Sensitivity at the fitted parameters (the paper's Table 1)</h2>\n<table><tr><th>parameter</th><th>change (%)</th><th>value</th><th>unit</th><th>mean a_x (g)</th><th>amplitude a_x (g)</th><th>amplitude a_y (g)</th></tr>\n");
     for (i, s) in r.sensitivity.iter().enumerate() {
         let b = format!("/sensitivity/{i}");
@@ -407,7 +401,7 @@ fn sensitivity_section(r: &CalibrationResult) -> String {
 }
 
 /// 6. Which samples train, validate and test.
-fn division_section(r: &CalibrationResult, recordings: &[Recording]) -> Result<String, PlotError> {
+fn division_section(r: &PaperProtocol, recordings: &[Recording]) -> Result<String, PlotError> {
     let mut html = String::from("<h2>6. Training, validation and test division</h2>\n");
     if let Some(rec) = recordings.first() {
         let mut plot = LinePlot::new("Division of recording 1 (paper's Fig. 10)", "time (s)", "ax (g)")
@@ -436,7 +430,7 @@ fn division_section(r: &CalibrationResult, recordings: &[Recording]) -> Result<S
 }
 
 /// 7. The network architectures tried and how the best was found.
-fn sweep_section(r: &CalibrationResult) -> Result<String, PlotError> {
+fn sweep_section(r: &PaperProtocol) -> Result<String, PlotError> {
     let mut html = String::from("<h2>7. Network architectures</h2>\n");
     if r.sweep.is_empty() {
         html.push_str(&format!(
@@ -475,7 +469,7 @@ fn sweep_section(r: &CalibrationResult) -> Result<String, PlotError> {
 }
 
 /// Validation fit % over units in the first (columns) and second (rows, 0: none) hidden layer.
-fn sweep_heatmap(r: &CalibrationResult) -> HeatMap {
+fn sweep_heatmap(r: &PaperProtocol) -> HeatMap {
     let layer = |l: usize| {
         let mut units: Vec<usize> = r
             .sweep
@@ -561,14 +555,14 @@ fn comparison_warnings(rows: &[ComparisonRow]) -> String {
 }
 
 /// 8. The correctors compared on the same division (the paper's Table 2) and across conditions.
-fn comparison_section(r: &CalibrationResult) -> String {
+fn comparison_section(r: &PaperProtocol) -> String {
     let mut html = String::from("<h2>8. Comparison of correctors (the paper's Table 2)</h2>\n");
     html.push_str("<p>Fit % = 100 (1 − ‖y − ŷ‖/‖y − ȳ‖), mean over the corrected axes. Dynamic models: <i>simulation</i> \
         (infinite horizon, started from the first measured outputs) and <i>one-step prediction</i> (uses past reference \
         values, so it is not available when correcting new data). Static maps have one kind.</p>\n");
     html.push_str("<table><tr><th>model</th><th>structure</th><th>train fit, sim. (%)</th><th>validation fit, sim. (%)</th><th>test fit, sim. (%)</th><th>train fit, one-step (%)</th><th>test fit, one-step (%)</th><th>test RMSE (m/s²)</th><th>time (s)</th><th>warnings</th></tr>\n");
     for (i, row) in r.comparison.iter().enumerate() {
-        html.push_str(&comparison_row(i, row, &r.chosen));
+        html.push_str(&comparison_row(i, row, &r.best_on_validation));
     }
     html.push_str("</table>\n");
     html.push_str(&comparison_warnings(&r.comparison));
@@ -578,7 +572,7 @@ fn comparison_section(r: &CalibrationResult) -> String {
 }
 
 /// Correctors trained on recording 1 applied to the other recordings.
-fn cross_condition_table(r: &CalibrationResult) -> String {
+fn cross_condition_table(r: &PaperProtocol) -> String {
     if r.cross_condition.is_empty() {
         return String::new();
     }
@@ -613,11 +607,14 @@ fn cross_condition_table(r: &CalibrationResult) -> String {
     html
 }
 
-/// 9. The chosen corrector's output against the reference on the test part.
-fn corrected_section(output: &CalibrationOutput, recordings: &[Recording]) -> Result<String, PlotError> {
-    let r = &output.result;
+/// 9. The saved corrector's output against the reference on the test part.
+fn corrected_section(
+    r: &PaperProtocol,
+    signals: &PaperSignals,
+    saved: Option<&str>,
+) -> Result<String, PlotError> {
     let mut html = String::from("<h2>9. Corrected signal against the reference (test part)</h2>\n");
-    let (Some(rec), Some(reference)) = (recordings.first(), output.references.first()) else {
+    let (Some(rec), Some(reference)) = (signals.recordings.first(), signals.references.first()) else {
         return Ok(html);
     };
     let test = r.division.ranges(Part::Test);
@@ -632,13 +629,19 @@ fn corrected_section(output: &CalibrationOutput, recordings: &[Recording]) -> Re
     let plot = LinePlot::new(
         format!(
             "a{}: measured, corrected ({}) and reference",
-            AXES[axis], r.chosen
+            AXES[axis],
+            saved.unwrap_or("nothing saved")
         ),
         "time (s)",
         "acceleration (g)",
     )
     .series(g_series("measured", t, &rec.accel_mps2[axis][span.clone()], 0))
-    .series(g_series("corrected", t, &output.corrected[axis][span.clone()], 2))
+    .series(g_series(
+        "corrected",
+        t,
+        &signals.corrected[axis][span.clone()],
+        2,
+    ))
     .series(g_series(
         "reference",
         t,
@@ -657,7 +660,7 @@ fn how_to_apply_section(saved: bool) -> String {
             .to_string();
     }
     concat!(
-        "<h2>10. Applying the corrector</h2>\n<p>The chosen corrector is saved as <code>model.json</code> ",
+        "<h2>10. Applying the corrector</h2>\n<p>The saved corrector is in <code>model.json</code> ",
         "(a versioned corrector file). Apply it to new recordings, streaming, row by row:</p>\n",
         "<pre>spincal correct --model model.json new.csv -o new-corrected.csv</pre>\n",
         "<p>Every input row comes out with its original columns, the corrected axes added and a ",

@@ -1,0 +1,364 @@
+//! What a campaign saves: each candidate summarised over the held-out conditions (eligible only
+//! when never significantly worse than no correction, with a gain near one and, for the physical
+//! family, no predicted loss), the choice made without truth, what truth would have chosen, and
+//! the verdict in words.
+
+use crate::campaign::candidate::{candidate, CandidateKind, Trained, TrainingSet};
+use crate::campaign::gyro::GyroFit;
+use crate::campaign::joint::JointFit;
+use crate::campaign::params::Params;
+use crate::campaign::prepare::Prepared;
+use crate::campaign::thermal::CampaignThermal;
+use crate::campaign::verdict::{combined, Comparison, Prediction};
+use crate::correctors::model_file::CorrectorFile;
+use crate::progress::{Observer, Progress};
+use serde::{Deserialize, Serialize};
+
+/// One candidate's error on one held-out condition.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct HeldOutScore {
+    pub condition: String,
+    pub candidate: String,
+    /// Against physics, no truth needed (what decides); `None` when training or scoring failed.
+    pub physics: Option<Comparison>,
+    /// Against the true specific force on the same samples (simulations only).
+    pub truth: Option<Comparison>,
+    /// The physical family's figure with its covariance's prediction (see `verdict::Prediction`).
+    pub predicted: Option<Prediction>,
+    /// The random floor (drift + white noise) on those samples, m/s² (simulations only).
+    pub floor_mps2: Option<[f64; 3]>,
+    /// A static corrector's largest departure of ∂output/∂input from the identity at the
+    /// condition's mean readings (`Trained::gain_error`); above [`MAX_GAIN_ERROR`] it is not
+    /// eligible.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gain_error: Option<f64>,
+    pub note: Option<String>,
+}
+
+/// One candidate over every held-out condition.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CandidateSummary {
+    pub candidate: String,
+    pub description: String,
+    /// Mean over conditions of the residual RMS against physics (all axes), m/s².
+    pub mean_rms_mps2: Option<f64>,
+    /// Worst ratio of its residual RMS to the uncorrected one's against physics.
+    pub worst_ratio_to_uncorrected: Option<f64>,
+    /// Mean over conditions of the RMS error against truth (simulations), m/s².
+    pub mean_truth_rms_mps2: Option<f64>,
+    /// Worst ratio to uncorrected against truth (simulations).
+    pub worst_truth_ratio: Option<f64>,
+    /// Never significantly worse than uncorrected against physics and trained on every condition.
+    pub eligible: bool,
+    pub why_not: Option<String>,
+}
+
+/// What truth would have chosen (simulations): the check of the truth-free verdict.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TruthCheck {
+    /// The candidate the same rule gives with truth-based scores.
+    pub would_save: Option<String>,
+    /// The truth-free choice is truth's, or within 10 % of its mean error against truth, or both
+    /// save nothing.
+    pub agrees: bool,
+}
+
+/// What the saved corrector's verdict and file carry beside the corrector itself.
+pub(super) struct Found<'a> {
+    pub(super) n_conditions: usize,
+    pub(super) truth_check: Option<&'a TruthCheck>,
+    pub(super) thermal: Option<&'a CampaignThermal>,
+    pub(super) gyro: Option<&'a GyroFit>,
+}
+
+/// The chosen candidate trained on every recording: the corrector file and the verdict, or why
+/// nothing was saved.
+pub(super) fn save_best(
+    best: &CandidateSummary,
+    settings: &Params,
+    prepared: &Prepared,
+    joint: &JointFit,
+    found: &Found,
+    observer: &Observer,
+) -> (Option<CorrectorFile>, String) {
+    let kind = settings
+        .candidates
+        .iter()
+        .copied()
+        .find(|k| k.name() == best.candidate)
+        .unwrap_or(CandidateKind::PhysicalLinear);
+    // Every recording's joint fit is the one made above: the final training reuses it.
+    let training = TrainingSet::with_fit(
+        prepared.runs.clone(),
+        prepared.poses.clone(),
+        &settings.joint,
+        joint.clone(),
+    );
+    observer(Progress::step("final training", 0, Some(1)));
+    match candidate(kind).train(&training, observer) {
+        Ok(Trained::Dynamic(_)) => (
+            None,
+            format!("Nothing saved: {} cannot be saved as a corrector", kind.name()),
+        ),
+        Ok(Trained::Corrector { model, .. }) => {
+            let verdict = format!(
+                "Saved {} ({}), validated on {} conditions it never trained on: judged by physics alone (still poses' |f| against gravity, turntable runs against a rigid platter's motion with no sensor freedom), it leaves {:.4} m/s² mean RMS, at worst {:.2}× the uncorrected residual and never significantly worse. Trained on every recording of the campaign.{}",
+                kind.name(),
+                kind.describe(),
+                found.n_conditions,
+                best.mean_rms_mps2.unwrap_or(f64::NAN),
+                best.worst_ratio_to_uncorrected.unwrap_or(f64::NAN),
+                truth_sentence(found.truth_check)
+            );
+            let verdict = verdict + &thermal_sentence(found.thermal);
+            let mut file = CorrectorFile::new(model);
+            file.thermal = found.thermal.map(|t| t.fit.model.clone());
+            file.gyro = found
+                .gyro
+                .map(|g| g.model.clone())
+                .filter(|m| m.validate().is_ok());
+            (Some(file), verdict)
+        }
+        Err(e) => (
+            None,
+            format!("Nothing saved: the final training of {} failed: {e}", kind.name()),
+        ),
+    }
+}
+
+/// Why no candidate was saved although there were conditions to hold out.
+pub(super) fn nothing_saved_verdict(
+    summaries: &[CandidateSummary],
+    prepared: &Prepared,
+    undetermined: &[(String, String)],
+    truth_check: Option<&TruthCheck>,
+) -> String {
+    let reasons: Vec<String> = summaries
+        .iter()
+        .map(|s| format!("{}: {}", s.candidate, s.why_not.as_deref().unwrap_or("?")))
+        .collect();
+    // A held-out group of poses that defeats every corrector: the rest could not pin the
+    // sensor down without it.
+    let poses_failed = reasons.iter().any(|r| r.contains("on \"poses "));
+    // A physical model whose own covariance predicts it worse: the campaign left undetermined
+    // what it would correct.
+    let unknown = reasons.iter().any(|r| r.contains("does not determine"));
+    let next = if poses_failed {
+        format!(
+            " Record next: more still poses ({} now; twelve, the six faces and six edges, leave each held-out third determined).",
+            prepared.poses.len()
+        )
+    } else if unknown {
+        let mut advice: Vec<&str> = undetermined.iter().map(|(_, a)| a.as_str()).collect();
+        advice.dedup();
+        advice.truncate(3);
+        format!(" Record next: {}.", advice.join("; "))
+    } else {
+        String::new()
+    };
+    format!(
+        "Nothing saved: no candidate holds on every held-out condition, judged without truth ({}).{next}{}",
+        reasons.join("; "),
+        truth_sentence(truth_check)
+    )
+}
+
+/// What the saved model does about temperature, for the verdict.
+fn thermal_sentence(thermal: Option<&CampaignThermal>) -> String {
+    let Some(t) = thermal else {
+        return String::new();
+    };
+    let [lo, hi] = t.fit.model.fitted_range_c;
+    format!(
+        " Corrected for temperature first (bias order {}, gain order {}, chosen on the coldest and hottest fifths held out; sensor lag {:.0} s) over die temperatures {lo:.1}–{hi:.1} °C: rows outside that range, or without a temperature, are corrected as at {:.1} °C and marked.",
+        t.fit.bias_order, t.fit.scale_order, t.fit.model.lag_s, t.fit.model.reference_c
+    )
+}
+
+pub(super) fn no_conditions_verdict(prepared: &Prepared, undetermined: &[(String, String)]) -> String {
+    let mut next = vec![
+        "a turntable run at a second speed or radius (e.g. 45 rpm, or the sensor at another radius)"
+            .to_string(),
+    ];
+    if prepared.poses.len() < 6 {
+        next.push("six still poses (each face up in turn, a few seconds each)".into());
+    }
+    for (_, advice) in undetermined.iter().take(3) {
+        if !next.contains(advice) {
+            next.push(advice.clone());
+        }
+    }
+    format!(
+        "Nothing saved: with no second condition to hold out, no corrector can be shown to hold on data it never saw. Record next: {}.",
+        next.join("; ")
+    )
+}
+
+/// Candidates whose mean residual against physics is within this fraction of the best one's are
+/// told apart by nothing physics can see (the means differ by less than their noise).
+pub(crate) const INDISTINGUISHABLE: f64 = 0.02;
+
+/// Among candidates physics cannot tell apart, the order of preference: a model whose held-out
+/// error its covariance predicts (the physical family) before one whose error cannot be stated,
+/// and fewer parameters before more.
+fn preference(candidate: &str) -> usize {
+    [
+        CandidateKind::PhysicalLinear,
+        CandidateKind::Physical,
+        CandidateKind::Linear,
+        CandidateKind::PhysicalAnn,
+        CandidateKind::Arx,
+    ]
+    .iter()
+    .position(|k| k.name() == candidate)
+    .unwrap_or(usize::MAX)
+}
+
+/// The choice made without truth: the eligible candidate with the lowest mean residual against
+/// physics, or the preferred one (see [`preference`]) among those within [`INDISTINGUISHABLE`]
+/// of it.
+pub(super) fn choose_by_physics(summaries: &[CandidateSummary]) -> Option<&CandidateSummary> {
+    let best = choose(summaries, |s| s.eligible, |s| s.mean_rms_mps2)?.mean_rms_mps2?;
+    summaries
+        .iter()
+        .filter(|s| {
+            s.eligible
+                && s.mean_rms_mps2
+                    .is_some_and(|m| m <= best * (1.0 + INDISTINGUISHABLE))
+        })
+        .min_by_key(|s| preference(&s.candidate))
+}
+
+/// The eligible summary with the lowest `mean`, if any.
+fn choose(
+    summaries: &[CandidateSummary],
+    eligible: impl Fn(&CandidateSummary) -> bool,
+    mean: impl Fn(&CandidateSummary) -> Option<f64>,
+) -> Option<&CandidateSummary> {
+    summaries.iter().filter(|s| eligible(s)).min_by(|a, b| {
+        mean(a)
+            .unwrap_or(f64::INFINITY)
+            .total_cmp(&mean(b).unwrap_or(f64::INFINITY))
+    })
+}
+
+/// The same rule on truth-based scores, when every score has them.
+pub(super) fn truth_check(
+    summaries: &[CandidateSummary],
+    held_out: &[HeldOutScore],
+    chosen: Option<&CandidateSummary>,
+    n_conditions: usize,
+) -> Option<TruthCheck> {
+    if n_conditions == 0 || held_out.iter().any(|h| h.physics.is_some() && h.truth.is_none()) {
+        return None;
+    }
+    let truth_eligible = |s: &CandidateSummary| {
+        let rows: Vec<&HeldOutScore> = held_out.iter().filter(|h| h.candidate == s.candidate).collect();
+        s.why_not.as_deref() != Some(UNSAVABLE)
+            && rows.len() == n_conditions
+            && rows.iter().all(|h| h.truth.as_ref().is_some_and(|t| !t.worse))
+    };
+    let would = choose(summaries, truth_eligible, |s| s.mean_truth_rms_mps2);
+    let agrees = match (chosen, would) {
+        (None, None) => true,
+        (Some(c), Some(w)) => {
+            c.candidate == w.candidate
+                || matches!((c.mean_truth_rms_mps2, w.mean_truth_rms_mps2), (Some(c), Some(w)) if c <= 1.1 * w)
+        }
+        _ => false,
+    };
+    Some(TruthCheck {
+        would_save: would.map(|w| w.candidate.clone()),
+        agrees,
+    })
+}
+
+fn truth_sentence(check: Option<&TruthCheck>) -> String {
+    match check {
+        None => String::new(),
+        Some(c) => format!(
+            " Checked against the simulation's truth, which the verdict did not use: truth would have saved {}{}.",
+            c.would_save.as_deref().unwrap_or("nothing"),
+            if c.agrees { " (agrees)" } else { " (disagrees)" }
+        ),
+    }
+}
+
+/// The largest departure of a static corrector's gain from the identity that a sensor's static
+/// errors explain: scale and cross-axis errors of a few per cent, a nonlinearity far smaller.
+pub const MAX_GAIN_ERROR: f64 = 0.2;
+
+/// The largest predicted figure (`verdict::Prediction::ratio`) a physical-family corrector may
+/// have on a held-out condition: beyond it, what the data leave undetermined is predicted to cost
+/// more than the correction gains (a held-out run's refit cannot see that part).
+pub const MAX_PREDICTED_RATIO: f64 = 1.1;
+
+const UNSAVABLE: &str = "scored only: no corrector file holds a dynamic model";
+
+pub(super) fn summarise(
+    kind: CandidateKind,
+    held_out: &[HeldOutScore],
+    n_conditions: usize,
+) -> CandidateSummary {
+    let rows: Vec<&HeldOutScore> = held_out.iter().filter(|h| h.candidate == kind.name()).collect();
+    let mut why_not = None;
+    let (mut sum, mut truth_sum) = (0.0, Some(0.0));
+    let (mut worst, mut worst_truth): (Option<f64>, Option<f64>) = (None, None);
+    for row in &rows {
+        match &row.physics {
+            None => {
+                why_not.get_or_insert(format!("not scored on \"{}\"", row.condition));
+            }
+            Some(p) => {
+                if let Some(gain) = row.gain_error.filter(|&g| g > MAX_GAIN_ERROR || g.is_nan()) {
+                    why_not.get_or_insert(format!(
+                        "its gain ∂output/∂input departs from one by {gain:.2} on \"{}\": it discards or amplifies a reading that its training held still, which the held-out data cannot check",
+                        row.condition
+                    ));
+                }
+                if let Some(predicted) = row
+                    .predicted
+                    .as_ref()
+                    .filter(|p| p.ratio > MAX_PREDICTED_RATIO || p.ratio.is_nan())
+                {
+                    why_not.get_or_insert(format!(
+                        "its parameters' covariance predicts {:.2}× the uncorrected error on \"{}\": the campaign does not determine what it corrects",
+                        predicted.ratio, row.condition
+                    ));
+                }
+                sum += combined(p.rms_mps2);
+                worst = Some(worst.map_or(p.ratio, |w| w.max(p.ratio)));
+                if p.ratio.is_nan() || p.worse {
+                    why_not.get_or_insert(format!(
+                        "{:.2}× (± {:.2}) the uncorrected residual on \"{}\", significantly worse",
+                        p.ratio, p.ratio_se, row.condition
+                    ));
+                }
+            }
+        }
+        truth_sum = match (truth_sum, &row.truth) {
+            (Some(t), Some(c)) => {
+                worst_truth = Some(worst_truth.map_or(c.ratio, |w| w.max(c.ratio)));
+                Some(t + combined(c.rms_mps2))
+            }
+            _ => None,
+        };
+    }
+    let complete = rows.len() == n_conditions && n_conditions > 0 && rows.iter().all(|r| r.physics.is_some());
+    if n_conditions == 0 {
+        why_not = Some("no held-out condition".into());
+    }
+    if !kind.savable() {
+        why_not = Some(UNSAVABLE.into());
+    }
+    CandidateSummary {
+        candidate: kind.name().to_string(),
+        description: kind.describe().to_string(),
+        mean_rms_mps2: complete.then(|| sum / n_conditions as f64),
+        worst_ratio_to_uncorrected: worst,
+        mean_truth_rms_mps2: truth_sum.filter(|_| complete).map(|t| t / n_conditions as f64),
+        worst_truth_ratio: worst_truth,
+        eligible: complete && why_not.is_none(),
+        why_not,
+    }
+}
