@@ -94,7 +94,7 @@ pub struct RecordingSummary {
 /// The paper's own figures (its Tables 1–3 and what stands behind them): the turntable fit, the
 /// 60/20/20 comparison on the first recording and the cross-condition scores. They name the best
 /// on validation; what is saved is decided on held-out conditions by the campaign spine, whose
-/// result ([`CampaignResult`]) carries these figures as `paper`.
+/// result ([`crate::campaign::select::CampaignResult`]) carries these figures as `paper`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct PaperProtocol {
     pub results_version: u32,

@@ -557,10 +557,11 @@ fn gyro_rate_plot(g: &crate::campaign::gyro::GyroFit) -> Option<LinePlot> {
 }
 
 /// Every file a calibration writes, by name, with its content: model.json (when a corrector was
-/// saved), results.json, report.html (with the paper's sections when `paper` holds its signals), and the linear part of the calibration in
-/// the files other tools read (imucal.json, imu_tk_acc.calib, imu_tk_gyro.calib; see
-/// [`crate::export`]). `spincal calibrate --campaign`, `spincal fleet` and the Python package
-/// write these files.
+/// saved), results.json, report.html (with the paper's sections when `paper` holds its signals),
+/// and, when saved, the linear part of the calibration in the files other tools read
+/// (imucal.json, imu_tk_acc.calib, imu_tk_gyro.calib; see [`crate::export`]). `spincal
+/// calibrate` (with or without `--campaign`), `spincal fleet` and the Python package write these
+/// files.
 pub fn campaign_files(
     result: &CampaignResult,
     saved: Option<&CorrectorFile>,
