@@ -70,17 +70,21 @@ fn candidates_section(r: &CampaignResult, h: &mut String) {
 
 /// The held-out plots, then each candidate on each held-out condition.
 fn held_out_section(r: &CampaignResult, h: &mut String) -> Result<(), PlotError> {
-    if let Some(plot) = held_out_plot(r, false) {
-        h.push_str(&figure(
-            &plot,
-            "Residual RMS against physics over the three axes on each held-out condition (numbered as in the table below): each corrector and the uncorrected signal.",
-        )?);
-    }
-    if let Some(plot) = held_out_plot(r, true) {
-        h.push_str(&figure(
-            &plot,
-            "RMS error against the simulation's truth on the same samples: each corrector, the uncorrected signal and the floor.",
-        )?);
+    for (against_truth, caption) in [
+        (false, "Residual RMS against physics over the three axes on each held-out condition (numbered as in the table below): each corrector and the uncorrected signal."),
+        (true, "RMS error against the simulation's truth on the same samples: each corrector, the uncorrected signal and the floor."),
+    ] {
+        if let Some((plot, off_scale)) = held_out_plot(r, against_truth) {
+            let note = if off_scale.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " Off the scale (above {OFF_SCALE}× the uncorrected signal), in the table only: {}.",
+                    off_scale.join(", ")
+                )
+            };
+            h.push_str(&figure(&plot, &format!("{caption}{note}"))?);
+        }
     }
     h.push_str("<table><tr><th>#</th><th>held out</th><th>corrector</th><th>RMS x</th><th>RMS y</th><th>RMS z</th><th>uncorrected x</th><th>y</th><th>z</th><th>ratio</th><th>predicted</th><th>truth ratio</th><th>floor x</th><th>y</th><th>z</th><th>note</th></tr>");
     let mut labels: Vec<&str> = Vec::new();
@@ -245,9 +249,14 @@ fn timing_and_recordings_section(r: &CampaignResult, h: &mut String) {
     h.push_str("</ul>");
 }
 
+/// A corrector whose held-out error exceeds the uncorrected signal's by this factor is left out of
+/// the held-out plot, which it would flatten (its numbers stay in the table).
+const OFF_SCALE: f64 = 5.0;
+
 /// Held-out error per condition for every corrector with the uncorrected signal: against physics,
-/// or against truth with the floor (`None` without truth).
-fn held_out_plot(r: &CampaignResult, against_truth: bool) -> Option<LinePlot> {
+/// or against truth with the floor (`None` without truth); and the correctors left out as
+/// [`OFF_SCALE`].
+fn held_out_plot(r: &CampaignResult, against_truth: bool) -> Option<(LinePlot, Vec<String>)> {
     let mut conditions: Vec<&str> = Vec::new();
     for s in &r.held_out {
         if !conditions.contains(&s.condition.as_str()) {
@@ -284,20 +293,28 @@ fn held_out_plot(r: &CampaignResult, against_truth: bool) -> Option<LinePlot> {
         "held-out condition (#)",
         "RMS over x, y, z, m/s²",
     )
+    .x_range(0.5, conditions.len() as f64 + 0.5)
     .legend(Legend::UpperRight);
+    let uncorrected = per_condition(&|s| comparison(s).map(|p| combined(p.uncorrected_rms_mps2)));
+    let largest = |y: &[f64]| y.iter().copied().filter(|v| v.is_finite()).fold(0.0, f64::max);
+    let scale = OFF_SCALE * largest(&uncorrected);
+    let mut off_scale = Vec::new();
     for (k, c) in r.candidates.iter().enumerate() {
         let y = per_condition(&|s| {
             (s.candidate == c.candidate)
                 .then(|| comparison(s).map(|p| combined(p.rms_mps2)))
                 .flatten()
         });
+        if largest(&y) > scale {
+            off_scale.push(c.candidate.clone());
+            continue;
+        }
         plot = plot.series(
             Series::new(c.candidate.clone(), x.clone(), y)
                 .color(Rgb::palette(k))
                 .style(LineStyle::Markers),
         );
     }
-    let uncorrected = per_condition(&|s| comparison(s).map(|p| combined(p.uncorrected_rms_mps2)));
     plot = plot.series(
         Series::new("uncorrected", x.clone(), uncorrected)
             .color(Rgb(0, 0, 0))
@@ -311,7 +328,7 @@ fn held_out_plot(r: &CampaignResult, against_truth: bool) -> Option<LinePlot> {
                 .style(LineStyle::Dashed),
         );
     }
-    Some(plot)
+    Some((plot, off_scale))
 }
 
 /// The thermal model: what was chosen, over which range, and its curves with their bands; or why
