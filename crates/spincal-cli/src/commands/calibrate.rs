@@ -9,7 +9,7 @@ use spincal::campaign::select::CampaignOutput;
 use spincal::correctors::ann::{default_grid, small_grid};
 use spincal::correctors::corrector::Axis;
 use spincal::input::recording::Recording;
-use spincal::report::campaign::{campaign_files, CAMPAIGN_FILE_NAMES};
+use spincal::report::campaign::CAMPAIGN_FILE_NAMES;
 use spincal::sysid::{ModelKind, ModelSpec};
 
 use super::fit::TurntableArgs;
@@ -156,16 +156,7 @@ pub fn run_calibration(
             },
         );
     }
-    let files = campaign_files(
-        &output.result,
-        output.saved.as_ref(),
-        output.paper_signals.as_deref(),
-    )?;
-    let written: Vec<&str> = files.iter().map(|(name, _)| *name).collect();
-    super::set_aside_stale(out, &CAMPAIGN_FILE_NAMES, &written)?;
-    for (name, text) in files {
-        super::write_text(&out.join(name), &text)?;
-    }
+    super::campaign::write_calibration(&output, out)?;
     Ok(output)
 }
 

@@ -38,14 +38,25 @@ pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignO
     let bar = ui.progress(1, "calibrating the campaign");
     let output = calibrate_campaign_file(&campaign, &Params::default(), &|p| crate::ui::show(&bar, p))?;
     bar.finish_and_clear();
-    let files =
-        campaign_files(&output.result, output.saved.as_ref(), None).context("drawing the campaign report")?;
+    write_calibration(&output, out)?;
+    Ok(output)
+}
+
+/// Writes every file of a calibration into `out` (`campaign_files`: with the paper's sections
+/// where its protocol ran) and sets aside its own earlier outputs that this one does not write.
+pub fn write_calibration(output: &CampaignOutput, out: &Path) -> anyhow::Result<()> {
+    let files = campaign_files(
+        &output.result,
+        output.saved.as_ref(),
+        output.paper_signals.as_deref(),
+    )
+    .context("drawing the campaign report")?;
     let written: Vec<&str> = files.iter().map(|(name, _)| *name).collect();
     super::set_aside_stale(out, &CAMPAIGN_FILE_NAMES, &written)?;
     for (name, text) in files {
         super::write_text(&out.join(name), &text)?;
     }
-    Ok(output)
+    Ok(())
 }
 
 fn fmt3(v: &[f64; 3]) -> String {

@@ -150,15 +150,9 @@ fn paper_units(recordings: &[Recording], turntable: &TurntableFit, settings: &Pa
             let mean: [f64; 3] = std::array::from_fn(|k| {
                 recording.accel_mps2[k].iter().sum::<f64>() / recording.len().max(1) as f64
             });
-            let axis = (0..3)
-                .max_by(|&a, &b| mean[a].abs().total_cmp(&mean[b].abs()))
-                .unwrap_or(2);
-            let up = SignedAxis {
-                axis,
-                sign: if mean[axis] >= 0.0 { 1 } else { -1 },
-            };
+            let up = SignedAxis::nearest(mean);
             let out = SignedAxis {
-                axis: (axis + 1) % 3,
+                axis: (up.axis + 1) % 3,
                 sign: 1,
             };
             let (radius_m, radius_tol_m) = match &settings.fit.radius {

@@ -7,6 +7,7 @@
 //! - a turntable run's measured rotation rate must be within `RPM_TOLERANCE` of its nominal `rpm`;
 //! - no recording may be listed twice (the same samples under two entries).
 
+use crate::campaign::file::SignedAxis;
 use crate::campaign::joint::{mounting_matrix, RunInput};
 use crate::campaign::prepare::{Prepared, UnitRecording};
 use crate::geometry::norm;
@@ -122,18 +123,13 @@ fn check_run(run: &RunInput, gravity: f64) -> Result<(), InputError> {
         .acos()
         .to_degrees();
     if angle > UP_TOLERANCE_DEG {
-        let axis = (0..3)
-            .max_by(|&a, &b| mean[a].abs().total_cmp(&mean[b].abs()))
-            .unwrap_or(2);
-        let sign = if mean[axis] >= 0.0 { "+" } else { "-" };
+        let nearest = SignedAxis::nearest(mean).name();
         return Err(InputError {
             recording: run.name.clone(),
             key: "up",
             why: format!(
-                "gravity lies {angle:.0}° from the declared up = \"{}\"; the mean reading points along {sign}{}: give up = \"{sign}{}\" (and an `out` across it)",
+                "gravity lies {angle:.0}° from the declared up = \"{}\"; the mean reading points along {nearest}: give up = \"{nearest}\" (and an `out` across it)",
                 entry.up.name(),
-                ["x", "y", "z"][axis],
-                ["x", "y", "z"][axis]
             ),
         });
     }

@@ -59,6 +59,18 @@ impl SignedAxis {
         Some(SignedAxis { axis, sign })
     }
 
+    /// The signed axis nearest to `v`'s direction: its largest component, with that component's
+    /// sign (z for a zero vector).
+    pub fn nearest(v: [f64; 3]) -> SignedAxis {
+        let axis = (0..3)
+            .max_by(|&a, &b| v[a].abs().total_cmp(&v[b].abs()))
+            .unwrap_or(2);
+        SignedAxis {
+            axis,
+            sign: if v[axis] >= 0.0 { 1 } else { -1 },
+        }
+    }
+
     /// The unit vector of this axis in sensor coordinates.
     pub fn vector(self) -> [f64; 3] {
         let mut v = [0.0; 3];
