@@ -61,8 +61,9 @@ pub(crate) fn fit_turntable<'py>(
     ))
 }
 
-/// A finished calibration of turntable recordings: results (JSON: the campaign envelope with the
-/// paper's figures under `paper`), the saved corrector, the signals and the report.
+/// A finished calibration, of a campaign file or of turntable recordings (the paper's protocol):
+/// results (JSON: the campaign envelope, with the paper's figures under `paper` where its
+/// protocol ran), the saved corrector, the paper's signals where it ran, and the files.
 #[pyclass(name = "Calibration", module = "spincal._spincal", frozen)]
 pub(crate) struct PyCalibration {
     output: CampaignOutput,
@@ -73,7 +74,11 @@ impl PyCalibration {
         self.output
             .paper_signals
             .as_deref()
-            .ok_or_else(|| errors::Error::new_err("this calibration has no paper-protocol signals"))
+            .ok_or_else(|| {
+                errors::Error::new_err(
+                    "references and corrected exist where the paper's protocol ran (spincal.calibrate on recordings); this calibration ran a campaign file",
+                )
+            })
     }
 }
 
@@ -102,11 +107,9 @@ impl PyCalibration {
     fn corrected<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         Ok(columns_to_array(py, &self.signals()?.corrected))
     }
-    /// Writes what `spincal calibrate` writes into `folder` (created): model.json when saved,
-    /// results.json, report.html, and imucal.json and imu_tk files when saved.
-    fn write(&self, py: Python<'_>, folder: PathBuf) -> PyResult<()> {
-        std::fs::create_dir_all(&folder)
-            .map_err(|e| errors::OutputError::new_err(format!("{}: cannot create: {e}", folder.display())))?;
+    /// Every file `spincal calibrate` writes, [(name, content)]: model.json, imucal.json and the
+    /// imu_tk files when a corrector was saved, results.json and report.html.
+    fn files(&self, py: Python<'_>) -> PyResult<Vec<(String, String)>> {
         let files = py
             .detach(|| {
                 spincal::report::campaign::campaign_files(
@@ -115,8 +118,17 @@ impl PyCalibration {
                     self.output.paper_signals.as_deref(),
                 )
             })
-            .map_err(|e| errors::Error::new_err(format!("report: {e}")))?;
-        for (name, text) in files {
+            .map_err(|e| errors::Error::new_err(format!("drawing report.html: {e}")))?;
+        Ok(files
+            .into_iter()
+            .map(|(name, text)| (name.to_string(), text))
+            .collect())
+    }
+    /// Writes [`files`](Self::files) into `folder` (created), each to a temporary name and renamed.
+    fn write(&self, py: Python<'_>, folder: PathBuf) -> PyResult<()> {
+        std::fs::create_dir_all(&folder)
+            .map_err(|e| errors::OutputError::new_err(format!("{}: cannot create: {e}", folder.display())))?;
+        for (name, text) in self.files(py)? {
             write_text(&folder.join(name), &text)?;
         }
         Ok(())
@@ -231,24 +243,6 @@ pub(crate) fn run_sweep_jobs(
     .map_err(|e: spincal::correctors::ann::AnnError| errors::usage_error(e))
 }
 
-/// A finished campaign calibration.
-#[pyclass(name = "CampaignCalibration", module = "spincal._spincal", frozen)]
-pub(crate) struct PyCampaignCalibration {
-    output: CampaignOutput,
-}
-
-#[pymethods]
-impl PyCampaignCalibration {
-    /// results.json's content.
-    fn result_json(&self) -> PyResult<String> {
-        json(&self.output.result)
-    }
-    /// The saved corrector, or None when no corrector held on every held-out condition.
-    fn corrector(&self) -> Option<PyCorrector> {
-        self.output.saved.clone().map(|file| PyCorrector { file })
-    }
-}
-
 /// Every file `spincal calibrate --campaign` writes, from a campaign's results.json and
 /// model.json texts: [(name, content)] for model.json (when given), results.json, report.html,
 /// imucal.json and imu_tk_*.calib.
@@ -281,7 +275,7 @@ pub(crate) fn calibrate_campaign(
     py: Python<'_>,
     campaign: PathBuf,
     progress: Option<Bound<'_, PyAny>>,
-) -> PyResult<PyCampaignCalibration> {
+) -> PyResult<PyCalibration> {
     use spincal::campaign::run::{calibrate_campaign_file, CampaignRunError};
     let campaign = Campaign::read_path(&campaign).map_err(errors::format)?;
     let output = long::run(py, progress.as_ref(), |observer| {
@@ -291,7 +285,7 @@ pub(crate) fn calibrate_campaign(
         CampaignRunError::Load(e) => errors::format(e),
         e => errors::fit(e),
     })?;
-    Ok(PyCampaignCalibration { output })
+    Ok(PyCalibration { output })
 }
 
 /// Classic calibration from still poses, as `spincal static` runs it (the library's

@@ -19,7 +19,7 @@ mod simulation;
 use analysis::{allan, sensitivity};
 use calibration::{
     calibrate, calibrate_campaign, campaign_files, fit_turntable, run_sweep_jobs, static_calibration,
-    PyCalibration, PyCampaignCalibration,
+    PyCalibration,
 };
 use corrector::PyCorrector;
 use fleet::{calibrate_unit, campaign_inputs, fleet_table, unit_labels};
@@ -43,7 +43,6 @@ fn _spincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     m.add_class::<PyRecording>()?;
     m.add_class::<PyCalibration>()?;
-    m.add_class::<PyCampaignCalibration>()?;
     m.add_class::<PyCorrector>()?;
     m.add_function(wrap_pyfunction!(read, m)?)?;
     m.add_class::<columns::ColumnPlan>()?;

@@ -23,10 +23,10 @@
 //! ```
 
 use rand::{Rng, SeedableRng};
+use spincal::campaign::evaluate::conditions;
 use spincal::campaign::params::Params;
 use spincal::campaign::prepare::prepare;
 use spincal::campaign::select::calibrate_campaign;
-use spincal::campaign::select::conditions;
 use spincal::campaign::verdict::combined;
 use spincal::simulate::campaign::{simulate_campaign, CampaignSetup, RunSetup, SimulatedCampaign};
 

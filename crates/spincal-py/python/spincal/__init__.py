@@ -68,7 +68,6 @@ __all__ = [
     "Corrector",
     "Corrected",
     "Calibration",
-    "CampaignCalibration",
     "Result",
     "Parameter",
     "Parameters",
@@ -698,94 +697,82 @@ def correct(model: Union[Corrector, PathLike], data: Any, **options: Any) -> Cor
 
 
 class Calibration:
-    """A finished calibration of turntable recordings: ``result`` (results.json as a
-    :class:`CampaignResult`, the one result of every calibration, with the paper's figures as
-    ``result.paper``), ``corrector`` (the saved :class:`Corrector`, or None when no corrector held
-    on every held-out condition; ``result.verdict`` says why), ``references`` and ``corrected``
-    arrays, and :meth:`write` for the files ``spincal calibrate`` writes."""
+    """A finished calibration, of a campaign file or of turntable recordings: ``result``
+    (results.json as a :class:`CampaignResult`, the one result of every calibration, with the
+    paper's figures as ``result.paper`` where its protocol ran), ``corrector`` (the saved
+    :class:`Corrector`, or None when no corrector held on every held-out condition;
+    ``result.verdict`` says why), :meth:`report_html` and :meth:`write`; where the paper's
+    protocol ran (:func:`calibrate`), also the ``references`` and ``corrected`` arrays."""
 
-    __slots__ = ("_inner", "result", "corrector")
+    __slots__ = ("_inner", "_texts", "result", "corrector")
 
     def __init__(self, inner: "_spincal.Calibration"):
-        self._inner = inner
+        self._inner: Optional["_spincal.Calibration"] = inner
+        self._texts: Optional[Tuple[str, Optional[str]]] = None
         self.result = CampaignResult._from_json(inner.result_json())
         saved = inner.corrector()
         self.corrector = None if saved is None else Corrector(saved)
 
+    @classmethod
+    def _from_texts(cls, results: str, model: Optional[str]) -> "Calibration":
+        """A calibration made elsewhere (a fleet's worker), from its results.json and model.json."""
+        cal = cls.__new__(cls)
+        cal._inner = None
+        cal._texts = (results, model)
+        cal.result = CampaignResult._from_json(results)
+        cal.corrector = None if model is None else Corrector(_spincal.Corrector.from_json(model, "model.json"))
+        return cal
+
+    def _signals(self) -> "_spincal.Calibration":
+        if self._inner is None:
+            raise Error("references and corrected exist where the paper's protocol ran (spincal.calibrate on recordings); this calibration ran a campaign file")
+        return self._inner
+
     @property
     def references(self) -> List[np.ndarray]:
-        """The reference acceleration (the turntable's physics), (n, 3) m/s² per recording."""
-        return self._inner.references()
+        """The reference acceleration (the turntable's physics), (n, 3) m/s² per recording; where
+        the paper's protocol ran."""
+        return self._signals().references()
 
     @property
     def corrected(self) -> np.ndarray:
         """The saved corrector applied to the first recording (the recording itself when nothing
-        was saved), (n, 3) m/s²."""
-        return self._inner.corrected()
+        was saved), (n, 3) m/s²; where the paper's protocol ran."""
+        return self._signals().corrected()
 
     def to_dict(self) -> Dict[str, Any]:
         """results.json's content."""
         return self.result.to_dict()
 
-    def write(self, folder: PathLike) -> None:
-        """Writes what ``spincal calibrate`` writes into ``folder`` (model.json and the other tools'
-        files when saved, results.json, report.html)."""
-        self._inner.write(os.fspath(folder))
-
-    def __repr__(self) -> str:
-        return f"Calibration(saved={self.result.saved!r})"
-
-
-class CampaignCalibration:
-    """A finished campaign calibration: ``result`` (:class:`CampaignResult`), ``corrector`` (or
-    None when no corrector held on every held-out condition), :meth:`report_html` and
-    :meth:`write`."""
-
-    __slots__ = ("result", "corrector", "_results_json", "_model_json")
-
-    def __init__(self, inner: Optional["_spincal.CampaignCalibration"]):
-        if inner is not None:
-            saved = inner.corrector()
-            self._set(inner.result_json(), None if saved is None else saved.to_json())
-
-    def _set(self, results: str, model: Optional[str]) -> None:
-        self._results_json = results
-        self._model_json = model
-        self.result = CampaignResult._from_json(results)
-        self.corrector = None if model is None else Corrector(_spincal.Corrector.from_json(model, "model.json"))
-
-    @classmethod
-    def _from_texts(cls, results: str, model: Optional[str]) -> "CampaignCalibration":
-        cal = cls(None)
-        cal._set(results, model)
-        return cal
-
-    def to_dict(self) -> Dict[str, Any]:
-        """results.json's content."""
-        return self.result.to_dict()
+    def _files(self) -> List[Tuple[str, str]]:
+        if self._inner is not None:
+            return self._inner.files()
+        results, model = cast(Tuple[str, Optional[str]], self._texts)
+        return _spincal.campaign_files(results, model)
 
     def report_html(self) -> str:
-        """report.html as ``spincal calibrate --campaign`` writes it: the verdict, every
-        corrector on held-out conditions (table and plot), the sensor model, the gyroscope."""
-        return dict(_spincal.campaign_files(self._results_json, self._model_json))["report.html"]
+        """report.html as ``spincal calibrate`` writes it: whether model.json can be trusted and
+        where, every corrector on held-out conditions, the sensor model, the gyroscope, and the
+        paper's sections where its protocol ran."""
+        return dict(self._files())["report.html"]
 
     def write(self, folder: PathLike) -> None:
-        """Writes what ``spincal calibrate --campaign`` writes into ``folder`` (created):
-        model.json (when a corrector was saved), results.json, report.html, imucal.json and the
-        imu_tk ``.calib`` files. Each file is written to a temporary name and renamed."""
+        """Writes what ``spincal calibrate`` writes into ``folder`` (created): model.json,
+        imucal.json and the imu_tk ``.calib`` files when a corrector was saved, results.json and
+        report.html. Each file is written to a temporary name and renamed."""
         folder = os.fspath(folder)
         os.makedirs(folder, exist_ok=True)
-        for name, text in _spincal.campaign_files(self._results_json, self._model_json):
+        for name, text in self._files():
             tmp = os.path.join(folder, f".{name}.tmp")
             with open(tmp, "w") as f:
                 f.write(text)
             os.replace(tmp, os.path.join(folder, name))
 
     def __repr__(self) -> str:
-        return f"CampaignCalibration(unit={self.result.unit!r}, saved={self.result.saved!r})"
+        return f"Calibration(unit={self.result.unit!r}, saved={self.result.saved!r})"
 
 
-def calibrate_campaign(campaign: PathLike, *, progress: Progress = False) -> CampaignCalibration:
+def calibrate_campaign(campaign: PathLike, *, progress: Progress = False) -> Calibration:
     """Calibrates one unit from its campaign file (TOML), as ``spincal calibrate --campaign``:
     one sensor model fitted jointly to every still pose and turntable run, correctors scored on
     held-out conditions.
@@ -798,7 +785,7 @@ def calibrate_campaign(campaign: PathLike, *, progress: Progress = False) -> Cam
     """
     with _progress(progress, "campaign") as callback:
         inner = _spincal.calibrate_campaign(os.fspath(campaign), progress=callback)
-    return CampaignCalibration(inner)
+    return Calibration(inner)
 
 
 def calibrate(
@@ -1005,7 +992,7 @@ def simulate_fleet(
     return [os.fspath(f) for f in folders], [Truth(t) for t in json.loads(text)]
 
 
-def calibrate_unit(source: PathLike, *, progress: Progress = False) -> CampaignCalibration:
+def calibrate_unit(source: PathLike, *, progress: Progress = False) -> Calibration:
     """Calibrates one unit of a fleet (a campaign file, or a folder holding ``campaign.toml``)
     on one thread, exactly as ``spincal calibrate --campaign`` and as each task of
     :func:`spincal.ray.calibrate_fleet` does.
@@ -1018,4 +1005,4 @@ def calibrate_unit(source: PathLike, *, progress: Progress = False) -> CampaignC
     """
     with _progress(progress, "unit") as callback:
         unit, results, model = _spincal.calibrate_unit(os.fspath(source), progress=callback)
-    return CampaignCalibration._from_texts(results, model)
+    return Calibration._from_texts(results, model)

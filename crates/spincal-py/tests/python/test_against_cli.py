@@ -107,7 +107,7 @@ def test_campaign_calibration_gives_the_clis_results_json(tmp_path, cli):
     truth = spincal.simulate_campaign(unit, seed=5)
     cli("calibrate", "--campaign", unit / "campaign.toml", "--out", tmp_path / "cli")
     cal = spincal.calibrate_campaign(unit / "campaign.toml")
-    assert isinstance(cal, spincal.CampaignCalibration)
+    assert isinstance(cal, spincal.Calibration)
     with pytest.raises(spincal.UsageError, match="calibrate_campaign"):
         spincal.calibrate(unit / "campaign.toml")
     cli_result = json.loads((tmp_path / "cli" / "results.json").read_text())

@@ -2,43 +2,31 @@
 //! turntable runs without poses, calibrated by `campaign::select::calibrate_campaign`: held-out
 //! conditions decide what is saved, and the result is the campaign's envelope. Beside it the
 //! paper's own figures are computed and reported (`campaign::paper::PaperProtocol`): recordings
-//! → rotation rate → turntable fit → reference → every corrector trained on the first recording
-//! with the 60/20/20 division and compared (the best on validation named, never on test); with
-//! two or more recordings each is also tested on the others (cross-condition, SPEC §6).
-//!
-//! System-identification models map one measured axis to its reference axis (SISO) and are scored
-//! by simulation from `init_samples` measured outputs and by one-step prediction; only simulation
-//! is available when correcting new data (no reference exists then), so selection uses simulation
-//! fit for them. Network and linear correctors are static maps: both kinds coincide.
+//! → rotation rate → turntable fit → reference → the network's architecture (a sweep, or the
+//! settings') → the paper's candidates (`campaign::series_candidates`) through the evaluation's
+//! split mode (`campaign::evaluate::SplitEvaluation`: the 60/20/20 division of the first
+//! recording, the best on validation named, never on test; with two or more recordings each
+//! corrector also tested on the others, SPEC §6).
 
-use std::ops::Range;
 use std::time::Instant;
 
+use crate::campaign::evaluate::{CrossConditionError, Evaluation, SplitEvaluation};
 use crate::campaign::file::{SignedAxis, TurntableEntry};
-use crate::campaign::paper::{ComparisonRow, PaperProtocol, PaperSignals, PartScore, RecordingSummary};
+use crate::campaign::paper::{ComparisonRow, CrossRow, PaperProtocol, PaperSignals, RecordingSummary};
 use crate::campaign::params::{NetworkChoice, ParamError, Params};
 use crate::campaign::prepare::UnitRecording;
 use crate::campaign::select::{calibrate_campaign, CampaignCalError, CampaignOutput};
+use crate::campaign::series_candidates::paper_candidates;
 use crate::correctors::ann::{
     architecture_label, reduce_sweep, run_sweep_locally, AnnError, AnnProblem, LmSettings, SweepRow,
     SweepRun, SweepSettings,
 };
-use crate::correctors::corrector::{Corrected, Corrector};
-use crate::correctors::division::Division;
-use crate::correctors::linear::{LinearError, LinearModel};
+use crate::correctors::corrector::Corrector;
 use crate::input::recording::Recording;
-use crate::metrics::{fit_percent, rmse};
 use crate::progress::{Observer, Progress, StageTime};
-use crate::sysid::SysidError;
 use crate::turntable::fit::fit_turntable;
 use crate::turntable::fit::{FitError, TurntableFit};
 use crate::turntable::sensitivity::{sensitivity_table, SensitivityInput, SensitivityRow};
-
-mod cross_condition;
-mod sysid;
-
-use cross_condition::{best_unless_worse_elsewhere, cross_condition_rows, Trained};
-use sysid::sysid_candidates;
 
 /// Version of the paper figures' layout in `results.json` (2: under the campaign envelope's
 /// `paper`, the saving decision the envelope's).
@@ -51,14 +39,8 @@ pub enum CalibrateError {
     Fit(#[from] FitError),
     #[error("network: {0}")]
     Ann(#[from] AnnError),
-    #[error("linear corrector: {0}")]
-    Linear(#[from] LinearError),
-    #[error("{model}: {source}")]
-    Sysid {
-        model: String,
-        #[source]
-        source: SysidError,
-    },
+    #[error("cross-condition: {0}")]
+    CrossCondition(#[from] CrossConditionError),
     #[error(transparent)]
     Params(#[from] ParamError),
     #[error(transparent)]
@@ -198,7 +180,8 @@ fn paper_verdict(spine: &str, recordings: usize, paper: &PaperProtocol, ruler: b
     verdict
 }
 
-/// The paper's figures: the turntable fit, the 60/20/20 comparison on the first recording and
+/// The paper's figures: the turntable fit, then the paper's candidates (its network, linear map
+/// and system-identification models) through the split evaluation on the first recording and
 /// the cross-condition scores; with each recording's reference and fitted model.
 fn paper_figures(
     recordings: &[Recording],
@@ -214,50 +197,40 @@ fn paper_figures(
     let sweep_clock = Instant::now();
     let references = with_signal(recordings, |k, t| turntable.reference(k, t));
     let models = with_signal(recordings, |k, t| turntable.model(k, t));
-    let (measured, reference) = (&recordings[0], &references[0]);
     let problem = AnnProblem::new(
-        measured,
-        reference,
+        &recordings[0],
+        &references[0],
         &settings.correct_axes,
         settings.delays,
         settings.division,
     )?;
-
     let (sweep_rows, hidden, restarts) = choose_network(&problem, settings, observer, runner)?;
     if !sweep_rows.is_empty() {
         stages.push(stage_time("network sweep", sweep_clock));
     }
-    let statics = train_static(
-        &problem, measured, reference, &hidden, restarts, settings, observer,
-    )?;
-
     let division = problem.division.clone();
-    let axes_idx: Vec<usize> = settings.correct_axes.iter().map(|a| a.index()).collect();
-    let split = SplitScoring::new(reference, &division, &axes_idx);
-    let mut comparison = static_rows(&split, &statics, measured, settings);
-    let (sysid_rows, sysid_models) =
-        sysid_candidates(settings, measured, reference, &axes_idx, &division, observer);
-    comparison.extend(sysid_rows);
-
-    // Selection on validation only.
-    let best_overall = best_on_validation(&mut comparison.iter().filter(|r| r.warnings.is_empty()));
-    let best_savable = best_on_validation(&mut comparison.iter().filter(|r| r.savable));
+    let axes: Vec<usize> = settings.correct_axes.iter().map(|a| a.index()).collect();
+    let scores = SplitEvaluation {
+        recordings,
+        references: &references,
+        division: &division,
+        axes: &axes,
+        init_samples: settings.init_samples,
+        delays: settings.delays,
+        joint: &settings.joint,
+    }
+    .score(&paper_candidates(settings, &hidden, restarts), observer)?;
     // Each corrector's own time, as its comparison row has it.
-    for row in comparison.iter().filter(|r| r.seconds > 0.0) {
+    for row in scores.comparison.iter().filter(|r| r.seconds > 0.0) {
         stages.push(StageTime {
             stage: format!("corrector {}", row.model),
             seconds: row.seconds,
         });
     }
-    let cross_clock = Instant::now();
-    let trained = Trained {
-        network: &statics.network,
-        linear: &statics.linear,
-        sysid: &sysid_models,
-    };
-    let cross_condition =
-        cross_condition_rows(recordings, &references, &axes_idx, settings, &trained, observer)?;
-    stages.push(stage_time("cross-condition", cross_clock));
+    // Selection on validation only.
+    let comparison = scores.comparison;
+    let best_overall = best_on_validation(&mut comparison.iter().filter(|r| r.warnings.is_empty()));
+    let best_savable = best_on_validation(&mut comparison.iter().filter(|r| r.savable));
     let paper = PaperProtocol {
         results_version: RESULTS_VERSION,
         seed: settings.seed,
@@ -270,9 +243,9 @@ fn paper_figures(
         network: settings.network.clone(),
         sweep: sweep_rows,
         network_architecture: architecture_label(&hidden),
-        best_on_validation: best_unless_worse_elsewhere(&best_savable, &cross_condition),
+        best_on_validation: best_unless_worse_elsewhere(&best_savable, &scores.cross_condition),
         comparison,
-        cross_condition,
+        cross_condition: scores.cross_condition,
         best_overall,
         stage_seconds: stages,
     };
@@ -285,85 +258,6 @@ fn stage_time(stage: &str, clock: Instant) -> StageTime {
         stage: stage.into(),
         seconds: clock.elapsed().as_secs_f64(),
     }
-}
-
-/// The two static correctors trained on the first recording, with their training times.
-struct StaticCorrectors {
-    network: crate::correctors::ann::AnnModel,
-    /// The network's inputs, architecture, outputs, delays and restarts, in words.
-    network_label: String,
-    network_seconds: f64,
-    linear: LinearModel,
-    linear_seconds: f64,
-}
-
-/// Trains the network of architecture `hidden` and the linear corrector on the first recording,
-/// `measured` against `reference`.
-fn train_static(
-    problem: &AnnProblem,
-    measured: &Recording,
-    reference: &Recording,
-    hidden: &[usize],
-    restarts: usize,
-    settings: &Params,
-    observer: &Observer,
-) -> Result<StaticCorrectors, CalibrateError> {
-    observer(Progress::step("network", 0, Some(1)));
-    let clock = Instant::now();
-    let network = problem.train(hidden, restarts, settings.seed, &settings.lm)?;
-    let network_seconds = clock.elapsed().as_secs_f64();
-
-    observer(Progress::step("linear", 0, Some(1)));
-    let clock = Instant::now();
-    let linear = LinearModel::fit(measured, reference, &settings.correct_axes, settings.division)?;
-    let linear_seconds = clock.elapsed().as_secs_f64();
-    let network_label = format!(
-        "{}-input [{}] {}-output, {} delays, {} restarts",
-        settings.correct_axes.len() * (settings.delays + 1),
-        architecture_label(hidden),
-        settings.correct_axes.len(),
-        settings.delays,
-        restarts
-    );
-    Ok(StaticCorrectors {
-        network,
-        network_label,
-        network_seconds,
-        linear,
-        linear_seconds,
-    })
-}
-
-/// The comparison rows of the uncorrected signal and the two static correctors.
-fn static_rows(
-    split: &SplitScoring,
-    statics: &StaticCorrectors,
-    measured: &Recording,
-    settings: &Params,
-) -> Vec<ComparisonRow> {
-    let corrected_axes = |c: &dyn Corrector, rec: &Recording| axes_of(&c.correct(rec), split.axes);
-    let uncorrected: Vec<Vec<f64>> = split
-        .axes
-        .iter()
-        .map(|&a| measured.accel_mps2[a].clone())
-        .collect();
-    vec![
-        split.row("uncorrected", "measured signal".into(), &uncorrected, 0.0, false),
-        split.row(
-            "ANN",
-            statics.network_label.clone(),
-            &corrected_axes(&statics.network, measured),
-            statics.network_seconds,
-            true,
-        ),
-        split.row(
-            "linear",
-            format!("offset + {0}×{0} matrix", settings.correct_axes.len()),
-            &corrected_axes(&statics.linear, measured),
-            statics.linear_seconds,
-            true,
-        ),
-    ]
 }
 
 /// The sensitivity table at the first recording's session.
@@ -413,72 +307,6 @@ fn choose_network(
         }
         NetworkChoice::Fixed { hidden, restarts } => (Vec::new(), hidden.clone(), *restarts),
     })
-}
-
-/// The corrected axes of a corrector's output.
-fn axes_of(out: &Corrected, axes: &[usize]) -> Vec<Vec<f64>> {
-    axes.iter().map(|&a| out.accel_mps2[a].clone()).collect()
-}
-
-/// Scores of full-length estimates on the three parts of the 60/20/20 division, against the
-/// reference of the recording trained on.
-struct SplitScoring<'a> {
-    reference: &'a Recording,
-    parts: [Vec<usize>; 3],
-    axes: &'a [usize],
-}
-
-impl<'a> SplitScoring<'a> {
-    fn new(reference: &'a Recording, division: &Division, axes: &'a [usize]) -> SplitScoring<'a> {
-        let rows =
-            |ranges: &[Range<usize>]| -> Vec<usize> { ranges.iter().flat_map(|r| r.clone()).collect() };
-        SplitScoring {
-            reference,
-            parts: [
-                rows(&division.train),
-                rows(&division.validation),
-                rows(&division.test),
-            ],
-            axes,
-        }
-    }
-
-    fn part(&self, estimate: &[Vec<f64>], rows: &[usize]) -> PartScore {
-        let mut fits = Vec::new();
-        let mut errors = Vec::new();
-        for (c, &a) in self.axes.iter().enumerate() {
-            let y: Vec<f64> = rows.iter().map(|&i| self.reference.accel_mps2[a][i]).collect();
-            let e: Vec<f64> = rows.iter().map(|&i| estimate[c][i]).collect();
-            fits.push(fit_percent(&y, &e));
-            errors.push(rmse(&y, &e));
-        }
-        PartScore::new(fits, errors)
-    }
-
-    /// The comparison row of a static corrector (simulation and one-step coincide).
-    fn row(
-        &self,
-        model: &str,
-        structure: String,
-        estimate: &[Vec<f64>],
-        seconds: f64,
-        savable: bool,
-    ) -> ComparisonRow {
-        ComparisonRow {
-            model: model.to_string(),
-            structure,
-            kind: "static".into(),
-            train: self.part(estimate, &self.parts[0]),
-            validation: self.part(estimate, &self.parts[1]),
-            test: self.part(estimate, &self.parts[2]),
-            train_one_step: None,
-            test_one_step: None,
-            seconds,
-            savable,
-            failed: None,
-            warnings: Vec::new(),
-        }
-    }
 }
 
 /// The best on validation fit among `rows` (uncorrected and unscored rows aside), or "".
@@ -544,4 +372,22 @@ fn with_signal(recordings: &[Recording], signal: impl Fn(usize, &[f64]) -> [Vec<
             source: rec.source.clone(),
         })
         .collect()
+}
+
+/// The paper's choice among the correctors a file can hold: `best` (the best on validation),
+/// unless another recording shows it significantly worse than no correction; then the other
+/// static corrector if that one held; else "none".
+fn best_unless_worse_elsewhere(best: &str, cross_condition: &[CrossRow]) -> String {
+    let worse_elsewhere = |model: &str| {
+        cross_condition
+            .iter()
+            .filter(|r| r.model == model)
+            .any(|r| r.against_uncorrected.as_ref().is_some_and(|c| c.worse))
+    };
+    let other = if best == "ANN" { "linear" } else { "ANN" };
+    match (worse_elsewhere(best), worse_elsewhere(other)) {
+        (false, _) => best.to_string(),
+        (true, false) => other.to_string(),
+        (true, true) => "none".to_string(),
+    }
 }

@@ -1,8 +1,9 @@
-//! The candidates a campaign compares: one trait, [`Candidate`] (a training set of runs and poses
-//! in, a [`Trained`] corrector out, which corrects a recording and, when its kind can be, is
-//! saved), and its implementations: the physical model's inverse (with and without the
-//! nonlinearity), the 12-parameter linear map, the physical model with a network on its residual,
-//! and ARX (scored, never saved).
+//! The one candidate trait, [`Candidate`]: a [`TrainingSet`] in, a [`Trained`] corrector out,
+//! which corrects a recording and, when its kind can be, is saved. Here are the campaign's kinds
+//! (trained on runs and poses through the joint fit): the physical model's inverse (with and
+//! without the nonlinearity), the 12-parameter linear map, the physical model with a network on
+//! its residual, and ARX (scored, never saved). The paper's kinds, which learn from one recording
+//! and its reference, are in `campaign::series_candidates`.
 
 // Per-axis arrays are indexed together.
 #![allow(clippy::needless_range_loop)]
@@ -13,7 +14,7 @@ use crate::campaign::joint::{
     fit_joint, fit_joint_from, JointFit, JointSettings, PoseInput, RunInput, SensorCovariance, SensorTerms,
 };
 use crate::correctors::ann::{AnnProblem, LmSettings};
-use crate::correctors::corrector::{Axis, Corrector};
+use crate::correctors::corrector::{Axis, Corrected, Corrector};
 use crate::correctors::division::DivisionMode;
 use crate::correctors::linear::LinearModel;
 use crate::correctors::model_file::CorrectorModel;
@@ -80,13 +81,25 @@ impl CandidateKind {
     }
 }
 
-/// A training set: the prepared runs and poses it may use, and its full joint fit (made once,
-/// shared by the candidates that need it).
+/// A training set: the prepared runs and poses it may use with their full joint fit (made once,
+/// shared by the candidates that need it), or one recording against its reference (the paper's
+/// split). Each kind learns from one of the two and says so when given the other.
 pub struct TrainingSet<'a> {
     pub runs: Vec<RunInput>,
     pub poses: Vec<PoseInput>,
     pub joint: &'a JointSettings,
+    /// One recording and the reference it should read, for the kinds that learn a map from it.
+    pub series: Option<ReferenceSeries<'a>>,
     full_fit: std::sync::OnceLock<Result<JointFit, String>>,
+}
+
+/// A recording, the reference it should read at the same samples, and how its samples divide
+/// 60/20/20 into training, validation (a network stops on it) and test.
+#[derive(Clone, Copy)]
+pub struct ReferenceSeries<'a> {
+    pub measured: &'a Recording,
+    pub reference: &'a Recording,
+    pub division: &'a crate::correctors::division::Division,
 }
 
 impl<'a> TrainingSet<'a> {
@@ -96,8 +109,24 @@ impl<'a> TrainingSet<'a> {
             runs,
             poses,
             joint,
+            series: None,
             full_fit: std::sync::OnceLock::new(),
         }
+    }
+
+    /// A training set of one recording against its reference, with no runs or poses.
+    pub fn of_series(series: ReferenceSeries<'a>, joint: &'a JointSettings) -> TrainingSet<'a> {
+        TrainingSet {
+            series: Some(series),
+            ..TrainingSet::new(Vec::new(), Vec::new(), joint)
+        }
+    }
+
+    /// The recording and its reference, or why a kind that needs them cannot train here.
+    pub fn series(&self) -> Result<ReferenceSeries<'a>, String> {
+        self.series.ok_or_else(|| {
+            "this kind learns from one recording and its reference (the paper's split); this training set holds runs and poses".into()
+        })
     }
 
     /// A training set whose joint fit with the settings' terms is already made (`fit`).
@@ -136,22 +165,59 @@ impl<'a> TrainingSet<'a> {
     }
 }
 
-/// A corrector kind: trained on a set of runs and poses. Every kind a campaign compares is one;
-/// a new kind is a new implementation here and a `CandidateKind`, nothing else.
+/// A corrector kind, trained on a [`TrainingSet`]. Every kind either protocol compares is one:
+/// a new campaign kind is an implementation here and a `CandidateKind`; a new paper kind, one in
+/// `series_candidates`.
 pub trait Candidate {
-    fn kind(&self) -> CandidateKind;
+    /// The name its rows carry in results.json ("physical", "ANN", "BJ").
+    fn name(&self) -> String;
+    /// What it is, in words.
+    fn describe(&self) -> String;
+    /// Whether what it trains can be saved and applied by `correct` (a static corrector); a
+    /// dynamic model is scored only.
+    fn savable(&self) -> bool;
     fn train(&self, training: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String>;
 }
 
 /// What a candidate's training gives: a corrector that can be saved (with the covariance of its
-/// sensor parameters when it is the physical model's inverse), or a dynamic model per axis that
-/// can only be scored.
+/// sensor parameters when it is the physical model's inverse), or a dynamic model that can only
+/// be scored.
 pub enum Trained {
     Corrector {
         model: CorrectorModel,
         covariance: Option<Box<SensorCovariance>>,
     },
-    Dynamic(Box<[crate::sysid::SysidModel; 3]>),
+    Dynamic(Box<DynamicModel>),
+}
+
+/// A dynamic model per corrected axis; the other axes pass through.
+pub struct DynamicModel {
+    /// (axis index, its model).
+    pub axes: Vec<(usize, crate::sysid::SysidModel)>,
+    pub input: DynamicInput,
+    /// The fitted structure, in words.
+    pub structure: String,
+}
+
+/// What each axis's dynamic model reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DynamicInput {
+    /// The three measured axes and a constant (MISO).
+    AxesAndConstant,
+    /// Its own measured axis (SISO, the paper's).
+    OwnAxis,
+}
+
+/// Where a dynamic model's simulation starts (static correctors have no state to start).
+#[derive(Clone, Copy)]
+pub enum SimulationStart<'a> {
+    /// From rest: all a model applied to new data has.
+    Rest,
+    /// From the first `samples` of a reference's axes (the paper's scoring, SPEC §4).
+    Reference {
+        reference: &'a [Vec<f64>; 3],
+        samples: usize,
+    },
 }
 
 impl Trained {
@@ -160,6 +226,15 @@ impl Trained {
             model,
             covariance: None,
         }
+    }
+
+    /// A dynamic model of one SISO model per axis.
+    pub fn siso(axes: Vec<(usize, crate::sysid::SysidModel)>, structure: String) -> Trained {
+        Trained::Dynamic(Box::new(DynamicModel {
+            axes,
+            input: DynamicInput::OwnAxis,
+            structure,
+        }))
     }
 
     /// The corrector to save, when the kind can be saved.
@@ -217,34 +292,65 @@ impl Trained {
         Some(worst)
     }
 
-    /// A recording's accelerometer after this candidate, and which samples it could correct.
-    pub fn correct(&self, accel: &[Vec<f64>; 3]) -> Result<([Vec<f64>; 3], Vec<bool>), String> {
+    /// A recording's accelerometer after this candidate, dynamic models simulated from rest.
+    pub fn correct(&self, accel: &[Vec<f64>; 3]) -> Result<Corrected, String> {
+        self.correct_from(accel, SimulationStart::Rest)
+    }
+
+    /// A recording's accelerometer after this candidate, which samples it could correct and how
+    /// many lay outside a network's training range; a dynamic model's simulation starts at
+    /// `start`.
+    pub fn correct_from(
+        &self,
+        accel: &[Vec<f64>; 3],
+        start: SimulationStart<'_>,
+    ) -> Result<Corrected, String> {
         let n = accel[0].len();
         match self {
             Trained::Corrector { model, .. } => {
                 let mut stream = model.stream();
-                let mut out = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-                let mut valid = vec![true; n];
+                let mut out = Corrected {
+                    accel_mps2: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+                    valid: vec![true; n],
+                    outside_training_range: 0,
+                };
                 for s in 0..n {
                     let r = stream.correct_sample([accel[0][s], accel[1][s], accel[2][s]]);
                     for k in 0..3 {
-                        out[k][s] = r.accel_mps2[k];
+                        out.accel_mps2[k][s] = r.accel_mps2[k];
                     }
-                    valid[s] = r.valid;
+                    out.valid[s] = r.valid;
+                    out.outside_training_range += usize::from(r.outside_training_range);
                 }
-                Ok((out, valid))
+                Ok(out)
             }
-            Trained::Dynamic(models) => {
+            Trained::Dynamic(dynamic) => {
                 let ones = vec![1.0; n];
-                let inputs: [&[f64]; 4] = [&accel[0], &accel[1], &accel[2], &ones];
-                let mut out: [Vec<f64>; 3] = Default::default();
-                for k in 0..3 {
-                    out[k] = models[k]
-                        .simulate(&inputs, crate::sysid::SimInit::Zero)
-                        .map_err(|e| e.to_string())?;
+                let mut out = accel.clone();
+                for (axis, model) in &dynamic.axes {
+                    let inputs: Vec<&[f64]> = match dynamic.input {
+                        DynamicInput::AxesAndConstant => vec![&accel[0], &accel[1], &accel[2], &ones],
+                        DynamicInput::OwnAxis => vec![&accel[*axis]],
+                    };
+                    let init = match start {
+                        SimulationStart::Rest => crate::sysid::SimInit::Zero,
+                        SimulationStart::Reference { reference, samples } => {
+                            crate::sysid::SimInit::Measured {
+                                y: &reference[*axis],
+                                n: samples,
+                            }
+                        }
+                    };
+                    out[*axis] = model.simulate(&inputs, init).map_err(|e| e.to_string())?;
                 }
-                let valid = (0..n).map(|s| (0..3).all(|k| out[k][s].is_finite())).collect();
-                Ok((out, valid))
+                let valid = (0..n)
+                    .map(|s| dynamic.axes.iter().all(|(axis, _)| out[*axis][s].is_finite()))
+                    .collect();
+                Ok(Corrected {
+                    accel_mps2: out,
+                    valid,
+                    outside_training_range: 0,
+                })
             }
         }
     }
@@ -274,8 +380,14 @@ fn input_range(runs: &[RunInput], poses: &[PoseInput]) -> [[f64; 2]; 3] {
 struct PhysicalCandidate(SensorTerms, CandidateKind);
 
 impl Candidate for PhysicalCandidate {
-    fn kind(&self) -> CandidateKind {
-        self.1
+    fn name(&self) -> String {
+        self.1.name().into()
+    }
+    fn describe(&self) -> String {
+        self.1.describe().into()
+    }
+    fn savable(&self) -> bool {
+        self.1.savable()
     }
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
         let fit = t.fit(self.0, observer)?;
@@ -296,8 +408,14 @@ const LINEAR_SAMPLES_PER_RUN: usize = 4000;
 struct LinearCandidate;
 
 impl Candidate for LinearCandidate {
-    fn kind(&self) -> CandidateKind {
-        CandidateKind::Linear
+    fn name(&self) -> String {
+        CandidateKind::Linear.name().into()
+    }
+    fn describe(&self) -> String {
+        CandidateKind::Linear.describe().into()
+    }
+    fn savable(&self) -> bool {
+        CandidateKind::Linear.savable()
     }
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
         // The reference is the full physical fit's specific force.
@@ -372,8 +490,14 @@ const PHYSICAL_ANN_SEED: u64 = 1;
 struct PhysicalAnnCandidate;
 
 impl Candidate for PhysicalAnnCandidate {
-    fn kind(&self) -> CandidateKind {
-        CandidateKind::PhysicalAnn
+    fn name(&self) -> String {
+        CandidateKind::PhysicalAnn.name().into()
+    }
+    fn describe(&self) -> String {
+        CandidateKind::PhysicalAnn.describe().into()
+    }
+    fn savable(&self) -> bool {
+        CandidateKind::PhysicalAnn.savable()
     }
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
         let fit = t.fit(SensorTerms::ALL, observer)?;
@@ -460,8 +584,14 @@ const ARX_NB: usize = 2;
 struct ArxCandidate;
 
 impl Candidate for ArxCandidate {
-    fn kind(&self) -> CandidateKind {
-        CandidateKind::Arx
+    fn name(&self) -> String {
+        CandidateKind::Arx.name().into()
+    }
+    fn describe(&self) -> String {
+        CandidateKind::Arx.describe().into()
+    }
+    fn savable(&self) -> bool {
+        CandidateKind::Arx.savable()
     }
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
         let fit = t.fit(t.joint.terms, observer)?;
@@ -495,9 +625,11 @@ impl Candidate for ArxCandidate {
                 .map_err(|e| format!("ARX on axis {k}: {e}"))?;
             models.push(crate::sysid::SysidModel::Poly(arx.model));
         }
-        let models: [crate::sysid::SysidModel; 3] =
-            models.try_into().map_err(|_| "three axes".to_string())?;
-        Ok(Trained::Dynamic(Box::new(models)))
+        Ok(Trained::Dynamic(Box::new(DynamicModel {
+            axes: models.into_iter().enumerate().collect(),
+            input: DynamicInput::AxesAndConstant,
+            structure: format!("[na nb nk] = [{ARX_NA} {ARX_NB} 0]"),
+        })))
     }
 }
 

@@ -12,6 +12,7 @@
 pub mod candidate;
 pub mod checks;
 pub mod choice;
+pub mod evaluate;
 pub mod file;
 pub mod gyro;
 pub mod joint;
@@ -21,5 +22,6 @@ pub mod params;
 pub mod prepare;
 pub mod run;
 pub mod select;
+pub mod series_candidates;
 pub mod thermal;
 pub mod verdict;

@@ -4,38 +4,29 @@
 //! them, whose gain stays near one and whose covariance does not predict them worse.
 //!
 //! Each candidate has one shape (`Candidate::train`: a training set in, a corrector out) and
-//! every one is judged by what physics requires of its output on the held-out samples, with no
-//! truth (`verdict`); where a simulation carries the true specific force, the same samples are
+//! every one is judged (`evaluate::HeldOutEvaluation`) by what physics requires of its output on
+//! the held-out samples, with no truth (`verdict`); where a simulation carries the true specific force, the same samples are
 //! scored against it too and the choice that truth would have made is reported beside the one
 //! made without it.
 
-// Per-axis arrays are indexed together.
-#![allow(clippy::needless_range_loop)]
-
 use std::time::Instant;
 
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::campaign::paper::{PaperProtocol, PaperSignals};
 use crate::campaign::params::{ParamError, Params};
 
-use crate::campaign::candidate::{candidate, Candidate, Trained, TrainingSet};
+use crate::campaign::candidate::{candidate, Candidate};
 use crate::campaign::checks::{check_prepared, check_recordings, InputError};
 use crate::campaign::choice::{
     choose_by_physics, no_conditions_verdict, nothing_saved_verdict, save_best, summarise, truth_check,
     CandidateSummary, Found, HeldOutScore, TruthCheck,
 };
+use crate::campaign::evaluate::{conditions, Condition, Evaluation, HeldOutEvaluation};
 use crate::campaign::gyro::{fit_gyro, GyroFit};
-use crate::campaign::joint::{
-    fit_joint, fit_joint_from, JointError, JointFit, JointSettings, RunInput, GEOMETRY,
-};
+use crate::campaign::joint::{fit_joint, fit_joint_from, JointError, JointFit, JointSettings, GEOMETRY};
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
 use crate::campaign::thermal::{temperature_bands, thermal_stage, CampaignThermal};
-use crate::campaign::verdict::{
-    compare, condition_samples, predicted_mean_square, predicted_ratio, rms_and_floor, sample_errors,
-    ConditionSamples, Prediction, SampleErrors, Segment,
-};
 use crate::correctors::model_file::CorrectorFile;
 use crate::progress::{Observer, Progress};
 
@@ -136,16 +127,6 @@ fn fit_with_nonlinearity_rule(
     ))
 }
 
-/// A group of recordings that share one condition, held out together.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Condition {
-    /// e.g. "speed 45 rpm", "radius 0.120 m", "mounting out +y, up +z", "poses 2 and 5".
-    pub label: String,
-    /// Indices into the prepared runs and poses.
-    pub runs: Vec<usize>,
-    pub poses: Vec<usize>,
-}
-
 /// Everything a campaign calibration found (results.json).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct CampaignResult {
@@ -204,125 +185,6 @@ pub struct CampaignOutput {
     pub paper_signals: Option<Box<PaperSignals>>,
 }
 
-/// The held-out groups: each speed, radius and mounting among the runs (when the campaign has more
-/// than one), and the still poses in three groups.
-pub fn conditions(prepared: &Prepared) -> Vec<Condition> {
-    let mut out = Vec::new();
-    let runs = &prepared.runs;
-    let mut group = |label_of: &dyn Fn(&RunInput) -> String| {
-        let mut labels: Vec<String> = runs.iter().map(label_of).collect();
-        labels.sort();
-        labels.dedup();
-        if labels.len() < 2 {
-            return;
-        }
-        for label in labels {
-            let members: Vec<usize> = (0..runs.len()).filter(|&i| label_of(&runs[i]) == label).collect();
-            if out
-                .iter()
-                .any(|c: &Condition| c.runs == members && c.poses.is_empty())
-            {
-                continue;
-            }
-            out.push(Condition {
-                label,
-                runs: members,
-                poses: Vec::new(),
-            });
-        }
-    };
-    group(&|r| format!("speed {:.1} rpm", r.entry.rpm));
-    group(&|r| format!("radius {:.3} m", r.entry.radius_m));
-    group(&|r| format!("mounting out {}, up {}", r.entry.out.name(), r.entry.up.name()));
-    let n_poses = prepared.poses.len();
-    if n_poses >= 3 {
-        let groups = 3.min(n_poses / 2).max(1);
-        for g in 0..groups {
-            let members: Vec<usize> = (g..n_poses).step_by(groups).collect();
-            let names: Vec<String> = members.iter().map(|p| (p + 1).to_string()).collect();
-            out.push(Condition {
-                label: format!("poses {}", names.join(", ")),
-                runs: Vec::new(),
-                poses: members,
-            });
-        }
-    }
-    out
-}
-
-/// The held-out recording's signals after a trained candidate (identity for `None`), and which
-/// samples it could correct.
-fn apply_trained(
-    trained: Option<&Trained>,
-    accel: &[Vec<f64>; 3],
-) -> Result<([Vec<f64>; 3], Vec<bool>), String> {
-    match trained {
-        None => Ok((accel.clone(), vec![true; accel[0].len()])),
-        Some(trained) => trained.correct(accel),
-    }
-}
-
-/// A trained candidate's output (identity for `None`) on a condition's runs, then its poses'
-/// windows, with which samples it could correct.
-fn condition_signals(
-    trained: Option<&Trained>,
-    condition: &Condition,
-    prepared: &Prepared,
-    units: &[UnitRecording],
-) -> Result<Vec<Segment>, String> {
-    let mut out = Vec::with_capacity(condition.runs.len() + condition.poses.len());
-    for &i in &condition.runs {
-        let (accel, valid) = apply_trained(trained, &prepared.runs[i].accel_mps2)?;
-        out.push(Segment { accel, valid });
-    }
-    for &p in &condition.poses {
-        let origin = &prepared.pose_origin[p];
-        let accel = &units[origin.recording].recording.accel_mps2;
-        let window: [Vec<f64>; 3] = std::array::from_fn(|k| accel[k][origin.start..origin.end].to_vec());
-        let (accel, valid) = apply_trained(trained, &window)?;
-        out.push(Segment { accel, valid });
-    }
-    Ok(out)
-}
-
-/// A signal on a held-out condition and its per-sample errors.
-fn errors_on(
-    trained: Option<&Trained>,
-    condition: &Condition,
-    prepared: &Prepared,
-    units: &[UnitRecording],
-    joint: &JointSettings,
-) -> Result<(Vec<Segment>, SampleErrors), String> {
-    let segments = condition_signals(trained, condition, prepared, units)?;
-    let errors = sample_errors(
-        &segments,
-        &condition.runs,
-        &condition.poses,
-        prepared,
-        units,
-        joint,
-    )?;
-    Ok((segments, errors))
-}
-
-/// Each segment's mean reading.
-fn mean_readings(segments: &[Segment]) -> Vec<[f64; 3]> {
-    segments
-        .iter()
-        .filter(|s| !s.accel[0].is_empty())
-        .map(|s| std::array::from_fn(|k| s.accel[k].iter().sum::<f64>() / s.accel[k].len() as f64))
-        .collect()
-}
-
-fn subset<T: Clone>(items: &[T], skip: &[usize]) -> Vec<T> {
-    items
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| !skip.contains(i))
-        .map(|(_, v)| v.clone())
-        .collect()
-}
-
 /// Calibrates a unit from its recordings.
 pub fn calibrate_campaign(
     unit: &str,
@@ -368,18 +230,19 @@ pub fn calibrate_campaign(
     let conditions = held_out_conditions(&prepared, stage.thermal.as_ref());
     let candidates: Vec<Box<dyn Candidate + Sync>> =
         settings.candidates.iter().map(|&k| candidate(k)).collect();
-    let scoring = HeldOutScoring {
+    let held_out = HeldOutEvaluation {
         prepared: &prepared,
         units,
         joint: &settings.joint,
-        candidates: &candidates,
+        conditions: &conditions,
         offset_sd: offset_spread(&joint, prepared.runs.len()).max(settings.joint.bias_instability_mps2),
-    };
-    let held_out = scoring.score(&conditions, observer);
+    }
+    .score(&candidates, observer);
     lap("held-out conditions", &mut stages);
-    let summaries: Vec<CandidateSummary> = candidates
+    let summaries: Vec<CandidateSummary> = settings
+        .candidates
         .iter()
-        .map(|cand| summarise(cand.kind(), &held_out, conditions.len()))
+        .map(|&kind| summarise(kind, &held_out, conditions.len()))
         .collect();
     let best = choose_by_physics(&summaries);
     let truth_check = truth_check(&summaries, &held_out, best, conditions.len());
@@ -444,123 +307,6 @@ fn held_out_conditions(prepared: &Prepared, thermal: Option<&CampaignThermal>) -
         );
     }
     conditions
-}
-
-/// What scoring the candidates on a held-out condition needs besides the condition.
-struct HeldOutScoring<'a> {
-    prepared: &'a Prepared,
-    units: &'a [UnitRecording],
-    joint: &'a JointSettings,
-    candidates: &'a [Box<dyn Candidate + Sync>],
-    /// The spread of the per-run bias offsets, which a comparison allows for, m/s².
-    offset_sd: f64,
-}
-
-impl HeldOutScoring<'_> {
-    /// Every candidate on every condition, condition by condition.
-    fn score(&self, conditions: &[Condition], observer: &Observer) -> Vec<HeldOutScore> {
-        // Conditions are independent: in parallel, collected in order (the same result on any
-        // number of threads).
-        let done = std::sync::atomic::AtomicUsize::new(0);
-        let total = conditions.len();
-        let per_condition: Vec<Vec<HeldOutScore>> = conditions
-            .par_iter()
-            .map(|condition| {
-                let rows = self.condition(condition);
-                let finished = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                observer(Progress::step("held-out conditions", finished, Some(total)));
-                rows
-            })
-            .collect();
-        per_condition.into_iter().flatten().collect()
-    }
-
-    /// Every candidate trained without the condition and scored on it.
-    fn condition(&self, condition: &Condition) -> Vec<HeldOutScore> {
-        let prepared = self.prepared;
-        let training = TrainingSet::new(
-            subset(&prepared.runs, &condition.runs),
-            subset(&prepared.poses, &condition.poses),
-            self.joint,
-        );
-        let samples = condition_samples(
-            &condition.runs,
-            &condition.poses,
-            prepared,
-            self.units,
-            self.joint,
-        );
-        let uncorrected = errors_on(None, condition, prepared, self.units, self.joint);
-        self.candidates
-            .iter()
-            .map(|cand| {
-                let row = HeldOutScore {
-                    condition: condition.label.clone(),
-                    candidate: cand.kind().name().to_string(),
-                    physics: None,
-                    truth: None,
-                    predicted: None,
-                    floor_mps2: None,
-                    gain_error: None,
-                    note: None,
-                };
-                match &uncorrected {
-                    Ok(uncorrected) => {
-                        self.candidate(row, cand.as_ref(), condition, &training, &samples, uncorrected)
-                    }
-                    Err(e) => HeldOutScore {
-                        note: Some(format!("the uncorrected signal could not be scored: {e}")),
-                        ..row
-                    },
-                }
-            })
-            .collect()
-    }
-
-    /// One candidate's `row`: trained on `training`, its errors on the condition against the
-    /// uncorrected signal's (`measured`, `uncorrected`).
-    fn candidate(
-        &self,
-        mut row: HeldOutScore,
-        cand: &(dyn Candidate + Sync),
-        condition: &Condition,
-        training: &TrainingSet,
-        samples: &ConditionSamples,
-        (measured, uncorrected): &(Vec<Segment>, SampleErrors),
-    ) -> HeldOutScore {
-        let offset_sd = self.offset_sd;
-        let scored = cand
-            .train(training, &crate::progress::silent)
-            .map_err(|e| format!("training failed: {e}"))
-            .and_then(|model| {
-                errors_on(Some(&model), condition, self.prepared, self.units, self.joint)
-                    .map(|scored| (model, scored))
-                    .map_err(|e| format!("scoring failed: {e}"))
-            });
-        match scored {
-            Ok((model, (segments, errors))) => {
-                row.gain_error = model.gain_error(&mean_readings(measured));
-                row.physics = compare(&errors.physics, &uncorrected.physics, &samples.block, offset_sd);
-                if let (Some(t), Some(u)) = (&errors.truth, &uncorrected.truth) {
-                    row.truth = compare(t, u, &samples.block, offset_sd);
-                    row.floor_mps2 = rms_and_floor(t, samples.random.as_deref()).and_then(|r| r.1);
-                }
-                if let Some((sensor, covariance)) = model.physical_part() {
-                    let ms = predicted_mean_square(sensor, covariance, measured);
-                    row.predicted =
-                        predicted_ratio(&segments, measured, &errors.physics, ms).map(|ratio| Prediction {
-                            predicted_rms_mps2: ms.sqrt(),
-                            ratio,
-                        });
-                }
-                if row.physics.is_none() {
-                    row.note = Some("no sample could be scored".into());
-                }
-            }
-            Err(e) => row.note = Some(e),
-        }
-        row
-    }
 }
 
 /// The RMS over runs and axes of the joint fit's per-run bias offsets (at each run's middle), m/s².
