@@ -4,10 +4,13 @@
 //!
 //! `file` reads the campaign file, `prepare` cuts recordings into runs and poses, `checks` holds
 //! them against physics before any fit, `thermal` takes them to a reference temperature, `joint` fits
-//! the sensor model (`correctors::physical`) jointly with them, `select` trains the candidate
-//! correctors on all conditions but one, and `verdict` judges each on the one held out by physics
-//! alone (and, in simulations, against truth too). `params` holds the settings of every
-//! calibration, a campaign's or the paper's one-recording protocol (`crate::calibrate`).
+//! the sensor model (`correctors::physical`) jointly with them, `candidate` is the one trait every
+//! corrector kind implements (the paper's kinds in `series_candidates`), `evaluate` trains each
+//! on what it may see and scores it on what it may not (held-out conditions, or the paper's
+//! split), `verdict` judges a held-out condition by physics alone (and, in simulations, against
+//! truth too), `choice` decides what is saved and `select` runs it all. `params` holds the
+//! settings of every calibration, a campaign's or the paper's one-recording protocol
+//! (`crate::calibrate`).
 
 pub mod candidate;
 pub mod checks;

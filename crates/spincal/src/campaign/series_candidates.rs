@@ -169,3 +169,101 @@ pub(crate) fn paper_candidates(
     }
     candidates
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::campaign::candidate::{candidate, CandidateKind, ReferenceSeries, SimulationStart};
+    use crate::campaign::joint::JointSettings;
+    use crate::correctors::division::{Division, DivisionMode};
+    use crate::input::recording::Recording;
+    use crate::progress::silent;
+
+    /// A platter's x and y readings with a 2 % scale error and an offset on x, and their reference.
+    fn measured_and_reference() -> (Recording, Recording) {
+        let n = 3000;
+        let time_s: Vec<f64> = (0..n).map(|i| i as f64 * 0.01).collect();
+        let x: Vec<f64> = time_s.iter().map(|t| (3.5 * t).sin()).collect();
+        let y: Vec<f64> = time_s.iter().map(|t| (3.5 * t).cos()).collect();
+        let z = vec![9.81; n];
+        let reference = Recording {
+            time_s: time_s.clone(),
+            accel_mps2: [x.clone(), y.clone(), z.clone()],
+            gyro_radps: None,
+            temperature_c: None,
+            source: Default::default(),
+        };
+        let measured = Recording {
+            accel_mps2: [x.iter().map(|v| 1.02 * v + 0.05).collect(), y, z],
+            ..reference.clone()
+        };
+        (measured, reference)
+    }
+
+    /// Each family of kinds says what it learns from when handed the other's training set, and the
+    /// paper's kinds learn the map: the linear one undoes the scale and offset, a dynamic one
+    /// starts its simulation from the reference's first samples when told to.
+    #[test]
+    fn each_kind_learns_from_its_own_training_set_and_names_the_other() {
+        let joint = JointSettings::default();
+        let settings = Params {
+            correct_axes: vec![Axis::X, Axis::Y],
+            ..Params::default()
+        };
+        let paper = paper_candidates(&settings, &[3], 1);
+        let campaign_set = TrainingSet::new(Vec::new(), Vec::new(), &joint);
+        for cand in &paper {
+            let Err(why) = cand.train(&campaign_set, &silent) else {
+                panic!("{} trained on runs and poses it cannot use", cand.name());
+            };
+            assert!(
+                why.contains("one recording and its reference"),
+                "{}: {why}",
+                cand.name()
+            );
+        }
+
+        let (measured, reference) = measured_and_reference();
+        let division = Division::new(measured.len(), settings.delays, DivisionMode::Contiguous);
+        let series = ReferenceSeries {
+            measured: &measured,
+            reference: &reference,
+            division: &division,
+        };
+        let series_set = TrainingSet::of_series(series, &joint);
+        for kind in [CandidateKind::Physical, CandidateKind::Linear] {
+            assert!(
+                candidate(kind).train(&series_set, &silent).is_err(),
+                "{} trained without runs or poses",
+                kind.name()
+            );
+        }
+
+        let linear = paper.iter().find(|c| c.name() == "linear").unwrap();
+        let corrected = linear
+            .train(&series_set, &silent)
+            .unwrap()
+            .correct(&measured.accel_mps2)
+            .unwrap();
+        let worst = (0..measured.len())
+            .map(|s| (corrected.accel_mps2[0][s] - reference.accel_mps2[0][s]).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-9, "linear leaves {worst} m/s² on x");
+
+        let arx = paper.iter().find(|c| c.name() == "ARX").unwrap();
+        let trained = arx.train(&series_set, &silent).unwrap();
+        let start = SimulationStart::Reference {
+            reference: &reference.accel_mps2,
+            samples: settings.init_samples,
+        };
+        let simulated = trained.correct_from(&measured.accel_mps2, start).unwrap();
+        for a in 0..2 {
+            assert_eq!(
+                simulated.accel_mps2[a][..settings.init_samples],
+                reference.accel_mps2[a][..settings.init_samples]
+            );
+        }
+        // z is not a corrected axis: it passes through.
+        assert_eq!(simulated.accel_mps2[2], measured.accel_mps2[2]);
+    }
+}
