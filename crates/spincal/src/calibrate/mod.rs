@@ -10,7 +10,7 @@
 
 use std::time::Instant;
 
-use crate::campaign::evaluate::{CrossConditionError, Evaluation, SplitEvaluation};
+use crate::campaign::evaluate::{Evaluation, SplitError, SplitEvaluation};
 use crate::campaign::file::{SignedAxis, TurntableEntry};
 use crate::campaign::paper::{ComparisonRow, CrossRow, PaperProtocol, PaperSignals, RecordingSummary};
 use crate::campaign::params::{NetworkChoice, ParamError, Params};
@@ -39,8 +39,8 @@ pub enum CalibrateError {
     Fit(#[from] FitError),
     #[error("network: {0}")]
     Ann(#[from] AnnError),
-    #[error("cross-condition: {0}")]
-    CrossCondition(#[from] CrossConditionError),
+    #[error(transparent)]
+    Split(#[from] SplitError),
     #[error(transparent)]
     Params(#[from] ParamError),
     #[error(transparent)]

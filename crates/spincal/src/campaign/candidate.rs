@@ -356,6 +356,32 @@ impl Trained {
     }
 }
 
+/// How a campaign kind trains; its name, words and savability are its [`CandidateKind`]'s.
+trait Trainer {
+    fn train(&self, training: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String>;
+}
+
+/// A campaign kind: a [`Trainer`] under its [`CandidateKind`].
+struct OfKind<T> {
+    kind: CandidateKind,
+    trainer: T,
+}
+
+impl<T: Trainer> Candidate for OfKind<T> {
+    fn name(&self) -> String {
+        self.kind.name().into()
+    }
+    fn describe(&self) -> String {
+        self.kind.describe().into()
+    }
+    fn savable(&self) -> bool {
+        self.kind.savable()
+    }
+    fn train(&self, training: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
+        self.trainer.train(training, observer)
+    }
+}
+
 fn input_range(runs: &[RunInput], poses: &[PoseInput]) -> [[f64; 2]; 3] {
     let mut range = [[f64::INFINITY, f64::NEG_INFINITY]; 3];
     for run in runs {
@@ -377,18 +403,9 @@ fn input_range(runs: &[RunInput], poses: &[PoseInput]) -> [[f64; 2]; 3] {
     range.map(|r| if r[0] <= r[1] { r } else { [0.0, 0.0] })
 }
 
-struct PhysicalCandidate(SensorTerms, CandidateKind);
+struct PhysicalCandidate(SensorTerms);
 
-impl Candidate for PhysicalCandidate {
-    fn name(&self) -> String {
-        self.1.name().into()
-    }
-    fn describe(&self) -> String {
-        self.1.describe().into()
-    }
-    fn savable(&self) -> bool {
-        self.1.savable()
-    }
+impl Trainer for PhysicalCandidate {
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
         let fit = t.fit(self.0, observer)?;
         Ok(Trained::Corrector {
@@ -407,16 +424,7 @@ const LINEAR_SAMPLES_PER_RUN: usize = 4000;
 
 struct LinearCandidate;
 
-impl Candidate for LinearCandidate {
-    fn name(&self) -> String {
-        CandidateKind::Linear.name().into()
-    }
-    fn describe(&self) -> String {
-        CandidateKind::Linear.describe().into()
-    }
-    fn savable(&self) -> bool {
-        CandidateKind::Linear.savable()
-    }
+impl Trainer for LinearCandidate {
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
         // The reference is the full physical fit's specific force.
         let fit = t.fit(t.joint.terms, observer)?;
@@ -489,16 +497,7 @@ const PHYSICAL_ANN_SEED: u64 = 1;
 
 struct PhysicalAnnCandidate;
 
-impl Candidate for PhysicalAnnCandidate {
-    fn name(&self) -> String {
-        CandidateKind::PhysicalAnn.name().into()
-    }
-    fn describe(&self) -> String {
-        CandidateKind::PhysicalAnn.describe().into()
-    }
-    fn savable(&self) -> bool {
-        CandidateKind::PhysicalAnn.savable()
-    }
+impl Trainer for PhysicalAnnCandidate {
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
         let fit = t.fit(SensorTerms::ALL, observer)?;
         let physical = PhysicalCorrector {
@@ -583,16 +582,7 @@ const ARX_NB: usize = 2;
 
 struct ArxCandidate;
 
-impl Candidate for ArxCandidate {
-    fn name(&self) -> String {
-        CandidateKind::Arx.name().into()
-    }
-    fn describe(&self) -> String {
-        CandidateKind::Arx.describe().into()
-    }
-    fn savable(&self) -> bool {
-        CandidateKind::Arx.savable()
-    }
+impl Trainer for ArxCandidate {
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
         let fit = t.fit(t.joint.terms, observer)?;
         if t.runs.is_empty() {
@@ -635,11 +625,14 @@ impl Candidate for ArxCandidate {
 
 /// The candidate of each kind.
 pub fn candidate(kind: CandidateKind) -> Box<dyn Candidate + Sync> {
+    fn of<T: Trainer + Sync + 'static>(kind: CandidateKind, trainer: T) -> Box<dyn Candidate + Sync> {
+        Box::new(OfKind { kind, trainer })
+    }
     match kind {
-        CandidateKind::Physical => Box::new(PhysicalCandidate(SensorTerms::ALL, kind)),
-        CandidateKind::PhysicalLinear => Box::new(PhysicalCandidate(SensorTerms::LINEAR, kind)),
-        CandidateKind::Linear => Box::new(LinearCandidate),
-        CandidateKind::PhysicalAnn => Box::new(PhysicalAnnCandidate),
-        CandidateKind::Arx => Box::new(ArxCandidate),
+        CandidateKind::Physical => of(kind, PhysicalCandidate(SensorTerms::ALL)),
+        CandidateKind::PhysicalLinear => of(kind, PhysicalCandidate(SensorTerms::LINEAR)),
+        CandidateKind::Linear => of(kind, LinearCandidate),
+        CandidateKind::PhysicalAnn => of(kind, PhysicalAnnCandidate),
+        CandidateKind::Arx => of(kind, ArxCandidate),
     }
 }

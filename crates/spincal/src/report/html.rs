@@ -27,10 +27,13 @@ fn shown(value: f64, digits: usize) -> String {
     }
 }
 
-/// A number tied to its place in results.json.
+/// Where the paper's figures sit in results.json (the campaign envelope's `paper`).
+const PAPER_ROOT: &str = "/paper";
+
+/// A number tied to its place in results.json (`pointer` from the paper's figures' root).
 fn num(pointer: &str, value: f64, digits: usize) -> String {
     format!(
-        r#"<span data-json="{pointer}" data-digits="{digits}">{}</span>"#,
+        r#"<span data-json="{PAPER_ROOT}{pointer}" data-digits="{digits}">{}</span>"#,
         shown(value, digits)
     )
 }
@@ -38,7 +41,7 @@ fn num(pointer: &str, value: f64, digits: usize) -> String {
 /// A number tied to its place in results.json, shown as `value × scale` (a change of unit).
 fn num_scaled(pointer: &str, value: f64, scale: f64, digits: usize) -> String {
     format!(
-        r#"<span data-json="{pointer}" data-digits="{digits}" data-scale="{scale}">{}</span>"#,
+        r#"<span data-json="{PAPER_ROOT}{pointer}" data-digits="{digits}" data-scale="{scale}">{}</span>"#,
         shown(value * scale, digits)
     )
 }
@@ -97,7 +100,8 @@ fn direction_words(direction: Direction) -> &'static str {
     }
 }
 
-/// The paper protocol's sections, for the campaign report of a calibration that ran it.
+/// The paper protocol's sections, for the campaign report of a calibration that ran it: one
+/// heading at the campaign's sections' level, its numbered sections under it.
 /// `saved`: the saved corrector's name.
 pub(crate) fn paper_sections(
     paper: &PaperProtocol,
@@ -119,12 +123,7 @@ pub(crate) fn paper_sections(
         how_to_apply_section(saved.is_some()),
     ]
     .concat();
-    // The sections are written with pointers from the paper's own root and numbered headings of
-    // their own: both sit one level down in the campaign's page and results.json.
-    Ok(html
-        .replace("data-json=\"/", "data-json=\"/paper/")
-        .replace("<h2>", "<h3>")
-        .replace("</h2>", "</h3>"))
+    Ok(html)
 }
 
 /// The paper protocol's heading, what it chose and where its time went.
@@ -152,7 +151,7 @@ fn summary_section(r: &PaperProtocol) -> String {
 
 /// 1. The recordings: a summary table and each axis of each recording in its own panel.
 fn recordings_section(r: &PaperProtocol, recordings: &[Recording]) -> Result<String, PlotError> {
-    let mut html = String::from("<h2>1. The recordings</h2>\n<table><tr><th>recording</th><th>samples</th><th>duration (s)</th><th>sample rate (Hz)</th><th>gaps</th><th>saturated samples</th></tr>\n");
+    let mut html = String::from("<h3>1. The recordings</h3>\n<table><tr><th>recording</th><th>samples</th><th>duration (s)</th><th>sample rate (Hz)</th><th>gaps</th><th>saturated samples</th></tr>\n");
     for (k, s) in r.recordings.iter().enumerate() {
         let p = format!("/recordings/{k}");
         html.push_str(&format!(
@@ -194,7 +193,7 @@ fn recordings_section(r: &PaperProtocol, recordings: &[Recording]) -> Result<Str
 
 /// 2. The rotation rate found in the spectrum of each recording.
 fn spectrum_section(r: &PaperProtocol) -> Result<String, PlotError> {
-    let mut html = String::from("<h2>2. Rotation rate from the spectrum</h2>\n");
+    let mut html = String::from("<h3>2. Rotation rate from the spectrum</h3>\n");
     for (k, rf) in r.turntable.recordings.iter().enumerate() {
         let p = format!("/recordings/{k}");
         html.push_str(&format!(
@@ -231,7 +230,7 @@ fn spectrum_section(r: &PaperProtocol) -> Result<String, PlotError> {
 
 /// 3. The fitted turntable model against the measurement: fit % per axis and plots.
 fn model_fit_section(paper: &PaperProtocol, signals: &PaperSignals) -> Result<String, PlotError> {
-    let mut html = String::from("<h2>3. Turntable model against measurement</h2>\n");
+    let mut html = String::from("<h3>3. Turntable model against measurement</h3>\n");
     html.push_str("<table><tr><th>recording</th><th>fit x (%)</th><th>fit y (%)</th><th>fit z (%)</th><th>sense of rotation</th></tr>\n");
     for (k, rf) in paper.turntable.recordings.iter().enumerate() {
         let p = format!("/turntable/recordings/{k}/fit_percent");
@@ -350,7 +349,7 @@ fn parameter_row(i: usize, p: &FittedParam, fit: &TurntableFit) -> String {
 
 /// 4. The fitted turntable parameters, in the units `spincal fit` prints, and the drift found.
 fn parameters_section(fit: &TurntableFit) -> String {
-    let mut html = String::from("<h2>4. Turntable parameters</h2>\n<table><tr><th>parameter</th><th>meaning</th><th>value</th><th>standard error</th><th>unit</th><th>at bound</th></tr>\n");
+    let mut html = String::from("<h3>4. Turntable parameters</h3>\n<table><tr><th>parameter</th><th>meaning</th><th>value</th><th>standard error</th><th>unit</th><th>at bound</th></tr>\n");
     for (i, p) in fit.params.iter().enumerate() {
         html.push_str(&parameter_row(i, p, fit));
     }
@@ -376,7 +375,7 @@ fn parameters_section(fit: &TurntableFit) -> String {
 
 /// 5. How the signal moves with each parameter (the paper's Table 1).
 fn sensitivity_section(r: &PaperProtocol) -> String {
-    let mut html = String::from("<h2>5. Sensitivity at the fitted parameters (the paper's Table 1)</h2>\n<table><tr><th>parameter</th><th>change (%)</th><th>value</th><th>unit</th><th>mean a_x (g)</th><th>amplitude a_x (g)</th><th>amplitude a_y (g)</th></tr>\n");
+    let mut html = String::from("<h3>5. Sensitivity at the fitted parameters (the paper's Table 1)</h3>\n<table><tr><th>parameter</th><th>change (%)</th><th>value</th><th>unit</th><th>mean a_x (g)</th><th>amplitude a_x (g)</th><th>amplitude a_y (g)</th></tr>\n");
     for (i, s) in r.sensitivity.iter().enumerate() {
         let b = format!("/sensitivity/{i}");
         let name = match s.parameter.as_str() {
@@ -402,7 +401,7 @@ fn sensitivity_section(r: &PaperProtocol) -> String {
 
 /// 6. Which samples train, validate and test.
 fn division_section(r: &PaperProtocol, recordings: &[Recording]) -> Result<String, PlotError> {
-    let mut html = String::from("<h2>6. Training, validation and test division</h2>\n");
+    let mut html = String::from("<h3>6. Training, validation and test division</h3>\n");
     if let Some(rec) = recordings.first() {
         let mut plot = LinePlot::new("Division of recording 1 (paper's Fig. 10)", "time (s)", "ax (g)")
             .series(g_series("ax", &rec.time_s, &rec.accel_mps2[0], 0));
@@ -431,7 +430,7 @@ fn division_section(r: &PaperProtocol, recordings: &[Recording]) -> Result<Strin
 
 /// 7. The network architectures tried and how the best was found.
 fn sweep_section(r: &PaperProtocol) -> Result<String, PlotError> {
-    let mut html = String::from("<h2>7. Network architectures</h2>\n");
+    let mut html = String::from("<h3>7. Network architectures</h3>\n");
     if r.sweep.is_empty() {
         html.push_str(&format!(
             "<p>No sweep was run; the architecture [{}] was trained as given.</p>\n",
@@ -556,7 +555,7 @@ fn comparison_warnings(rows: &[ComparisonRow]) -> String {
 
 /// 8. The correctors compared on the same division (the paper's Table 2) and across conditions.
 fn comparison_section(r: &PaperProtocol) -> String {
-    let mut html = String::from("<h2>8. Comparison of correctors (the paper's Table 2)</h2>\n");
+    let mut html = String::from("<h3>8. Comparison of correctors (the paper's Table 2)</h3>\n");
     html.push_str("<p>Fit % = 100 (1 − ‖y − ŷ‖/‖y − ȳ‖), mean over the corrected axes. Dynamic models: <i>simulation</i> \
         (infinite horizon, started from the first measured outputs) and <i>one-step prediction</i> (uses past reference \
         values, so it is not available when correcting new data). Static maps have one kind.</p>\n");
@@ -576,7 +575,7 @@ fn cross_condition_table(r: &PaperProtocol) -> String {
     if r.cross_condition.is_empty() {
         return String::new();
     }
-    let mut html = String::from("<h3>Cross-condition: trained on recording 1, tested on another speed or radius</h3>\n<p>A corrector that only learned to emit one sine fails here; a single-recording split cannot show that.</p>\n<p>“× uncorrected” is the corrector's RMS error over the uncorrected one's on the same samples, ± its standard error (batch means over blocks); “worse” only where the difference is significant (one-sided, false-alarm probability 0.001).</p>\n<table><tr><th>model</th><th>tested on</th><th>fit (%)</th><th>× uncorrected</th><th>samples outside the network's training range (%)</th></tr>\n");
+    let mut html = String::from("<h4>Cross-condition: trained on recording 1, tested on another speed or radius</h4>\n<p>A corrector that only learned to emit one sine fails here; a single-recording split cannot show that.</p>\n<p>“× uncorrected” is the corrector's RMS error over the uncorrected one's on the same samples, ± its standard error (batch means over blocks); “worse” only where the difference is significant (one-sided, false-alarm probability 0.001).</p>\n<table><tr><th>model</th><th>tested on</th><th>fit (%)</th><th>× uncorrected</th><th>samples outside the network's training range (%)</th></tr>\n");
     for (i, c) in r.cross_condition.iter().enumerate() {
         let p = format!("/cross_condition/{i}");
         let outside = match c.outside_training_range_percent {
@@ -613,7 +612,7 @@ fn corrected_section(
     signals: &PaperSignals,
     saved: Option<&str>,
 ) -> Result<String, PlotError> {
-    let mut html = String::from("<h2>9. Corrected signal against the reference (test part)</h2>\n");
+    let mut html = String::from("<h3>9. Corrected signal against the reference (test part)</h3>\n");
     let (Some(rec), Some(reference)) = (signals.recordings.first(), signals.references.first()) else {
         return Ok(html);
     };
@@ -655,12 +654,12 @@ fn corrected_section(
 /// 10. How to apply the saved corrector to new data.
 fn how_to_apply_section(saved: bool) -> String {
     if !saved {
-        return "<h2>10. Applying the corrector</h2>\n<p>Nothing was saved (see the verdict): no corrector \
+        return "<h3>10. Applying the corrector</h3>\n<p>Nothing was saved (see the verdict): no corrector \
                 held on the recordings it did not train on.</p>\n"
             .to_string();
     }
     concat!(
-        "<h2>10. Applying the corrector</h2>\n<p>The saved corrector is in <code>model.json</code> ",
+        "<h3>10. Applying the corrector</h3>\n<p>The saved corrector is in <code>model.json</code> ",
         "(a versioned corrector file). Apply it to new recordings, streaming, row by row:</p>\n",
         "<pre>spincal correct --model model.json new.csv -o new-corrected.csv</pre>\n",
         "<p>Every input row comes out with its original columns, the corrected axes added and a ",

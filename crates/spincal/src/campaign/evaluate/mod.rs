@@ -18,7 +18,7 @@ use crate::campaign::prepare::Prepared;
 use crate::progress::Observer;
 
 pub use held_out::HeldOutEvaluation;
-pub use split::{CrossConditionError, SplitEvaluation, SplitScores};
+pub use split::{SplitError, SplitEvaluation, SplitScores};
 
 /// A way of judging candidates on data they did not train on.
 pub trait Evaluation {

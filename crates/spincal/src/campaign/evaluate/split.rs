@@ -46,9 +46,15 @@ pub struct SplitScores {
 }
 
 impl Evaluation for SplitEvaluation<'_> {
-    type Scores = Result<SplitScores, CrossConditionError>;
+    type Scores = Result<SplitScores, SplitError>;
 
     fn score(&self, candidates: &[Box<dyn Candidate + Sync>], observer: &Observer) -> Self::Scores {
+        if self.recordings.is_empty() || self.recordings.len() != self.references.len() {
+            return Err(SplitError::Recordings {
+                recordings: self.recordings.len(),
+                references: self.references.len(),
+            });
+        }
         let (measured, reference) = (&self.recordings[0], &self.references[0]);
         let training = TrainingSet::of_series(
             ReferenceSeries {
@@ -92,14 +98,19 @@ impl Evaluation for SplitEvaluation<'_> {
     }
 }
 
-/// A cross-condition score that could not be computed: a dynamic model's simulation on another
-/// recording failed.
+/// Why the split mode could not score.
 #[derive(Debug, thiserror::Error)]
-#[error("{model} on {recording}: {message}")]
-pub struct CrossConditionError {
-    pub model: String,
-    pub recording: String,
-    pub message: String,
+#[non_exhaustive]
+pub enum SplitError {
+    #[error("the split needs one reference per recording and at least one recording: got {recordings} recordings and {references} references")]
+    Recordings { recordings: usize, references: usize },
+    /// A dynamic model's simulation on another recording failed.
+    #[error("cross-condition: {model} on {recording}: {message}")]
+    CrossCondition {
+        model: String,
+        recording: String,
+        message: String,
+    },
 }
 
 /// The row of a candidate that could not be trained or scored: NaN scores and the reason.
@@ -155,26 +166,33 @@ impl SplitEvaluation<'_> {
                     .collect();
                 Ok(parts.static_row(&cand.name(), cand.describe(), &estimate, seconds, cand.savable()))
             }
-            Trained::Dynamic(dynamic) => self
-                .dynamic_row(cand, dynamic, seconds)
-                .map_err(|e| e.to_string()),
+            Trained::Dynamic(dynamic) => {
+                let first = |part: &[Range<usize>]| part.first().cloned();
+                let blocks = [
+                    first(&self.division.train),
+                    first(&self.division.validation),
+                    first(&self.division.test),
+                ];
+                let [Some(train), Some(validation), Some(test)] = blocks else {
+                    return Err("the division leaves a part without samples".into());
+                };
+                self.dynamic_row(cand, dynamic, [train, validation, test], seconds)
+                    .map_err(|e| e.to_string())
+            }
         }
     }
 
     /// A dynamic model's row: each axis's model scored (simulation and one-step) on each of the
-    /// division's first blocks, with the warnings of [`dynamic_warnings`].
+    /// division's first blocks (training, validation, test), with the warnings of
+    /// [`dynamic_warnings`].
     fn dynamic_row(
         &self,
         cand: &dyn Candidate,
         dynamic: &DynamicModel,
+        blocks: [Range<usize>; 3],
         seconds: f64,
     ) -> Result<ComparisonRow, SysidError> {
         let (measured, reference) = (&self.recordings[0], &self.references[0]);
-        let blocks = [
-            &self.division.train[0],
-            &self.division.validation[0],
-            &self.division.test[0],
-        ];
         let mut per_part: [Vec<(f64, f64, f64, f64)>; 3] = Default::default();
         let mut warnings = Vec::new();
         for (a, model) in &dynamic.axes {
@@ -184,7 +202,7 @@ impl SplitEvaluation<'_> {
             );
             let mut scored = Vec::new();
             for (p, (range, part)) in blocks.iter().zip(["training", "validation", "test"]).enumerate() {
-                let range = (*range).clone();
+                let range = range.clone();
                 let s = score(model, &[&u[range.clone()]], &y[range.clone()], self.init_samples)?;
                 per_part[p].push((
                     s.simulation.fit_percent,
@@ -223,7 +241,7 @@ impl SplitEvaluation<'_> {
         &self,
         trained: &[(String, Trained)],
         observer: &Observer,
-    ) -> Result<Vec<CrossRow>, CrossConditionError> {
+    ) -> Result<Vec<CrossRow>, SplitError> {
         let (recordings, axes) = (self.recordings, self.axes);
         let mut rows = Vec::new();
         for (k, other) in recordings.iter().enumerate().skip(1) {
@@ -266,14 +284,13 @@ impl SplitEvaluation<'_> {
                     reference: &other_ref.accel_mps2,
                     samples: self.init_samples,
                 };
-                let corrected =
-                    model
-                        .correct_from(&other.accel_mps2, start)
-                        .map_err(|message| CrossConditionError {
-                            model: name.clone(),
-                            recording: other.source.name.clone(),
-                            message,
-                        })?;
+                let corrected = model.correct_from(&other.accel_mps2, start).map_err(|message| {
+                    SplitError::CrossCondition {
+                        model: name.clone(),
+                        recording: other.source.name.clone(),
+                        message,
+                    }
+                })?;
                 let estimate: Vec<Vec<f64>> = axes.iter().map(|&a| corrected.accel_mps2[a].clone()).collect();
                 let (from, outside) = match model {
                     Trained::Dynamic(_) => (self.init_samples.max(self.delays), None),
