@@ -1,7 +1,7 @@
 //! Calibrations: the turntable fit, the paper's protocol, sweeps, campaigns and static
 //! calibration, with their result classes.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use numpy::PyArray2;
 use pyo3::prelude::*;
@@ -18,11 +18,6 @@ use crate::corrector::PyCorrector;
 use crate::errors::usage;
 use crate::recording::{columns_to_array, PyRecording};
 use crate::{errors, json, long, params};
-
-fn write_text(path: &Path, text: &str) -> PyResult<()> {
-    spincal::output::write_file(path, |out| std::io::Write::write_all(out, text.as_bytes()))
-        .map_err(errors::output)
-}
 
 fn inner_recordings(recordings: &[PyRef<'_, PyRecording>]) -> PyResult<Vec<Recording>> {
     if recordings.is_empty() {
@@ -123,15 +118,6 @@ impl PyCalibration {
             .into_iter()
             .map(|(name, text)| (name.to_string(), text))
             .collect())
-    }
-    /// Writes [`files`](Self::files) into `folder` (created), each to a temporary name and renamed.
-    fn write(&self, py: Python<'_>, folder: PathBuf) -> PyResult<()> {
-        std::fs::create_dir_all(&folder)
-            .map_err(|e| errors::OutputError::new_err(format!("{}: cannot create: {e}", folder.display())))?;
-        for (name, text) in self.files(py)? {
-            write_text(&folder.join(name), &text)?;
-        }
-        Ok(())
     }
 }
 

@@ -696,6 +696,14 @@ def correct(model: Union[Corrector, PathLike], data: Any, **options: Any) -> Cor
     return corrector.correct(data, **options)
 
 
+def _write_text(path: str, text: str) -> None:
+    """Writes ``text`` to a temporary file beside ``path`` and renames it over ``path``."""
+    tmp = os.path.join(os.path.dirname(path), f".{os.path.basename(path)}.tmp")
+    with open(tmp, "w") as f:
+        f.write(text)
+    os.replace(tmp, path)
+
+
 class Calibration:
     """A finished calibration, of a campaign file or of turntable recordings: ``result``
     (results.json as a :class:`CampaignResult`, the one result of every calibration, with the
@@ -763,10 +771,7 @@ class Calibration:
         folder = os.fspath(folder)
         os.makedirs(folder, exist_ok=True)
         for name, text in self._files():
-            tmp = os.path.join(folder, f".{name}.tmp")
-            with open(tmp, "w") as f:
-                f.write(text)
-            os.replace(tmp, os.path.join(folder, name))
+            _write_text(os.path.join(folder, name), text)
 
     def __repr__(self) -> str:
         return f"Calibration(unit={self.result.unit!r}, saved={self.result.saved!r})"

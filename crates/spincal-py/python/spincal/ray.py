@@ -40,7 +40,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import ray
 
-from . import Calibration, CampaignResult, Corrector, Error, FormatError, Result, UsageError, _spincal
+from . import Calibration, CampaignResult, Corrector, Error, FormatError, Result, UsageError, _spincal, _write_text
 from . import calibrate as _calibrate_locally
 
 __all__ = ["UnitResult", "FleetResult", "calibrate_fleet", "unit_payload", "calibrate", "sweep_runner"]
@@ -187,23 +187,16 @@ class FleetResult:
             unit_dir = os.path.join(folder, u.label)
             os.makedirs(unit_dir, exist_ok=True)
             for name, text in _spincal.campaign_files(u._results_json or "", u._model_json):
-                _write(os.path.join(unit_dir, name), text)
-        _write(os.path.join(folder, "fleet.json"), self.table.to_json() + "\n")
-        _write(os.path.join(folder, "fleet.csv"), self.table_csv)
-        _write(os.path.join(folder, "fleet.html"), self.html)
+                _write_text(os.path.join(unit_dir, name), text)
+        _write_text(os.path.join(folder, "fleet.json"), self.table.to_json() + "\n")
+        _write_text(os.path.join(folder, "fleet.csv"), self.table_csv)
+        _write_text(os.path.join(folder, "fleet.html"), self.html)
 
     def __repr__(self) -> str:
         return (
             f"FleetResult(units={len(self.units)}, failed={self.failed_units}, flagged={self.flagged_units}, "
             f"seconds={self.seconds:.1f})"
         )
-
-
-def _write(path: str, text: str) -> None:
-    tmp = path + ".tmp"
-    with open(tmp, "w") as f:
-        f.write(text)
-    os.replace(tmp, path)
 
 
 def calibrate_fleet(

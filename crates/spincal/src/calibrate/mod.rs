@@ -227,6 +227,10 @@ fn paper_figures(
             seconds: row.seconds,
         });
     }
+    stages.push(StageTime {
+        stage: "cross-condition".into(),
+        seconds: scores.cross_condition_seconds,
+    });
     // Selection on validation only.
     let comparison = scores.comparison;
     let best_overall = best_on_validation(&mut comparison.iter().filter(|r| r.warnings.is_empty()));

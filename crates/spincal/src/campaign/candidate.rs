@@ -89,7 +89,7 @@ pub struct TrainingSet<'a> {
     pub poses: Vec<PoseInput>,
     pub joint: &'a JointSettings,
     /// One recording and the reference it should read, for the kinds that learn a map from it.
-    pub series: Option<ReferenceSeries<'a>>,
+    series: Option<ReferenceSeries<'a>>,
     full_fit: std::sync::OnceLock<Result<JointFit, String>>,
 }
 
@@ -221,20 +221,12 @@ pub enum SimulationStart<'a> {
 }
 
 impl Trained {
-    fn corrector(model: CorrectorModel) -> Trained {
+    /// A corrector without a covariance (not the physical model's inverse).
+    pub(crate) fn corrector(model: CorrectorModel) -> Trained {
         Trained::Corrector {
             model,
             covariance: None,
         }
-    }
-
-    /// A dynamic model of one SISO model per axis.
-    pub fn siso(axes: Vec<(usize, crate::sysid::SysidModel)>, structure: String) -> Trained {
-        Trained::Dynamic(Box::new(DynamicModel {
-            axes,
-            input: DynamicInput::OwnAxis,
-            structure,
-        }))
     }
 
     /// The corrector to save, when the kind can be saved.
@@ -307,23 +299,7 @@ impl Trained {
     ) -> Result<Corrected, String> {
         let n = accel[0].len();
         match self {
-            Trained::Corrector { model, .. } => {
-                let mut stream = model.stream();
-                let mut out = Corrected {
-                    accel_mps2: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
-                    valid: vec![true; n],
-                    outside_training_range: 0,
-                };
-                for s in 0..n {
-                    let r = stream.correct_sample([accel[0][s], accel[1][s], accel[2][s]]);
-                    for k in 0..3 {
-                        out.accel_mps2[k][s] = r.accel_mps2[k];
-                    }
-                    out.valid[s] = r.valid;
-                    out.outside_training_range += usize::from(r.outside_training_range);
-                }
-                Ok(out)
-            }
+            Trained::Corrector { model, .. } => Ok(model.correct_accel(accel)),
             Trained::Dynamic(dynamic) => {
                 let ones = vec![1.0; n];
                 let mut out = accel.clone();

@@ -5,9 +5,9 @@
 //!
 //! Each candidate has one shape (`Candidate::train`: a training set in, a corrector out) and
 //! every one is judged (`evaluate::HeldOutEvaluation`) by what physics requires of its output on
-//! the held-out samples, with no truth (`verdict`); where a simulation carries the true specific force, the same samples are
-//! scored against it too and the choice that truth would have made is reported beside the one
-//! made without it.
+//! the held-out samples, with no truth (`verdict`); where a simulation carries the true specific
+//! force, the same samples are scored against it too and the choice that truth would have made
+//! is reported beside the one made without it.
 
 use std::time::Instant;
 

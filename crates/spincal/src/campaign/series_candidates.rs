@@ -3,14 +3,14 @@
 //! 60/20/20 division: the network (which stops on the validation part), the offset-plus-matrix
 //! linear map, and one SISO system-identification model per axis (scored only).
 
-use crate::campaign::candidate::{Candidate, Trained, TrainingSet};
+use crate::campaign::candidate::{Candidate, DynamicInput, DynamicModel, Trained, TrainingSet};
 use crate::campaign::params::Params;
 use crate::correctors::ann::{architecture_label, AnnProblem, LmSettings};
 use crate::correctors::corrector::Axis;
 use crate::correctors::linear::LinearModel;
 use crate::correctors::model_file::CorrectorModel;
 use crate::progress::Observer;
-use crate::sysid::{fit_and_score, ModelSpec};
+use crate::sysid::ModelSpec;
 
 /// The paper's network of a chosen architecture (`hidden`), trained from `restarts` starts.
 struct NetworkCandidate {
@@ -52,10 +52,7 @@ impl Candidate for NetworkCandidate {
         let network = problem
             .train(&self.hidden, self.restarts, self.seed, &self.lm)
             .map_err(|e| e.to_string())?;
-        Ok(Trained::Corrector {
-            model: CorrectorModel::Ann(Box::new(network)),
-            covariance: None,
-        })
+        Ok(Trained::corrector(CorrectorModel::Ann(Box::new(network))))
     }
 }
 
@@ -83,10 +80,7 @@ impl Candidate for AxesLinearCandidate {
             series.division.mode,
         )
         .map_err(|e| e.to_string())?;
-        Ok(Trained::Corrector {
-            model: CorrectorModel::Linear(Box::new(linear)),
-            covariance: None,
-        })
+        Ok(Trained::corrector(CorrectorModel::Linear(Box::new(linear))))
     }
 }
 
@@ -95,7 +89,6 @@ impl Candidate for AxesLinearCandidate {
 struct SysidCandidate {
     spec: ModelSpec,
     axes: Vec<usize>,
-    init_samples: usize,
 }
 
 impl Candidate for SysidCandidate {
@@ -115,24 +108,27 @@ impl Candidate for SysidCandidate {
             .train
             .first()
             .cloned()
-            .ok_or("the division has no training block")?;
+            .filter(|b| !b.is_empty())
+            .ok_or("the division has no training samples")?;
         let mut axes = Vec::with_capacity(self.axes.len());
-        let mut structure = String::new();
         for &a in &self.axes {
-            let scored = fit_and_score(
-                &self.spec,
-                &[&series.measured.accel_mps2[a]],
-                &series.reference.accel_mps2[a],
-                block.clone(),
-                None,
-                self.init_samples,
-                &crate::progress::silent,
-            )
-            .map_err(|e| e.to_string())?;
-            structure = scored.structure;
-            axes.push((a, scored.fitted.model));
+            let (Some(u), Some(y)) = (
+                series.measured.accel_mps2[a].get(block.clone()),
+                series.reference.accel_mps2[a].get(block.clone()),
+            ) else {
+                return Err("the division's training part lies beyond the recording".into());
+            };
+            let fitted = self
+                .spec
+                .fit(&[u], y, &crate::progress::silent)
+                .map_err(|e| e.to_string())?;
+            axes.push((a, fitted.model));
         }
-        Ok(Trained::siso(axes, structure))
+        Ok(Trained::Dynamic(Box::new(DynamicModel {
+            axes,
+            input: DynamicInput::OwnAxis,
+            structure: self.spec.structure(),
+        })))
     }
 }
 
@@ -164,7 +160,6 @@ pub(crate) fn paper_candidates(
                 ..spec.clone()
             },
             axes: settings.correct_axes.iter().map(|a| a.index()).collect(),
-            init_samples: settings.init_samples,
         }));
     }
     candidates

@@ -188,15 +188,19 @@ pub trait Corrector {
 
     /// Corrects a whole recording by streaming it.
     fn correct(&self, recording: &Recording) -> Corrected {
+        self.correct_accel(&recording.accel_mps2)
+    }
+
+    /// Corrects accelerometer axes (m/s², one series each, in time order) by streaming them.
+    fn correct_accel(&self, a: &[Vec<f64>; 3]) -> Corrected {
         let mut stream = self.stream();
-        let n = recording.len();
+        let n = a[0].len();
         let mut out = Corrected {
             accel_mps2: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
             valid: vec![false; n],
             outside_training_range: 0,
         };
         for i in 0..n {
-            let a = &recording.accel_mps2;
             let sample = stream.correct_sample([a[0][i], a[1][i], a[2][i]]);
             for c in 0..3 {
                 out.accel_mps2[c][i] = sample.accel_mps2[c];

@@ -39,10 +39,11 @@ pub struct SplitEvaluation<'a> {
 }
 
 /// The split mode's scores: the comparison (training, validation, test parts) and the
-/// cross-condition rows.
+/// cross-condition rows, with the time the latter took.
 pub struct SplitScores {
     pub comparison: Vec<ComparisonRow>,
     pub cross_condition: Vec<CrossRow>,
+    pub cross_condition_seconds: f64,
 }
 
 impl Evaluation for SplitEvaluation<'_> {
@@ -90,10 +91,12 @@ impl Evaluation for SplitEvaluation<'_> {
                 Err(e) => comparison.push(failed_row(cand.as_ref(), self.axes.len(), &e)),
             }
         }
+        let clock = Instant::now();
         let cross_condition = self.cross_condition(&trained, observer)?;
         Ok(SplitScores {
             comparison,
             cross_condition,
+            cross_condition_seconds: clock.elapsed().as_secs_f64(),
         })
     }
 }
@@ -193,7 +196,7 @@ impl SplitEvaluation<'_> {
         seconds: f64,
     ) -> Result<ComparisonRow, SysidError> {
         let (measured, reference) = (&self.recordings[0], &self.references[0]);
-        let mut per_part: [Vec<(f64, f64, f64, f64)>; 3] = Default::default();
+        let mut per_part: [Vec<Scores>; 3] = Default::default();
         let mut warnings = Vec::new();
         for (a, model) in &dynamic.axes {
             let (u, y) = (
@@ -201,22 +204,21 @@ impl SplitEvaluation<'_> {
                 reference.accel_mps2[*a].as_slice(),
             );
             let mut scored = Vec::new();
-            for (p, (range, part)) in blocks.iter().zip(["training", "validation", "test"]).enumerate() {
-                let range = range.clone();
+            for (range, part) in blocks.iter().zip(["training", "validation", "test"]) {
                 let s = score(model, &[&u[range.clone()]], &y[range.clone()], self.init_samples)?;
-                per_part[p].push((
-                    s.simulation.fit_percent,
-                    s.simulation.rmse,
-                    s.one_step.fit_percent,
-                    s.one_step.rmse,
-                ));
-                scored.push((part, range, s));
+                scored.push((part, range.clone(), s));
             }
             warnings.extend(dynamic_warnings(model, *a, u, y, &scored, self.init_samples)?);
+            for (p, (_, _, s)) in scored.into_iter().enumerate() {
+                per_part[p].push(s);
+            }
         }
         let collect = |p: usize, one_step: bool| {
-            let pick = |s: &(f64, f64, f64, f64)| if one_step { (s.2, s.3) } else { (s.0, s.1) };
-            let (fits, errors) = per_part[p].iter().map(pick).unzip();
+            let pick = |s: &Scores| if one_step { s.one_step } else { s.simulation };
+            let (fits, errors) = per_part[p]
+                .iter()
+                .map(|s| (pick(s).fit_percent, pick(s).rmse))
+                .unzip();
             PartScore::new(fits, errors)
         };
         Ok(ComparisonRow {
