@@ -81,7 +81,10 @@ pub fn print_json<T: serde::Serialize>(value: &T) -> anyhow::Result<()> {
 /// Maps a command's result to the process exit code, printing the error chain.
 /// The library names its parameters (`sample_rate_hz`); on the command line they are flags. Only
 /// names whose flag is spelled otherwise, and that no library message uses in another sense.
-const PARAMETER_FLAGS: [(&str, &str); 5] = [
+const PARAMETER_FLAGS: [(&str, &str); 8] = [
+    ("`accel_unit`", "`--accel-unit`"),
+    ("`accel_scale`", "`--accel-scale`"),
+    ("`accel_offset`", "`--accel-offset`"),
     ("`sample_rate_hz`", "`--sample-rate`"),
     ("`time_unit`", "`--time-unit`"),
     ("`topic`", "`--topic`"),

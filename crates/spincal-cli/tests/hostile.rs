@@ -306,7 +306,7 @@ fn a_headerless_file_needs_its_unit_named_and_a_moving_file_has_no_allan_deviati
     let out = dir.path().join("out.csv");
     let (code, err) = correct(&s.model, &bare, &out);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("--accel-unit") && err.contains("bare.csv"), "{err}");
+    assert!(err.contains("`--accel-unit`") && err.contains("bare.csv"), "{err}");
     assert!(!out.exists());
     let (code, err) = run(&[
         os("correct"),
@@ -449,4 +449,62 @@ fn a_rotation_count_in_a_refusal_is_measured_or_not_given() {
         .and_then(|v| v.parse().ok())
         .unwrap_or_else(|| panic!("no rotation count in: {err}"));
     assert!((rotations - 4.5 * 100.0 / 3.0 / 60.0).abs() < 0.1, "{err}");
+}
+
+/// `text` (a simulated CSV) with its header's time column renamed.
+fn renamed_time(text: &str, name: &str) -> String {
+    let (header, rest) = text.split_once('\n').unwrap();
+    let (_, others) = header.split_once(',').unwrap();
+    format!("{name},{others}\n{rest}")
+}
+
+#[test]
+fn epoch_nanoseconds_and_a_wrapping_millisecond_counter_are_read_as_time_with_a_note() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec.csv");
+    spincal()
+        .args(["simulate", "--duration", "20", "--quiet", "-o"])
+        .arg(&rec)
+        .assert()
+        .success();
+    let text = std::fs::read_to_string(&rec).unwrap();
+    // A phone logger's epoch nanoseconds under `timestamp`, and a uint32 millis() counter that
+    // wraps 5 s into the recording under `time`.
+    let epoch = renamed_time(
+        &retimed(&text, |_, t| format!("{}", 1_767_225_600_000_000_000u64 + (t * 1e9).round() as u64)),
+        "timestamp",
+    );
+    let wrapping = renamed_time(
+        &retimed(&text, |_, t| {
+            format!("{}", (4_294_967_296u64 - 5_000 + (t * 1000.0).round() as u64) % 4_294_967_296)
+        }),
+        "time",
+    );
+    for (name, content, note) in [
+        ("epoch.csv", epoch, "timestamps since the Unix epoch in ns"),
+        ("wrap.csv", wrapping, "wrapped 1 time(s) at 2^32"),
+    ] {
+        let path = dir.path().join(name);
+        std::fs::write(&path, &content).unwrap();
+        let out = spincal().args(["inspect", "--json"]).arg(&path).output().unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(out.status.code(), Some(0), "{name}: {stdout}");
+        let json: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        let rate = json["inspection"]["sample_rate_hz"].as_f64().unwrap();
+        assert!((rate - 100.0).abs() < 0.5, "{name}: {rate} Hz");
+        let notes = json["loaded"]["notes"].to_string();
+        assert!(notes.contains(note), "{name}: the note is missing: {notes}");
+        let (code, err) = run(&[os("fit"), path.as_os_str()]);
+        assert_eq!(code, 0, "{name}: {err}");
+        assert!(err.contains(note), "{name}: {err}");
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), content);
+    }
+    // Steps of 100 under a bare name are 10 Hz in ms or 10 kHz in µs: refused, naming the fix.
+    let hourly = dir.path().join("hourly.csv");
+    let content = renamed_time(&retimed(&text, |i, _| format!("{}", i * 100)), "time");
+    std::fs::write(&hourly, &content).unwrap();
+    let (code, err) = run(&[os("inspect"), hourly.as_os_str()]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("hourly.csv") && err.contains("`--time-unit` ms (10.0000 Hz) or us"), "{err}");
+    assert_eq!(std::fs::read_to_string(&hourly).unwrap(), content);
 }

@@ -108,6 +108,59 @@ impl PyCorrector {
         let temperature = temperature.as_ref().map(|t| t.as_array());
         columns::correct_rows(py, &self.file, time, accel, gyro, temperature, plan)
     }
+    /// Corrects the file `input` into the file `output` through the library's streaming pipeline
+    /// (the CLI's `spincal correct`, to the bit): delimited text in constant memory, other formats
+    /// read whole. An output that is the input, or an existing file spincal did not write, is
+    /// refused unless `force`. Returns the summary as JSON text.
+    #[pyo3(signature = (input, output, *, format = None, columns = None, accel_unit = None, time_unit = None,
+        gyro_unit = None, sample_rate_hz = None, accel_scale = None, retime = false, force = false))]
+    #[allow(clippy::too_many_arguments)]
+    fn correct_file(
+        &self,
+        py: Python<'_>,
+        input: PathBuf,
+        output: PathBuf,
+        format: Option<&str>,
+        columns: Option<&str>,
+        accel_unit: Option<&str>,
+        time_unit: Option<&str>,
+        gyro_unit: Option<&str>,
+        sample_rate_hz: Option<f64>,
+        accel_scale: Option<f64>,
+        retime: bool,
+        force: bool,
+    ) -> PyResult<String> {
+        use spincal::correctors::stream::{correct_to_path, CorrectError};
+        let options = crate::recording::read_options(
+            format,
+            columns,
+            accel_unit,
+            time_unit,
+            gyro_unit,
+            sample_rate_hz,
+            accel_scale,
+            retime,
+        )?;
+        spincal::output::check_outputs(&[&input], &[&output]).map_err(errors::usage_error)?;
+        spincal::output::claim_outputs(&[&output], force).map_err(errors::usage_error)?;
+        let summary = py
+            .detach(|| correct_to_path(&self.file, &input, &options, &output))
+            .map_err(|e| match e {
+                CorrectError::Format(e) => errors::format(e),
+                CorrectError::Table(e) => errors::format(e),
+                CorrectError::Columns(e) => errors::format(e),
+                CorrectError::Open { .. } => errors::format(e),
+                CorrectError::Model(e) => errors::model(e),
+                CorrectError::Output(e) => errors::output(e),
+                e if e.is_usage() => errors::usage_error(e),
+                e => errors::output(e),
+            })?;
+        // What the CLI prints, as data: its warnings and the refusals' sentence.
+        let mut value = serde_json::to_value(&summary).map_err(errors::output)?;
+        value["warnings"] = serde_json::json!(summary.warnings());
+        value["refusals"] = serde_json::json!(summary.refusals());
+        json(&value)
+    }
     /// The static calibration's JSON when this is one (for Allan deviation of calibrated data).
     fn static_json(&self) -> PyResult<Option<String>> {
         match &self.file.corrector {

@@ -152,7 +152,7 @@ pub(crate) fn parse_format(name: Option<&str>) -> PyResult<Option<Format>> {
 
 /// Builds the library's read options from keyword arguments.
 #[allow(clippy::too_many_arguments)]
-fn read_options(
+pub(crate) fn read_options(
     format: Option<&str>,
     columns: Option<&str>,
     accel_unit: Option<&str>,

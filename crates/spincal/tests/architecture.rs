@@ -467,3 +467,26 @@ fn library_errors_name_parameters_not_flags() {
     }
     assert!(flagged.is_empty(), "errors that name a CLI flag: {flagged:#?}");
 }
+
+/// The CLI parses, makes one library call and prints: no loop over rows or samples, which belong
+/// to the library's pipelines (`correctors::stream` for `correct`), where Python reaches them too.
+#[test]
+fn the_cli_holds_no_loop_over_rows_or_samples() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    rust_files(&root.join("../spincal-cli/src"), &mut files);
+    assert!(files.len() > 10, "the CLI's sources were not found");
+    let row_level = ["RowReader", "RowCorrector", "next_record", "next_row", "correct_sample", "time_s["];
+    let mut found = Vec::new();
+    for file in &files {
+        let text = std::fs::read_to_string(file).unwrap();
+        for (n, line) in text.lines().enumerate() {
+            let code = line.split("//").next().unwrap_or("");
+            let loops_over_samples = code.contains("for ") && (code.contains(".len()") || code.contains("time_s"));
+            if loops_over_samples || row_level.iter().any(|t| code.contains(t)) {
+                found.push(format!("{}:{}: {}", file.display(), n + 1, line.trim()));
+            }
+        }
+    }
+    assert!(found.is_empty(), "row-level code in the CLI: {found:#?}");
+}

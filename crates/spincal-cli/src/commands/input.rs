@@ -160,10 +160,14 @@ impl ReadArgs {
     }
 }
 
-/// Says on standard error which rows a reader left out, so that no command drops rows silently.
+/// Says on standard error which rows a reader left out, so that no command drops rows silently,
+/// and what it decided about the time column (a unit found from the values, a counter unwrapped).
 fn warn_left_out(path: &Path, recording: &Recording) {
     if let Some(left_out) = recording.source.incomplete_rows.describe() {
         eprintln!("warning: {}: {left_out}", path.display());
+    }
+    for note in &recording.source.time_notes {
+        eprintln!("note: {}: {}", path.display(), crate::ui::in_flags(note));
     }
 }
 

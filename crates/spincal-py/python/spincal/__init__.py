@@ -568,6 +568,34 @@ class Corrector:
         """Writes model.json (temporary file, then renamed)."""
         self._inner.save(os.fspath(path))
 
+    def correct_file(self, input: PathLike, output: PathLike, *, force: bool = False, **read: Any) -> Dict[str, Any]:
+        """Corrects the file ``input`` into the file ``output`` exactly as ``spincal correct``
+        does, to the bit, through the same library pipeline: delimited text is streamed in
+        constant memory (every row out in the input's order, refused rows marked in place), other
+        formats are read whole. ``read`` takes :func:`read`'s options (``format``, ``columns``,
+        ``accel_unit``, ``time_unit``, ``gyro_unit``, ``sample_rate_hz``, ``accel_scale``,
+        ``retime``). An existing ``output`` that spincal did not write is refused unless
+        ``force``. Returns the summary: ``rows``, ``refused``, ``skipped``, … and ``warnings``
+        (what the CLI prints), ``refusals`` (None when no row was refused).
+
+        Example::
+
+            >>> summary = corrector.correct_file("run.csv", "run-corrected.csv")  # doctest: +SKIP
+            >>> summary["rows"], summary["refused"]                                # doctest: +SKIP
+            (12000, 0)
+        """
+        keys = _frames.column_keys(read.pop("columns", None))
+        if keys is not None and None in keys:
+            raise UsageError("columns: None (no time column) is for DataFrames; a file states its time or its rate")
+        text = self._inner.correct_file(
+            os.fspath(input),
+            os.fspath(output),
+            columns=None if keys is None else ",".join(k for k in keys if k is not None),
+            force=force,
+            **read,
+        )
+        return json.loads(text)
+
     def correct(
         self,
         data: Union[npt.ArrayLike, Recording, PathLike, bytes, Any],

@@ -74,6 +74,21 @@ class Corrector:
     def has_gyro(self) -> bool: ...
     @property
     def has_thermal(self) -> bool: ...
+    def correct_file(
+        self,
+        input: str,
+        output: str,
+        *,
+        format: Optional[str] = ...,
+        columns: Optional[str] = ...,
+        accel_unit: Optional[str] = ...,
+        time_unit: Optional[str] = ...,
+        gyro_unit: Optional[str] = ...,
+        sample_rate_hz: Optional[float] = ...,
+        accel_scale: Optional[float] = ...,
+        retime: bool = ...,
+        force: bool = ...,
+    ) -> str: ...
     def correct_columns(
         self,
         accel: _Three,

@@ -210,3 +210,39 @@ def test_allan_of_white_noise():
     # white noise σ at 100 Hz: density σ·√Δt = 0.001 m/s²/√Hz
     assert all(abs(d / 0.001 - 1) < 0.1 for d in r.noise.noise_density)
     assert len(r.curve.tau_s) == len(r.curve.adev[0])
+
+
+def test_correct_file_streams_a_file_to_a_file_equal_to_spincal_correct_to_the_byte(simulated, trained, cli, tmp_path):
+    path, rec, _ = simulated
+    model = trained / "model.json"
+    by_cli = tmp_path / "cli.csv"
+    cli("correct", "--model", model, path, "-o", by_cli)
+    # A refused row (a value that is no number) and an empty cell, in place: every row comes out.
+    lines = path.read_text().splitlines()
+    fields = lines[40].split(",")
+    lines[40] = ",".join(fields[:1] + ["oops"] + fields[2:])
+    lines[60] = ",".join(lines[60].split(",")[:-1] + [""])
+    damaged = tmp_path / "damaged.csv"
+    damaged.write_text("\n".join(lines) + "\n")
+    corrector = spincal.load_corrector(model)
+    by_python = tmp_path / "python.csv"
+    summary = corrector.correct_file(path, by_python)
+    assert by_python.read_bytes() == by_cli.read_bytes()
+    assert summary["rows"] == len(rec) and summary["refused"] == 0 and summary["refusals"] is None
+    damaged_cli = tmp_path / "damaged-cli.csv"
+    done = cli("correct", "--model", model, damaged, "-o", damaged_cli, check=False)
+    assert done.returncode == 3, done.stderr
+    damaged_python = tmp_path / "damaged-python.csv"
+    summary = corrector.correct_file(damaged, damaged_python)
+    assert damaged_python.read_bytes() == damaged_cli.read_bytes()
+    assert summary["rows"] == len(rec) and summary["refused"] == 1 and summary["skipped"] == 1
+    assert "line 41" in summary["refusals"] and any("no value in a column used" in w for w in summary["warnings"])
+    out_rows = _read_corrected(damaged_python)
+    assert len(out_rows) == len(rec)
+    assert [r["t_s"] for r in out_rows] == [line.split(",")[0] for line in lines[1:]]
+    # An existing file spincal did not write is not replaced.
+    theirs = tmp_path / "theirs.csv"
+    theirs.write_text("t,ax,ay,az\n0,0,0,9.8\n")
+    with pytest.raises(spincal.UsageError, match="spincal did not write it"):
+        corrector.correct_file(path, theirs)
+    assert theirs.read_text() == "t,ax,ay,az\n0,0,0,9.8\n"

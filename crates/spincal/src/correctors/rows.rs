@@ -22,6 +22,15 @@ pub struct UnitFactors {
     pub gyro_to_radps: f64,
 }
 
+impl UnitFactors {
+    /// Values already in SI units.
+    pub const SI: UnitFactors = UnitFactors {
+        time_to_s: 1.0,
+        accel_to_mps2: 1.0,
+        gyro_to_radps: 1.0,
+    };
+}
+
 /// How a corrected row may be used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RowStatus {
@@ -83,6 +92,9 @@ pub struct RowCorrector<'a> {
     axes: Vec<Axis>,
     units: UnitFactors,
     previous_time_s: Option<f64>,
+    /// The correction depends on time (a delay history or a thermal lag): only then is a row whose
+    /// time goes backwards refused.
+    needs_time: bool,
     /// The thermal model and its die-temperature estimate, when the model file has one.
     thermal: Option<(&'a ThermalModel, CausalDieTemperature)>,
 }
@@ -106,6 +118,7 @@ impl<'a> RowCorrector<'a> {
             axes: file.corrector.corrected_axes(),
             units,
             previous_time_s: None,
+            needs_time: file.corrector.warmup_samples() > 0 || file.thermal.is_some(),
             thermal: file
                 .thermal
                 .as_ref()
@@ -128,8 +141,14 @@ impl<'a> RowCorrector<'a> {
         self.thermal.is_some()
     }
 
+    /// Whether a row's time matters to its correction (a model with delays or a thermal lag).
+    pub fn needs_time(&self) -> bool {
+        self.needs_time
+    }
+
     /// Corrects one row; `name` names a value in refusals (`ax`, `column 3 (ax)`). Values must be
-    /// finite in the file and in SI units, and time must not go backwards. `temperature_c` is the
+    /// finite in the file and in SI units, and, where the correction needs time, time must not
+    /// go backwards (a model without delays or thermal lag never refuses a row for its time). `temperature_c` is the
     /// reported temperature, °C (None or not finite: the row has none).
     pub fn correct(
         &mut self,
@@ -166,7 +185,7 @@ impl<'a> RowCorrector<'a> {
             }
         }
         let t = time.map(|t| t * u.time_to_s);
-        if let (Some(t), Some(p)) = (t, self.previous_time_s) {
+        if let (Some(t), Some(p), true) = (t, self.previous_time_s, self.needs_time) {
             if t < p {
                 return RowOutcome::Refused(format!("time {t} s goes backwards (previous row {p} s)"));
             }

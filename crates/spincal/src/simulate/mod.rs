@@ -435,6 +435,7 @@ fn simulated_recording(seed: u64, time_s: Vec<f64>, accel: [Vec<f64>; 3]) -> Rec
             metadata: Vec::new(),
             lines: Vec::new(),
             incomplete_rows: Default::default(),
+            time_notes: Vec::new(),
         },
     }
 }

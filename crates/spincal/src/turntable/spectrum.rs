@@ -398,6 +398,7 @@ mod tests {
                 metadata: vec![],
                 lines: vec![],
                 incomplete_rows: Default::default(),
+                time_notes: Vec::new(),
             },
         }
     }

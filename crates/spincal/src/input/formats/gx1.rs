@@ -296,6 +296,7 @@ pub fn decode(bytes: &[u8], file: &str, options: &Gx1Options) -> Result<(Recordi
             metadata: vec![format!("AccelGainScale {gain} ({})", report.gain_source)],
             lines: Vec::new(),
             incomplete_rows: Default::default(),
+            time_notes: Vec::new(),
         },
     };
     Ok((recording, report))

@@ -113,6 +113,7 @@ pub(super) fn read_imucal(bytes: &[u8], file: &str, options: &ReadOptions) -> Re
             metadata: table.metadata.iter().map(|(_, s)| s.clone()).collect(),
             lines: order.iter().map(|&i| table.lines[i]).collect(),
             incomplete_rows: Default::default(),
+            time_notes: Vec::new(),
         },
     };
     let mut l = Loaded::new(recording, Format::Imucal, true);
@@ -190,6 +191,7 @@ pub(super) fn read_mpu6050(bytes: &[u8], file: &str, options: &ReadOptions) -> R
             metadata: table.metadata.iter().map(|(_, s)| s.clone()).collect(),
             lines: table.lines.clone(),
             incomplete_rows: Default::default(),
+            time_notes: Vec::new(),
         },
     };
     let mut l = Loaded::new(recording, Format::Mpu6050, true);

@@ -1,6 +1,7 @@
 //! Which columns hold what: the user's column map, the recognised column names, and the plan
 //! resolved from a header (columns, units, factors).
 
+use super::time::{settle_unit, unwrap_counter, ImplausibleTime, TimeUnitSource};
 use super::units::{AccelUnit, GyroUnit, TemperatureUnit, TimeUnit};
 use super::RecordingError;
 use crate::input::table::{find_column, TableOptions};
@@ -161,6 +162,9 @@ pub struct ColumnPlan {
     pub(super) scales: Vec<f64>,
     /// Their names in the file (or `column N`).
     pub(super) names: Vec<String>,
+    /// The time column's unit and where it came from (see [`super::time`]).
+    pub(super) time_unit: TimeUnit,
+    pub(super) time_source: TimeUnitSource,
 }
 
 impl ColumnPlan {
@@ -181,16 +185,17 @@ impl ColumnPlan {
                 .unwrap_or_else(|| format!("column {}", i + 1))
         };
         let time_name = name_of(indices[0]);
-        let time_unit = map
-            .time_unit
-            .or_else(|| unit_from_name(&time_name, TimeUnit::parse))
-            .or_else(|| {
-                NANOSECOND_TIME_NAMES
-                    .iter()
-                    .any(|n| time_name.trim().eq_ignore_ascii_case(n))
-                    .then_some(TimeUnit::Ns)
-            })
-            .unwrap_or(TimeUnit::S);
+        let named = unit_from_name(&time_name, TimeUnit::parse).or_else(|| {
+            NANOSECOND_TIME_NAMES
+                .iter()
+                .any(|n| time_name.trim().eq_ignore_ascii_case(n))
+                .then_some(TimeUnit::Ns)
+        });
+        let (time_unit, time_source) = match (map.time_unit, named) {
+            (Some(unit), _) => (unit, TimeUnitSource::Stated),
+            (None, Some(unit)) => (unit, TimeUnitSource::Named),
+            (None, None) => (TimeUnit::S, TimeUnitSource::Assumed),
+        };
         let accel_unit = map
             .accel_unit
             .or_else(|| unit_from_name(&name_of(indices[1]), AccelUnit::parse))
@@ -221,6 +226,8 @@ impl ColumnPlan {
             indices,
             scales,
             names,
+            time_unit,
+            time_source,
         })
     }
 
@@ -273,6 +280,30 @@ impl ColumnPlan {
     }
 
     /// (file column, factor) of each output column.
+    /// Holds the time column against the rules of [`super::time`], in place: `time` (in the
+    /// plan's unit converted to s, time order) unwrapped where a counter wrapped and re-read in the
+    /// unit the values show when none was stated. Returns the notes for the user.
+    pub fn settle_time(&mut self, time: &mut [f64], file: &str, lines: &[usize]) -> Result<Vec<String>, ImplausibleTime> {
+        let to_si = self.scales[0];
+        let mut notes = Vec::new();
+        notes.extend(unwrap_counter(time, to_si, lines));
+        let raw: std::borrow::Cow<'_, [f64]> = if to_si == 1.0 {
+            std::borrow::Cow::Borrowed(&*time)
+        } else {
+            std::borrow::Cow::Owned(time.iter().map(|t| t / to_si).collect())
+        };
+        let settled = settle_unit(&raw, self.time_unit, self.time_source, file, &self.names[0])?;
+        if settled.unit != self.time_unit {
+            // Only an assumed second is replaced, so the values are the file's own.
+            let factor = settled.unit.to_si() / to_si;
+            time.iter_mut().for_each(|t| *t *= factor);
+            self.time_unit = settled.unit;
+            self.scales[0] = settled.unit.to_si();
+        }
+        notes.extend(settled.note);
+        Ok(notes)
+    }
+
     pub(super) fn targets(&self) -> Vec<(usize, f64)> {
         self.indices
             .iter()

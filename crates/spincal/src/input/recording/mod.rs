@@ -13,6 +13,7 @@ use crate::input::table::{Incomplete, Location, TableError};
 
 mod columns;
 mod read;
+pub mod time;
 mod units;
 
 pub use columns::{ColumnMap, ColumnPlan};
@@ -36,6 +37,10 @@ pub struct Source {
     /// kind, interleaved).
     #[serde(default)]
     pub incomplete_rows: Incomplete,
+    /// What was decided about the time column (its unit found from the values, a counter
+    /// unwrapped: [`time`]).
+    #[serde(default)]
+    pub time_notes: Vec<String>,
 }
 
 /// Time series of one IMU session, SI units.
@@ -59,6 +64,8 @@ pub struct Recording {
 pub enum RecordingError {
     #[error(transparent)]
     Table(#[from] TableError),
+    #[error(transparent)]
+    ImplausibleTime(#[from] time::ImplausibleTime),
     #[error("{file}: no column '{key}' (columns: {available})")]
     NoSuchColumn {
         file: String,

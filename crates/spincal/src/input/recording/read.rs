@@ -111,12 +111,16 @@ impl Recording {
         lines: Vec<usize>,
         rate_hz: Option<f64>,
     ) -> Result<Recording, RecordingError> {
+        let mut plan = plan;
         let mut next = || columns.next().unwrap_or_default();
         let mut time_s = next();
+        let mut time_notes = Vec::new();
         if let Some(rate) = rate_hz {
             for (i, t) in time_s.iter_mut().enumerate() {
                 *t = i as f64 / rate;
             }
+        } else if time_s.iter().all(|t| t.is_finite()) {
+            time_notes = plan.settle_time(&mut time_s, &name, &lines)?;
         }
         let accel_mps2 = [next(), next(), next()];
         let gyro_radps = plan.gyro.then(|| [next(), next(), next()]);
@@ -160,6 +164,7 @@ impl Recording {
                 metadata,
                 lines,
                 incomplete_rows: Default::default(),
+                time_notes,
             },
         };
         recording.check_time()?;

@@ -141,6 +141,7 @@ fn recording(name: &str, time_s: Vec<f64>, accel: [Vec<f64>; 3], gyro: Option<[V
             metadata: Vec::new(),
             lines: Vec::new(),
             incomplete_rows: Default::default(),
+            time_notes: Vec::new(),
         },
     }
 }

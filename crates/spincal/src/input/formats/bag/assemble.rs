@@ -308,6 +308,7 @@ pub(super) fn assemble(mut c: Collector, storage: Storage, topic: Option<&str>) 
             metadata,
             lines: Vec::new(),
             incomplete_rows: Default::default(),
+            time_notes: Vec::new(),
         },
     };
     Ok(BagRead {

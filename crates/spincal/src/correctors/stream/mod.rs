@@ -1,0 +1,175 @@
+//! `correct`'s pipeline: a recording streamed through a saved corrector into a table, in the
+//! input's row order, every input row out (the CLI and Python both run it).
+//!
+//! The pipeline is a reader, the [`RowCorrector`](crate::correctors::rows::RowCorrector) and a
+//! [`RowSink`]:
+//! - delimited text (and standard input) is read row by row in constant memory ([`text`]); every
+//!   data row comes out as its original text, then one corrected column per corrected axis (in
+//!   the input's unit, named `<input column>_corrected`), `valid` and `status`;
+//! - every other format, and the reading options that need the whole file (a scale for raw counts,
+//!   a sample rate, retiming, 3DM-GX1 gains), is read whole by [`read_path`] ([`whole`]); every
+//!   sample comes out with its source line, time in s and its values under unit-named columns
+//!   (`ax_mps2`, `gx_radps`; `counts` for raw counts), then the same corrected columns.
+//!
+//! A row that cannot be corrected is written in place with status `refused: line N, <reason>` and
+//! empty corrected columns; a row missing a value used is `skipped: …`. [`StreamSummary`] counts
+//! what the stream saw and words what a user should be told; the library never prints.
+
+mod sink;
+mod summary;
+mod text;
+mod whole;
+
+use std::fs::File;
+use std::io::{BufRead, BufReader, Write};
+use std::path::Path;
+
+pub use sink::{DelimitedSink, RowSink};
+pub use summary::StreamSummary;
+
+use crate::correctors::model_file::CorrectorFile;
+use crate::correctors::rows::SingularGyro;
+use crate::input::formats::{delimited_text_format, read_path, Format, FormatError, ReadOptions};
+use crate::input::recording::RecordingError;
+use crate::input::table::{display_name, TableError};
+use crate::output::OutputError;
+
+/// What can stop a correction before or while its rows are written (refused rows do not: they
+/// are written and counted in the [`StreamSummary`]).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CorrectError {
+    /// The acceleration unit matters to the model and nothing says it.
+    #[error("{file}: no header line, so the acceleration unit cannot be known; give `accel_unit` (g or mps2), and `columns` if the columns are not t,ax,ay,az")]
+    UnitUnknown { file: String },
+    /// The file's values are raw counts and the model takes SI values, or the other way round.
+    #[error("{file}: the {format} file holds {holds}, but the model takes {takes}; {advice}")]
+    CountsMismatch {
+        file: String,
+        format: Format,
+        holds: &'static str,
+        takes: &'static str,
+        advice: &'static str,
+    },
+    #[error("{file}: cannot open: {source}")]
+    Open {
+        file: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Format(#[from] FormatError),
+    #[error(transparent)]
+    Table(#[from] TableError),
+    #[error(transparent)]
+    Columns(#[from] RecordingError),
+    #[error(transparent)]
+    Model(#[from] SingularGyro),
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// Writing the rows failed (a closed pipe included: its kind is `BrokenPipe`).
+    #[error("writing the corrected rows: {0}")]
+    Write(#[from] std::io::Error),
+}
+
+impl CorrectError {
+    /// Whether the error is the caller's choice of inputs or options rather than a failure.
+    pub fn is_usage(&self) -> bool {
+        matches!(
+            self,
+            CorrectError::UnitUnknown { .. } | CorrectError::CountsMismatch { .. } | CorrectError::Output(_)
+        )
+    }
+
+    /// Whether writing stopped because the reader of the output went away.
+    pub fn is_broken_pipe(&self) -> bool {
+        match self {
+            CorrectError::Write(e) => e.kind() == std::io::ErrorKind::BrokenPipe,
+            CorrectError::Output(OutputError::Io { source, .. }) => {
+                source.kind() == std::io::ErrorKind::BrokenPipe
+            }
+            _ => false,
+        }
+    }
+}
+
+/// Whether `input` is read whole rather than streamed: a format other than delimited text, or
+/// an option that needs every sample at once. Standard input (`-`), pipes and missing files
+/// stream (a missing file is then refused by name).
+pub fn reads_whole_file(input: &Path, options: &ReadOptions) -> Result<bool, CorrectError> {
+    if crate::output::is_stdio(input) || !(input.is_file() || input.is_dir()) {
+        return Ok(false);
+    }
+    let whole_file_options = options.accel_scale.is_some()
+        || options.accel_offset.is_some()
+        || options.sample_rate_hz.is_some()
+        || options.retime
+        || options.gx1.accel_gain_scale.is_some()
+        || options.gx1.gyro_gain_scale.is_some();
+    let delimited = delimited_text_format(input, options.format).map_err(|source| FormatError::Io {
+        file: input.display().to_string(),
+        source,
+    })?;
+    Ok(whole_file_options || delimited.is_none())
+}
+
+/// Corrects `input` (a path, or `-` for standard input) with `model` and writes the table to
+/// `out`, flushed. See the [module](self) for the layout.
+pub fn correct_to_writer(
+    model: &CorrectorFile,
+    input: &Path,
+    options: &ReadOptions,
+    out: &mut dyn Write,
+) -> Result<StreamSummary, CorrectError> {
+    if reads_whole_file(input, options)? {
+        let loaded = read_path(input, options)?;
+        let mut sink = DelimitedSink::new(out, ',');
+        return whole::correct_loaded(model, &loaded, &display_name(input), &mut sink);
+    }
+    let (reader, name): (Box<dyn BufRead>, String) = if crate::output::is_stdio(input) {
+        (Box::new(BufReader::new(std::io::stdin().lock())), "<stdin>".to_string())
+    } else {
+        let file = File::open(input).map_err(|source| CorrectError::Open {
+            file: input.display().to_string(),
+            source,
+        })?;
+        (Box::new(BufReader::new(file)), display_name(input))
+    };
+    text::correct_text(model, reader, &name, &options.columns, out)
+}
+
+/// [`correct_to_writer`] into the file `output`, written through a temporary file renamed into
+/// place when every row is written ([`crate::output::write_file`]): a failed correction leaves
+/// what was there before. The caller has checked that `output` may be written (it is not an
+/// input, and spincal wrote any file there: [`crate::output::check_outputs`],
+/// [`crate::output::claim_outputs`]).
+pub fn correct_to_path(
+    model: &CorrectorFile,
+    input: &Path,
+    options: &ReadOptions,
+    output: &Path,
+) -> Result<StreamSummary, CorrectError> {
+    // The stream's own error is kept apart so that it, not a generic write error, is returned.
+    let mut outcome = None;
+    let written = crate::output::write_file(output, |out| {
+        let result = correct_to_writer(model, input, options, out);
+        let failed = result.is_err();
+        outcome = Some(result);
+        if failed {
+            Err(std::io::Error::other("the correction failed"))
+        } else {
+            Ok(())
+        }
+    });
+    match (outcome, written) {
+        (Some(Err(e)), _) => Err(e),
+        (_, Err(e)) => Err(e.into()),
+        (Some(Ok(summary)), Ok(())) => Ok(summary),
+        (None, Ok(())) => Err(CorrectError::Write(std::io::Error::other(
+            "the output was written without its rows",
+        ))),
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,137 @@
+//! What a finished correction saw beyond the rows it wrote, and what a user should be told.
+
+use serde::Serialize;
+
+use crate::correctors::rows::RowStatus;
+
+/// Refused rows whose reasons are kept for the summary.
+const LISTED_REFUSALS: usize = 5;
+
+/// Counts of what a correction wrote, and the first row of each kind that needs a word.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct StreamSummary {
+    /// The file as named in messages.
+    pub file: String,
+    /// Every row written (data rows of the input; nothing is left out).
+    pub rows: usize,
+    /// Rows with an input more than the margin outside the training range, and the first's line.
+    pub outside_training_range: usize,
+    pub first_outside_line: Option<usize>,
+    /// Rows refused (written with status `refused` and empty corrected columns).
+    pub refused: usize,
+    /// The first refused rows: where and why.
+    pub first_refusals: Vec<String>,
+    /// Rows without a value in a column used (status `skipped`), and the first.
+    pub skipped: usize,
+    pub first_skipped: Option<String>,
+    /// What was decided about the time column (a unit found from the values, a counter
+    /// unwrapped).
+    pub notes: Vec<String>,
+    /// What the reader left out of a file read whole (rows without every value used).
+    pub left_out: Option<String>,
+    /// The model calibrates a gyroscope but the input has no gyro values.
+    pub gyro_uncorrected: bool,
+    /// The input's gyro values are in a unit the model's gyro calibration does not take.
+    pub gyro_unit_mismatch: Option<String>,
+    /// Rows corrected as at the reference temperature (none given, or outside the thermal
+    /// model's range), and the first's line and status.
+    pub thermal_fallback: usize,
+    pub first_thermal_fallback: Option<(usize, &'static str)>,
+}
+
+impl StreamSummary {
+    pub(super) fn new(file: &str) -> Self {
+        StreamSummary {
+            file: file.to_string(),
+            ..StreamSummary::default()
+        }
+    }
+
+    /// Counts a corrected row.
+    pub(super) fn corrected(&mut self, line: usize, status: RowStatus) {
+        match status {
+            RowStatus::Ok => {}
+            RowStatus::NoTemperature | RowStatus::OutsideTemperatureRange => {
+                self.thermal_fallback += 1;
+                self.first_thermal_fallback.get_or_insert((line, status.as_str()));
+            }
+            RowStatus::PhysicsOnly | RowStatus::OutsideRange => {
+                self.outside_training_range += 1;
+                self.first_outside_line.get_or_insert(line);
+            }
+        }
+    }
+
+    /// Counts a refused row and keeps its reason when it is among the first.
+    pub(super) fn refuse(&mut self, reason: &str) {
+        self.refused += 1;
+        if self.first_refusals.len() < LISTED_REFUSALS {
+            self.first_refusals.push(reason.to_string());
+        }
+    }
+
+    /// Counts a skipped row.
+    pub(super) fn skip(&mut self, reason: &str) {
+        self.skipped += 1;
+        self.first_skipped.get_or_insert_with(|| reason.to_string());
+    }
+
+    /// What the user should know about rows that were written but not corrected as trained, one
+    /// sentence each, naming the file.
+    pub fn warnings(&self) -> Vec<String> {
+        let name = &self.file;
+        let mut out = Vec::new();
+        if let Some(left_out) = &self.left_out {
+            out.push(format!("{name}: {left_out}"));
+        }
+        if self.gyro_uncorrected {
+            out.push(format!(
+                "{name}: the model calibrates the gyroscope, but no gyro columns were found (give `columns` as t,ax,ay,az,gx,gy,gz); only the accelerometer was corrected"
+            ));
+        }
+        if let Some(why) = &self.gyro_unit_mismatch {
+            out.push(format!("{name}: {why}; only the accelerometer was corrected"));
+        }
+        if let Some(line) = self.first_outside_line {
+            out.push(format!(
+                "{name}: {} of {} rows ({:.1} %) have an input more than {:.0} % of the training \
+                 range outside it (first at line {line}): a network is not applied there (status \
+                 `outside-range`, valid 0, the reading unchanged; `physics-only` where a physical \
+                 model corrects it alone)",
+                self.outside_training_range,
+                self.rows,
+                100.0 * self.outside_training_range as f64 / self.rows.max(1) as f64,
+                100.0 * crate::correctors::ann::EXTRAPOLATION_MARGIN,
+            ));
+        }
+        if let Some((line, status)) = self.first_thermal_fallback {
+            out.push(format!(
+                "{name}: {} of {} rows were corrected as at the thermal model's reference temperature, valid 0: \
+                 status `no-temperature` (the row has no temperature: name the column `temp_c`, or list it last in `columns`) \
+                 or `outside-temperature-range` (the die temperature lies outside the range the model was fitted on); the first, \
+                 line {line}, is `{status}`",
+                self.thermal_fallback, self.rows
+            ));
+        }
+        if let Some(first) = &self.first_skipped {
+            out.push(format!(
+                "{name}: {} of {} rows have no value in a column used (packets of another kind?) and were written with status `skipped` and empty corrected columns; the first: {first}",
+                self.skipped, self.rows
+            ));
+        }
+        out
+    }
+
+    /// When rows were refused: one sentence saying how many, and the first reasons.
+    pub fn refusals(&self) -> Option<String> {
+        (self.refused > 0).then(|| {
+            format!(
+                "{}: {} of {} rows refused (written in place with status `refused` and empty corrected columns); the first: {}",
+                self.file,
+                self.refused,
+                self.rows,
+                self.first_refusals.join("; ")
+            )
+        })
+    }
+}

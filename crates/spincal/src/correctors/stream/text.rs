@@ -1,0 +1,254 @@
+//! Delimited text streamed row by row: each data row out as its original text plus the corrected
+//! columns, in constant memory.
+
+use std::io::{BufRead, Write};
+
+use super::sink::{field, DelimitedSink, RowSink};
+use super::{CorrectError, StreamSummary};
+use crate::correctors::corrector::Axis;
+use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
+use crate::correctors::rows::{RowCorrector, RowOutcome, RowValue, UnitFactors};
+use crate::input::recording::{ColumnMap, ColumnPlan, TemperatureUnit};
+use crate::input::table::{Delimiter, Record, RowReader};
+
+/// The original fields of a refused line, as many as the table is wide (missing ones empty, extra
+/// ones kept together in the last).
+fn refused_fields(text: &str, delimiter: Delimiter, width: usize) -> Vec<String> {
+    let parts: Vec<&str> = match delimiter {
+        Delimiter::Whitespace => text.split_whitespace().collect(),
+        other => text.split(other.as_char()).collect(),
+    };
+    let mut fields: Vec<String> = parts
+        .iter()
+        .take(width.saturating_sub(1))
+        .map(|s| s.to_string())
+        .collect();
+    if parts.len() >= width && width > 0 {
+        fields.push(parts[width - 1..].join(&delimiter.as_char().to_string()));
+    }
+    fields.resize(width, String::new());
+    fields
+}
+
+/// The corrected values written for a row, in the file's units: the corrected accelerometer axes,
+/// then the gyro (None where the row was refused).
+pub(super) fn corrected_values(
+    axes: &[Axis],
+    outcome: &RowOutcome,
+    gyro_width: usize,
+    units: UnitFactors,
+) -> Vec<Option<f64>> {
+    // The accelerometer times the reciprocal, the gyro divided: Python's frames convert the same
+    // way, so both agree to the bit.
+    let from_mps2 = 1.0 / units.accel_to_mps2;
+    match outcome {
+        RowOutcome::Corrected {
+            accel_mps2,
+            gyro_radps,
+            ..
+        } => axes
+            .iter()
+            .map(|a| Some(accel_mps2[a.index()] * from_mps2))
+            .chain(
+                gyro_radps
+                    .iter()
+                    .flatten()
+                    .map(|&w| Some(w / units.gyro_to_radps)),
+            )
+            .collect(),
+        RowOutcome::Refused(_) => vec![None; axes.len() + gyro_width],
+    }
+}
+
+/// Rows read ahead to learn the time column's unit when the model needs time.
+const LOOK_AHEAD_ROWS: usize = 256;
+
+/// A row read and not yet corrected.
+struct Pending {
+    record: Record,
+    text: String,
+    values: Vec<f64>,
+}
+
+/// The state of one stream: what each row goes through.
+struct TextStream<'a, 'w> {
+    corrector: RowCorrector<'a>,
+    columns: &'a ColumnPlan,
+    header: &'a [String],
+    gyro: Option<[usize; 3]>,
+    temperature: Option<(usize, TemperatureUnit)>,
+    axes: Vec<Axis>,
+    units: UnitFactors,
+    width: usize,
+    delimiter: Delimiter,
+    sink: DelimitedSink<'w>,
+    summary: StreamSummary,
+}
+
+impl TextStream<'_, '_> {
+    /// Corrects and writes one row (`text` is its line as read).
+    fn row(&mut self, record: Record, text: &str, values: &[f64]) -> Result<(), CorrectError> {
+        let gyro_width = if self.gyro.is_some() { 3 } else { 0 };
+        let blank = vec![None; self.axes.len() + gyro_width];
+        let sep = self.delimiter.as_char();
+        self.summary.rows += 1;
+        let line_no = match record {
+            Record::Parsed { line } => line,
+            Record::Incomplete { line, column, .. } => {
+                let reason = format!("line {line}: column {column} ({}) is empty", self.header[column - 1]);
+                self.summary.skip(&reason);
+                self.sink.row(text, &blank, false, &format!("skipped: {reason}"))?;
+                return Ok(());
+            }
+            Record::Refused { line, text, error } => {
+                let reason = format!("line {line}: {error}");
+                self.summary.refuse(&reason);
+                let fields = refused_fields(&text, self.delimiter, self.width)
+                    .iter()
+                    .map(|f| field(f, sep))
+                    .collect::<Vec<_>>()
+                    .join(&sep.to_string());
+                self.sink.row(&fields, &blank, false, &format!("refused: {reason}"))?;
+                return Ok(());
+            }
+        };
+        let (columns, header, gyro) = (self.columns, self.header, self.gyro);
+        let value_name = |v: RowValue| {
+            let c = match v {
+                RowValue::Time => columns.time_column(),
+                RowValue::Accel(a) => columns.accel_columns()[a],
+                RowValue::Gyro(a) => gyro.map_or(0, |g| g[a]),
+            };
+            format!("column {} ({})", c + 1, header[c])
+        };
+        let outcome = self.corrector.correct(
+            Some(values[columns.time_column()]),
+            columns.accel_columns().map(|c| values[c]),
+            gyro.map(|g| g.map(|c| values[c])),
+            self.temperature.map(|(c, unit)| unit.to_celsius(values[c])),
+            value_name,
+        );
+        let corrected = corrected_values(&self.axes, &outcome, gyro_width, self.units);
+        match outcome {
+            RowOutcome::Corrected { valid, status, .. } => {
+                self.summary.corrected(line_no, status);
+                self.sink.row(text, &corrected, valid, status.as_str())?;
+            }
+            RowOutcome::Refused(reason) => {
+                let reason = format!("line {line_no}, {reason}");
+                self.summary.refuse(&reason);
+                self.sink.row(text, &corrected, false, &format!("refused: {reason}"))?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Streams delimited text from `reader` through `model` into `out`, every row in its order.
+pub(super) fn correct_text(
+    model: &CorrectorFile,
+    reader: Box<dyn BufRead>,
+    name: &str,
+    map: &ColumnMap,
+    out: &mut dyn Write,
+) -> Result<StreamSummary, CorrectError> {
+    let mut rows = RowReader::new(reader, name, &map.table)?;
+    let width = rows.width();
+    let header: Vec<String> = if rows.header.is_empty() {
+        (1..=width).map(|c| format!("column{c}")).collect()
+    } else {
+        rows.header.clone()
+    };
+    // Networks and linear maps were trained in m/s²; a static calibration states its own unit.
+    let unit_matters = !matches!(model.corrector, CorrectorModel::Static(_));
+    if unit_matters && rows.header.is_empty() && map.accel_unit.is_none() {
+        return Err(CorrectError::UnitUnknown { file: name.to_string() });
+    }
+    let mut columns = ColumnPlan::new(&rows.header, width, name, map)?;
+    // A row without a temperature is still corrected (and marked), so the column is not required.
+    let temperature = columns.temperature_column();
+    let used: Vec<usize> = columns
+        .used_columns()
+        .iter()
+        .copied()
+        .filter(|&c| Some(c) != temperature.map(|(t, _)| t))
+        .collect();
+    rows.choose_columns(&used);
+    let with_gyro = columns.gyro_columns().is_some();
+    let needs_time = RowCorrector::new(model, UnitFactors::SI, with_gyro)?.needs_time();
+    // A model that needs time learns the time column's unit from the first rows, as a file read
+    // whole does; the rows read ahead are corrected first, in their order.
+    let mut pending = Vec::new();
+    let mut notes = Vec::new();
+    if needs_time {
+        let mut values = Vec::with_capacity(width);
+        while pending.len() < LOOK_AHEAD_ROWS {
+            let Some(record) = rows.next_record(&mut values)? else {
+                break;
+            };
+            let text = rows.line_text().into_owned();
+            pending.push(Pending {
+                record,
+                text,
+                values: values.clone(),
+            });
+        }
+        let k = columns.time_to_s();
+        let mut times: Vec<f64> = pending
+            .iter()
+            .filter(|p| matches!(p.record, Record::Parsed { .. }))
+            .map(|p| p.values[columns.time_column()] * k)
+            .filter(|t| t.is_finite())
+            .collect();
+        notes = columns
+            .settle_time(&mut times, name, &[])
+            .map_err(crate::input::recording::RecordingError::from)?;
+    }
+    let units = UnitFactors {
+        time_to_s: columns.time_to_s(),
+        accel_to_mps2: columns.accel_to_mps2(),
+        gyro_to_radps: columns.gyro_to_radps().unwrap_or(1.0),
+    };
+    let corrector = RowCorrector::new(model, units, with_gyro)?;
+    let axes = corrector.corrected_axes().to_vec();
+    let gyro = columns.gyro_columns().filter(|_| corrector.corrects_gyro());
+    let sep = rows.delimiter.as_char();
+    let mut sink = DelimitedSink::new(out, sep);
+    let corrected_names = axes
+        .iter()
+        .map(|a| columns.accel_columns()[a.index()])
+        .chain(gyro.iter().flatten().copied())
+        .map(|c| format!("{}_corrected", header[c]));
+    let names: Vec<String> = header
+        .iter()
+        .cloned()
+        .chain(corrected_names)
+        .chain(["valid".to_string(), "status".to_string()])
+        .collect();
+    sink.header(&names)?;
+    let mut summary = StreamSummary::new(name);
+    summary.gyro_uncorrected = model.gyro.is_some() && !with_gyro;
+    summary.notes = notes;
+    let mut stream = TextStream {
+        corrector,
+        columns: &columns,
+        header: &header,
+        gyro,
+        temperature,
+        axes,
+        units,
+        width,
+        delimiter: rows.delimiter,
+        sink,
+        summary,
+    };
+    for p in pending {
+        stream.row(p.record, &p.text, &p.values)?;
+    }
+    let mut values = Vec::with_capacity(width);
+    while let Some(record) = rows.next_record(&mut values)? {
+        stream.row(record, &rows.line_text(), &values)?;
+    }
+    stream.sink.flush()?;
+    Ok(stream.summary)
+}
