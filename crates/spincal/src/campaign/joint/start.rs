@@ -219,12 +219,10 @@ fn exact_sum(tau: &[f64], z: &[[f64; 2]], sigma: f64, w: f64) -> ExactSum {
     let (mut s0, mut s1, mut s2) = ([0.0f64; 2], [0.0f64; 2], [0.0f64; 2]);
     for (&t, &[x, y]) in tau.iter().zip(z) {
         let (sn, cs) = (sigma * w * t).sin_cos();
-        let e = [x * cs - y * sn, x * sn + y * cs];
-        for c in 0..2 {
-            s0[c] += e[c];
-            s1[c] += t * e[c];
-            s2[c] += t * t * e[c];
-        }
+        let (re, im) = (x * cs - y * sn, x * sn + y * cs);
+        s0 = [s0[0] + re, s0[1] + im];
+        s1 = [s1[0] + t * re, s1[1] + t * im];
+        s2 = [s2[0] + t * t * re, s2[1] + t * t * im];
     }
     ExactSum {
         f: s0,
@@ -242,7 +240,7 @@ fn newton_max(tau: &[f64], z: &[[f64; 2]], sigma: f64, w0: f64, a: f64, b: f64) 
         // P = |F|²: P' = 2 Re(F̄ F'), P'' = 2 (|F'|² + Re(F̄ F'')).
         let slope = s.f[0] * s.d1[0] + s.f[1] * s.d1[1];
         let curvature = s.d1[0] * s.d1[0] + s.d1[1] * s.d1[1] + s.f[0] * s.d2[0] + s.f[1] * s.d2[1];
-        if !(curvature < 0.0) {
+        if curvature.is_nan() || curvature >= 0.0 {
             return None;
         }
         let next = w - slope / curvature;
