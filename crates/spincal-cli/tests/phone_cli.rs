@@ -23,12 +23,25 @@ fn phyphox_zip(csv: &str) -> Vec<u8> {
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
         .collect();
-    let (t, a, g) = (col("t_s"), [col("ax_mps2"), col("ay_mps2"), col("az_mps2")], [col("gx_radps"), col("gy_radps"), col("gz_radps")]);
+    let (t, a, g) = (
+        col("t_s"),
+        [col("ax_mps2"), col("ay_mps2"), col("az_mps2")],
+        [col("gx_radps"), col("gy_radps"), col("gz_radps")],
+    );
     let dt = rows[1][t] - rows[0][t];
     let set = |names: [&str; 3], cols: [usize; 3], shift: f64| {
-        let mut s = format!("\"Time (s)\",\"{}\",\"{}\",\"{}\"\n", names[0], names[1], names[2]);
+        let mut s = format!(
+            "\"Time (s)\",\"{}\",\"{}\",\"{}\"\n",
+            names[0], names[1], names[2]
+        );
         for r in &rows {
-            s += &format!("{},{},{},{}\n", number(r[t] + shift), number(r[cols[0]]), number(r[cols[1]]), number(r[cols[2]]));
+            s += &format!(
+                "{},{},{},{}\n",
+                number(r[t] + shift),
+                number(r[cols[0]]),
+                number(r[cols[1]]),
+                number(r[cols[2]])
+            );
         }
         s
     };
@@ -42,7 +55,8 @@ fn phyphox_zip(csv: &str) -> Vec<u8> {
         ),
     ];
     let mut out = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
-    let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+    let options =
+        zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
     for (name, text) in files {
         out.start_file(name, options).unwrap();
         out.write_all(text.as_bytes()).unwrap();
@@ -77,7 +91,11 @@ fn inspect_and_fit_take_a_phyphox_zip() {
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
         String::from_utf8_lossy(&out.stdout)
             .lines()
-            .find_map(|l| l.split_once("fitted ω = ").and_then(|(_, r)| r.split_once(" rpm")).map(|(w, _)| w.to_string()))
+            .find_map(|l| {
+                l.split_once("fitted ω = ")
+                    .and_then(|(_, r)| r.split_once(" rpm"))
+                    .map(|(w, _)| w.to_string())
+            })
             .unwrap()
     };
     assert_eq!(fit(&zip), fit(&csv));

@@ -93,11 +93,26 @@ pub struct Variant {
 }
 
 pub const VARIANTS: [Variant; 5] = [
-    Variant { separator: ',', decimal: '.' },
-    Variant { separator: '\t', decimal: '.' },
-    Variant { separator: ';', decimal: '.' },
-    Variant { separator: '\t', decimal: ',' },
-    Variant { separator: ';', decimal: ',' },
+    Variant {
+        separator: ',',
+        decimal: '.',
+    },
+    Variant {
+        separator: '\t',
+        decimal: '.',
+    },
+    Variant {
+        separator: ';',
+        decimal: '.',
+    },
+    Variant {
+        separator: '\t',
+        decimal: ',',
+    },
+    Variant {
+        separator: ';',
+        decimal: ',',
+    },
 ];
 
 /// Java's `DecimalFormat("0.000000000E0")` (phyphox Android) and Apple's scientific
@@ -148,7 +163,12 @@ pub fn accelerometer_set(app: App, times: &[f64]) -> Set {
     match app {
         App::Android => set(
             "Accelerometer",
-            &["Time (s)", "Acceleration x (m/s^2)", "Acceleration y (m/s^2)", "Acceleration z (m/s^2)"],
+            &[
+                "Time (s)",
+                "Acceleration x (m/s^2)",
+                "Acceleration y (m/s^2)",
+                "Acceleration z (m/s^2)",
+            ],
             times,
             Motion::accel,
             false,
@@ -168,7 +188,12 @@ pub fn gyroscope_set(app: App, times: &[f64]) -> Set {
     match app {
         App::Android => set(
             "Gyroscope",
-            &["Time (s)", "Gyroscope x (rad/s)", "Gyroscope y (rad/s)", "Gyroscope z (rad/s)"],
+            &[
+                "Time (s)",
+                "Gyroscope x (rad/s)",
+                "Gyroscope y (rad/s)",
+                "Gyroscope z (rad/s)",
+            ],
             times,
             Motion::gyro,
             false,
@@ -233,7 +258,11 @@ pub fn linear_set(app: App, times: &[f64]) -> Set {
 pub fn centripetal_set(seconds: usize) -> Set {
     Set {
         name: "Data".into(),
-        header: vec!["Time (s)".into(), "Angular velocity (rad/s)".into(), "Acceleration (m/s^2)".into()],
+        header: vec![
+            "Time (s)".into(),
+            "Angular velocity (rad/s)".into(),
+            "Acceleration (m/s^2)".into(),
+        ],
         rows: (0..2 * seconds)
             .map(|i| {
                 let t = i as f64 / 2.0;
@@ -247,10 +276,12 @@ pub fn centripetal_set(seconds: usize) -> Set {
 pub fn phyphox_csv(app: App, s: &Set, variant: Variant) -> Vec<u8> {
     let sep = variant.separator.to_string();
     let header: Vec<String> = s.header.iter().map(|h| format!("\"{h}\"")).collect();
-    let rows = s
-        .rows
-        .iter()
-        .map(|r| r.iter().map(|&v| phyphox_number(v, variant.decimal)).collect::<Vec<_>>().join(&sep));
+    let rows = s.rows.iter().map(|r| {
+        r.iter()
+            .map(|&v| phyphox_number(v, variant.decimal))
+            .collect::<Vec<_>>()
+            .join(&sep)
+    });
     let text = match app {
         App::Android => {
             let mut t = header.join(&sep) + "\n";
@@ -304,7 +335,13 @@ pub fn device_csv(app: App, variant: Variant) -> Vec<u8> {
 /// meta/time.csv: one START at experiment time 0 and Unix time `start_unix_s`.
 pub fn time_csv(app: App, variant: Variant, start_unix_s: f64) -> Vec<u8> {
     let sep = variant.separator;
-    let decimal = |s: String| if variant.decimal == ',' { s.replace('.', ",") } else { s };
+    let decimal = |s: String| {
+        if variant.decimal == ',' {
+            s.replace('.', ",")
+        } else {
+            s
+        }
+    };
     let system = match app {
         App::Android => decimal(format!("{start_unix_s:.3}")),
         App::Ios => decimal(format!("{start_unix_s:.15e}").replace('e', "E")),
@@ -319,7 +356,8 @@ pub fn time_csv(app: App, variant: Variant, start_unix_s: f64) -> Vec<u8> {
 /// A zip of `files` (name, bytes), deflated as the apps do.
 pub fn zip(files: &[(String, Vec<u8>)]) -> Vec<u8> {
     let mut out = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
-    let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+    let options =
+        zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
     for (name, bytes) in files {
         out.start_file(name.as_str(), options).unwrap();
         out.write_all(bytes).unwrap();
@@ -356,32 +394,52 @@ pub fn phyphox_xlsx(sets: &[Set], start_unix_s: f64) -> Vec<u8> {
     }
     let sheet = book.add_worksheet();
     sheet.set_name("Metadata Device").unwrap();
-    for (r, (k, v)) in [("property", "value"), ("deviceModel", "Pixel 7"), ("deviceBrand", "google")]
-        .iter()
-        .enumerate()
+    for (r, (k, v)) in [
+        ("property", "value"),
+        ("deviceModel", "Pixel 7"),
+        ("deviceBrand", "google"),
+    ]
+    .iter()
+    .enumerate()
     {
         sheet.write_string(r as u32, 0, *k).unwrap();
         sheet.write_string(r as u32, 1, *v).unwrap();
     }
     let sheet = book.add_worksheet();
     sheet.set_name("Metadata Time").unwrap();
-    for (c, h) in ["event", "experiment time", "system time", "system time text"].iter().enumerate() {
+    for (c, h) in ["event", "experiment time", "system time", "system time text"]
+        .iter()
+        .enumerate()
+    {
         sheet.write_string(0, c as u16, *h).unwrap();
     }
     sheet.write_string(1, 0, "START").unwrap();
     sheet.write_number(1, 1, 0.0).unwrap();
     sheet.write_number(1, 2, start_unix_s).unwrap();
-    sheet.write_string(1, 3, "2026-11-28 12:00:00.000 UTC+00:00").unwrap();
+    sheet
+        .write_string(1, 3, "2026-11-28 12:00:00.000 UTC+00:00")
+        .unwrap();
     book.save_to_buffer().unwrap()
 }
 
 /// One Sensor Logger sensor file: `time,seconds_elapsed,z,y,x`, `time` in epoch ns.
-pub fn sensor_logger_csv(epoch0_ns: i64, start_ns: i64, times: &[f64], values: impl Fn(f64) -> [f64; 3]) -> Vec<u8> {
+pub fn sensor_logger_csv(
+    epoch0_ns: i64,
+    start_ns: i64,
+    times: &[f64],
+    values: impl Fn(f64) -> [f64; 3],
+) -> Vec<u8> {
     let mut t = String::from("time,seconds_elapsed,z,y,x\n");
     for &s in times {
         let ns = epoch0_ns + (s * 1e9).round() as i64;
         let v = values(s);
-        t += &format!("{ns},{},{},{},{}\n", (ns - start_ns) as f64 * 1e-9, v[2], v[1], v[0]);
+        t += &format!(
+            "{ns},{},{},{},{}\n",
+            (ns - start_ns) as f64 * 1e-9,
+            v[2],
+            v[1],
+            v[0]
+        );
     }
     t.into_bytes()
 }

@@ -87,10 +87,16 @@ pub fn detect(head: &[u8]) -> Detection {
         .map(|f| f.trim().trim_matches('"').to_string())
         .collect();
     if phone::sensor_logger::is_sensor_file(&header) {
-        return found(Format::SensorLogger, "header `time,seconds_elapsed` and x, y, z (Sensor Logger)");
+        return found(
+            Format::SensorLogger,
+            "header `time,seconds_elapsed` and x, y, z (Sensor Logger)",
+        );
     }
     if phone::physics_toolbox::claims(&header) {
-        return found(Format::PhysicsToolbox, "header with gFx, gFy, gFz or ax, ay, az, aT (Physics Toolbox)");
+        return found(
+            Format::PhysicsToolbox,
+            "header with gFx, gFy, gFz or ax, ay, az, aT (Physics Toolbox)",
+        );
     }
     if lower
         .iter()

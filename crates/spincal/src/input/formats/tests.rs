@@ -76,7 +76,10 @@ fn detects_and_reads_every_text_format() {
     let linear = b"\"Time (s)\"\t\"Linear Acceleration x (m/s^2)\"\t\"Linear Acceleration y (m/s^2)\"\t\"Linear Acceleration z (m/s^2)\"\n0,5\t1,25\t0\t-2\n0,75\t1\t0\t-2,5\n";
     assert_eq!(detect(linear).format, Format::Phyphox);
     let e = read_bytes(linear, "f", &ReadOptions::default()).unwrap_err();
-    assert!(matches!(e, FormatError::Phone(phone::PhoneError::GravityRemoved { .. })), "{e}");
+    assert!(
+        matches!(e, FormatError::Phone(phone::PhoneError::GravityRemoved { .. })),
+        "{e}"
+    );
 
     let l = read(b"t_s,ax_g,ay_g,az_g\n0,0,0,1\n0.1,0,0,1\n");
     assert_eq!(l.format, Format::Csv);

@@ -8,7 +8,7 @@ use super::PhoneError;
 
 /// At most this many inflated bytes are read from one archive: an hour of phone sensors at
 /// 500 Hz is about 0.2 GB of CSV, so this leaves room without letting a zip bomb fill memory.
-pub const MAX_INFLATED_BYTES: u64 = 1 << 30;
+pub(crate) const MAX_INFLATED_BYTES: u64 = 1 << 30;
 
 /// The CSV members of a zip held in memory. Members are named as inside the archive with `/`
 /// separators; a folder that wraps every member (an archive made of the unzipped folder) is
@@ -52,6 +52,7 @@ pub(crate) fn members(bytes: &[u8], file: &str) -> Result<Members, FormatError> 
     Ok(Members {
         source: file.into(),
         entries,
+        alone: None,
     })
 }
 
@@ -61,7 +62,11 @@ fn strip_wrapper(entries: &mut [(String, Vec<u8>)]) {
     let Some(Some(top)) = entries.first().map(|(n, _)| first(n)) else {
         return;
     };
-    if top == "meta" || !entries.iter().all(|(n, _)| first(n).as_deref() == Some(top.as_str())) {
+    if top == "meta"
+        || !entries
+            .iter()
+            .all(|(n, _)| first(n).as_deref() == Some(top.as_str()))
+    {
         return;
     }
     for (n, _) in entries.iter_mut() {

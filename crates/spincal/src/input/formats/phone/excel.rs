@@ -30,13 +30,40 @@ fn members(bytes: &[u8], file: &str) -> Result<Members, FormatError> {
         file: file.into(),
         why,
     };
-    let mut workbook =
-        open_workbook_auto_from_rs(std::io::Cursor::new(bytes)).map_err(|e| excel_error(e.to_string()))?;
+    if !bytes.starts_with(super::ZIP_MAGIC) && !bytes.starts_with(super::OLE_MAGIC) {
+        return Err(excel_error("neither an .xlsx (zip) nor an .xls (OLE2) workbook".into()).into());
+    }
+    // calamine's parsers are not this crate's: a panic on a malformed workbook is caught and
+    // reported as this file's error rather than ending the program.
+    let parsed = std::panic::catch_unwind(|| sheets(bytes));
+    let sheets = match parsed {
+        Ok(result) => result.map_err(excel_error)?,
+        Err(_) => return Err(excel_error("the workbook reader failed on malformed data".into()).into()),
+    };
     let mut entries = Vec::new();
+    for (sheet, text) in sheets {
+        let name = match sheet.as_str() {
+            "Metadata Time" => "meta/time.csv".to_string(),
+            "Metadata Device" => "meta/device.csv".to_string(),
+            s => format!("{s}.csv"),
+        };
+        entries.push((name, text.into_bytes()));
+    }
+    Ok(Members {
+        source: file.into(),
+        entries,
+        alone: None,
+    })
+}
+
+/// Each sheet's name and its rows as CSV text.
+fn sheets(bytes: &[u8]) -> Result<Vec<(String, String)>, String> {
+    let mut workbook = open_workbook_auto_from_rs(std::io::Cursor::new(bytes)).map_err(|e| e.to_string())?;
+    let mut out = Vec::new();
     for sheet in workbook.sheet_names() {
         let range = workbook
             .worksheet_range(&sheet)
-            .map_err(|e| excel_error(format!("sheet {sheet}: {e}")))?;
+            .map_err(|e| format!("sheet {sheet}: {e}"))?;
         let mut text = String::new();
         for row in range.rows() {
             for (c, cell) in row.iter().enumerate() {
@@ -56,15 +83,7 @@ fn members(bytes: &[u8], file: &str) -> Result<Members, FormatError> {
             }
             text.push('\n');
         }
-        let name = match sheet.as_str() {
-            "Metadata Time" => "meta/time.csv".to_string(),
-            "Metadata Device" => "meta/device.csv".to_string(),
-            s => format!("{s}.csv"),
-        };
-        entries.push((name, text.into_bytes()));
+        out.push((sheet, text));
     }
-    Ok(Members {
-        source: file.into(),
-        entries,
-    })
+    Ok(out)
 }

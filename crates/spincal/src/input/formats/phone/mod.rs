@@ -2,7 +2,7 @@
 //! sensor with `meta/`, its Excel workbook), Sensor Logger (its zip or the unzipped folder) and
 //! Physics Toolbox Sensor Suite (its CSV).
 //!
-//! Each app's rules live in its own file ([`phyphox`], [`sensor_logger`], [`physics_toolbox`]);
+//! Each app's rules live in its own file (`phyphox.rs`, `sensor_logger.rs`, `physics_toolbox.rs`);
 //! `text.rs` holds what their CSVs share (separator, decimal comma, the U+2212 minus) and one
 //! sensor's stream; `pair.rs` puts an accelerometer and a gyroscope recorded on their own clocks
 //! into one [`Recording`](crate::input::recording::Recording). The archive readers (`archive.rs`:
@@ -22,9 +22,9 @@ mod archive;
 #[cfg(feature = "phone")]
 mod excel;
 mod pair;
-pub mod physics_toolbox;
-pub mod phyphox;
-pub mod sensor_logger;
+pub(crate) mod phyphox;
+pub(crate) mod physics_toolbox;
+pub(crate) mod sensor_logger;
 mod text;
 
 use std::path::Path;
@@ -78,17 +78,9 @@ pub enum PhoneError {
     #[error("{file}: not a workbook spincal can read: {why}")]
     Excel { file: String, why: String },
     #[error("{file}:{line}: {why}")]
-    Metadata {
-        file: String,
-        line: usize,
-        why: String,
-    },
+    Metadata { file: String, line: usize, why: String },
     #[error("{file}:{line}: `time` '{text}' is not a whole number of epoch nanoseconds")]
-    BadEpoch {
-        file: String,
-        line: usize,
-        text: String,
-    },
+    BadEpoch { file: String, line: usize, text: String },
     #[error("{accel} and {gyro}: the accelerometer ({accel_span}) and the gyroscope ({gyro_span}) do not overlap in time{why}")]
     NoOverlap {
         accel: String,
@@ -121,18 +113,30 @@ pub(super) fn sniff(head: &[u8]) -> Option<Detection> {
         })
     };
     if head.starts_with(OLE_MAGIC) {
-        return found(Format::PhyphoxExcel, "OLE2 workbook magic (.xls, phyphox's iOS Excel export)");
+        return found(
+            Format::PhyphoxExcel,
+            "OLE2 workbook magic (.xls, phyphox's iOS Excel export)",
+        );
     }
     if !head.starts_with(ZIP_MAGIC) {
         return None;
     }
     let has = |needle: &[u8]| head.windows(needle.len()).any(|w| w == needle);
     if has(b"[Content_Types].xml") || has(b"xl/") {
-        found(Format::PhyphoxExcel, "zip holding an .xlsx workbook ([Content_Types].xml)")
+        found(
+            Format::PhyphoxExcel,
+            "zip holding an .xlsx workbook ([Content_Types].xml)",
+        )
     } else if has(b"Metadata.csv") || has(b"TotalAcceleration.csv") || has(b"seconds_elapsed") {
-        found(Format::SensorLogger, "zip naming Sensor Logger's files (Metadata.csv, TotalAcceleration.csv)")
+        found(
+            Format::SensorLogger,
+            "zip naming Sensor Logger's files (Metadata.csv, TotalAcceleration.csv)",
+        )
     } else {
-        found(Format::PhyphoxZip, "zip archive (a phone app's export; its members decide)")
+        found(
+            Format::PhyphoxZip,
+            "zip archive (a phone app's export; its members decide)",
+        )
     }
 }
 
@@ -159,7 +163,10 @@ pub(super) fn read_archive(
         if is_sensor_logger {
             let detection = detected.map(|_| Detection {
                 format: Format::SensorLogger,
-                reason: format!("zip holding Sensor Logger's {}", sensor_logger::evidence(&members)),
+                reason: format!(
+                    "zip holding Sensor Logger's {}",
+                    sensor_logger::evidence(&members)
+                ),
             });
             return Ok((sensor_logger::read(&members, file, options)?, detection));
         }

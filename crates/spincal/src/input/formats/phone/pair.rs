@@ -81,7 +81,13 @@ pub(crate) fn merge(
             (keep, Some(values))
         }
     };
-    let pick = |v: &[f64]| -> Vec<f64> { v.iter().zip(&keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect() };
+    let pick = |v: &[f64]| -> Vec<f64> {
+        v.iter()
+            .zip(&keep)
+            .filter(|(_, k)| **k)
+            .map(|(x, _)| *x)
+            .collect()
+    };
     let recording = Recording {
         time_s: pick(&accel.time_s),
         accel_mps2: std::array::from_fn(|a| pick(&accel.xyz[a])),
@@ -92,7 +98,13 @@ pub(crate) fn merge(
             format: format.name().into(),
             columns,
             metadata: Vec::new(),
-            lines: accel.lines.iter().zip(&keep).filter(|(_, k)| **k).map(|(l, _)| *l).collect(),
+            lines: accel
+                .lines
+                .iter()
+                .zip(&keep)
+                .filter(|(_, k)| **k)
+                .map(|(l, _)| *l)
+                .collect(),
             incomplete_rows: Default::default(),
         },
     };
@@ -211,9 +223,21 @@ pub fn read_pair(
         keep.push(on_accel.is_some());
         moved.time_s.extend(on_accel);
     }
-    let pick = |v: &[f64]| -> Vec<f64> { v.iter().zip(&keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect() };
+    let pick = |v: &[f64]| -> Vec<f64> {
+        v.iter()
+            .zip(&keep)
+            .filter(|(_, k)| **k)
+            .map(|(x, _)| *x)
+            .collect()
+    };
     moved.xyz = std::array::from_fn(|a| pick(&gyro.xyz[a]));
-    moved.lines = gyro.lines.iter().zip(&keep).filter(|(_, k)| **k).map(|(l, _)| *l).collect();
+    moved.lines = gyro
+        .lines
+        .iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(l, _)| *l)
+        .collect();
     let _ = options;
     let notes = vec![format!(
         "two exports put on one clock by their meta/time.csv (system time, whole milliseconds): {} from {accel_file}, {} from {gyro_file}",

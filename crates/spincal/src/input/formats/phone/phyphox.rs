@@ -34,8 +34,16 @@ pub(crate) enum SetKind {
 // Android simple experiments (phyphox-android SimpleExperimentCreator.java, writeExportDefinitions)
 // and the built-in "Acceleration with g", "Gyroscope" and "Acceleration (without g)" experiments
 // (phyphox-experiments accelerometer.phyphox, gyroscope.phyphox, linear_accelerometer.phyphox).
-const ANDROID_ACCEL: [&str; 3] = ["Acceleration x (m/s^2)", "Acceleration y (m/s^2)", "Acceleration z (m/s^2)"];
-const ANDROID_GYRO: [&str; 3] = ["Gyroscope x (rad/s)", "Gyroscope y (rad/s)", "Gyroscope z (rad/s)"];
+const ANDROID_ACCEL: [&str; 3] = [
+    "Acceleration x (m/s^2)",
+    "Acceleration y (m/s^2)",
+    "Acceleration z (m/s^2)",
+];
+const ANDROID_GYRO: [&str; 3] = [
+    "Gyroscope x (rad/s)",
+    "Gyroscope y (rad/s)",
+    "Gyroscope z (rad/s)",
+];
 const ANDROID_LINEAR: &str = "Linear Acceleration x (m/s^2)";
 // iOS simple experiments (phyphox-ios SimpleExperimentTemplete.swift, getExports): sets
 // "Accelerometer", "Gyroscope" and "Linear Accelerometer" with columns "X (m/s^2)" … or "X (rad/s)".
@@ -86,7 +94,12 @@ fn stream(csv: &PhoneCsv, kind: SetKind) -> Result<Stream, FormatError> {
             available: csv.columns_text(),
         })
     };
-    let columns = [column(TIME)?, column(names[0])?, column(names[1])?, column(names[2])?];
+    let columns = [
+        column(TIME)?,
+        column(names[0])?,
+        column(names[1])?,
+        column(names[2])?,
+    ];
     csv.stream(columns, 1.0, 1.0)
 }
 
@@ -162,13 +175,13 @@ fn set_name(file: &str) -> String {
 
 /// The sets of an export that spincal uses, with the refusal of any that must not be used.
 pub(crate) struct Sets {
-    pub accel: Option<Stream>,
-    pub gyro: Option<Stream>,
+    pub(crate) accel: Option<Stream>,
+    pub(crate) gyro: Option<Stream>,
     /// Whether the export came from phyphox's iOS app (meta/device.csv, or iOS's column names).
-    pub ios: bool,
-    pub decimal_comma: bool,
+    pub(crate) ios: bool,
+    pub(crate) decimal_comma: bool,
     /// Every set's name and kind, for messages.
-    pub seen: Vec<(String, SetKind)>,
+    pub(crate) seen: Vec<(String, SetKind)>,
 }
 
 /// Reads the sets of a zip or workbook. A gravity-removed or centripetal set is refused only when
@@ -223,24 +236,37 @@ pub(crate) fn sets(members: &Members) -> Result<Sets, FormatError> {
 /// The zip's (or workbook's) phyphox evidence, for the detection's reason.
 #[cfg(feature = "phone")]
 pub(crate) fn evidence(members: &Members) -> String {
-    let sets: Vec<&str> = members
-        .names()
-        .filter(|n| !n.starts_with("meta/"))
-        .collect();
+    let sets: Vec<&str> = members.names().filter(|n| !n.starts_with("meta/")).collect();
     let meta: Vec<&str> = members.names().filter(|n| n.starts_with("meta/")).collect();
-    format!("{} with {}", sets.join(", "), if meta.is_empty() { "no meta/".into() } else { meta.join(", ") })
+    format!(
+        "{} with {}",
+        sets.join(", "),
+        if meta.is_empty() {
+            "no meta/".into()
+        } else {
+            meta.join(", ")
+        }
+    )
 }
 
 /// Reads a phyphox zip's (or workbook's) members: the accelerometer, and the gyroscope of the same
 /// experiment when there is one, merged on the accelerometer's time base.
-pub(crate) fn read_members(members: &Members, file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
+pub(crate) fn read_members(
+    members: &Members,
+    file: &str,
+    options: &ReadOptions,
+) -> Result<Loaded, FormatError> {
     let _ = options;
     let sets = sets(members)?;
     let Some(accel) = sets.accel else {
         let found = if sets.seen.is_empty() {
             members.listing()
         } else {
-            sets.seen.iter().map(|(n, k)| format!("{n} ({k:?})")).collect::<Vec<_>>().join(", ")
+            sets.seen
+                .iter()
+                .map(|(n, k)| format!("{n} ({k:?})"))
+                .collect::<Vec<_>>()
+                .join(", ")
         };
         return Err(PhoneError::NoAccelerometer {
             file: file.into(),
@@ -262,7 +288,7 @@ pub(crate) fn read_members(members: &Members, file: &str, options: &ReadOptions)
 /// What meta/device.csv says (the parts spincal uses).
 pub(crate) struct Device {
     /// `deviceBrand`: "Apple" on iOS (phyphox-ios Metadata.swift).
-    pub brand: String,
+    pub(crate) brand: String,
 }
 
 /// Reads meta/device.csv: `"property","value"` rows (phyphox DataExport.java / ExperimentExport.swift).
@@ -271,7 +297,9 @@ pub(crate) fn device(members: &Members) -> Option<Device> {
     let csv = PhoneCsv::new(bytes, "meta/device.csv");
     let text = String::from_utf8_lossy(&csv.text);
     let brand = text.lines().find_map(|line| {
-        let mut fields = line.split(csv.delimiter.as_char()).map(|f| f.trim().trim_matches('"'));
+        let mut fields = line
+            .split(csv.delimiter.as_char())
+            .map(|f| f.trim().trim_matches('"'));
         (fields.next() == Some("deviceBrand")).then(|| fields.next().unwrap_or("").to_string())
     })?;
     Some(Device { brand })
@@ -280,10 +308,10 @@ pub(crate) fn device(members: &Members) -> Option<Device> {
 /// One row of meta/time.csv: an event (`START`, `PAUSE`) at an experiment time and a system time.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct TimeMapping {
-    pub event: String,
-    pub experiment_s: f64,
+    pub(crate) event: String,
+    pub(crate) experiment_s: f64,
     /// Unix time, s (phyphox writes milliseconds / 1000).
-    pub system_s: f64,
+    pub(crate) system_s: f64,
 }
 
 /// meta/time.csv: `"event","experiment time","system time","system time text"`, one row per START
@@ -291,12 +319,12 @@ pub(crate) struct TimeMapping {
 /// ExperimentExport.swift), in the export's separator and decimal mark.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct TimeReference {
-    pub file: String,
-    pub mappings: Vec<TimeMapping>,
+    pub(crate) file: String,
+    pub(crate) mappings: Vec<TimeMapping>,
 }
 
 impl TimeReference {
-    pub fn read(members: &Members) -> Result<Option<TimeReference>, FormatError> {
+    pub(crate) fn read(members: &Members) -> Result<Option<TimeReference>, FormatError> {
         let Some(bytes) = members.get("meta/time.csv") else {
             return Ok(None);
         };
@@ -313,8 +341,11 @@ impl TimeReference {
                 continue;
             }
             let number = |k: usize| {
-                fields.get(k).and_then(|f| f.parse::<f64>().ok()).filter(|v| v.is_finite()).ok_or_else(|| {
-                    PhoneError::Metadata {
+                fields
+                    .get(k)
+                    .and_then(|f| f.parse::<f64>().ok())
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| PhoneError::Metadata {
                         file: file.clone(),
                         line: i + 1,
                         why: format!(
@@ -322,8 +353,7 @@ impl TimeReference {
                             k + 1,
                             fields.get(k).copied().unwrap_or("")
                         ),
-                    }
-                })
+                    })
             };
             mappings.push(TimeMapping {
                 event: fields[0].to_string(),
@@ -361,7 +391,7 @@ impl TimeReference {
     }
 
     /// Unix time of an experiment time.
-    pub fn to_system(&self, t: f64) -> f64 {
+    pub(crate) fn to_system(&self, t: f64) -> f64 {
         let segments = self.segments();
         let (e, s, _) = segments
             .iter()
@@ -374,7 +404,7 @@ impl TimeReference {
     }
 
     /// The experiment time of a Unix time, when the experiment was running then.
-    pub fn from_system(&self, s: f64) -> Option<f64> {
+    pub(crate) fn from_system(&self, s: f64) -> Option<f64> {
         self.segments()
             .into_iter()
             .find(|&(_, start, end)| start <= s && s <= end)

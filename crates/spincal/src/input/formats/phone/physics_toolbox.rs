@@ -50,11 +50,20 @@ pub(crate) fn read(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Lo
         .into());
     }
     let accel = csv.stream(
-        [time, column(G_FORCE[0])?, column(G_FORCE[1])?, column(G_FORCE[2])?],
+        [
+            time,
+            column(G_FORCE[0])?,
+            column(G_FORCE[1])?,
+            column(G_FORCE[2])?,
+        ],
         1.0,
         STANDARD_GRAVITY,
     )?;
-    let gyro = match (csv.column(&[GYRO[0]]), csv.column(&[GYRO[1]]), csv.column(&[GYRO[2]])) {
+    let gyro = match (
+        csv.column(&[GYRO[0]]),
+        csv.column(&[GYRO[1]]),
+        csv.column(&[GYRO[2]]),
+    ) {
         (Some(x), Some(y), Some(z)) => Some(csv.stream([time, x, y, z], 1.0, 1.0)?),
         _ => None,
     };

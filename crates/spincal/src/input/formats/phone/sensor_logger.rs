@@ -16,12 +16,12 @@ use crate::input::recording::STANDARD_GRAVITY;
 /// accelerometer readings)"; `AccelerometerUncalibrated.csv` is the raw stream (README "When to
 /// Use Uncalibrated Data"). On iOS the uncalibrated file is preferred: UNITS.md says iOS logs only
 /// `Accelerometer.csv` among the calibrated ones, so a `TotalAcceleration.csv` there is not documented.
-pub const ACCEL_FILES: [&str; 2] = ["TotalAcceleration.csv", "AccelerometerUncalibrated.csv"];
+pub(crate) const ACCEL_FILES: [&str; 2] = ["TotalAcceleration.csv", "AccelerometerUncalibrated.csv"];
 /// UNITS.md: `Accelerometer.csv` "measures acceleration _without_ gravity (user-induced motion only)".
-pub const GRAVITY_REMOVED: &str = "Accelerometer.csv";
+pub(crate) const GRAVITY_REMOVED: &str = "Accelerometer.csv";
 /// The rotation rate: `Gyroscope.csv` (calibrated, always logged) or the raw
 /// `GyroscopeUncalibrated.csv`, both in rad/s (UNITS.md).
-pub const GYRO_FILES: [&str; 2] = ["Gyroscope.csv", "GyroscopeUncalibrated.csv"];
+pub(crate) const GYRO_FILES: [&str; 2] = ["Gyroscope.csv", "GyroscopeUncalibrated.csv"];
 
 /// Every sensor file's header starts `time,seconds_elapsed`, then the axes by name: the app
 /// writes `z,y,x` (README's JSON example; the same order in the CSV), so columns are found by name.
@@ -32,16 +32,16 @@ const ELAPSED: &str = "seconds_elapsed";
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub(crate) struct Metadata {
     /// `platform`: `ios` or `android`, lowercase (README "Accessing Recording Metadata").
-    pub platform: Option<String>,
+    pub(crate) platform: Option<String>,
     /// `standardisation`: whether "Standardise Units & Frames" was on (same section); older
     /// recordings lack the column.
-    pub standardised: Option<bool>,
+    pub(crate) standardised: Option<bool>,
 }
 
 impl Metadata {
     /// Metadata.csv: a header row and one row of values, "read the file by header name rather than
     /// by column position" (README).
-    pub fn read(bytes: &[u8]) -> Metadata {
+    pub(crate) fn read(bytes: &[u8]) -> Metadata {
         let text = String::from_utf8_lossy(bytes);
         let mut lines = text.lines().filter(|l| !l.trim().is_empty());
         let header = split_quoted(lines.next().unwrap_or(""));
@@ -103,7 +103,9 @@ pub(crate) fn claims(members: &Members) -> bool {
 pub(crate) fn evidence(members: &Members) -> String {
     let names: Vec<&str> = members
         .names()
-        .filter(|n| *n == "Metadata.csv" || ACCEL_FILES.contains(n) || GYRO_FILES.contains(n) || *n == GRAVITY_REMOVED)
+        .filter(|n| {
+            *n == "Metadata.csv" || ACCEL_FILES.contains(n) || GYRO_FILES.contains(n) || *n == GRAVITY_REMOVED
+        })
         .collect();
     names.join(", ")
 }
@@ -113,7 +115,9 @@ pub(crate) fn is_sensor_file(header: &[String]) -> bool {
     header.len() >= 5
         && header[0].eq_ignore_ascii_case(TIME)
         && header[1].eq_ignore_ascii_case(ELAPSED)
-        && ["x", "y", "z"].iter().all(|a| header.iter().any(|h| h.eq_ignore_ascii_case(a)))
+        && ["x", "y", "z"]
+            .iter()
+            .all(|a| header.iter().any(|h| h.eq_ignore_ascii_case(a)))
 }
 
 /// One sensor file's stream: times relative to `epoch_ns` (the accelerometer's first `time`), the
@@ -147,7 +151,10 @@ fn stream(csv: &PhoneCsv, to_si: f64, epoch_ns: Option<i64>) -> Result<(Stream, 
         stamps.push(ns);
     }
     let t0 = epoch_ns.or(stamps.first().copied()).unwrap_or(0);
-    s.time_s = stamps.iter().map(|&ns| (i128::from(ns) - i128::from(t0)) as f64 * 1e-9).collect();
+    s.time_s = stamps
+        .iter()
+        .map(|&ns| (i128::from(ns) - i128::from(t0)) as f64 * 1e-9)
+        .collect();
     Ok((s, t0))
 }
 
@@ -155,7 +162,10 @@ fn stream(csv: &PhoneCsv, to_si: f64, epoch_ns: Option<i64>) -> Result<(Stream, 
 /// accelerometer's time base (one clock: both `time` columns are epoch nanoseconds).
 pub(crate) fn read(members: &Members, file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
     let _ = options;
-    let meta = members.get("Metadata.csv").map(Metadata::read).unwrap_or_default();
+    let meta = members
+        .get("Metadata.csv")
+        .map(Metadata::read)
+        .unwrap_or_default();
     let mut notes = Vec::new();
     let order: [&str; 2] = if meta.ios() {
         [ACCEL_FILES[1], ACCEL_FILES[0]]
@@ -169,7 +179,8 @@ pub(crate) fn read(members: &Members, file: &str, options: &ReadOptions) -> Resu
         return Err(PhoneError::NoAccelerometer {
             file: file.into(),
             found: members.listing(),
-            hint: "Sensor Logger's TotalAcceleration.csv (Android) or AccelerometerUncalibrated.csv is needed",
+            hint:
+                "Sensor Logger's TotalAcceleration.csv (Android) or AccelerometerUncalibrated.csv is needed",
         }
         .into());
     };
@@ -194,7 +205,9 @@ pub(crate) fn read(members: &Members, file: &str, options: &ReadOptions) -> Resu
     if meta.platform.is_none() {
         notes.push("no platform in Metadata.csv: Android's units and signs assumed".into());
     }
-    notes.push(format!("time: `time` (epoch ns) − its first value {t0} ns, exact in integers"));
+    notes.push(format!(
+        "time: `time` (epoch ns) − its first value {t0} ns, exact in integers"
+    ));
     merge(accel, gyro, file, Format::SensorLogger, notes)
 }
 
@@ -254,8 +267,9 @@ pub(crate) fn read_csv(bytes: &[u8], file: &str, options: &ReadOptions) -> Resul
         .copied()
         .unwrap_or(ACCEL_FILES[0]);
     let members = Members {
-        source: file.rsplit_once(['/', '\\']).map_or(".".into(), |(d, _)| d.to_string()),
+        source: file.into(),
         entries: vec![(name.to_string(), bytes.to_vec())],
+        alone: Some(file.into()),
     };
     read(&members, file, options)
 }

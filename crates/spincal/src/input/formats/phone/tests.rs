@@ -14,7 +14,10 @@ fn phone_csv_finds_separator_decimal_comma_and_unicode_minus() {
     assert_eq!(csv.delimiter, Delimiter::Semicolon);
     assert!(csv.decimal_comma);
     assert_eq!(csv.header, ["Time (s)", "X (m/s^2)"]);
-    assert_eq!(String::from_utf8_lossy(&csv.text), "\n\"Time (s)\";\"X (m/s^2)\"\n0.5;-1.25E0\n");
+    assert_eq!(
+        String::from_utf8_lossy(&csv.text),
+        "\n\"Time (s)\";\"X (m/s^2)\"\n0.5;-1.25E0\n"
+    );
     // Semicolon with a decimal point (phyphox's third variant) keeps its points.
     let csv = PhoneCsv::new(b"\"a\";\"b\"\n1.5;2\n", "f");
     assert!(!csv.decimal_comma);
@@ -27,22 +30,43 @@ fn phyphox_sets_are_told_apart_by_their_names() {
     let h = |names: &[&str]| names.iter().map(|s| s.to_string()).collect::<Vec<_>>();
     let ios_accel = h(&["Time (s)", "X (m/s^2)", "Y (m/s^2)", "Z (m/s^2)"]);
     assert_eq!(classify("Accelerometer", &ios_accel), SetKind::AccelerometerIos);
-    assert_eq!(classify("Linear Accelerometer", &ios_accel), SetKind::LinearAcceleration);
     assert_eq!(
-        classify("Raw Data", &h(&["Time (s)", "Gyroscope x (rad/s)", "Gyroscope y (rad/s)", "Gyroscope z (rad/s)"])),
+        classify("Linear Accelerometer", &ios_accel),
+        SetKind::LinearAcceleration
+    );
+    assert_eq!(
+        classify(
+            "Raw Data",
+            &h(&[
+                "Time (s)",
+                "Gyroscope x (rad/s)",
+                "Gyroscope y (rad/s)",
+                "Gyroscope z (rad/s)"
+            ])
+        ),
         SetKind::Gyroscope
     );
     assert_eq!(
-        classify("Data", &h(&["Time (s)", "Angular velocity (rad/s)", "Acceleration (m/s^2)"])),
+        classify(
+            "Data",
+            &h(&["Time (s)", "Angular velocity (rad/s)", "Acceleration (m/s^2)"])
+        ),
         SetKind::Centripetal
     );
-    assert_eq!(classify("Location", &h(&["Time (s)", "Latitude (°)"])), SetKind::Other);
+    assert_eq!(
+        classify("Location", &h(&["Time (s)", "Latitude (°)"])),
+        SetKind::Other
+    );
 }
 
 fn members(entries: &[(&str, &str)]) -> Members {
     Members {
         source: "x.zip".into(),
-        entries: entries.iter().map(|(n, b)| (n.to_string(), b.as_bytes().to_vec())).collect(),
+        entries: entries
+            .iter()
+            .map(|(n, b)| (n.to_string(), b.as_bytes().to_vec()))
+            .collect(),
+        alone: None,
     }
 }
 
@@ -61,7 +85,10 @@ fn meta_time_maps_experiment_time_across_a_pause() {
     assert_eq!(r.from_system(1050.0), None, "paused then");
     assert_eq!(r.from_system(1102.0), Some(12.0));
 
-    let bad = members(&[("meta/time.csv", "\"event\",\"experiment time\",\"system time\"\n\"START\",x,1\n")]);
+    let bad = members(&[(
+        "meta/time.csv",
+        "\"event\",\"experiment time\",\"system time\"\n\"START\",x,1\n",
+    )]);
     let e = TimeReference::read(&bad).unwrap_err().to_string();
     assert_eq!(e, "x.zip/meta/time.csv:2: column 2 ('x') is not a number");
 }
@@ -78,7 +105,11 @@ fn sensor_logger_metadata_by_header_name() {
 fn stream(file: &str, times: Vec<f64>, f: impl Fn(f64) -> f64) -> Stream {
     Stream {
         file: file.into(),
-        xyz: [times.iter().map(|&t| f(t)).collect(), vec![0.0; times.len()], vec![0.0; times.len()]],
+        xyz: [
+            times.iter().map(|&t| f(t)).collect(),
+            vec![0.0; times.len()],
+            vec![0.0; times.len()],
+        ],
         lines: (2..times.len() + 2).collect(),
         columns: vec!["t".into(), "x".into(), "y".into(), "z".into()],
         time_s: times,
@@ -93,7 +124,10 @@ fn pairing_interpolates_and_drops_what_the_gyroscope_does_not_cover() {
     let gyro = stream("g", times, |t| 2.0 * t);
     let l = merge(accel, Some(gyro), "pair", Format::PhyphoxZip, Vec::new()).unwrap();
     // 0.2, 0.3, 0.4, 0.7 kept; 0.5 and 0.6 fall in the 0.2 s hole (> 3 × 0.05 s).
-    assert_eq!(l.recording.time_s, [0.2, 0.30000000000000004, 0.4, 0.7000000000000001]);
+    assert_eq!(
+        l.recording.time_s,
+        [0.2, 0.30000000000000004, 0.4, 0.7000000000000001]
+    );
     let g = &l.recording.gyro_radps.as_ref().unwrap()[0];
     for (t, v) in l.recording.time_s.iter().zip(g) {
         assert!((v - 2.0 * t).abs() < 1e-12, "{v} at {t}");
@@ -102,9 +136,15 @@ fn pairing_interpolates_and_drops_what_the_gyroscope_does_not_cover() {
     assert!(l.notes[0].contains("6 accelerometer samples"), "{:?}", l.notes);
 
     let late = stream("g", vec![5.0, 5.1, 5.2], |t| t);
-    let e = merge(stream("a", vec![0.0, 0.1], |_| 0.0), Some(late), "p", Format::PhyphoxZip, Vec::new())
-        .unwrap_err()
-        .to_string();
+    let e = merge(
+        stream("a", vec![0.0, 0.1], |_| 0.0),
+        Some(late),
+        "p",
+        Format::PhyphoxZip,
+        Vec::new(),
+    )
+    .unwrap_err()
+    .to_string();
     assert_eq!(
         e,
         "a and g: the accelerometer (0.000 … 0.100 s) and the gyroscope (5.000 … 5.200 s) do not overlap in time"

@@ -13,26 +13,22 @@ use crate::input::table::{Delimiter, Table, TableOptions};
 #[derive(Debug, Clone)]
 pub(crate) struct Stream {
     /// `export/member` (or the file) the samples came from.
-    pub file: String,
-    pub time_s: Vec<f64>,
-    pub xyz: [Vec<f64>; 3],
+    pub(crate) file: String,
+    pub(crate) time_s: Vec<f64>,
+    pub(crate) xyz: [Vec<f64>; 3],
     /// 1-based line of each sample in `file`.
-    pub lines: Vec<usize>,
+    pub(crate) lines: Vec<usize>,
     /// The time, x, y, z columns' names in the file.
-    pub columns: Vec<String>,
+    pub(crate) columns: Vec<String>,
 }
 
 impl Stream {
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.time_s.len()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.time_s.is_empty()
-    }
-
     /// `first … last s` for messages.
-    pub fn span(&self) -> String {
+    pub(crate) fn span(&self) -> String {
         match (self.time_s.first(), self.time_s.last()) {
             (Some(a), Some(b)) => format!("{a:.3} … {b:.3} s"),
             _ => "no samples".into(),
@@ -43,11 +39,11 @@ impl Stream {
 /// A CSV of a phone export ready for the table parser: its separator, whether a decimal comma
 /// was turned into a point, its header names (quotes removed) and the normalised text.
 pub(crate) struct PhoneCsv<'a> {
-    pub file: String,
-    pub delimiter: Delimiter,
-    pub decimal_comma: bool,
-    pub header: Vec<String>,
-    pub text: Cow<'a, [u8]>,
+    pub(crate) file: String,
+    pub(crate) delimiter: Delimiter,
+    pub(crate) decimal_comma: bool,
+    pub(crate) header: Vec<String>,
+    pub(crate) text: Cow<'a, [u8]>,
 }
 
 impl<'a> PhoneCsv<'a> {
@@ -55,14 +51,10 @@ impl<'a> PhoneCsv<'a> {
     /// else semicolon, else comma (phyphox's five CSV variants and Physics Toolbox's locales use
     /// no other). With a tab or semicolon separator a comma can only be a decimal mark, so every
     /// comma becomes a point; U+2212 (the minus some locales print) becomes `-`.
-    pub fn new(bytes: &'a [u8], file: &str) -> PhoneCsv<'a> {
+    pub(crate) fn new(bytes: &'a [u8], file: &str) -> PhoneCsv<'a> {
         let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
         let text = String::from_utf8_lossy(bytes);
-        let header_line = text
-            .lines()
-            .map(str::trim)
-            .find(|l| !l.is_empty())
-            .unwrap_or("");
+        let header_line = text.lines().map(str::trim).find(|l| !l.is_empty()).unwrap_or("");
         let delimiter = if header_line.contains('\t') {
             Delimiter::Tab
         } else if header_line.contains(';') {
@@ -100,20 +92,20 @@ impl<'a> PhoneCsv<'a> {
     }
 
     /// The first column whose name (case-insensitive) is one of `names`.
-    pub fn column(&self, names: &[&str]) -> Option<usize> {
+    pub(crate) fn column(&self, names: &[&str]) -> Option<usize> {
         self.header
             .iter()
             .position(|h| names.iter().any(|n| h.eq_ignore_ascii_case(n)))
     }
 
     /// The header as one string for messages.
-    pub fn columns_text(&self) -> String {
+    pub(crate) fn columns_text(&self) -> String {
         self.header.join(", ")
     }
 
     /// Reads columns `t, x, y, z` (0-based) as a stream; `time_to_s` and `to_si` convert the
     /// file's units. Only these columns are read, so another column's empty cell is no error.
-    pub fn stream(&self, columns: [usize; 4], time_to_s: f64, to_si: f64) -> Result<Stream, FormatError> {
+    pub(crate) fn stream(&self, columns: [usize; 4], time_to_s: f64, to_si: f64) -> Result<Stream, FormatError> {
         let keys: Vec<String> = columns.iter().map(|&c| (c + 1).to_string()).collect();
         let keys: Vec<&str> = keys.iter().map(String::as_str).collect();
         let options = TableOptions {
@@ -150,14 +142,16 @@ impl<'a> PhoneCsv<'a> {
 #[derive(Debug, Default)]
 pub(crate) struct Members {
     /// The zip or folder, as named in messages.
-    pub source: String,
+    pub(crate) source: String,
     /// (name inside the export, contents).
-    pub entries: Vec<(String, Vec<u8>)>,
+    pub(crate) entries: Vec<(String, Vec<u8>)>,
+    /// How to name the one entry of a file read on its own (its own path, not `source/name`).
+    pub(crate) alone: Option<String>,
 }
 
 impl Members {
     /// The CSV files of a folder and of its `meta/` folder (what an unzipped export holds).
-    pub fn from_dir(path: &Path) -> Result<Members, FormatError> {
+    pub(crate) fn from_dir(path: &Path) -> Result<Members, FormatError> {
         let source = path.display().to_string();
         let io = |source_err: std::io::Error, at: &Path| FormatError::Io {
             file: at.display().to_string(),
@@ -177,15 +171,22 @@ impl Members {
             names.sort();
             for p in names {
                 let bytes = std::fs::read(&p).map_err(|e| io(e, &p))?;
-                let name = p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+                let name = p
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default();
                 entries.push((format!("{prefix}{name}"), bytes));
             }
         }
-        Ok(Members { source, entries })
+        Ok(Members {
+            source,
+            entries,
+            alone: None,
+        })
     }
 
     /// The entry named `name` (exactly, or case-insensitively when no exact match exists).
-    pub fn get(&self, name: &str) -> Option<&[u8]> {
+    pub(crate) fn get(&self, name: &str) -> Option<&[u8]> {
         self.entries
             .iter()
             .find(|(n, _)| n == name)
@@ -193,17 +194,20 @@ impl Members {
             .map(|(_, b)| b.as_slice())
     }
 
-    pub fn names(&self) -> impl Iterator<Item = &str> {
+    pub(crate) fn names(&self) -> impl Iterator<Item = &str> {
         self.entries.iter().map(|(n, _)| n.as_str())
     }
 
     /// `source/name`, how a member is named in messages and errors.
-    pub fn display(&self, name: &str) -> String {
-        format!("{}/{name}", self.source)
+    pub(crate) fn display(&self, name: &str) -> String {
+        match &self.alone {
+            Some(file) => file.clone(),
+            None => format!("{}/{name}", self.source),
+        }
     }
 
     /// The names, for messages.
-    pub fn listing(&self) -> String {
+    pub(crate) fn listing(&self) -> String {
         let names: Vec<&str> = self.names().collect();
         if names.is_empty() {
             "no files".into()
