@@ -3,6 +3,9 @@
 //! folder, Android and iOS conventions) and Physics Toolbox; each refusal with its message. The
 //! files are written by `writer` from a known motion; one session per format.
 
+// Axis loops index the read and the true values side by side.
+#![allow(clippy::needless_range_loop)]
+
 mod writer;
 
 use spincal::input::formats::phone::{read_pair, PhoneError};

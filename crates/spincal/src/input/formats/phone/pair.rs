@@ -197,7 +197,7 @@ pub fn read_pair(
     })?;
     // Both spans in Unix time.
     let unix_span = |s: &Stream, r: &TimeReference| match (s.time_s.first(), s.time_s.last()) {
-        (Some(&a), Some(&b)) => (r.to_system(a), r.to_system(b)),
+        (Some(&a), Some(&b)) => (r.unix_time_of(a), r.unix_time_of(b)),
         _ => (f64::NAN, f64::NAN),
     };
     let (a0, a1) = unix_span(&accel, &accel_ref);
@@ -219,7 +219,7 @@ pub fn read_pair(
     let mut keep = Vec::with_capacity(gyro.len());
     moved.time_s.clear();
     for &t in &gyro.time_s {
-        let on_accel = accel_ref.from_system(gyro_ref.to_system(t));
+        let on_accel = accel_ref.experiment_time_at(gyro_ref.unix_time_of(t));
         keep.push(on_accel.is_some());
         moved.time_s.extend(on_accel);
     }

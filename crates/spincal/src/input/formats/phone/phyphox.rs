@@ -391,7 +391,7 @@ impl TimeReference {
     }
 
     /// Unix time of an experiment time.
-    pub(crate) fn to_system(&self, t: f64) -> f64 {
+    pub(crate) fn unix_time_of(&self, t: f64) -> f64 {
         let segments = self.segments();
         let (e, s, _) = segments
             .iter()
@@ -404,7 +404,7 @@ impl TimeReference {
     }
 
     /// The experiment time of a Unix time, when the experiment was running then.
-    pub(crate) fn from_system(&self, s: f64) -> Option<f64> {
+    pub(crate) fn experiment_time_at(&self, s: f64) -> Option<f64> {
         self.segments()
             .into_iter()
             .find(|&(_, start, end)| start <= s && s <= end)

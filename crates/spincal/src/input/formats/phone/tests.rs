@@ -79,11 +79,11 @@ fn meta_time_maps_experiment_time_across_a_pause() {
     )]);
     let r = TimeReference::read(&m).unwrap().unwrap();
     assert_eq!(r.mappings.len(), 3);
-    assert_eq!(r.to_system(4.0), 1004.0);
-    assert_eq!(r.to_system(12.0), 1102.0);
-    assert_eq!(r.from_system(1004.0), Some(4.0));
-    assert_eq!(r.from_system(1050.0), None, "paused then");
-    assert_eq!(r.from_system(1102.0), Some(12.0));
+    assert_eq!(r.unix_time_of(4.0), 1004.0);
+    assert_eq!(r.unix_time_of(12.0), 1102.0);
+    assert_eq!(r.experiment_time_at(1004.0), Some(4.0));
+    assert_eq!(r.experiment_time_at(1050.0), None, "paused then");
+    assert_eq!(r.experiment_time_at(1102.0), Some(12.0));
 
     let bad = members(&[(
         "meta/time.csv",

@@ -105,7 +105,12 @@ impl<'a> PhoneCsv<'a> {
 
     /// Reads columns `t, x, y, z` (0-based) as a stream; `time_to_s` and `to_si` convert the
     /// file's units. Only these columns are read, so another column's empty cell is no error.
-    pub(crate) fn stream(&self, columns: [usize; 4], time_to_s: f64, to_si: f64) -> Result<Stream, FormatError> {
+    pub(crate) fn stream(
+        &self,
+        columns: [usize; 4],
+        time_to_s: f64,
+        to_si: f64,
+    ) -> Result<Stream, FormatError> {
         let keys: Vec<String> = columns.iter().map(|&c| (c + 1).to_string()).collect();
         let keys: Vec<&str> = keys.iter().map(String::as_str).collect();
         let options = TableOptions {
