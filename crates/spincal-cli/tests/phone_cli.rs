@@ -19,17 +19,20 @@ fn number(v: f64) -> String {
 fn phyphox_zip(csv: &str) -> Vec<u8> {
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    // simulate's layout: t_s, then ax, ay, az with a unit suffix, then the gyro when simulated.
+    let col = |prefix: &str| header.iter().position(|h| h.starts_with(prefix));
+    let g_unit = if header[1].ends_with("_g") { 9.80665 } else { 1.0 };
+    let t = 0;
+    let a = [1, 2, 3];
+    let g = match (col("gx"), col("gy"), col("gz")) {
+        (Some(x), Some(y), Some(z)) => Some([x, y, z]),
+        _ => None,
+    };
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
         .collect();
-    let (t, a, g) = (
-        col("t_s"),
-        [col("ax_mps2"), col("ay_mps2"), col("az_mps2")],
-        [col("gx_radps"), col("gy_radps"), col("gz_radps")],
-    );
     let dt = rows[1][t] - rows[0][t];
-    let set = |names: [&str; 3], cols: [usize; 3], shift: f64| {
+    let set = |names: [&str; 3], cols: [usize; 3], shift: f64, unit: f64| {
         let mut s = format!(
             "\"Time (s)\",\"{}\",\"{}\",\"{}\"\n",
             names[0], names[1], names[2]
@@ -38,22 +41,49 @@ fn phyphox_zip(csv: &str) -> Vec<u8> {
             s += &format!(
                 "{},{},{},{}\n",
                 number(r[t] + shift),
-                number(r[cols[0]]),
-                number(r[cols[1]]),
-                number(r[cols[2]])
+                number(r[cols[0]] * unit),
+                number(r[cols[1]] * unit),
+                number(r[cols[2]] * unit)
             );
         }
         s
     };
-    let files = [
-        ("Accelerometer.csv", set(["Acceleration x (m/s^2)", "Acceleration y (m/s^2)", "Acceleration z (m/s^2)"], a, 0.0)),
-        ("Gyroscope.csv", set(["Gyroscope x (rad/s)", "Gyroscope y (rad/s)", "Gyroscope z (rad/s)"], g, 0.25 * dt)),
-        ("meta/device.csv", "\"property\",\"value\"\n\"deviceModel\",\"Pixel 7\"\n\"deviceBrand\",\"google\"\n".into()),
-        (
-            "meta/time.csv",
-            "\"event\",\"experiment time\",\"system time\",\"system time text\"\n\"START\",0.000000000E0,1796126400.000,\"2026-11-28 12:00:00.000 UTC+00:00\"\n".into(),
+    let mut files = vec![(
+        "Accelerometer.csv",
+        set(
+            [
+                "Acceleration x (m/s^2)",
+                "Acceleration y (m/s^2)",
+                "Acceleration z (m/s^2)",
+            ],
+            a,
+            0.0,
+            g_unit,
         ),
-    ];
+    )];
+    if let Some(g) = g {
+        files.push((
+            "Gyroscope.csv",
+            set(
+                [
+                    "Gyroscope x (rad/s)",
+                    "Gyroscope y (rad/s)",
+                    "Gyroscope z (rad/s)",
+                ],
+                g,
+                0.25 * dt,
+                1.0,
+            ),
+        ));
+    }
+    files.push((
+        "meta/device.csv",
+        "\"property\",\"value\"\n\"deviceModel\",\"Pixel 7\"\n\"deviceBrand\",\"google\"\n".into(),
+    ));
+    files.push((
+        "meta/time.csv",
+        "\"event\",\"experiment time\",\"system time\",\"system time text\"\n\"START\",0.000000000E0,1796126400.000,\"2026-11-28 12:00:00.000 UTC+00:00\"\n".into(),
+    ));
     let mut out = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
     let options =
         zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
@@ -81,7 +111,8 @@ fn inspect_and_fit_take_a_phyphox_zip() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(
-        stdout.contains("format: phyphox-zip (detected: zip holding phyphox's Accelerometer.csv, Gyroscope.csv with meta/device.csv, meta/time.csv)"),
+        stdout.contains("format: phyphox-zip (detected: zip holding phyphox's Accelerometer.csv")
+            && stdout.contains("with meta/device.csv, meta/time.csv)"),
         "{stdout}"
     );
 
