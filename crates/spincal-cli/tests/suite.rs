@@ -24,6 +24,7 @@ mod hostile;
 mod hostile_models;
 mod io_commands;
 mod outputs;
+mod phone_cli;
 mod real_files;
 mod strobe;
 mod thermal_cli;

@@ -18,6 +18,8 @@ mod fleet;
 mod flight_stacks;
 mod gyro_poses;
 mod model_validation;
+#[cfg(feature = "phone")]
+mod phone;
 mod readers_prop;
 mod real_imu;
 mod shared_files;

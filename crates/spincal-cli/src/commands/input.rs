@@ -174,8 +174,9 @@ fn warn_left_out(path: &Path, recording: &Recording) {
 /// One recording to read, with the reading flags.
 #[derive(Args, Debug)]
 pub struct InputArgs {
-    /// Recording to read (CSV, whitespace text, imucal, MPU-6050 logger, phyphox, 3DM-GX1 binary,
-    /// MATLAB v5 MAT-file, ROS bag file or ROS 2 bag directory).
+    /// Recording to read (CSV, whitespace text, imucal, MPU-6050 logger, phyphox CSV, zip or
+    /// Excel, Sensor Logger zip or folder, Physics Toolbox CSV, 3DM-GX1 binary, MATLAB v5
+    /// MAT-file, ROS bag file or ROS 2 bag directory).
     pub rec: PathBuf,
     #[command(flatten)]
     pub read: ReadArgs,

@@ -46,6 +46,14 @@ pub enum FormatArg {
     /// ROS bag: ROS 2 (MCAP or sqlite3; a file or the bag directory) or ROS 1 (format 2.0).
     #[value(name = "rosbag", alias = "bag")]
     RosBag,
+    /// phyphox's zip export (one CSV per sensor with meta/).
+    PhyphoxZip,
+    /// phyphox's Excel export (.xlsx, .xls).
+    PhyphoxExcel,
+    /// Sensor Logger's zip, folder or CSV.
+    SensorLogger,
+    /// Physics Toolbox Sensor Suite's CSV.
+    PhysicsToolbox,
 }
 mirror!(FormatArg => Format {
     Csv => Format::Csv,
@@ -56,6 +64,10 @@ mirror!(FormatArg => Format {
     Gx1 => Format::Gx1,
     Mat => Format::Mat,
     RosBag => Format::RosBag,
+    PhyphoxZip => Format::PhyphoxZip,
+    PhyphoxExcel => Format::PhyphoxExcel,
+    SensorLogger => Format::SensorLogger,
+    PhysicsToolbox => Format::PhysicsToolbox,
 });
 
 /// Units of angular rate in a file.

@@ -4,7 +4,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::{bag_detect, gx1, mat, Format};
+use super::{bag_detect, gx1, mat, phone, Format};
 
 /// A detected format and the evidence for it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -55,6 +55,9 @@ pub fn detect(head: &[u8]) -> Detection {
     if let Some(storage) = bag_detect::Storage::sniff(head) {
         return found(Format::RosBag, &format!("{} magic at byte 0", storage.name()));
     }
+    if let Some(phone) = phone::sniff(head) {
+        return phone;
+    }
     // Text files have no NUL and no control bytes other than tab/CR/LF; the GX1 stream is full of them.
     let binary = head
         .iter()
@@ -79,6 +82,22 @@ pub fn detect(head: &[u8]) -> Detection {
         .collect();
     let first = lines.first().copied().unwrap_or("");
     let lower: Vec<String> = lines.iter().take(20).map(|l| l.to_ascii_lowercase()).collect();
+    let header: Vec<String> = first
+        .split([',', ';', '\t'])
+        .map(|f| f.trim().trim_matches('"').to_string())
+        .collect();
+    if phone::sensor_logger::is_sensor_file(&header) {
+        return found(
+            Format::SensorLogger,
+            "header `time,seconds_elapsed` and x, y, z (Sensor Logger)",
+        );
+    }
+    if phone::physics_toolbox::claims(&header) {
+        return found(
+            Format::PhysicsToolbox,
+            "header with gFx, gFy, gFz or ax, ay, az, aT (Physics Toolbox)",
+        );
+    }
     if lower
         .iter()
         .any(|l| l.contains("(m/s^2)") || l.contains("\"time (s)\""))

@@ -16,6 +16,7 @@ pub mod bag_detect;
 mod detect;
 pub mod gx1;
 pub mod mat;
+pub mod phone;
 mod shared;
 pub mod streamed;
 mod text;
@@ -28,7 +29,7 @@ use crate::input::recording::{ColumnMap, Recording, RecordingError};
 use crate::input::table::TableError;
 
 use shared::{check_options, finish, read_mat, table_options};
-use text::{read_imucal, read_mpu6050, read_phyphox, read_whitespace, whitespace_map, RAW_COUNTS_MPS2};
+use text::{read_imucal, read_mpu6050, read_whitespace, whitespace_map, RAW_COUNTS_MPS2};
 
 pub use detect::{delimited_text_format, detect, Detection, DETECT_BYTES};
 use gx1::{Gx1Error, Gx1Options, Gx1Report};
@@ -56,10 +57,19 @@ pub enum Format {
     /// ROS bag: ROS 2 (MCAP or sqlite3 storage, file or bag directory) or ROS 1 (format 2.0);
     /// `sensor_msgs/Imu` or `geometry_msgs/Vector3Stamped` accelerometer (+ gyro) topics.
     RosBag,
+    /// phyphox's zip export: one CSV per sensor (Android's or iOS's column names) with `meta/`;
+    /// accelerometer and gyroscope merged (see [`phone`]).
+    PhyphoxZip,
+    /// phyphox's Excel export (.xlsx from Android, .xls from iOS), one sheet per sensor.
+    PhyphoxExcel,
+    /// Sensor Logger's zip, its unzipped folder, or one of its CSVs (`time,seconds_elapsed,z,y,x`).
+    SensorLogger,
+    /// Physics Toolbox Sensor Suite's CSV (`time,gFx,gFy,gFz`, g).
+    PhysicsToolbox,
 }
 
 impl Format {
-    pub const ALL: [Format; 8] = [
+    pub const ALL: [Format; 12] = [
         Format::Csv,
         Format::Whitespace,
         Format::Imucal,
@@ -68,6 +78,10 @@ impl Format {
         Format::Gx1,
         Format::Mat,
         Format::RosBag,
+        Format::PhyphoxZip,
+        Format::PhyphoxExcel,
+        Format::SensorLogger,
+        Format::PhysicsToolbox,
     ];
 
     pub fn name(self) -> &'static str {
@@ -80,11 +94,15 @@ impl Format {
             Format::Gx1 => "3dm-gx1",
             Format::Mat => "mat",
             Format::RosBag => "rosbag",
+            Format::PhyphoxZip => "phyphox-zip",
+            Format::PhyphoxExcel => "phyphox-excel",
+            Format::SensorLogger => "sensor-logger",
+            Format::PhysicsToolbox => "physics-toolbox",
         }
     }
 
     /// Parses a format name (`csv`, `whitespace`/`imu-tk`, `imucal`, `mpu6050`, `phyphox`, `3dm-gx1`/`gx1`,
-    /// `rosbag`/`bag`).
+    /// `rosbag`/`bag`, `phyphox-zip`, `phyphox-excel`/`xlsx`, `sensor-logger`, `physics-toolbox`).
     pub fn parse(text: &str) -> Option<Format> {
         match text.to_ascii_lowercase().as_str() {
             "imu-tk" | "imu_tk" | "imutk" => Some(Format::Whitespace),
@@ -92,6 +110,7 @@ impl Format {
             "mpu-6050" => Some(Format::Mpu6050),
             "matlab" => Some(Format::Mat),
             "bag" | "ros" | "ros-bag" | "mcap" | "db3" => Some(Format::RosBag),
+            "xlsx" | "xls" => Some(Format::PhyphoxExcel),
             t => Format::ALL.into_iter().find(|f| f.name() == t),
         }
     }
@@ -193,6 +212,8 @@ pub enum FormatError {
         column: String,
         value: f64,
     },
+    #[error(transparent)]
+    Phone(#[from] phone::PhoneError),
     #[error("accel scale must be finite and non-zero, got {0}")]
     BadScale(f64),
     #[error("read option {name} = {value}: {why}")]
@@ -213,6 +234,16 @@ pub fn read_path(path: &Path, options: &ReadOptions) -> Result<Loaded, FormatErr
     {
         check_options(options)?;
         return read_bag_path(path, options);
+    }
+    // An unzipped Sensor Logger recording.
+    if phone::is_sensor_logger_dir(path) {
+        check_options(options)?;
+        let loaded = phone::read_sensor_logger_dir(path, options)?;
+        let detection = options.format.is_none().then(|| Detection {
+            format: Format::SensorLogger,
+            reason: "folder with Sensor Logger's Metadata.csv and accelerometer".into(),
+        });
+        return finish(loaded, detection, options);
     }
     let bytes = crate::input::table::read_file(path).map_err(|source| FormatError::Io {
         file: file.clone(),
@@ -241,7 +272,15 @@ pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loa
         Format::Whitespace => read_whitespace(bytes, file, options)?,
         Format::Imucal => read_imucal(bytes, file, options)?,
         Format::Mpu6050 => read_mpu6050(bytes, file, options)?,
-        Format::Phyphox => read_phyphox(bytes, file, options)?,
+        Format::Phyphox => phone::phyphox::read_csv(bytes, file, options)?,
+        Format::PhysicsToolbox => phone::physics_toolbox::read(bytes, file, options)?,
+        Format::SensorLogger if !bytes.starts_with(phone::ZIP_MAGIC) => {
+            phone::sensor_logger::read_csv(bytes, file, options)?
+        }
+        Format::PhyphoxZip | Format::PhyphoxExcel | Format::SensorLogger => {
+            let (loaded, detection) = phone::read_archive(bytes, file, options, options.format, detection)?;
+            return finish(loaded, detection, options);
+        }
         Format::Gx1 => {
             let (recording, report) = gx1::decode(bytes, file, &options.gx1)?;
             let mut l = Loaded::new(recording, format, false);

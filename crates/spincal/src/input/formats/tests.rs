@@ -72,16 +72,13 @@ fn detects_and_reads_every_text_format() {
     assert_eq!(l.recording.accel_mps2[0], [0.15, 1.0]);
     assert_eq!(l.recording.time_s, [0.0, 0.01]);
 
-    let l = read(
-        b"\"Time (s)\"\t\"Linear Acceleration x (m/s^2)\"\t\"Linear Acceleration y (m/s^2)\"\t\"Linear Acceleration z (m/s^2)\"\n0,5\t1,25\t0\t-2\n0,75\t1\t0\t-2,5\n",
-    );
-    assert_eq!(l.format, Format::Phyphox);
-    assert_eq!(l.recording.accel_mps2[2], [-2.0, -2.5]);
-    assert_eq!(l.recording.time_s, [0.5, 0.75]);
+    // Gravity removed: refused by name (phone::phyphox), no longer read with a note.
+    let linear = b"\"Time (s)\"\t\"Linear Acceleration x (m/s^2)\"\t\"Linear Acceleration y (m/s^2)\"\t\"Linear Acceleration z (m/s^2)\"\n0,5\t1,25\t0\t-2\n0,75\t1\t0\t-2,5\n";
+    assert_eq!(detect(linear).format, Format::Phyphox);
+    let e = read_bytes(linear, "f", &ReadOptions::default()).unwrap_err();
     assert!(
-        l.notes.iter().any(|n| n.contains("gravity removed")),
-        "{:?}",
-        l.notes
+        matches!(e, FormatError::Phone(phone::PhoneError::GravityRemoved { .. })),
+        "{e}"
     );
 
     let l = read(b"t_s,ax_g,ay_g,az_g\n0,0,0,1\n0.1,0,0,1\n");

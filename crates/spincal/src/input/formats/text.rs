@@ -1,5 +1,5 @@
-//! Readers of text formats with layouts of their own: bare whitespace columns, imucal, MPU-6050
-//! logs and phyphox exports.
+//! Readers of text formats with layouts of their own: bare whitespace columns, imucal and MPU-6050
+//! logs (phone apps' CSVs are in `phone/`).
 
 use super::shared::table_options;
 use super::{Format, FormatError, Loaded, ReadOptions};
@@ -204,50 +204,6 @@ pub(super) fn read_mpu6050(bytes: &[u8], file: &str, options: &ReadOptions) -> R
             "temperature from TEMP_OUT counts by the MPU-6050 register map's formula: °C = counts / 340 + 36.53"
                 .into(),
         );
-    }
-    Ok(l)
-}
-
-/// phyphox export: quoted unit-bearing headers; the semicolon and tab variants may use a decimal comma.
-pub(super) fn read_phyphox(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loaded, FormatError> {
-    let text = String::from_utf8_lossy(bytes);
-    let data_line = text.lines().nth(1).unwrap_or("");
-    // phyphox writes tab or semicolon only together with a decimal comma, so those win over ','.
-    let delimiter = options
-        .columns
-        .table
-        .delimiter
-        .unwrap_or(if data_line.contains('\t') {
-            Delimiter::Tab
-        } else if data_line.contains(';') {
-            Delimiter::Semicolon
-        } else {
-            Delimiter::Comma
-        });
-    let decimal_comma = delimiter != Delimiter::Comma && data_line.contains(',');
-    let converted;
-    let input: &[u8] = if decimal_comma {
-        // Why a blanket replace: in these variants a comma can only be a decimal separator.
-        converted = text.replace(',', ".");
-        converted.as_bytes()
-    } else {
-        bytes
-    };
-    let mut map = options.columns.clone();
-    map.table.delimiter = Some(delimiter);
-    let recording = Recording::parse_csv_timed(input, file, &map, options.sample_rate_hz)?;
-    let mut l = Loaded::new(recording, Format::Phyphox, false);
-    if decimal_comma {
-        l.notes.push("decimal comma converted".into());
-    }
-    if l.recording
-        .source
-        .columns
-        .iter()
-        .any(|c| c.to_ascii_lowercase().starts_with("linear acceleration"))
-    {
-        l.notes
-            .push("phyphox 'Linear Acceleration' has gravity removed: static calibration needs 'Acceleration with g'".into());
     }
     Ok(l)
 }
