@@ -46,6 +46,12 @@ pub enum FormatArg {
     /// ROS bag: ROS 2 (MCAP or sqlite3; a file or the bag directory) or ROS 1 (format 2.0).
     #[value(name = "rosbag", alias = "bag")]
     RosBag,
+    /// PX4 ULog flight log (.ulg): sensor_accel + sensor_gyro, else sensor_combined.
+    #[value(alias = "ulg")]
+    Ulog,
+    /// ArduPilot DataFlash flight log (.bin): IMU messages.
+    #[value(name = "dataflash", alias = "bin")]
+    DataFlash,
 }
 mirror!(FormatArg => Format {
     Csv => Format::Csv,
@@ -56,6 +62,8 @@ mirror!(FormatArg => Format {
     Gx1 => Format::Gx1,
     Mat => Format::Mat,
     RosBag => Format::RosBag,
+    Ulog => Format::Ulog,
+    DataFlash => Format::DataFlash,
 });
 
 /// Units of angular rate in a file.
