@@ -17,8 +17,17 @@ fn fixture(name: &str) -> PathBuf {
 }
 
 fn inspect(name: &str, extra: &[&str]) -> String {
-    let out = spincal().arg("inspect").arg(fixture(name)).args(extra).output().unwrap();
-    assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+    let out = spincal()
+        .arg("inspect")
+        .arg(fixture(name))
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{name}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     String::from_utf8(out.stdout).unwrap()
 }
 
@@ -46,7 +55,10 @@ fn inspect_shows_the_instance_temperature_and_device_id_of_a_flight_log() {
     );
     has(
         &inspect("px4_sensor_combined.ulg", &[]),
-        &["samples: 399", "note: no temperature: sensor_combined carries none"],
+        &[
+            "samples: 399",
+            "note: no temperature: sensor_combined carries none",
+        ],
     );
     has(
         &inspect("ardupilot_imu.bin", &["--topic", "IMU[1]"]),

@@ -25,7 +25,11 @@ struct Csv {
 
 impl Csv {
     fn read(name: &str) -> Csv {
-        let text = std::fs::read_to_string(fixture(name)).unwrap();
+        Csv::read_path(&fixture(name))
+    }
+
+    fn read_path(path: &Path) -> Csv {
+        let text = std::fs::read_to_string(path).unwrap();
         let mut lines = text.lines();
         let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
         let mut columns: HashMap<String, Vec<String>> =
@@ -48,13 +52,36 @@ impl Csv {
         self.columns[name].iter().map(|v| v.parse().unwrap()).collect()
     }
 
+    /// The rows in the order of an integer column (stable: the log's order among equals).
+    fn sorted_by(&self, key: &str) -> Csv {
+        let k = self.ints(key);
+        let mut order: Vec<usize> = (0..self.rows).collect();
+        order.sort_by_key(|&i| k[i]);
+        Csv {
+            columns: self
+                .columns
+                .iter()
+                .map(|(name, v)| (name.clone(), order.iter().map(|&i| v[i].clone()).collect()))
+                .collect(),
+            rows: self.rows,
+        }
+    }
+
     /// The rows where `keep` holds.
     fn filter(&self, keep: impl Fn(usize) -> bool) -> Csv {
         Csv {
             columns: self
                 .columns
                 .iter()
-                .map(|(k, v)| (k.clone(), (0..self.rows).filter(|&i| keep(i)).map(|i| v[i].clone()).collect()))
+                .map(|(k, v)| {
+                    (
+                        k.clone(),
+                        (0..self.rows)
+                            .filter(|&i| keep(i))
+                            .map(|i| v[i].clone())
+                            .collect(),
+                    )
+                })
                 .collect(),
             rows: (0..self.rows).filter(|&i| keep(i)).count(),
         }
@@ -86,7 +113,11 @@ fn seconds(us: &[i64]) -> Vec<f64> {
 }
 
 fn has_note(l: &Loaded, want: &str) {
-    assert!(l.notes.iter().any(|n| n.contains(want)), "no note with '{want}': {:#?}", l.notes);
+    assert!(
+        l.notes.iter().any(|n| n.contains(want)),
+        "no note with '{want}': {:#?}",
+        l.notes
+    );
 }
 
 #[test]
@@ -104,17 +135,28 @@ fn px4_sensor_accel_and_gyro_equal_pyulog_to_the_bit() {
         assert_bits(axis, &r.accel_mps2[k], &accel.f64s(axis));
         assert_bits(axis, &r.gyro_radps.as_ref().unwrap()[k], &gyro.f64s(axis));
     }
-    assert_bits("temperature", r.temperature_c.as_ref().unwrap(), &accel.f64s("temperature"));
+    assert_bits(
+        "temperature",
+        r.temperature_c.as_ref().unwrap(),
+        &accel.f64s("temperature"),
+    );
     let f = l.flight.as_ref().unwrap();
     assert_eq!(f.stack, FlightStack::Px4);
     assert_eq!((f.instance, f.instances.clone()), (0, vec![0, 1]));
     assert_eq!(f.source, "sensor_accel + sensor_gyro");
-    assert_eq!(Some(i64::from(f.device_id.unwrap())), accel.ints("device_id").first().copied());
+    assert_eq!(
+        Some(i64::from(f.device_id.unwrap())),
+        accel.ints("device_id").first().copied()
+    );
     assert_eq!(f.device_id_from, "sensor_accel.device_id");
     has_note(&l, "300 equal, 0 interpolated, 0 accelerometer samples");
     has_note(&l, "accelerometer device id 2490378");
     assert_eq!(r.source.format, "ulog");
-    assert!(r.source.metadata.iter().any(|m| m == "sys_name: PX4"), "{:?}", r.source.metadata);
+    assert!(
+        r.source.metadata.iter().any(|m| m == "sys_name: PX4"),
+        "{:?}",
+        r.source.metadata
+    );
 }
 
 #[test]
@@ -126,7 +168,11 @@ fn px4_second_instance_interpolates_the_gyro_the_logger_dropped() {
     let (ta, tg) = (accel.ints("timestamp_sample"), gyro.ints("timestamp_sample"));
     assert_eq!(r.len(), accel.rows, "the gyro spans every accelerometer sample");
     assert_bits("t", &r.time_s, &seconds(&ta));
-    assert_bits("temperature", r.temperature_c.as_ref().unwrap(), &accel.f64s("temperature"));
+    assert_bits(
+        "temperature",
+        r.temperature_c.as_ref().unwrap(),
+        &accel.f64s("temperature"),
+    );
     let mut interpolated = 0;
     for (k, axis) in ["x", "y", "z"].into_iter().enumerate() {
         assert_bits(axis, &r.accel_mps2[k], &accel.f64s(axis));
@@ -176,8 +222,16 @@ fn assert_combined(l: &Loaded, csv: &Csv, t: &[i64]) {
     let r = &l.recording;
     assert_bits("t", &r.time_s, &seconds(t));
     for k in 0..3 {
-        assert_bits("accel", &r.accel_mps2[k], &csv.f64s(&format!("accelerometer_m_s2[{k}]")));
-        assert_bits("gyro", &r.gyro_radps.as_ref().unwrap()[k], &csv.f64s(&format!("gyro_rad[{k}]")));
+        assert_bits(
+            "accel",
+            &r.accel_mps2[k],
+            &csv.f64s(&format!("accelerometer_m_s2[{k}]")),
+        );
+        assert_bits(
+            "gyro",
+            &r.gyro_radps.as_ref().unwrap()[k],
+            &csv.f64s(&format!("gyro_rad[{k}]")),
+        );
     }
     assert!(r.temperature_c.is_none());
     has_note(l, "no temperature: sensor_combined carries none");
@@ -193,7 +247,10 @@ fn px4_sensor_combined_equals_pyulog_and_names_the_missing_temperature() {
     has_note(&l, "1 messages without an accelerometer sample");
     let selection = Csv::read("px4_sensor_combined.sensor_selection_0.csv");
     let f = l.flight.as_ref().unwrap();
-    assert_eq!(f.device_id.map(i64::from), selection.ints("accel_device_id").first().copied());
+    assert_eq!(
+        f.device_id.map(i64::from),
+        selection.ints("accel_device_id").first().copied()
+    );
     assert_eq!(f.device_id_from, "sensor_selection.accel_device_id");
     // A log with both: sensor_combined when asked for.
     let l = read("px4_sensor_accel.ulg", Some("sensor_combined"));
@@ -211,7 +268,10 @@ fn ardupilot_imu_equals_pymavlink_to_the_bit_for_each_instance() {
         let i = params.columns["Name"].iter().position(|n| n == name).unwrap();
         params.f64s("Value")[i] as u32
     };
-    for (instance, topic, id) in [(0, None, param("INS_ACC_ID")), (1, Some("IMU[1]"), param("INS_ACC2_ID"))] {
+    for (instance, topic, id) in [
+        (0, None, param("INS_ACC_ID")),
+        (1, Some("IMU[1]"), param("INS_ACC2_ID")),
+    ] {
         let l = read("ardupilot_imu.bin", topic);
         assert_eq!(l.format, Format::DataFlash);
         let inst = all.ints("I");
@@ -221,14 +281,22 @@ fn ardupilot_imu_equals_pymavlink_to_the_bit_for_each_instance() {
         assert_bits("t", &r.time_s, &seconds(&csv.ints("TimeUS")));
         for (k, axis) in ["X", "Y", "Z"].into_iter().enumerate() {
             assert_bits("acc", &r.accel_mps2[k], &csv.f64s(&format!("Acc{axis}")));
-            assert_bits("gyr", &r.gyro_radps.as_ref().unwrap()[k], &csv.f64s(&format!("Gyr{axis}")));
+            assert_bits(
+                "gyr",
+                &r.gyro_radps.as_ref().unwrap()[k],
+                &csv.f64s(&format!("Gyr{axis}")),
+            );
         }
         assert_bits("T", r.temperature_c.as_ref().unwrap(), &csv.f64s("T"));
         let f = l.flight.as_ref().unwrap();
         assert_eq!(f.stack, FlightStack::ArduPilot);
         assert_eq!((f.instance, f.instances.clone()), (instance as u8, vec![0, 1]));
         assert_eq!(f.device_id, Some(id));
-        assert!(f.device_id_from.starts_with("PARM INS_ACC"), "{}", f.device_id_from);
+        assert!(
+            f.device_id_from.starts_with("PARM INS_ACC"),
+            "{}",
+            f.device_id_from
+        );
     }
     assert_eq!(
         read("ardupilot_imu.bin", None).recording.source.metadata,
@@ -256,7 +324,11 @@ fn flight_logs_are_detected_by_their_first_bytes() {
 #[test]
 fn damaged_logs_are_read_or_refused_by_name_never_a_panic() {
     let mut rng = ChaCha8Rng::seed_from_u64(48);
-    for name in ["px4_sensor_accel.ulg", "px4_sensor_combined.ulg", "ardupilot_imu.bin"] {
+    for name in [
+        "px4_sensor_accel.ulg",
+        "px4_sensor_combined.ulg",
+        "ardupilot_imu.bin",
+    ] {
         let good = std::fs::read(fixture(name)).unwrap();
         for trial in 0..150 {
             let mut bad = good.clone();
@@ -280,4 +352,105 @@ fn damaged_logs_are_read_or_refused_by_name_never_a_panic() {
             }
         }
     }
+}
+
+/// Real logs, when `SPINCAL_FLIGHT_LOGS` names a folder of `.ulg`/`.bin` files with the reference
+/// readers' CSVs beside them (`make_fixtures.py --reference DIR LOG...` writes them): each log's
+/// default reading (and sensor_combined where the log has it) equals pyulog's or pymavlink's to
+/// the bit. No real flight log is in ../shared/data, so without the variable this skips.
+#[test]
+fn real_logs_equal_the_reference_readers_when_given() {
+    let Some(dir) = std::env::var_os("SPINCAL_FLIGHT_LOGS").map(PathBuf::from) else {
+        eprintln!("skipped: SPINCAL_FLIGHT_LOGS is not set (no real flight log is in ../shared/data)");
+        return;
+    };
+    let mut checked = 0;
+    let mut names: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    names.sort();
+    for path in names {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if ext != "ulg" && ext != "bin" {
+            continue;
+        }
+        let stem = path.file_stem().unwrap().to_str().unwrap().to_string();
+        let csv = |suffix: &str| {
+            let p = dir.join(format!("{stem}.{suffix}.csv"));
+            p.is_file().then(|| Csv::read_path(&p))
+        };
+        let options = |topic: Option<&str>| ReadOptions {
+            topic: topic.map(String::from),
+            ..Default::default()
+        };
+        if ext == "bin" {
+            let l = read_path(&path, &options(None)).unwrap_or_else(|e| panic!("{e}"));
+            let all = csv("IMU").unwrap();
+            let instance = i64::from(l.flight.as_ref().unwrap().instance);
+            let inst = all.ints("I");
+            let c = all.filter(|i| inst[i] == instance).sorted_by("TimeUS");
+            assert_bits("t", &l.recording.time_s, &seconds(&c.ints("TimeUS")));
+            for (k, axis) in ["X", "Y", "Z"].into_iter().enumerate() {
+                assert_bits("acc", &l.recording.accel_mps2[k], &c.f64s(&format!("Acc{axis}")));
+                assert_bits(
+                    "gyr",
+                    &l.recording.gyro_radps.as_ref().unwrap()[k],
+                    &c.f64s(&format!("Gyr{axis}")),
+                );
+            }
+            eprintln!(
+                "{stem}: IMU[{instance}] {} samples equal pymavlink's",
+                l.recording.len()
+            );
+            checked += 1;
+            continue;
+        }
+        let l = read_path(&path, &options(None)).unwrap_or_else(|e| panic!("{e}"));
+        let f = l.flight.as_ref().unwrap();
+        if f.source.starts_with("sensor_accel") {
+            let c = csv(&format!("sensor_accel_{}", f.instance))
+                .unwrap()
+                .sorted_by("timestamp_sample");
+            assert_bits("t", &l.recording.time_s, &seconds(&c.ints("timestamp_sample")));
+            for (k, axis) in ["x", "y", "z"].into_iter().enumerate() {
+                assert_bits(axis, &l.recording.accel_mps2[k], &c.f64s(axis));
+            }
+            if let Some(t) = &l.recording.temperature_c {
+                assert_bits("temperature", t, &c.f64s("temperature"));
+            }
+            assert_eq!(f.device_id.map(i64::from), c.ints("device_id").first().copied());
+            eprintln!(
+                "{stem}: sensor_accel {} ({} samples) equals pyulog's; notes: {:?}",
+                f.instance,
+                l.recording.len(),
+                l.notes
+            );
+            checked += 1;
+        }
+        if let Some(all) = csv("sensor_combined_0") {
+            let l = read_path(&path, &options(Some("sensor_combined"))).unwrap_or_else(|e| panic!("{e}"));
+            let relative = all.ints("accelerometer_timestamp_relative");
+            let mut c = all.filter(|i| relative[i] != 0x7fff_ffff);
+            let t: Vec<String> = c
+                .ints("timestamp")
+                .iter()
+                .zip(c.ints("accelerometer_timestamp_relative"))
+                .map(|(t, r)| (t + r).to_string())
+                .collect();
+            c.columns.insert("t".into(), t);
+            let c = c.sorted_by("t");
+            assert_combined(&l, &c, &c.ints("t"));
+            eprintln!(
+                "{stem}: sensor_combined ({} samples) equals pyulog's",
+                l.recording.len()
+            );
+            checked += 1;
+        }
+    }
+    assert!(
+        checked > 0,
+        "SPINCAL_FLIGHT_LOGS={}: no log with reference CSVs",
+        dir.display()
+    );
 }

@@ -24,8 +24,7 @@
 use std::collections::BTreeMap;
 
 use super::{
-    finite_temperature, parse_topic, recording, FlightError, FlightLog, FlightRead, FlightStack,
-    Series,
+    finite_temperature, parse_topic, recording, FlightError, FlightLog, FlightRead, FlightStack, Series,
 };
 use crate::input::formats::ReadOptions;
 
@@ -289,8 +288,16 @@ pub(super) fn read(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Fl
                 let (c, o) = l.time;
                 let raw = match c {
                     b'Q' | b'q' => u64::from_le_bytes(payload[o..o + 8].try_into().unwrap_or([0; 8])),
-                    b'I' | b'i' => u64::from(u32::from_le_bytes(payload[o..o + 4].try_into().unwrap_or([0; 4]))),
-                    _ => return Err(format!("{}: its time field is format '{}', not an integer", fmt.name, char::from(c))),
+                    b'I' | b'i' => {
+                        u64::from(u32::from_le_bytes(payload[o..o + 4].try_into().unwrap_or([0; 4])))
+                    }
+                    _ => {
+                        return Err(format!(
+                            "{}: its time field is format '{}', not an integer",
+                            fmt.name,
+                            char::from(c)
+                        ))
+                    }
                 };
                 let us = if l.millis { raw.saturating_mul(1000) } else { raw };
                 let imu = imus.entry(instance).or_default();
@@ -423,7 +430,11 @@ fn assemble(
         .map(|c| format!("{}.{c}", imu.name))
         .collect();
     let temperature = if imu.has_temperature && imu.series.temperature.len() == n {
-        let t = finite_temperature(std::mem::take(&mut imu.series.temperature), &format!("{}.T", imu.name), &mut notes);
+        let t = finite_temperature(
+            std::mem::take(&mut imu.series.temperature),
+            &format!("{}.T", imu.name),
+            &mut notes,
+        );
         if t.is_some() {
             columns.push(format!("{}.T", imu.name));
         }
@@ -432,7 +443,11 @@ fn assemble(
         notes.push(format!("{} has no T field: no temperature", imu.name));
         None
     };
-    let others: Vec<String> = instances.iter().filter(|&&i| i != instance).map(|i| i.to_string()).collect();
+    let others: Vec<String> = instances
+        .iter()
+        .filter(|&&i| i != instance)
+        .map(|i| i.to_string())
+        .collect();
     notes.push(format!(
         "ArduPilot DataFlash: IMU instance {instance} read{}; its values are ArduPilot's corrected readings (its accelerometer calibration, and INS_TCALn's when enabled, applied)",
         if others.is_empty() {
@@ -463,7 +478,15 @@ fn assemble(
     };
     let us = imu.series.us.clone();
     Ok(FlightRead {
-        recording: recording(file, &us, imu.series.v, Some(imu.gyro), temperature, columns, metadata),
+        recording: recording(
+            file,
+            &us,
+            imu.series.v,
+            Some(imu.gyro),
+            temperature,
+            columns,
+            metadata,
+        ),
         log: FlightLog {
             stack: FlightStack::ArduPilot,
             source: "IMU".into(),

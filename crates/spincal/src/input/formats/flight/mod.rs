@@ -312,11 +312,7 @@ pub(super) fn parse_topic(topic: &str) -> (Option<&str>, Option<u8>) {
 
 /// Temperature kept only when every sample has a finite one; otherwise left out with a note.
 #[cfg_attr(not(any(feature = "ulog", feature = "dataflash")), allow(dead_code))]
-pub(super) fn finite_temperature(
-    values: Vec<f64>,
-    what: &str,
-    notes: &mut Vec<String>,
-) -> Option<Vec<f64>> {
+pub(super) fn finite_temperature(values: Vec<f64>, what: &str, notes: &mut Vec<String>) -> Option<Vec<f64>> {
     let bad = values.iter().filter(|v| !v.is_finite()).count();
     if values.is_empty() {
         None

@@ -103,8 +103,20 @@ mod dataflash_logs {
 
     fn old_log(n: u32) -> Vec<u8> {
         let mut out = header();
-        fmt(&mut out, 129, "IMU", "Iffffff", "TimeMS,GyrX,GyrY,GyrZ,AccX,AccY,AccZ");
-        fmt(&mut out, 130, "IMU2", "Iffffff", "TimeMS,GyrX,GyrY,GyrZ,AccX,AccY,AccZ");
+        fmt(
+            &mut out,
+            129,
+            "IMU",
+            "Iffffff",
+            "TimeMS,GyrX,GyrY,GyrZ,AccX,AccY,AccZ",
+        );
+        fmt(
+            &mut out,
+            130,
+            "IMU2",
+            "Iffffff",
+            "TimeMS,GyrX,GyrY,GyrZ,AccX,AccY,AccZ",
+        );
         for i in 0..n {
             let x = i as f32;
             old_imu(&mut out, 129, 1000 + 10 * i, [x, 0.0, 0.0], [0.0, 0.0, -9.8]);
@@ -133,7 +145,10 @@ mod dataflash_logs {
         let f = l.flight.as_ref().unwrap();
         assert_eq!((f.instance, f.instances.clone()), (0, vec![0, 1]));
         assert_eq!(l.recording.time_s, vec![0.0, 0.01, 0.02, 0.03, 0.04]);
-        assert_eq!(l.recording.gyro_radps.as_ref().unwrap()[0], vec![0.0, 1.0, 2.0, 3.0, 4.0]);
+        assert_eq!(
+            l.recording.gyro_radps.as_ref().unwrap()[0],
+            vec![0.0, 1.0, 2.0, 3.0, 4.0]
+        );
         assert!(l.recording.temperature_c.is_none());
         assert!(l.notes.iter().any(|n| n.contains("no T field")), "{:?}", l.notes);
         for topic in ["IMU2", "IMU[1]", "1"] {
@@ -142,7 +157,10 @@ mod dataflash_logs {
             assert_eq!(l.recording.accel_mps2[0][0], f64::from(0.1f32), "{topic}");
         }
         let e = read(&log, Some("IMU[4]"), false).unwrap_err().to_string();
-        assert!(e.contains("no IMU instance 'IMU[4]'") && e.contains("IMU[1] (5 messages)"), "{e}");
+        assert!(
+            e.contains("no IMU instance 'IMU[4]'") && e.contains("IMU[1] (5 messages)"),
+            "{e}"
+        );
         // The device id is where ArduPilot keeps it, and said so.
         assert!(f.device_id.is_none());
         assert!(f.device_id_from.contains("INS_ACC_ID"), "{}", f.device_id_from);
@@ -161,28 +179,49 @@ mod dataflash_logs {
         );
         let l = read(&bad, None, true).unwrap();
         assert_eq!(l.recording.len(), 3);
-        assert!(l.notes.iter().any(|n| n.contains(&format!("stopped at byte {at}"))));
+        assert!(l
+            .notes
+            .iter()
+            .any(|n| n.contains(&format!("stopped at byte {at}"))));
         // A type without a FMT before it.
         let mut bad = log.clone();
         bad[at + 2] = 150;
         let e = read(&bad, None, false).unwrap_err().to_string();
-        assert!(e.contains(&format!("byte {at}: message type 150 has no FMT")), "{e}");
+        assert!(
+            e.contains(&format!("byte {at}: message type 150 has no FMT")),
+            "{e}"
+        );
         // A FMT whose length disagrees with its format.
         let mut bad = log.clone();
         bad[89 + 4] = 30;
         let e = read(&bad, None, false).unwrap_err().to_string();
-        assert!(e.contains("byte 89: FMT of IMU (type 129): format 'Iffffff' makes 31 bytes"), "{e}");
+        assert!(
+            e.contains("byte 89: FMT of IMU (type 129): format 'Iffffff' makes 31 bytes"),
+            "{e}"
+        );
         // A last message cut short is left out with a note.
         let l = read(&log[..log.len() - 5], None, false).unwrap();
         assert_eq!(l.recording.len(), 6);
         assert!(l.notes.iter().any(|n| n.contains("cut short")), "{:?}", l.notes);
-        assert_eq!(read(&log[..log.len() - 5], Some("1"), false).unwrap().recording.len(), 5);
+        assert_eq!(
+            read(&log[..log.len() - 5], Some("1"), false)
+                .unwrap()
+                .recording
+                .len(),
+            5
+        );
     }
 
     #[test]
     fn a_log_without_imu_messages_says_so() {
         let mut log = header();
-        fmt(&mut log, 129, "IMU", "Iffffff", "TimeMS,GyrX,GyrY,GyrZ,AccX,AccY,AccZ");
+        fmt(
+            &mut log,
+            129,
+            "IMU",
+            "Iffffff",
+            "TimeMS,GyrX,GyrY,GyrZ,AccX,AccY,AccZ",
+        );
         let e = read(&log, None, false).unwrap_err().to_string();
         assert!(e.starts_with("t.bin: no IMU messages"), "{e}");
         let mut one = log.clone();
@@ -200,8 +239,14 @@ mod dataflash_logs {
     #[test]
     fn half_floats_and_scaled_kinds_read_as_pymavlink_reads_them() {
         assert_eq!(super::dataflash_number(b'g', &0x3c00u16.to_le_bytes()), Some(1.0));
-        assert_eq!(super::dataflash_number(b'g', &0xc100u16.to_le_bytes()), Some(-2.5));
-        assert_eq!(super::dataflash_number(b'g', &0x0001u16.to_le_bytes()), Some(2f64.powi(-24)));
+        assert_eq!(
+            super::dataflash_number(b'g', &0xc100u16.to_le_bytes()),
+            Some(-2.5)
+        );
+        assert_eq!(
+            super::dataflash_number(b'g', &0x0001u16.to_le_bytes()),
+            Some(2f64.powi(-24))
+        );
         assert_eq!(
             super::dataflash_number(b'c', &(-1234i16).to_le_bytes()),
             Some(-1234.0 * 0.01)
@@ -265,7 +310,10 @@ mod ulog_logs {
         assert_eq!(l.recording.accel_mps2[2], vec![-9.75; 4]);
         assert!(l.recording.gyro_radps.is_none() && l.recording.temperature_c.is_none());
         let f = l.flight.unwrap();
-        assert_eq!((f.device_id, f.device_id_from.as_str()), (Some(77), "sensor_accel.device_id"));
+        assert_eq!(
+            (f.device_id, f.device_id_from.as_str()),
+            (Some(77), "sensor_accel.device_id")
+        );
         for want in ["time from timestamp", "no sensor_gyro", "no temperature field"] {
             assert!(l.notes.iter().any(|n| n.contains(want)), "{want}: {:?}", l.notes);
         }
@@ -281,17 +329,30 @@ mod ulog_logs {
         let mut bad = good[..a_at].to_vec();
         record(&mut bad, b'A', &[0, 0]);
         let e = read(&bad).unwrap_err().to_string();
-        assert!(e.starts_with(&format!("t.ulg: byte {a_at}: add_logged message ('A') of 2 bytes")), "{e}");
+        assert!(
+            e.starts_with(&format!(
+                "t.ulg: byte {a_at}: add_logged message ('A') of 2 bytes"
+            )),
+            "{e}"
+        );
         let mut bad = good[..a_at].to_vec();
         record(&mut bad, b'P', &[200, b'a']);
         let e = read(&bad).unwrap_err().to_string();
-        assert!(e.contains(&format!("byte {a_at}: parameter message ('P'): its key of 200 bytes runs past its 2 bytes")), "{e}");
+        assert!(
+            e.contains(&format!(
+                "byte {a_at}: parameter message ('P'): its key of 200 bytes runs past its 2 bytes"
+            )),
+            "{e}"
+        );
         // A data message of the wrong size is px4-ulog's error, at its record, in one line.
         let mut bad = good.clone();
         let d_at = bad.len();
         record(&mut bad, b'D', &[0, 0, 1]);
         let e = read(&bad).unwrap_err().to_string();
-        assert_eq!(e, format!("t.ulg: byte {d_at}: 'D' message: parse error: data message had wrong size 3"));
+        assert_eq!(
+            e,
+            format!("t.ulg: byte {d_at}: 'D' message: parse error: data message had wrong size 3")
+        );
         // Cut short: the samples before the cut, with a note.
         let l = read(&good[..good.len() - 4]).unwrap();
         assert_eq!(l.recording.len(), 2);
@@ -310,6 +371,9 @@ mod ulog_logs {
         )
         .unwrap_err()
         .to_string();
-        assert_eq!(e, "t.ulg: no IMU instance 'sensor_accel_2' (the log has: sensor_accel 0)");
+        assert_eq!(
+            e,
+            "t.ulg: no IMU instance 'sensor_accel_2' (the log has: sensor_accel 0)"
+        );
     }
 }

@@ -21,8 +21,8 @@ use px4_ulog::stream_parser::model::{DataMessage, FieldLookupError, InfoMessage}
 use px4_ulog::stream_parser::{LogParser, ParseableFieldType};
 
 use super::{
-    finite_temperature, gyro_on_accel_stamps, parse_topic, recording, FlightError, FlightLog,
-    FlightRead, FlightStack, Series, ULOG_MAGIC,
+    finite_temperature, gyro_on_accel_stamps, parse_topic, recording, FlightError, FlightLog, FlightRead,
+    FlightStack, Series, ULOG_MAGIC,
 };
 use crate::input::formats::ReadOptions;
 
@@ -207,7 +207,10 @@ impl Collector {
 
 /// px4-ulog's error without the format dump some of its messages append.
 fn one_line(text: &str) -> String {
-    let end = [text.find(", format:"), text.find('\n')].into_iter().flatten().min();
+    let end = [text.find(", format:"), text.find('\n')]
+        .into_iter()
+        .flatten()
+        .min();
     let short = &text[..end.unwrap_or(text.len())];
     short.chars().take(300).collect()
 }
@@ -327,7 +330,11 @@ pub(super) fn read(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Fl
                     || {
                         offset.set(pos as u64);
                         parser.consume_bytes(&bytes[pos..next]).err().map(|e| {
-                            format!("'{}' message: {}", char::from(kind).escape_default(), one_line(&e.to_string()))
+                            format!(
+                                "'{}' message: {}",
+                                char::from(kind).escape_default(),
+                                one_line(&e.to_string())
+                            )
                         })
                     },
                     Some,
@@ -428,10 +435,17 @@ fn assemble(
             *t == Topic::Gyro && device_id.is_some() && s.device_ids.first().copied() == device_id
         })
         .map(|(k, _)| *k)
-        .or_else(|| c.sensors.contains_key(&(Topic::Gyro, instance)).then_some((Topic::Gyro, instance)));
+        .or_else(|| {
+            c.sensors
+                .contains_key(&(Topic::Gyro, instance))
+                .then_some((Topic::Gyro, instance))
+        });
     let mut gyro = gyro_key.and_then(|k| c.sensors.remove(&k));
     if accel.series.sort() {
-        notes.push(format!("sensor_accel instance {instance}: messages sorted by {}", accel.stamp));
+        notes.push(format!(
+            "sensor_accel instance {instance}: messages sorted by {}",
+            accel.stamp
+        ));
     }
     accel.series.check_finite(file, "sensor_accel")?;
     let mut source = "sensor_accel".to_string();
@@ -444,7 +458,10 @@ fn assemble(
     let (kept, gyro_values) = match (&mut gyro, gyro_key) {
         (Some(g), Some((_, gi))) => {
             if g.series.sort() {
-                notes.push(format!("sensor_gyro instance {gi}: messages sorted by {}", g.stamp));
+                notes.push(format!(
+                    "sensor_gyro instance {gi}: messages sorted by {}",
+                    g.stamp
+                ));
             }
             g.series.check_finite(file, "sensor_gyro")?;
             let (kept, values, [equal, interpolated, dropped]) =
@@ -480,7 +497,11 @@ fn assemble(
         });
     }
     let temperature = if accel.has_temperature && accel.series.temperature.len() == accel.series.len() {
-        let t = finite_temperature(pick(&accel.series.temperature), "sensor_accel.temperature", &mut notes);
+        let t = finite_temperature(
+            pick(&accel.series.temperature),
+            "sensor_accel.temperature",
+            &mut notes,
+        );
         if t.is_some() {
             columns.push("sensor_accel.temperature".into());
         }
@@ -489,7 +510,11 @@ fn assemble(
         notes.push("sensor_accel has no temperature field: no temperature".into());
         None
     };
-    let accel_values = [pick(&accel.series.v[0]), pick(&accel.series.v[1]), pick(&accel.series.v[2])];
+    let accel_values = [
+        pick(&accel.series.v[0]),
+        pick(&accel.series.v[1]),
+        pick(&accel.series.v[2]),
+    ];
     let others: Vec<String> = accel_instances
         .iter()
         .filter(|&&i| i != instance)
@@ -500,10 +525,20 @@ fn assemble(
         if others.is_empty() {
             String::new()
         } else {
-            format!(" (also in the log: {}; choose with topic `sensor_accel_N`)", others.join(", "))
+            format!(
+                " (also in the log: {}; choose with topic `sensor_accel_N`)",
+                others.join(", ")
+            )
         },
         accel.stamp
     ));
+    let combined_n = c.combined.accel.len();
+    if combined_n > 2 * us.len() {
+        notes.push(format!(
+            "sensor_combined has {combined_n} samples against sensor_accel's {} (PX4 logs the sensor topics slowly unless told to): topic `sensor_combined` reads them, PX4's corrected values without a temperature",
+            us.len()
+        ));
+    }
     let device_id_from = match device_id {
         Some(id) => {
             notes.push(format!(
@@ -515,7 +550,15 @@ fn assemble(
     };
     let metadata = std::mem::take(&mut c.metadata);
     Ok(FlightRead {
-        recording: recording(file, &us, accel_values, gyro_values, temperature, columns, metadata),
+        recording: recording(
+            file,
+            &us,
+            accel_values,
+            gyro_values,
+            temperature,
+            columns,
+            metadata,
+        ),
         log: FlightLog {
             stack: FlightStack::Px4,
             source,
@@ -542,7 +585,11 @@ fn read_combined(c: Collector, file: &str, mut notes: Vec<String>) -> Result<Fli
             file: file.into(),
             what: format!(
                 "no sensor_accel, sensor_gyro or sensor_combined messages (topics logged: {})",
-                if topics.is_empty() { "none".into() } else { topics.join(", ") }
+                if topics.is_empty() {
+                    "none".into()
+                } else {
+                    topics.join(", ")
+                }
             ),
         });
     }
@@ -560,7 +607,8 @@ fn read_combined(c: Collector, file: &str, mut notes: Vec<String>) -> Result<Fli
         notes.push("sensor_combined: messages sorted by accelerometer time".into());
         comb.relative_us = order.iter().map(|&k| comb.relative_us[k]).collect();
     }
-    comb.accel.check_finite(file, "sensor_combined.accelerometer_m_s2")?;
+    comb.accel
+        .check_finite(file, "sensor_combined.accelerometer_m_s2")?;
     let gyro = Series {
         us: comb.accel.us.clone(),
         v: comb.gyro,
@@ -581,6 +629,9 @@ fn read_combined(c: Collector, file: &str, mut notes: Vec<String>) -> Result<Fli
         "PX4 ULog: sensor_combined read (no sensor_accel in the log); time = timestamp + accelerometer_timestamp_relative (µs); the gyro in each message was sampled {} µs from its accelerometer (median)",
         -i64::from(relative[relative.len() / 2])
     ));
+    notes.push(
+        "sensor_combined holds PX4's corrected values (its calibration, rotation and thermal compensation applied), not the sensor's own".into(),
+    );
     notes.push(
         "no temperature: sensor_combined carries none (the thermal path needs sensor_accel, whose temperature field PX4 logs with the sensor topics)".into(),
     );
@@ -614,7 +665,15 @@ fn read_combined(c: Collector, file: &str, mut notes: Vec<String>) -> Result<Fli
     .map(String::from)
     .to_vec();
     Ok(FlightRead {
-        recording: recording(file, &comb.accel.us, comb.accel.v, Some(gyro.v), None, columns, metadata),
+        recording: recording(
+            file,
+            &comb.accel.us,
+            comb.accel.v,
+            Some(gyro.v),
+            None,
+            columns,
+            metadata,
+        ),
         log: FlightLog {
             stack: FlightStack::Px4,
             source: "sensor_combined".into(),
