@@ -19,7 +19,8 @@
 //! INS_ACC3_ID (INS4_ACC_ID, INS5_ACC_ID), logged as PARM messages (Name, Value).
 //!
 //! Damage is refused with its byte offset (with `salvage`, the messages before it are read); a
-//! last message cut short (power lost while logging) is left out with a note.
+//! last message cut short (power lost while logging) and zero or 0xFF padding after the last
+//! message are left out with a note.
 
 use std::collections::BTreeMap;
 
@@ -338,6 +339,14 @@ pub(super) fn read(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Fl
             Ok(None) => {
                 notes.push(format!(
                     "the log is cut short: its last message (byte {pos}) ends past the end of the file; the messages before it are read"
+                ));
+                break;
+            }
+            // Padding after the last message (a download's last block filled out) is no damage.
+            Err(_) if bytes[pos..].iter().all(|&b| b == 0x00 || b == 0xFF) => {
+                notes.push(format!(
+                    "{} bytes of padding after the last message (byte {pos} on) ignored",
+                    bytes.len() - pos
                 ));
                 break;
             }

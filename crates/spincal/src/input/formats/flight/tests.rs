@@ -210,6 +210,16 @@ mod dataflash_logs {
                 .len(),
             5
         );
+        // Padding after the last message is no damage.
+        let mut padded = log;
+        padded.extend([0u8; 100]);
+        let l = read(&padded, None, false).unwrap();
+        assert_eq!(l.recording.len(), 6);
+        assert!(
+            l.notes.iter().any(|n| n.contains("100 bytes of padding")),
+            "{:?}",
+            l.notes
+        );
     }
 
     #[test]
