@@ -185,7 +185,7 @@ impl Series {
                 *x = order.iter().map(|&k| x[k]).collect();
             }
         };
-        self.v.iter_mut().chain(beside.iter_mut()).for_each(|x| pick(x));
+        self.v.iter_mut().chain(beside.iter_mut()).for_each(&pick);
         pick(&mut self.temperature);
         self.us = order.iter().map(|&k| self.us[k]).collect();
         self.offset = order.iter().map(|&k| self.offset[k]).collect();
