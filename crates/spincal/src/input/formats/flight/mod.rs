@@ -108,43 +108,43 @@ pub(super) fn read(
     file: &str,
     options: &ReadOptions,
 ) -> Result<Loaded, FormatError> {
-    let read = match format {
-        #[cfg(feature = "ulog")]
-        Format::Ulog => ulog::read(bytes, file, options)?,
-        #[cfg(not(feature = "ulog"))]
-        Format::Ulog => {
-            let _ = (bytes, options);
-            return Err(FlightError::NotBuilt {
-                file: file.into(),
-                what: "PX4 ULog",
-                feature: "ulog",
-            }
-            .into());
-        }
-        #[cfg(feature = "dataflash")]
-        Format::DataFlash => dataflash::read(bytes, file, options)?,
-        #[cfg(not(feature = "dataflash"))]
-        Format::DataFlash => {
-            let _ = (bytes, options);
-            return Err(FlightError::NotBuilt {
-                file: file.into(),
-                what: "ArduPilot DataFlash log",
-                feature: "dataflash",
-            }
-            .into());
-        }
-        _ => {
-            return Err(FlightError::NoImu {
-                file: file.into(),
-                what: format!("{format} is not a flight-controller log format"),
-            }
-            .into())
-        }
-    };
+    let read = read_format(format, bytes, file, options)?;
     let mut loaded = Loaded::new(read.recording, format, false);
     loaded.notes = read.notes;
     loaded.flight = Some(read.log);
     Ok(loaded)
+}
+
+/// The reader of `format`, or the feature it needs.
+fn read_format(
+    format: Format,
+    bytes: &[u8],
+    file: &str,
+    options: &ReadOptions,
+) -> Result<FlightRead, FlightError> {
+    let _ = (bytes, options);
+    match format {
+        #[cfg(feature = "ulog")]
+        Format::Ulog => ulog::read(bytes, file, options),
+        #[cfg(not(feature = "ulog"))]
+        Format::Ulog => Err(FlightError::NotBuilt {
+            file: file.into(),
+            what: "PX4 ULog",
+            feature: "ulog",
+        }),
+        #[cfg(feature = "dataflash")]
+        Format::DataFlash => dataflash::read(bytes, file, options),
+        #[cfg(not(feature = "dataflash"))]
+        Format::DataFlash => Err(FlightError::NotBuilt {
+            file: file.into(),
+            what: "ArduPilot DataFlash log",
+            feature: "dataflash",
+        }),
+        _ => Err(FlightError::NoImu {
+            file: file.into(),
+            what: format!("{format} is not a flight-controller log format"),
+        }),
+    }
 }
 
 /// A reader's result.
