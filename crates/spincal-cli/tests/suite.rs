@@ -18,6 +18,7 @@ mod exports;
 mod firmware;
 mod fit_cli;
 mod fleet_cli;
+mod flight_cli;
 mod gyro_poses;
 mod help_examples;
 mod hostile;

@@ -8,7 +8,8 @@ use std::process::Command;
 const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
 
 /// The fixtures with a peer script behind them (tests/fixtures/flight_stacks: see its README).
-const FIXTURES: [&str; 4] = [
+const FIXTURES: [&str; 5] = [
+    "flight/manifest.json",
     "sysid/arx_lstsq.json",
     "sysid/silverbox_arx.json",
     "sysid/bj_peers.json",

@@ -15,6 +15,8 @@ mod campaign_gyro;
 mod campaign_real;
 mod fixture_scripts;
 mod fleet;
+#[cfg(all(feature = "ulog", feature = "dataflash"))]
+mod flight_logs;
 mod flight_stacks;
 mod gyro_poses;
 mod model_validation;

@@ -53,6 +53,7 @@ pub struct ReadArgs {
     pub salvage: bool,
     /// ROS bag topic to read: a sensor_msgs/Imu topic, or `ACCEL,GYRO` geometry_msgs/Vector3Stamped
     /// topics (default: the bag's only IMU topic; several are listed with their message counts).
+    /// Flight logs: the IMU instance (`1`, `sensor_accel_1`, `sensor_combined`, `IMU[1]`; default 0).
     #[arg(long, value_name = "TOPIC")]
     pub topic: Option<String>,
     /// 3DM-GX1 AccelGainScale (EEPROM 230); default: the EEPROM reply captured in the stream.

@@ -54,6 +54,12 @@ pub enum FormatArg {
     SensorLogger,
     /// Physics Toolbox Sensor Suite's CSV.
     PhysicsToolbox,
+    /// PX4 ULog flight log (.ulg): sensor_accel + sensor_gyro, else sensor_combined.
+    #[value(alias = "ulg")]
+    Ulog,
+    /// ArduPilot DataFlash flight log (.bin): IMU messages.
+    #[value(name = "dataflash", alias = "bin")]
+    DataFlash,
 }
 mirror!(FormatArg => Format {
     Csv => Format::Csv,
@@ -68,6 +74,8 @@ mirror!(FormatArg => Format {
     PhyphoxExcel => Format::PhyphoxExcel,
     SensorLogger => Format::SensorLogger,
     PhysicsToolbox => Format::PhysicsToolbox,
+    Ulog => Format::Ulog,
+    DataFlash => Format::DataFlash,
 });
 
 /// Units of angular rate in a file.

@@ -4,7 +4,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::{bag_detect, gx1, mat, phone, Format};
+use super::{bag_detect, flight, gx1, mat, phone, Format};
 
 /// A detected format and the evidence for it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -57,6 +57,9 @@ pub fn detect(head: &[u8]) -> Detection {
     }
     if let Some(phone) = phone::sniff(head) {
         return phone;
+    }
+    if let Some((format, reason)) = flight::sniff(head) {
+        return found(format, reason);
     }
     // Text files have no NUL and no control bytes other than tab/CR/LF; the GX1 stream is full of them.
     let binary = head

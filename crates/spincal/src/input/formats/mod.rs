@@ -14,6 +14,9 @@
 pub mod bag;
 pub mod bag_detect;
 mod detect;
+// Flight-controller logs: PX4 ULog (`ulog` feature), ArduPilot DataFlash (`dataflash` feature);
+// both detected and refused by name without their feature.
+pub mod flight;
 pub mod gx1;
 pub mod mat;
 pub mod phone;
@@ -66,10 +69,14 @@ pub enum Format {
     SensorLogger,
     /// Physics Toolbox Sensor Suite's CSV (`time,gFx,gFy,gFz`, g).
     PhysicsToolbox,
+    /// PX4 ULog (`.ulg`): `sensor_accel` + `sensor_gyro`, else `sensor_combined` (see [`flight`]).
+    Ulog,
+    /// ArduPilot DataFlash log (`.bin`): `IMU` messages (see [`flight`]).
+    DataFlash,
 }
 
 impl Format {
-    pub const ALL: [Format; 12] = [
+    pub const ALL: [Format; 14] = [
         Format::Csv,
         Format::Whitespace,
         Format::Imucal,
@@ -82,6 +89,8 @@ impl Format {
         Format::PhyphoxExcel,
         Format::SensorLogger,
         Format::PhysicsToolbox,
+        Format::Ulog,
+        Format::DataFlash,
     ];
 
     pub fn name(self) -> &'static str {
@@ -98,11 +107,14 @@ impl Format {
             Format::PhyphoxExcel => "phyphox-excel",
             Format::SensorLogger => "sensor-logger",
             Format::PhysicsToolbox => "physics-toolbox",
+            Format::Ulog => "ulog",
+            Format::DataFlash => "dataflash",
         }
     }
 
     /// Parses a format name (`csv`, `whitespace`/`imu-tk`, `imucal`, `mpu6050`, `phyphox`, `3dm-gx1`/`gx1`,
-    /// `rosbag`/`bag`, `phyphox-zip`, `phyphox-excel`/`xlsx`, `sensor-logger`, `physics-toolbox`).
+    /// `rosbag`/`bag`, `phyphox-zip`, `phyphox-excel`/`xlsx`, `sensor-logger`, `physics-toolbox`,
+    /// `ulog`/`ulg`/`px4`, `dataflash`/`bin`/`ardupilot`).
     pub fn parse(text: &str) -> Option<Format> {
         match text.to_ascii_lowercase().as_str() {
             "imu-tk" | "imu_tk" | "imutk" => Some(Format::Whitespace),
@@ -111,6 +123,8 @@ impl Format {
             "matlab" => Some(Format::Mat),
             "bag" | "ros" | "ros-bag" | "mcap" | "db3" => Some(Format::RosBag),
             "xlsx" | "xls" => Some(Format::PhyphoxExcel),
+            "ulg" | "px4" => Some(Format::Ulog),
+            "bin" | "ardupilot" | "data-flash" => Some(Format::DataFlash),
             t => Format::ALL.into_iter().find(|f| f.name() == t),
         }
     }
@@ -138,12 +152,15 @@ pub struct ReadOptions {
     pub gx1: Gx1Options,
     /// ROS bags: the topic to read (`accel,gyro` for two `Vector3Stamped` topics); without it a
     /// bag with one IMU topic is read and one with several is refused with the list.
+    /// Flight logs: the IMU instance (`1`, `sensor_accel_1`, `sensor_combined`, `IMU[1]`);
+    /// instance 0 without it.
     pub topic: Option<String>,
     /// Replace the timestamps by t₀ + i·Δt, Δt from all the timestamps (for coarse, repeated or
     /// jittered stamps). Dropped samples are not restored: use it on recordings without gaps.
     pub retime: bool,
     /// ROS bags: a file whose end is damaged (cut, its footer or index lost) gives the messages
     /// before the damage, with a note, instead of an error naming how many are intact.
+    /// Flight logs: damage gives the samples before it, with a note naming its byte offset.
     pub salvage: bool,
 }
 
@@ -165,6 +182,8 @@ pub struct Loaded {
     pub labels: Option<Vec<String>>,
     /// Decoder statistics for the 3DM-GX1 stream.
     pub gx1: Option<Gx1Report>,
+    /// A flight-controller log's instance and the accelerometer's device id.
+    pub flight: Option<flight::FlightLog>,
     /// Things the user should know (synthesised time, dropped gyro counts, linear acceleration …).
     pub notes: Vec<String>,
 }
@@ -187,6 +206,8 @@ pub enum FormatError {
     Gx1(#[from] Gx1Error),
     #[error(transparent)]
     Mat(#[from] mat::MatError),
+    #[error(transparent)]
+    Flight(#[from] flight::FlightError),
     #[cfg(feature = "bags")]
     #[error(transparent)]
     Bag(#[from] bag::BagError),
@@ -304,6 +325,7 @@ pub fn read_bytes(bytes: &[u8], file: &str, options: &ReadOptions) -> Result<Loa
         )?),
         #[cfg(not(feature = "bags"))]
         Format::RosBag => return Err(FormatError::BagsNotBuilt { file: file.into() }),
+        Format::Ulog | Format::DataFlash => flight::read(format, bytes, file, options)?,
     };
     finish(loaded, detection, options)
 }

@@ -129,6 +129,7 @@ impl Loaded {
             gyro_counts: false,
             labels: None,
             gx1: None,
+            flight: None,
             notes: Vec::new(),
         }
     }

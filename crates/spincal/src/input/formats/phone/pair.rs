@@ -106,6 +106,7 @@ pub(crate) fn merge(
                 .map(|(l, _)| *l)
                 .collect(),
             incomplete_rows: Default::default(),
+            time_notes: Vec::new(),
         },
     };
     if recording.len() < 2 {
