@@ -306,7 +306,10 @@ fn a_headerless_file_needs_its_unit_named_and_a_moving_file_has_no_allan_deviati
     let out = dir.path().join("out.csv");
     let (code, err) = correct(&s.model, &bare, &out);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("`--accel-unit`") && err.contains("bare.csv"), "{err}");
+    assert!(
+        err.contains("`--accel-unit`") && err.contains("bare.csv"),
+        "{err}"
+    );
     assert!(!out.exists());
     let (code, err) = run(&[
         os("correct"),
@@ -471,12 +474,17 @@ fn epoch_nanoseconds_and_a_wrapping_millisecond_counter_are_read_as_time_with_a_
     // A phone logger's epoch nanoseconds under `timestamp`, and a uint32 millis() counter that
     // wraps 5 s into the recording under `time`.
     let epoch = renamed_time(
-        &retimed(&text, |_, t| format!("{}", 1_767_225_600_000_000_000u64 + (t * 1e9).round() as u64)),
+        &retimed(&text, |_, t| {
+            format!("{}", 1_767_225_600_000_000_000u64 + (t * 1e9).round() as u64)
+        }),
         "timestamp",
     );
     let wrapping = renamed_time(
         &retimed(&text, |_, t| {
-            format!("{}", (4_294_967_296u64 - 5_000 + (t * 1000.0).round() as u64) % 4_294_967_296)
+            format!(
+                "{}",
+                (4_294_967_296u64 - 5_000 + (t * 1000.0).round() as u64) % 4_294_967_296
+            )
         }),
         "time",
     );
@@ -505,6 +513,9 @@ fn epoch_nanoseconds_and_a_wrapping_millisecond_counter_are_read_as_time_with_a_
     std::fs::write(&hourly, &content).unwrap();
     let (code, err) = run(&[os("inspect"), hourly.as_os_str()]);
     assert_eq!(code, 1, "{err}");
-    assert!(err.contains("hourly.csv") && err.contains("`--time-unit` ms (10.0000 Hz) or us"), "{err}");
+    assert!(
+        err.contains("hourly.csv") && err.contains("`--time-unit` ms (10.0000 Hz) or us"),
+        "{err}"
+    );
     assert_eq!(std::fs::read_to_string(&hourly).unwrap(), content);
 }

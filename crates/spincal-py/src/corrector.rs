@@ -146,9 +146,9 @@ impl PyCorrector {
         let summary = py
             .detach(|| correct_to_path(&self.file, &input, &options, &output))
             .map_err(|e| match e {
-                CorrectError::Format(e) => errors::format(e),
-                CorrectError::Table(e) => errors::format(e),
-                CorrectError::Columns(e) => errors::format(e),
+                CorrectError::Format(e) => errors::format(*e),
+                CorrectError::Table(e) => errors::format(*e),
+                CorrectError::Columns(e) => errors::format(*e),
                 CorrectError::Open { .. } => errors::format(e),
                 CorrectError::Model(e) => errors::model(e),
                 CorrectError::Output(e) => errors::output(e),

@@ -476,13 +476,21 @@ fn the_cli_holds_no_loop_over_rows_or_samples() {
     let mut files = Vec::new();
     rust_files(&root.join("../spincal-cli/src"), &mut files);
     assert!(files.len() > 10, "the CLI's sources were not found");
-    let row_level = ["RowReader", "RowCorrector", "next_record", "next_row", "correct_sample", "time_s["];
+    let row_level = [
+        "RowReader",
+        "RowCorrector",
+        "next_record",
+        "next_row",
+        "correct_sample",
+        "time_s[",
+    ];
     let mut found = Vec::new();
     for file in &files {
         let text = std::fs::read_to_string(file).unwrap();
         for (n, line) in text.lines().enumerate() {
             let code = line.split("//").next().unwrap_or("");
-            let loops_over_samples = code.contains("for ") && (code.contains(".len()") || code.contains("time_s"));
+            let loops_over_samples =
+                code.contains("for ") && (code.contains(".len()") || code.contains("time_s"));
             if loops_over_samples || row_level.iter().any(|t| code.contains(t)) {
                 found.push(format!("{}:{}: {}", file.display(), n + 1, line.trim()));
             }

@@ -57,7 +57,7 @@ pub fn run(args: CorrectArgs, _ui: Ui) -> anyhow::Result<()> {
         Err(e) if e.is_broken_pipe() => return Ok(()),
         Err(e) if e.is_usage() => return Err(UsageError(e.to_string()).into()),
         Err(CorrectError::Format(e)) => {
-            return Err(anyhow::Error::from(e).context(format!("reading {}", args.input.display())))
+            return Err(anyhow::Error::from(*e).context(format!("reading {}", args.input.display())))
         }
         Err(e) => return Err(e.into()),
     };

@@ -14,6 +14,6 @@ pub mod model_file;
 pub mod physical;
 pub mod physical_ann;
 pub mod rows;
-pub mod stream;
 pub mod static_cal;
 pub mod static_detect;
+pub mod stream;

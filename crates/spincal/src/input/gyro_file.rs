@@ -20,11 +20,18 @@ pub struct GyroColumns {
     pub source: String,
 }
 
+impl From<FormatError> for GyroFileError {
+    fn from(e: FormatError) -> Self {
+        GyroFileError::Read(Box::new(e))
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum GyroFileError {
+    // Boxed: a reader's error is large, and this one is returned often.
     #[error(transparent)]
-    Read(#[from] FormatError),
+    Read(Box<FormatError>),
     #[error(
         "{file}: {found} samples, but the recording has {expected}; the gyro file must sample beside it"
     )]

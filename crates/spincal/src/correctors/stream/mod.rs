@@ -57,12 +57,13 @@ pub enum CorrectError {
         #[source]
         source: std::io::Error,
     },
+    // Boxed: the readers' errors are large, and every row's result carries this type.
     #[error(transparent)]
-    Format(#[from] FormatError),
+    Format(Box<FormatError>),
     #[error(transparent)]
-    Table(#[from] TableError),
+    Table(Box<TableError>),
     #[error(transparent)]
-    Columns(#[from] RecordingError),
+    Columns(Box<RecordingError>),
     #[error(transparent)]
     Model(#[from] SingularGyro),
     #[error(transparent)]
@@ -70,6 +71,24 @@ pub enum CorrectError {
     /// Writing the rows failed (a closed pipe included: its kind is `BrokenPipe`).
     #[error("writing the corrected rows: {0}")]
     Write(#[from] std::io::Error),
+}
+
+impl From<FormatError> for CorrectError {
+    fn from(e: FormatError) -> Self {
+        CorrectError::Format(Box::new(e))
+    }
+}
+
+impl From<TableError> for CorrectError {
+    fn from(e: TableError) -> Self {
+        CorrectError::Table(Box::new(e))
+    }
+}
+
+impl From<RecordingError> for CorrectError {
+    fn from(e: RecordingError) -> Self {
+        CorrectError::Columns(Box::new(e))
+    }
 }
 
 impl CorrectError {
@@ -106,9 +125,11 @@ pub fn reads_whole_file(input: &Path, options: &ReadOptions) -> Result<bool, Cor
         || options.retime
         || options.gx1.accel_gain_scale.is_some()
         || options.gx1.gyro_gain_scale.is_some();
-    let delimited = delimited_text_format(input, options.format).map_err(|source| FormatError::Io {
-        file: input.display().to_string(),
-        source,
+    let delimited = delimited_text_format(input, options.format).map_err(|source| {
+        CorrectError::from(FormatError::Io {
+            file: input.display().to_string(),
+            source,
+        })
     })?;
     Ok(whole_file_options || delimited.is_none())
 }
@@ -127,7 +148,10 @@ pub fn correct_to_writer(
         return whole::correct_loaded(model, &loaded, &display_name(input), &mut sink);
     }
     let (reader, name): (Box<dyn BufRead>, String) = if crate::output::is_stdio(input) {
-        (Box::new(BufReader::new(std::io::stdin().lock())), "<stdin>".to_string())
+        (
+            Box::new(BufReader::new(std::io::stdin().lock())),
+            "<stdin>".to_string(),
+        )
     } else {
         let file = File::open(input).map_err(|source| CorrectError::Open {
             file: input.display().to_string(),

@@ -9,7 +9,13 @@ pub trait RowSink {
     fn header(&mut self, names: &[String]) -> std::io::Result<()>;
     /// One row: the input as text (already joined by the sink's separator, fields quoted where
     /// needed), the corrected values (None: empty), whether the row is valid, and its status.
-    fn row(&mut self, input: &str, corrected: &[Option<f64>], valid: bool, status: &str) -> std::io::Result<()>;
+    fn row(
+        &mut self,
+        input: &str,
+        corrected: &[Option<f64>],
+        valid: bool,
+        status: &str,
+    ) -> std::io::Result<()>;
     /// The separator the sink joins fields with.
     fn separator(&self) -> char;
     /// Everything written reaches the writer.
@@ -49,7 +55,13 @@ impl RowSink for DelimitedSink<'_> {
         writeln!(self.out, "{line}")
     }
 
-    fn row(&mut self, input: &str, corrected: &[Option<f64>], valid: bool, status: &str) -> std::io::Result<()> {
+    fn row(
+        &mut self,
+        input: &str,
+        corrected: &[Option<f64>],
+        valid: bool,
+        status: &str,
+    ) -> std::io::Result<()> {
         let sep = self.separator;
         write!(self.out, "{input}")?;
         for v in corrected {

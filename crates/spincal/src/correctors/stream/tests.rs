@@ -35,24 +35,60 @@ fn every_row_comes_out_in_its_order_with_refusals_and_skips_in_place() {
     );
     let (text, summary) = corrected(&bias_model(), &input, &ReadOptions::default());
     let lines: Vec<&str> = text.lines().collect();
-    assert_eq!(lines[0], "t,ax,ay,az,ax_corrected,ay_corrected,az_corrected,valid,status");
+    assert_eq!(
+        lines[0],
+        "t,ax,ay,az,ax_corrected,ay_corrected,az_corrected,valid,status"
+    );
     assert_eq!(lines.len(), 7, "{text}");
-    assert!(lines[1].starts_with("0.00,1.5,0,9.81,1,0,9.81,1,ok"), "{}", lines[1]);
+    assert!(
+        lines[1].starts_with("0.00,1.5,0,9.81,1,0,9.81,1,ok"),
+        "{}",
+        lines[1]
+    );
     // A static calibration needs no time: a row whose time goes backwards is corrected.
-    assert!(lines[3].starts_with("0.01,1.5,0,9.81,1,0,9.81,1,ok"), "{}", lines[3]);
-    assert!(lines[4].contains(",0,skipped: line 5: column 2 (ax) is empty"), "{}", lines[4]);
-    assert!(lines[5].starts_with("0.04,abc,0,9.81,,,,0,\"refused: line 6"), "{}", lines[5]);
-    assert!(lines[5].contains("column 2 (ax): 'abc' is not a number"), "{}", lines[5]);
-    assert!(lines[6].starts_with("0.05,0.5,0,9.81,0,0,9.81,1,ok"), "{}", lines[6]);
+    assert!(
+        lines[3].starts_with("0.01,1.5,0,9.81,1,0,9.81,1,ok"),
+        "{}",
+        lines[3]
+    );
+    assert!(
+        lines[4].contains(",0,skipped: line 5: column 2 (ax) is empty"),
+        "{}",
+        lines[4]
+    );
+    assert!(
+        lines[5].starts_with("0.04,abc,0,9.81,,,,0,\"refused: line 6"),
+        "{}",
+        lines[5]
+    );
+    assert!(
+        lines[5].contains("column 2 (ax): 'abc' is not a number"),
+        "{}",
+        lines[5]
+    );
+    assert!(
+        lines[6].starts_with("0.05,0.5,0,9.81,0,0,9.81,1,ok"),
+        "{}",
+        lines[6]
+    );
     assert_eq!((summary.rows, summary.refused, summary.skipped), (6, 1, 1));
-    assert!(summary.refusals().is_some_and(|r| r.contains("1 of 6 rows refused")));
-    assert!(summary.warnings().iter().any(|w| w.contains("1 of 6 rows have no value")));
+    assert!(summary
+        .refusals()
+        .is_some_and(|r| r.contains("1 of 6 rows refused")));
+    assert!(summary
+        .warnings()
+        .iter()
+        .any(|w| w.contains("1 of 6 rows have no value")));
 }
 
 #[test]
 fn a_file_read_whole_names_its_columns_as_the_stream_does_and_agrees_on_the_values() {
     let dir = tempfile::tempdir().expect("a temporary folder");
-    let input = write(dir.path(), "rec.csv", "t_s,ax_mps2,ay_mps2,az_mps2\n0,1.5,0,9.81\n0.01,2.5,0.25,9.75\n");
+    let input = write(
+        dir.path(),
+        "rec.csv",
+        "t_s,ax_mps2,ay_mps2,az_mps2\n0,1.5,0,9.81\n0.01,2.5,0.25,9.75\n",
+    );
     let model = bias_model();
     let (streamed, _) = corrected(&model, &input, &ReadOptions::default());
     // A sample rate needs the whole file: the same rows, through the common reader.
@@ -72,7 +108,10 @@ fn a_file_read_whole_names_its_columns_as_the_stream_does_and_agrees_on_the_valu
             .skip(1)
             .map(|l| {
                 let f: Vec<&str> = l.split(',').collect();
-                f[f.len() - 5..f.len() - 2].iter().map(|v| v.parse().expect("a number")).collect()
+                f[f.len() - 5..f.len() - 2]
+                    .iter()
+                    .map(|v| v.parse().expect("a number"))
+                    .collect()
             })
             .collect()
     };
@@ -86,15 +125,20 @@ fn a_headerless_stream_needs_its_unit_and_the_file_is_left_as_it_was_on_failure(
     let dir = tempfile::tempdir().expect("a temporary folder");
     let input = write(dir.path(), "bare.csv", "0,1,0,9.8\n0.01,1,0,9.8\n");
     // Any model but a static calibration takes m/s²: a linear map.
-    let model = CorrectorFile::new(CorrectorModel::Linear(Box::new(crate::correctors::linear::LinearModel {
-        axes: vec![crate::correctors::corrector::Axis::X],
-        offset_mps2: vec![0.0],
-        matrix: vec![vec![1.0, 0.0, 0.0]],
-        training: None,
-    })));
+    let model = CorrectorFile::new(CorrectorModel::Linear(Box::new(
+        crate::correctors::linear::LinearModel {
+            axes: vec![crate::correctors::corrector::Axis::X],
+            offset_mps2: vec![0.0],
+            matrix: vec![vec![1.0, 0.0, 0.0]],
+            training: None,
+        },
+    )));
     let previous = write(dir.path(), "out.csv", "earlier output\n");
     let e = correct_to_path(&model, &input, &ReadOptions::default(), &previous).expect_err("no unit");
     assert!(matches!(e, CorrectError::UnitUnknown { .. }), "{e}");
     assert!(e.is_usage());
-    assert_eq!(std::fs::read_to_string(&previous).expect("kept"), "earlier output\n");
+    assert_eq!(
+        std::fs::read_to_string(&previous).expect("kept"),
+        "earlier output\n"
+    );
 }

@@ -95,9 +95,13 @@ impl TextStream<'_, '_> {
         let line_no = match record {
             Record::Parsed { line } => line,
             Record::Incomplete { line, column, .. } => {
-                let reason = format!("line {line}: column {column} ({}) is empty", self.header[column - 1]);
+                let reason = format!(
+                    "line {line}: column {column} ({}) is empty",
+                    self.header[column - 1]
+                );
                 self.summary.skip(&reason);
-                self.sink.row(text, &blank, false, &format!("skipped: {reason}"))?;
+                self.sink
+                    .row(text, &blank, false, &format!("skipped: {reason}"))?;
                 return Ok(());
             }
             Record::Refused { line, text, error } => {
@@ -108,7 +112,8 @@ impl TextStream<'_, '_> {
                     .map(|f| field(f, sep))
                     .collect::<Vec<_>>()
                     .join(&sep.to_string());
-                self.sink.row(&fields, &blank, false, &format!("refused: {reason}"))?;
+                self.sink
+                    .row(&fields, &blank, false, &format!("refused: {reason}"))?;
                 return Ok(());
             }
         };
@@ -137,7 +142,8 @@ impl TextStream<'_, '_> {
             RowOutcome::Refused(reason) => {
                 let reason = format!("line {line_no}, {reason}");
                 self.summary.refuse(&reason);
-                self.sink.row(text, &corrected, false, &format!("refused: {reason}"))?;
+                self.sink
+                    .row(text, &corrected, false, &format!("refused: {reason}"))?;
             }
         }
         Ok(())
@@ -162,7 +168,9 @@ pub(super) fn correct_text(
     // Networks and linear maps were trained in m/s²; a static calibration states its own unit.
     let unit_matters = !matches!(model.corrector, CorrectorModel::Static(_));
     if unit_matters && rows.header.is_empty() && map.accel_unit.is_none() {
-        return Err(CorrectError::UnitUnknown { file: name.to_string() });
+        return Err(CorrectError::UnitUnknown {
+            file: name.to_string(),
+        });
     }
     let mut columns = ColumnPlan::new(&rows.header, width, name, map)?;
     // A row without a temperature is still corrected (and marked), so the column is not required.

@@ -39,7 +39,9 @@ pub(super) fn finish(
     if let Some(left_out) = loaded.recording.source.incomplete_rows.describe() {
         loaded.notes.push(left_out);
     }
-    loaded.notes.extend(loaded.recording.source.time_notes.iter().cloned());
+    loaded
+        .notes
+        .extend(loaded.recording.source.time_notes.iter().cloned());
     if let (Some(rate), Format::Csv | Format::Whitespace | Format::Phyphox | Format::Mat) =
         (options.sample_rate_hz, loaded.format)
     {

@@ -283,7 +283,12 @@ impl ColumnPlan {
     /// Holds the time column against the rules of [`super::time`], in place: `time` (in the
     /// plan's unit converted to s, time order) unwrapped where a counter wrapped and re-read in the
     /// unit the values show when none was stated. Returns the notes for the user.
-    pub fn settle_time(&mut self, time: &mut [f64], file: &str, lines: &[usize]) -> Result<Vec<String>, ImplausibleTime> {
+    pub fn settle_time(
+        &mut self,
+        time: &mut [f64],
+        file: &str,
+        lines: &[usize],
+    ) -> Result<Vec<String>, ImplausibleTime> {
         let to_si = self.scales[0];
         let mut notes = Vec::new();
         notes.extend(unwrap_counter(time, to_si, lines));

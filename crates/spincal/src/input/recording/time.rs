@@ -218,9 +218,13 @@ mod tests {
     #[test]
     fn epoch_nanoseconds_under_a_bare_name_are_read_as_nanoseconds_with_a_note() {
         let raw = column(1.77e18, 1e7, 500);
-        let settled = settle_unit(&raw, TimeUnit::S, TimeUnitSource::Assumed, "f.csv", "time").expect("settled");
+        let settled =
+            settle_unit(&raw, TimeUnit::S, TimeUnitSource::Assumed, "f.csv", "time").expect("settled");
         assert_eq!(settled.unit, TimeUnit::Ns);
-        assert!(settled.note.expect("a note").contains("since the Unix epoch in ns"));
+        assert!(settled
+            .note
+            .expect("a note")
+            .contains("since the Unix epoch in ns"));
     }
 
     #[test]
@@ -239,7 +243,13 @@ mod tests {
     fn seconds_that_fit_stay_and_a_stated_unit_is_never_second_guessed() {
         let raw = column(3.0, 0.01, 500);
         let settled = settle_unit(&raw, TimeUnit::S, TimeUnitSource::Assumed, "f.csv", "t").expect("settled");
-        assert_eq!(settled, SettledTime { unit: TimeUnit::S, note: None });
+        assert_eq!(
+            settled,
+            SettledTime {
+                unit: TimeUnit::S,
+                note: None
+            }
+        );
         let slow = column(0.0, 10.0, 50);
         let stated = settle_unit(&slow, TimeUnit::S, TimeUnitSource::Stated, "f.csv", "t").expect("stated");
         assert_eq!(stated.unit, TimeUnit::S);
@@ -251,7 +261,12 @@ mod tests {
         let raw = column(0.0, 10.0, 500);
         let e = settle_unit(&raw, TimeUnit::S, TimeUnitSource::Named, "f.csv", "t_s").expect_err("refused");
         let text = e.to_string();
-        assert!(text.contains("f.csv") && text.contains("`t_s`") && text.contains("give `time_unit` ms (100.0000 Hz)"), "{text}");
+        assert!(
+            text.contains("f.csv")
+                && text.contains("`t_s`")
+                && text.contains("give `time_unit` ms (100.0000 Hz)"),
+            "{text}"
+        );
         // Nothing fits: a sample every two nanoseconds' worth of seconds.
         let raw = column(0.0, 1e-6, 50);
         let e = settle_unit(&raw, TimeUnit::S, TimeUnitSource::Assumed, "f.csv", "t").expect_err("refused");
@@ -259,13 +274,19 @@ mod tests {
         // Steps of 100 are 10 Hz in ms or 10 kHz in µs: the unit must be said.
         let raw = column(0.0, 100.0, 50);
         let e = settle_unit(&raw, TimeUnit::S, TimeUnitSource::Assumed, "f.csv", "t").expect_err("refused");
-        assert!(e.to_string().contains("give `time_unit` ms (10.0000 Hz) or us (10000.0000 Hz)"), "{e}");
+        assert!(
+            e.to_string()
+                .contains("give `time_unit` ms (10.0000 Hz) or us (10000.0000 Hz)"),
+            "{e}"
+        );
     }
 
     #[test]
     fn a_uint32_millisecond_counter_is_unwrapped_and_a_real_step_back_is_not() {
         let modulus = 4_294_967_296.0;
-        let mut raw: Vec<f64> = (0..200).map(|i| (modulus - 1000.0 + 10.0 * i as f64) % modulus).collect();
+        let mut raw: Vec<f64> = (0..200)
+            .map(|i| (modulus - 1000.0 + 10.0 * i as f64) % modulus)
+            .collect();
         let lines: Vec<usize> = (2..202).collect();
         let note = unwrap_counter(&mut raw, 1.0, &lines).expect("a note");
         assert!(note.contains("2^32") && note.contains("line 102"), "{note}");

@@ -90,7 +90,7 @@ pub enum PhoneError {
         gyro: String,
         accel_span: String,
         gyro_span: String,
-        why: String,
+        why: &'static str,
     },
     #[error("{file}: no meta/time.csv, so its clock cannot be put beside another export's; pair two exports of one phyphox session, or export both sensors from one simple experiment")]
     NoTimeReference { file: String },

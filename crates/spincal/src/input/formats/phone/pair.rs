@@ -116,7 +116,7 @@ pub(crate) fn merge(
             gyro: g.map(|g| g.file.clone()).unwrap_or_default(),
             accel_span: accel.span(),
             gyro_span: g.map(Stream::span).unwrap_or_default(),
-            why: String::new(),
+            why: "",
         }
         .into());
     }
@@ -210,7 +210,7 @@ pub fn read_pair(
             gyro: gyro_file,
             accel_span: format!("Unix time {a0:.3} … {a1:.3} s"),
             gyro_span: format!("{g0:.3} … {g1:.3} s"),
-            why: " by their meta/time.csv: they are not of one session".into(),
+            why: " by their meta/time.csv: they are not of one session",
         }
         .into());
     }
