@@ -594,7 +594,7 @@ class Corrector:
             force=force,
             **read,
         )
-        return json.loads(text)
+        return cast(Dict[str, Any], json.loads(text))
 
     def correct(
         self,
