@@ -3,11 +3,11 @@
 //!
 //! The pipeline is a reader, the [`RowCorrector`](crate::correctors::rows::RowCorrector) and a
 //! [`RowSink`]:
-//! - delimited text (and standard input) is read row by row in constant memory ([`text`]); every
+//! - delimited text (and standard input) is read row by row in constant memory; every
 //!   data row comes out as its original text, then one corrected column per corrected axis (in
 //!   the input's unit, named `<input column>_corrected`), `valid` and `status`;
 //! - every other format, and the reading options that need the whole file (a scale for raw counts,
-//!   a sample rate, retiming, 3DM-GX1 gains), is read whole by [`read_path`] ([`whole`]); every
+//!   a sample rate, retiming, 3DM-GX1 gains), is read whole by [`read_path`]; every
 //!   sample comes out with its source line, time in s and its values under unit-named columns
 //!   (`ax_mps2`, `gx_radps`; `counts` for raw counts), then the same corrected columns.
 //!

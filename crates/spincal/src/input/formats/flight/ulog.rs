@@ -1,4 +1,4 @@
-//! PX4 ULog (https://docs.px4.io/main/en/dev_log/ulog_file_format.html) through `px4-ulog`,
+//! PX4 ULog (<https://docs.px4.io/main/en/dev_log/ulog_file_format.html>) through `px4-ulog`,
 //! PX4's own Rust parser: of the ULog crates it is the one PX4 maintains, it depends on byteorder
 //! alone and builds on Rust 1.88 (ulog-rs 0.0.4 is a pre-release that pulls clap and dirs into
 //! the library; yule_log 0.4 pulls env_logger and lazy_static). The crate decodes the formats
