@@ -78,6 +78,8 @@ struct TextStream<'a, 'w> {
     gyro: Option<[usize; 3]>,
     temperature: Option<(usize, TemperatureUnit)>,
     axes: Vec<Axis>,
+    /// The corrected columns of a row that has none (skipped or refused), made once.
+    blank: Vec<Option<f64>>,
     units: UnitFactors,
     width: usize,
     delimiter: Delimiter,
@@ -89,7 +91,6 @@ impl TextStream<'_, '_> {
     /// Corrects and writes one row (`text` is its line as read).
     fn row(&mut self, record: Record, text: &str, values: &[f64]) -> Result<(), CorrectError> {
         let gyro_width = if self.gyro.is_some() { 3 } else { 0 };
-        let blank = vec![None; self.axes.len() + gyro_width];
         let sep = self.delimiter.as_char();
         self.summary.rows += 1;
         let line_no = match record {
@@ -101,7 +102,7 @@ impl TextStream<'_, '_> {
                 );
                 self.summary.skip(&reason);
                 self.sink
-                    .row(text, &blank, false, &format!("skipped: {reason}"))?;
+                    .row(text, &self.blank, false, &format!("skipped: {reason}"))?;
                 return Ok(());
             }
             Record::Refused { line, text, error } => {
@@ -113,7 +114,7 @@ impl TextStream<'_, '_> {
                     .collect::<Vec<_>>()
                     .join(&sep.to_string());
                 self.sink
-                    .row(&fields, &blank, false, &format!("refused: {reason}"))?;
+                    .row(&fields, &self.blank, false, &format!("refused: {reason}"))?;
                 return Ok(());
             }
         };
@@ -243,6 +244,7 @@ pub(super) fn correct_text(
         header: &header,
         gyro,
         temperature,
+        blank: vec![None; axes.len() + if gyro.is_some() { 3 } else { 0 }],
         axes,
         units,
         width,
