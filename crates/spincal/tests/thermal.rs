@@ -365,6 +365,7 @@ fn campaign_units(campaign: &ThermalCampaign, temperature: bool, truth: bool) ->
                 truth: truth.then(|| std::array::from_fn(|a| vec![r.true_force_mps2[a]; n])),
                 floor_mps2: noise.as_ref().map(rms_per_axis),
                 random_mps2: noise,
+                session: None,
             }
         })
         .collect()
@@ -553,6 +554,7 @@ fn thermal_runs(campaign: &ThermalCampaign, profile: &ThermalProfile, seed: u64)
                 truth: Some(r.true_accel_mps2.clone()),
                 floor_mps2: Some(floor),
                 random_mps2: Some(noise),
+                session: None,
             }
         })
         .collect()

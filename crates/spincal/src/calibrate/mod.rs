@@ -158,6 +158,7 @@ fn paper_units(recordings: &[Recording], turntable: &TurntableFit, settings: &Pa
                 truth: None,
                 floor_mps2: None,
                 random_mps2: None,
+                session: None,
             }
         })
         .collect()

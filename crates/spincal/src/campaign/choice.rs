@@ -1,5 +1,5 @@
 //! What a campaign saves: each candidate summarised over the held-out conditions (eligible only
-//! when never significantly worse than no correction, with a gain near one and, for the physical
+//! when shown no worse than no correction on each, within a margin, with a gain near one and, for the physical
 //! family, no predicted loss), the choice made without truth, what truth would have chosen, and
 //! the verdict in words.
 
@@ -9,7 +9,9 @@ use crate::campaign::joint::JointFit;
 use crate::campaign::params::Params;
 use crate::campaign::prepare::Prepared;
 use crate::campaign::thermal::CampaignThermal;
-use crate::campaign::verdict::{combined, Comparison, Prediction};
+use crate::campaign::verdict::{
+    combined, Comparison, Prediction, NON_INFERIORITY_MARGIN, NO_WORSE_CONFIDENCE,
+};
 use crate::correctors::model_file::CorrectorFile;
 use crate::progress::{Observer, Progress};
 use serde::{Deserialize, Serialize};
@@ -44,6 +46,9 @@ pub struct CandidateSummary {
     pub mean_rms_mps2: Option<f64>,
     /// Worst ratio of its residual RMS to the uncorrected one's against physics.
     pub worst_ratio_to_uncorrected: Option<f64>,
+    /// Worst upper confidence bound of that ratio (`verdict::Comparison::upper_ratio`).
+    #[serde(default)]
+    pub worst_upper_ratio: Option<f64>,
     /// Mean over conditions of the RMS error against truth (simulations), m/s².
     pub mean_truth_rms_mps2: Option<f64>,
     /// Worst ratio to uncorrected against truth (simulations).
@@ -102,12 +107,15 @@ pub(super) fn save_best(
         ),
         Ok(Trained::Corrector { model, .. }) => {
             let verdict = format!(
-                "Saved {} ({}), validated on {} conditions it never trained on: judged by physics alone (still poses' |f| against gravity, turntable runs against a rigid platter's motion with no sensor freedom), it leaves {:.4} m/s² mean RMS, at worst {:.2}× the uncorrected residual and never significantly worse. Trained on every recording of the campaign.{}",
+                "Saved {} ({}), validated on {} conditions it never trained on: judged by physics alone (still poses' |f| against gravity, turntable runs against a rigid platter's motion with no sensor freedom), it leaves {:.4} m/s² mean RMS, at worst {:.2}× the uncorrected residual, and is shown no worse on each (at most {:.2}× at {:.0} % confidence, within the {:.0} % margin). Trained on every recording of the campaign.{}",
                 kind.name(),
                 kind.describe(),
                 found.n_conditions,
                 best.mean_rms_mps2.unwrap_or(f64::NAN),
                 best.worst_ratio_to_uncorrected.unwrap_or(f64::NAN),
+                best.worst_upper_ratio.unwrap_or(f64::NAN),
+                100.0 * NO_WORSE_CONFIDENCE,
+                100.0 * NON_INFERIORITY_MARGIN,
                 truth_sentence(found.truth_check)
             );
             let verdict = verdict + &thermal_sentence(found.thermal);
@@ -216,13 +224,17 @@ fn preference(candidate: &str) -> usize {
 
 /// The choice made without truth: the eligible candidate with the lowest mean residual against
 /// physics, or the preferred one (see [`preference`]) among those within [`INDISTINGUISHABLE`]
-/// of it.
-pub(super) fn choose_by_physics(summaries: &[CandidateSummary]) -> Option<&CandidateSummary> {
-    let best = choose(summaries, |s| s.eligible, |s| s.mean_rms_mps2)?.mean_rms_mps2?;
+/// of it; `set_aside` (the physical family's member the terms rule rejects) is never chosen.
+pub(super) fn choose_by_physics<'a>(
+    summaries: &'a [CandidateSummary],
+    set_aside: Option<&str>,
+) -> Option<&'a CandidateSummary> {
+    let eligible = |s: &CandidateSummary| s.eligible && Some(s.candidate.as_str()) != set_aside;
+    let best = choose(summaries, eligible, |s| s.mean_rms_mps2)?.mean_rms_mps2?;
     summaries
         .iter()
         .filter(|s| {
-            s.eligible
+            eligible(s)
                 && s.mean_rms_mps2
                     .is_some_and(|m| m <= best * (1.0 + INDISTINGUISHABLE))
         })
@@ -256,7 +268,9 @@ pub(super) fn truth_check(
         let rows: Vec<&HeldOutScore> = held_out.iter().filter(|h| h.candidate == s.candidate).collect();
         s.why_not.as_deref() != Some(UNSAVABLE)
             && rows.len() == n_conditions
-            && rows.iter().all(|h| h.truth.as_ref().is_some_and(|t| !t.worse))
+            && rows
+                .iter()
+                .all(|h| h.truth.as_ref().is_some_and(|t| t.shown_no_worse))
     };
     let would = choose(summaries, truth_eligible, |s| s.mean_truth_rms_mps2);
     let agrees = match (chosen, would) {
@@ -303,7 +317,8 @@ pub(super) fn summarise(
     let rows: Vec<&HeldOutScore> = held_out.iter().filter(|h| h.candidate == kind.name()).collect();
     let mut why_not = None;
     let (mut sum, mut truth_sum) = (0.0, Some(0.0));
-    let (mut worst, mut worst_truth): (Option<f64>, Option<f64>) = (None, None);
+    let (mut worst, mut worst_truth, mut worst_upper): (Option<f64>, Option<f64>, Option<f64>) =
+        (None, None, None);
     for row in &rows {
         match &row.physics {
             None => {
@@ -328,10 +343,23 @@ pub(super) fn summarise(
                 }
                 sum += combined(p.rms_mps2);
                 worst = Some(worst.map_or(p.ratio, |w| w.max(p.ratio)));
-                if p.ratio.is_nan() || p.worse {
+                worst_upper = Some(worst_upper.map_or(p.upper_ratio, |w| w.max(p.upper_ratio)));
+                // Significantly worse by less than the margin is still no worse: the burden of
+                // proof is the bound's, not this test's.
+                if p.ratio.is_nan() || (p.worse && !p.shown_no_worse) {
                     why_not.get_or_insert(format!(
                         "{:.2}× (± {:.2}) the uncorrected residual on \"{}\", significantly worse",
                         p.ratio, p.ratio_se, row.condition
+                    ));
+                }
+                if !p.shown_no_worse {
+                    why_not.get_or_insert(format!(
+                        "not shown no worse than uncorrected on \"{}\": {:.2}× the uncorrected residual, possibly up to {:.2}× ({:.0} % bound) where saving needs at most {:.2}×; a longer or quieter recording of that condition would show it",
+                        row.condition,
+                        p.ratio,
+                        p.upper_ratio,
+                        100.0 * NO_WORSE_CONFIDENCE,
+                        1.0 + NON_INFERIORITY_MARGIN
                     ));
                 }
             }
@@ -356,6 +384,7 @@ pub(super) fn summarise(
         description: kind.describe().to_string(),
         mean_rms_mps2: complete.then(|| sum / n_conditions as f64),
         worst_ratio_to_uncorrected: worst,
+        worst_upper_ratio: worst_upper,
         mean_truth_rms_mps2: truth_sum.filter(|_| complete).map(|t| t / n_conditions as f64),
         worst_truth_ratio: worst_truth,
         eligible: complete && why_not.is_none(),

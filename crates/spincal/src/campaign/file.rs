@@ -19,7 +19,10 @@
 //! direction = "cw"                # optional: cw or ccw seen from above; found from the data
 //! truth = "t33-r09.truth.csv"     # optional: true specific force per sample (simulations)
 //! ```
-//! Optional per recording: `columns` and `accel_unit` (as the CLI's flags), `truth`,
+//! Optional per recording: `session` (recordings with the same label were made in one power-on
+//! of the sensor and share one bias offset; without it each recording has its own offset, and
+//! the spread of those offsets is estimated from the recordings), `columns` and `accel_unit` (as
+//! the CLI's flags), `truth`,
 //! `noise_floor_mps2` (the RMS per axis of the error no corrector can remove, when known) and
 //! `random_error` (that error per sample, a file shaped like the recording: t and three axes, m/s²;
 //! the floor of any part of the recording is then its RMS over exactly those samples).
@@ -118,6 +121,8 @@ pub struct CampaignEntry {
     pub truth: Option<PathBuf>,
     pub noise_floor_mps2: Option<[f64; 3]>,
     pub random_error: Option<PathBuf>,
+    /// The power-on session it belongs to, when the campaign says.
+    pub session: Option<String>,
 }
 
 /// A parsed campaign file.
@@ -195,6 +200,7 @@ struct RawEntry {
     truth: Option<Spanned<String>>,
     noise_floor_mps2: Option<Spanned<Vec<f64>>>,
     random_error: Option<Spanned<String>>,
+    session: Option<Spanned<String>>,
 }
 
 /// 1-based line and column of a byte offset.
@@ -402,6 +408,17 @@ impl Locator<'_> {
                 Some([values[0], values[1], values[2]])
             }
         };
+        let session = match &e.session {
+            Some(s) if s.get_ref().trim().is_empty() => {
+                return Err(self.at(
+                    s.span(),
+                    "session",
+                    "empty: name the power-on session, or leave the key out",
+                ))
+            }
+            Some(s) => Some(s.get_ref().trim().to_string()),
+            None => None,
+        };
         Ok(CampaignEntry {
             file: resolve(base, &name),
             line: line_column(self.text, span.start).0,
@@ -411,6 +428,7 @@ impl Locator<'_> {
             truth: e.truth.as_ref().map(|t| resolve(base, t.get_ref())),
             noise_floor_mps2,
             random_error: e.random_error.as_ref().map(|t| resolve(base, t.get_ref())),
+            session,
         })
     }
 

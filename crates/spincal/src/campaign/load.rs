@@ -115,6 +115,7 @@ pub fn load_campaign(campaign: &Campaign) -> Result<Vec<UnitRecording>, LoadErro
             truth,
             floor_mps2: entry.noise_floor_mps2,
             random_mps2,
+            session: entry.session.clone(),
         });
     }
     Ok(out)

@@ -23,6 +23,9 @@ pub struct UnitRecording {
     pub floor_mps2: Option<[f64; 3]>,
     /// That error per sample, m/s², when known: the floor of any subset of samples.
     pub random_mps2: Option<[Vec<f64>; 3]>,
+    /// The power-on session, when the campaign names it: recordings of one session share one
+    /// bias offset.
+    pub session: Option<String>,
 }
 
 /// Where a pose came from.
@@ -60,8 +63,6 @@ pub enum PrepareError {
 
 /// Samples at each end of a still interval left out (the hand may still be settling).
 const EDGE_FRACTION: f64 = 0.1;
-/// Still files this close after one another on one clock, s, are one logging session.
-const SAME_SESSION_GAP_S: f64 = 60.0;
 /// Blocks a pose is cut into to estimate the standard error of its mean.
 const POSE_BLOCKS: usize = 8;
 
@@ -130,7 +131,7 @@ fn wander(rec: &Recording, start: usize, end: usize) -> PoseWander {
     }
 }
 
-fn pose_input(rec: &Recording, name: String, start: usize, end: usize, next_session: usize) -> PoseInput {
+fn pose_input(rec: &Recording, name: String, start: usize, end: usize, session: usize) -> PoseInput {
     let (mean, sigma) = mean_and_error(&rec.accel_mps2, start, end, 1e-6);
     let gyro = rec
         .gyro_radps
@@ -142,11 +143,38 @@ fn pose_input(rec: &Recording, name: String, start: usize, end: usize, next_sess
         sigma_mean_mps2: sigma,
         samples: end - start,
         time_s: 0.5 * (rec.time_s[start] + rec.time_s[end - 1]),
-        session: next_session - 1,
+        session,
         gyro_mean_radps: gyro.map(|g| g.0),
         gyro_sigma_mean_radps: gyro.map(|g| g.1),
         wander: Some(wander(rec, start, end)),
     }
+}
+
+/// Each recording's power-on session: recordings with the same `session` label share one; a
+/// still recording without a label is a session of its own; a run without one has `None` (an
+/// offset of its own).
+fn session_indices(recordings: &[UnitRecording]) -> Vec<Option<usize>> {
+    let mut labels: Vec<&str> = Vec::new();
+    let mut next = 0;
+    recordings
+        .iter()
+        .map(|unit| match (&unit.session, &unit.turntable) {
+            (Some(label), _) => Some(match labels.iter().position(|l| l == label) {
+                Some(known) => known,
+                None => {
+                    labels.push(label);
+                    next += 1;
+                    next - 1
+                }
+            }),
+            (None, None) => {
+                labels.push("");
+                next += 1;
+                Some(next - 1)
+            }
+            (None, Some(_)) => None,
+        })
+        .collect()
 }
 
 /// Cuts the unit's recordings into the joint fit's runs and poses.
@@ -157,8 +185,7 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
         poses: Vec::new(),
         pose_origin: Vec::new(),
     };
-    let mut sessions = 0;
-    let mut last_still_end: Option<f64> = None;
+    let sessions = session_indices(recordings);
     for (index, unit) in recordings.iter().enumerate() {
         let rec = &unit.recording;
         match &unit.turntable {
@@ -171,14 +198,17 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
                     });
                 }
                 let keep = saturated_mask(rec, None).iter().map(|s| !s).collect();
-                out.runs.push(RunInput::new(
-                    unit.name.clone(),
-                    rec.time_s.clone(),
-                    rec.accel_mps2.clone(),
-                    keep,
-                    entry.clone(),
-                    rec.gyro_radps.clone(),
-                ));
+                out.runs.push(
+                    RunInput::new(
+                        unit.name.clone(),
+                        rec.time_s.clone(),
+                        rec.accel_mps2.clone(),
+                        keep,
+                        entry.clone(),
+                        rec.gyro_radps.clone(),
+                    )
+                    .in_session(sessions[index]),
+                );
                 out.run_origin.push(index);
             }
             None => {
@@ -190,16 +220,7 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
                     });
                 }
                 let intervals = still_intervals(rec, &unit.name)?;
-                // A file that starts within a minute after the previous still file ended, on the
-                // same clock, continues its logging session (one power-on, one bias offset).
-                let continues = last_still_end.is_some_and(|end: f64| {
-                    let gap = rec.time_s[0] - end;
-                    gap > 0.0 && gap <= SAME_SESSION_GAP_S
-                });
-                if !continues {
-                    sessions += 1;
-                }
-                last_still_end = rec.time_s.last().copied();
+                let session = sessions[index].unwrap_or_default();
                 let several = intervals.len() > 1;
                 for (k, interval) in intervals.iter().enumerate() {
                     let edge = ((interval.len() as f64) * EDGE_FRACTION) as usize;
@@ -215,7 +236,7 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
                     } else {
                         unit.name.clone()
                     };
-                    out.poses.push(pose_input(rec, name, start, end, sessions));
+                    out.poses.push(pose_input(rec, name, start, end, session));
                     out.pose_origin.push(PoseOrigin {
                         recording: index,
                         start,
@@ -263,7 +284,7 @@ mod tests {
                         temperature_c: None,
                         source: Default::default(),
                     };
-                    pose_input(&rec, format!("pose {p}"), 0, samples, 1)
+                    pose_input(&rec, format!("pose {p}"), 0, samples, 0)
                 })
                 .collect();
             let estimate = bias_random_walk(&poses).unwrap();

@@ -1,6 +1,6 @@
 //! Calibrating a unit: the joint fit, then every candidate corrector trained on all conditions
 //! but one and scored on the one left out, for each condition in turn. The saved corrector is the
-//! best on held-out conditions among those never significantly worse than no correction on any of
+//! best on held-out conditions among those shown no worse than no correction on each of
 //! them, whose gain stays near one and whose covariance does not predict them worse.
 //!
 //! Each candidate has one shape (`Candidate::train`: a training set in, a corrector out) and
@@ -47,6 +47,54 @@ pub enum CampaignCalError {
 /// regularises only what the campaign cannot see at all.
 pub(crate) const DATA_ONLY_Q_PRIOR_SD: f64 = 1e-2;
 
+/// Two-sided false-alarm probability of the Wald test that decides a term.
+pub const TERM_FALSE_ALARM: f64 = 1e-3;
+
+/// Which of the physical family's terms the saved model carries, by one rule on the joint fit's
+/// robust covariance (results.json): q is kept when some axis's |q̂/se| passes the Wald test at
+/// [`TERM_FALSE_ALARM`]; otherwise the model without q is the physical family's candidate. A
+/// held-out RMS, dominated by the noise, does not decide it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TermsRule {
+    /// q̂/se per axis.
+    pub nonlinearity_z: [f64; 3],
+    /// The |z| a term must reach.
+    pub threshold: f64,
+    pub keeps_nonlinearity: bool,
+    pub rule: String,
+}
+
+impl TermsRule {
+    fn of(joint: &JointFit) -> Option<TermsRule> {
+        if !joint.terms.nonlinearity {
+            return None;
+        }
+        let threshold = crate::metrics::student_t_quantile(1.0 - 0.5 * TERM_FALSE_ALARM, 1e6);
+        let nonlinearity_z: [f64; 3] = std::array::from_fn(|k| {
+            let q = &joint.sensor_params[9 + k];
+            q.std_error
+                .map_or(0.0, |se| if se > 0.0 { q.value / se } else { 0.0 })
+        });
+        Some(TermsRule {
+            nonlinearity_z,
+            threshold,
+            keeps_nonlinearity: nonlinearity_z.iter().any(|z| z.abs() >= threshold),
+            rule: format!(
+                "q is kept when |q̂/se| ≥ {threshold:.2} on some axis (a Wald test at two-sided false-alarm probability {TERM_FALSE_ALARM:e} on the joint fit's robust covariance); otherwise the physical model without q is the family's candidate"
+            ),
+        })
+    }
+
+    /// The physical family's member this rule sets aside.
+    fn set_aside(&self) -> crate::campaign::candidate::CandidateKind {
+        if self.keeps_nonlinearity {
+            crate::campaign::candidate::CandidateKind::PhysicalLinear
+        } else {
+            crate::campaign::candidate::CandidateKind::Physical
+        }
+    }
+}
+
 /// Who decided the nonlinearity q (results.json).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct NonlinearitySource {
@@ -82,13 +130,22 @@ fn fit_with_nonlinearity_rule(
         data_only_se,
         rule: rule.clone(),
     };
+    // The spread of the bias offsets found by the first fit holds for every later fit (the final
+    // one and each held-out fold's).
+    let spread_found = |joint: &JointFit| JointSettings {
+        bias_instability_mps2: joint.bias_spread.sd_mps2,
+        estimate_bias_spread: false,
+        ..settings.joint.clone()
+    };
     if !settings.joint.terms.nonlinearity {
         let joint = fit_joint(&prepared.runs, &prepared.poses, &settings.joint, observer)?;
-        return Ok((joint, settings.joint.clone(), source("not fitted", prior, None)));
+        let found = spread_found(&joint);
+        return Ok((joint, found, source("not fitted", prior, None)));
     }
     let mut wide = settings.joint.clone();
     wide.sensor_prior_sd[3] = prior.max(DATA_ONLY_Q_PRIOR_SD);
     let data_only = fit_joint(&prepared.runs, &prepared.poses, &wide, observer)?;
+    let settings_found = spread_found(&data_only);
     let q: [(f64, f64); 3] = std::array::from_fn(|k| {
         let p = &data_only.sensor_params[9 + k];
         (p.value, p.std_error.unwrap_or(f64::INFINITY))
@@ -103,18 +160,20 @@ fn fit_with_nonlinearity_rule(
                 sd[3] = width;
                 sd
             },
-            ..settings.joint.clone()
+            ..settings_found
         }
     } else {
-        settings.joint.clone()
+        settings_found
     };
-    let joint = fit_joint_from(
+    let mut joint = fit_joint_from(
         &prepared.runs,
         &prepared.poses,
         &chosen,
         Some(&data_only),
         observer,
     )?;
+    // What the first fit found of the spread, not the given value the second one took.
+    joint.bias_spread = data_only.bias_spread;
     let by = if chosen.sensor_prior_sd[3] > prior {
         "data"
     } else {
@@ -140,6 +199,9 @@ pub struct CampaignResult {
     pub undetermined: Vec<(String, String)>,
     /// Whether the data or the prior decided the nonlinearity q.
     pub nonlinearity: NonlinearitySource,
+    /// Which of the physical family's terms the saved model carries, and why.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub terms_rule: Option<TermsRule>,
     /// The gyroscope's calibration, when the runs carry gyro columns.
     pub gyro: Option<GyroFit>,
     /// Why the gyroscope could not be calibrated, when it could not.
@@ -244,7 +306,9 @@ pub fn calibrate_campaign(
         .iter()
         .map(|&kind| summarise(kind, &held_out, conditions.len()))
         .collect();
-    let best = choose_by_physics(&summaries);
+    let terms_rule = TermsRule::of(&joint);
+    let set_aside = terms_rule.as_ref().map(|r| r.set_aside().name());
+    let best = choose_by_physics(&summaries, set_aside);
     let truth_check = truth_check(&summaries, &held_out, best, conditions.len());
     let found = Found {
         n_conditions: conditions.len(),
@@ -271,6 +335,7 @@ pub fn calibrate_campaign(
             joint,
             undetermined,
             nonlinearity,
+            terms_rule,
             gyro,
             gyro_error,
             thermal: stage.thermal,

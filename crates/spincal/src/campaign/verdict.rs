@@ -21,6 +21,12 @@
 //! RMS residual over the uncorrected one (per sample, noise in, on the footing of the truth-based
 //! figure).
 //!
+//! **The burden of proof.** A corrector is saved only where it is *shown no worse* than no
+//! correction on every held-out condition: the upper one-sided [`NO_WORSE_CONFIDENCE`] bound of
+//! its RMS ratio (the difference of mean squares plus Student's t times its standard error, below)
+//! at most 1 + [`NON_INFERIORITY_MARGIN`]. A condition too short or too noisy to show that leaves
+//! the corrector unsaved, however good its point estimate: the bound is the test's power, stated.
+//!
 //! **Significance.** A corrector is "worse than uncorrected" on a condition only when the mean of
 //! its squared residual minus the uncorrected one's exceeds Student's t quantile at one-sided
 //! probability `WORSE_FALSE_ALARM` (blocks − 1 degrees of freedom) times that difference's
@@ -47,6 +53,11 @@ const POSE_BLOCK_S: f64 = 1.0;
 
 /// One-sided false-alarm probability of "worse than uncorrected" on one condition.
 pub(crate) const WORSE_FALSE_ALARM: f64 = 1e-3;
+/// How much worse than no correction a saved corrector may be on a held-out condition, as a share
+/// of the uncorrected RMS: within it, "no worse".
+pub const NON_INFERIORITY_MARGIN: f64 = 0.02;
+/// The one-sided confidence with which "no worse" must be shown on each condition.
+pub const NO_WORSE_CONFIDENCE: f64 = 0.95;
 
 /// The samples of one held-out condition in a fixed order (its runs, then its poses) and how they
 /// group into blocks for the standard errors.
@@ -208,6 +219,14 @@ pub struct Comparison {
     pub ratio_se: f64,
     /// Significantly worse than uncorrected (see the module documentation).
     pub worse: bool,
+    /// The ratio's upper confidence bound at one-sided [`NO_WORSE_CONFIDENCE`]: the largest loss
+    /// against no correction these samples leave possible (their power, stated).
+    #[serde(default)]
+    pub upper_ratio: f64,
+    /// Shown no worse than uncorrected within [`NON_INFERIORITY_MARGIN`]: `upper_ratio` at most
+    /// 1 + the margin (what saving requires).
+    #[serde(default)]
+    pub shown_no_worse: bool,
     pub samples: usize,
     pub blocks: usize,
 }
@@ -286,12 +305,20 @@ pub(crate) fn compare(
     } else {
         difference > 0.0
     };
+    let upper_ratio = if b >= 2 {
+        let bound = difference + student_t_quantile(NO_WORSE_CONFIDENCE, (b - 1) as f64) * se;
+        (1.0 + bound / ms_u).max(0.0).sqrt()
+    } else {
+        f64::INFINITY
+    };
     Some(Comparison {
         rms_mps2,
         uncorrected_rms_mps2,
         ratio,
         ratio_se: se / (2.0 * ratio.max(f64::MIN_POSITIVE) * ms_u),
         worse,
+        upper_ratio,
+        shown_no_worse: upper_ratio <= 1.0 + NON_INFERIORITY_MARGIN,
         samples: n,
         blocks: b,
     })
@@ -442,6 +469,17 @@ mod tests {
         // An unknown bias offset as large as the shift makes it no longer significant.
         let unsure = compare(&residuals(&shifted), &residuals(&other), &block, 1.0).unwrap();
         assert!(!unsure.worse && unsure.ratio_se > worse.ratio_se, "{unsure:?}");
+        // Not shown worse is not shown no worse: the unsure one cannot be saved, the better one
+        // can, and the worse one's bound lies above its ratio.
+        assert!(
+            !unsure.shown_no_worse && unsure.upper_ratio > 1.0 + NON_INFERIORITY_MARGIN,
+            "{unsure:?}"
+        );
+        assert!(better.shown_no_worse && better.upper_ratio < 1.0, "{better:?}");
+        assert!(
+            !worse.shown_no_worse && worse.upper_ratio > worse.ratio,
+            "{worse:?}"
+        );
     }
 
     #[test]

@@ -15,6 +15,7 @@ use super::layout::{
 use super::problem::{JointProblem, Want};
 use super::result::{FitState, JointFit, JointParam, PoseFit, RunFit};
 use super::settings::{JointSettings, SensorTerms};
+use super::spread::{estimate_bias_spread, BiasSpread};
 use super::start::run_start;
 use super::JointError;
 use crate::correctors::physical::{SensorModel, SENSOR_PARAMS, SENSOR_PARAM_NAMES};
@@ -97,6 +98,22 @@ fn fit_joint_with(
     reweight_runs(&mut problem, &p);
     let walk = bias_random_walk(poses);
     reweight_poses(&mut problem, &p, &first.jtj, &free, walk);
+    let estimated = (settings.estimate_bias_spread && run_offsets_free)
+        .then(|| estimate_bias_spread(&problem, &p, &free))
+        .flatten();
+    let bias_spread = match estimated {
+        Some(found) => {
+            problem.bias_sigma = found.sd_mps2;
+            found
+        }
+        _ => BiasSpread {
+            sd_mps2: settings.bias_instability_mps2,
+            estimated: false,
+            at_lower_bound: false,
+            offsets: 0,
+            likelihood_ratio: 0.0,
+        },
+    };
     // The second pass starts at the first one's minimum: little damping, or the strongly
     // correlated bias, offset and drift directions crawl.
     let second = LmOptions {
@@ -128,6 +145,7 @@ fn fit_joint_with(
         dof,
         iterations: first.iterations + report.iterations,
         stop: report.stop,
+        bias_spread,
         covariance: format!(
             "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run, each still pose and each prior a block of its own (batch-means HAC); each pose weighted by its mean's error and the bias's wander between poses ({})",
             settings.block_s,
@@ -209,7 +227,7 @@ fn starting_values(
         SENSOR_PARAMS
             + runs.len() * RUN_PARAMS
             + poses.len() * POSE_PARAMS
-            + SESSION_PARAMS * sessions(poses)
+            + SESSION_PARAMS * sessions(runs, poses)
     ];
     let mut directions = Vec::with_capacity(runs.len());
     if let Some(previous) = start.filter(|f| f.state.params.len() == p.len()) {
@@ -318,7 +336,7 @@ fn reweight_poses(
 ) {
     let poses = problem.poses;
     let leverage = problem.pose_leverage(p, jtj, free);
-    for session in 0..sessions(poses) {
+    for session in 0..sessions(problem.runs, poses) {
         let members: Vec<usize> = (0..poses.len())
             .filter(|&i| poses[i].session == session)
             .collect();

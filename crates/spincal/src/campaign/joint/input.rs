@@ -22,6 +22,9 @@ pub struct RunInput {
     pub entry: TurntableEntry,
     /// Gyro x, y, z, rad/s, when recorded (`campaign::gyro` calibrates it; this fit ignores it).
     pub gyro_radps: Option<[Vec<f64>; 3]>,
+    /// The power-on session whose bias offset the run shares (its offset is tied to that
+    /// session's), when the campaign names one; `None`: an offset of its own.
+    pub session: Option<usize>,
     /// The demodulation behind the run's starting geometry, found by its first fit (a campaign's
     /// held-out folds fit each run many times).
     demodulated: std::sync::OnceLock<Demodulated>,
@@ -43,8 +46,15 @@ impl RunInput {
             keep,
             entry,
             gyro_radps,
+            session: None,
             demodulated: std::sync::OnceLock::new(),
         }
+    }
+
+    /// The same run, in power-on session `session`.
+    pub fn in_session(mut self, session: Option<usize>) -> RunInput {
+        self.session = session;
+        self
     }
 
     /// The same run with other readings and samples kept (a corrector's output, say).
@@ -57,6 +67,7 @@ impl RunInput {
             self.entry.clone(),
             self.gyro_radps.clone(),
         )
+        .in_session(self.session)
     }
 
     /// The run's demodulation in the mounting frame of its entry, found once.
@@ -80,7 +91,8 @@ pub struct PoseInput {
     pub samples: usize,
     /// Middle of the pose on its recording's clock, s.
     pub time_s: f64,
-    /// The still recording it came from (0, 1, …): poses of one recording share a bias offset.
+    /// Its power-on session (0, 1, …): a still recording's own, or the one the campaign names;
+    /// poses of one session share a bias offset.
     pub session: usize,
     /// The gyro's mean over the pose and its standard error, rad/s, when recorded.
     #[serde(default)]

@@ -1,7 +1,7 @@
 //! Where each parameter sits in the joint fit's vector: the sensor's, then each run's, each
 //! pose's and each still session's; and the times the recordings' parameters refer to.
 
-use super::input::PoseInput;
+use super::input::{PoseInput, RunInput};
 use crate::correctors::physical::SENSOR_PARAMS;
 
 /// Parameters per turntable run: r, ω, α, ϑ₀, β, ε₁, ε₂, wow (2), δ (3), drift rate (3).
@@ -27,7 +27,7 @@ pub const RUN_PARAM_NAMES: [&str; RUN_PARAMS] = [
     "drift_z (m/s² per s)",
 ];
 /// Parameters per still pose: two angles of gravity's direction. The bias offset δ (3) belongs
-/// to the pose's session (one still recording), shared by its poses.
+/// to the pose's power-on session, shared by its poses (and by the runs the campaign puts in it).
 pub const POSE_PARAMS: usize = 2;
 pub(super) const POSE_PARAM_NAMES: [&str; POSE_PARAMS] = ["direction_1 (rad)", "direction_2 (rad)"];
 
@@ -69,8 +69,11 @@ pub(super) fn session_times(poses: &[PoseInput]) -> Vec<f64> {
         .collect()
 }
 
-pub(super) fn sessions(poses: &[PoseInput]) -> usize {
-    poses.iter().map(|p| p.session + 1).max().unwrap_or(0)
+/// The number of power-on sessions: every pose's and every run's that names one.
+pub(super) fn sessions(runs: &[RunInput], poses: &[PoseInput]) -> usize {
+    let of_poses = poses.iter().map(|p| p.session + 1);
+    let of_runs = runs.iter().filter_map(|r| r.session.map(|s| s + 1));
+    of_poses.chain(of_runs).max().unwrap_or(0)
 }
 
 pub(crate) fn mid_time(t: &[f64]) -> f64 {

@@ -36,6 +36,7 @@ mod layout;
 mod problem;
 mod result;
 mod settings;
+mod spread;
 mod start;
 
 pub(crate) use fit::fit_run_geometry;
@@ -47,6 +48,7 @@ pub(crate) use layout::{mid_time, GEOMETRY};
 pub use layout::{POSE_PARAMS, RUN_PARAMS, RUN_PARAM_NAMES};
 pub use result::{JointFit, JointParam, PoseFit, RunFit, SensorCovariance};
 pub use settings::{JointSettings, SensorTerms, DEFAULT_NONLINEARITY_PCT_FS, DEFAULT_NONLINEARITY_RANGE_G};
+pub use spread::BiasSpread;
 pub use start::run_start;
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -41,7 +41,10 @@ pub(crate) struct JointProblem<'a> {
 }
 
 /// A still session's drift rate has a prior of the bias instability per this many seconds.
-const SESSION_DRIFT_S: f64 = 100.0;
+pub(super) const SESSION_DRIFT_S: f64 = 100.0;
+/// A run in a named session keeps its offset within the spread between sessions over this: one
+/// power-on, up to the drift within it.
+pub(super) const SESSION_TIE: f64 = 10.0;
 
 /// Accumulates rows into a local dense system, then scatters it into the global one.
 struct LocalSystem {
@@ -181,6 +184,31 @@ impl Want<'_> {
         }
         r * r
     }
+
+    /// A tie `(p[a] − p[b]) / sigma` as one more residual (`difference` = p[a] − p[b]); returns
+    /// its square.
+    fn add_tie(&mut self, a: usize, b: usize, difference: f64, sigma: f64) -> f64 {
+        let r = difference / sigma;
+        let w = 1.0 / (sigma * sigma);
+        match self {
+            Want::Sse => {}
+            Want::Normal(jtj, jtr) => {
+                jtj[(a, a)] += w;
+                jtj[(b, b)] += w;
+                jtj[(a, b)] -= w;
+                jtj[(b, a)] -= w;
+                jtr[a] += r / sigma;
+                jtr[b] -= r / sigma;
+            }
+            Want::Meat(meat) => {
+                meat[(a, a)] += w;
+                meat[(b, b)] += w;
+                meat[(a, b)] -= w;
+                meat[(b, a)] -= w;
+            }
+        }
+        r * r
+    }
 }
 
 impl JointProblem<'_> {
@@ -188,7 +216,7 @@ impl JointProblem<'_> {
         SENSOR_PARAMS
             + self.runs.len() * RUN_PARAMS
             + self.poses.len() * POSE_PARAMS
-            + SESSION_PARAMS * sessions(self.poses)
+            + SESSION_PARAMS * sessions(self.runs, self.poses)
     }
 
     pub(crate) fn geometry(&self, p: &[f64], i: usize) -> RunGeometry {
@@ -399,7 +427,15 @@ impl JointProblem<'_> {
         sse += want.add_prior(o + 5, p[o + 5], self.mount_tilt_sigma);
         sse += want.add_prior(o + 6, p[o + 6], self.mount_tilt_sigma);
         for k in 0..3 {
-            sse += want.add_prior(o + GEOMETRY + k, p[o + GEOMETRY + k], self.bias_sigma);
+            let own = o + GEOMETRY + k;
+            sse += match run.session {
+                // One power-on: the run's offset is its session's, up to the drift within it.
+                Some(session) => {
+                    let shared = session_offset(self.runs.len(), self.poses.len(), session) + k;
+                    want.add_tie(own, shared, p[own] - p[shared], self.bias_sigma / SESSION_TIE)
+                }
+                None => want.add_prior(own, p[own], self.bias_sigma),
+            };
         }
         if let Want::Normal(jtj, jtr) = &mut *want {
             local.scatter(jtj, jtr);
@@ -460,7 +496,7 @@ impl JointProblem<'_> {
         }
         // Each still session's bias offset within the instability, and its drift rate within the
         // instability per SESSION_DRIFT_S (poses alone say little about a slope).
-        for session in 0..sessions(self.poses) {
+        for session in 0..sessions(self.runs, self.poses) {
             let so = session_offset(self.runs.len(), self.poses.len(), session);
             for k in 0..SESSION_PARAMS {
                 let param = so + k;

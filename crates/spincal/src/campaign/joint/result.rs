@@ -61,6 +61,8 @@ pub struct JointFit {
     pub dof: usize,
     pub iterations: usize,
     pub stop: LmStop,
+    /// The spread of the bias offsets between power-on sessions the fit used.
+    pub bias_spread: super::BiasSpread,
     /// How the standard errors were formed, in words.
     pub covariance: String,
     #[serde(skip)]

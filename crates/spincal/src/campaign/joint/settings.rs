@@ -57,8 +57,12 @@ impl SensorTerms {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct JointSettings {
     pub gravity_mps2: f64,
-    /// Standard deviation of a recording's bias offset from the unit's bias, m/s².
+    /// Standard deviation of a session's (or a run's) bias offset from the unit's bias, m/s²:
+    /// the prior of the fit's first pass, and of the whole fit when not estimated.
     pub bias_instability_mps2: f64,
+    /// Whether that spread is estimated from the recordings (by their marginal likelihood,
+    /// [`super::BiasSpread`]) between the fit's two passes.
+    pub estimate_bias_spread: bool,
     /// Standard deviation of the sensor's tilt on its mount (how flat it sits), rad.
     pub mount_tilt_rad: f64,
     /// Prior standard deviations of the sensor terms about zero: bias (m/s²), scale error,
@@ -77,6 +81,7 @@ impl Default for JointSettings {
         JointSettings {
             gravity_mps2: crate::input::recording::STANDARD_GRAVITY,
             bias_instability_mps2: 0.003 * crate::input::recording::STANDARD_GRAVITY,
+            estimate_bias_spread: true,
             mount_tilt_rad: 2f64.to_radians(),
             sensor_prior_sd: [
                 0.5,

@@ -666,6 +666,7 @@ impl SimulatedCampaign {
                 truth: with_truth.then(|| r.true_accel_mps2.clone()),
                 floor_mps2: with_truth.then(|| r.floor_mps2()),
                 random_mps2: with_truth.then(|| r.random_mps2.clone()),
+                session: None,
             })
             .collect()
     }

@@ -1,0 +1,228 @@
+"""An independent check of what a campaign calibration saves.
+
+Written from first principles in numpy, sharing nothing with `spincal::simulate`: a ±2 g
+consumer accelerometer (bias, scale, a general 3x3 misalignment, a quadratic up to 0.4 % of the
+reading at 1 g, white noise 0.02 m/s²) recorded as a user with a breakout board records it:
+one CSV per still pose (time from 0 in each), four turntable runs, a campaign file with the
+datasheet's range and nonlinearity and no truth keys. Held out: still poses at new random
+orientations and runs at new speeds, radii and mountings.
+
+    python independent.py generate OUT SEED POSES [--one-file] [--session-sd MPS2]
+    python independent.py evaluate OUT          (after `spincal calibrate` and `spincal correct`)
+
+`evaluate` prints, per held-out file and axis, the RMS of corrected − truth over the RMS of the
+oracle's (the true model inverted on the same samples), and the still poses' systematic error.
+"""
+
+import json
+import os
+import sys
+
+import numpy as np
+
+G = 9.80665
+RATE_HZ = 100.0
+NOISE = 0.02
+
+
+def random_rotation(rng):
+    """A rotation drawn uniformly (a random unit quaternion)."""
+    q = rng.normal(size=4)
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def small_rotation(angles):
+    """exp([angles]x), for small angles (rad)."""
+    theta = np.linalg.norm(angles)
+    if theta == 0:
+        return np.eye(3)
+    k = np.array(angles) / theta
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(theta) * kx + (1 - np.cos(theta)) * kx @ kx
+
+
+def draw_sensor(rng):
+    bias = rng.uniform(-0.2, 0.2, 3)
+    scale = rng.uniform(-0.02, 0.02, 3)
+    # The sensor's frame is defined by its axes, as every calibration without an external
+    # attitude reference must: x along the x axis, y in the plane of x and y. Its axes in that
+    # frame: unit x, y tilted towards x, z tilted towards x and y (a lower triangle).
+    cross = np.tril(rng.uniform(-0.01, 0.01, (3, 3)), -1)
+    k = np.diag(1 + scale) @ (np.eye(3) + cross)
+    quadratic = rng.uniform(-1, 1, 3) * 0.004 / G  # 0.4 % of the reading at 1 g, at most
+    return {"bias": bias, "k": k, "q": quadratic}
+
+
+def read(sensor, f, rng, offset):
+    """The sensor's reading of specific force f (n x 3, m/s²)."""
+    v = f @ sensor["k"].T
+    return sensor["bias"] + offset + v + sensor["q"] * v * v + rng.normal(0, NOISE, f.shape)
+
+
+def oracle(sensor, y, offset):
+    """The true model inverted on readings y: v + q v² = y − b, solved for the root near y − b."""
+    c = y - sensor["bias"] - offset
+    q = sensor["q"]
+    v = np.where(np.abs(q) > 0, (-1 + np.sqrt(np.maximum(1 + 4 * q * c, 0))) / (2 * np.where(q == 0, 1, q)), c)
+    return v @ np.linalg.inv(sensor["k"]).T
+
+
+AXES = {"+x": (0, 1), "-x": (0, -1), "+y": (1, 1), "-y": (1, -1), "+z": (2, 1), "-z": (2, -1)}
+
+
+def axis_vector(name):
+    a, s = AXES[name]
+    v = np.zeros(3)
+    v[a] = s
+    return v
+
+
+def still(rng, seconds):
+    """Gravity's direction in the sensor frame for a random orientation, held `seconds`."""
+    up = random_rotation(rng).T @ np.array([0, 0, 1.0])
+    n = int(seconds * RATE_HZ)
+    return np.arange(n) / RATE_HZ, np.tile(G * up, (n, 1))
+
+
+def run(rng, rpm, radius, out, up, seconds):
+    """A turntable run: centripetal force toward the spindle plus gravity through the platter's
+    tilt, in the frame turning with the platter, then the sensor's small tilt on its mount."""
+    n = int(seconds * RATE_HZ)
+    t = np.arange(n) / RATE_HZ
+    omega = rpm * (1 + rng.uniform(-0.005, 0.005)) * 2 * np.pi / 60
+    tilt = np.radians(rng.uniform(0.05, 0.4))
+    tilt_direction = rng.uniform(0, 2 * np.pi)
+    theta = omega * t + rng.uniform(0, 2 * np.pi)
+    # World up in the turning platter frame (out, tangential, spindle).
+    phase = tilt_direction - theta
+    up_world = np.stack(
+        [np.sin(tilt) * np.cos(phase), np.sin(tilt) * np.sin(phase), np.full(n, np.cos(tilt))], axis=1
+    )
+    f_platter = G * up_world
+    f_platter[:, 0] -= omega**2 * radius
+    e_out, e_up = axis_vector(out), axis_vector(up)
+    e_tan = np.cross(e_up, e_out)
+    basis = np.stack([e_out, e_tan, e_up], axis=1)  # columns: platter axes in sensor coordinates
+    mount = small_rotation(rng.normal(0, np.radians(0.5), 3))
+    return t, (f_platter @ basis.T) @ mount.T
+
+
+def write_csv(path, t, accel):
+    with open(path, "w") as f:
+        f.write("t_s,ax_mps2,ay_mps2,az_mps2\n")
+        for row in np.column_stack([t, accel]):
+            f.write("%.4f,%.6f,%.6f,%.6f\n" % tuple(row))
+
+
+TRAIN_RUNS = [(33.333, 0.09, "+x", "+z"), (45.0, 0.09, "+x", "+z"), (33.333, 0.06, "+y", "+z"), (45.0, 0.06, "-y", "+z")]
+HELD_OUT_RUNS = [(45.0, 0.12, "-x", "+z"), (33.333, 0.075, "+x", "-z")]
+HELD_OUT_POSES = 8
+
+
+def generate(out, seed, poses, one_file, session_sd):
+    rng = np.random.default_rng(seed)
+    sensor = draw_sensor(rng)
+    os.makedirs(os.path.join(out, "held_out"), exist_ok=True)
+    lines = ['unit = "independent-%d"' % seed, "range_g = 2", "nonlinearity_pct_fs = 0.5", ""]
+    truth = {"sensor": {k: np.asarray(v).tolist() for k, v in sensor.items()}, "held_out": []}
+
+    def offset():
+        return rng.normal(0, session_sd, 3) if session_sd > 0 else np.zeros(3)
+
+    if one_file:
+        parts_t, parts_a, t0 = [], [], 0.0
+        o = offset()
+        for p in range(poses):
+            t, f = still(rng, 8.0)
+            parts_t.append(t + t0)
+            # Turned by hand between poses: a 3 s move (gravity swept between the two directions).
+            parts_a.append(read(sensor, f, rng, o))
+            t0 += 8.0 + 3.0
+            if p + 1 < poses:
+                tm = np.arange(int(3 * RATE_HZ)) / RATE_HZ
+                parts_t.append(tm + t0 - 3.0)
+                wobble = f[-1] + rng.normal(0, 3.0, (len(tm), 3))
+                parts_a.append(read(sensor, wobble, rng, o))
+        write_csv(os.path.join(out, "still.csv"), np.concatenate(parts_t), np.concatenate(parts_a))
+        lines += ["[[recording]]", 'file = "still.csv"', 'kind = "static"', ""]
+    else:
+        for p in range(poses):
+            t, f = still(rng, 8.0)
+            name = "pose-%02d.csv" % (p + 1)
+            write_csv(os.path.join(out, name), t, read(sensor, f, rng, offset()))
+            lines += ["[[recording]]", 'file = "%s"' % name, 'kind = "static"', ""]
+    for i, (rpm, radius, out_axis, up_axis) in enumerate(TRAIN_RUNS):
+        t, f = run(rng, rpm, radius, out_axis, up_axis, 60.0)
+        name = "run-%d.csv" % (i + 1)
+        write_csv(os.path.join(out, name), t, read(sensor, f, rng, offset()))
+        lines += [
+            "[[recording]]",
+            'file = "%s"' % name,
+            'kind = "turntable"',
+            "rpm = %s" % rpm,
+            "radius_m = %s" % radius,
+            "radius_tol_m = 0.002",
+            'out = "%s"' % out_axis,
+            'up = "%s"' % up_axis,
+            "",
+        ]
+    with open(os.path.join(out, "campaign.toml"), "w") as f:
+        f.write("\n".join(lines))
+    held = [("pose-%d" % (p + 1), still(rng, 8.0)) for p in range(HELD_OUT_POSES)]
+    held += [("run-%d" % (i + 1), run(rng, *r, 30.0)) for i, r in enumerate(HELD_OUT_RUNS)]
+    for name, (t, f) in held:
+        o = offset()
+        y = read(sensor, f, rng, o)
+        write_csv(os.path.join(out, "held_out", name + ".csv"), t, y)
+        np.save(os.path.join(out, "held_out", name + ".truth.npy"), f)
+        np.save(os.path.join(out, "held_out", name + ".oracle.npy"), oracle(sensor, y, o))
+        truth["held_out"].append(name)
+    with open(os.path.join(out, "truth.json"), "w") as f:
+        json.dump(truth, f, indent=1)
+
+
+def evaluate(out):
+    truth = json.load(open(os.path.join(out, "truth.json")))
+    rows = []
+    for name in truth["held_out"]:
+        f = np.load(os.path.join(out, "held_out", name + ".truth.npy"))
+        o = np.load(os.path.join(out, "held_out", name + ".oracle.npy"))
+        raw = np.loadtxt(os.path.join(out, "held_out", name + ".csv"), delimiter=",", skiprows=1)[:, 1:4]
+        path = os.path.join(out, "corrected", name + ".csv")
+        if os.path.exists(path):
+            with open(path) as fh:
+                header = fh.readline().strip().split(",")
+            data = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[header.index(c) for c in ("ax_mps2_corrected", "ay_mps2_corrected", "az_mps2_corrected")])
+        else:
+            data = raw
+        for k in range(3):
+            oracle_rms = np.sqrt(np.mean((o[:, k] - f[:, k]) ** 2))
+            err = data[:, k] - f[:, k]
+            rows.append(
+                {
+                    "file": name,
+                    "axis": "xyz"[k],
+                    "ratio": float(np.sqrt(np.mean(err**2)) / oracle_rms),
+                    "raw_ratio": float(np.sqrt(np.mean((raw[:, k] - f[:, k]) ** 2)) / oracle_rms),
+                    "systematic_mps2": float(np.mean(err)),
+                }
+            )
+    worst = max(r["ratio"] for r in rows)
+    worse_than_raw = sum(r["ratio"] > r["raw_ratio"] for r in rows)
+    print(json.dumps({"worst_ratio": worst, "mean_ratio": float(np.mean([r["ratio"] for r in rows])), "worse_than_raw": worse_than_raw, "rows": rows}))
+
+
+if __name__ == "__main__":
+    if sys.argv[1] == "generate":
+        args = sys.argv[2:]
+        sd = float(args[args.index("--session-sd") + 1]) if "--session-sd" in args else 0.0
+        generate(args[0], int(args[1]), int(args[2]), "--one-file" in args, sd)
+    else:
+        evaluate(sys.argv[2])

@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# The saved corrector against the oracle on an independent simulation (bench/accuracy/independent.py):
+# per unit, a campaign generated outside spincal, calibrated with `spincal calibrate --campaign`,
+# its held-out files corrected with `spincal correct`, and each held-out file and axis scored as
+# RMS(corrected − truth) / RMS(oracle − truth).
+#
+#   bash bench/accuracy/run.sh OUT_DIR UNITS POSES [--one-file] [--session-sd MPS2]
+set -euo pipefail
+out=${1:?OUT_DIR}
+units=${2:-10}
+poses=${3:-24}
+shift 3 || true
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(cd "$here/../.." && pwd)
+python=${PYTHON:-$root/.venv/bin/python}
+cargo build --release -q -p spincal-cli --manifest-path "$root/Cargo.toml"
+spincal=$root/target/release/spincal
+uptime
+mkdir -p "$out"
+for seed in $(seq 1 "$units"); do
+    unit=$out/unit-$seed
+    rm -rf "$unit"
+    "$python" "$here/independent.py" generate "$unit" "$seed" "$poses" "$@"
+    "$spincal" calibrate --campaign "$unit/campaign.toml" --out "$unit/cal" --quiet > "$unit/calibrate.log" 2>&1 || true
+    mkdir -p "$unit/corrected"
+    if [ -f "$unit/cal/model.json" ]; then
+        for f in "$unit"/held_out/*.csv; do
+            "$spincal" correct --model "$unit/cal/model.json" "$f" -o "$unit/corrected/$(basename "$f")" > /dev/null 2>&1
+        done
+        saved=$(grep -o '"saved": *"[^"]*"' "$unit/cal/results.json" | head -1)
+    else
+        saved="nothing saved"
+    fi
+    score=$("$python" "$here/independent.py" evaluate "$unit")
+    echo "unit $seed: $saved $(echo "$score" | "$python" -c 'import json,sys; s=json.load(sys.stdin); print("worst %.2f mean %.2f worse-than-raw %d" % (s["worst_ratio"], s["mean_ratio"], s["worse_than_raw"]))')"
+done
+uptime
