@@ -505,7 +505,20 @@ fn the_truth_free_figure_tracks_the_truth_it_cannot_see() {
     let (mut within, mut figures, mut agree) = (0, 0, 0);
     let outputs = twenty_campaigns();
     for out in outputs {
-        agree += usize::from(out.result.truth_check.as_ref().unwrap().agrees);
+        let check = out.result.truth_check.as_ref().unwrap();
+        agree += usize::from(check.agrees);
+        if !check.agrees {
+            eprintln!(
+                "disagrees: saved {:?}, truth {:?}: {}",
+                out.result.saved, check.would_save, out.result.verdict
+            );
+            for c in &out.result.candidates {
+                eprintln!(
+                    "  {} eligible {} mean {:?} truth {:?}: {:?}",
+                    c.candidate, c.eligible, c.mean_rms_mps2, c.mean_truth_rms_mps2, c.why_not
+                );
+            }
+        }
         for h in &out.result.held_out {
             if let (Some(p), Some(t)) = (&h.predicted, &h.truth) {
                 figures += 1;

@@ -24,6 +24,7 @@ mod model_validation;
 mod phone;
 mod readers_prop;
 mod real_imu;
+mod sessions;
 mod shared_files;
 mod sysid;
 mod sysid_benchmarks;

@@ -67,16 +67,49 @@ fn fmt3(v: &[f64; 3]) -> String {
 pub fn summary(output: &CampaignOutput, out: &Path) -> String {
     let r = &output.result;
     let mut text = format!("unit {}: {}\n\n", r.unit, r.verdict);
-    text.push_str("held-out condition            corrector        residual vs physics x y z (m/s²)  uncorrected              ratio        predicted  vs truth\n");
+    let spread = &r.joint.bias_spread;
+    let _ = writeln!(
+        text,
+        "bias offsets between power-on sessions: {}",
+        match (spread.estimated, spread.at_lower_bound) {
+            (false, _) => format!("σ = {:.4} m/s² (given)", spread.sd_mps2),
+            (true, true) => format!(
+                "none seen (σ below {:.5} m/s², from {} offsets)",
+                spread.sd_mps2, spread.offsets
+            ),
+            (true, false) => format!(
+                "σ = {:.4} m/s² (from {} offsets; likelihood ratio against none {:.1})",
+                spread.sd_mps2, spread.offsets, spread.likelihood_ratio
+            ),
+        }
+    );
+    if let Some(rule) = &r.terms_rule {
+        let z = rule.nonlinearity_z;
+        let _ = writeln!(
+            text,
+            "nonlinearity q: {} (|q/se| {:.1} {:.1} {:.1} against {:.2})",
+            if rule.keeps_nonlinearity {
+                "kept"
+            } else {
+                "left out"
+            },
+            z[0].abs(),
+            z[1].abs(),
+            z[2].abs(),
+            rule.threshold
+        );
+    }
+    text.push('\n');
+    text.push_str("held-out condition            corrector        residual vs physics x y z (m/s²)  uncorrected              ratio (95 % bound) predicted  vs truth\n");
     for h in &r.held_out {
         let (rms, uncorrected, ratio) = match &h.physics {
             Some(p) => (
                 fmt3(&p.rms_mps2),
                 fmt3(&p.uncorrected_rms_mps2),
                 format!(
-                    "{:.2} ± {:.2}{}",
+                    "{:.2} ≤{:.2}{}",
                     p.ratio,
-                    p.ratio_se,
+                    p.upper_ratio,
                     if p.worse { " worse" } else { "" }
                 ),
             ),
@@ -92,7 +125,7 @@ pub fn summary(output: &CampaignOutput, out: &Path) -> String {
             .map_or(String::new(), |t| format!("{:.2}", t.ratio));
         let _ = writeln!(
             text,
-            "{:<29} {:<16} {:<33} {:<24} {:<12} {:<10} {}",
+            "{:<29} {:<16} {:<33} {:<24} {:<18} {:<10} {}",
             h.condition, h.candidate, rms, uncorrected, ratio, predicted, truth
         );
     }

@@ -10,7 +10,7 @@ use crate::campaign::params::Params;
 use crate::campaign::prepare::Prepared;
 use crate::campaign::thermal::CampaignThermal;
 use crate::campaign::verdict::{
-    combined, Comparison, Prediction, NON_INFERIORITY_MARGIN, NO_WORSE_CONFIDENCE,
+    combined, pooled_upper_ratio, Comparison, Pooled, Prediction, NON_INFERIORITY_MARGIN, NO_WORSE_CONFIDENCE,
 };
 use crate::correctors::model_file::CorrectorFile;
 use crate::progress::{Observer, Progress};
@@ -46,15 +46,24 @@ pub struct CandidateSummary {
     pub mean_rms_mps2: Option<f64>,
     /// Worst ratio of its residual RMS to the uncorrected one's against physics.
     pub worst_ratio_to_uncorrected: Option<f64>,
-    /// Worst upper confidence bound of that ratio (`verdict::Comparison::upper_ratio`).
+    /// The ratio's upper confidence bound pooled over the conditions
+    /// (`verdict::pooled_upper_ratio`): saving needs it at most 1 + the margin.
     #[serde(default)]
-    pub worst_upper_ratio: Option<f64>,
+    pub pooled_upper_ratio: Option<f64>,
+    /// Its mean-square difference from uncorrected pooled over the conditions, with its standard
+    /// error: what separates candidates.
+    #[serde(default)]
+    pub pooled: Option<Pooled>,
     /// Mean over conditions of the RMS error against truth (simulations), m/s².
     pub mean_truth_rms_mps2: Option<f64>,
     /// Worst ratio to uncorrected against truth (simulations).
     pub worst_truth_ratio: Option<f64>,
     /// Never significantly worse than uncorrected against physics and trained on every condition.
     pub eligible: bool,
+    /// Why the candidate's own properties rule it out whatever its scores (its gain, its
+    /// covariance's prediction): the truth check applies these too.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_check: Option<String>,
     pub why_not: Option<String>,
 }
 
@@ -107,13 +116,13 @@ pub(super) fn save_best(
         ),
         Ok(Trained::Corrector { model, .. }) => {
             let verdict = format!(
-                "Saved {} ({}), validated on {} conditions it never trained on: judged by physics alone (still poses' |f| against gravity, turntable runs against a rigid platter's motion with no sensor freedom), it leaves {:.4} m/s² mean RMS, at worst {:.2}× the uncorrected residual, and is shown no worse on each (at most {:.2}× at {:.0} % confidence, within the {:.0} % margin). Trained on every recording of the campaign.{}",
+                "Saved {} ({}), validated on {} conditions it never trained on: judged by physics alone (still poses' |f| against gravity, turntable runs against a rigid platter's motion with no sensor freedom), it leaves {:.4} m/s² mean RMS, at worst {:.2}× the uncorrected residual, and, pooled over them, is shown no worse (at most {:.2}× at {:.0} % confidence, within the {:.0} % margin). Trained on every recording of the campaign.{}",
                 kind.name(),
                 kind.describe(),
                 found.n_conditions,
                 best.mean_rms_mps2.unwrap_or(f64::NAN),
                 best.worst_ratio_to_uncorrected.unwrap_or(f64::NAN),
-                best.worst_upper_ratio.unwrap_or(f64::NAN),
+                best.pooled_upper_ratio.unwrap_or(f64::NAN),
                 100.0 * NO_WORSE_CONFIDENCE,
                 100.0 * NON_INFERIORITY_MARGIN,
                 truth_sentence(found.truth_check)
@@ -202,10 +211,6 @@ pub(super) fn no_conditions_verdict(prepared: &Prepared, undetermined: &[(String
     )
 }
 
-/// Candidates whose mean residual against physics is within this fraction of the best one's are
-/// told apart by nothing physics can see (the means differ by less than their noise).
-pub(crate) const INDISTINGUISHABLE: f64 = 0.02;
-
 /// Among candidates physics cannot tell apart, the order of preference: a model whose held-out
 /// error its covariance predicts (the physical family) before one whose error cannot be stated,
 /// and fewer parameters before more.
@@ -222,23 +227,30 @@ fn preference(candidate: &str) -> usize {
     .unwrap_or(usize::MAX)
 }
 
-/// The choice made without truth: the eligible candidate with the lowest mean residual against
-/// physics, or the preferred one (see [`preference`]) among those within [`INDISTINGUISHABLE`]
-/// of it; `set_aside` (the physical family's member the terms rule rejects) is never chosen.
+/// The choice made without truth: the most preferred eligible candidate (see [`preference`])
+/// that no other eligible one beats by more than the noise can explain — by more than the normal
+/// quantile at [`NO_WORSE_CONFIDENCE`] times the sum of the two pooled standard errors (a bound on
+/// their difference's). `set_aside` (the physical family's member the terms rule rejects) is
+/// never chosen.
 pub(super) fn choose_by_physics<'a>(
     summaries: &'a [CandidateSummary],
     set_aside: Option<&str>,
 ) -> Option<&'a CandidateSummary> {
-    let eligible = |s: &CandidateSummary| s.eligible && Some(s.candidate.as_str()) != set_aside;
-    let best = choose(summaries, eligible, |s| s.mean_rms_mps2)?.mean_rms_mps2?;
-    summaries
+    let z = crate::metrics::student_t_quantile(NO_WORSE_CONFIDENCE, 1e6);
+    let mut eligible: Vec<(&CandidateSummary, Pooled)> = summaries
         .iter()
-        .filter(|s| {
-            eligible(s)
-                && s.mean_rms_mps2
-                    .is_some_and(|m| m <= best * (1.0 + INDISTINGUISHABLE))
+        .filter(|s| s.eligible && Some(s.candidate.as_str()) != set_aside)
+        .filter_map(|s| s.pooled.map(|p| (s, p)))
+        .collect();
+    eligible.sort_by_key(|(s, _)| preference(&s.candidate));
+    eligible
+        .iter()
+        .find(|(_, mine)| {
+            !eligible
+                .iter()
+                .any(|(_, other)| other.difference + z * (other.se + mine.se) < mine.difference)
         })
-        .min_by_key(|s| preference(&s.candidate))
+        .map(|(s, _)| *s)
 }
 
 /// The eligible summary with the lowest `mean`, if any.
@@ -260,17 +272,22 @@ pub(super) fn truth_check(
     held_out: &[HeldOutScore],
     chosen: Option<&CandidateSummary>,
     n_conditions: usize,
+    set_aside: Option<&str>,
 ) -> Option<TruthCheck> {
     if n_conditions == 0 || held_out.iter().any(|h| h.physics.is_some() && h.truth.is_none()) {
         return None;
     }
+    // The same rule as the choice's, on the truth-based comparisons.
     let truth_eligible = |s: &CandidateSummary| {
         let rows: Vec<&HeldOutScore> = held_out.iter().filter(|h| h.candidate == s.candidate).collect();
+        let truths: Vec<&Comparison> = rows.iter().filter_map(|h| h.truth.as_ref()).collect();
         s.why_not.as_deref() != Some(UNSAVABLE)
+            && s.model_check.is_none()
+            && Some(s.candidate.as_str()) != set_aside
             && rows.len() == n_conditions
-            && rows
-                .iter()
-                .all(|h| h.truth.as_ref().is_some_and(|t| t.shown_no_worse))
+            && truths.len() == n_conditions
+            && truths.iter().all(|t| !(t.worse && !t.shown_no_worse))
+            && pooled_upper_ratio(&truths).is_some_and(|u| u <= 1.0 + NON_INFERIORITY_MARGIN)
     };
     let would = choose(summaries, truth_eligible, |s| s.mean_truth_rms_mps2);
     let agrees = match (chosen, would) {
@@ -315,10 +332,9 @@ pub(super) fn summarise(
     n_conditions: usize,
 ) -> CandidateSummary {
     let rows: Vec<&HeldOutScore> = held_out.iter().filter(|h| h.candidate == kind.name()).collect();
-    let mut why_not = None;
+    let (mut why_not, mut model_check) = (None, None);
     let (mut sum, mut truth_sum) = (0.0, Some(0.0));
-    let (mut worst, mut worst_truth, mut worst_upper): (Option<f64>, Option<f64>, Option<f64>) =
-        (None, None, None);
+    let (mut worst, mut worst_truth): (Option<f64>, Option<f64>) = (None, None);
     for row in &rows {
         match &row.physics {
             None => {
@@ -326,7 +342,7 @@ pub(super) fn summarise(
             }
             Some(p) => {
                 if let Some(gain) = row.gain_error.filter(|&g| g > MAX_GAIN_ERROR || g.is_nan()) {
-                    why_not.get_or_insert(format!(
+                    model_check.get_or_insert(format!(
                         "its gain ∂output/∂input departs from one by {gain:.2} on \"{}\": it discards or amplifies a reading that its training held still, which the held-out data cannot check",
                         row.condition
                     ));
@@ -336,30 +352,19 @@ pub(super) fn summarise(
                     .as_ref()
                     .filter(|p| p.ratio > MAX_PREDICTED_RATIO || p.ratio.is_nan())
                 {
-                    why_not.get_or_insert(format!(
+                    model_check.get_or_insert(format!(
                         "its parameters' covariance predicts {:.2}× the uncorrected error on \"{}\": the campaign does not determine what it corrects",
                         predicted.ratio, row.condition
                     ));
                 }
                 sum += combined(p.rms_mps2);
                 worst = Some(worst.map_or(p.ratio, |w| w.max(p.ratio)));
-                worst_upper = Some(worst_upper.map_or(p.upper_ratio, |w| w.max(p.upper_ratio)));
                 // Significantly worse by less than the margin is still no worse: the burden of
                 // proof is the bound's, not this test's.
                 if p.ratio.is_nan() || (p.worse && !p.shown_no_worse) {
                     why_not.get_or_insert(format!(
                         "{:.2}× (± {:.2}) the uncorrected residual on \"{}\", significantly worse",
                         p.ratio, p.ratio_se, row.condition
-                    ));
-                }
-                if !p.shown_no_worse {
-                    why_not.get_or_insert(format!(
-                        "not shown no worse than uncorrected on \"{}\": {:.2}× the uncorrected residual, possibly up to {:.2}× ({:.0} % bound) where saving needs at most {:.2}×; a longer or quieter recording of that condition would show it",
-                        row.condition,
-                        p.ratio,
-                        p.upper_ratio,
-                        100.0 * NO_WORSE_CONFIDENCE,
-                        1.0 + NON_INFERIORITY_MARGIN
                     ));
                 }
             }
@@ -372,7 +377,22 @@ pub(super) fn summarise(
             _ => None,
         };
     }
+    // The candidate's own properties come first in the reasons, as they are checked first.
+    if let Some(reason) = &model_check {
+        why_not = Some(reason.clone());
+    }
     let complete = rows.len() == n_conditions && n_conditions > 0 && rows.iter().all(|r| r.physics.is_some());
+    let comparisons: Vec<&Comparison> = rows.iter().filter_map(|r| r.physics.as_ref()).collect();
+    let pooled_upper_ratio = pooled_upper_ratio(&comparisons);
+    let pooled = Pooled::of(&comparisons);
+    if complete && pooled_upper_ratio.is_none_or(|u| u > 1.0 + NON_INFERIORITY_MARGIN) {
+        why_not.get_or_insert(format!(
+            "not shown no worse than uncorrected: pooled over the {n_conditions} held-out conditions its residual is possibly up to {:.2}× the uncorrected one ({:.0} % bound) where saving needs at most {:.2}×; longer or more held-out recordings would show it",
+            pooled_upper_ratio.unwrap_or(f64::NAN),
+            100.0 * NO_WORSE_CONFIDENCE,
+            1.0 + NON_INFERIORITY_MARGIN
+        ));
+    }
     if n_conditions == 0 {
         why_not = Some("no held-out condition".into());
     }
@@ -384,10 +404,12 @@ pub(super) fn summarise(
         description: kind.describe().to_string(),
         mean_rms_mps2: complete.then(|| sum / n_conditions as f64),
         worst_ratio_to_uncorrected: worst,
-        worst_upper_ratio: worst_upper,
+        pooled_upper_ratio,
+        pooled,
         mean_truth_rms_mps2: truth_sum.filter(|_| complete).map(|t| t / n_conditions as f64),
         worst_truth_ratio: worst_truth,
         eligible: complete && why_not.is_none(),
         why_not,
+        model_check,
     }
 }

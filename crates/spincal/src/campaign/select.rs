@@ -309,7 +309,7 @@ pub fn calibrate_campaign(
     let terms_rule = TermsRule::of(&joint);
     let set_aside = terms_rule.as_ref().map(|r| r.set_aside().name());
     let best = choose_by_physics(&summaries, set_aside);
-    let truth_check = truth_check(&summaries, &held_out, best, conditions.len());
+    let truth_check = truth_check(&summaries, &held_out, best, conditions.len(), set_aside);
     let found = Found {
         n_conditions: conditions.len(),
         truth_check: truth_check.as_ref(),

@@ -21,11 +21,14 @@
 //! RMS residual over the uncorrected one (per sample, noise in, on the footing of the truth-based
 //! figure).
 //!
-//! **The burden of proof.** A corrector is saved only where it is *shown no worse* than no
-//! correction on every held-out condition: the upper one-sided [`NO_WORSE_CONFIDENCE`] bound of
-//! its RMS ratio (the difference of mean squares plus Student's t times its standard error, below)
-//! at most 1 + [`NON_INFERIORITY_MARGIN`]. A condition too short or too noisy to show that leaves
-//! the corrector unsaved, however good its point estimate: the bound is the test's power, stated.
+//! **The burden of proof.** A corrector is saved only where the held-out evidence *shows* it no
+//! worse than no correction: the upper one-sided [`NO_WORSE_CONFIDENCE`] bound of its RMS ratio,
+//! pooled over the held-out conditions ([`pooled_upper_ratio`]: the difference of mean squares
+//! plus the normal quantile times its standard error, below), at most 1 +
+//! [`NON_INFERIORITY_MARGIN`]; and on no condition significantly worse by more than the margin
+//! (each condition's own bound, `Comparison::upper_ratio`). Evidence too short or too noisy to show
+//! it leaves the corrector unsaved, however good its point estimate: the bound is the test's
+//! power, stated.
 //!
 //! **Significance.** A corrector is "worse than uncorrected" on a condition only when the mean of
 //! its squared residual minus the uncorrected one's exceeds Student's t quantile at one-sided
@@ -322,6 +325,51 @@ pub(crate) fn compare(
         samples: n,
         blocks: b,
     })
+}
+
+/// The upper one-sided [`NO_WORSE_CONFIDENCE`] bound of the RMS ratio pooled over held-out
+/// conditions: the mean over conditions of the mean-square difference (corrected − uncorrected)
+/// plus the normal quantile times its standard error (the conditions' errors independent), over
+/// the mean uncorrected mean square. `None` without a finite comparison.
+pub(crate) fn pooled_upper_ratio(comparisons: &[&Comparison]) -> Option<f64> {
+    let pooled = Pooled::of(comparisons)?;
+    let z = student_t_quantile(NO_WORSE_CONFIDENCE, 1e6);
+    let ratio = (1.0 + (pooled.difference + z * pooled.se) / pooled.uncorrected)
+        .max(0.0)
+        .sqrt();
+    ratio.is_finite().then_some(ratio)
+}
+
+/// Mean over held-out conditions of a corrector's mean square minus the uncorrected one's, its
+/// standard error (conditions independent) and the mean uncorrected mean square, m²/s⁴.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Pooled {
+    pub difference: f64,
+    pub se: f64,
+    pub uncorrected: f64,
+}
+
+impl Pooled {
+    pub(crate) fn of(comparisons: &[&Comparison]) -> Option<Pooled> {
+        let (mut difference, mut uncorrected, mut variance) = (0.0, 0.0, 0.0);
+        for c in comparisons {
+            let (ms_c, ms_u) = (
+                combined(c.rms_mps2).powi(2),
+                combined(c.uncorrected_rms_mps2).powi(2),
+            );
+            let se = c.ratio_se * 2.0 * c.ratio * ms_u;
+            difference += ms_c - ms_u;
+            uncorrected += ms_u;
+            variance += se * se;
+        }
+        let n = comparisons.len() as f64;
+        let pooled = Pooled {
+            difference: difference / n,
+            se: variance.sqrt() / n,
+            uncorrected: uncorrected / n,
+        };
+        (n > 0.0 && pooled.difference.is_finite() && pooled.se.is_finite()).then_some(pooled)
+    }
 }
 
 /// RMS per axis of `errors` and of the random floor over the samples where `errors` exist.

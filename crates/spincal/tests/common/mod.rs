@@ -1,6 +1,7 @@
 //! Support shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod independent;
 pub mod synthetic;
 
 use std::path::PathBuf;
