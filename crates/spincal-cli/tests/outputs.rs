@@ -615,7 +615,13 @@ fn a_users_file_with_spincals_header_is_kept_and_reruns_replace_only_spincals_ow
     for (name, _) in LOOKALIKES {
         let target = p(name);
         let commands: [Vec<&std::ffi::OsStr>; 3] = [
-            vec![os("simulate"), os("--duration"), os("2"), os("-o"), target.as_os_str()],
+            vec![
+                os("simulate"),
+                os("--duration"),
+                os("2"),
+                os("-o"),
+                target.as_os_str(),
+            ],
             vec![
                 os("correct"),
                 os("--model"),
@@ -624,7 +630,12 @@ fn a_users_file_with_spincals_header_is_kept_and_reruns_replace_only_spincals_ow
                 os("-o"),
                 target.as_os_str(),
             ],
-            vec![os("fit"), rec.as_os_str(), os("--reference-csv"), target.as_os_str()],
+            vec![
+                os("fit"),
+                rec.as_os_str(),
+                os("--reference-csv"),
+                target.as_os_str(),
+            ],
         ];
         for args in commands {
             let (code, _, err) = run(&args);
@@ -643,7 +654,13 @@ fn a_users_file_with_spincals_header_is_kept_and_reruns_replace_only_spincals_ow
     let reference = p("ref.csv");
     let sim = p("sim.csv");
     let reruns: [Vec<&std::ffi::OsStr>; 3] = [
-        vec![os("simulate"), os("--duration"), os("2"), os("-o"), sim.as_os_str()],
+        vec![
+            os("simulate"),
+            os("--duration"),
+            os("2"),
+            os("-o"),
+            sim.as_os_str(),
+        ],
         vec![
             os("correct"),
             os("--model"),
@@ -653,7 +670,12 @@ fn a_users_file_with_spincals_header_is_kept_and_reruns_replace_only_spincals_ow
             corrected.as_os_str(),
         ],
         // linear_model wrote ref.csv with this command already.
-        vec![os("fit"), rec.as_os_str(), os("--reference-csv"), reference.as_os_str()],
+        vec![
+            os("fit"),
+            rec.as_os_str(),
+            os("--reference-csv"),
+            reference.as_os_str(),
+        ],
     ];
     let inputs = (read(&rec), read(&model));
     for args in &reruns {

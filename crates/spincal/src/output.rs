@@ -191,10 +191,7 @@ fn replace_regular(
         std::process::id(),
         TEMPORARY_COUNT.fetch_add(1, Ordering::Relaxed)
     ));
-    let file = OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(&temporary)?;
+    let file = OpenOptions::new().write(true).create_new(true).open(&temporary)?;
     let _live = LiveTemporary::new(&temporary);
     let written = (|| {
         let mut out = Fingerprinting {
@@ -417,10 +414,7 @@ static MANIFEST_LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// Changes the manifest of `folder` with `change`, dropping entries of files that are gone, and
 /// writes it through a temporary file. A manifest that is not spincal's is left as it is.
-fn update_manifest(
-    folder: &Path,
-    change: impl FnOnce(&mut Vec<NamedFingerprint>),
-) -> std::io::Result<()> {
+fn update_manifest(folder: &Path, change: impl FnOnce(&mut Vec<NamedFingerprint>)) -> std::io::Result<()> {
     let _guard = MANIFEST_LOCK.lock().unwrap_or_else(|p| p.into_inner());
     let (mut outputs, existed) = match read_manifest(folder) {
         Recorded::Absent => (Vec::new(), false),
@@ -527,7 +521,11 @@ pub(crate) fn written_by_spincal(path: &Path, companions: &[&Path]) -> Result<()
             .filter(|c| identity(c) != identity(path))
             .filter_map(|c| claim_of(c, name)),
     );
-    if named.iter().flatten().any(|claimed| has_content(&target, claimed)) {
+    if named
+        .iter()
+        .flatten()
+        .any(|claimed| has_content(&target, claimed))
+    {
         return Ok(());
     }
     Err(if !named.is_empty() {
@@ -630,7 +628,10 @@ pub fn set_aside_stale(
         }
         std::fs::rename(&from, &to)?;
         // The moved file is still the content spincal wrote: its record follows it.
-        let to_name = to.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let to_name = to
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
         update_manifest(folder, |outputs| {
             for e in outputs.iter_mut().filter(|e| e.file == *name) {
                 e.file = to_name.clone();
@@ -678,7 +679,11 @@ mod tests {
         .unwrap_err();
         assert!(err.to_string().contains("disk on fire"), "{err}");
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "old");
-        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary, no manifest");
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "no temporary, no manifest"
+        );
     }
 
     #[cfg(unix)]
@@ -724,7 +729,10 @@ mod tests {
             .unwrap()
             .map(|e| {
                 let e = e.unwrap();
-                (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).unwrap())
+                (
+                    e.file_name().to_string_lossy().into_owned(),
+                    std::fs::read(e.path()).unwrap(),
+                )
             })
             .collect();
         files.sort();
@@ -738,23 +746,42 @@ mod tests {
         // spincal's own files of every kind, written through write_bytes: recorded.
         for (name, text) in [
             ("model.json", r#"{"format_version": 1, "spincal_version": "0.1"}"#),
-            ("report.html", "<html><head><meta name=\"generator\" content=\"spincal\"></head>"),
+            (
+                "report.html",
+                "<html><head><meta name=\"generator\" content=\"spincal\"></head>",
+            ),
             ("rec.csv", "t_s,ax_g,ay_g,az_g\n0,0,0,1\n"),
             ("imu.h", "/* spincal */\n#define A 1\n"),
         ] {
             write_bytes(&path(name), text.as_bytes()).unwrap();
         }
         std::fs::write(path("empty.csv"), "").unwrap();
-        for ours in ["model.json", "report.html", "rec.csv", "imu.h", "empty.csv", "missing.csv"] {
+        for ours in [
+            "model.json",
+            "report.html",
+            "rec.csv",
+            "imu.h",
+            "empty.csv",
+            "missing.csv",
+        ] {
             assert!(claim_outputs(&[&path(ours)], false).unwrap().is_empty(), "{ours}");
         }
         // A user's files that look like spincal's from the inside: its version field, generator
         // mark, recording header, `correct`'s header, a comment naming it.
         let theirs = [
-            ("theirs.json", r#"{"format_version": 1, "spincal_version": "0.1"}"#),
-            ("notes.html", "<html><head><meta name=\"generator\" content=\"spincal\"></head>"),
+            (
+                "theirs.json",
+                r#"{"format_version": 1, "spincal_version": "0.1"}"#,
+            ),
+            (
+                "notes.html",
+                "<html><head><meta name=\"generator\" content=\"spincal\"></head>",
+            ),
             ("logger.csv", "t_s,ax_g,ay_g,az_g\n0,0,0,1\n"),
-            ("fixed.csv", "t,ax,ay,az,ax_corrected,valid,status\n0,0,0,1,0,1,ok\n"),
+            (
+                "fixed.csv",
+                "t,ax,ay,az,ax_corrected,valid,status\n0,0,0,1,0,1,ok\n",
+            ),
             ("mine.h", "/* spincal */\n#define A 2\n"),
             ("cal.txt", "# spincal static calibration\n1 2 3\n"),
         ];
@@ -765,7 +792,10 @@ mod tests {
         for (name, _) in theirs {
             let err = claim_outputs(&[&path(name)], false).unwrap_err();
             assert!(matches!(err, OutputError::NotWrittenBySpincal { .. }), "{err}");
-            assert!(err.to_string().contains(name) && err.to_string().contains(MANIFEST), "{err}");
+            assert!(
+                err.to_string().contains(name) && err.to_string().contains(MANIFEST),
+                "{err}"
+            );
             let replaced = claim_outputs(&[&path(name)], true).unwrap();
             assert_eq!(replaced, [Replaced { path: path(name) }]);
         }
@@ -773,7 +803,10 @@ mod tests {
         // A recording of spincal's edited by hand is the user's.
         std::fs::write(path("rec.csv"), "t_s,ax_g,ay_g,az_g\n0,0,0,2\n").unwrap();
         let err = claim_outputs(&[&path("rec.csv")], false).unwrap_err();
-        assert!(err.to_string().contains("changed since spincal wrote it"), "{err}");
+        assert!(
+            err.to_string().contains("changed since spincal wrote it"),
+            "{err}"
+        );
         // The manifest names each file spincal wrote with what it wrote, and only those.
         let manifest: serde_json::Value =
             serde_json::from_slice(&std::fs::read(path(MANIFEST)).unwrap()).unwrap();
@@ -804,7 +837,10 @@ mod tests {
         assert!(claim_outputs(&[&path("rec.csv")], false).unwrap().is_empty());
         std::fs::write(path("rec.csv"), "t_s,ax_g\n0,2\n").unwrap();
         assert!(claim_outputs(&[&path("rec.csv")], false).is_err());
-        assert_eq!(std::fs::read_to_string(path("rec.csv")).unwrap(), "t_s,ax_g\n0,2\n");
+        assert_eq!(
+            std::fs::read_to_string(path("rec.csv")).unwrap(),
+            "t_s,ax_g\n0,2\n"
+        );
     }
 
     #[test]
@@ -823,7 +859,10 @@ mod tests {
         assert!(err.to_string().contains("not spincal's record"), "{err}");
         write_bytes(&path("out.csv"), b"x\n").unwrap();
         assert_eq!(std::fs::read_to_string(path(MANIFEST)).unwrap(), foreign);
-        assert!(claim_outputs(&[&path("out.csv")], false).is_err(), "not recorded, so not claimed");
+        assert!(
+            claim_outputs(&[&path("out.csv")], false).is_err(),
+            "not recorded, so not claimed"
+        );
         // Not JSON at all.
         std::fs::write(path(MANIFEST), "my notes").unwrap();
         write_bytes(&path("out.csv"), b"y\n").unwrap();
@@ -832,7 +871,10 @@ mod tests {
         for target in [path(MANIFEST), dir.path().join("sub").join(MANIFEST)] {
             let err = check_outputs(&[], &[&target]).unwrap_err();
             assert!(matches!(err, OutputError::Reserved { .. }), "{err}");
-            assert!(matches!(write_bytes(&target, b"{}"), Err(OutputError::Reserved { .. })));
+            assert!(matches!(
+                write_bytes(&target, b"{}"),
+                Err(OutputError::Reserved { .. })
+            ));
         }
         assert_eq!(std::fs::read_to_string(path(MANIFEST)).unwrap(), "my notes");
     }
@@ -848,10 +890,15 @@ mod tests {
         let moved = set_aside_stale(dir.path(), &["model.json", "results.json"], &["results.json"]).unwrap();
         assert_eq!(moved, [(path("model.json"), path("model.json.stale"))]);
         let manifest = std::fs::read_to_string(path(MANIFEST)).unwrap();
-        assert!(manifest.contains("model.json.stale") && !manifest.contains("gone.csv"), "{manifest}");
-        assert!(claim_outputs(&[&path("model.json.stale"), &path("results.json")], false)
-            .unwrap()
-            .is_empty());
+        assert!(
+            manifest.contains("model.json.stale") && !manifest.contains("gone.csv"),
+            "{manifest}"
+        );
+        assert!(
+            claim_outputs(&[&path("model.json.stale"), &path("results.json")], false)
+                .unwrap()
+                .is_empty()
+        );
         // A file of the same name the user puts there later is theirs.
         std::fs::write(path("model.json"), "{}\n").unwrap();
         assert!(claim_outputs(&[&path("model.json")], false).is_err());
