@@ -15,8 +15,9 @@ struct Cli {
     #[arg(long, global = true)]
     quiet: bool,
     /// Replace existing output files that spincal did not write (each one replaced is named on
-    /// standard error). Without it such a file is refused; spincal's own earlier outputs are
-    /// always replaced.
+    /// standard error). Without it such a file is refused; spincal's own earlier outputs, known
+    /// by the record of what it wrote that it keeps in `.spincal-outputs.json` in their folder
+    /// (edited since, a file is the user's), are always replaced.
     #[arg(long, global = true)]
     force: bool,
     #[command(subcommand)]

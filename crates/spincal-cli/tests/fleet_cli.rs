@@ -49,8 +49,8 @@ fn a_simulated_fleet_is_calibrated_and_a_broken_unit_is_reported_alone() {
     // A ninth unit with a recording missing.
     let broken = dir.path().join("broken");
     std::fs::create_dir(&broken).unwrap();
-    for entry in std::fs::read_dir(fleet.join("unit-01")).unwrap() {
-        let path = entry.unwrap().path();
+    for name in crate::harness::listing(&fleet.join("unit-01")) {
+        let path = fleet.join("unit-01").join(name);
         std::fs::copy(&path, broken.join(path.file_name().unwrap())).unwrap();
     }
     std::fs::remove_file(broken.join("still-poses.csv")).unwrap();

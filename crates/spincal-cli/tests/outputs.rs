@@ -29,15 +29,7 @@ fn read(path: &Path) -> Vec<u8> {
     std::fs::read(path).unwrap()
 }
 
-/// Names in `dir`, sorted.
-fn listing(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
-}
+use crate::harness::listing;
 
 /// A recording as a logger writes it: spincal did not write it.
 const REAL: &str = "# logger v2, unit 4711\ntime,ax,ay,az\n0.00,0.01,0.02,1.00\n0.01,0.01,0.02,1.01\n";
@@ -588,4 +580,184 @@ fn every_command_keeps_a_file_it_did_not_write_and_replaces_its_own() {
             assert_ne!(code, 2, "{name}: {err}");
         }
     }
+}
+
+/// A user's recordings that look like spincal's from the inside (issue 47): its recording header
+/// in g (a logger converted to the layout the README documents), in m/s² with gyro and
+/// temperature, and `correct`'s header ending in `valid,status`.
+const LOOKALIKES: [(&str, &str); 3] = [
+    (
+        "xsens.csv",
+        "t_s,ax_g,ay_g,az_g\n0.000,0.0102,-0.0213,1.0011\n0.010,0.0104,-0.0211,1.0009\n",
+    ),
+    (
+        "bench.csv",
+        "t_s,ax_mps2,ay_mps2,az_mps2,gx_radps,gy_radps,gz_radps,temp_c\n0,0.1,0.2,9.8,0,0,0,24.5\n",
+    ),
+    (
+        "fixed.csv",
+        "t,ax,ay,az,ax_corrected,ay_corrected,az_corrected,valid,status\n0,0.1,0.2,9.8,0.1,0.2,9.8,1,ok\n",
+    ),
+];
+
+/// `simulate -o`, `correct -o` and `fit --reference-csv` never replace a user's file because of
+/// its header; the same commands run again into their own outputs just work; their output edited
+/// by hand is the user's.
+#[test]
+fn a_users_file_with_spincals_header_is_kept_and_reruns_replace_only_spincals_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let (rec, model) = crate::harness::linear_model(dir.path());
+    let p = |name: &str| dir.path().join(name);
+    for (name, text) in LOOKALIKES {
+        std::fs::write(p(name), text).unwrap();
+    }
+    let before = tree(dir.path());
+    for (name, _) in LOOKALIKES {
+        let target = p(name);
+        let commands: [Vec<&std::ffi::OsStr>; 3] = [
+            vec![
+                os("simulate"),
+                os("--duration"),
+                os("2"),
+                os("-o"),
+                target.as_os_str(),
+            ],
+            vec![
+                os("correct"),
+                os("--model"),
+                model.as_os_str(),
+                rec.as_os_str(),
+                os("-o"),
+                target.as_os_str(),
+            ],
+            vec![
+                os("fit"),
+                rec.as_os_str(),
+                os("--reference-csv"),
+                target.as_os_str(),
+            ],
+        ];
+        for args in commands {
+            let (code, _, err) = run(&args);
+            assert_eq!(code, 2, "{args:?}: {err}");
+            assert!(
+                err.contains(name) && err.contains("spincal did not write it"),
+                "{args:?}: {err}"
+            );
+            assert!(err.contains("--force"), "{err}");
+            assert_eq!(tree(dir.path()), before, "{args:?} changed a file");
+        }
+    }
+
+    // Each command run twice into its own output: no --force, nothing said about replacing.
+    let corrected = p("corrected.csv");
+    let reference = p("ref.csv");
+    let sim = p("sim.csv");
+    let reruns: [Vec<&std::ffi::OsStr>; 3] = [
+        vec![
+            os("simulate"),
+            os("--duration"),
+            os("2"),
+            os("-o"),
+            sim.as_os_str(),
+        ],
+        vec![
+            os("correct"),
+            os("--model"),
+            model.as_os_str(),
+            rec.as_os_str(),
+            os("-o"),
+            corrected.as_os_str(),
+        ],
+        // linear_model wrote ref.csv with this command already.
+        vec![
+            os("fit"),
+            rec.as_os_str(),
+            os("--reference-csv"),
+            reference.as_os_str(),
+        ],
+    ];
+    let inputs = (read(&rec), read(&model));
+    for args in &reruns {
+        for _ in 0..2 {
+            let (code, _, err) = run(args);
+            assert_eq!(code, 0, "{args:?}: {err}");
+            assert!(!err.contains("replacing"), "{args:?}: {err}");
+        }
+    }
+    assert_eq!((read(&rec), read(&model)), inputs);
+    for (name, text) in LOOKALIKES {
+        assert_eq!(read(&p(name)), text.as_bytes(), "{name}");
+    }
+
+    // spincal's output, edited by hand afterwards, is the user's: refused by each command.
+    for (target, args) in [&sim, &corrected, &reference].into_iter().zip(&reruns) {
+        let mut edited = read(target);
+        edited.extend_from_slice(b"# checked by hand\n");
+        std::fs::write(target, &edited).unwrap();
+        let before = tree(dir.path());
+        let (code, _, err) = run(args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(
+            err.contains("spincal did not write it") && err.contains("changed since spincal wrote it"),
+            "{args:?}: {err}"
+        );
+        assert_eq!(tree(dir.path()), before, "{args:?} changed a file");
+    }
+}
+
+/// The firmware export into one folder twice just works (its `.h` begins with a comment that
+/// no longer counts for anything); a user's header beginning `/* spincal */` and an export edited
+/// by hand are kept.
+#[test]
+fn export_reruns_into_its_folder_and_keeps_a_users_header() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, model) = crate::harness::linear_model(dir.path());
+    let model_bytes = read(&model);
+    let export = |out: &Path| {
+        run(&[
+            os("export"),
+            os("--model"),
+            model.as_os_str(),
+            os("--out"),
+            out.as_os_str(),
+        ])
+    };
+    let out = dir.path().join("fw");
+    let (code, _, err) = export(&out);
+    assert_eq!(code, 0, "{err}");
+    let files = listing(&out);
+    assert!(files.contains(&"spincal_f32.h".to_string()), "{files:?}");
+    let first = tree(&out);
+    let (code, _, err) = export(&out);
+    assert_eq!(code, 0, "the same export again: {err}");
+    assert!(!err.contains("replacing"), "{err}");
+    assert_eq!(tree(&out), first, "the same files, to the byte");
+
+    let header = out.join("spincal_f32.h");
+    let mut edited = read(&header);
+    edited.extend_from_slice(b"#define MY_TRIM 0.01f\n");
+    std::fs::write(&header, &edited).unwrap();
+    let before = tree(&out);
+    let (code, _, err) = export(&out);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("spincal_f32.h") && err.contains("changed since spincal wrote it"),
+        "{err}"
+    );
+    assert_eq!(tree(&out), before);
+
+    let theirs = dir.path().join("fw-mine");
+    std::fs::create_dir(&theirs).unwrap();
+    let mine = b"/* spincal */\n#define MY_OFFSET 3\n";
+    std::fs::write(theirs.join("spincal_f32.h"), mine).unwrap();
+    let (code, _, err) = export(&theirs);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("spincal_f32.h") && err.contains("spincal did not write it"),
+        "{err}"
+    );
+    assert_eq!(listing(&theirs), ["spincal_f32.h"], "nothing written");
+    assert_eq!(read(&theirs.join("spincal_f32.h")), mine);
+    assert_eq!(read(&model), model_bytes);
 }

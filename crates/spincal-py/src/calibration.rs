@@ -254,6 +254,30 @@ pub(crate) fn campaign_files(
         .collect())
 }
 
+/// Writes `files` ([(path, text)]) through the library's writer, as the CLI does: all checked
+/// first (no two the same file; each existing one written by spincal with its current content,
+/// unless `force`), then each through a temporary file and recorded in its folder's
+/// `.spincal-outputs.json`; missing folders are made. Returns the files replaced because of
+/// `force`. A refusal is a UsageError and writes nothing.
+#[pyfunction]
+#[pyo3(signature = (files, force = false))]
+pub(crate) fn write_outputs(
+    py: Python<'_>,
+    files: Vec<(PathBuf, String)>,
+    force: bool,
+) -> PyResult<Vec<PathBuf>> {
+    use spincal::output::OutputError;
+    let files: Vec<(&std::path::Path, &[u8])> =
+        files.iter().map(|(p, t)| (p.as_path(), t.as_bytes())).collect();
+    let replaced = py
+        .detach(|| spincal::output::write_outputs(&[], &files, force))
+        .map_err(|e| match e {
+            OutputError::Io { .. } => errors::output(e),
+            e => errors::usage_error(e),
+        })?;
+    Ok(replaced.into_iter().map(|r| r.path).collect())
+}
+
 /// Calibrates one unit from its campaign file (TOML), as `spincal calibrate --campaign`.
 #[pyfunction]
 #[pyo3(signature = (campaign, *, progress = None))]

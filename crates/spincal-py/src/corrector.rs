@@ -37,8 +37,10 @@ impl PyCorrector {
     fn to_json(&self) -> String {
         self.file.to_json()
     }
-    /// Writes model.json.
-    fn save(&self, path: PathBuf) -> PyResult<()> {
+    /// Writes model.json; an existing file that spincal did not write is refused unless `force`.
+    #[pyo3(signature = (path, force = false))]
+    fn save(&self, path: PathBuf, force: bool) -> PyResult<()> {
+        spincal::output::claim_outputs(&[&path], force).map_err(errors::usage_error)?;
         self.file.write_path(&path).map_err(errors::output)
     }
     /// `ann`, `linear`, `static` or `physical`.

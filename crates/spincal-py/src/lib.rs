@@ -19,7 +19,7 @@ mod simulation;
 use analysis::{allan, sensitivity};
 use calibration::{
     calibrate, calibrate_campaign, campaign_files, fit_turntable, run_sweep_jobs, static_calibration,
-    PyCalibration,
+    write_outputs, PyCalibration,
 };
 use corrector::PyCorrector;
 use fleet::{calibrate_unit, campaign_inputs, fleet_table, unit_labels};
@@ -60,6 +60,7 @@ fn _spincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run_sweep_jobs, m)?)?;
     m.add_function(wrap_pyfunction!(calibrate_campaign, m)?)?;
     m.add_function(wrap_pyfunction!(campaign_files, m)?)?;
+    m.add_function(wrap_pyfunction!(write_outputs, m)?)?;
     m.add_function(wrap_pyfunction!(static_calibration, m)?)?;
     m.add_function(wrap_pyfunction!(allan, m)?)?;
     m.add_function(wrap_pyfunction!(sensitivity, m)?)?;

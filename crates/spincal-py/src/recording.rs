@@ -102,10 +102,12 @@ impl PyRecording {
         )
     }
     /// Writes the recording as spincal's CSV (`t_s,ax_g,ay_g,az_g` for unit "g", or m/s²).
-    #[pyo3(signature = (path, unit = "g"))]
-    fn write_csv(&self, path: PathBuf, unit: &str) -> PyResult<()> {
+    /// An existing file that spincal did not write is refused unless `force`.
+    #[pyo3(signature = (path, unit = "g", force = false))]
+    fn write_csv(&self, path: PathBuf, unit: &str, force: bool) -> PyResult<()> {
         let unit =
             AccelUnit::parse(unit).ok_or_else(|| usage(format!("unit {unit:?}: expected g or mps2")))?;
+        spincal::output::claim_outputs(&[&path], force).map_err(errors::usage_error)?;
         self.inner.write_csv_path(&path, unit).map_err(errors::output)
     }
 }

@@ -39,6 +39,24 @@ pub fn fails(cmd: &mut Command) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
+/// Whether a file in an output folder is spincal's record of what it wrote there
+/// (`spincal::output::MANIFEST`), which listings of a folder's outputs leave out.
+pub fn is_manifest(name: &std::ffi::OsStr) -> bool {
+    name == spincal::output::MANIFEST
+}
+
+/// The names in `dir` (the manifest left out), sorted: what a test lists as a folder's files.
+pub fn listing(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .filter(|n| !is_manifest(n))
+        .map(|n| n.to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
 /// The test venv's python (scripts/setup.sh makes it). `None` with a printed reason when absent,
 /// unless SPINCAL_REQUIRE_PYTHON=1 (CI), where absence fails.
 pub fn venv_python() -> Option<PathBuf> {

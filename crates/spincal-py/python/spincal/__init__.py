@@ -564,9 +564,10 @@ class Corrector:
         """model.json's content as plain data."""
         return json.loads(self._inner.to_json())
 
-    def save(self, path: PathLike) -> None:
-        """Writes model.json (temporary file, then renamed)."""
-        self._inner.save(os.fspath(path))
+    def save(self, path: PathLike, *, force: bool = False) -> None:
+        """Writes model.json (temporary file, then renamed). An existing file that spincal did
+        not write (or that changed since it did) raises :class:`UsageError` unless ``force``."""
+        self._inner.save(os.fspath(path), force=force)
 
     def correct_file(self, input: PathLike, output: PathLike, *, force: bool = False, **read: Any) -> Dict[str, Any]:
         """Corrects the file ``input`` into the file ``output`` exactly as ``spincal correct``
@@ -724,12 +725,13 @@ def correct(model: Union[Corrector, PathLike], data: Any, **options: Any) -> Cor
     return corrector.correct(data, **options)
 
 
-def _write_text(path: str, text: str) -> None:
-    """Writes ``text`` to a temporary file beside ``path`` and renames it over ``path``."""
-    tmp = os.path.join(os.path.dirname(path), f".{os.path.basename(path)}.tmp")
-    with open(tmp, "w") as f:
-        f.write(text)
-    os.replace(tmp, path)
+def _write_files(files: Sequence[Tuple[str, str]], force: bool) -> None:
+    """Writes each (path, text) through the library's writer, as the CLI does: all are checked
+    first, and an existing file that spincal did not write (or that changed since it did) raises
+    :class:`UsageError` unless ``force``, before anything is written; each file goes through a
+    temporary file and is recorded in its folder's ``.spincal-outputs.json``, so writing again
+    into the same folder just works. Missing folders are made."""
+    _spincal.write_outputs([(os.fspath(p), t) for p, t in files], force)
 
 
 class Calibration:
@@ -792,14 +794,14 @@ class Calibration:
         paper's sections where its protocol ran."""
         return dict(self._files())["report.html"]
 
-    def write(self, folder: PathLike) -> None:
+    def write(self, folder: PathLike, *, force: bool = False) -> None:
         """Writes what ``spincal calibrate`` writes into ``folder`` (created): model.json,
         imucal.json and the imu_tk ``.calib`` files when a corrector was saved, results.json and
-        report.html. Each file is written to a temporary name and renamed."""
+        report.html. Each file is written to a temporary name and renamed; a file there that
+        spincal did not write raises :class:`UsageError` unless ``force``, and then nothing is
+        written."""
         folder = os.fspath(folder)
-        os.makedirs(folder, exist_ok=True)
-        for name, text in self._files():
-            _write_text(os.path.join(folder, name), text)
+        _write_files([(os.path.join(folder, name), text) for name, text in self._files()], force)
 
     def __repr__(self) -> str:
         return f"Calibration(unit={self.result.unit!r}, saved={self.result.saved!r})"

@@ -40,7 +40,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import ray
 
-from . import Calibration, CampaignResult, Corrector, Error, FormatError, Result, UsageError, _spincal, _write_text
+from . import Calibration, CampaignResult, Corrector, Error, FormatError, Result, UsageError, _spincal, _write_files
 from . import calibrate as _calibrate_locally
 
 __all__ = ["UnitResult", "FleetResult", "calibrate_fleet", "unit_payload", "calibrate", "sweep_runner"]
@@ -174,23 +174,24 @@ class FleetResult:
     def to_dict(self) -> Dict[str, Any]:
         return {"units": [u.to_dict() for u in self.units], "table": self.table.to_dict(), "seconds": self.seconds}
 
-    def write(self, folder: PathLike) -> None:
+    def write(self, folder: PathLike, *, force: bool = False) -> None:
         """Writes per calibrated unit what ``spincal fleet`` writes into ``<label>/`` (results.json,
         report.html, model.json when saved, imucal.json, imu_tk ``.calib`` files),
         ``fleet.json`` (the table), ``fleet.csv`` and ``fleet.html`` (each parameter across the
-        units, outliers highlighted) into ``folder``."""
+        units, outliers highlighted) into ``folder``. A file there that spincal did not write
+        raises :class:`UsageError` unless ``force``, and then nothing is written."""
         folder = os.fspath(folder)
-        os.makedirs(folder, exist_ok=True)
+        files: List[Tuple[str, str]] = []
         for u in self.units:
             if not u.ok:
                 continue
             unit_dir = os.path.join(folder, u.label)
-            os.makedirs(unit_dir, exist_ok=True)
             for name, text in _spincal.campaign_files(u._results_json or "", u._model_json):
-                _write_text(os.path.join(unit_dir, name), text)
-        _write_text(os.path.join(folder, "fleet.json"), self.table.to_json() + "\n")
-        _write_text(os.path.join(folder, "fleet.csv"), self.table_csv)
-        _write_text(os.path.join(folder, "fleet.html"), self.html)
+                files.append((os.path.join(unit_dir, name), text))
+        files.append((os.path.join(folder, "fleet.json"), self.table.to_json() + "\n"))
+        files.append((os.path.join(folder, "fleet.csv"), self.table_csv))
+        files.append((os.path.join(folder, "fleet.html"), self.html))
+        _write_files(files, force)
 
     def __repr__(self) -> str:
         return (

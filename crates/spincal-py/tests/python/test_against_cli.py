@@ -3,6 +3,8 @@
 import csv
 import json
 import os
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,6 +16,14 @@ def _read_corrected(path):
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     return rows
+
+
+_MANIFEST = ".spincal-outputs.json"
+
+
+def _listing(folder):
+    """A folder's files, sorted, without spincal's record of what it wrote there (_MANIFEST)."""
+    return sorted(p.name for p in Path(folder).iterdir() if p.name != _MANIFEST)
 
 
 def _without_timing(value):
@@ -94,12 +104,55 @@ def test_calibration_writes_the_report(simulated, tmp_path):
     _, rec, _ = simulated
     cal = spincal.calibrate([rec], radius_m=0.1, sweep="none", hidden="3", restarts=1)
     cal.write(tmp_path / "out")
-    assert sorted(os.listdir(tmp_path / "out")) == ["report.html", "results.json"]
+    assert _listing(tmp_path / "out") == ["report.html", "results.json"]
     report = (tmp_path / "out" / "report.html").read_text()
     assert "<html" in report[:2000].lower() and "The paper's protocol" in report
     # Nothing saved: the corrected signal is the recording itself.
     assert cal.corrector is None
     assert np.array_equal(cal.corrected, rec.accel)
+
+
+def test_writing_again_replaces_spincals_own_files_and_refuses_the_users(simulated, trained, calibrated, tmp_path):
+    _, rec, _ = simulated
+    # A folder the CLI wrote is spincal's own to Python too, and written again without force.
+    out = tmp_path / "cal"
+    shutil.copytree(calibrated, out)
+    cal = spincal.calibrate([rec], radius_m=0.1, sweep="none", hidden="3", restarts=1)
+    cal.write(out)
+    cal.write(out)
+    assert _listing(out) == _listing(calibrated)
+    # Edited by hand afterwards, the report is the user's: nothing is written.
+    report = out / "report.html"
+    report.write_text(report.read_text() + "<!-- my notes -->\n")
+    before = {name: (out / name).read_bytes() for name in _listing(out)}
+    with pytest.raises(spincal.UsageError, match="report.html.*changed since spincal wrote it"):
+        cal.write(out)
+    assert {name: (out / name).read_bytes() for name in _listing(out)} == before
+    cal.write(out, force=True)
+    assert "my notes" not in report.read_text()
+
+    # A model and a recording: their own files replaced, a user's lookalike kept.
+    corrector = spincal.load_corrector(trained / "model.json")
+    model = tmp_path / "model.json"
+    corrector.save(model)
+    corrector.save(model)
+    recording = tmp_path / "rec.csv"
+    rec.write_csv(recording, unit="g")
+    rec.write_csv(recording, unit="g")
+    theirs = {
+        tmp_path / "their-model.json": json.dumps(corrector.to_dict(), indent=1),
+        tmp_path / "xsens.csv": "t_s,ax_g,ay_g,az_g\n0.00,0.01,-0.02,1.00\n",
+    }
+    for path, text in theirs.items():
+        path.write_text(text)
+    with pytest.raises(spincal.UsageError, match="their-model.json.*spincal did not write it"):
+        corrector.save(tmp_path / "their-model.json")
+    with pytest.raises(spincal.UsageError, match="xsens.csv.*spincal did not write it"):
+        rec.write_csv(tmp_path / "xsens.csv")
+    for path, text in theirs.items():
+        assert path.read_text() == text, path
+    rec.write_csv(tmp_path / "xsens.csv", force=True)
+    assert (tmp_path / "xsens.csv").read_text() == recording.read_text()
 
 
 def test_campaign_calibration_gives_the_clis_results_json(tmp_path, cli):
@@ -132,8 +185,8 @@ def test_campaign_calibration_gives_the_clis_results_json(tmp_path, cli):
     cal.write(tmp_path / "py")
     assert json.loads((tmp_path / "py" / "results.json").read_text())["unit"] == cli_result["unit"]
     # The same files as the CLI's; all but the timed ones (results.json, report.html) to the byte.
-    written = sorted(p.name for p in (tmp_path / "py").iterdir())
-    assert written == sorted(p.name for p in (tmp_path / "cli").iterdir())
+    written = _listing(tmp_path / "py")
+    assert written == _listing(tmp_path / "cli")
     assert {"report.html", "imucal.json", "imu_tk_acc.calib", "imu_tk_gyro.calib"} <= set(written)
     for name in set(written) - {"results.json", "report.html"}:
         assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
