@@ -286,7 +286,7 @@ pub(super) fn truth_check(
             && Some(s.candidate.as_str()) != set_aside
             && rows.len() == n_conditions
             && truths.len() == n_conditions
-            && truths.iter().all(|t| !(t.worse && !t.shown_no_worse))
+            && !truths.iter().any(|t| t.worse_beyond_margin())
             && pooled_upper_ratio(&truths).is_some_and(|u| u <= 1.0 + NON_INFERIORITY_MARGIN)
     };
     let would = choose(summaries, truth_eligible, |s| s.mean_truth_rms_mps2);
@@ -361,7 +361,7 @@ pub(super) fn summarise(
                 worst = Some(worst.map_or(p.ratio, |w| w.max(p.ratio)));
                 // Significantly worse by less than the margin is still no worse: the burden of
                 // proof is the bound's, not this test's.
-                if p.ratio.is_nan() || (p.worse && !p.shown_no_worse) {
+                if p.ratio.is_nan() || p.worse_beyond_margin() {
                     why_not.get_or_insert(format!(
                         "{:.2}× (± {:.2}) the uncorrected residual on \"{}\", significantly worse",
                         p.ratio, p.ratio_se, row.condition

@@ -234,6 +234,14 @@ pub struct Comparison {
     pub blocks: usize,
 }
 
+impl Comparison {
+    /// Significantly worse than uncorrected, and not shown within the margin: such a condition
+    /// alone keeps a corrector from being saved.
+    pub fn worse_beyond_margin(&self) -> bool {
+        self.worse && !self.shown_no_worse
+    }
+}
+
 /// What the corrector's own parameter covariance says about its held-out error (the physical
 /// family only: a network's error has no covariance to predict it).
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -331,7 +339,7 @@ pub(crate) fn compare(
 /// conditions: the mean over conditions of the mean-square difference (corrected − uncorrected)
 /// plus the normal quantile times its standard error (the conditions' errors independent), over
 /// the mean uncorrected mean square. `None` without a finite comparison.
-pub(crate) fn pooled_upper_ratio(comparisons: &[&Comparison]) -> Option<f64> {
+pub fn pooled_upper_ratio(comparisons: &[&Comparison]) -> Option<f64> {
     let pooled = Pooled::of(comparisons)?;
     let z = student_t_quantile(NO_WORSE_CONFIDENCE, 1e6);
     let ratio = (1.0 + (pooled.difference + z * pooled.se) / pooled.uncorrected)
@@ -350,7 +358,7 @@ pub struct Pooled {
 }
 
 impl Pooled {
-    pub(crate) fn of(comparisons: &[&Comparison]) -> Option<Pooled> {
+    pub fn of(comparisons: &[&Comparison]) -> Option<Pooled> {
         let (mut difference, mut uncorrected, mut variance) = (0.0, 0.0, 0.0);
         for c in comparisons {
             let (ms_c, ms_u) = (

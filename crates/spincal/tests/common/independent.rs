@@ -26,13 +26,12 @@ impl Sensor {
     pub fn draw(rng: &mut ChaCha8Rng) -> Sensor {
         let bias = [0; 3].map(|_| rng.gen_range(-0.2..0.2));
         let scale = [0; 3].map(|_| rng.gen_range(-0.02..0.02));
-        let mut axes = [[0.0; 3]; 3];
-        for i in 0..3 {
-            for j in 0..3 {
+        let axes: [[f64; 3]; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
                 let tilt = if j < i { rng.gen_range(-0.01..0.01) } else { 0.0 };
-                axes[i][j] = (1.0 + scale[i]) * (f64::from(u8::from(i == j)) + tilt);
-            }
-        }
+                (1.0 + scale[i]) * (f64::from(u8::from(i == j)) + tilt)
+            })
+        });
         let quadratic = [0; 3].map(|_| rng.gen_range(-1.0..1.0) * 0.004 / G);
         Sensor {
             bias,
