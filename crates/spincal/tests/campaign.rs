@@ -360,10 +360,13 @@ fn the_network_on_top_of_physics_is_trusted_only_where_it_was_trained() {
 }
 
 /// Six still poses (the faces alone) with a drifting bias (seed 2024, the demo's): a held-out pose
-/// group pins little down. The verdict agrees with what truth would have chosen, and when it saves
-/// nothing it asks for more poses.
+/// group pins little down. Whatever is saved is what truth would have chosen. When the evidence
+/// cannot show any corrector no worse than none, nothing is saved, and the verdict gives the bound
+/// that fell short (or the covariance's prediction) and what to record next. Truth sees errors
+/// physics cannot, so it may then know a corrector that would have helped: that is the price of
+/// the burden of proof, and it is reported as a disagreement, not hidden.
 #[test]
-fn six_poses_give_the_choice_truth_would_make_or_ask_for_more_poses() {
+fn six_poses_save_what_truth_would_or_show_why_nothing_can_be_shown() {
     let setup = CampaignSetup {
         poses: 6,
         ..CampaignSetup::default()
@@ -371,13 +374,16 @@ fn six_poses_give_the_choice_truth_would_make_or_ask_for_more_poses() {
     let out = calibrated(&setup, 2024, &Params::default());
     let verdict = &out.result.verdict;
     println!("{verdict}");
-    assert!(out.result.truth_check.as_ref().unwrap().agrees, "{verdict}");
-    if out.saved.is_none() {
-        assert!(verdict.contains("on \"poses "), "{verdict}");
+    let check = out.result.truth_check.as_ref().unwrap();
+    if out.saved.is_some() {
+        assert!(check.agrees, "{verdict}");
+    } else {
         assert!(
-            verdict.contains("Record next: more still poses (6 now"),
+            verdict.contains("pooled over the") || verdict.contains("covariance predicts"),
             "{verdict}"
         );
+        assert!(verdict.contains("Record next:"), "{verdict}");
+        assert_eq!(check.agrees, check.would_save.is_none(), "{check:?}");
     }
 }
 
