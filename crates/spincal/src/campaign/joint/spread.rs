@@ -155,11 +155,9 @@ pub(super) fn estimate_bias_spread(
         .collect();
     let &(best_x, _) = grid.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
     let step = (hi - lo) / (GRID - 1) as f64;
-    let (x, value) = golden_maximum(
-        &|x| log_likelihood(x).unwrap_or(f64::NEG_INFINITY),
-        (best_x - step).max(lo),
-        (best_x + step).min(hi),
-    );
+    let value_at = |x: f64| log_likelihood(x).unwrap_or(f64::NEG_INFINITY);
+    let x = crate::optim::golden_section_max(value_at, (best_x - step).max(lo), (best_x + step).min(hi), 30);
+    let value = value_at(x);
     let at_lower = log_likelihood(lo)?;
     Some(BiasSpread {
         sd_mps2: x.exp(),
@@ -169,32 +167,4 @@ pub(super) fn estimate_bias_spread(
             + sessions(problem.runs, problem.poses),
         likelihood_ratio: (2.0 * (value - at_lower)).max(0.0),
     })
-}
-
-/// The maximum of a unimodal `f` on `[a, b]` by golden-section search, and its value.
-fn golden_maximum(f: &dyn Fn(f64) -> f64, mut a: f64, mut b: f64) -> (f64, f64) {
-    let ratio = 0.5 * (5f64.sqrt() - 1.0);
-    let mut c = b - ratio * (b - a);
-    let mut d = a + ratio * (b - a);
-    let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..30 {
-        if fc >= fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - ratio * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + ratio * (b - a);
-            fd = f(d);
-        }
-    }
-    if fc >= fd {
-        (c, fc)
-    } else {
-        (d, fd)
-    }
 }
