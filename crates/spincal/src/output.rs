@@ -320,20 +320,25 @@ impl Fingerprint {
 
 /// The fingerprint of the file at `path`, read in pieces.
 pub(crate) fn fingerprint(path: &Path) -> std::io::Result<Fingerprint> {
+    let mut hash = FNV_OFFSET;
+    let bytes = read_in_pieces(path, |piece| hash = fnv1a(hash, piece))?;
+    Ok(Fingerprint::new(bytes, hash))
+}
+
+/// Feeds the file at `path` to `take` in pieces of 64 KiB; returns its length.
+fn read_in_pieces(path: &Path, mut take: impl FnMut(&[u8])) -> std::io::Result<u64> {
     use std::io::Read;
     let mut file = File::open(path)?;
-    let mut hash = FNV_OFFSET;
     let mut bytes = 0u64;
     let mut buffer = vec![0u8; 1 << 16];
     loop {
         let n = file.read(&mut buffer)?;
         if n == 0 {
-            break;
+            return Ok(bytes);
         }
         bytes += n as u64;
-        hash = fnv1a(hash, &buffer[..n]);
+        take(&buffer[..n]);
     }
-    Ok(Fingerprint::new(bytes, hash))
 }
 
 /// What a manifest records of a file spincal wrote: its name (no folder), length and CRC-32
@@ -355,19 +360,8 @@ fn crc_text(crc: u32) -> String {
 
 /// The length and CRC-32 of the file at `path`, read in pieces.
 fn crc_of(path: &Path) -> std::io::Result<(u64, String)> {
-    use std::io::Read;
-    let mut file = File::open(path)?;
     let mut hasher = crc32fast::Hasher::new();
-    let mut bytes = 0u64;
-    let mut buffer = vec![0u8; 1 << 16];
-    loop {
-        let n = file.read(&mut buffer)?;
-        if n == 0 {
-            break;
-        }
-        bytes += n as u64;
-        hasher.update(&buffer[..n]);
-    }
+    let bytes = read_in_pieces(path, |piece| hasher.update(piece))?;
     Ok((bytes, crc_text(hasher.finalize())))
 }
 
