@@ -197,10 +197,13 @@ def evaluate(out):
         o = np.load(os.path.join(out, "held_out", name + ".oracle.npy"))
         raw = np.loadtxt(os.path.join(out, "held_out", name + ".csv"), delimiter=",", skiprows=1)[:, 1:4]
         path = os.path.join(out, "corrected", name + ".csv")
+        sd = None
         if os.path.exists(path):
             with open(path) as fh:
                 header = fh.readline().strip().split(",")
             data = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[header.index(c) for c in ("ax_mps2_corrected", "ay_mps2_corrected", "az_mps2_corrected")])
+            if "ax_mps2_corrected_sd" in header:
+                sd = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[header.index("a%s_mps2_corrected_sd" % a) for a in "xyz"])
         else:
             data = raw
         for k in range(3):
@@ -213,11 +216,36 @@ def evaluate(out):
                     "ratio": float(np.sqrt(np.mean(err**2)) / oracle_rms),
                     "raw_ratio": float(np.sqrt(np.mean((raw[:, k] - f[:, k]) ** 2)) / oracle_rms),
                     "systematic_mps2": float(np.mean(err)),
+                    # The predicted sd of the correction (the parameters' part of the error).
+                    "predicted_sd_mps2": None if sd is None else float(np.mean(sd[:, k])),
                 }
             )
     worst = max(r["ratio"] for r in rows)
     worse_than_raw = sum(r["ratio"] > r["raw_ratio"] for r in rows)
-    print(json.dumps({"worst_ratio": worst, "mean_ratio": float(np.mean([r["ratio"] for r in rows])), "worse_than_raw": worse_than_raw, "rows": rows}))
+    summary = {"worst_ratio": worst, "mean_ratio": float(np.mean([r["ratio"] for r in rows])), "worse_than_raw": worse_than_raw, "rows": rows}
+    results = os.path.join(out, "cal", "results.json")
+    error_map = json.load(open(results)).get("error_map") if os.path.exists(results) else None
+    if error_map is not None and all(r["predicted_sd_mps2"] is not None for r in rows):
+        noise = error_map["noise_sd_mps2"]
+        # Per held-out file: inside the region the verdict calls determined when every axis's
+        # predicted sd is within the threshold times that axis's noise.
+        inside = {
+            name
+            for name in truth["held_out"]
+            if all(r["predicted_sd_mps2"] <= error_map["threshold"] * noise["xyz".index(r["axis"])] for r in rows if r["file"] == name)
+        }
+        z = [r["systematic_mps2"] / r["predicted_sd_mps2"] for r in rows if r["predicted_sd_mps2"] > 0]
+        summary.update(
+            {
+                "share_determined": error_map["share_determined"],
+                "poses_outside": sum(p["worst_sd_over_noise"] > error_map["threshold"] for p in error_map["poses"]),
+                "held_out_inside": len(inside),
+                "worst_ratio_inside": max((r["ratio"] for r in rows if r["file"] in inside), default=None),
+                "z_sum_squares": float(np.sum(np.square(z))),
+                "z_count": len(z),
+            }
+        )
+    print(json.dumps(summary))
 
 
 if __name__ == "__main__":

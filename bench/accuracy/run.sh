@@ -32,6 +32,24 @@ for seed in $(seq 1 "$units"); do
         saved="nothing saved"
     fi
     score=$("$python" "$here/independent.py" evaluate "$unit")
-    echo "unit $seed: $saved $(echo "$score" | "$python" -c 'import json,sys; s=json.load(sys.stdin); print("worst %.2f mean %.2f worse-than-raw %d" % (s["worst_ratio"], s["mean_ratio"], s["worse_than_raw"]))')"
+    echo "$score" > "$unit/score.json"
+    echo "unit $seed: $saved $(echo "$score" | "$python" -c '
+import json, sys
+s = json.load(sys.stdin)
+line = "worst %.2f mean %.2f worse-than-raw %d" % (s["worst_ratio"], s["mean_ratio"], s["worse_than_raw"])
+if "share_determined" in s:
+    inside = s["worst_ratio_inside"]
+    line += "; determined %.0f %% of the sphere, %d recorded poses outside, %d held-out files inside (worst there %s), systematic/sd RMS %.2f over %d" % (
+        100 * s["share_determined"], s["poses_outside"], s["held_out_inside"], "-" if inside is None else "%.2f" % inside,
+        (s["z_sum_squares"] / max(s["z_count"], 1)) ** 0.5, s["z_count"])
+print(line)')"
 done
+# Over every unit: the RMS of systematic error / predicted sd (issue 46: within 0.7–1.4).
+cat "$out"/unit-*/score.json | "$python" -c '
+import json, sys
+scores = [json.loads(line) for line in sys.stdin if line.strip()]
+z2 = sum(s.get("z_sum_squares", 0.0) for s in scores)
+n = sum(s.get("z_count", 0) for s in scores)
+if n:
+    print("all units: systematic error / predicted sd, RMS %.2f over %d file-axes" % ((z2 / n) ** 0.5, n))'
 uptime

@@ -88,6 +88,7 @@ fn models_and_samples() -> (Vec<(&'static str, CorrectorFile)>, Samples, f64) {
         sensor,
         gravity_mps2: STANDARD_GRAVITY,
         input_range_mps2: range,
+        uncertainty: None,
     };
     let physical_linear = PhysicalCorrector {
         sensor: SensorModel {
@@ -566,6 +567,7 @@ fn fusion_values_reproduce_the_physical_linear_correction() {
         sensor,
         gravity_mps2: g,
         input_range_mps2: [[-15.0, 15.0]; 3],
+        uncertainty: None,
     };
     let mut file = CorrectorFile::new(CorrectorModel::Physical(Box::new(physical.clone())));
     file.gyro = Some(gyro_model());

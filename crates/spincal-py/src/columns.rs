@@ -411,7 +411,8 @@ const REFUSED: u8 = 5;
 
 /// Corrected rows: accel (n, 3) m/s² (every axis; uncorrected ones pass through), gyro (n, 3)
 /// rad/s or None, valid (n,), outside the training range (n,), status code (n,) (an index into
-/// [`STATUS_NAMES`]) and, for every refused row, (row, reason).
+/// [`STATUS_NAMES`]), for every refused row (row, reason), and, for a model whose covariance
+/// predicts its error, the predicted standard deviation (n, 3) m/s² and `predicted_better` (n,).
 pub type CorrectedColumns<'py> = (
     Bound<'py, PyArray2<f64>>,
     Option<Bound<'py, PyArray2<f64>>>,
@@ -419,6 +420,7 @@ pub type CorrectedColumns<'py> = (
     Bound<'py, PyArray1<bool>>,
     Bound<'py, PyArray1<u8>>,
     Vec<(usize, String)>,
+    Option<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<bool>>)>,
 );
 
 /// (n, 3) from three columns stored one after another: a Fortran-ordered view, each column contiguous.
@@ -485,6 +487,9 @@ pub fn correct_rows<'py>(
         let mut outside = Array1::<bool>::from_elem(n, false);
         let mut status = Array1::<u8>::from_elem(n, REFUSED);
         let mut refusals = Vec::new();
+        let mut predicted = corrector
+            .predicts_error()
+            .then(|| (vec![f64::NAN; 3 * n], Array1::<bool>::from_elem(n, false)));
         let value_name = |v: RowValue| {
             let k = match v {
                 RowValue::Time => 0,
@@ -508,7 +513,14 @@ pub fn correct_rows<'py>(
                     gyro_radps,
                     valid: row_valid,
                     status: row_status,
+                    predicted: row_predicted,
                 } => {
+                    if let (Some((sd, better)), Some(p)) = (predicted.as_mut(), row_predicted) {
+                        for a in 0..3 {
+                            sd[a * n + i] = p.sd_mps2[a];
+                        }
+                        better[i] = p.better;
+                    }
                     for a in 0..3 {
                         out[a * n + i] = accel_mps2[a];
                     }
@@ -529,9 +541,9 @@ pub fn correct_rows<'py>(
                 }
             }
         }
-        Ok((out, gyro_out, valid, outside, status, refusals))
+        Ok((out, gyro_out, valid, outside, status, refusals, predicted))
     };
-    let (out, gyro_out, valid, outside, status, refusals) = py.detach(run).map_err(model_error)?;
+    let (out, gyro_out, valid, outside, status, refusals, predicted) = py.detach(run).map_err(model_error)?;
     Ok((
         three_columns(py, out, n),
         gyro_out.map(|g| three_columns(py, g, n)),
@@ -539,5 +551,6 @@ pub fn correct_rows<'py>(
         outside.into_pyarray(py),
         status.into_pyarray(py),
         refusals,
+        predicted.map(|(sd, better)| (three_columns(py, sd, n), better.into_pyarray(py))),
     ))
 }

@@ -388,6 +388,7 @@ mod tests {
             sensor: s,
             gravity_mps2: 9.81,
             input_range_mps2: [[-20.0, 20.0]; 3],
+            uncertainty: None,
         };
         let gc = g.corrector().unwrap();
         for (f, w) in [

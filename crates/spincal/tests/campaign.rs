@@ -267,6 +267,7 @@ fn a_saved_corrector_held_on_every_condition_and_round_trips() {
         },
         gravity_mps2: 9.8,
         input_range_mps2: [[-10.0, 10.0]; 3],
+        uncertainty: None,
     })));
     let e = CorrectorFile::from_json(&bad.to_json(), "m.json")
         .unwrap_err()

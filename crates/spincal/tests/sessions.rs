@@ -61,7 +61,8 @@ fn the_spread_of_bias_offsets_between_sessions_is_found_and_no_spread_is_found_w
 /// 60 %; measured 0.9–1.5×: the spread found, 4–9·10⁻⁴ m/s², is about one pose mean's error, so
 /// each file's offset keeps a little freedom), and the estimates cover the truth (an RMS of
 /// error/SE between 0.5 and 1.5 over seeds and axes). With the fixed prior of 0.03 m/s² per
-/// session they told 12–30× less.
+/// session they told 5–15× less (against standard errors whose pose residuals are scaled up by
+/// their leverage, HC2).
 #[test]
 fn one_file_per_pose_tells_the_bias_as_one_file_does_when_the_sensor_kept_it() {
     let (mut z2, mut n) = (0.0, 0.0);
@@ -83,7 +84,7 @@ fn one_file_per_pose_tells_the_bias_as_one_file_does_when_the_sensor_kept_it() {
                 se(&one_file)
             );
             assert!(
-                se(&fixed) > 8.0 * se(&one_file),
+                se(&fixed) > 4.0 * se(&one_file),
                 "seed {seed} axis {k}: {} vs {}",
                 se(&fixed),
                 se(&one_file)

@@ -13,6 +13,7 @@ mod bags;
 mod campaign;
 mod campaign_gyro;
 mod campaign_real;
+mod error_bars;
 mod fixture_scripts;
 mod fleet;
 #[cfg(all(feature = "ulog", feature = "dataflash"))]

@@ -404,10 +404,15 @@ class Corrected:
     ``outside-temperature-range`` or ``refused: row …: why`` (a
     value that is not a finite number, time going backwards; the row's corrected values are
     NaN), the words of ``spincal correct``'s status column. ``refused`` maps each refused row's
-    position to its reason.
+    position to its reason. For a model whose parameters' covariance predicts its error (the
+    ``physical`` kind from a campaign), ``predicted_sd`` (n, 3) m/s² is each row's predicted
+    standard deviation of the correction and ``predicted_better`` (n,) whether on every corrected
+    axis the correction is predicted to beat no correction (its square above twice its
+    variance); other kinds give None for both.
 
     :meth:`to_pandas` and :meth:`to_polars` give the columns ``spincal correct`` adds to its
-    input (``<column>_corrected`` per corrected axis in the input's unit, ``valid``,
+    input (``<column>_corrected`` per corrected axis in the input's unit, then
+    ``<column>_corrected_sd`` and ``predicted_better`` where predicted, ``valid``,
     ``status``) with the input's index: ``frame.join(out.to_pandas())`` is the CLI's output.
     Arrays, recordings and files are in SI units, so their columns are named ``ax_mps2``,
     ``gx_radps`` … (``ax_mps2_corrected``).
@@ -424,6 +429,8 @@ class Corrected:
     accel_to_mps2: float = field(repr=False, default=1.0)
     gyro_to_radps: float = field(repr=False, default=1.0)
     index: Any = field(repr=False, default=None)
+    predicted_sd: Optional[FloatArray] = field(repr=False, default=None)
+    predicted_better: Optional[BoolArray] = field(repr=False, default=None)
 
     def __len__(self) -> int:
         return int(self.accel.shape[0])
@@ -459,6 +466,11 @@ class Corrected:
                 values = self.gyro[:, a]
                 k = self.gyro_to_radps
                 out[f"{self.columns[4 + a]}_corrected"] = values if k == 1.0 else values / k
+        if self.predicted_sd is not None:
+            for axis in self.axes:
+                a = "xyz".index(axis)
+                values = self.predicted_sd[:, a]
+                out[f"{self.columns[1 + a]}_corrected_sd"] = values if from_mps2 == 1.0 else values * from_mps2
         return out
 
     def to_pandas(self) -> Any:
@@ -474,6 +486,8 @@ class Corrected:
 
         categories, codes = self._status_categories()
         data: Dict[str, Any] = dict(self._output_columns())
+        if self.predicted_better is not None:
+            data["predicted_better"] = self.predicted_better
         data["valid"] = self.valid
         data["status"] = pd.Categorical.from_codes(cast(Any, codes), categories=pd.Index(categories))
         index = self.index if self.index is not None else pd.RangeIndex(len(self))
@@ -491,6 +505,8 @@ class Corrected:
 
         categories, codes = self._status_categories()
         columns: List[Any] = [pl.Series(name, values) for name, values in self._output_columns().items()]
+        if self.predicted_better is not None:
+            columns.append(pl.Series("predicted_better", self.predicted_better))
         columns.append(pl.Series("valid", self.valid))
         status = pl.Series("status", categories, dtype=pl.String).gather(codes)
         columns.append(status.cast(pl.Enum(categories)))
@@ -681,7 +697,8 @@ class Corrector:
                 "the model corrects for temperature, but the data has no temperature; every row is corrected as at the reference temperature and marked no-temperature",
                 stacklevel=2,
             )
-        out, gyro_out, valid, outside, codes, refusals = self._inner.correct_columns(accel, g, t, temp, plan)
+        out, gyro_out, valid, outside, codes, refusals, predicted = self._inner.correct_columns(accel, g, t, temp, plan)
+        sd, better = (None, None) if predicted is None else predicted
         return Corrected(
             accel=out,
             gyro=gyro_out,
@@ -694,6 +711,8 @@ class Corrector:
             accel_to_mps2=plan.accel_to_mps2,
             gyro_to_radps=plan.gyro_to_radps,
             index=index,
+            predicted_sd=sd,
+            predicted_better=better,
         )
 
 

@@ -103,6 +103,7 @@ class Corrector:
         npt.NDArray[np.bool_],
         npt.NDArray[np.uint8],
         List[Tuple[int, str]],
+        Optional[Tuple[_F64, npt.NDArray[np.bool_]]],
     ]: ...
     def static_json(self) -> Optional[str]: ...
 

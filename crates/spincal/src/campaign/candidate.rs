@@ -11,14 +11,14 @@
 use serde::{Deserialize, Serialize};
 
 use crate::campaign::joint::{
-    fit_joint, fit_joint_from, JointFit, JointSettings, PoseInput, RunInput, SensorCovariance, SensorTerms,
+    difference_noise, fit_joint, fit_joint_from, JointFit, JointSettings, PoseInput, RunInput, SensorTerms,
 };
 use crate::correctors::ann::{AnnProblem, LmSettings};
 use crate::correctors::corrector::{Axis, Corrected, Corrector};
 use crate::correctors::division::DivisionMode;
 use crate::correctors::linear::LinearModel;
 use crate::correctors::model_file::CorrectorModel;
-use crate::correctors::physical::{PhysicalCorrector, SensorModel};
+use crate::correctors::physical::{PhysicalCorrector, SensorCovariance, SensorModel, SensorUncertainty};
 use crate::correctors::physical_ann::{InputCoverage, PhysicalAnnCorrector};
 use crate::input::recording::Recording;
 use crate::progress::Observer;
@@ -179,14 +179,10 @@ pub trait Candidate {
     fn train(&self, training: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String>;
 }
 
-/// What a candidate's training gives: a corrector that can be saved (with the covariance of its
-/// sensor parameters when it is the physical model's inverse), or a dynamic model that can only
-/// be scored.
+/// What a candidate's training gives: a corrector that can be saved (the physical model's inverse
+/// with its parameters' covariance inside), or a dynamic model that can only be scored.
 pub enum Trained {
-    Corrector {
-        model: CorrectorModel,
-        covariance: Option<Box<SensorCovariance>>,
-    },
+    Corrector(CorrectorModel),
     Dynamic(Box<DynamicModel>),
 }
 
@@ -221,18 +217,10 @@ pub enum SimulationStart<'a> {
 }
 
 impl Trained {
-    /// A corrector without a covariance (not the physical model's inverse).
-    pub(crate) fn corrector(model: CorrectorModel) -> Trained {
-        Trained::Corrector {
-            model,
-            covariance: None,
-        }
-    }
-
     /// The corrector to save, when the kind can be saved.
     pub fn saved(&self) -> Option<&CorrectorModel> {
         match self {
-            Trained::Corrector { model, .. } => Some(model),
+            Trained::Corrector(model) => Some(model),
             Trained::Dynamic(_) => None,
         }
     }
@@ -240,18 +228,13 @@ impl Trained {
     /// The sensor model of the physical family's correction (the whole corrector, or the part
     /// under a network) with its parameters' covariance, when the training gave one.
     pub fn physical_part(&self) -> Option<(&SensorModel, &SensorCovariance)> {
-        let Trained::Corrector {
-            model,
-            covariance: Some(covariance),
-        } = self
-        else {
-            return None;
+        let physical = match self {
+            Trained::Corrector(CorrectorModel::Physical(physical)) => physical.as_ref(),
+            Trained::Corrector(CorrectorModel::PhysicalAnn(both)) => &both.physical,
+            _ => return None,
         };
-        match model {
-            CorrectorModel::Physical(physical) => Some((&physical.sensor, covariance)),
-            CorrectorModel::PhysicalAnn(both) => Some((&both.physical.sensor, covariance)),
-            _ => None,
-        }
+        let uncertainty = physical.uncertainty.as_ref()?;
+        Some((&physical.sensor, &uncertainty.covariance))
     }
 
     /// The largest departure from the identity of a static corrector's gain, ∂output/∂input by
@@ -260,7 +243,7 @@ impl Trained {
     /// a measurement where its training data held that axis still, which no held-out recording
     /// that also holds it still can show.
     pub fn gain_error(&self, readings: &[[f64; 3]]) -> Option<f64> {
-        let Trained::Corrector { model, .. } = self else {
+        let Trained::Corrector(model) = self else {
             return None;
         };
         const STEP_MPS2: f64 = 1e-3;
@@ -299,7 +282,7 @@ impl Trained {
     ) -> Result<Corrected, String> {
         let n = accel[0].len();
         match self {
-            Trained::Corrector { model, .. } => Ok(model.correct_accel(accel)),
+            Trained::Corrector(model) => Ok(model.correct_accel(accel)),
             Trained::Dynamic(dynamic) => {
                 let ones = vec![1.0; n];
                 let mut out = accel.clone();
@@ -379,19 +362,50 @@ fn input_range(runs: &[RunInput], poses: &[PoseInput]) -> [[f64; 2]; 3] {
     range.map(|r| if r[0] <= r[1] { r } else { [0.0, 0.0] })
 }
 
+/// The white noise of one reading per axis: the median over the runs (first differences) and the
+/// poses (their within-pose noise, or their mean's spread times √samples).
+fn reading_noise(runs: &[RunInput], poses: &[PoseInput]) -> [f64; 3] {
+    let mut per_source: Vec<[f64; 3]> = runs
+        .iter()
+        .map(|r| difference_noise(&r.accel_mps2, &r.keep))
+        .collect();
+    per_source.extend(poses.iter().map(|p| match p.wander {
+        Some(w) => w.noise_sd_mps2,
+        None => p.sigma_mean_mps2.map(|s| s * (p.samples.max(1) as f64).sqrt()),
+    }));
+    std::array::from_fn(|k| {
+        let mut values: Vec<f64> = per_source
+            .iter()
+            .map(|s| s[k])
+            .filter(|v| v.is_finite())
+            .collect();
+        values.sort_by(f64::total_cmp);
+        values.get(values.len() / 2).copied().unwrap_or(0.0)
+    })
+}
+
+/// The physical model's inverse from a joint fit, with its parameters' covariance and the
+/// readings' noise.
+fn physical_corrector(t: &TrainingSet<'_>, fit: &JointFit) -> PhysicalCorrector {
+    PhysicalCorrector {
+        sensor: fit.sensor,
+        gravity_mps2: t.joint.gravity_mps2,
+        input_range_mps2: input_range(&t.runs, &t.poses),
+        uncertainty: fit.sensor_covariance().map(|covariance| SensorUncertainty {
+            covariance,
+            noise_sd_mps2: reading_noise(&t.runs, &t.poses),
+        }),
+    }
+}
+
 struct PhysicalCandidate(SensorTerms);
 
 impl Trainer for PhysicalCandidate {
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
         let fit = t.fit(self.0, observer)?;
-        Ok(Trained::Corrector {
-            model: CorrectorModel::Physical(Box::new(PhysicalCorrector {
-                sensor: fit.sensor,
-                gravity_mps2: t.joint.gravity_mps2,
-                input_range_mps2: input_range(&t.runs, &t.poses),
-            })),
-            covariance: fit.sensor_covariance().map(Box::new),
-        })
+        Ok(Trained::Corrector(CorrectorModel::Physical(Box::new(
+            physical_corrector(t, &fit),
+        ))))
     }
 }
 
@@ -451,7 +465,7 @@ impl Trainer for LinearCandidate {
                     .into(),
             );
         }
-        Ok(Trained::corrector(CorrectorModel::Linear(Box::new(
+        Ok(Trained::Corrector(CorrectorModel::Linear(Box::new(
             LinearModel {
                 axes: Axis::ALL.to_vec(),
                 offset_mps2: offset,
@@ -476,11 +490,7 @@ struct PhysicalAnnCandidate;
 impl Trainer for PhysicalAnnCandidate {
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
         let fit = t.fit(SensorTerms::ALL, observer)?;
-        let physical = PhysicalCorrector {
-            sensor: fit.sensor,
-            gravity_mps2: t.joint.gravity_mps2,
-            input_range_mps2: input_range(&t.runs, &t.poses),
-        };
+        let physical = physical_corrector(t, &fit);
         // Pooled samples: the physical correction as input, what it left against the joint
         // fit's reference as the target. Static (no delays): the samples are not one series.
         let mut input: [Vec<f64>; 3] = Default::default();
@@ -539,15 +549,13 @@ impl Trainer for PhysicalAnnCandidate {
             )
             .map_err(|e| format!("network on top of physics: {e}"))?;
         // Its physical part's uncertainty is what predicts its error off the network's range.
-        let covariance = fit.sensor_covariance().map(Box::new);
-        Ok(Trained::Corrector {
-            model: CorrectorModel::PhysicalAnn(Box::new(PhysicalAnnCorrector {
+        Ok(Trained::Corrector(CorrectorModel::PhysicalAnn(Box::new(
+            PhysicalAnnCorrector {
                 physical,
                 network,
                 coverage,
-            })),
-            covariance,
-        })
+            },
+        ))))
     }
 }
 

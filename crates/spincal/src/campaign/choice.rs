@@ -114,7 +114,7 @@ pub(super) fn save_best(
             None,
             format!("Nothing saved: {} cannot be saved as a corrector", kind.name()),
         ),
-        Ok(Trained::Corrector { model, .. }) => {
+        Ok(Trained::Corrector(model)) => {
             let verdict = format!(
                 "Saved {} ({}), validated on {} conditions it never trained on: judged by physics alone (still poses' |f| against gravity, turntable runs against a rigid platter's motion with no sensor freedom), it leaves {:.4} m/s² mean RMS, at worst {:.2}× the uncorrected residual, and, pooled over them, is shown no worse (at most {:.2}× at {:.0} % confidence, within the {:.0} % margin). Trained on every recording of the campaign.{}",
                 kind.name(),

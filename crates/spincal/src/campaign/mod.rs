@@ -15,6 +15,7 @@
 pub mod candidate;
 pub mod checks;
 pub mod choice;
+pub mod error_map;
 pub mod evaluate;
 pub mod file;
 pub mod gyro;

@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
+use crate::campaign::error_map::{error_map, ErrorMap};
 use crate::campaign::paper::{PaperProtocol, PaperSignals};
 use crate::campaign::params::{ParamError, Params};
 
@@ -219,6 +220,10 @@ pub struct CampaignResult {
     pub candidates: Vec<CandidateSummary>,
     /// What the rule chooses when scored against truth (simulations only).
     pub truth_check: Option<TruthCheck>,
+    /// Where the saved physical corrector can be trusted: its predicted error over every
+    /// direction of gravity (a saved `physical` or `physical-linear` model only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error_map: Option<ErrorMap>,
     /// The saved corrector's name, if any.
     pub saved: Option<String>,
     /// Whether the saved corrector was judged on a condition it was not trained on (false when
@@ -325,6 +330,15 @@ pub fn calibrate_campaign(
         ),
     };
     lap("final training", &mut stages);
+    let error_map = saved
+        .as_ref()
+        .and_then(|file| file.corrector.error_model())
+        .and_then(|physical| error_map(physical, &prepared.poses));
+    // The verdict leads with where the saved correction can be trusted.
+    let verdict = match &error_map {
+        Some(map) => format!("{} {verdict}", map.sentence()),
+        None => verdict,
+    };
     let saved_name = saved.as_ref().and(best).map(|b| b.candidate.clone());
     let validated_off_training_condition = saved_name.is_some() && !conditions.is_empty();
     Ok(CampaignOutput {
@@ -344,6 +358,7 @@ pub fn calibrate_campaign(
             held_out,
             candidates: summaries,
             truth_check,
+            error_map,
             validated_off_training_condition,
             saved: saved_name,
             verdict,

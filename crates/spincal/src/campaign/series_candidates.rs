@@ -52,7 +52,7 @@ impl Candidate for NetworkCandidate {
         let network = problem
             .train(&self.hidden, self.restarts, self.seed, &self.lm)
             .map_err(|e| e.to_string())?;
-        Ok(Trained::corrector(CorrectorModel::Ann(Box::new(network))))
+        Ok(Trained::Corrector(CorrectorModel::Ann(Box::new(network))))
     }
 }
 
@@ -80,7 +80,7 @@ impl Candidate for AxesLinearCandidate {
             series.division.mode,
         )
         .map_err(|e| e.to_string())?;
-        Ok(Trained::corrector(CorrectorModel::Linear(Box::new(linear))))
+        Ok(Trained::Corrector(CorrectorModel::Linear(Box::new(linear))))
     }
 }
 

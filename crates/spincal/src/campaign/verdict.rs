@@ -45,9 +45,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::campaign::joint::{fit_run_geometry, JointSettings, SensorCovariance};
+use crate::campaign::joint::{fit_run_geometry, JointSettings};
 use crate::campaign::prepare::{Prepared, UnitRecording};
-use crate::correctors::physical::{SensorModel, SENSOR_PARAMS};
+use crate::correctors::physical::{propagated_variance, SensorCovariance, SensorModel};
 use crate::metrics::student_t_quantile;
 
 /// Length of a block within a still pose, s: a pose's noise is nearly white, and what moves it as
@@ -410,52 +410,22 @@ pub(crate) fn rms_and_floor(
 const PREDICTION_SAMPLES: usize = 200;
 
 /// The mean squared error (per axis) that the sensor parameters' covariance implies for the
-/// physical model's correction of the readings `measured` (first-order: J Σ Jᵀ, with J by central
-/// differences in each parameter at a step of a thousandth of its standard error).
+/// physical model's correction of the readings `measured` (first order: J Σ Jᵀ, the Jacobian
+/// `SensorModel::correct_with_jacobian`'s, the one `correct` writes per row).
 pub(crate) fn predicted_mean_square(
     sensor: &SensorModel,
     covariance: &SensorCovariance,
     measured: &[Segment],
 ) -> f64 {
-    let theta = sensor.params();
-    let step: [f64; SENSOR_PARAMS] =
-        std::array::from_fn(|j| (1e-3 * covariance[j][j].max(0.0).sqrt()).max(1e-12));
     let (mut sum, mut n) = (0.0, 0usize);
     for segment in measured {
         let len = segment.accel[0].len();
         for s in (0..len).step_by((len / PREDICTION_SAMPLES).max(1)) {
             let m = [segment.accel[0][s], segment.accel[1][s], segment.accel[2][s]];
-            let mut jacobian = [[0.0; SENSOR_PARAMS]; 3];
-            let mut usable = true;
-            for j in 0..SENSOR_PARAMS {
-                if covariance[j][j] <= 0.0 {
-                    continue;
-                }
-                let at = |h: f64| {
-                    let mut p = theta;
-                    p[j] += h;
-                    SensorModel::from_params(&p).correct(m)
-                };
-                match (at(step[j]), at(-step[j])) {
-                    (Some(a), Some(b)) => {
-                        for k in 0..3 {
-                            jacobian[k][j] = (a[k] - b[k]) / (2.0 * step[j]);
-                        }
-                    }
-                    _ => usable = false,
-                }
+            if let Some((_, jac)) = sensor.correct_with_jacobian(m) {
+                sum += propagated_variance(&jac, covariance).iter().sum::<f64>() / 3.0;
+                n += 1;
             }
-            if !usable {
-                continue;
-            }
-            for row in &jacobian {
-                for a in 0..SENSOR_PARAMS {
-                    for b in 0..SENSOR_PARAMS {
-                        sum += row[a] * covariance[a][b] * row[b] / 3.0;
-                    }
-                }
-            }
-            n += 1;
         }
     }
     sum / n.max(1) as f64

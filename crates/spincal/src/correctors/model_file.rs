@@ -1,5 +1,8 @@
 //! The saved corrector file: JSON of the form
-//! `{"format_version": 1, "spincal_version": "…", "corrector": {"kind": "ann", …}}`.
+//! `{"format_version": 2, "spincal_version": "…", "corrector": {"kind": "ann", …}}`.
+//!
+//! Format 2 added the physical corrector's `uncertainty` (its parameters' covariance and the
+//! readings' noise); format 1 files, which have none, still read.
 //!
 //! A new kind of corrector is one more variant of [`CorrectorModel`] and one more arm in its
 //! `Corrector` impl and in [`CorrectorModel::validate`] (both matches have no wildcard, so the
@@ -21,8 +24,10 @@ use crate::correctors::physical::PhysicalCorrector;
 use crate::correctors::physical_ann::PhysicalAnnCorrector;
 use crate::correctors::static_cal::StaticCalibration;
 
-/// The corrector file format this build writes and reads.
-pub(crate) const FORMAT_VERSION: u32 = 1;
+/// The corrector file format this build writes.
+pub(crate) const FORMAT_VERSION: u32 = 2;
+/// The oldest format this build still reads (every later one up to [`FORMAT_VERSION`] too).
+const OLDEST_READABLE_VERSION: u32 = 1;
 
 /// Every kind of saved corrector, tagged by `kind`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -61,6 +66,16 @@ impl CorrectorModel {
             CorrectorModel::Static(m) => m.validate(),
             CorrectorModel::Physical(m) => m.validate(),
             CorrectorModel::PhysicalAnn(m) => m.validate(),
+        }
+    }
+
+    /// The corrector whose error its parameters' covariance predicts: the physical kind saved with
+    /// an uncertainty. Other kinds predict none (a network's error has no covariance; the network
+    /// on top of physics is not in its physical part's).
+    pub fn error_model(&self) -> Option<&PhysicalCorrector> {
+        match self {
+            CorrectorModel::Physical(p) if p.uncertainty.is_some() => Some(p),
+            _ => None,
         }
     }
 
@@ -125,10 +140,11 @@ pub enum CorrectorError {
     },
     #[error("{file}: no format_version field; not a spincal corrector file")]
     MissingVersion { file: String },
-    #[error("{file}: corrector file format_version {found}, but this spincal reads format_version {supported}; retrain the corrector or use a matching spincal")]
+    #[error("{file}: corrector file format_version {found}, but this spincal reads format_version {oldest} to {supported}; retrain the corrector or use a matching spincal")]
     Version {
         file: String,
         found: u64,
+        oldest: u32,
         supported: u32,
     },
 }
@@ -215,10 +231,11 @@ impl CorrectorFile {
             .ok_or_else(|| CorrectorError::MissingVersion {
                 file: file.to_string(),
             })?;
-        if found != u64::from(FORMAT_VERSION) {
+        if !(u64::from(OLDEST_READABLE_VERSION)..=u64::from(FORMAT_VERSION)).contains(&found) {
             return Err(CorrectorError::Version {
                 file: file.to_string(),
                 found,
+                oldest: OLDEST_READABLE_VERSION,
                 supported: FORMAT_VERSION,
             });
         }
@@ -378,8 +395,23 @@ mod tests {
         assert!(message.contains("old.json"), "{message}");
         assert!(message.contains("format_version 7"), "{message}");
         assert!(
-            message.contains(&format!("format_version {FORMAT_VERSION}")),
+            message.contains(&format!(
+                "format_version {OLDEST_READABLE_VERSION} to {FORMAT_VERSION}"
+            )),
             "{message}"
         );
+    }
+
+    #[test]
+    fn a_format_1_physical_file_reads_without_an_uncertainty() {
+        let text = r#"{"format_version": 1, "spincal_version": "0.1.0", "corrector": {"kind": "physical",
+            "sensor": {"bias_mps2": [0.1, 0, 0], "scale_error": [0, 0, 0], "misalignment_rad": [0, 0, 0],
+            "quadratic_per_mps2": [0, 0, 0]}, "gravity_mps2": 9.81, "input_range_mps2": [[-10, 10], [-10, 10], [-10, 10]]}}"#;
+        let file = CorrectorFile::from_json(text, "v1.json").unwrap();
+        let CorrectorModel::Physical(physical) = &file.corrector else {
+            panic!("{:?}", file.corrector);
+        };
+        assert!(physical.uncertainty.is_none());
+        assert_eq!(physical.predicted_sd([9.81, 0.0, 0.0]), None);
     }
 }

@@ -149,6 +149,44 @@ impl SensorModel {
         f.iter().all(|x| x.is_finite()).then_some(f)
     }
 
+    /// The corrected force (as [`SensorModel::correct`]) and its Jacobian with respect to the 12
+    /// parameters (`params` order), by implicit differentiation of `m = h(b + D (I + M) f)`.
+    pub fn correct_with_jacobian(&self, m: [f64; 3]) -> Option<([f64; 3], SensorJacobian)> {
+        let f = self.correct(m)?;
+        let mut jac = [[0.0; SENSOR_PARAMS]; 3];
+        // ∂v/∂θ for v = (u − b)/(1 + s), u = h⁻¹(m): bias, scale and q act on their own axis.
+        let mut dv = [[0.0; SENSOR_PARAMS]; 3];
+        let v = self.skewed(f);
+        for k in 0..3 {
+            let d = 1.0 + self.scale_error[k];
+            let u = self.bias_mps2[k] + d * v[k];
+            let q = self.quadratic_per_mps2[k];
+            dv[k][k] = -1.0 / d;
+            dv[k][3 + k] = -v[k] / d;
+            // q u² + u = m  ⇒  ∂u/∂q = −u² / (1 + 2 q u).
+            let slope = 1.0 + 2.0 * q * u;
+            if slope.abs() < f64::EPSILON {
+                return None;
+            }
+            dv[k][9 + k] = -u * u / slope / d;
+        }
+        // f = (I + M)⁻¹ v: forward substitution carries v's derivatives, M's own enter directly.
+        let [m_yx, m_zx, m_zy] = self.misalignment_rad;
+        for j in 0..SENSOR_PARAMS {
+            let fx = dv[0][j];
+            let fy = dv[1][j] - m_yx * fx;
+            let fz = dv[2][j] - m_zx * fx - m_zy * fy;
+            jac[0][j] = fx;
+            jac[1][j] = fy;
+            jac[2][j] = fz;
+        }
+        jac[1][6] -= f[0];
+        jac[2][6] += m_zy * f[0];
+        jac[2][7] -= f[0];
+        jac[2][8] -= f[1];
+        Some((f, jac))
+    }
+
     /// Checks that the model can be applied: finite values and no scale that maps an axis to 0.
     pub fn validate(&self) -> Result<(), ModelError> {
         check_finite("bias_mps2", &self.bias_mps2)?;
@@ -170,6 +208,86 @@ impl SensorModel {
     }
 }
 
+/// ∂f_k/∂θ_j of a correction: three rows of the 12 sensor parameters.
+pub type SensorJacobian = [[f64; SENSOR_PARAMS]; 3];
+
+/// The covariance of the sensor parameters (`SensorModel::params` order), their units' products.
+pub type SensorCovariance = [[f64; SENSOR_PARAMS]; SENSOR_PARAMS];
+
+/// What a fitted sensor model's correction is uncertain by: its parameters' covariance (the joint
+/// fit's robust sandwich; zero rows for terms held fixed) and the white noise of one reading.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorUncertainty {
+    pub covariance: SensorCovariance,
+    /// White noise of one reading per axis, m/s² (first differences of the campaign's recordings).
+    pub noise_sd_mps2: [f64; 3],
+}
+
+/// A correction is predicted to beat no correction on an axis when its square exceeds twice its
+/// variance: ĉ² − σ² estimates the true correction's square without bias, and applying ĉ leaves σ².
+pub fn predicted_to_help(correction_mps2: f64, sd_mps2: f64) -> bool {
+    correction_mps2 * correction_mps2 > 2.0 * sd_mps2 * sd_mps2
+}
+
+/// The variance per axis that `covariance` gives a correction with Jacobian `jac` (the diagonal
+/// of J Σ Jᵀ, first order).
+pub fn propagated_variance(jac: &SensorJacobian, covariance: &SensorCovariance) -> [f64; 3] {
+    std::array::from_fn(|k| {
+        let row = &jac[k];
+        let mut sum = 0.0;
+        for a in 0..SENSOR_PARAMS {
+            if row[a] == 0.0 {
+                continue;
+            }
+            let mut inner = 0.0;
+            for b in 0..SENSOR_PARAMS {
+                inner += covariance[a][b] * row[b];
+            }
+            sum += row[a] * inner;
+        }
+        sum.max(0.0)
+    })
+}
+
+impl SensorUncertainty {
+    /// Checks the covariance can be a covariance (finite, symmetric, non-negative variances, each
+    /// correlation within ±1) and the noise is finite and non-negative.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        check_finite("noise_sd_mps2", &self.noise_sd_mps2)?;
+        if let Some(k) = (0..3).find(|&k| self.noise_sd_mps2[k] < 0.0) {
+            return Err(ModelError::new(
+                format!("noise_sd_mps2[{k}]"),
+                format!("{}: a standard deviation is not negative", self.noise_sd_mps2[k]),
+            ));
+        }
+        for a in 0..SENSOR_PARAMS {
+            check_finite(&format!("covariance[{a}]"), &self.covariance[a])?;
+            if self.covariance[a][a] < 0.0 {
+                return Err(ModelError::new(
+                    format!("covariance[{a}][{a}]"),
+                    format!("{}: a variance is not negative", self.covariance[a][a]),
+                ));
+            }
+        }
+        for a in 0..SENSOR_PARAMS {
+            for b in 0..a {
+                let (ab, ba) = (self.covariance[a][b], self.covariance[b][a]);
+                let bound = (self.covariance[a][a] * self.covariance[b][b]).sqrt();
+                if (ab - ba).abs() > 1e-9 * bound.max(f64::MIN_POSITIVE) || ab.abs() > bound * (1.0 + 1e-9) {
+                    return Err(ModelError::new(
+                        format!("covariance[{a}][{b}]"),
+                        format!(
+                            "{ab} (and {ba} across the diagonal): a covariance is symmetric with |c_ab| ≤ √(c_aa c_bb) = {bound}"
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The saved `physical` corrector: the inverse of a fitted [`SensorModel`], all three axes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -180,11 +298,18 @@ pub struct PhysicalCorrector {
     /// The range of readings the campaign covered per axis, m/s² ([min, max]); outside it the
     /// quadratic term is extrapolated and such samples are marked.
     pub input_range_mps2: [[f64; 2]; 3],
+    /// The parameters' covariance and the readings' noise, when the fit gave them (format 2):
+    /// `correct` then writes each row's predicted standard deviation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<SensorUncertainty>,
 }
 
 impl PhysicalCorrector {
     pub fn validate(&self) -> Result<(), ModelError> {
         self.sensor.validate().map_err(|e| e.within("sensor"))?;
+        if let Some(uncertainty) = &self.uncertainty {
+            uncertainty.validate().map_err(|e| e.within("uncertainty"))?;
+        }
         let g = self.gravity_mps2;
         if !(g.is_finite() && g > 0.0) {
             return Err(ModelError::new(
@@ -201,6 +326,14 @@ impl PhysicalCorrector {
             }
         }
         Ok(())
+    }
+
+    /// The corrected force for reading `m` and the standard deviation per axis its parameters'
+    /// covariance predicts (`None` without a covariance or where the model has no inverse).
+    pub fn predicted_sd(&self, m: [f64; 3]) -> Option<[f64; 3]> {
+        let uncertainty = self.uncertainty.as_ref()?;
+        let (_, jac) = self.sensor.correct_with_jacobian(m)?;
+        Some(propagated_variance(&jac, &uncertainty.covariance).map(f64::sqrt))
     }
 
     /// Whether a reading lies beyond the covered range by more than 10 % of its width.
@@ -271,6 +404,58 @@ mod tests {
                 assert!((back[k] - f[k]).abs() < 1e-12, "{f:?} → {back:?}");
             }
         }
+    }
+
+    #[test]
+    fn the_jacobian_matches_central_differences() {
+        let s = sensor();
+        for m in [[9.9, 0.1, -0.2], [-3.0, 7.0, -6.5], [1.0, -9.7, 2.0]] {
+            let (_, jac) = s.correct_with_jacobian(m).unwrap();
+            let theta = s.params();
+            for j in 0..SENSOR_PARAMS {
+                let h = 1e-6;
+                let at = |d: f64| {
+                    let mut p = theta;
+                    p[j] += d;
+                    SensorModel::from_params(&p).correct(m).unwrap()
+                };
+                let (a, b) = (at(h), at(-h));
+                for k in 0..3 {
+                    let numeric = (a[k] - b[k]) / (2.0 * h);
+                    assert!(
+                        (numeric - jac[k][j]).abs() < 1e-6 * (1.0 + numeric.abs()),
+                        "m {m:?}, f_{k} by θ_{j}: analytic {} numeric {numeric}",
+                        jac[k][j]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_covariance_that_cannot_be_one_is_refused_by_its_entry() {
+        let mut u = SensorUncertainty {
+            covariance: [[0.0; SENSOR_PARAMS]; SENSOR_PARAMS],
+            noise_sd_mps2: [0.02; 3],
+        };
+        for a in 0..SENSOR_PARAMS {
+            u.covariance[a][a] = 1e-6;
+        }
+        assert!(u.validate().is_ok());
+        u.covariance[4][1] = 2e-6;
+        u.covariance[1][4] = 2e-6;
+        assert_eq!(u.validate().unwrap_err().field, "covariance[4][1]");
+        u.covariance[1][4] = 0.0;
+        u.covariance[4][1] = 0.0;
+        u.covariance[3][3] = -1.0;
+        assert_eq!(u.validate().unwrap_err().field, "covariance[3][3]");
+    }
+
+    #[test]
+    fn a_correction_helps_when_its_square_exceeds_twice_its_variance() {
+        assert!(predicted_to_help(0.15, 0.1));
+        assert!(!predicted_to_help(0.14, 0.1));
+        assert!(!predicted_to_help(0.0, 0.0));
     }
 
     #[test]

@@ -7,6 +7,7 @@
 use crate::correctors::corrector::{Axis, Corrector, SampleCorrector};
 use crate::correctors::gyro::GyroCorrector;
 use crate::correctors::model_file::CorrectorFile;
+use crate::correctors::physical::{predicted_to_help, PhysicalCorrector};
 use crate::thermal::causal::CausalDieTemperature;
 use crate::thermal::ThermalModel;
 
@@ -72,9 +73,22 @@ pub enum RowOutcome {
         /// False for the first rows without a full delay history and outside the range.
         valid: bool,
         status: RowStatus,
+        /// The standard deviation per axis (m/s²) of the correction that the model's parameter
+        /// covariance predicts, and whether on every corrected axis the correction is predicted to
+        /// beat no correction ([`predicted_to_help`]); `None` for a model without a covariance.
+        predicted: Option<PredictedError>,
     },
     /// The row cannot be corrected; why, without its line (the caller knows where it was).
     Refused(String),
+}
+
+/// A row's correction error as its model's covariance predicts it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PredictedError {
+    /// Standard deviation per axis, m/s².
+    pub sd_mps2: [f64; 3],
+    /// On every corrected axis the correction's square exceeds twice its variance.
+    pub better: bool,
 }
 
 /// Which value of a row a refusal is about.
@@ -97,6 +111,8 @@ pub struct RowCorrector<'a> {
     needs_time: bool,
     /// The thermal model and its die-temperature estimate, when the model file has one.
     thermal: Option<(&'a ThermalModel, CausalDieTemperature)>,
+    /// The model whose covariance predicts each row's error, when it has one.
+    error_model: Option<&'a PhysicalCorrector>,
 }
 
 /// The gyro sensitivity in a model file cannot be inverted.
@@ -123,7 +139,13 @@ impl<'a> RowCorrector<'a> {
                 .thermal
                 .as_ref()
                 .map(|m| (m, CausalDieTemperature::new(m.lag_s, m.smoothing_s))),
+            error_model: file.corrector.error_model(),
         })
+    }
+
+    /// Whether each corrected row carries its predicted standard deviation and flag.
+    pub fn predicts_error(&self) -> bool {
+        self.error_model.is_some()
     }
 
     /// The accelerometer axes the model corrects.
@@ -191,7 +213,8 @@ impl<'a> RowCorrector<'a> {
             }
         }
         self.previous_time_s = t.or(self.previous_time_s);
-        let mut accel_mps2 = accel.map(|a| a * u.accel_to_mps2);
+        let reading_mps2 = accel.map(|a| a * u.accel_to_mps2);
+        let mut accel_mps2 = reading_mps2;
         let mut thermal_status = None;
         if let Some((model, die)) = &mut self.thermal {
             let [lo, hi] = model.fitted_range_c;
@@ -232,6 +255,14 @@ impl<'a> RowCorrector<'a> {
                     .to_string(),
             );
         }
+        let predicted = self.error_model.and_then(|model| {
+            let sd_mps2 = model.predicted_sd(accel_mps2)?;
+            let better = self.axes.iter().all(|axis| {
+                let k = axis.index();
+                predicted_to_help(sample.accel_mps2[k] - reading_mps2[k], sd_mps2[k])
+            });
+            Some(PredictedError { sd_mps2, better })
+        });
         let status = match (sample.valid, sample.outside_training_range) {
             (_, false) => RowStatus::Ok,
             (true, true) => RowStatus::PhysicsOnly,
@@ -242,6 +273,7 @@ impl<'a> RowCorrector<'a> {
             gyro_radps: rate,
             valid: sample.valid && thermal_status.is_none(),
             status: thermal_status.unwrap_or(status),
+            predicted,
         }
     }
 }

@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 
 use super::escape;
 use super::html::{figure, paper_sections};
-use super::plot::{Legend, LinePlot, LineStyle, Series};
+use super::plot::{HeatMap, Legend, LinePlot, LineStyle, Series};
 use super::plot::{PlotError, Rgb};
 use crate::campaign::paper::PaperSignals;
 use crate::campaign::select::CampaignResult;
@@ -28,6 +28,7 @@ pub fn campaign_report(r: &CampaignResult, paper: Option<&PaperSignals>) -> Resu
         unit = escape(&r.unit),
         verdict = escape(&r.verdict)
     );
+    error_map_section(r, &mut h)?;
     candidates_section(r, &mut h);
     held_out_section(r, &mut h)?;
     sensor_section(r, &mut h)?;
@@ -42,6 +43,45 @@ pub fn campaign_report(r: &CampaignResult, paper: Option<&PaperSignals>) -> Resu
     }
     h.push_str("</body></html>\n");
     Ok(h)
+}
+
+/// Where the saved correction can be trusted: its predicted error over the directions of
+/// gravity, recorded poses outlined.
+fn error_map_section(r: &CampaignResult, h: &mut String) -> Result<(), PlotError> {
+    let Some(map) = &r.error_map else {
+        return Ok(());
+    };
+    let _ = write!(
+        h,
+        "<h2>Where the correction can be trusted</h2><p>{}</p>",
+        escape(&map.sentence())
+    );
+    let cells = map
+        .poses
+        .iter()
+        .map(|p| map.cell_of(p.latitude_deg, p.longitude_deg))
+        .collect();
+    let plot = HeatMap::new(
+        "Predicted error of the corrected still reading over the noise of one reading (worst axis)",
+        "azimuth of gravity from +x towards +y (°)",
+        "elevation of gravity above the x–y plane (°)",
+        map.longitude_deg.iter().map(|v| format!("{v:.0}")).collect(),
+        map.latitude_deg.iter().map(|v| format!("{v:.1}")).collect(),
+        map.worst_sd_over_noise.iter().map(|v| v.min(9.9)).collect(),
+    )
+    .value_label("sd / noise")
+    .decimals(1)
+    .value_range(0.0, (2.0 * map.threshold).max(1.0))
+    .mark(cells)
+    .size(900, 560);
+    h.push_str(&figure(
+        &plot,
+        &format!(
+            "Each cell: the standard deviation that the saved model's parameter covariance predicts for the corrected reading of a still sensor with gravity along the cell's direction, over the noise of one reading, largest over the three axes (capped at 9.9). At most {:.2} the corrected reading's error is within 1.25× what the true model would leave. Outlined in red: cells holding a recorded still pose. Noise of one reading: {:.4}, {:.4}, {:.4} m/s².",
+            map.threshold, map.noise_sd_mps2[0], map.noise_sd_mps2[1], map.noise_sd_mps2[2]
+        ),
+    )?);
+    Ok(())
 }
 
 /// A number to `digits` places, or a dash.

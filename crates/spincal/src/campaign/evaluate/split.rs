@@ -160,7 +160,7 @@ impl SplitEvaluation<'_> {
     ) -> Result<ComparisonRow, String> {
         let measured = &self.recordings[0];
         match model {
-            Trained::Corrector { .. } => {
+            Trained::Corrector(_) => {
                 let corrected = model.correct(&measured.accel_mps2)?;
                 let estimate: Vec<Vec<f64>> = self
                     .axes
@@ -296,7 +296,7 @@ impl SplitEvaluation<'_> {
                 let estimate: Vec<Vec<f64>> = axes.iter().map(|&a| corrected.accel_mps2[a].clone()).collect();
                 let (from, outside) = match model {
                     Trained::Dynamic(_) => (self.init_samples.max(self.delays), None),
-                    Trained::Corrector { model, .. } => (
+                    Trained::Corrector(model) => (
                         self.delays,
                         matches!(model, CorrectorModel::Ann(_)).then(|| {
                             100.0 * corrected.outside_training_range as f64 / other.len().max(1) as f64

@@ -4,7 +4,8 @@ use faer::prelude::Solve;
 use faer::{Mat, Side};
 
 use super::layout::run_offset;
-use super::result::{JointFit, SensorCovariance};
+use super::result::JointFit;
+use crate::correctors::physical::SensorCovariance;
 use crate::correctors::physical::SENSOR_PARAMS;
 
 impl JointFit {

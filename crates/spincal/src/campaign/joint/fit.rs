@@ -384,7 +384,19 @@ fn robust_covariance(
 ) -> (Option<Mat<f64>>, Vec<usize>) {
     let n = p.len();
     let mut meat = Mat::<f64>::zeros(n, n);
-    problem.evaluate(p, Want::Meat(&mut meat));
+    let pose_kept: Vec<[f64; 3]> = problem
+        .pose_leverage(p, jtj, free)
+        .unwrap_or_default()
+        .iter()
+        .map(|h| h.map(|h| (1.0 - h).max(MIN_KEPT_VARIANCE)))
+        .collect();
+    problem.evaluate(
+        p,
+        Want::Meat {
+            meat: &mut meat,
+            pose_kept: &pose_kept,
+        },
+    );
     let index: Vec<usize> = (0..n).filter(|&k| free[k]).collect();
     let cov = sandwich(jtj, &meat, &index);
     (cov, index)

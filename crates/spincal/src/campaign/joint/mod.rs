@@ -46,7 +46,7 @@ pub use kinematics::mounting_matrix;
 pub(crate) use kinematics::rotation_of;
 pub(crate) use layout::{mid_time, GEOMETRY};
 pub use layout::{POSE_PARAMS, RUN_PARAMS, RUN_PARAM_NAMES};
-pub use result::{JointFit, JointParam, PoseFit, RunFit, SensorCovariance};
+pub use result::{JointFit, JointParam, PoseFit, RunFit};
 pub use settings::{JointSettings, SensorTerms, DEFAULT_NONLINEARITY_PCT_FS, DEFAULT_NONLINEARITY_RANGE_G};
 pub use spread::BiasSpread;
 pub use start::run_start;

@@ -165,8 +165,13 @@ fn model_row(
 pub(crate) enum Want<'a> {
     Sse,
     Normal(&'a mut Mat<f64>, &'a mut [f64]),
-    /// Σ over blocks of s sᵀ (s: the block's score Jᵀr), into the matrix.
-    Meat(&'a mut Mat<f64>),
+    /// Σ over blocks of s sᵀ (s: the block's score Jᵀr), into the matrix; a pose's residual on
+    /// each axis divided by √(share of its variance the fit left it), `pose_kept` (HC2: few
+    /// poses and many parameters leave residuals well below the noise that made them).
+    Meat {
+        meat: &'a mut Mat<f64>,
+        pose_kept: &'a [[f64; 3]],
+    },
 }
 
 impl Want<'_> {
@@ -180,7 +185,7 @@ impl Want<'_> {
                 jtr[param] += r / sigma;
             }
             // A prior's information is its stated variance, not the realised score².
-            Want::Meat(meat) => meat[(param, param)] += 1.0 / (sigma * sigma),
+            Want::Meat { meat, .. } => meat[(param, param)] += 1.0 / (sigma * sigma),
         }
         r * r
     }
@@ -200,7 +205,7 @@ impl Want<'_> {
                 jtr[a] += r / sigma;
                 jtr[b] -= r / sigma;
             }
-            Want::Meat(meat) => {
+            Want::Meat { meat, .. } => {
                 meat[(a, a)] += w;
                 meat[(b, b)] += w;
                 meat[(a, b)] -= w;
@@ -343,7 +348,7 @@ impl JointProblem<'_> {
             jtj.fill(0.0);
             jtr.fill(0.0);
         }
-        if let Want::Meat(meat) = &mut want {
+        if let Want::Meat { meat, .. } = &mut want {
             meat.fill(0.0);
         }
         // `sse` is carried through the stages in order: one running sum, as in a single loop.
@@ -399,7 +404,7 @@ impl JointProblem<'_> {
                 row[SENSOR_PARAMS + GEOMETRY + k] = slope;
                 row[SENSOR_PARAMS + GEOMETRY + 3 + k] = slope * tau;
                 match &mut *want {
-                    Want::Meat(_) => {
+                    Want::Meat { .. } => {
                         for (b, v) in block.iter_mut().zip(&row) {
                             *b += v * r;
                         }
@@ -409,7 +414,7 @@ impl JointProblem<'_> {
             }
             in_block += 1;
             if in_block == self.block_samples[i] {
-                if let Want::Meat(meat) = &mut *want {
+                if let Want::Meat { meat, .. } = &mut *want {
                     add_outer(meat, &index, &block);
                 }
                 block.fill(0.0);
@@ -417,7 +422,7 @@ impl JointProblem<'_> {
             }
         });
         if in_block > 0 {
-            if let Want::Meat(meat) = &mut *want {
+            if let Want::Meat { meat, .. } = &mut *want {
                 add_outer(meat, &index, &block);
             }
         }
@@ -465,8 +470,14 @@ impl JointProblem<'_> {
         let index = self.pose_index(pi);
         let mut local = LocalSystem::new(index.clone());
         let mut block = vec![0.0; index.len()];
-        self.pose_rows(p, sensor, pi, |_, row, r| {
+        let kept = match &*want {
+            Want::Meat { pose_kept, .. } => pose_kept.get(pi).copied(),
+            _ => None,
+        }
+        .unwrap_or([1.0; 3]);
+        self.pose_rows(p, sensor, pi, |k, row, r| {
             local.add_row(row, r);
+            let r = r / kept[k].sqrt();
             for (b, v) in block.iter_mut().zip(row) {
                 *b += v * r;
             }
@@ -476,7 +487,7 @@ impl JointProblem<'_> {
                 local.scatter(jtj, jtr);
                 sse += local.sse;
             }
-            Want::Meat(meat) => add_outer(meat, &index, &block),
+            Want::Meat { meat, .. } => add_outer(meat, &index, &block),
             Want::Sse => {}
         }
         sse

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use super::kinematics::RunGeometry;
 use super::layout::{mid_time, run_offset, RUN_PARAMS};
 use super::settings::SensorTerms;
-use crate::correctors::physical::{SensorModel, SENSOR_PARAMS};
+use crate::correctors::physical::SensorModel;
 use crate::geometry::M3;
 use crate::optim::LmStop;
 use crate::turntable::model::Direction;
@@ -35,9 +35,6 @@ pub struct RunFit {
     pub residual_rms_mps2: [f64; 3],
     pub samples_used: usize,
 }
-
-/// The covariance of the sensor parameters, in `SensorModel::params` order.
-pub type SensorCovariance = [[f64; SENSOR_PARAMS]; SENSOR_PARAMS];
 
 /// One pose's fit.
 #[derive(Debug, Clone, Serialize, Deserialize)]

@@ -142,3 +142,56 @@ fn a_headerless_stream_needs_its_unit_and_the_file_is_left_as_it_was_on_failure(
         "earlier output\n"
     );
 }
+
+/// A physical model with a covariance: each corrected axis gets its predicted standard deviation
+/// (in the file's unit) and the row the flag `predicted_better`; a refused row leaves them empty.
+#[test]
+fn a_model_with_a_covariance_writes_each_rows_error_bar_and_flag() {
+    use crate::correctors::physical::{PhysicalCorrector, SensorModel, SensorUncertainty, SENSOR_PARAMS};
+    let mut covariance = [[0.0; SENSOR_PARAMS]; SENSOR_PARAMS];
+    // Bias x ± 0.01 m/s², scale z ± 0.001.
+    covariance[0][0] = 1e-4;
+    covariance[5][5] = 1e-6;
+    let physical = PhysicalCorrector {
+        sensor: SensorModel {
+            bias_mps2: [0.5, 0.0, 0.0],
+            ..SensorModel::IDEAL
+        },
+        gravity_mps2: 9.81,
+        input_range_mps2: [[-10.0, 10.0]; 3],
+        uncertainty: Some(SensorUncertainty {
+            covariance,
+            noise_sd_mps2: [0.02; 3],
+        }),
+    };
+    let model = CorrectorFile::new(CorrectorModel::Physical(Box::new(physical.clone())));
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    // In g: the sd comes out in g too.
+    let input = write(dir.path(), "rec.csv", "t,ax,ay,az\n0,0.1,0,1\n0.01,nan,0,1\n");
+    let mut options = ReadOptions::default();
+    options.columns.accel_unit = Some(crate::input::recording::AccelUnit::G);
+    let (text, _) = corrected(&model, &input, &options);
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        lines[0],
+        "t,ax,ay,az,ax_corrected,ay_corrected,az_corrected,ax_corrected_sd,ay_corrected_sd,az_corrected_sd,predicted_better,valid,status"
+    );
+    let fields: Vec<f64> = lines[1].split(',').take(11).map(|v| v.parse().unwrap()).collect();
+    let g = crate::input::recording::STANDARD_GRAVITY;
+    let sd = physical.predicted_sd([0.1 * g, 0.0, g]).unwrap();
+    for k in 0..3 {
+        assert_eq!(fields[7 + k], sd[k] * (1.0 / g), "axis {k}: {}", lines[1]);
+    }
+    assert!(
+        (fields[7] - 0.01 / g).abs() < 1e-12 && (fields[9] - 0.001).abs() < 1e-9,
+        "{}",
+        lines[1]
+    );
+    // y is not corrected at all: no correction cannot be predicted to beat none.
+    assert_eq!(fields[10], 0.0, "{}", lines[1]);
+    assert!(
+        lines[2].contains(",,,,,,,0,\"refused") || lines[2].contains(",,,,,,,0,refused"),
+        "{}",
+        lines[2]
+    );
+}

@@ -30,33 +30,83 @@ fn refused_fields(text: &str, delimiter: Delimiter, width: usize) -> Vec<String>
     fields
 }
 
-/// The corrected values written for a row, in the file's units: the corrected accelerometer axes,
-/// then the gyro (None where the row was refused).
-pub(super) fn corrected_values(
-    axes: &[Axis],
-    outcome: &RowOutcome,
-    gyro_width: usize,
-    units: UnitFactors,
-) -> Vec<Option<f64>> {
-    // The accelerometer times the reciprocal, the gyro divided: Python's frames convert the same
-    // way, so both agree to the bit.
-    let from_mps2 = 1.0 / units.accel_to_mps2;
-    match outcome {
-        RowOutcome::Corrected {
+/// The columns a corrected row adds: the corrected accelerometer axes, the gyro's when it is
+/// corrected, and, for a model whose covariance predicts its error, each corrected axis's
+/// predicted standard deviation and the flag `predicted_better`.
+pub(super) struct CorrectedColumns {
+    pub(super) axes: Vec<Axis>,
+    pub(super) gyro: bool,
+    pub(super) predicted: bool,
+}
+
+impl CorrectedColumns {
+    pub(super) fn new(corrector: &RowCorrector<'_>, gyro: bool) -> CorrectedColumns {
+        CorrectedColumns {
+            axes: corrector.corrected_axes().to_vec(),
+            gyro,
+            predicted: corrector.predicts_error(),
+        }
+    }
+
+    /// The names, from the corrected accelerometer and gyro columns' names (`<name>_corrected`,
+    /// `<name>_corrected_sd`, `predicted_better`).
+    pub(super) fn names(&self, accel: impl Fn(Axis) -> String, gyro: &[String]) -> Vec<String> {
+        let accel: Vec<String> = self.axes.iter().map(|&a| accel(a)).collect();
+        let mut names: Vec<String> = accel
+            .iter()
+            .chain(gyro.iter().filter(|_| self.gyro))
+            .map(|n| format!("{n}_corrected"))
+            .collect();
+        if self.predicted {
+            names.extend(accel.iter().map(|n| format!("{n}_corrected_sd")));
+            names.push("predicted_better".into());
+        }
+        names
+    }
+
+    /// A row with none of them (skipped or refused).
+    pub(super) fn blank(&self) -> Vec<Option<f64>> {
+        let width = self.axes.len() * if self.predicted { 2 } else { 1 }
+            + if self.gyro { 3 } else { 0 }
+            + usize::from(self.predicted);
+        vec![None; width]
+    }
+
+    /// A row's values in the file's units (None where the row was refused).
+    pub(super) fn values(&self, outcome: &RowOutcome, units: UnitFactors) -> Vec<Option<f64>> {
+        // The accelerometer times the reciprocal, the gyro divided: Python's frames convert the
+        // same way, so both agree to the bit.
+        let from_mps2 = 1.0 / units.accel_to_mps2;
+        let RowOutcome::Corrected {
             accel_mps2,
             gyro_radps,
+            predicted,
             ..
-        } => axes
+        } = outcome
+        else {
+            return self.blank();
+        };
+        let mut values: Vec<Option<f64>> = self
+            .axes
             .iter()
             .map(|a| Some(accel_mps2[a.index()] * from_mps2))
-            .chain(
-                gyro_radps
-                    .iter()
-                    .flatten()
-                    .map(|&w| Some(w / units.gyro_to_radps)),
-            )
-            .collect(),
-        RowOutcome::Refused(_) => vec![None; axes.len() + gyro_width],
+            .collect();
+        if self.gyro {
+            match gyro_radps {
+                Some(rate) => values.extend(rate.iter().map(|&w| Some(w / units.gyro_to_radps))),
+                None => values.extend([None; 3]),
+            }
+        }
+        if self.predicted {
+            match predicted {
+                Some(p) => {
+                    values.extend(self.axes.iter().map(|a| Some(p.sd_mps2[a.index()] * from_mps2)));
+                    values.push(Some(f64::from(u8::from(p.better))));
+                }
+                None => values.extend(std::iter::repeat_n(None, self.axes.len() + 1)),
+            }
+        }
+        values
     }
 }
 
@@ -77,7 +127,7 @@ struct TextStream<'a, 'w> {
     header: &'a [String],
     gyro: Option<[usize; 3]>,
     temperature: Option<(usize, TemperatureUnit)>,
-    axes: Vec<Axis>,
+    added: CorrectedColumns,
     /// The corrected columns of a row that has none (skipped or refused), made once.
     blank: Vec<Option<f64>>,
     units: UnitFactors,
@@ -90,7 +140,6 @@ struct TextStream<'a, 'w> {
 impl TextStream<'_, '_> {
     /// Corrects and writes one row (`text` is its line as read).
     fn row(&mut self, record: Record, text: &str, values: &[f64]) -> Result<(), CorrectError> {
-        let gyro_width = if self.gyro.is_some() { 3 } else { 0 };
         let sep = self.delimiter.as_char();
         self.summary.rows += 1;
         let line_no = match record {
@@ -134,7 +183,7 @@ impl TextStream<'_, '_> {
             self.temperature.map(|(c, unit)| unit.to_celsius(values[c])),
             value_name,
         );
-        let corrected = corrected_values(&self.axes, &outcome, gyro_width, self.units);
+        let corrected = self.added.values(&outcome, self.units);
         match outcome {
             RowOutcome::Corrected { valid, status, .. } => {
                 self.summary.corrected(line_no, status);
@@ -219,15 +268,15 @@ pub(super) fn correct_text(
         gyro_to_radps: columns.gyro_to_radps().unwrap_or(1.0),
     };
     let corrector = RowCorrector::new(model, units, with_gyro)?;
-    let axes = corrector.corrected_axes().to_vec();
     let gyro = columns.gyro_columns().filter(|_| corrector.corrects_gyro());
     let sep = rows.delimiter.as_char();
     let mut sink = DelimitedSink::new(out, sep);
-    let corrected_names = axes
-        .iter()
-        .map(|a| columns.accel_columns()[a.index()])
-        .chain(gyro.iter().flatten().copied())
-        .map(|c| format!("{}_corrected", header[c]));
+    let added = CorrectedColumns::new(&corrector, gyro.is_some());
+    let gyro_names: Vec<String> = gyro.iter().flatten().map(|&c| header[c].clone()).collect();
+    let corrected_names = added.names(
+        |a| header[columns.accel_columns()[a.index()]].clone(),
+        &gyro_names,
+    );
     let names: Vec<String> = header
         .iter()
         .cloned()
@@ -244,8 +293,8 @@ pub(super) fn correct_text(
         header: &header,
         gyro,
         temperature,
-        blank: vec![None; axes.len() + if gyro.is_some() { 3 } else { 0 }],
-        axes,
+        blank: added.blank(),
+        added,
         units,
         width,
         delimiter: rows.delimiter,

@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use super::sink::{field, RowSink};
-use super::text::corrected_values;
+use super::text::CorrectedColumns;
 use super::{CorrectError, StreamSummary};
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::correctors::rows::{RowCorrector, RowOutcome, RowValue, UnitFactors};
@@ -55,9 +55,7 @@ pub(super) fn correct_loaded(
     let gyro = rec.gyro_radps.as_ref().filter(|_| gyro_unit_fits);
     let units = UnitFactors::SI;
     let mut corrector = RowCorrector::new(model, units, gyro.is_some())?;
-    let axes = corrector.corrected_axes().to_vec();
     let gyro = gyro.filter(|_| corrector.corrects_gyro());
-    let gyro_width = if gyro.is_some() { 3 } else { 0 };
     let accel_unit = if loaded.raw_counts { "counts" } else { "mps2" };
     let gyro_unit = if loaded.gyro_counts { "counts" } else { "radps" };
     let lines = (rec.source.lines.len() == rec.len()).then_some(&rec.source.lines);
@@ -78,10 +76,9 @@ pub(super) fn correct_loaded(
     }
     // One naming with the streamed path: `<axis>_<unit>_corrected`, the unit the corrected value
     // is in (SI here: a calibration of counts gives m/s² and rad/s).
-    header.extend(axes.iter().map(|a| format!("a{a}_mps2_corrected")));
-    if gyro.is_some() {
-        header.extend(["x", "y", "z"].map(|a| format!("g{a}_radps_corrected")));
-    }
+    let added = CorrectedColumns::new(&corrector, gyro.is_some());
+    let gyro_names = ["x", "y", "z"].map(|a| format!("g{a}_radps"));
+    header.extend(added.names(|a| format!("a{a}_mps2"), &gyro_names));
     header.extend(["valid".to_string(), "status".to_string()]);
     sink.header(&header)?;
     let mut summary = StreamSummary::new(name);
@@ -133,7 +130,7 @@ pub(super) fn correct_loaded(
             rec.temperature_c.as_ref().map(|t| t[i]),
             value_name,
         );
-        let corrected = corrected_values(&axes, &outcome, gyro_width, units);
+        let corrected = added.values(&outcome, units);
         match outcome {
             RowOutcome::Corrected { valid, status, .. } => {
                 summary.corrected(line_no, status);

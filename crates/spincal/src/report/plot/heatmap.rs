@@ -30,6 +30,8 @@ pub struct HeatMap {
     pub value_range: Option<(f64, f64)>,
     /// Pixel size used by [`Figure::to_svg`].
     pub size: (u32, u32),
+    /// Cells (row, column) outlined, e.g. where a recording was made.
+    pub marked: Vec<(usize, usize)>,
 }
 
 impl HeatMap {
@@ -53,7 +55,14 @@ impl HeatMap {
             decimals: 1,
             value_range: None,
             size: (760, 520),
+            marked: Vec::new(),
         }
+    }
+
+    /// Outlines these cells (row, column).
+    pub fn mark(mut self, cells: Vec<(usize, usize)>) -> HeatMap {
+        self.marked = cells;
+        self
     }
 
     pub fn value_label(mut self, label: impl Into<String>) -> HeatMap {
@@ -215,6 +224,17 @@ impl sealed::Render for HeatMap {
                     .draw_series([Text::new(text, (x + 0.5, y + 0.5), style)])
                     .map_err(render_error)?;
             }
+        }
+
+        for &(r, c) in self.marked.iter().filter(|&&(r, c)| r < rows && c < cols) {
+            let (x, y) = (c as f64, r as f64);
+            let inset = 0.06;
+            chart
+                .draw_series([Rectangle::new(
+                    [(x + inset, y + inset), (x + 1.0 - inset, y + 1.0 - inset)],
+                    RED.stroke_width(3),
+                )])
+                .map_err(render_error)?;
         }
 
         // Colour bar: a vertical gradient with its own value axis.
