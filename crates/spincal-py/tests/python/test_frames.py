@@ -82,10 +82,16 @@ def test_a_dataframe_corrected_in_python_equals_spincal_correct_gyro_included(ca
         assert status == row["status"], k
         assert bool(ours.at[label, "valid"]) == (row["valid"] == "1"), k
         for column in ours.columns:
-            if column.endswith("_corrected"):
+            if column.endswith(("_corrected", "_corrected_sd")):
                 # Bit for bit: the CLI prints the shortest text that reads back to the same double.
                 assert float(row[column]) == ours.at[label, column], (k, column)
+        if "predicted_better" in ours.columns:
+            assert (row["predicted_better"] == "1") == bool(ours.at[label, "predicted_better"]), k
     assert refused == 2
+    # A physical model from a campaign carries its covariance: every row has its error bar.
+    if spincal.load_corrector(model).kind in ("physical", "physical_linear"):
+        assert "ax_g_corrected_sd" in ours.columns and "predicted_better" in ours.columns
+        assert corrected.predicted_sd is not None and np.all(corrected.predicted_sd[ours["valid"].to_numpy()] > 0)
     reasons = [corrected.refused[p] for p in sorted(corrected.refused)]
     assert "column ay_g: the value is NaN" in reasons[0]
     assert "column gz_dps: the value is inf" in reasons[1]

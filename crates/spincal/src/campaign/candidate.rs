@@ -403,9 +403,26 @@ struct PhysicalCandidate(SensorTerms);
 impl Trainer for PhysicalCandidate {
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
         let fit = t.fit(self.0, observer)?;
-        Ok(Trained::Corrector(CorrectorModel::Physical(Box::new(
-            physical_corrector(t, &fit),
-        ))))
+        let mut physical = physical_corrector(t, &fit);
+        // A model that leaves terms out (q at zero) errs by what it left out: its error bars take
+        // the fuller fit's covariance, with each left-out term's estimate squared added to its
+        // variance (the bias of setting it to zero; a Wald test that kept it out allows up to
+        // 3.29 standard errors).
+        if self.0 != t.joint.terms {
+            let full = t.fit(t.joint.terms, observer)?;
+            if let (Some(uncertainty), Some(mut covariance)) =
+                (physical.uncertainty.as_mut(), full.sensor_covariance())
+            {
+                let theta = full.sensor.params();
+                for (k, value) in theta.iter().enumerate() {
+                    if physical.sensor.params()[k] == 0.0 && *value != 0.0 {
+                        covariance[k][k] += value * value;
+                    }
+                }
+                uncertainty.covariance = covariance;
+            }
+        }
+        Ok(Trained::Corrector(CorrectorModel::Physical(Box::new(physical))))
     }
 }
 

@@ -37,6 +37,10 @@ pub struct StreamSummary {
     /// model's range), and the first's line and status.
     pub thermal_fallback: usize,
     pub first_thermal_fallback: Option<(usize, &'static str)>,
+    /// Rows whose correction the model's covariance does not predict to beat no correction
+    /// (`predicted_better` 0), and the first's line.
+    pub not_predicted_better: usize,
+    pub first_not_predicted_better: Option<usize>,
 }
 
 impl StreamSummary {
@@ -45,6 +49,12 @@ impl StreamSummary {
             file: file.to_string(),
             ..StreamSummary::default()
         }
+    }
+
+    /// Counts a corrected row whose correction is not predicted to beat no correction.
+    pub(super) fn not_better(&mut self, line: usize) {
+        self.not_predicted_better += 1;
+        self.first_not_predicted_better.get_or_insert(line);
     }
 
     /// Counts a corrected row.
@@ -111,6 +121,12 @@ impl StreamSummary {
                  or `outside-temperature-range` (the die temperature lies outside the range the model was fitted on); the first, \
                  line {line}, is `{status}`",
                 self.thermal_fallback, self.rows
+            ));
+        }
+        if let Some(line) = self.first_not_predicted_better {
+            out.push(format!(
+                "{name}: on {} of {} rows (first at line {line}) the model's own covariance does not predict the correction to beat no correction on every axis (`predicted_better` 0: a correction smaller than √2 of its standard deviation, `<column>_corrected_sd`); there the campaign did not determine the sensor",
+                self.not_predicted_better, self.rows
             ));
         }
         if let Some(first) = &self.first_skipped {

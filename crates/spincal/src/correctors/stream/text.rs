@@ -185,7 +185,15 @@ impl TextStream<'_, '_> {
         );
         let corrected = self.added.values(&outcome, self.units);
         match outcome {
-            RowOutcome::Corrected { valid, status, .. } => {
+            RowOutcome::Corrected {
+                valid,
+                status,
+                predicted,
+                ..
+            } => {
+                if predicted.is_some_and(|p| !p.better) {
+                    self.summary.not_better(line_no);
+                }
                 self.summary.corrected(line_no, status);
                 self.sink.row(text, &corrected, valid, status.as_str())?;
             }

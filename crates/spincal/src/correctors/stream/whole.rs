@@ -132,7 +132,15 @@ pub(super) fn correct_loaded(
         );
         let corrected = added.values(&outcome, units);
         match outcome {
-            RowOutcome::Corrected { valid, status, .. } => {
+            RowOutcome::Corrected {
+                valid,
+                status,
+                predicted,
+                ..
+            } => {
+                if predicted.is_some_and(|p| !p.better) {
+                    summary.not_better(line_no);
+                }
                 summary.corrected(line_no, status);
                 sink.row(&input, &corrected, valid, status.as_str())?;
             }
