@@ -258,7 +258,7 @@ impl Locator<'_> {
 impl Campaign {
     /// Reads and checks a campaign file.
     pub fn read_path(path: &Path) -> Result<Campaign, CampaignError> {
-        let text = std::fs::read_to_string(path).map_err(|e| CampaignError::Io {
+        let text = crate::input::limits::read_settings_text(path).map_err(|e| CampaignError::Io {
             file: path.display().to_string(),
             message: e.to_string(),
         })?;
