@@ -186,6 +186,24 @@ fn devices_fifos_and_plain_folders_are_refused_by_name_without_reading() {
         std::fs::remove_file(&campaign).unwrap();
     }
     assert_eq!(snapshot(dir.path()), before);
+
+    // `correct` streams a FIFO (tests/real_files.rs) but not a device: /dev/zero is one line
+    // that never ends.
+    let (_, model) = crate::harness::linear_model(dir.path());
+    let before = snapshot(dir.path());
+    let out = dir.path().join("corrected.csv");
+    let done = run_bounded(
+        spincal()
+            .args(["correct", "--quiet", "--model"])
+            .arg(&model)
+            .arg("/dev/zero")
+            .arg("-o")
+            .arg(&out),
+    );
+    let err = stderr(&done);
+    assert_eq!(done.status.code(), Some(1), "{err}");
+    assert!(err.contains("/dev/zero") && err.contains("is a character device"), "{err}");
+    assert_eq!(snapshot(dir.path()), before);
 }
 
 /// A process id that is certainly not running: a child that has ended and been reaped.

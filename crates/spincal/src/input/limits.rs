@@ -91,6 +91,29 @@ pub fn check_regular(path: &Path, limit: u64, what: &'static str) -> std::io::Re
     Ok(())
 }
 
+/// A path a stream may read row by row: a regular file or a FIFO (any size: the stream holds a
+/// row at a time); a device or a socket is refused (`/dev/zero` is one line that never ends).
+pub fn check_streamable(path: &Path) -> std::io::Result<()> {
+    let meta = std::fs::metadata(path)?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if meta.file_type().is_fifo() {
+            return Ok(());
+        }
+    }
+    if meta.is_file() {
+        return Ok(());
+    }
+    if meta.is_dir() {
+        return Err(InputFileError::Folder.into_io());
+    }
+    Err(InputFileError::NotRegular {
+        kind: kind_of(meta.file_type()),
+    }
+    .into_io())
+}
+
 /// A settings file's text (campaign, model, setup), refused unless a regular file of at most
 /// [`LARGEST_SETTINGS_BYTES`].
 pub fn read_settings_text(path: &Path) -> std::io::Result<String> {
