@@ -807,6 +807,38 @@ mod tests {
         assert_eq!(listing(dir.path()), ["out.csv"]);
     }
 
+    /// Only a name `.<name>.spincal-<pid>-<n>.tmp` is a temporary's; only a gone writer's is removed.
+    #[cfg(unix)]
+    #[test]
+    fn stale_temporaries_of_gone_writers_are_removed_and_nothing_else() {
+        assert_eq!(temporary_writer(".a.csv.spincal-123-4.tmp"), Some(123));
+        assert_eq!(temporary_writer(".a.spincal-x.csv.spincal-7-0.tmp"), Some(7));
+        for other in [
+            "a.csv.spincal-123-4.tmp",
+            ".a.csv.spincal-123-4.tmp.bak",
+            ".a.csv.spincal-123.tmp",
+            ".a.csv.spincal--4.tmp",
+            ".a.csv.spincal-12a-4.tmp",
+        ] {
+            assert_eq!(temporary_writer(other), None, "{other}");
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let gone = child.id();
+        child.wait().unwrap();
+        let stale = dir.path().join(format!(".r.csv.spincal-{gone}-0.tmp"));
+        let live = dir.path().join(format!(".r.csv.spincal-{}-0.tmp", std::process::id()));
+        let parent = dir.path().join(format!(".r.csv.spincal-{}-0.tmp", std::os::unix::process::parent_id()));
+        let linked = dir.path().join(format!(".l.csv.spincal-{gone}-1.tmp"));
+        for path in [&stale, &live, &parent] {
+            std::fs::write(path, "x").unwrap();
+        }
+        std::os::unix::fs::symlink(&live, &linked).unwrap();
+        write_bytes(&dir.path().join("r.csv"), b"new").unwrap();
+        assert!(!stale.exists());
+        assert!(live.exists() && parent.exists() && linked.symlink_metadata().is_ok());
+    }
+
     #[test]
     fn a_failed_write_keeps_the_old_file() {
         let dir = tempfile::tempdir().unwrap();
