@@ -111,8 +111,7 @@ fn campaign_entries_naming_one_file_are_refused_before_any_is_read() {
     let err = stderr(&done);
     assert_eq!(done.status.code(), Some(1), "{err}");
     assert!(
-        err.contains("campaign.toml:5: `file`")
-            && err.contains("is the same file as the entry at line 2"),
+        err.contains("campaign.toml:5: `file`") && err.contains("is the same file as the entry at line 2"),
         "{err}"
     );
     #[cfg(unix)]
@@ -122,7 +121,10 @@ fn campaign_entries_naming_one_file_are_refused_before_any_is_read() {
         let done = calibrate_campaign(&campaign, &out);
         let err = stderr(&done);
         assert_eq!(done.status.code(), Some(1), "{err}");
-        assert!(err.contains("linked.csv is the same file as the entry at line 2"), "{err}");
+        assert!(
+            err.contains("linked.csv is the same file as the entry at line 2"),
+            "{err}"
+        );
         std::fs::write(&campaign, before_text(&before, &campaign)).unwrap();
     }
     assert!(!out.exists(), "an output folder was left");
@@ -135,7 +137,10 @@ fn campaign_entries_naming_one_file_are_refused_before_any_is_read() {
     let done = calibrate_campaign(&campaign, &out);
     let err = stderr(&done);
     assert_eq!(done.status.code(), Some(1), "{err}");
-    assert!(err.contains("campaign.toml:5: `file`") && err.contains("line 2"), "{err}");
+    assert!(
+        err.contains("campaign.toml:5: `file`") && err.contains("line 2"),
+        "{err}"
+    );
     println!("10,000 entries refused in {:.2} s", clock.elapsed().as_secs_f64());
     assert!(!out.exists());
 }
@@ -157,7 +162,10 @@ fn devices_fifos_and_plain_folders_are_refused_by_name_without_reading() {
     still_csv(&folder.join("still.csv"), 50);
     let before = snapshot(dir.path());
     let cases: [(&Path, &str); 3] = [
-        (Path::new("/dev/zero"), "is a character device, not a regular file"),
+        (
+            Path::new("/dev/zero"),
+            "is a character device, not a regular file",
+        ),
         (&fifo, "is a named pipe (FIFO), not a regular file"),
         (&folder, "is a folder, not a recording"),
     ];
@@ -167,7 +175,10 @@ fn devices_fifos_and_plain_folders_are_refused_by_name_without_reading() {
             let done = run_bounded(spincal().arg(command).arg("--quiet").arg(path));
             let err = stderr(&done);
             assert_eq!(done.status.code(), Some(1), "{command} {path:?}: {err}");
-            assert!(err.contains(&path.display().to_string()) && err.contains(why), "{command}: {err}");
+            assert!(
+                err.contains(&path.display().to_string()) && err.contains(why),
+                "{command}: {err}"
+            );
         }
         // A campaign entry: refused before any recording is read.
         let campaign = dir.path().join("campaign.toml");
@@ -181,7 +192,10 @@ fn devices_fifos_and_plain_folders_are_refused_by_name_without_reading() {
         let done = calibrate_campaign(&campaign, &out);
         let err = stderr(&done);
         assert_eq!(done.status.code(), Some(1), "campaign {path:?}: {err}");
-        assert!(err.contains("campaign.toml:5: `file`") && err.contains(why), "{err}");
+        assert!(
+            err.contains("campaign.toml:5: `file`") && err.contains(why),
+            "{err}"
+        );
         assert!(!out.exists(), "an output folder was left");
         std::fs::remove_file(&campaign).unwrap();
     }
@@ -202,7 +216,10 @@ fn devices_fifos_and_plain_folders_are_refused_by_name_without_reading() {
     );
     let err = stderr(&done);
     assert_eq!(done.status.code(), Some(1), "{err}");
-    assert!(err.contains("/dev/zero") && err.contains("is a character device"), "{err}");
+    assert!(
+        err.contains("/dev/zero") && err.contains("is a character device"),
+        "{err}"
+    );
     assert_eq!(snapshot(dir.path()), before);
 }
 
@@ -222,7 +239,9 @@ fn a_killed_runs_temporary_is_removed_by_the_next_run_and_nothing_else() {
     let out = dir.path().join("sim.csv");
     let stale = dir.path().join(format!(".sim.csv.spincal-{}-0.tmp", dead_pid()));
     // A temporary of a live writer (this test's process), and files that only look alike.
-    let live = dir.path().join(format!(".sim.csv.spincal-{}-3.tmp", std::process::id()));
+    let live = dir
+        .path()
+        .join(format!(".sim.csv.spincal-{}-3.tmp", std::process::id()));
     let others = [
         live.clone(),
         dir.path().join(".notes.spincal-12.tmp"),
@@ -263,7 +282,10 @@ fn an_early_failure_leaves_no_folder_it_made() {
     let err = stderr(&done);
     assert_eq!(done.status.code(), Some(1), "{err}");
     assert!(err.contains("bad.csv") && err.contains("not a number"), "{err}");
-    assert!(!dir.path().join("new").exists(), "spincal left the folders it made");
+    assert!(
+        !dir.path().join("new").exists(),
+        "spincal left the folders it made"
+    );
     assert_eq!(snapshot(dir.path()), before);
     // A folder the user made stays, empty as it was.
     let mine = dir.path().join("mine");

@@ -827,8 +827,13 @@ mod tests {
         let gone = child.id();
         child.wait().unwrap();
         let stale = dir.path().join(format!(".r.csv.spincal-{gone}-0.tmp"));
-        let live = dir.path().join(format!(".r.csv.spincal-{}-0.tmp", std::process::id()));
-        let parent = dir.path().join(format!(".r.csv.spincal-{}-0.tmp", std::os::unix::process::parent_id()));
+        let live = dir
+            .path()
+            .join(format!(".r.csv.spincal-{}-0.tmp", std::process::id()));
+        let parent = dir.path().join(format!(
+            ".r.csv.spincal-{}-0.tmp",
+            std::os::unix::process::parent_id()
+        ));
         let linked = dir.path().join(format!(".l.csv.spincal-{gone}-1.tmp"));
         for path in [&stale, &live, &parent] {
             std::fs::write(path, "x").unwrap();

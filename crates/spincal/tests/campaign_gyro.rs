@@ -116,7 +116,13 @@ fn a_gyro_pinned_at_250_dps_is_named_and_kept_out_of_the_scale() {
     for unit in units.iter().filter(|u| u.turntable.is_some()) {
         let found = spincal::input::inspect::inspect(&unit.recording, None);
         let fast = unit.turntable.as_ref().unwrap().rpm > 40.0;
-        assert_eq!(!found.gyro_saturation.is_empty(), fast, "{}: {:?}", unit.name, found.gyro_saturation);
+        assert_eq!(
+            !found.gyro_saturation.is_empty(),
+            fast,
+            "{}: {:?}",
+            unit.name,
+            found.gyro_saturation
+        );
         for s in &found.gyro_saturation {
             // The rail of a 16-bit ±250 °/s gyro: 32767 or 32768 codes of 250/32768 °/s.
             assert!((s.limit_dps - 250.0).abs() < 0.01, "{}: {s:?}", unit.name);
@@ -143,10 +149,16 @@ fn a_gyro_pinned_at_250_dps_is_named_and_kept_out_of_the_scale() {
         .filter(|s| s.refused)
         .map(|s| s.run.as_str())
         .collect();
-    assert_eq!(refused, pinned_runs.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(
+        refused,
+        pinned_runs.iter().map(String::as_str).collect::<Vec<_>>()
+    );
     for s in &fit.saturation {
         let said = s.describe();
-        assert!(said.contains("pinned at 250.0 °/s") && said.contains("not used"), "{said}");
+        assert!(
+            said.contains("pinned at 250.0 °/s") && said.contains("not used"),
+            "{said}"
+        );
     }
     assert!(fit.rate_checks.iter().all(|c| !pinned_runs.contains(&c.run)));
     // z and x were along the spindle at 33⅓ rpm: their scales as simulated, within 3 standard
@@ -156,10 +168,20 @@ fn a_gyro_pinned_at_250_dps_is_named_and_kept_out_of_the_scale() {
         let p = fit.params.iter().find(|p| p.name == name).unwrap();
         let error = p.value - truth.sensitivity[k][k];
         let se = p.std_error.unwrap();
-        println!("{name}: {:.6} ± {se:.1e} (truth {:.6})", p.value, truth.sensitivity[k][k]);
-        assert!(error.abs() < 3.0 * se && error.abs() < 1e-3, "{name}: {error:e} ± {se:e}");
+        println!(
+            "{name}: {:.6} ± {se:.1e} (truth {:.6})",
+            p.value, truth.sensitivity[k][k]
+        );
+        assert!(
+            error.abs() < 3.0 * se && error.abs() < 1e-3,
+            "{name}: {error:e} ± {se:e}"
+        );
     }
-    assert!(fit.undetermined.iter().any(|(name, _)| name == "gyro_K_yy"), "{:?}", fit.undetermined);
+    assert!(
+        fit.undetermined.iter().any(|(name, _)| name == "gyro_K_yy"),
+        "{:?}",
+        fit.undetermined
+    );
 
     // Every run pinned: the gyro is refused with the reason, the accelerometer untouched.
     let fast_only: Vec<_> = units

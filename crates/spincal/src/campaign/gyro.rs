@@ -148,7 +148,9 @@ pub enum GyroError {
     #[error("the gyro's normal equations are singular; the campaign needs still poses and turntable runs with gyro columns")]
     Singular,
     /// Every run with a gyro is saturated for most of it.
-    #[error("every turntable run's gyro is saturated for most of the run, so its scale cannot be measured: {0}")]
+    #[error(
+        "every turntable run's gyro is saturated for most of the run, so its scale cannot be measured: {0}"
+    )]
     Saturated(String),
 }
 
@@ -515,9 +517,7 @@ pub fn fit_gyro(
         },
         run_sigma: gyro_runs
             .iter()
-            .map(|run| {
-                crate::campaign::joint::difference_noise(run.gyro, &run.keep).map(|v| v.max(1e-9))
-            })
+            .map(|run| crate::campaign::joint::difference_noise(run.gyro, &run.keep).map(|v| v.max(1e-9)))
             .collect(),
         runs: gyro_runs,
         poses: pose_rows,

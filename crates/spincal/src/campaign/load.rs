@@ -3,8 +3,8 @@
 use crate::campaign::file::{Campaign, EntryKind};
 use crate::campaign::prepare::UnitRecording;
 use crate::input::formats::{check_input, read_path, FormatError, ReadOptions};
-use crate::output::identity;
 use crate::input::recording::ColumnMap;
+use crate::output::identity;
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]

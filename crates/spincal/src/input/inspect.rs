@@ -521,19 +521,29 @@ mod tests {
         let time_s: Vec<f64> = (0..n).map(|i| i as f64 * 0.01).collect();
         // z spins up through the rail and stays there from sample 300; y is pinned throughout;
         // x is a still gyro in 1-count steps (0.0076 °/s) whose extremes repeat.
-        let z: Vec<f64> = (0..n).map(|i| (i as f64 * 0.9f64.to_radians()).min(rail)).collect();
+        let z: Vec<f64> = (0..n)
+            .map(|i| (i as f64 * 0.9f64.to_radians()).min(rail))
+            .collect();
         let x: Vec<f64> = (0..n)
             .map(|i| [0.0, 1.0, 1.0, 1.0, 0.0, -1.0, -1.0, -1.0][i % 8] / 131.0f64.to_degrees())
             .collect();
         let r = Recording {
             time_s,
-            accel_mps2: [vec![0.1; n], vec![0.2; n], (0..n).map(|i| 9.8 + 1e-3 * (i % 3) as f64).collect()],
+            accel_mps2: [
+                vec![0.1; n],
+                vec![0.2; n],
+                (0..n).map(|i| 9.8 + 1e-3 * (i % 3) as f64).collect(),
+            ],
             gyro_radps: Some([x, vec![-rail; n], z]),
             temperature_c: None,
             source: Source::default(),
         };
         let found = inspect(&r, None);
-        let pinned: Vec<(char, usize)> = found.gyro_saturation.iter().map(|s| (s.axis, s.samples)).collect();
+        let pinned: Vec<(char, usize)> = found
+            .gyro_saturation
+            .iter()
+            .map(|s| (s.axis, s.samples))
+            .collect();
         let first_pinned = (rail.to_degrees() / 0.9).ceil() as usize;
         assert_eq!(pinned, [('y', n), ('z', n - first_pinned)], "{found:?}");
         for s in &found.gyro_saturation {

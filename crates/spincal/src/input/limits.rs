@@ -23,7 +23,11 @@ pub enum InputFileError {
     #[error("is a folder, not a recording: spincal reads a folder only as a ROS 2 bag (with metadata.yaml) or a Sensor Logger recording (with Metadata.csv); name the recording's file")]
     Folder,
     #[error("is {bytes} bytes, more than the {limit} bytes spincal reads whole ({what}); cut it first (a bag: extract the IMU topic)")]
-    TooLarge { bytes: u64, limit: u64, what: &'static str },
+    TooLarge {
+        bytes: u64,
+        limit: u64,
+        what: &'static str,
+    },
 }
 
 impl InputFileError {
@@ -141,7 +145,11 @@ mod tests {
         #[cfg(unix)]
         {
             let e = check_regular(Path::new("/dev/zero"), 10, "test").unwrap_err();
-            assert!(e.to_string().starts_with("is a character device, not a regular file"), "{e}");
+            assert!(
+                e.to_string()
+                    .starts_with("is a character device, not a regular file"),
+                "{e}"
+            );
         }
         let missing = check_regular(&dir.path().join("none"), 10, "test").unwrap_err();
         assert_eq!(missing.kind(), std::io::ErrorKind::NotFound);

@@ -143,7 +143,14 @@ fn streamed(
         None
     };
     let (min, max) = (p.min, p.max);
-    let mut last = last_pass(&src, p.quantum, dt, (min, max), (p.gyro_min, p.gyro_max), range_mps2)?;
+    let mut last = last_pass(
+        &src,
+        p.quantum,
+        dt,
+        (min, max),
+        (p.gyro_min, p.gyro_max),
+        range_mps2,
+    )?;
     let (saturation, constant_axes) = axis_findings(&mut last.tops, (min, max), n, range_mps2);
     let gyro_saturation = gyro_findings(&last.gyro_tops);
     let inspection = Inspection {

@@ -108,7 +108,11 @@ fn streamed_inspection_equals_the_whole_file_one() {
         found.repeated_times >= 2 && !found.saturation.is_empty(),
         "{found:?}"
     );
-    let pinned: Vec<(char, usize)> = found.gyro_saturation.iter().map(|s| (s.axis, s.samples)).collect();
+    let pinned: Vec<(char, usize)> = found
+        .gyro_saturation
+        .iter()
+        .map(|s| (s.axis, s.samples))
+        .collect();
     assert_eq!(pinned, [('z', 400)]);
     // Distinct temperatures beyond what one pass keeps.
     let found = agree(
