@@ -53,8 +53,8 @@ pub struct Saturation {
     pub limit_mps2: f64,
 }
 
-/// Samples of one gyro axis pinned at its rail: a flat top of [`RAIL_SAMPLES`] or more equal
-/// readings at the axis's extreme, at least [`SMALLEST_GYRO_RANGE_DPS`] from zero (a whole
+/// Samples of one gyro axis pinned at its rail: a flat top of 3 or more equal readings at the
+/// axis's extreme, at least 60 °/s from zero (no gyro's range is narrower; a whole
 /// recording at one such value included: a platter turning faster than the range).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct GyroSaturation {
