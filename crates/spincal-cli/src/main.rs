@@ -136,5 +136,8 @@ fn main() {
         Command::Correct(args) => commands::correct::run(args, ui),
         Command::Export(args) => commands::export::run(args),
     };
-    std::process::exit(ui::exit_code(result));
+    let code = ui::exit_code(result);
+    // A command that failed before writing leaves no empty folder it made.
+    spincal::output::remove_empty_created_folders();
+    std::process::exit(code);
 }

@@ -138,8 +138,10 @@ pub struct UnitsFailed(pub String);
 #[error("{0}")]
 pub struct RowsRefused(pub String);
 
-/// On SIGINT or SIGTERM: removes the temporary files being written (the library's own, see
-/// `spincal::output::remove_temporaries`), then ends the process by the same signal. The signal
+/// On every catchable signal that ends a process (SIGINT, SIGTERM, SIGHUP, SIGQUIT): removes the
+/// temporary files being written (the library's own, see `spincal::output::remove_temporaries`)
+/// and the output folders this run made that are still empty, then ends the process by the same
+/// signal. The signal
 /// handler only writes the signal's number to a pipe; a thread does the rest. A signal that was
 /// ignored when spincal started stays ignored.
 #[cfg(unix)]
@@ -168,6 +170,7 @@ pub fn remove_temporaries_on_signals() {
             let n = unsafe { libc::read(read_end, (&mut byte as *mut u8).cast(), 1) };
             if n == 1 {
                 spincal::output::remove_temporaries();
+                spincal::output::remove_empty_created_folders();
                 let signal = libc::c_int::from(byte);
                 // SAFETY: restores the default action and raises the signal again, so the process
                 // ends as the signal says (exit status included).
@@ -184,7 +187,7 @@ pub fn remove_temporaries_on_signals() {
     if spawned.is_err() {
         return;
     }
-    for signal in [libc::SIGINT, libc::SIGTERM] {
+    for signal in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP, libc::SIGQUIT] {
         // SAFETY: the handler only calls write(2).
         unsafe {
             let previous = libc::signal(signal, handler as *const () as libc::sighandler_t);

@@ -219,6 +219,8 @@ fn interrupted_correct_leaves_nothing(signal: &str) {
         .arg("-")
         .arg("-o")
         .arg(&output)
+        // A SIGQUIT may dump core: into the test's folder, not the crate's.
+        .current_dir(dir.path())
         .stdin(std::process::Stdio::piped())
         .stderr(std::process::Stdio::null())
         .spawn()
@@ -256,6 +258,14 @@ fn sigint_during_correct_removes_its_temporary_file() {
 #[test]
 fn sigterm_during_correct_removes_its_temporary_file() {
     interrupted_correct_leaves_nothing("TERM");
+}
+
+/// A closed terminal (SIGHUP) and Ctrl-\ (SIGQUIT) end the process like the others.
+#[cfg(unix)]
+#[test]
+fn sighup_and_sigquit_during_correct_remove_its_temporary_file() {
+    interrupted_correct_leaves_nothing("HUP");
+    interrupted_correct_leaves_nothing("QUIT");
 }
 
 /// `text` with the field `column` (0-based) of line `line` (1-based) replaced.

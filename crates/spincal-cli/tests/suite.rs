@@ -27,5 +27,6 @@ mod io_commands;
 mod outputs;
 mod phone_cli;
 mod real_files;
+mod resources;
 mod strobe;
 mod thermal_cli;

@@ -15,9 +15,11 @@
 //!   JSON file beside it names), never by a header, comment or mark inside it: a user's file can
 //!   carry those too, and a file spincal wrote that was edited since is the user's.
 //! - [`write_outputs`] checks a set of outputs and writes them all, or none.
-//! - [`create_folder`] makes an output folder, refusing a path that is a file.
+//! - [`create_folder`] makes an output folder, refusing a path that is a file, and remembers the
+//!   folders it made: [`remove_empty_created_folders`] removes those a failed command left empty.
 //! - [`remove_temporaries`] removes the temporary files being written right now (a signal handler
-//!   calls it before the process ends).
+//!   calls it before the process ends); a temporary that a killed run left (its name carries its
+//!   writer's process id) is removed by the next write into its folder once that process is gone.
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Write};
@@ -59,13 +61,13 @@ fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
 
 /// What identifies a file: the device and inode where it exists (so hard and symbolic links
 /// agree), else its absolute path with links in the parent resolved.
-#[derive(Debug, Clone, PartialEq, Eq)]
-enum Identity {
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub(crate) enum Identity {
     Inode(u64, u64),
     Path(PathBuf),
 }
 
-fn identity(path: &Path) -> Identity {
+pub(crate) fn identity(path: &Path) -> Identity {
     #[cfg(unix)]
     if let Ok(meta) = std::fs::metadata(path) {
         use std::os::unix::fs::MetadataExt;
@@ -186,6 +188,7 @@ fn replace_regular(
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
+    remove_stale_temporaries(&dir);
     let temporary = dir.join(format!(
         ".{name}.spincal-{}-{}.tmp",
         std::process::id(),
@@ -250,6 +253,74 @@ pub fn remove_temporaries() -> Vec<PathBuf> {
     live
 }
 
+/// The process id in the name of a temporary file [`replace_regular`] makes
+/// (`.<name>.spincal-<pid>-<count>.tmp`), or `None` for any other name.
+fn temporary_writer(file_name: &str) -> Option<u32> {
+    let stem = file_name.strip_prefix('.')?.strip_suffix(".tmp")?;
+    let (_, ids) = stem.rsplit_once(".spincal-")?;
+    let (pid, count) = ids.split_once('-')?;
+    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+    (digits(pid) && digits(count)).then(|| pid.parse().ok()).flatten()
+}
+
+/// Whether no process `pid` exists (unix: `kill(pid, 0)` fails with ESRCH). A process that
+/// exists but is another user's (EPERM), or any doubt, counts as alive.
+#[cfg(unix)]
+fn writer_is_gone(pid: u32) -> bool {
+    let Ok(pid) = libc::pid_t::try_from(pid) else {
+        return false;
+    };
+    if pid <= 0 {
+        return false;
+    }
+    // SAFETY: signal 0 only checks that the process exists; nothing is sent.
+    let result = unsafe { libc::kill(pid, 0) };
+    result != 0 && std::io::Error::last_os_error().raw_os_error() == Some(libc::ESRCH)
+}
+
+/// Folders already swept for stale temporaries by this process.
+static SWEPT_FOLDERS: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Removes, once per folder and process, the temporary files an earlier spincal left in `dir`
+/// when it was killed without a chance to clean up (SIGKILL, a power cut): only regular files
+/// (not links) owned by this user, named as [`replace_regular`] names them, whose writer's
+/// process no longer exists. Nobody else's file has that name, owner and a dead writer; a
+/// temporary of a live spincal (another run writing there now) is left alone. Elsewhere than
+/// unix no process can be asked about, so nothing is removed.
+fn remove_stale_temporaries(dir: &Path) {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        let key = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+        {
+            let mut swept = SWEPT_FOLDERS.lock().unwrap_or_else(|p| p.into_inner());
+            if swept.contains(&key) {
+                return;
+            }
+            swept.push(key);
+        }
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return;
+        };
+        // SAFETY: geteuid has no preconditions.
+        let me = unsafe { libc::geteuid() };
+        for entry in entries.flatten() {
+            let name = entry.file_name();
+            let Some(pid) = name.to_str().and_then(temporary_writer) else {
+                continue;
+            };
+            let Ok(meta) = entry.path().symlink_metadata() else {
+                continue;
+            };
+            if meta.is_file() && meta.uid() == me && pid != std::process::id() && writer_is_gone(pid) {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = dir;
+}
+
 /// Makes the output folder `path` (and its parents); a path that exists as a file is refused by
 /// name rather than with the system's "File exists".
 pub fn create_folder(path: &Path) -> Result<(), OutputError> {
@@ -261,7 +332,48 @@ pub fn create_folder(path: &Path) -> Result<(), OutputError> {
         }
         return Ok(());
     }
-    std::fs::create_dir_all(path).map_err(io_error(path))
+    make_folders(path).map_err(io_error(path))
+}
+
+/// The folders this process created ([`make_folders`]), parents first.
+static CREATED_FOLDERS: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// `create_dir_all` that remembers each folder it created, so that one left empty by a failure
+/// can be removed ([`remove_empty_created_folders`]).
+pub(crate) fn make_folders(path: &Path) -> std::io::Result<()> {
+    let missing: Vec<&Path> = path
+        .ancestors()
+        .filter(|p| !p.as_os_str().is_empty())
+        .take_while(|p| std::fs::symlink_metadata(p).is_err())
+        .collect();
+    for folder in missing.into_iter().rev() {
+        match std::fs::create_dir(folder) {
+            Ok(()) => {
+                let absolute = std::path::absolute(folder).unwrap_or_else(|_| folder.to_path_buf());
+                CREATED_FOLDERS
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .push(absolute);
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && folder.is_dir() => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(())
+}
+
+/// Removes each folder this process created that is still empty, deepest first, and returns
+/// them: what a command that failed early leaves behind. `remove_dir` removes only an empty
+/// folder, so nothing written into one (by spincal or anyone) is ever lost.
+pub fn remove_empty_created_folders() -> Vec<PathBuf> {
+    let created = std::mem::take(&mut *CREATED_FOLDERS.lock().unwrap_or_else(|p| p.into_inner()));
+    let mut removed = Vec::new();
+    for folder in created.into_iter().rev() {
+        if std::fs::remove_dir(&folder).is_ok() {
+            removed.push(folder);
+        }
+    }
+    removed
 }
 
 /// A file's length and FNV-1a 64-bit hash (hex): how a spincal JSON file names a file written
@@ -487,7 +599,8 @@ const LARGEST_JSON_CHECKED: u64 = 512 << 20;
 /// The top-level JSON object in `path`, if the file is one.
 fn json_object(path: &Path) -> Option<serde_json::Map<String, serde_json::Value>> {
     let meta = std::fs::metadata(path).ok()?;
-    if meta.len() > LARGEST_JSON_CHECKED {
+    // A pipe or device named as an output is never read: it could block or never end.
+    if !meta.is_file() || meta.len() > LARGEST_JSON_CHECKED {
         return None;
     }
     let text = std::fs::read(path).ok()?;
@@ -692,6 +805,43 @@ mod tests {
         write_bytes(&path, b"new").unwrap();
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "new");
         assert_eq!(listing(dir.path()), ["out.csv"]);
+    }
+
+    /// Only a name `.<name>.spincal-<pid>-<n>.tmp` is a temporary's; only a gone writer's is removed.
+    #[cfg(unix)]
+    #[test]
+    fn stale_temporaries_of_gone_writers_are_removed_and_nothing_else() {
+        assert_eq!(temporary_writer(".a.csv.spincal-123-4.tmp"), Some(123));
+        assert_eq!(temporary_writer(".a.spincal-x.csv.spincal-7-0.tmp"), Some(7));
+        for other in [
+            "a.csv.spincal-123-4.tmp",
+            ".a.csv.spincal-123-4.tmp.bak",
+            ".a.csv.spincal-123.tmp",
+            ".a.csv.spincal--4.tmp",
+            ".a.csv.spincal-12a-4.tmp",
+        ] {
+            assert_eq!(temporary_writer(other), None, "{other}");
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let gone = child.id();
+        child.wait().unwrap();
+        let stale = dir.path().join(format!(".r.csv.spincal-{gone}-0.tmp"));
+        let live = dir
+            .path()
+            .join(format!(".r.csv.spincal-{}-0.tmp", std::process::id()));
+        let parent = dir.path().join(format!(
+            ".r.csv.spincal-{}-0.tmp",
+            std::os::unix::process::parent_id()
+        ));
+        let linked = dir.path().join(format!(".l.csv.spincal-{gone}-1.tmp"));
+        for path in [&stale, &live, &parent] {
+            std::fs::write(path, "x").unwrap();
+        }
+        std::os::unix::fs::symlink(&live, &linked).unwrap();
+        write_bytes(&dir.path().join("r.csv"), b"new").unwrap();
+        assert!(!stale.exists());
+        assert!(live.exists() && parent.exists() && linked.symlink_metadata().is_ok());
     }
 
     #[test]

@@ -87,3 +87,121 @@ fn gyro_parameters_are_recovered_within_their_errors_over_12_seeds() {
     // no better known than each mount's tilt (about 0.1° from the accelerometer): within 1 %.
     assert!(worst[1] < 1e-3 && worst[2] < 1e-2, "{worst:?}");
 }
+
+/// An MPU-6050 at its default ±250 °/s on a record player: 45 rpm (270 °/s) pins the gyro along
+/// the spindle for the whole run, 33⅓ rpm (200 °/s) does not. Inspection names the 45 rpm runs'
+/// saturation with the range it implies; the gyro fit refuses those runs with the reason and
+/// measures the scale from the 33⅓ rpm runs alone, unbiased (before: −7.5 % along z).
+#[test]
+fn a_gyro_pinned_at_250_dps_is_named_and_kept_out_of_the_scale() {
+    let base = CampaignSetup::default();
+    let setup = CampaignSetup {
+        gyro: spincal::simulate::campaign::GyroProfile {
+            range_dps: 250.0,
+            ..base.gyro.clone()
+        },
+        runs: base
+            .runs
+            .iter()
+            .map(|r| spincal::simulate::campaign::RunSetup {
+                duration_s: 20.0,
+                ..r.clone()
+            })
+            .collect(),
+        ..base
+    };
+    let sim = simulate_campaign(&setup, 3).unwrap();
+    let units = units(&sim);
+    let mut pinned_runs = Vec::new();
+    for unit in units.iter().filter(|u| u.turntable.is_some()) {
+        let found = spincal::input::inspect::inspect(&unit.recording, None);
+        let fast = unit.turntable.as_ref().unwrap().rpm > 40.0;
+        assert_eq!(
+            !found.gyro_saturation.is_empty(),
+            fast,
+            "{}: {:?}",
+            unit.name,
+            found.gyro_saturation
+        );
+        for s in &found.gyro_saturation {
+            // The rail of a 16-bit ±250 °/s gyro: 32767 or 32768 codes of 250/32768 °/s.
+            assert!((s.limit_dps - 250.0).abs() < 0.01, "{}: {s:?}", unit.name);
+            assert!(s.samples * 10 > unit.recording.len() * 9, "{}: {s:?}", unit.name);
+            pinned_runs.push(unit.name.clone());
+        }
+    }
+    assert_eq!(pinned_runs.len(), 2, "{pinned_runs:?}");
+
+    let prepared = prepare(&units).unwrap();
+    let joint = fit_joint(
+        &prepared.runs,
+        &prepared.poses,
+        &JointSettings::default(),
+        &spincal::progress::silent,
+    )
+    .unwrap();
+    let fit = fit_gyro(&prepared.runs, &prepared.poses, &joint, &GyroSettings::default())
+        .unwrap()
+        .expect("the 33⅓ rpm runs carry an unsaturated gyro");
+    let refused: Vec<&str> = fit
+        .saturation
+        .iter()
+        .filter(|s| s.refused)
+        .map(|s| s.run.as_str())
+        .collect();
+    assert_eq!(
+        refused,
+        pinned_runs.iter().map(String::as_str).collect::<Vec<_>>()
+    );
+    for s in &fit.saturation {
+        let said = s.describe();
+        assert!(
+            said.contains("pinned at 250.0 °/s") && said.contains("not used"),
+            "{said}"
+        );
+    }
+    assert!(fit.rate_checks.iter().all(|c| !pinned_runs.contains(&c.run)));
+    // z and x were along the spindle at 33⅓ rpm: their scales as simulated, within 3 standard
+    // errors and 0.1 %; y was along it only at 45 rpm: named as not determined.
+    let truth = sim.truth.gyro.clone().unwrap();
+    for (k, name) in [(0, "gyro_K_xx"), (2, "gyro_K_zz")] {
+        let p = fit.params.iter().find(|p| p.name == name).unwrap();
+        let error = p.value - truth.sensitivity[k][k];
+        let se = p.std_error.unwrap();
+        println!(
+            "{name}: {:.6} ± {se:.1e} (truth {:.6})",
+            p.value, truth.sensitivity[k][k]
+        );
+        assert!(
+            error.abs() < 3.0 * se && error.abs() < 1e-3,
+            "{name}: {error:e} ± {se:e}"
+        );
+    }
+    assert!(
+        fit.undetermined.iter().any(|(name, _)| name == "gyro_K_yy"),
+        "{:?}",
+        fit.undetermined
+    );
+
+    // Every run pinned: the gyro is refused with the reason, the accelerometer untouched.
+    let fast_only: Vec<_> = units
+        .iter()
+        .filter(|u| u.turntable.as_ref().is_none_or(|t| t.rpm > 40.0))
+        .cloned()
+        .collect();
+    let prepared = prepare(&fast_only).unwrap();
+    let joint = fit_joint(
+        &prepared.runs,
+        &prepared.poses,
+        &JointSettings::default(),
+        &spincal::progress::silent,
+    )
+    .unwrap();
+    let e = fit_gyro(&prepared.runs, &prepared.poses, &joint, &GyroSettings::default()).unwrap_err();
+    let said = e.to_string();
+    assert!(
+        said.starts_with("every turntable run's gyro is saturated for most of the run")
+            && said.contains("pinned at 250.0 °/s"),
+        "{said}"
+    );
+}

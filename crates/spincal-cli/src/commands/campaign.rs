@@ -167,6 +167,9 @@ pub fn summary(output: &CampaignOutput, out: &Path) -> String {
         for (name, advice) in &g.undetermined {
             let _ = writeln!(text, "  not determined: {name}: {advice}");
         }
+        for s in &g.saturation {
+            let _ = writeln!(text, "  {}", s.describe());
+        }
     }
     if let Some(e) = &r.gyro_error {
         let _ = writeln!(text, "\ngyroscope not calibrated: {e}");

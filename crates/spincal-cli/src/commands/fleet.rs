@@ -148,7 +148,7 @@ pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
             let names: Vec<PathBuf> = files.iter().map(|(name, _)| dir.join(name)).collect();
             let inputs: Vec<&Path> = cal.inputs.iter().map(PathBuf::as_path).collect();
             super::check_outputs(&inputs, &names.iter().map(PathBuf::as_path).collect::<Vec<_>>())?;
-            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+            spincal::output::create_folder(&dir).with_context(|| format!("creating {}", dir.display()))?;
             for ((_, text), path) in files.iter().zip(&names) {
                 super::write_text(path, text)?;
             }

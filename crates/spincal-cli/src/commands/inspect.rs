@@ -80,6 +80,16 @@ pub fn run(args: &InspectArgs, ui: &ui::Ui) -> anyhow::Result<()> {
             sat.first_line
         );
     }
+    if inspection.has_gyro && inspection.gyro_saturation.is_empty() {
+        s += "gyro saturation: none (no gyro axis holds an extreme of 60 °/s or more for 3 or more successive samples)\n";
+    }
+    for sat in &inspection.gyro_saturation {
+        s += &format!(
+            "gyro saturation: {}, the first at line {}\n",
+            sat.describe(inspection.samples),
+            sat.first_line
+        );
+    }
     for axis in &inspection.constant_axes {
         s += &format!("constant: a{axis} never changes (a dead or disconnected channel?)\n");
     }

@@ -245,7 +245,8 @@ pub fn read_json_file<T: serde::de::DeserializeOwned>(
     what: &str,
 ) -> anyhow::Result<T> {
     use anyhow::Context;
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let text = spincal::input::limits::read_settings_text(path)
+        .with_context(|| format!("reading {}", path.display()))?;
     serde_json::from_str::<T>(&text).with_context(|| format!("{}: not {what}", path.display()))
 }
 

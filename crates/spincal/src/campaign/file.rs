@@ -211,16 +211,30 @@ fn line_column(text: &str, offset: usize) -> (usize, usize) {
     (line, column)
 }
 
-struct Locator<'a> {
+struct Locator {
     file: String,
-    text: &'a str,
+    /// Byte offset of each line's start: a line is found by binary search, so that 10,000
+    /// entries are located in linear time.
+    line_starts: Vec<usize>,
 }
 
-impl Locator<'_> {
+impl Locator {
+    fn new(file: String, text: &str) -> Locator {
+        let line_starts = std::iter::once(0)
+            .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+            .collect();
+        Locator { file, line_starts }
+    }
+
+    /// 1-based line of a byte offset.
+    fn line(&self, offset: usize) -> usize {
+        self.line_starts.partition_point(|&start| start <= offset).max(1)
+    }
+
     fn at(&self, span: Range<usize>, key: &str, message: impl Into<String>) -> CampaignError {
         CampaignError::Entry {
             file: self.file.clone(),
-            line: line_column(self.text, span.start).0,
+            line: self.line(span.start),
             key: key.into(),
             message: message.into(),
         }
@@ -258,7 +272,7 @@ impl Locator<'_> {
 impl Campaign {
     /// Reads and checks a campaign file.
     pub fn read_path(path: &Path) -> Result<Campaign, CampaignError> {
-        let text = std::fs::read_to_string(path).map_err(|e| CampaignError::Io {
+        let text = crate::input::limits::read_settings_text(path).map_err(|e| CampaignError::Io {
             file: path.display().to_string(),
             message: e.to_string(),
         })?;
@@ -277,10 +291,7 @@ impl Campaign {
                 message: e.message().trim().to_string(),
             }
         })?;
-        let at = Locator {
-            file: file.clone(),
-            text,
-        };
+        let at = Locator::new(file.clone(), text);
         let base = path.parent().unwrap_or(Path::new(""));
         let unit = at.unit(&raw, path)?;
         let gravity_mps2 = at.gravity(&raw)?;
@@ -318,7 +329,7 @@ fn resolve(base: &Path, p: &str) -> PathBuf {
 }
 
 /// The campaign's top-level keys, then one `[[recording]]` table at a time.
-impl Locator<'_> {
+impl Locator {
     /// The unit's name, or the file's stem when not given.
     fn unit(&self, raw: &RawCampaign, path: &Path) -> Result<String, CampaignError> {
         Ok(match &raw.unit {
@@ -421,7 +432,7 @@ impl Locator<'_> {
         };
         Ok(CampaignEntry {
             file: resolve(base, &name),
-            line: line_column(self.text, span.start).0,
+            line: self.line(span.start),
             kind,
             columns: e.columns.as_ref().map(|c| c.get_ref().clone()),
             accel_unit,

@@ -27,6 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::campaign::joint::{mid_time, JointFit, JointParam, PoseInput, RunInput};
 use crate::correctors::gyro::{GyroCorrector, GyroModel};
+use crate::input::inspect::{gyro_rails_hit, gyro_saturated_mask, GYRO_SATURATED_SHARE};
 
 /// Settings of the gyroscope fit.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -71,6 +72,45 @@ pub struct GyroRateCheck {
     pub residual_rms_radps: [f64; 3],
 }
 
+/// A run whose gyro is saturated (`input::inspect`'s rule): its pinned rows are left out, or,
+/// when they are most of the run, its gyro is refused.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct GyroRunSaturation {
+    pub run: String,
+    /// Samples with a pinned gyro axis, and the run's samples.
+    pub samples: usize,
+    pub of: usize,
+    /// Each pinned axis and its rail, deg/s (the gyro's range is about ± this).
+    pub axes: Vec<(char, f64)>,
+    /// The run's gyro is not used at all (saturated in more than
+    /// [`GYRO_SATURATED_SHARE`] of it).
+    pub refused: bool,
+}
+
+impl GyroRunSaturation {
+    /// The finding and what was done, in words.
+    pub fn describe(&self) -> String {
+        let axes: Vec<String> = self
+            .axes
+            .iter()
+            .map(|(axis, dps)| format!("g{axis} pinned at {dps:.1} °/s"))
+            .collect();
+        format!(
+            "{}: gyro saturated in {} of {} samples ({:.1} %; {}): {}",
+            self.run,
+            self.samples,
+            self.of,
+            100.0 * self.samples as f64 / self.of.max(1) as f64,
+            axes.join(", "),
+            if self.refused {
+                "its gyro is not used (the platter turns faster than the gyro's range; record at a wider range or a slower speed)"
+            } else {
+                "those samples are left out of the gyro fit"
+            }
+        )
+    }
+}
+
 /// The gyroscope's calibration from a campaign.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct GyroFit {
@@ -84,6 +124,9 @@ pub struct GyroFit {
     pub undetermined: Vec<(String, String)>,
     /// How the standard errors were formed, in words.
     pub covariance: String,
+    /// Runs whose gyro saturated: rows left out, or the run's gyro refused.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub saturation: Vec<GyroRunSaturation>,
 }
 
 /// Why the gyroscope could not be calibrated.
@@ -104,6 +147,11 @@ pub enum GyroError {
     },
     #[error("the gyro's normal equations are singular; the campaign needs still poses and turntable runs with gyro columns")]
     Singular,
+    /// Every run with a gyro is saturated for most of it.
+    #[error(
+        "every turntable run's gyro is saturated for most of the run, so its scale cannot be measured: {0}"
+    )]
+    Saturated(String),
 }
 
 const AXES: [&str; 3] = ["x", "y", "z"];
@@ -151,6 +199,8 @@ impl Layout {
 struct GyroRun<'a> {
     input: &'a RunInput,
     gyro: &'a [Vec<f64>; 3],
+    /// Samples the gyro fit uses: the accelerometer's (`input.keep`) without saturated gyro rows.
+    keep: Vec<bool>,
     mid: f64,
     /// Index among the joint fit's runs.
     index: usize,
@@ -242,7 +292,7 @@ impl Problem<'_> {
         let delta = [x[t0], x[t0 + 1]];
         let u = run.direction(delta);
         for (s, &t) in run.input.time_s.iter().enumerate() {
-            if !run.input.keep[s] {
+            if !run.keep[s] {
                 continue;
             }
             let tau = t - run.mid;
@@ -451,9 +501,13 @@ pub fn fit_gyro(
     settings: &GyroSettings,
 ) -> Result<Option<GyroFit>, GyroError> {
     check_settings(settings)?;
-    let gyro_runs = gyro_runs(runs, joint)?;
+    let (gyro_runs, saturation) = gyro_runs(runs, joint)?;
     if gyro_runs.is_empty() {
-        return Ok(None);
+        if saturation.is_empty() {
+            return Ok(None);
+        }
+        let found: Vec<String> = saturation.iter().map(GyroRunSaturation::describe).collect();
+        return Err(GyroError::Saturated(found.join("; ")));
     }
     let (pose_rows, sessions) = gyro_pose_rows(poses);
     let mut problem = Problem {
@@ -463,9 +517,7 @@ pub fn fit_gyro(
         },
         run_sigma: gyro_runs
             .iter()
-            .map(|run| {
-                crate::campaign::joint::difference_noise(run.gyro, &run.input.keep).map(|v| v.max(1e-9))
-            })
+            .map(|run| crate::campaign::joint::difference_noise(run.gyro, &run.keep).map(|v| v.max(1e-9)))
             .collect(),
         runs: gyro_runs,
         poses: pose_rows,
@@ -506,6 +558,7 @@ pub fn fit_gyro(
             "robust sandwich (scores summed over {:.1} s blocks of each run, each still pose a block); each run's mount tilts refitted within the joint fit's covariance; the joint fit's uncertainty in each run's speed and wow carried over by the delta method",
             settings.block_s
         ),
+        saturation,
     }))
 }
 
@@ -530,9 +583,15 @@ fn check_settings(settings: &GyroSettings) -> Result<(), GyroError> {
     Ok(())
 }
 
-/// The runs with gyro columns, each with the joint fit's parameters and tilt information.
-fn gyro_runs<'a>(runs: &'a [RunInput], joint: &JointFit) -> Result<Vec<GyroRun<'a>>, GyroError> {
+/// The runs with gyro columns, each with the joint fit's parameters and tilt information, and
+/// the runs whose gyro saturated (rows left out; a run saturated in more than
+/// [`GYRO_SATURATED_SHARE`] of its samples is refused).
+fn gyro_runs<'a>(
+    runs: &'a [RunInput],
+    joint: &JointFit,
+) -> Result<(Vec<GyroRun<'a>>, Vec<GyroRunSaturation>), GyroError> {
     let mut gyro_runs = Vec::new();
+    let mut saturation = Vec::new();
     for (index, run) in runs.iter().enumerate() {
         let Some(gyro) = &run.gyro_radps else { continue };
         if let Some(axis) = gyro.iter().find(|a| a.len() != run.time_s.len()) {
@@ -541,6 +600,25 @@ fn gyro_runs<'a>(runs: &'a [RunInput], joint: &JointFit) -> Result<Vec<GyroRun<'
                 found: axis.len(),
                 expected: run.time_s.len(),
             });
+        }
+        let pinned = gyro_saturated_mask(gyro);
+        let samples = pinned.iter().filter(|&&p| p).count();
+        let mut keep = run.keep.clone();
+        if samples > 0 {
+            let refused = samples as f64 > GYRO_SATURATED_SHARE * run.time_s.len() as f64;
+            saturation.push(GyroRunSaturation {
+                run: run.name.clone(),
+                samples,
+                of: run.time_s.len(),
+                axes: gyro_rails_hit(gyro),
+                refused,
+            });
+            if refused {
+                continue;
+            }
+            for (k, p) in keep.iter_mut().zip(&pinned) {
+                *k &= !p;
+            }
         }
         // Without a covariance from the joint fit, the tilt keeps the mounting's 2° prior.
         let fallback = 2f64.to_radians().powi(-2);
@@ -555,6 +633,7 @@ fn gyro_runs<'a>(runs: &'a [RunInput], joint: &JointFit) -> Result<Vec<GyroRun<'
         let mut gyro_run = GyroRun {
             input: run,
             gyro,
+            keep,
             mid: mid_time(&run.time_s),
             index,
             params: joint.run_params(index).to_vec(),
@@ -565,7 +644,7 @@ fn gyro_runs<'a>(runs: &'a [RunInput], joint: &JointFit) -> Result<Vec<GyroRun<'
         gyro_run.refresh(joint);
         gyro_runs.push(gyro_run);
     }
-    Ok(gyro_runs)
+    Ok((gyro_runs, saturation))
 }
 
 /// The poses with gyro readings as `Problem::poses` has them, and how many sessions they span.
@@ -696,7 +775,7 @@ impl Problem<'_> {
                 }
                 let (mut raw, mut calibrated, mut count) = (0.0, 0.0, 0.0);
                 for (s, _) in run.input.time_s.iter().enumerate() {
-                    if !run.input.keep[s] {
+                    if !run.keep[s] {
                         continue;
                     }
                     let m = [run.gyro[0][s], run.gyro[1][s], run.gyro[2][s]];

@@ -2,8 +2,9 @@
 
 use crate::campaign::file::{Campaign, EntryKind};
 use crate::campaign::prepare::UnitRecording;
-use crate::input::formats::{read_path, FormatError, ReadOptions};
+use crate::input::formats::{check_input, read_path, FormatError, ReadOptions};
 use crate::input::recording::ColumnMap;
+use crate::output::identity;
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -39,6 +40,15 @@ pub enum LoadError {
         line: usize,
         message: String,
     },
+    /// Two entries naming one file (the same device and inode, through any link or path).
+    #[error("{campaign}:{line}: `file`: {file} is the same file as the entry at line {first_line} ({first_file}); each recording may be listed once")]
+    SameFile {
+        campaign: String,
+        line: usize,
+        file: String,
+        first_line: usize,
+        first_file: String,
+    },
     #[error("{campaign}:{line}: `file`: {file} holds raw counts; give `accel_unit` or convert it first")]
     RawCounts {
         campaign: String,
@@ -47,8 +57,47 @@ pub enum LoadError {
     },
 }
 
-/// Reads every recording of the campaign (formats detected as the CLI does).
+/// Checks every entry's files before any is read: each a regular file within the size limit
+/// (or a bag or Sensor Logger folder), and no file named by two entries (a file read twice
+/// counts its samples twice; 10,000 entries naming one file must not be read 10,000 times).
+pub fn check_entries(campaign: &Campaign) -> Result<(), LoadError> {
+    let name = campaign.path.display().to_string();
+    let mut seen = std::collections::HashMap::with_capacity(campaign.recordings.len());
+    for entry in &campaign.recordings {
+        check_input(&entry.file).map_err(|source| LoadError::Recording {
+            campaign: name.clone(),
+            line: entry.line,
+            source: Box::new(source),
+        })?;
+        for (key, path) in [("truth", &entry.truth), ("random_error", &entry.random_error)] {
+            if let Some(path) = path {
+                check_input(path).map_err(|source| LoadError::Companion {
+                    campaign: name.clone(),
+                    line: entry.line,
+                    key,
+                    source: Box::new(source),
+                })?;
+            }
+        }
+        if let Some(&(first_line, first)) = seen.get(&identity(&entry.file)) {
+            let first: &std::path::Path = first;
+            return Err(LoadError::SameFile {
+                campaign: name,
+                line: entry.line,
+                file: entry.file.display().to_string(),
+                first_line,
+                first_file: first.display().to_string(),
+            });
+        }
+        seen.insert(identity(&entry.file), (entry.line, entry.file.as_path()));
+    }
+    Ok(())
+}
+
+/// Reads every recording of the campaign (formats detected as the CLI does), after
+/// [`check_entries`].
 pub fn load_campaign(campaign: &Campaign) -> Result<Vec<UnitRecording>, LoadError> {
+    check_entries(campaign)?;
     let name = campaign.path.display().to_string();
     let mut out = Vec::with_capacity(campaign.recordings.len());
     for entry in &campaign.recordings {

@@ -253,7 +253,7 @@ impl CorrectorFile {
 
     pub fn read_path(path: &Path) -> Result<CorrectorFile, CorrectorError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| CorrectorError::Read {
+        let text = crate::input::limits::read_settings_text(path).map_err(|source| CorrectorError::Read {
             file: file.clone(),
             source,
         })?;

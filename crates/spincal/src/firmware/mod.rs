@@ -225,7 +225,7 @@ pub fn export_firmware(
 /// Writes every file of `export` into `dir` (created if missing), each through a temporary file
 /// renamed when complete; returns their paths.
 pub fn write_export(export: &FirmwareExport, dir: &Path) -> Result<Vec<PathBuf>, FirmwareError> {
-    std::fs::create_dir_all(dir).map_err(|source| FirmwareError::Folder {
+    crate::output::make_folders(dir).map_err(|source| FirmwareError::Folder {
         dir: dir.display().to_string(),
         source,
     })?;

@@ -120,7 +120,7 @@ impl UnitCalibration {
         let model = dir.join("model.json");
         let inputs: Vec<&Path> = self.inputs.iter().map(PathBuf::as_path).collect();
         crate::output::check_outputs(&inputs, &[&results, &model])?;
-        std::fs::create_dir_all(dir).map_err(|source| OutputError::Io {
+        crate::output::make_folders(dir).map_err(|source| OutputError::Io {
             path: dir.display().to_string(),
             source,
         })?;

@@ -18,6 +18,15 @@ pub(crate) const RAIL_SAMPLES: usize = 3;
 /// With a known range, a sample at or beyond this share of it is saturated.
 pub(crate) const RANGE_SHARE: f64 = 0.999;
 
+/// A gyro axis's flat top counts as its rail only at or beyond this rate, deg/s: no MEMS gyro's
+/// full scale is narrower (the narrowest in common use are ±75–125 °/s), while a still gyro's
+/// quantised extremes repeat well below it.
+pub(crate) const SMALLEST_GYRO_RANGE_DPS: f64 = 60.0;
+
+/// A turntable run whose gyro is saturated in more than this share of its samples gives the
+/// gyro fit too little of the run (and what is left is where the rate dipped): it is refused.
+pub const GYRO_SATURATED_SHARE: f64 = 0.5;
+
 /// Gaps listed individually; the rest are only counted.
 pub(crate) const LISTED_GAPS: usize = 20;
 
@@ -44,6 +53,19 @@ pub struct Saturation {
     pub limit_mps2: f64,
 }
 
+/// Samples of one gyro axis pinned at its rail: a flat top of 3 or more equal readings at the
+/// axis's extreme, at least 60 °/s from zero (no gyro's range is narrower; a whole
+/// recording at one such value included: a platter turning faster than the range).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GyroSaturation {
+    pub axis: char,
+    pub samples: usize,
+    /// Line (or sample number) of the first saturated sample.
+    pub first_line: usize,
+    /// The rail's magnitude, deg/s: the gyro's range is about ± this.
+    pub limit_dps: f64,
+}
+
 /// What [`inspect`] found.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Inspection {
@@ -60,6 +82,9 @@ pub struct Inspection {
     pub backward_steps: usize,
     pub first_backward_line: Option<usize>,
     pub saturation: Vec<Saturation>,
+    /// The gyro's saturated axes (empty without a gyro).
+    #[serde(default)]
+    pub gyro_saturation: Vec<GyroSaturation>,
     /// Axes whose every sample has the same value (a dead or disconnected channel).
     pub constant_axes: Vec<char>,
     pub accel_min_mps2: [f64; 3],
@@ -102,6 +127,21 @@ pub(crate) fn temperature_summary(temperature_c: &[f64]) -> Option<TemperatureSu
     })
 }
 
+impl GyroSaturation {
+    /// The finding in words, out of `total` samples.
+    pub fn describe(&self, total: usize) -> String {
+        format!(
+            "{} of {} samples ({:.1} %) of g{} pinned at {:.2} °/s: the gyro is saturated (its range is about ±{:.0} °/s; turn slower or set a wider gyro range)",
+            self.samples,
+            total,
+            100.0 * self.samples as f64 / total.max(1) as f64,
+            self.axis,
+            self.limit_dps,
+            self.limit_dps
+        )
+    }
+}
+
 impl Inspection {
     /// Total samples found saturated, over all axes.
     pub fn saturated_samples(&self) -> usize {
@@ -126,6 +166,9 @@ impl Inspection {
                 s.axis,
                 s.limit_mps2 / STANDARD_GRAVITY
             ));
+        }
+        for s in &self.gyro_saturation {
+            out.push(format!("{file}:{}: {}", s.first_line, s.describe(self.samples)));
         }
         if let Some(line) = self.first_repeated_line {
             out.push(format!(
@@ -214,6 +257,24 @@ pub fn inspect(recording: &Recording, range_mps2: Option<f64>) -> Inspection {
             });
         }
     }
+    let gyro_saturation = recording
+        .gyro_radps
+        .as_ref()
+        .map(|gyro| {
+            (0..3)
+                .filter_map(|k| {
+                    let hits = gyro_flat_tops(&gyro[k]);
+                    let &(first, limit) = hits.first()?;
+                    Some(GyroSaturation {
+                        axis: ['x', 'y', 'z'][k],
+                        samples: hits.len(),
+                        first_line: recording.location(first).line,
+                        limit_dps: limit.to_degrees(),
+                    })
+                })
+                .collect()
+        })
+        .unwrap_or_default();
     Inspection {
         samples: recording.len(),
         duration_s: recording.duration_s(),
@@ -225,6 +286,7 @@ pub fn inspect(recording: &Recording, range_mps2: Option<f64>) -> Inspection {
         backward_steps,
         first_backward_line,
         saturation,
+        gyro_saturation,
         constant_axes,
         accel_min_mps2,
         accel_max_mps2,
@@ -247,6 +309,48 @@ pub(crate) fn saturated_mask(recording: &Recording, range_mps2: Option<f64>) -> 
         }
         for (i, _) in saturated_samples(axis, min, max, range_mps2) {
             mask[i] = true;
+        }
+    }
+    mask
+}
+
+/// The gyro's extremes as rails: an extreme nearer zero than [`SMALLEST_GYRO_RANGE_DPS`] is no
+/// rail (NaN never equals a reading). A constant axis keeps its value as both.
+pub(crate) fn gyro_rails(min_radps: f64, max_radps: f64) -> (f64, f64) {
+    let floor = SMALLEST_GYRO_RANGE_DPS.to_radians();
+    let rail = |v: f64| if v.abs() >= floor { v } else { f64::NAN };
+    (rail(min_radps), rail(max_radps))
+}
+
+/// One gyro axis's saturated samples (rad/s): flat tops at a rail ([`gyro_rails`]).
+fn gyro_flat_tops(axis: &[f64]) -> Vec<(usize, f64)> {
+    if axis.is_empty() {
+        return Vec::new();
+    }
+    let (min, max) = extremes(axis);
+    let (min, max) = gyro_rails(min, max);
+    flat_tops(axis, min, max)
+}
+
+/// Each saturated gyro axis and its rail, deg/s, by the rule of [`inspect`].
+pub(crate) fn gyro_rails_hit(gyro_radps: &[Vec<f64>; 3]) -> Vec<(char, f64)> {
+    (0..3)
+        .filter_map(|k| {
+            let &(_, rail) = gyro_flat_tops(&gyro_radps[k]).first()?;
+            Some((['x', 'y', 'z'][k], rail.to_degrees()))
+        })
+        .collect()
+}
+
+/// Which samples have a saturated gyro axis, by the rule of [`inspect`]; the gyro fit leaves them
+/// out (a pinned reading carries the rail, not the rate).
+pub(crate) fn gyro_saturated_mask(gyro_radps: &[Vec<f64>; 3]) -> Vec<bool> {
+    let mut mask = vec![false; gyro_radps[0].len()];
+    for axis in gyro_radps {
+        for (i, _) in gyro_flat_tops(axis) {
+            if let Some(m) = mask.get_mut(i) {
+                *m = true;
+            }
         }
     }
     mask
@@ -405,6 +509,56 @@ mod tests {
         );
         assert_eq!(by_shape.saturation[1].axis, 'y');
         assert_eq!(by_shape.saturated_samples(), 6);
+    }
+
+    /// A gyro pinned at an MPU-6050's ±250 °/s (code 32767 at 131 LSB per °/s) for part of a
+    /// run, and for all of one: each found with its rail; a still, coarsely quantised gyro whose
+    /// extremes repeat is not.
+    #[test]
+    fn a_pinned_gyro_is_saturated_with_its_range_and_a_quantised_still_one_is_not() {
+        let rail = (32767.0f64 / 131.0).to_radians();
+        let n = 400;
+        let time_s: Vec<f64> = (0..n).map(|i| i as f64 * 0.01).collect();
+        // z spins up through the rail and stays there from sample 300; y is pinned throughout;
+        // x is a still gyro in 1-count steps (0.0076 °/s) whose extremes repeat.
+        let z: Vec<f64> = (0..n)
+            .map(|i| (i as f64 * 0.9f64.to_radians()).min(rail))
+            .collect();
+        let x: Vec<f64> = (0..n)
+            .map(|i| [0.0, 1.0, 1.0, 1.0, 0.0, -1.0, -1.0, -1.0][i % 8] / 131.0f64.to_degrees())
+            .collect();
+        let r = Recording {
+            time_s,
+            accel_mps2: [
+                vec![0.1; n],
+                vec![0.2; n],
+                (0..n).map(|i| 9.8 + 1e-3 * (i % 3) as f64).collect(),
+            ],
+            gyro_radps: Some([x, vec![-rail; n], z]),
+            temperature_c: None,
+            source: Source::default(),
+        };
+        let found = inspect(&r, None);
+        let pinned: Vec<(char, usize)> = found
+            .gyro_saturation
+            .iter()
+            .map(|s| (s.axis, s.samples))
+            .collect();
+        let first_pinned = (rail.to_degrees() / 0.9).ceil() as usize;
+        assert_eq!(pinned, [('y', n), ('z', n - first_pinned)], "{found:?}");
+        for s in &found.gyro_saturation {
+            assert!((s.limit_dps - 250.13).abs() < 0.01, "{s:?}");
+        }
+        let mask = gyro_saturated_mask(r.gyro_radps.as_ref().unwrap());
+        assert_eq!(mask.iter().filter(|&&m| m).count(), n);
+        let warnings = found.warnings("run.csv");
+        assert!(
+            warnings.iter().any(|w| w.ends_with(
+                ": 400 of 400 samples (100.0 %) of gy pinned at 250.13 °/s: the gyro is saturated (its range is about ±250 °/s; turn slower or set a wider gyro range)"
+            )),
+            "{warnings:?}"
+        );
+        assert_eq!(gyro_rails_hit(r.gyro_radps.as_ref().unwrap()).len(), 2);
     }
 
     #[test]

@@ -5,5 +5,6 @@ pub mod decimal;
 pub mod formats;
 pub mod gyro_file;
 pub mod inspect;
+pub mod limits;
 pub mod recording;
 pub mod table;

@@ -242,6 +242,9 @@ fn gyro_section(g: &crate::campaign::gyro::GyroFit, h: &mut String) -> Result<()
         );
     }
     h.push_str("</table>");
+    for s in &g.saturation {
+        let _ = write!(h, "<p class=\"warn\">{}</p>", escape(&s.describe()));
+    }
     if let Some(plot) = gyro_rate_plot(g) {
         h.push_str(&figure(
             &plot,

@@ -151,7 +151,7 @@ pub(crate) fn create_folder_for(dir: &Path, files: &[PathBuf]) -> Result<(), Wri
             path: existing.display().to_string(),
         });
     }
-    std::fs::create_dir_all(dir).map_err(|e| WriteError::Folder {
+    crate::output::make_folders(dir).map_err(|e| WriteError::Folder {
         path: dir.display().to_string(),
         message: e.to_string(),
     })

@@ -153,7 +153,8 @@ pub fn correct_to_writer(
             "<stdin>".to_string(),
         )
     } else {
-        let file = File::open(input).map_err(|source| CorrectError::Open {
+        let opened = crate::input::limits::check_streamable(input).and_then(|()| File::open(input));
+        let file = opened.map_err(|source| CorrectError::Open {
             file: input.display().to_string(),
             source,
         })?;

@@ -246,8 +246,12 @@ pub enum FormatError {
 }
 
 /// Reads a file in the given or detected format.
+/// Only a regular file under [`crate::input::limits::LARGEST_RECORDING_BYTES`], a ROS 2 bag
+/// folder or a Sensor Logger folder is read; anything else (a FIFO, a device, another folder) is
+/// refused by name before it is opened.
 pub fn read_path(path: &Path, options: &ReadOptions) -> Result<Loaded, FormatError> {
     let file = path.display().to_string();
+    check_input(path)?;
     // A ROS 2 bag directory, or a bag file.
     if bag_detect::is_bag_dir(path)
         || options.format == Some(Format::RosBag)
@@ -271,6 +275,21 @@ pub fn read_path(path: &Path, options: &ReadOptions) -> Result<Loaded, FormatErr
         source,
     })?;
     read_bytes(&bytes, &file, options)
+}
+
+/// A recording's path before anything opens it: a regular file within the size limit, or a
+/// folder that is a ROS 2 bag or a Sensor Logger recording.
+pub(crate) fn check_input(path: &Path) -> Result<(), FormatError> {
+    use crate::input::limits::{check_file, InputFileError, LARGEST_RECORDING_BYTES};
+    let io = |source| FormatError::Io {
+        file: path.display().to_string(),
+        source,
+    };
+    let folder = check_file(path, Some((LARGEST_RECORDING_BYTES, "a recording's limit"))).map_err(io)?;
+    if folder && !bag_detect::is_bag_dir(path) && !phone::is_sensor_logger_dir(path) {
+        return Err(io(InputFileError::Folder.into_io()));
+    }
+    Ok(())
 }
 
 /// Reads an in-memory file; `file` names it in errors.

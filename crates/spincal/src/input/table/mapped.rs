@@ -4,6 +4,8 @@
 use std::io::Read;
 use std::path::Path;
 
+use crate::input::limits::{check_regular, LARGEST_RECORDING_BYTES};
+
 /// The bytes of a file: mapped when it is a large regular file, read whole otherwise.
 pub enum FileBytes {
     Mapped(MappedFile),
@@ -23,9 +25,12 @@ impl std::ops::Deref for FileBytes {
 /// Files from this size up are mapped rather than copied into memory.
 pub(super) const MAP_BYTES: u64 = 1 << 20;
 
-/// Opens a file for parsing in memory: a regular file of at least 1 MiB is mapped (no copy), any
-/// other (small, pipe, device) is read whole.
+/// Opens a file for parsing in memory: a regular file of at least 1 MiB is mapped (no copy), a
+/// smaller one is read whole.
+/// Only a regular file under [`LARGEST_RECORDING_BYTES`] is read (refused by name before it is
+/// opened otherwise: a FIFO would block, `/dev/zero` would never end).
 pub fn read_file(path: &Path) -> std::io::Result<FileBytes> {
+    check_regular(path, LARGEST_RECORDING_BYTES, "a recording's limit")?;
     let mut file = std::fs::File::open(path)?;
     let meta = file.metadata()?;
     if meta.is_file() && meta.len() >= MAP_BYTES {

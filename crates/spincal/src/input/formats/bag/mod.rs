@@ -164,7 +164,7 @@ pub fn read_path(path: &Path, topic: Option<&str>, salvage: bool) -> Result<BagR
 fn dir_files(dir: &Path) -> Result<Vec<std::path::PathBuf>, BagError> {
     let meta_path = dir.join("metadata.yaml");
     let file = meta_path.display().to_string();
-    let text = std::fs::read_to_string(&meta_path).map_err(|source| BagError::Io {
+    let text = crate::input::limits::read_settings_text(&meta_path).map_err(|source| BagError::Io {
         file: file.clone(),
         source,
     })?;

@@ -175,7 +175,13 @@ impl Members {
                 .collect();
             names.sort();
             for p in names {
-                let bytes = std::fs::read(&p).map_err(|e| io(e, &p))?;
+                let bytes = crate::input::limits::check_regular(
+                    &p,
+                    crate::input::limits::LARGEST_RECORDING_BYTES,
+                    "a recording's limit",
+                )
+                .and_then(|()| std::fs::read(&p))
+                .map_err(|e| io(e, &p))?;
                 let name = p
                     .file_name()
                     .map(|n| n.to_string_lossy().into_owned())

@@ -20,6 +20,9 @@ pub(super) struct First {
     pub(super) backward: (usize, Option<usize>),
     pub(super) min: [f64; 3],
     pub(super) max: [f64; 3],
+    /// The gyro's extremes per axis, rad/s.
+    pub(super) gyro_min: [f64; 3],
+    pub(super) gyro_max: [f64; 3],
     pub(super) rates: Rates,
     pub(super) norms: Kth,
     pub(super) has_temperature: bool,
@@ -36,6 +39,8 @@ impl First {
             backward: (0, None),
             min: [f64::INFINITY; 3],
             max: [f64::NEG_INFINITY; 3],
+            gyro_min: [f64::INFINITY; 3],
+            gyro_max: [f64::NEG_INFINITY; 3],
             rates: Rates::new(),
             norms: Kth::new(),
             has_temperature: false,
@@ -62,6 +67,12 @@ impl First {
         for a in 0..3 {
             self.min[a] = self.min[a].min(s.accel[a]);
             self.max[a] = self.max[a].max(s.accel[a]);
+        }
+        if let Some(g) = s.gyro {
+            for a in 0..3 {
+                self.gyro_min[a] = self.gyro_min[a].min(g[a]);
+                self.gyro_max[a] = self.gyro_max[a].max(g[a]);
+            }
         }
         self.rates.push(s.t);
         self.norms.push(norm(&s.raw));

@@ -3,7 +3,9 @@
 
 use super::reading::Reading;
 use super::Declined;
-use crate::input::inspect::{Gap, Saturation, GAP_FACTOR, LISTED_GAPS, RAIL_SAMPLES, RANGE_SHARE};
+use crate::input::inspect::{
+    gyro_rails, Gap, GyroSaturation, Saturation, GAP_FACTOR, LISTED_GAPS, RAIL_SAMPLES, RANGE_SHARE,
+};
 
 /// One axis's saturated samples, as [`inspect`] finds them: beyond [`RANGE_SHARE`] of a known
 /// range, else in runs of [`RAIL_SAMPLES`] or more equal values at the axis's extreme.
@@ -50,6 +52,8 @@ pub(super) struct LastPass {
     pub(super) gaps: Vec<Gap>,
     pub(super) gap_count: usize,
     pub(super) tops: [Tops; 3],
+    /// The gyro's flat tops at its rails ([`gyro_rails`]).
+    pub(super) gyro_tops: [Tops; 3],
 }
 
 /// Reads the file once more for gaps (steps over the threshold that the median interval `dt` and
@@ -59,8 +63,11 @@ pub(super) fn last_pass(
     quantum: f64,
     dt: f64,
     extremes: ([f64; 3], [f64; 3]),
+    gyro_extremes: ([f64; 3], [f64; 3]),
     range_mps2: Option<f64>,
 ) -> Result<LastPass, Declined> {
+    let rails: [(f64, f64); 3] = std::array::from_fn(|a| gyro_rails(gyro_extremes.0[a], gyro_extremes.1[a]));
+    let mut gyro_tops: [Tops; 3] = std::array::from_fn(|_| Tops::default());
     let gap_threshold = if (quantum / dt - 1.0).abs() > 0.1 {
         (GAP_FACTOR * dt).max(dt + quantum)
     } else {
@@ -92,12 +99,36 @@ pub(super) fn last_pass(
                 tops[a].push(s.line, s.accel[a], min[a], max[a], range_mps2);
             }
         }
+        if let Some(g) = s.gyro {
+            for a in 0..3 {
+                gyro_tops[a].push(s.line, g[a], rails[a].0, rails[a].1, None);
+            }
+        }
     })?;
+    for a in 0..3 {
+        gyro_tops[a].end(rails[a].0, rails[a].1);
+    }
     Ok(LastPass {
         gaps,
         gap_count,
         tops,
+        gyro_tops,
     })
+}
+
+/// Each gyro axis's saturation from its flat tops (ended by [`last_pass`]).
+pub(super) fn gyro_findings(tops: &[Tops; 3]) -> Vec<GyroSaturation> {
+    (0..3)
+        .filter_map(|a| {
+            let (first_line, limit) = tops[a].first?;
+            Some(GyroSaturation {
+                axis: ['x', 'y', 'z'][a],
+                samples: tops[a].samples,
+                first_line,
+                limit_dps: limit.to_degrees(),
+            })
+        })
+        .collect()
 }
 
 /// Each axis's saturation (from its flat tops) or its being constant, over `n` samples.

@@ -40,7 +40,7 @@ mod median;
 mod reading;
 
 use first::{norm, First, Rates};
-use last::{axis_findings, last_pass};
+use last::{axis_findings, gyro_findings, last_pass};
 use reading::{Reading, Shape};
 
 /// Rows converted at a time.
@@ -64,6 +64,12 @@ pub fn inspect_path(
     options: &ReadOptions,
     range_mps2: Option<f64>,
 ) -> Result<(Loaded, Inspection), FormatError> {
+    // A FIFO or device is refused before anything opens it (opening a FIFO blocks); a
+    // streamed text file may be of any size, the whole-file reader's limit applies to the rest.
+    crate::input::limits::check_file(path, None).map_err(|source| FormatError::Io {
+        file: path.display().to_string(),
+        source,
+    })?;
     if let Some(found) = stream(path, options, range_mps2)? {
         return Ok(found);
     }
@@ -137,8 +143,16 @@ fn streamed(
         None
     };
     let (min, max) = (p.min, p.max);
-    let mut last = last_pass(&src, p.quantum, dt, (min, max), range_mps2)?;
+    let mut last = last_pass(
+        &src,
+        p.quantum,
+        dt,
+        (min, max),
+        (p.gyro_min, p.gyro_max),
+        range_mps2,
+    )?;
     let (saturation, constant_axes) = axis_findings(&mut last.tops, (min, max), n, range_mps2);
+    let gyro_saturation = gyro_findings(&last.gyro_tops);
     let inspection = Inspection {
         samples: n,
         duration_s: if n > 0 { p.last - p.first } else { 0.0 },
@@ -150,6 +164,7 @@ fn streamed(
         backward_steps: p.backward.0,
         first_backward_line: p.backward.1,
         saturation,
+        gyro_saturation,
         constant_axes,
         accel_min_mps2: if n > 0 { min } else { [f64::NAN; 3] },
         accel_max_mps2: if n > 0 { max } else { [f64::NAN; 3] },

@@ -17,6 +17,8 @@ pub(super) struct Sample {
     /// After `accel_offset` and `accel_scale`.
     pub(super) accel: [f64; 3],
     pub(super) temperature: Option<f64>,
+    /// The gyro, rad/s, when the file has one.
+    pub(super) gyro: Option<[f64; 3]>,
 }
 
 /// How samples are read: the file, its table options and column map, and the time rule.
@@ -115,6 +117,7 @@ impl Reading<'_> {
                             raw,
                             accel,
                             temperature: block.temperature_c.as_ref().map(|c| c[i]),
+                            gyro: block.gyro_radps.as_ref().map(|g| [g[0][i], g[1][i], g[2][i]]),
                         },
                     );
                     index += 1;

@@ -64,8 +64,8 @@ fn agree(text: &str, options: &ReadOptions) -> Inspection {
     found
 }
 
-/// A 100 Hz recording with jitter, a gap, repeated stamps, rails and a temperature of
-/// `distinct` values.
+/// A 100 Hz recording with jitter, a gap, repeated stamps, rails (the gyro's z pinned at
+/// 250 °/s for samples 1000–1399) and a temperature of `distinct` values.
 fn recording(n: usize, distinct: usize) -> String {
     let mut s = String::from("# logger v1\nt_ms,ax_g,ay_g,az_g,gx_dps,gy_dps,gz_dps,temp_c\n");
     for i in 0..n {
@@ -89,7 +89,11 @@ fn recording(n: usize, distinct: usize) -> String {
             "{t},{ax},{},{},0.1,-0.2,{},{temp}\n",
             (i % 17) as f64 * 0.01,
             1.0 - (i % 3) as f64 * 1e-3,
-            (i % 5) as f64
+            if (1000..1400).contains(&i) {
+                250.0
+            } else {
+                (i % 5) as f64
+            }
         );
     }
     s
@@ -104,6 +108,12 @@ fn streamed_inspection_equals_the_whole_file_one() {
         found.repeated_times >= 2 && !found.saturation.is_empty(),
         "{found:?}"
     );
+    let pinned: Vec<(char, usize)> = found
+        .gyro_saturation
+        .iter()
+        .map(|s| (s.axis, s.samples))
+        .collect();
+    assert_eq!(pinned, [('z', 400)]);
     // Distinct temperatures beyond what one pass keeps.
     let found = agree(
         &recording(KEEP_DISTINCT + 5_000, usize::MAX),
