@@ -28,4 +28,5 @@ mod outputs;
 mod phone_cli;
 mod real_files;
 mod strobe;
+mod temperature_cli;
 mod thermal_cli;

@@ -73,6 +73,13 @@ pub enum ThermalError {
     TooShort { file: String, window_s: f64 },
     #[error("the still recordings span {span_c:.2} °C of die temperature; a thermal model needs at least {needed_c} °C (record a warm-up, or poses at several temperatures)")]
     NarrowRange { span_c: f64, needed_c: f64 },
+    /// The fitted model breaks the plausibility limits ([`ThermalModel::check_plausible`]): it
+    /// is not saved.
+    #[error("the fitted thermal model is implausible ({field}: {reason}); it is not saved")]
+    Implausible { field: String, reason: String },
+    /// The lag with the smallest residual is the largest tried: the search did not bracket it.
+    #[error("the temperature sensor's lag fits best at {lag_s} s, the largest of the lags tried ({lags_s:?}); the lag is not determined within them, so no thermal model is saved (try longer lags in thermal.lags_s, or record a faster temperature change)")]
+    LagAtEdge { lag_s: f64, lags_s: Vec<f64> },
     #[error("parameter thermal.{name} = {value}: {why}")]
     Setting {
         name: &'static str,
@@ -497,6 +504,21 @@ pub fn fit_thermal(
         solve(&all, chosen.0, chosen.1, reference_c, gravity)
     };
     let model = problem.model(&solved.params, lag_s, settings.smoothing_s, range);
+    // A lag searched for and found at the top of the grid is not determined (0 is a physical
+    // bound, not an edge: a sensor may not lag).
+    let largest = settings.lags_s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if settings.lags_s.len() > 1 && largest > 0.0 && lag_s == largest {
+        return Err(ThermalError::LagAtEdge {
+            lag_s,
+            lags_s: settings.lags_s.clone(),
+        });
+    }
+    model
+        .check_plausible()
+        .map_err(|e| ThermalError::Implausible {
+            field: e.field,
+            reason: e.reason,
+        })?;
     let se = |o: usize, k: usize, order: usize| -> Vec<f64> {
         (0..order)
             .map(|j| solved.covariance_diagonal[o + k * order + j].max(0.0).sqrt())

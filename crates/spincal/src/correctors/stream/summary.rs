@@ -37,6 +37,10 @@ pub struct StreamSummary {
     /// model's range), and the first's line and status.
     pub thermal_fallback: usize,
     pub first_thermal_fallback: Option<(usize, &'static str)>,
+    /// Rows whose reported temperature broke the sample rules (status `suspect-temperature`),
+    /// and the first's line.
+    pub suspect_temperature: usize,
+    pub first_suspect_temperature: Option<usize>,
 }
 
 impl StreamSummary {
@@ -51,6 +55,10 @@ impl StreamSummary {
     pub(super) fn corrected(&mut self, line: usize, status: RowStatus) {
         match status {
             RowStatus::Ok => {}
+            RowStatus::SuspectTemperature => {
+                self.suspect_temperature += 1;
+                self.first_suspect_temperature.get_or_insert(line);
+            }
             RowStatus::NoTemperature | RowStatus::OutsideTemperatureRange => {
                 self.thermal_fallback += 1;
                 self.first_thermal_fallback.get_or_insert((line, status.as_str()));
@@ -111,6 +119,17 @@ impl StreamSummary {
                  or `outside-temperature-range` (the die temperature lies outside the range the model was fitted on); the first, \
                  line {line}, is `{status}`",
                 self.thermal_fallback, self.rows
+            ));
+        }
+        if let Some(line) = self.first_suspect_temperature {
+            out.push(format!(
+                "{name}: {} of {} rows have a reported temperature outside what a die reaches ({}…{} °C) or changing faster than a die can ({} °C/s: a glitch or a sensor reset); \
+                 kept out of the die-temperature estimate, corrected at the last die temperature, status `suspect-temperature`, valid 0; the first at line {line}",
+                self.suspect_temperature,
+                self.rows,
+                crate::thermal::checks::PLAUSIBLE_C[0],
+                crate::thermal::checks::PLAUSIBLE_C[1],
+                crate::thermal::checks::MAX_SLEW_C_PER_S,
             ));
         }
         if let Some(first) = &self.first_skipped {
