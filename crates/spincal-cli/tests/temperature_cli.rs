@@ -106,10 +106,21 @@ fn glitches_resets_and_absurd_models_from_the_command_line() {
         .unwrap();
     assert!(tmax < 41.0, "INS_TCAL1_TMAX {tmax}");
 
-    // A held-out pose streamed by `correct` whose sensor resets: 10 °C lower for rows 101–400.
-    let held = sim.join("held-out-30.csv");
+    // Six held-out poses (20 s each, 10 s apart) logged as one stream by `correct`, whose sensor
+    // resets: 10 °C lower for a minute, data lines 302–901.
+    let held = dir.path().join("stream.csv");
+    let mut stream = String::new();
+    for k in 30..36 {
+        let text = std::fs::read_to_string(sim.join(format!("held-out-{k}.csv"))).unwrap();
+        let skip = if k == 30 { 0 } else { 1 };
+        for line in text.lines().skip(skip) {
+            stream.push_str(line);
+            stream.push('\n');
+        }
+    }
+    std::fs::write(&held, stream).unwrap();
     edit_temperatures(&held, |line, v| {
-        if (102..=401).contains(&line) {
+        if (302..=901).contains(&line) {
             (v - 10.0).to_string()
         } else {
             v.to_string()
@@ -122,14 +133,16 @@ fn glitches_resets_and_absurd_models_from_the_command_line() {
     let header: Vec<&str> = rows.next().unwrap().split(',').collect();
     let status = header.iter().position(|h| *h == "status").unwrap();
     let statuses: Vec<String> = rows.map(|r| r.split(',').nth(status).unwrap().to_string()).collect();
+    assert_eq!(statuses.len(), 1200);
     assert!(
-        statuses[100..400].iter().all(|s| s == "suspect-temperature"),
+        statuses[300..900].iter().all(|s| s == "suspect-temperature"),
         "{:?}",
-        &statuses[95..105]
+        &statuses[295..305]
     );
-    assert!(statuses[401..].iter().all(|s| s == "ok"), "after the reset");
+    assert!(statuses[..300].iter().all(|s| s == "ok"), "before the reset");
+    assert!(statuses[900..].iter().all(|s| s == "ok"), "after the reset");
     assert!(
-        stderr.contains("300 of") && stderr.contains("suspect-temperature") && stderr.contains("line 102"),
+        stderr.contains("600 of 1200") && stderr.contains("suspect-temperature") && stderr.contains("line 302"),
         "{stderr}"
     );
 
