@@ -57,7 +57,10 @@ fn edit_temperatures(file: &Path, edit: impl Fn(usize, f64) -> String) {
 }
 
 fn failed(out: &Output) -> (Option<i32>, String) {
-    (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
 
 #[test]
@@ -85,12 +88,16 @@ fn glitches_resets_and_absurd_models_from_the_command_line() {
     );
     assert_eq!(contents(&sim), inputs, "calibrate changed an input");
     let model_path = cal.join("model.json");
-    let model: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&model_path).unwrap()).unwrap();
+    let model: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&model_path).unwrap()).unwrap();
     let range = &model["thermal"]["fitted_range_c"];
     let (lo, hi) = (range[0].as_f64().unwrap(), range[1].as_f64().unwrap());
     assert!(lo > 14.0 && hi < 41.0, "fitted over {lo}–{hi} °C");
     let results = std::fs::read_to_string(cal.join("results.json")).unwrap();
-    assert!(results.contains("\"temperature_findings\""), "results.json lists them");
+    assert!(
+        results.contains("\"temperature_findings\""),
+        "results.json lists them"
+    );
     let param = dir.path().join("tcal.param");
     run(spincal()
         .args(["export", "--model"])
@@ -127,12 +134,20 @@ fn glitches_resets_and_absurd_models_from_the_command_line() {
         }
     });
     let held_bytes = std::fs::read(&held).unwrap();
-    let (stdout, stderr) = run_with_stderr(spincal().arg("correct").arg(&held).arg("--model").arg(&model_path));
+    let (stdout, stderr) = run_with_stderr(
+        spincal()
+            .arg("correct")
+            .arg(&held)
+            .arg("--model")
+            .arg(&model_path),
+    );
     assert_eq!(std::fs::read(&held).unwrap(), held_bytes);
     let mut rows = stdout.lines();
     let header: Vec<&str> = rows.next().unwrap().split(',').collect();
     let status = header.iter().position(|h| *h == "status").unwrap();
-    let statuses: Vec<String> = rows.map(|r| r.split(',').nth(status).unwrap().to_string()).collect();
+    let statuses: Vec<String> = rows
+        .map(|r| r.split(',').nth(status).unwrap().to_string())
+        .collect();
     assert_eq!(statuses.len(), 1200);
     assert!(
         statuses[300..900].iter().all(|s| s == "suspect-temperature"),
@@ -142,7 +157,9 @@ fn glitches_resets_and_absurd_models_from_the_command_line() {
     assert!(statuses[..300].iter().all(|s| s == "ok"), "before the reset");
     assert!(statuses[900..].iter().all(|s| s == "ok"), "after the reset");
     assert!(
-        stderr.contains("600 of 1200") && stderr.contains("suspect-temperature") && stderr.contains("line 302"),
+        stderr.contains("600 of 1200")
+            && stderr.contains("suspect-temperature")
+            && stderr.contains("line 302"),
         "{stderr}"
     );
 
@@ -207,11 +224,15 @@ fn glitches_resets_and_absurd_models_from_the_command_line() {
         let (code, stderr) = failed(out);
         assert_eq!(code, Some(1), "{stderr}");
         assert!(
-            stderr.contains("absurd.json") && stderr.contains("thermal.bias_per_c[0]") && stderr.contains("half a g"),
+            stderr.contains("absurd.json")
+                && stderr.contains("thermal.bias_per_c[0]")
+                && stderr.contains("half a g"),
             "{stderr}"
         );
     }
-    assert!(!out_csv.exists() && !dir.path().join("a.param").exists() && !dir.path().join("p.params").exists());
+    assert!(
+        !out_csv.exists() && !dir.path().join("a.param").exists() && !dir.path().join("p.params").exists()
+    );
     assert_eq!(std::fs::read(&absurd_path).unwrap(), absurd_bytes);
 }
 

@@ -90,15 +90,23 @@ fn a_glitch_and_an_implausible_sample_are_named_and_kept_out_of_the_fit() {
         .collect();
     assert_eq!(
         found,
-        vec![(FindingKind::Glitch, 6001, 95.0), (FindingKind::Implausible, 9001, -273.0)],
+        vec![
+            (FindingKind::Glitch, 6001, 95.0),
+            (FindingKind::Implausible, 9001, -273.0)
+        ],
         "{:?}",
         r.temperature_findings
     );
     assert_eq!(r.temperature_masked_samples, 2);
     let named = r.temperature_findings[1].to_string();
-    assert!(named.contains("warmup-00.csv:9001: temperature -273 °C"), "{named}");
+    assert!(
+        named.contains("warmup-00.csv:9001: temperature -273 °C"),
+        "{named}"
+    );
     // The saved model's range is the one `correct` and the exports use.
-    let saved = out.saved.unwrap_or_else(|| panic!("nothing saved: {}", r.verdict));
+    let saved = out
+        .saved
+        .unwrap_or_else(|| panic!("nothing saved: {}", r.verdict));
     assert_eq!(saved.thermal.unwrap().fitted_range_c, [lo, hi]);
 }
 
@@ -173,7 +181,9 @@ fn a_sensor_reset_in_correct_marks_its_rows() {
             let reported = rec.temperature_c.as_ref().unwrap()[i];
             let reset = (700.0..760.0).contains(&t);
             let temperature = if reset { reported - 10.0 } else { reported };
-            match rows.correct(Some(t), reading(rec, i), None, Some(temperature), |_| String::new()) {
+            match rows.correct(Some(t), reading(rec, i), None, Some(temperature), |_| {
+                String::new()
+            }) {
                 RowOutcome::Corrected { status, valid, .. } => {
                     assert_eq!(valid, status == RowStatus::Ok);
                     statuses.push(status);
@@ -201,7 +211,11 @@ fn a_sensor_reset_in_correct_marks_its_rows() {
         .zip(&statuses)
         .filter(|(t, _)| !(700.0..760.0).contains(*t) && **t > times[0] + 60.0);
     assert!(others.clone().count() > 1000);
-    assert!(others.clone().all(|(_, s)| *s == RowStatus::Ok), "{:?}", others.clone().find(|(_, s)| **s != RowStatus::Ok));
+    assert!(
+        others.clone().all(|(_, s)| *s == RowStatus::Ok),
+        "{:?}",
+        others.clone().find(|(_, s)| **s != RowStatus::Ok)
+    );
 }
 
 /// The ArduPilot and PX4 files of `m`.
@@ -246,7 +260,10 @@ fn an_absurd_thermal_model_is_refused_on_read_and_by_both_exports() {
     let (a, p) = stacks(&model);
     for e in [a.unwrap_err(), p.unwrap_err()] {
         assert!(matches!(e, FlightStackError::Implausible { .. }), "{e}");
-        assert!(e.to_string().contains("bias_per_c[2]") && e.to_string().contains("correct refuses"), "{e}");
+        assert!(
+            e.to_string().contains("bias_per_c[2]") && e.to_string().contains("correct refuses"),
+            "{e}"
+        );
     }
     // A fitted range beyond what a die reaches is refused the same way.
     let mut wide = campaign.truth.clone();
@@ -268,7 +285,10 @@ fn a_lag_at_the_top_of_its_grid_is_not_saved() {
         ..ThermalSettings::default()
     };
     let e = fit_thermal(&stills, &settings, STANDARD_GRAVITY).unwrap_err();
-    assert!(matches!(e, ThermalError::LagAtEdge { lag_s, .. } if lag_s == 10.0), "{e}");
+    assert!(
+        matches!(e, ThermalError::LagAtEdge { lag_s, .. } if lag_s == 10.0),
+        "{e}"
+    );
     // The grid that brackets it saves.
     let settings = ThermalSettings {
         lags_s: vec![0.0, 10.0, 20.0, 40.0],

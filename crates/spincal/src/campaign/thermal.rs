@@ -23,7 +23,8 @@ use serde::{Deserialize, Serialize};
 use crate::campaign::prepare::{still_intervals, Prepared, UnitRecording};
 use crate::input::recording::Recording;
 use crate::thermal::checks::{
-    check_track, check_unit, is_stuck, temperature_column, unit_of_column, FindingKind, TemperatureError, TemperatureFinding,
+    check_track, check_unit, is_stuck, temperature_column, unit_of_column, FindingKind, TemperatureError,
+    TemperatureFinding,
 };
 use crate::thermal::{fit_thermal, ThermalFit, ThermalSettings, MIN_SPAN_C};
 
@@ -120,7 +121,9 @@ pub(crate) fn check_temperatures(units: &[UnitRecording]) -> CheckedTemperatures
                 Some(acc.map_or([lo, hi], |[a, b]| [a.min(lo), b.max(hi)]))
             });
         let changes_elsewhere = others.is_some_and(|[lo, hi]| hi - lo >= MIN_SPAN_C);
-        if let Some(value_c) = is_stuck(&rec.time_s, &temperature, &check.masked).filter(|_| changes_elsewhere) {
+        if let Some(value_c) =
+            is_stuck(&rec.time_s, &temperature, &check.masked).filter(|_| changes_elsewhere)
+        {
             findings.push(TemperatureFinding {
                 file: unit.name.clone(),
                 line: rec.source.lines.first().copied().unwrap_or(1),

@@ -131,7 +131,9 @@ impl TemperatureTrack {
             (Some(a), Some(since)) => {
                 let p = self.previous.unwrap_or(a);
                 let jumped = (value_c - p.1).abs() > allowed(p);
-                let back = jumped && (value_c - a.1).abs() <= allowed(a) && (value_c - a.1).abs() < (value_c - p.1).abs();
+                let back = jumped
+                    && (value_c - a.1).abs() <= allowed(a)
+                    && (value_c - a.1).abs() < (value_c - p.1).abs();
                 if back || t - since >= ADOPT_AFTER_S {
                     self.suspect_since = None;
                     self.trust(t, value_c)
@@ -346,7 +348,12 @@ pub enum TemperatureError {
 /// median outside [`PLAUSIBLE_C`] is an error, naming the unit in which it would lie within
 /// [`OPERATING_C`] (MPU-6050 counts only when every value is a whole number). Non-finite values
 /// are ignored; an empty column passes.
-pub fn check_unit(file: &str, column: &str, values_c: &[f64], declared: TemperatureUnit) -> Result<(), TemperatureError> {
+pub fn check_unit(
+    file: &str,
+    column: &str,
+    values_c: &[f64],
+    declared: TemperatureUnit,
+) -> Result<(), TemperatureError> {
     let mut finite: Vec<f64> = values_c.iter().copied().filter(|v| v.is_finite()).collect();
     if finite.is_empty() {
         return Ok(());
@@ -428,7 +435,10 @@ mod tests {
         assert_eq!(c.masked_samples(), 1);
         assert!(c.masked[500]);
         assert_eq!(c.findings.len(), 1);
-        assert_eq!((c.findings[0].kind, c.findings[0].line), (FindingKind::Glitch, 501));
+        assert_eq!(
+            (c.findings[0].kind, c.findings[0].line),
+            (FindingKind::Glitch, 501)
+        );
         assert_eq!(c.findings[0].value_c, 95.0);
         let held = c.held(&v).unwrap();
         assert_eq!(held[500], v[499]);
@@ -499,8 +509,14 @@ mod tests {
     fn kelvin_under_a_celsius_name_is_named() {
         let e = check_unit("w.csv", "temp_c", &[298.15, 299.15, 300.15], TemperatureUnit::C).unwrap_err();
         let message = e.to_string();
-        assert!(message.contains("kelvin") && message.contains("temp_k"), "{message}");
-        assert!(message.contains("w.csv") && message.contains("temp_c"), "{message}");
+        assert!(
+            message.contains("kelvin") && message.contains("temp_k"),
+            "{message}"
+        );
+        assert!(
+            message.contains("w.csv") && message.contains("temp_c"),
+            "{message}"
+        );
         // Celsius under a kelvin name: 25 K is −248 °C.
         let e = check_unit("w.csv", "temp_k", &[25.0 - 273.15], TemperatureUnit::K).unwrap_err();
         assert!(e.to_string().contains("likely in °C"), "{e}");

@@ -513,12 +513,10 @@ pub fn fit_thermal(
             lags_s: settings.lags_s.clone(),
         });
     }
-    model
-        .check_plausible()
-        .map_err(|e| ThermalError::Implausible {
-            field: e.field,
-            reason: e.reason,
-        })?;
+    model.check_plausible().map_err(|e| ThermalError::Implausible {
+        field: e.field,
+        reason: e.reason,
+    })?;
     let se = |o: usize, k: usize, order: usize| -> Vec<f64> {
         (0..order)
             .map(|j| solved.covariance_diagonal[o + k * order + j].max(0.0).sqrt())

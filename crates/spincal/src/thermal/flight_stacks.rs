@@ -64,7 +64,9 @@ pub enum FlightStackError {
     },
     /// The model breaks the plausibility limits that `spincal correct` also refuses
     /// ([`ThermalModel::check_plausible`]).
-    #[error("parameter thermal.{field}: {reason}; spincal correct refuses this model too, so it is not exported")]
+    #[error(
+        "parameter thermal.{field}: {reason}; spincal correct refuses this model too, so it is not exported"
+    )]
     Implausible { field: String, reason: String },
     #[error("{what} {value}: {why}")]
     Target {

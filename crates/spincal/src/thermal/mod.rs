@@ -28,8 +28,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::input::recording::Recording;
 
-pub use fit::{fit_thermal, OrderScore, ThermalError, ThermalFit, ThermalSettings};
 pub(crate) use fit::MIN_SPAN_C;
+pub use fit::{fit_thermal, OrderScore, ThermalError, ThermalFit, ThermalSettings};
 
 /// Sensor parameters at the reference temperature that the thermal model carries (no
 /// nonlinearity: still poses at 1 g cannot tell it from bias and scale).
@@ -187,13 +187,21 @@ impl ThermalModel {
         if !(lo_c..=hi_c).contains(&self.reference_c) {
             return Err(InvalidField::new(
                 "reference_c",
-                format!("{} °C: a MEMS die's temperature lies within {lo_c}…{hi_c} °C", self.reference_c),
+                format!(
+                    "{} °C: a MEMS die's temperature lies within {lo_c}…{hi_c} °C",
+                    self.reference_c
+                ),
             ));
         }
         let limits = [
             ("bias_mps2", self.bias_mps2, MAX_BIAS_MPS2, "m/s²"),
             ("scale_error", self.scale_error, MAX_SCALE_ERROR, ""),
-            ("misalignment_rad", self.misalignment_rad, MAX_MISALIGNMENT_RAD, "rad"),
+            (
+                "misalignment_rad",
+                self.misalignment_rad,
+                MAX_MISALIGNMENT_RAD,
+                "rad",
+            ),
         ];
         for (field, values, limit, unit) in limits {
             if let Some(k) = (0..3).find(|&k| !(values[k].abs() <= limit)) {
