@@ -323,25 +323,34 @@ pub fn is_stuck(time_s: &[f64], temperature_c: &[f64], masked: &[bool]) -> Optio
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum TemperatureError {
-    #[error("{file}: column `{column}`: the temperatures (median {median} {declared}) are {median_c:.1} °C, outside what a MEMS die reaches ({lo}…{hi} °C); read as {suggested} they would be {suggested_c:.1} °C: the column is likely in {suggested} (name it `{suffix_hint}` or state its unit)", lo = PLAUSIBLE_C[0], hi = PLAUSIBLE_C[1])]
+    #[error("{file}: column `{column}`: the temperatures (median {median} {declared}) are {median_c:.1} °C, outside what a MEMS die reaches ({lo}…{hi} °C); read as {suggested} they would be {suggested_c:.1} °C: the column is likely in {suggested} (name it `{hint}` or state its unit)", lo = PLAUSIBLE_C[0], hi = PLAUSIBLE_C[1], declared = .declared.describe(), suggested = .suggested.describe(), hint = unit_hint(*.suggested))]
     Unit {
         file: String,
         column: String,
+        /// The median in the stated unit, and in °C.
         median: f64,
-        declared: &'static str,
         median_c: f64,
-        suggested: &'static str,
+        declared: TemperatureUnit,
+        /// The unit in which the median lies within [`OPERATING_C`], and its value there, °C.
+        suggested: TemperatureUnit,
         suggested_c: f64,
-        suffix_hint: String,
     },
-    #[error("{file}: column `{column}`: the temperatures (median {median} {declared}) are {median_c:.1} °C, outside what a MEMS die reaches ({lo}…{hi} °C), and no temperature unit spincal knows makes them plausible: is it the temperature column?", lo = PLAUSIBLE_C[0], hi = PLAUSIBLE_C[1])]
+    #[error("{file}: column `{column}`: the temperatures (median {median} {declared}) are {median_c:.1} °C, outside what a MEMS die reaches ({lo}…{hi} °C), and no temperature unit spincal knows makes them plausible: is it the temperature column?", lo = PLAUSIBLE_C[0], hi = PLAUSIBLE_C[1], declared = .declared.describe())]
     NotATemperature {
         file: String,
         column: String,
         median: f64,
-        declared: &'static str,
         median_c: f64,
+        declared: TemperatureUnit,
     },
+}
+
+/// How a user states `unit` for a column: its name's suffix, or the option.
+fn unit_hint(unit: TemperatureUnit) -> String {
+    match unit {
+        TemperatureUnit::Mpu6050Counts => "temperature_unit mpu6050counts".into(),
+        _ => format!("temp_{}", unit.name()),
+    }
 }
 
 /// Checks a temperature column's unit from its values (in °C, converted from `declared`): a
@@ -381,25 +390,21 @@ pub fn check_unit(
         .find(|(_, c)| (OPERATING_C[0]..=OPERATING_C[1]).contains(c));
     let (file, column) = (file.to_string(), column.to_string());
     Err(match suggestion {
-        Some((unit, suggested_c)) => TemperatureError::Unit {
+        Some((suggested, suggested_c)) => TemperatureError::Unit {
             file,
-            suffix_hint: match unit {
-                TemperatureUnit::Mpu6050Counts => "temperature_unit mpu6050counts".into(),
-                _ => format!("temp_{}", unit.name()),
-            },
             column,
             median,
-            declared: declared.describe(),
             median_c,
-            suggested: unit.describe(),
+            declared,
+            suggested,
             suggested_c,
         },
         None => TemperatureError::NotATemperature {
             file,
             column,
             median,
-            declared: declared.describe(),
             median_c,
+            declared,
         },
     })
 }

@@ -465,6 +465,10 @@ fn quantile(values: &[f64], q: f64) -> f64 {
 pub(crate) const MIN_SPAN_C: f64 = 3.0;
 
 /// Fits the thermal model to still recordings (each in one orientation) that carry a temperature.
+/// The temperatures are taken as given: a campaign checks them first
+/// ([`super::checks`], masking glitches, resets and implausible values). A model that breaks the
+/// plausibility limits ([`ThermalModel::check_plausible`]), or whose lag fits best at the top of
+/// `lags_s`, is refused.
 pub fn fit_thermal(
     stills: &[&Recording],
     settings: &ThermalSettings,

@@ -59,6 +59,11 @@ pub struct ThermalModel {
     pub fitted_range_c: [f64; 2],
 }
 
+/// `value ≤ limit`, false for NaN: a limit check that refuses what is not a number.
+fn at_most(value: f64, limit: f64) -> bool {
+    value <= limit
+}
+
 fn polynomial(coefficients: &[f64], dt: f64) -> f64 {
     coefficients.iter().rev().fold(0.0, |acc, c| (acc + c) * dt)
 }
@@ -204,14 +209,14 @@ impl ThermalModel {
             ),
         ];
         for (field, values, limit, unit) in limits {
-            if let Some(k) = (0..3).find(|&k| !(values[k].abs() <= limit)) {
+            if let Some(k) = (0..3).find(|&k| !at_most(values[k].abs(), limit)) {
                 return Err(InvalidField::new(
                     format!("{field}[{k}]"),
                     format!("{}{unit}: beyond ±{limit}{unit}, more than any MEMS accelerometer's datasheet allows", values[k]),
                 ));
             }
         }
-        if !(self.lag_s <= MAX_LAG_S) {
+        if !at_most(self.lag_s, MAX_LAG_S) {
             return Err(InvalidField::new(
                 "lag_s",
                 format!("{} s: a temperature sensor lagging the die by more than {MAX_LAG_S} s is not measuring the die", self.lag_s),
@@ -225,24 +230,24 @@ impl ThermalModel {
         for t in grid {
             let (b, g) = (self.bias_change(t), self.scale_change(t));
             for k in 0..3 {
-                if !(b[k].abs() <= bias[k].0) {
+                if !at_most(b[k].abs(), bias[k].0) {
                     bias[k] = (b[k].abs(), t);
                 }
-                if !(g[k].abs() <= gain[k].0) {
+                if !at_most(g[k].abs(), gain[k].0) {
                     gain[k] = (g[k].abs(), t);
                 }
             }
         }
         for k in 0..3 {
             let (change, at) = bias[k];
-            if !(change <= MAX_BIAS_CHANGE_MPS2) {
+            if !at_most(change, MAX_BIAS_CHANGE_MPS2) {
                 return Err(InvalidField::new(
                     format!("bias_per_c[{k}]"),
                     format!("the bias changes by {change:.3e} m/s² at {at} °C: at most {MAX_BIAS_CHANGE_MPS2:.2} m/s² (half a g) over the fitted range"),
                 ));
             }
             let (change, at) = gain[k];
-            if !(change <= MAX_GAIN_CHANGE) {
+            if !at_most(change, MAX_GAIN_CHANGE) {
                 return Err(InvalidField::new(
                     format!("scale_per_c[{k}]"),
                     format!("the gain changes by {change:.3e} (relative) at {at} °C: at most {MAX_GAIN_CHANGE} over the fitted range"),
