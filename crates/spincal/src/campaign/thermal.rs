@@ -6,12 +6,12 @@
 //! fit, the candidates and the held-out verdict then run unchanged on those readings, and the
 //! saved model.json carries the thermal model for `correct` to apply first.
 //!
-//! The temperatures are checked first ([`check_temperatures`], `thermal::checks`, the rules
+//! The temperatures are checked first (`check_temperatures`, `thermal::checks`, the rules
 //! `correct` runs): implausible samples, glitches and resets are held at the last trusted value
 //! (masked: kept out of the die estimate, the fit and the fitted range, the rows kept), a stuck
 //! sensor's recording is used without its temperature, and every finding is named with its file
 //! and line in results.json (`temperature_findings`). A column in the wrong unit is refused
-//! before ([`check_temperature_units`]).
+//! before (`check_temperature_units`).
 //!
 //! What it cannot see: the thermal coefficients are fitted on every still pose, so the
 //! temperature bands held out by the campaign (`temperature_bands`) test the static
