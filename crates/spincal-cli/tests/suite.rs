@@ -29,4 +29,5 @@ mod phone_cli;
 mod real_files;
 mod resources;
 mod strobe;
+mod temperature_cli;
 mod thermal_cli;

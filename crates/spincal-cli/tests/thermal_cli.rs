@@ -105,13 +105,18 @@ fn a_thermal_campaign_calibrates_and_corrects_by_temperature() {
             .arg(cal.join("model.json")),
     );
     assert!(
-        stderr.contains("2 of") && stderr.contains("reference temperature"),
+        stderr.contains("1 of") && stderr.contains("reference temperature"),
+        "{stderr}"
+    );
+    // 95 °C between two rows at about 25 °C is faster than a die can change: a glitch.
+    assert!(
+        stderr.contains("suspect-temperature") && stderr.contains("line 201"),
         "{stderr}"
     );
     let (_, statuses) = corrected_magnitudes(&stdout);
     assert_eq!(statuses.len(), lines.len() - 1, "every row written");
     assert_eq!(statuses[99], "no-temperature");
-    assert_eq!(statuses[199], "outside-temperature-range");
+    assert_eq!(statuses[199], "suspect-temperature");
     assert_eq!(statuses.iter().filter(|s| *s == "ok").count(), statuses.len() - 2);
 
     // The firmware code holds no temperature correction: it says so instead of dropping it.

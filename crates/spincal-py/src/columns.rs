@@ -397,17 +397,18 @@ pub fn recording_from_columns(
 }
 
 /// What each row's `status` code means: `spincal correct`'s status column.
-pub const STATUS_NAMES: [&str; 6] = [
+pub const STATUS_NAMES: [&str; 7] = [
     "ok",
     "physics-only",
     "outside-range",
     "no-temperature",
     "outside-temperature-range",
+    "suspect-temperature",
     "refused",
 ];
 
 /// The code of a refused row (the last of [`STATUS_NAMES`]).
-const REFUSED: u8 = 5;
+const REFUSED: u8 = 6;
 
 /// Corrected rows: accel (n, 3) m/s² (every axis; uncorrected ones pass through), gyro (n, 3)
 /// rad/s or None, valid (n,), outside the training range (n,), status code (n,) (an index into
@@ -478,6 +479,16 @@ pub fn correct_rows<'py>(
         .as_deref()
         .and_then(TemperatureUnit::parse)
         .unwrap_or(TemperatureUnit::C);
+    // The unit checked from the first rows, as `spincal correct` does, before any row.
+    if let (Some(_), Some(t)) = (&file.thermal, &temperature) {
+        let first: Vec<f64> = t
+            .iter()
+            .take(spincal::thermal::checks::UNIT_CHECK_ROWS)
+            .map(|&v| temperature_unit.to_celsius(v))
+            .collect();
+        spincal::thermal::checks::check_unit("the data", "temperature", &first, temperature_unit)
+            .map_err(|e| usage(e.to_string()))?;
+    }
     let run = || {
         // Made here: the stream's state stays on the thread that runs without the GIL.
         let mut corrector = RowCorrector::new(file, units, gyro.is_some())?;
@@ -537,6 +548,7 @@ pub fn correct_rows<'py>(
                         RowStatus::OutsideRange => 2,
                         RowStatus::NoTemperature => 3,
                         RowStatus::OutsideTemperatureRange => 4,
+                        RowStatus::SuspectTemperature => 5,
                     };
                 }
             }

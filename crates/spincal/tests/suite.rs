@@ -29,5 +29,6 @@ mod sessions;
 mod shared_files;
 mod sysid;
 mod sysid_benchmarks;
+mod temperature_checks;
 mod thermal;
 mod turntable_fit;

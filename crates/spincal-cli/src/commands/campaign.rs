@@ -174,6 +174,19 @@ pub fn summary(output: &CampaignOutput, out: &Path) -> String {
     if let Some(e) = &r.gyro_error {
         let _ = writeln!(text, "\ngyroscope not calibrated: {e}");
     }
+    if !r.temperature_findings.is_empty() {
+        let _ = writeln!(
+            text,
+            "\ntemperature: {} sample(s) kept out of the thermal fit:",
+            r.temperature_masked_samples
+        );
+        for finding in &r.temperature_findings {
+            let _ = writeln!(text, "  {finding}");
+        }
+    }
+    if let Some(note) = &r.thermal_note {
+        let _ = writeln!(text, "\n{note}");
+    }
     let dir = out.display();
     let _ = writeln!(
         text,

@@ -401,7 +401,7 @@ class Corrected:
     None), ``valid`` (n,) (False for the first rows without a full delay history, for rows a
     network does not correct and for refused rows), ``outside_training_range`` (n,), and
     ``status`` (n,): ``ok``, ``physics-only``, ``outside-range``, ``no-temperature``,
-    ``outside-temperature-range`` or ``refused: row …: why`` (a
+    ``outside-temperature-range``, ``suspect-temperature`` or ``refused: row …: why`` (a
     value that is not a finite number, time going backwards; the row's corrected values are
     NaN), the words of ``spincal correct``'s status column. ``refused`` maps each refused row's
     position to its reason. For a model whose parameters' covariance predicts its error (the

@@ -18,7 +18,9 @@ use crate::correctors::corrector::{Axis, Corrected, Corrector};
 use crate::correctors::division::DivisionMode;
 use crate::correctors::linear::LinearModel;
 use crate::correctors::model_file::CorrectorModel;
-use crate::correctors::physical::{PhysicalCorrector, SensorCovariance, SensorModel, SensorUncertainty};
+use crate::correctors::physical::{
+    PhysicalCorrector, SensorCovariance, SensorModel, SensorUncertainty, SENSOR_PARAMS,
+};
 use crate::correctors::physical_ann::{InputCoverage, PhysicalAnnCorrector};
 use crate::input::recording::Recording;
 use crate::progress::Observer;
@@ -404,22 +406,30 @@ impl Trainer for PhysicalCandidate {
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
         let fit = t.fit(self.0, observer)?;
         let mut physical = physical_corrector(t, &fit);
-        // A model that leaves terms out (q at zero) errs by what it left out: its error bars take
-        // the fuller fit's covariance, with each left-out term's estimate squared added to its
-        // variance (the bias of setting it to zero; a Wald test that kept it out allows up to
-        // 3.29 standard errors).
+        // A model that leaves terms out (q at zero) errs by what it left out: the left-out term
+        // itself and what the kept terms absorbed of it (their alias, −Σ_oq/Σ_qq of the fuller
+        // fit's covariance). Its error bars add that, per left-out term, with the term's square
+        // estimated without bias as q̂² − se² (the fuller fit's; zero when below).
         if self.0 != t.joint.terms {
             let full = t.fit(t.joint.terms, observer)?;
-            if let (Some(uncertainty), Some(mut covariance)) =
+            if let (Some(uncertainty), Some(fuller)) =
                 (physical.uncertainty.as_mut(), full.sensor_covariance())
             {
+                let kept = physical.sensor.params();
                 let theta = full.sensor.params();
-                for (k, value) in theta.iter().enumerate() {
-                    if physical.sensor.params()[k] == 0.0 && *value != 0.0 {
-                        covariance[k][k] += value * value;
+                for q in (0..SENSOR_PARAMS).filter(|&q| kept[q] == 0.0 && fuller[q][q] > 0.0) {
+                    let square = (theta[q] * theta[q] - fuller[q][q]).max(0.0);
+                    let w: [f64; SENSOR_PARAMS] = std::array::from_fn(|o| match o {
+                        _ if o == q => 1.0,
+                        _ if kept[o] == 0.0 => 0.0,
+                        _ => -fuller[o][q] / fuller[q][q],
+                    });
+                    for a in 0..SENSOR_PARAMS {
+                        for b in 0..SENSOR_PARAMS {
+                            uncertainty.covariance[a][b] += w[a] * w[b] * square;
+                        }
                     }
                 }
-                uncertainty.covariance = covariance;
             }
         }
         Ok(Trained::Corrector(CorrectorModel::Physical(Box::new(physical))))

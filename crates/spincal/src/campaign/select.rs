@@ -27,7 +27,7 @@ use crate::campaign::evaluate::{conditions, Condition, Evaluation, HeldOutEvalua
 use crate::campaign::gyro::{fit_gyro, GyroFit};
 use crate::campaign::joint::{fit_joint, fit_joint_from, JointError, JointFit, JointSettings, GEOMETRY};
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
-use crate::campaign::thermal::{temperature_bands, thermal_stage, CampaignThermal};
+use crate::campaign::thermal::{check_temperature_units, temperature_bands, thermal_stage, CampaignThermal};
 use crate::correctors::model_file::CorrectorFile;
 use crate::progress::{Observer, Progress};
 
@@ -42,6 +42,9 @@ pub enum CampaignCalError {
     Input(#[from] InputError),
     #[error(transparent)]
     Params(#[from] ParamError),
+    /// A temperature column in the wrong unit (named, with the likely one).
+    #[error(transparent)]
+    Temperature(#[from] crate::thermal::checks::TemperatureError),
 }
 
 /// The prior on q of the first, data-only fit, 1/(m/s²): far beyond any datasheet, so that it
@@ -215,6 +218,13 @@ pub struct CampaignResult {
     /// Why no thermal model was fitted although the recordings have a temperature.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub thermal_note: Option<String>,
+    /// Temperature samples the checks kept out of the thermal fit (glitches, resets, implausible
+    /// values, a stuck sensor), each named with its file and line.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub temperature_findings: Vec<crate::thermal::checks::TemperatureFinding>,
+    /// How many samples they are.
+    #[serde(default)]
+    pub temperature_masked_samples: usize,
     pub conditions: Vec<Condition>,
     pub held_out: Vec<HeldOutScore>,
     pub candidates: Vec<CandidateSummary>,
@@ -262,6 +272,7 @@ pub fn calibrate_campaign(
     let started = Instant::now();
     settings.check()?;
     check_recordings(units)?;
+    check_temperature_units(units)?;
     let mut clock = Instant::now();
     // Temperature first: everything after runs on readings taken to the reference temperature.
     let stage = thermal_stage(units, &settings.thermal, settings.joint.gravity_mps2);
@@ -354,6 +365,8 @@ pub fn calibrate_campaign(
             gyro_error,
             thermal: stage.thermal,
             thermal_note: stage.note,
+            temperature_findings: stage.findings,
+            temperature_masked_samples: stage.masked_samples,
             conditions,
             held_out,
             candidates: summaries,

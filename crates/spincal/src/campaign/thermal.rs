@@ -6,6 +6,13 @@
 //! fit, the candidates and the held-out verdict then run unchanged on those readings, and the
 //! saved model.json carries the thermal model for `correct` to apply first.
 //!
+//! The temperatures are checked first (`check_temperatures`, `thermal::checks`, the rules
+//! `correct` runs): implausible samples, glitches and resets are held at the last trusted value
+//! (masked: kept out of the die estimate, the fit and the fitted range, the rows kept), a stuck
+//! sensor's recording is used without its temperature, and every finding is named with its file
+//! and line in results.json (`temperature_findings`). A column in the wrong unit is refused
+//! before (`check_temperature_units`).
+//!
 //! What it cannot see: the thermal coefficients are fitted on every still pose, so the
 //! temperature bands held out by the campaign (`temperature_bands`) test the static
 //! correctors across temperature, not the thermal coefficients themselves; those are tested by
@@ -15,7 +22,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::campaign::prepare::{still_intervals, Prepared, UnitRecording};
 use crate::input::recording::Recording;
-use crate::thermal::{fit_thermal, ThermalFit, ThermalSettings};
+use crate::thermal::checks::{
+    check_track, check_unit, is_stuck, temperature_column, unit_of_column, FindingKind, TemperatureError,
+    TemperatureFinding,
+};
+use crate::thermal::{fit_thermal, ThermalFit, ThermalSettings, MIN_SPAN_C};
 
 /// What the thermal stage did (results.json `thermal`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -40,6 +51,99 @@ pub(crate) struct ThermalStage {
     pub thermal: Option<CampaignThermal>,
     /// Why no thermal model was fitted, when the campaign has a temperature at all.
     pub note: Option<String>,
+    /// What the temperature checks found, and how many samples they masked.
+    pub findings: Vec<TemperatureFinding>,
+    pub masked_samples: usize,
+}
+
+/// Every temperature column's unit checked from its values ([`check_unit`]): a column in the
+/// wrong unit is refused, naming the file, the column and the likely unit.
+pub(crate) fn check_temperature_units(units: &[UnitRecording]) -> Result<(), TemperatureError> {
+    for unit in units {
+        let rec = &unit.recording;
+        if let Some(temperature) = &rec.temperature_c {
+            let column = temperature_column(rec);
+            check_unit(&unit.name, &column, temperature, unit_of_column(&column))?;
+        }
+    }
+    Ok(())
+}
+
+/// The recordings with their temperatures checked, and what was found.
+pub(crate) struct CheckedTemperatures {
+    /// Masked samples held at the last trusted value; a stuck recording without temperature.
+    pub units: Vec<UnitRecording>,
+    pub findings: Vec<TemperatureFinding>,
+    pub masked_samples: usize,
+}
+
+/// Each recording's temperature through the sample rules ([`check_track`]); a recording whose
+/// temperature never changes for [`crate::thermal::checks::STUCK_AFTER_S`] while the other
+/// recordings' (trusted) temperatures span at least [`MIN_SPAN_C`] (the campaign records
+/// temperature change, so its sensor should show some) is stuck, and used without temperature.
+pub(crate) fn check_temperatures(units: &[UnitRecording]) -> CheckedTemperatures {
+    let checks: Vec<_> = units
+        .iter()
+        .map(|u| {
+            let rec = &u.recording;
+            rec.temperature_c
+                .as_ref()
+                .map(|t| check_track(&u.name, &rec.source.lines, &rec.time_s, t))
+        })
+        .collect();
+    let spans: Vec<Option<[f64; 2]>> = units
+        .iter()
+        .zip(&checks)
+        .map(|(u, check)| {
+            let (t, check) = (u.recording.temperature_c.as_ref()?, check.as_ref()?);
+            let trusted = t.iter().zip(&check.masked).filter(|(_, &m)| !m).map(|(&v, _)| v);
+            trusted.fold(None, |span: Option<[f64; 2]>, v| {
+                Some(span.map_or([v, v], |[lo, hi]| [lo.min(v), hi.max(v)]))
+            })
+        })
+        .collect();
+    let mut out = units.to_vec();
+    let (mut findings, mut masked_samples) = (Vec::new(), 0);
+    for (i, (unit, check)) in out.iter_mut().zip(checks).enumerate() {
+        let Some(mut check) = check else {
+            continue;
+        };
+        let rec = &mut unit.recording;
+        let Some(temperature) = rec.temperature_c.take() else {
+            continue;
+        };
+        let others = spans
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| j != i)
+            .filter_map(|(_, s)| *s)
+            .fold(None, |acc: Option<[f64; 2]>, [lo, hi]| {
+                Some(acc.map_or([lo, hi], |[a, b]| [a.min(lo), b.max(hi)]))
+            });
+        let changes_elsewhere = others.is_some_and(|[lo, hi]| hi - lo >= MIN_SPAN_C);
+        if let Some(value_c) =
+            is_stuck(&rec.time_s, &temperature, &check.masked).filter(|_| changes_elsewhere)
+        {
+            findings.push(TemperatureFinding {
+                file: unit.name.clone(),
+                line: rec.source.lines.first().copied().unwrap_or(1),
+                kind: FindingKind::Stuck,
+                samples: rec.len(),
+                value_c,
+                duration_s: rec.duration_s(),
+            });
+            masked_samples += rec.len();
+            continue;
+        }
+        masked_samples += check.masked_samples();
+        rec.temperature_c = check.held(&temperature);
+        findings.append(&mut check.findings);
+    }
+    CheckedTemperatures {
+        units: out,
+        findings,
+        masked_samples,
+    }
 }
 
 /// The still poses of every still recording that has a temperature, each as its own recording
@@ -83,14 +187,25 @@ pub(crate) fn thermal_stage(
     settings: &ThermalSettings,
     gravity_mps2: f64,
 ) -> ThermalStage {
+    if units.iter().all(|u| u.recording.temperature_c.is_none()) {
+        return ThermalStage {
+            normalised_units: None,
+            thermal: None,
+            note: None,
+            findings: Vec::new(),
+            masked_samples: 0,
+        };
+    }
+    let checked = check_temperatures(units);
+    let (findings, masked_samples) = (checked.findings, checked.masked_samples);
+    let units = &checked.units[..];
     let unchanged = |note: Option<String>| ThermalStage {
         normalised_units: None,
         thermal: None,
         note,
+        findings: findings.clone(),
+        masked_samples,
     };
-    if units.iter().all(|u| u.recording.temperature_c.is_none()) {
-        return unchanged(None);
-    }
     let poses = still_poses(units);
     if poses.is_empty() {
         return unchanged(Some(
@@ -135,6 +250,8 @@ pub(crate) fn thermal_stage(
             die_c,
         }),
         note: None,
+        findings,
+        masked_samples,
     }
 }
 

@@ -9,6 +9,7 @@ use crate::correctors::gyro::GyroCorrector;
 use crate::correctors::model_file::CorrectorFile;
 use crate::correctors::physical::{predicted_to_help, PhysicalCorrector};
 use crate::thermal::causal::CausalDieTemperature;
+use crate::thermal::checks::{SampleCheck, TemperatureTrack};
 use crate::thermal::ThermalModel;
 
 /// How far outside the thermal model's range a reported temperature still feeds the die estimate,
@@ -48,6 +49,11 @@ pub enum RowStatus {
     /// The die temperature lay outside the range the thermal model was fitted on: corrected as at
     /// the reference temperature, `valid` false.
     OutsideTemperatureRange,
+    /// The reported temperature broke the sample rules of [`crate::thermal::checks`] (outside
+    /// what a die reaches, or faster than a die can change: a glitch or a sensor reset): kept out
+    /// of the die estimate, the row corrected at the last die temperature (at the reference
+    /// before any), `valid` false.
+    SuspectTemperature,
 }
 
 impl RowStatus {
@@ -58,6 +64,7 @@ impl RowStatus {
             RowStatus::OutsideRange => "outside-range",
             RowStatus::NoTemperature => "no-temperature",
             RowStatus::OutsideTemperatureRange => "outside-temperature-range",
+            RowStatus::SuspectTemperature => "suspect-temperature",
         }
     }
 }
@@ -110,9 +117,19 @@ pub struct RowCorrector<'a> {
     /// time goes backwards refused.
     needs_time: bool,
     /// The thermal model and its die-temperature estimate, when the model file has one.
-    thermal: Option<(&'a ThermalModel, CausalDieTemperature)>,
+    thermal: Option<Thermal<'a>>,
     /// The model whose covariance predicts each row's error, when it has one.
     error_model: Option<&'a PhysicalCorrector>,
+}
+
+/// What a row corrector keeps to correct for temperature.
+struct Thermal<'a> {
+    model: &'a ThermalModel,
+    die: CausalDieTemperature,
+    /// The reported temperature's sample rules, the same as the thermal fit's.
+    track: TemperatureTrack,
+    /// The last die temperature estimated, °C.
+    last_die_c: Option<f64>,
 }
 
 /// The gyro sensitivity in a model file cannot be inverted.
@@ -135,10 +152,12 @@ impl<'a> RowCorrector<'a> {
             units,
             previous_time_s: None,
             needs_time: file.corrector.warmup_samples() > 0 || file.thermal.is_some(),
-            thermal: file
-                .thermal
-                .as_ref()
-                .map(|m| (m, CausalDieTemperature::new(m.lag_s, m.smoothing_s))),
+            thermal: file.thermal.as_ref().map(|model| Thermal {
+                model,
+                die: CausalDieTemperature::new(model.lag_s, model.smoothing_s),
+                track: TemperatureTrack::new(),
+                last_die_c: None,
+            }),
             error_model: file.corrector.error_model(),
         })
     }
@@ -216,25 +235,40 @@ impl<'a> RowCorrector<'a> {
         let reading_mps2 = accel.map(|a| a * u.accel_to_mps2);
         let mut accel_mps2 = reading_mps2;
         let mut thermal_status = None;
-        if let Some((model, die)) = &mut self.thermal {
+        if let Some(thermal) = &mut self.thermal {
+            let model = thermal.model;
             let [lo, hi] = model.fitted_range_c;
             thermal_status = match temperature_c.filter(|v| v.is_finite()) {
                 None => Some(RowStatus::NoTemperature),
-                // A reading far outside the range (a glitch, another sensor's value) is kept out
-                // of the die estimate, which it would spoil for a whole window.
-                Some(v) if v < lo - FEED_MARGIN_C || v > hi + FEED_MARGIN_C => {
-                    Some(RowStatus::OutsideTemperatureRange)
-                }
-                Some(v) => {
-                    // Without a clock the lag cannot be undone: the reported value stands.
-                    let d = t.map_or(v, |t| die.update(t, v));
-                    if model.covers(d) {
-                        accel_mps2 = model.to_reference(accel_mps2, d);
-                        None
-                    } else {
+                Some(v) => match thermal.track.check(t, v) {
+                    // Kept out of the die estimate; the die is where it last was.
+                    SampleCheck::Implausible | SampleCheck::Discontinuous => {
+                        if let Some(d) = thermal.last_die_c.filter(|&d| model.covers(d)) {
+                            accel_mps2 = model.to_reference(accel_mps2, d);
+                        }
+                        Some(RowStatus::SuspectTemperature)
+                    }
+                    // A reading far outside the range (another sensor's value) is kept out
+                    // of the die estimate, which it would spoil for a whole window.
+                    SampleCheck::Trusted if v < lo - FEED_MARGIN_C || v > hi + FEED_MARGIN_C => {
                         Some(RowStatus::OutsideTemperatureRange)
                     }
-                }
+                    SampleCheck::Trusted => {
+                        if thermal.track.restarted() {
+                            // The rows before were a glitch: the estimate starts again here.
+                            thermal.die = CausalDieTemperature::new(model.lag_s, model.smoothing_s);
+                        }
+                        // Without a clock the lag cannot be undone: the reported value stands.
+                        let d = t.map_or(v, |t| thermal.die.update(t, v));
+                        thermal.last_die_c = Some(d);
+                        if model.covers(d) {
+                            accel_mps2 = model.to_reference(accel_mps2, d);
+                            None
+                        } else {
+                            Some(RowStatus::OutsideTemperatureRange)
+                        }
+                    }
+                },
             };
         }
         let sample = self.stream.correct_sample(accel_mps2);

@@ -380,6 +380,17 @@ fn thermal_section(r: &CampaignResult, h: &mut String) -> Result<(), PlotError> 
     if let Some(note) = &r.thermal_note {
         let _ = write!(h, "<h2>Temperature</h2><p>{}</p>", escape(note));
     }
+    if !r.temperature_findings.is_empty() {
+        let _ = write!(
+            h,
+            "<p>{} temperature sample(s) were kept out of the thermal fit (held at the last trusted value):</p><ul>",
+            r.temperature_masked_samples
+        );
+        for finding in &r.temperature_findings {
+            let _ = write!(h, "<li>{}</li>", escape(&finding.to_string()));
+        }
+        h.push_str("</ul>");
+    }
     let Some(t) = &r.thermal else {
         return Ok(());
     };

@@ -73,6 +73,10 @@ pub enum ThermalError {
     TooShort { file: String, window_s: f64 },
     #[error("the still recordings span {span_c:.2} °C of die temperature; a thermal model needs at least {needed_c} °C (record a warm-up, or poses at several temperatures)")]
     NarrowRange { span_c: f64, needed_c: f64 },
+    /// The fitted model breaks the plausibility limits ([`ThermalModel::check_plausible`]): it
+    /// is not saved.
+    #[error("the fitted thermal model is implausible ({field}: {reason}); it is not saved")]
+    Implausible { field: String, reason: String },
     #[error("parameter thermal.{name} = {value}: {why}")]
     Setting {
         name: &'static str,
@@ -458,6 +462,10 @@ fn quantile(values: &[f64], q: f64) -> f64 {
 pub(crate) const MIN_SPAN_C: f64 = 3.0;
 
 /// Fits the thermal model to still recordings (each in one orientation) that carry a temperature.
+/// The temperatures are taken as given: a campaign checks them first
+/// ([`super::checks`], masking glitches, resets and implausible values). A model that breaks the
+/// plausibility limits ([`ThermalModel::check_plausible`]), or whose lag fits best at the top of
+/// `lags_s`, is refused.
 pub fn fit_thermal(
     stills: &[&Recording],
     settings: &ThermalSettings,
@@ -497,6 +505,12 @@ pub fn fit_thermal(
         solve(&all, chosen.0, chosen.1, reference_c, gravity)
     };
     let model = problem.model(&solved.params, lag_s, settings.smoothing_s, range);
+    // A lag searched for and found at the top of the grid is not determined (0 is a physical
+    // bound, not an edge: a sensor may not lag).
+    model.check_plausible().map_err(|e| ThermalError::Implausible {
+        field: e.field,
+        reason: e.reason,
+    })?;
     let se = |o: usize, k: usize, order: usize| -> Vec<f64> {
         (0..order)
             .map(|j| solved.covariance_diagonal[o + k * order + j].max(0.0).sqrt())

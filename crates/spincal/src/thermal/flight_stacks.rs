@@ -62,6 +62,12 @@ pub enum FlightStackError {
         value: String,
         why: &'static str,
     },
+    /// The model breaks the plausibility limits that `spincal correct` also refuses
+    /// ([`ThermalModel::check_plausible`]).
+    #[error(
+        "parameter thermal.{field}: {reason}; spincal correct refuses this model too, so it is not exported"
+    )]
+    Implausible { field: String, reason: String },
     #[error("{what} {value}: {why}")]
     Target {
         what: &'static str,
@@ -212,6 +218,13 @@ fn check(model: &ThermalModel, stack: &'static str) -> Result<(), FlightStackErr
             }
         }
     }
+    // What `correct` would refuse is not exported either.
+    model
+        .check_plausible()
+        .map_err(|e| FlightStackError::Implausible {
+            field: e.field,
+            reason: e.reason,
+        })?;
     for (axis, coefficients) in model.bias_per_c.iter().enumerate() {
         // Zeros past the cubic are no term at all.
         if let Some(index) = coefficients

@@ -20,6 +20,7 @@
 //! through its steps' midpoints ([`dequantised`]).
 
 pub mod causal;
+pub mod checks;
 mod fit;
 pub mod flight_stacks;
 
@@ -27,6 +28,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::input::recording::Recording;
 
+pub(crate) use fit::MIN_SPAN_C;
 pub use fit::{fit_thermal, OrderScore, ThermalError, ThermalFit, ThermalSettings};
 
 /// Sensor parameters at the reference temperature that the thermal model carries (no
@@ -57,6 +59,11 @@ pub struct ThermalModel {
     pub fitted_range_c: [f64; 2],
 }
 
+/// `value ≤ limit`, false for NaN: a limit check that refuses what is not a number.
+fn at_most(value: f64, limit: f64) -> bool {
+    value <= limit
+}
+
 fn polynomial(coefficients: &[f64], dt: f64) -> f64 {
     coefficients.iter().rev().fold(0.0, |acc, c| (acc + c) * dt)
 }
@@ -81,9 +88,36 @@ impl InvalidField {
 /// The highest order of β and ρ a model may hold.
 pub(crate) const MAX_ORDER: usize = 3;
 
+/// The most a thermal model may move the bias over its fitted range, m/s² (half a g). Datasheet
+/// offset drifts of MEMS accelerometers reach about 2 mg/°C at worst (consumer parts' z axis), a
+/// quarter of a g over −40…85 °C; a larger change is a fit to something else, or an edited file.
+pub const MAX_BIAS_CHANGE_MPS2: f64 = 0.5 * crate::input::recording::STANDARD_GRAVITY;
+
+/// The most a thermal model may change an axis's gain over its fitted range (10 %): datasheet
+/// sensitivity drifts are 0.01–0.03 %/°C, a few per cent over the whole operating range.
+pub const MAX_GAIN_CHANGE: f64 = 0.1;
+
+/// The largest bias at T_ref a thermal model may hold, m/s² (1 g; consumer parts' datasheets
+/// allow up to about 0.15 g).
+pub const MAX_BIAS_MPS2: f64 = crate::input::recording::STANDARD_GRAVITY;
+
+/// The largest scale error at T_ref (20 %; datasheets give a few per cent).
+pub const MAX_SCALE_ERROR: f64 = 0.2;
+
+/// The largest misalignment, rad (0.1 rad, 5.7°; datasheet cross-axis sensitivities are 1–2 %).
+pub const MAX_MISALIGNMENT_RAD: f64 = 0.1;
+
+/// The longest lag of the reported temperature behind the die, s: a sensor on the die or beside
+/// it follows within a minute or two; five minutes is a sensor somewhere else.
+pub const MAX_LAG_S: f64 = 300.0;
+
+/// Points on the fitted range where the plausibility limits are evaluated.
+const PLAUSIBILITY_GRID: usize = 201;
+
 impl ThermalModel {
     /// Checks a model read from a file: finite values, orders up to `MAX_ORDER`, a lag and a
-    /// smoothing that are not negative, an ordered range, and a gain that stays positive over it.
+    /// smoothing that are not negative, an ordered range, a gain that stays positive over it, and
+    /// the plausibility limits ([`ThermalModel::check_plausible`]).
     /// Fields are named as in the file (`bias_per_c[2]`).
     pub fn validate(&self) -> Result<(), InvalidField> {
         let finite = |field: &str, values: &[f64]| match values.iter().find(|v| !v.is_finite()) {
@@ -134,6 +168,89 @@ impl ThermalModel {
                         "the gain change reaches {:.3} at {t} °C: must stay between 0.5 and 2",
                         gain[k]
                     ),
+                ));
+            }
+        }
+        self.check_plausible()
+    }
+
+    /// The plausibility limits of a thermal model, stated once ([`MAX_BIAS_CHANGE_MPS2`],
+    /// [`MAX_GAIN_CHANGE`], [`MAX_BIAS_MPS2`], [`MAX_SCALE_ERROR`], [`MAX_MISALIGNMENT_RAD`],
+    /// [`MAX_LAG_S`], the range and T_ref within [`checks::PLAUSIBLE_C`]): what `correct` (through
+    /// [`ThermalModel::validate`]), the thermal fit and the flight-stack exports all refuse. The
+    /// changes are evaluated over the fitted range and T_ref. Expects finite values (`validate`
+    /// checks them first).
+    pub fn check_plausible(&self) -> Result<(), InvalidField> {
+        let [lo_c, hi_c] = checks::PLAUSIBLE_C;
+        let [lo, hi] = self.fitted_range_c;
+        if !(lo >= lo_c && hi <= hi_c) {
+            return Err(InvalidField::new(
+                "fitted_range_c",
+                format!("[{lo}, {hi}] °C: a MEMS die's temperature lies within {lo_c}…{hi_c} °C"),
+            ));
+        }
+        if !(lo_c..=hi_c).contains(&self.reference_c) {
+            return Err(InvalidField::new(
+                "reference_c",
+                format!(
+                    "{} °C: a MEMS die's temperature lies within {lo_c}…{hi_c} °C",
+                    self.reference_c
+                ),
+            ));
+        }
+        let limits = [
+            ("bias_mps2", self.bias_mps2, MAX_BIAS_MPS2, "m/s²"),
+            ("scale_error", self.scale_error, MAX_SCALE_ERROR, ""),
+            (
+                "misalignment_rad",
+                self.misalignment_rad,
+                MAX_MISALIGNMENT_RAD,
+                "rad",
+            ),
+        ];
+        for (field, values, limit, unit) in limits {
+            if let Some(k) = (0..3).find(|&k| !at_most(values[k].abs(), limit)) {
+                return Err(InvalidField::new(
+                    format!("{field}[{k}]"),
+                    format!("{}{unit}: beyond ±{limit}{unit}, more than any MEMS accelerometer's datasheet allows", values[k]),
+                ));
+            }
+        }
+        if !at_most(self.lag_s, MAX_LAG_S) {
+            return Err(InvalidField::new(
+                "lag_s",
+                format!("{} s: a temperature sensor lagging the die by more than {MAX_LAG_S} s is not measuring the die", self.lag_s),
+            ));
+        }
+        let span = hi - lo;
+        let grid = (0..PLAUSIBILITY_GRID)
+            .map(|i| lo + span * i as f64 / (PLAUSIBILITY_GRID - 1) as f64)
+            .chain(std::iter::once(self.reference_c));
+        let (mut bias, mut gain) = ([(0.0f64, 0.0f64); 3], [(0.0f64, 0.0f64); 3]);
+        for t in grid {
+            let (b, g) = (self.bias_change(t), self.scale_change(t));
+            for k in 0..3 {
+                if !at_most(b[k].abs(), bias[k].0) {
+                    bias[k] = (b[k].abs(), t);
+                }
+                if !at_most(g[k].abs(), gain[k].0) {
+                    gain[k] = (g[k].abs(), t);
+                }
+            }
+        }
+        for k in 0..3 {
+            let (change, at) = bias[k];
+            if !at_most(change, MAX_BIAS_CHANGE_MPS2) {
+                return Err(InvalidField::new(
+                    format!("bias_per_c[{k}]"),
+                    format!("the bias changes by {change:.3e} m/s² at {at} °C: at most {MAX_BIAS_CHANGE_MPS2:.2} m/s² (half a g) over the fitted range"),
+                ));
+            }
+            let (change, at) = gain[k];
+            if !at_most(change, MAX_GAIN_CHANGE) {
+                return Err(InvalidField::new(
+                    format!("scale_per_c[{k}]"),
+                    format!("the gain changes by {change:.3e} (relative) at {at} °C: at most {MAX_GAIN_CHANGE} over the fitted range"),
                 ));
             }
         }

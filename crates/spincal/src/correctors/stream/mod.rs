@@ -66,6 +66,9 @@ pub enum CorrectError {
     Columns(Box<RecordingError>),
     #[error(transparent)]
     Model(#[from] SingularGyro),
+    /// The temperature column is in another unit than its name says (the model needs it).
+    #[error(transparent)]
+    Temperature(#[from] crate::thermal::checks::TemperatureError),
     #[error(transparent)]
     Output(#[from] OutputError),
     /// Writing the rows failed (a closed pipe included: its kind is `BrokenPipe`).

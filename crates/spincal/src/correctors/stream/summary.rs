@@ -41,6 +41,10 @@ pub struct StreamSummary {
     /// (`predicted_better` 0), and the first's line.
     pub not_predicted_better: usize,
     pub first_not_predicted_better: Option<usize>,
+    /// Rows whose reported temperature broke the sample rules (status `suspect-temperature`),
+    /// and the first's line.
+    pub suspect_temperature: usize,
+    pub first_suspect_temperature: Option<usize>,
 }
 
 impl StreamSummary {
@@ -61,6 +65,10 @@ impl StreamSummary {
     pub(super) fn corrected(&mut self, line: usize, status: RowStatus) {
         match status {
             RowStatus::Ok => {}
+            RowStatus::SuspectTemperature => {
+                self.suspect_temperature += 1;
+                self.first_suspect_temperature.get_or_insert(line);
+            }
             RowStatus::NoTemperature | RowStatus::OutsideTemperatureRange => {
                 self.thermal_fallback += 1;
                 self.first_thermal_fallback.get_or_insert((line, status.as_str()));
@@ -127,6 +135,17 @@ impl StreamSummary {
             out.push(format!(
                 "{name}: on {} of {} rows (first at line {line}) the model's own covariance does not predict the correction to beat no correction on every axis (`predicted_better` 0: a correction smaller than √2 of its standard deviation, `<column>_corrected_sd`); there the campaign did not determine the sensor",
                 self.not_predicted_better, self.rows
+            ));
+        }
+        if let Some(line) = self.first_suspect_temperature {
+            out.push(format!(
+                "{name}: {} of {} rows have a reported temperature outside what a die reaches ({}…{} °C) or changing faster than a die can ({} °C/s: a glitch or a sensor reset); \
+                 kept out of the die-temperature estimate, corrected at the last die temperature, status `suspect-temperature`, valid 0; the first at line {line}",
+                self.suspect_temperature,
+                self.rows,
+                crate::thermal::checks::PLAUSIBLE_C[0],
+                crate::thermal::checks::PLAUSIBLE_C[1],
+                crate::thermal::checks::MAX_SLEW_C_PER_S,
             ));
         }
         if let Some(first) = &self.first_skipped {

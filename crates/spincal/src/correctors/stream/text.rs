@@ -10,6 +10,7 @@ use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::correctors::rows::{RowCorrector, RowOutcome, RowValue, UnitFactors};
 use crate::input::recording::{ColumnMap, ColumnPlan, TemperatureUnit};
 use crate::input::table::{Delimiter, Record, RowReader};
+use crate::thermal::checks::{check_unit, UNIT_CHECK_ROWS};
 
 /// The original fields of a refused line, as many as the table is wide (missing ones empty, extra
 /// ones kept together in the last).
@@ -269,6 +270,16 @@ pub(super) fn correct_text(
         notes = columns
             .settle_time(&mut times, name, &[])
             .map_err(crate::input::recording::RecordingError::from)?;
+    }
+    // The temperature's unit, from the rows read ahead, before any row is written.
+    if let (Some(_), Some((c, unit))) = (&model.thermal, temperature) {
+        let values: Vec<f64> = pending
+            .iter()
+            .filter(|p| matches!(p.record, Record::Parsed { .. }))
+            .take(UNIT_CHECK_ROWS)
+            .map(|p| unit.to_celsius(p.values[c]))
+            .collect();
+        check_unit(name, &header[c], &values, unit)?;
     }
     let units = UnitFactors {
         time_to_s: columns.time_to_s(),

@@ -9,6 +9,7 @@ use super::{CorrectError, StreamSummary};
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::correctors::rows::{RowCorrector, RowOutcome, RowValue, UnitFactors};
 use crate::input::formats::Loaded;
+use crate::thermal::checks::{check_unit, temperature_column, unit_of_column};
 
 /// Refuses a file of raw counts for a model that takes SI values, and the other way round.
 fn check_counts(model: &CorrectorFile, loaded: &Loaded, name: &str) -> Result<(), CorrectError> {
@@ -53,6 +54,10 @@ pub(super) fn correct_loaded(
         .as_ref()
         .is_some_and(|g| g.input_unit.is_rad_per_s() != loaded.gyro_counts);
     let gyro = rec.gyro_radps.as_ref().filter(|_| gyro_unit_fits);
+    if let (Some(_), Some(temperature)) = (&model.thermal, &rec.temperature_c) {
+        let column = temperature_column(rec);
+        check_unit(name, &column, temperature, unit_of_column(&column))?;
+    }
     let units = UnitFactors::SI;
     let mut corrector = RowCorrector::new(model, units, gyro.is_some())?;
     let gyro = gyro.filter(|_| corrector.corrects_gyro());

@@ -134,6 +134,11 @@ fn find_any(header: &[String], names: &[String]) -> Option<usize> {
 }
 
 /// Reads a unit from a column-name suffix: `ax_g`, `t_ms`, `gx (deg/s)`.
+/// The temperature unit a column's name states (`temp_k`, `temperature (°F)`), if any.
+pub fn temperature_unit_of_name(name: &str) -> Option<TemperatureUnit> {
+    unit_from_name(name, TemperatureUnit::parse)
+}
+
 fn unit_from_name<U>(name: &str, parse: impl Fn(&str) -> Option<U>) -> Option<U> {
     let lower = name.to_ascii_lowercase();
     if let (Some(open), Some(close)) = (lower.rfind('('), lower.rfind(')')) {

@@ -16,7 +16,7 @@ mod read;
 pub mod time;
 mod units;
 
-pub use columns::{ColumnMap, ColumnPlan};
+pub use columns::{temperature_unit_of_name, ColumnMap, ColumnPlan};
 pub use units::{AccelUnit, GyroUnit, TemperatureUnit, TimeUnit, STANDARD_GRAVITY};
 
 /// Where a recording came from and how it was read.

@@ -119,6 +119,26 @@ impl TemperatureUnit {
             TemperatureUnit::Mpu6050Counts => value / 340.0 + 36.53,
         }
     }
+    /// The value in this unit of `celsius` °C (the inverse of [`TemperatureUnit::to_celsius`]).
+    pub fn from_celsius(self, celsius: f64) -> f64 {
+        match self {
+            TemperatureUnit::C => celsius,
+            TemperatureUnit::K => celsius + 273.15,
+            TemperatureUnit::F => celsius * 9.0 / 5.0 + 32.0,
+            TemperatureUnit::Mpu6050Counts => (celsius - 36.53) * 340.0,
+        }
+    }
+
+    /// Its name for people (`kelvin`, `°F`).
+    pub fn describe(self) -> &'static str {
+        match self {
+            TemperatureUnit::C => "°C",
+            TemperatureUnit::K => "kelvin",
+            TemperatureUnit::F => "°F",
+            TemperatureUnit::Mpu6050Counts => "MPU-6050 counts",
+        }
+    }
+
     /// Its name as [`TemperatureUnit::parse`] reads it (and as serde writes it).
     pub fn name(self) -> &'static str {
         match self {
