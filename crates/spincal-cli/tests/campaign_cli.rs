@@ -44,7 +44,13 @@ fn simulated_campaign_calibrates_end_to_end() {
     assert!(model["corrector"].is_object(), "{model}");
     let n = results["conditions"].as_array().unwrap().len();
     assert!(n >= 2, "{n} held-out conditions");
-    assert!(verdict.starts_with(&format!("Saved {saved} (")), "{verdict}");
+    // The verdict leads with where the saved physical model can be trusted, then what was saved.
+    assert_eq!(
+        verdict.starts_with("Trusted where"),
+        results["error_map"].is_object(),
+        "{verdict}"
+    );
+    assert!(verdict.contains(&format!("Saved {saved} (")), "{verdict}");
     assert!(
         verdict.contains(&format!("validated on {n} conditions it never trained on")),
         "{verdict}"
