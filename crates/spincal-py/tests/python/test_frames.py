@@ -278,7 +278,8 @@ def test_a_thermal_model_corrects_a_frame_by_its_temperature_as_the_cli_does(cli
         for column in ("ax_mps2_corrected", "ay_mps2_corrected", "az_mps2_corrected"):
             assert float(row[column]) == ours.at[k, column], (k, column)
     assert ours.at[50, "status"] == "no-temperature"
-    assert ours.at[60, "status"] == "outside-temperature-range"
+    # A lone 95 °C among warm rows is a glitch a die cannot make: kept out of the die estimate.
+    assert ours.at[60, "status"] == "suspect-temperature"
     assert (ours["status"] == "ok").sum() == len(ours) - 2
     # Without the temperature every row is marked, with a warning.
     with pytest.warns(UserWarning, match="no temperature"):
