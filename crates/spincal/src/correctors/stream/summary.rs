@@ -2,7 +2,7 @@
 
 use serde::Serialize;
 
-use crate::correctors::rows::RowStatus;
+use crate::correctors::rows::{PredictedError, RowStatus};
 
 /// Refused rows whose reasons are kept for the summary.
 const LISTED_REFUSALS: usize = 5;
@@ -55,14 +55,12 @@ impl StreamSummary {
         }
     }
 
-    /// Counts a corrected row whose correction is not predicted to beat no correction.
-    pub(super) fn not_better(&mut self, line: usize) {
-        self.not_predicted_better += 1;
-        self.first_not_predicted_better.get_or_insert(line);
-    }
-
-    /// Counts a corrected row.
-    pub(super) fn corrected(&mut self, line: usize, status: RowStatus) {
+    /// Counts a corrected row: its status, and whether its correction is predicted to beat none.
+    pub(super) fn corrected(&mut self, line: usize, status: RowStatus, predicted: Option<PredictedError>) {
+        if predicted.is_some_and(|p| !p.better) {
+            self.not_predicted_better += 1;
+            self.first_not_predicted_better.get_or_insert(line);
+        }
         match status {
             RowStatus::Ok => {}
             RowStatus::SuspectTemperature => {

@@ -192,10 +192,7 @@ impl TextStream<'_, '_> {
                 predicted,
                 ..
             } => {
-                if predicted.is_some_and(|p| !p.better) {
-                    self.summary.not_better(line_no);
-                }
-                self.summary.corrected(line_no, status);
+                self.summary.corrected(line_no, status, predicted);
                 self.sink.row(text, &corrected, valid, status.as_str())?;
             }
             RowOutcome::Refused(reason) => {

@@ -143,10 +143,7 @@ pub(super) fn correct_loaded(
                 predicted,
                 ..
             } => {
-                if predicted.is_some_and(|p| !p.better) {
-                    summary.not_better(line_no);
-                }
-                summary.corrected(line_no, status);
+                summary.corrected(line_no, status, predicted);
                 sink.row(&input, &corrected, valid, status.as_str())?;
             }
             RowOutcome::Refused(reason) => {
