@@ -217,16 +217,16 @@ fn place_of(error: &(dyn std::error::Error + 'static)) -> Place {
 fn load_place(e: &LoadError) -> Option<Place> {
     use LoadError as L;
     let (campaign, line, key) = match e {
-        L::Recording { campaign, line, .. } | L::RawCounts { campaign, line, .. } => {
-            (campaign, *line, "file")
-        }
+        L::Recording { campaign, line, .. } => (campaign, *line, "file"),
+        L::RawCounts { campaign, line, .. } => (campaign, *line, "accel_range_g"),
+        L::RawGyroCounts { campaign, line, .. } => (campaign, *line, "gyro_range_dps"),
         L::Companion {
             campaign, line, key, ..
         }
         | L::CompanionLength {
             campaign, line, key, ..
         } => (campaign, *line, *key),
-        L::Columns { campaign, line, .. } => (campaign, *line, "columns"),
+        L::GyroFile { campaign, line, .. } => (campaign, *line, "gyro_file"),
         _ => return None,
     };
     Some(Place {

@@ -23,6 +23,7 @@ mod gyro_poses;
 mod model_validation;
 #[cfg(feature = "phone")]
 mod phone;
+mod placements;
 mod readers_prop;
 mod real_imu;
 mod sessions;

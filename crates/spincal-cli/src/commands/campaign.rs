@@ -99,6 +99,9 @@ pub fn summary(output: &CampaignOutput, out: &Path) -> String {
             rule.threshold
         );
     }
+    for placement in &r.placements {
+        let _ = writeln!(text, "{}", placement.sentence());
+    }
     text.push('\n');
     text.push_str("held-out condition            corrector        residual vs physics x y z (m/s²)  uncorrected              ratio (95 % bound) predicted  vs truth\n");
     for h in &r.held_out {

@@ -36,6 +36,17 @@ pub struct ReadArgs {
     /// Multiply (value − offset) by this to get m/s² (turns raw counts into SI).
     #[arg(long, value_name = "M/S²_PER_UNIT", value_parser = super::values::finite, allow_negative_numbers = true)]
     pub accel_scale: Option<f64>,
+    /// A 16-bit accelerometer's configured range, ± g (2, 4, 8, 16: the MPU-6050's AFS_SEL):
+    /// sets --accel-scale for its raw counts.
+    #[arg(long, value_name = "G", conflicts_with = "accel_scale", value_parser = super::values::finite)]
+    pub accel_range_g: Option<f64>,
+    /// Multiply the gyro columns by this to get rad/s (turns raw counts into SI).
+    #[arg(long, value_name = "RAD/S_PER_UNIT", value_parser = super::values::finite, allow_negative_numbers = true)]
+    pub gyro_scale: Option<f64>,
+    /// A 16-bit gyro's configured range, ± °/s (125 … 2000: the MPU-6050's FS_SEL; its default is
+    /// 250): sets --gyro-scale for its raw counts.
+    #[arg(long, value_name = "DEG/S", conflicts_with = "gyro_scale", value_parser = super::values::finite)]
+    pub gyro_range_dps: Option<f64>,
     /// Per-axis offset `x,y,z` subtracted before --accel-scale (file units).
     #[arg(long, value_parser = parse_triple, allow_hyphen_values = true, value_name = "X,Y,Z")]
     pub accel_offset: Option<[f64; 3]>,
@@ -110,11 +121,35 @@ impl ReadArgs {
                 .into());
             }
         }
+        let range = |value: Option<f64>, flag: &str, of_range: fn(f64) -> Option<f64>, ranges: &[f64]| {
+            value
+                .map(|r| {
+                    of_range(r).ok_or_else(|| {
+                        UsageError(format!(
+                            "--{flag} {r}: a 16-bit part's ranges are {ranges:?}; for another part give the scale itself"
+                        ))
+                    })
+                })
+                .transpose()
+        };
+        let accel_range = range(
+            self.accel_range_g,
+            "accel-range-g",
+            formats::accel_scale_of_range_g,
+            &formats::ACCEL_RANGES_G,
+        )?;
+        let gyro_range = range(
+            self.gyro_range_dps,
+            "gyro-range-dps",
+            formats::gyro_scale_of_range_dps,
+            &formats::GYRO_RANGES_DPS,
+        )?;
         Ok(ReadOptions {
             format: self.format.map(Into::into),
             columns: self.column_map()?,
-            accel_scale: self.accel_scale,
+            accel_scale: self.accel_scale.or(accel_range),
             accel_offset: self.accel_offset,
+            gyro_scale: self.gyro_scale.or(gyro_range),
             sample_rate_hz: self.sample_rate,
             gx1: formats::gx1::Gx1Options {
                 accel_gain_scale: self.gx1_accel_gain,
@@ -151,7 +186,7 @@ impl ReadArgs {
         }
         if loaded.raw_counts {
             return Err(UsageError(format!(
-                "{}: the {} file holds raw counts; spincal needs m/s² or g here (pass --accel-scale, or use `spincal static` to calibrate the counts first)",
+                "{}: the {} file holds raw counts; spincal needs m/s² or g here (pass --accel-range-g or --accel-scale, or use `spincal static` to calibrate the counts first)",
                 path.display(),
                 loaded.format.name()
             ))

@@ -25,6 +25,7 @@ use crate::correctors::corrector::Corrector;
 use crate::input::recording::Recording;
 use crate::progress::{Observer, Progress, StageTime};
 use crate::turntable::fit::fit_turntable;
+use crate::turntable::fit::RadiusPrior;
 use crate::turntable::fit::{FitError, TurntableFit};
 use crate::turntable::sensitivity::{sensitivity_table, SensitivityInput, SensitivityRow};
 
@@ -149,11 +150,14 @@ fn paper_units(recordings: &[Recording], turntable: &TurntableFit, settings: &Pa
                 recording: recording.clone(),
                 turntable: Some(TurntableEntry {
                     rpm: fit.rate.rpm,
-                    radius_m,
-                    radius_tol_m,
+                    radius: Some(RadiusPrior {
+                        value_m: radius_m,
+                        tolerance_m: radius_tol_m,
+                    }),
                     out,
                     up,
                     direction: None,
+                    placement: None,
                 }),
                 truth: None,
                 floor_mps2: None,

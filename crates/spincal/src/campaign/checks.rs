@@ -116,8 +116,15 @@ fn check_run(run: &RunInput, gravity: f64) -> Result<(), InputError> {
     let along = (0..3).map(|k| mean[k] * up[k]).sum::<f64>();
     let magnitude = norm(&mean);
     let omega = entry.rpm * std::f64::consts::PI / 30.0;
-    let expected = (gravity * gravity + (omega * omega * entry.radius_m).powi(2)).sqrt();
-    check_magnitude(&run.name, magnitude, expected, "turntable run's mean")?;
+    // Without a stated radius the centripetal level is the fit's to find: gravity along the
+    // spindle is what physics fixes.
+    match entry.radius {
+        Some(stated) => {
+            let expected = (gravity * gravity + (omega * omega * stated.value_m).powi(2)).sqrt();
+            check_magnitude(&run.name, magnitude, expected, "turntable run's mean")?;
+        }
+        None => check_magnitude(&run.name, along.abs(), gravity, "turntable run's mean along `up`")?,
+    }
     let angle = (along / magnitude.max(f64::MIN_POSITIVE))
         .clamp(-1.0, 1.0)
         .acos()

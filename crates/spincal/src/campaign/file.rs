@@ -12,17 +12,28 @@
 //! file = "t33-r09.csv"
 //! kind = "turntable"
 //! rpm = 33.333                    # nominal; the rate is measured from the data
-//! radius_m = 0.09
+//! radius_m = 0.09                 # optional (with the next): the chip's radius by ruler
 //! radius_tol_m = 0.002
+//! placement = "A"                 # optional: runs made without moving the device
 //! out = "+x"                      # sensor axis pointing away from the spindle
 //! up = "+z"                       # sensor axis along the spindle, upwards
 //! direction = "cw"                # optional: cw or ccw seen from above; found from the data
 //! truth = "t33-r09.truth.csv"     # optional: true specific force per sample (simulations)
 //! ```
+//! A run's `radius_m` is the chip's distance from the spindle, within `radius_tol_m` (a ruler's
+//! tolerance, or a wide one around a point the user can measure, such as a phone's centre).
+//! Runs with the same `placement` were made without moving the device: they share one radius,
+//! fitted from the runs. Without a stated radius the placement needs two speeds (or runs in a
+//! `session` with still poses, which pins their bias offset), and its radius is the runs' alone.
+//!
 //! Optional per recording: `session` (recordings with the same label were made in one power-on
 //! of the sensor and share one bias offset; without it each recording has its own offset, and
-//! the spread of those offsets is estimated from the recordings), `columns` and `accel_unit` (as
-//! the CLI's flags), `truth`,
+//! the spread of those offsets is estimated from the recordings); how to read it, as the CLI's
+//! flags: `format`, `columns`, `accel_unit`, `gyro_unit`, `time_unit`, `sample_rate_hz`,
+//! `retime`, `topic`, `accel_scale` and `accel_offset`, `gyro_scale`, or for a 16-bit part's raw
+//! counts its configured ranges `accel_range_g` (2, 4, 8, 16: the MPU-6050's AFS_SEL) and
+//! `gyro_range_dps` (125 … 2000: its FS_SEL); `gyro_file` (the gyro recorded beside it, sample
+//! for sample, as imu_tk lays it out); `truth`,
 //! `noise_floor_mps2` (the RMS per axis of the error no corrector can remove, when known) and
 //! `random_error` (that error per sample, a file shaped like the recording: t and three axes, m/s²;
 //! the floor of any part of the recording is then its RMS over exactly those samples).
@@ -33,7 +44,11 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::input::recording::{AccelUnit, STANDARD_GRAVITY};
+use crate::input::formats::{
+    accel_scale_of_range_g, gyro_scale_of_range_dps, Format, ReadOptions, ACCEL_RANGES_G, GYRO_RANGES_DPS,
+};
+use crate::input::recording::{AccelUnit, ColumnMap, GyroUnit, TimeUnit, STANDARD_GRAVITY};
+use crate::turntable::fit::RadiusPrior;
 use crate::turntable::model::Direction;
 
 /// A sensor axis with a sign, as `out` and `up` name them.
@@ -94,11 +109,13 @@ impl SignedAxis {
 #[derive(Debug, Clone, PartialEq)]
 pub struct TurntableEntry {
     pub rpm: f64,
-    pub radius_m: f64,
-    pub radius_tol_m: f64,
+    /// The chip's radius as measured (`radius_m` ± `radius_tol_m`); `None`: fitted from the runs.
+    pub radius: Option<RadiusPrior>,
     pub out: SignedAxis,
     pub up: SignedAxis,
     pub direction: Option<Direction>,
+    /// The placement it shares with runs made without moving the device, when the campaign says.
+    pub placement: Option<String>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -109,15 +126,17 @@ pub enum EntryKind {
 }
 
 /// One recording of the campaign.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct CampaignEntry {
     /// Resolved path (relative entries are taken relative to the campaign file).
     pub file: PathBuf,
     /// Line of the `[[recording]]` table in the campaign file.
     pub line: usize,
     pub kind: EntryKind,
-    pub columns: Option<String>,
-    pub accel_unit: Option<AccelUnit>,
+    /// How to read it (the CLI's reading flags, from the entry's keys).
+    pub read: ReadOptions,
+    /// The gyro recorded beside it in a file of its own, sample for sample.
+    pub gyro_file: Option<PathBuf>,
     pub truth: Option<PathBuf>,
     pub noise_floor_mps2: Option<[f64; 3]>,
     pub random_error: Option<PathBuf>,
@@ -126,7 +145,7 @@ pub struct CampaignEntry {
 }
 
 /// A parsed campaign file.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct Campaign {
     pub unit: String,
     /// The campaign file itself.
@@ -197,10 +216,23 @@ struct RawEntry {
     direction: Option<Spanned<String>>,
     columns: Option<Spanned<String>>,
     accel_unit: Option<Spanned<String>>,
+    format: Option<Spanned<String>>,
+    gyro_unit: Option<Spanned<String>>,
+    time_unit: Option<Spanned<String>>,
+    sample_rate_hz: Option<Spanned<f64>>,
+    retime: Option<bool>,
+    topic: Option<Spanned<String>>,
+    accel_scale: Option<Spanned<f64>>,
+    accel_offset: Option<Spanned<Vec<f64>>>,
+    gyro_scale: Option<Spanned<f64>>,
+    accel_range_g: Option<Spanned<f64>>,
+    gyro_range_dps: Option<Spanned<f64>>,
+    gyro_file: Option<Spanned<String>>,
     truth: Option<Spanned<String>>,
     noise_floor_mps2: Option<Spanned<Vec<f64>>>,
     random_error: Option<Spanned<String>>,
     session: Option<Spanned<String>>,
+    placement: Option<Spanned<String>>,
 }
 
 /// 1-based line and column of a byte offset.
@@ -395,16 +427,7 @@ impl Locator {
             return Err(self.at(name_span, "file", "empty"));
         }
         let kind = self.kind(e, span.clone())?;
-        let accel_unit = match &e.accel_unit {
-            None => None,
-            Some(u) => Some(AccelUnit::parse(u.get_ref()).ok_or_else(|| {
-                self.at(
-                    u.span(),
-                    "accel_unit",
-                    format!("'{}': expected g or m/s^2", u.get_ref()),
-                )
-            })?),
-        };
+        let read = self.read_options(e)?;
         let noise_floor_mps2 = match &e.noise_floor_mps2 {
             None => None,
             Some(v) => {
@@ -419,28 +442,144 @@ impl Locator {
                 Some([values[0], values[1], values[2]])
             }
         };
-        let session = match &e.session {
-            Some(s) if s.get_ref().trim().is_empty() => {
-                return Err(self.at(
-                    s.span(),
-                    "session",
-                    "empty: name the power-on session, or leave the key out",
-                ))
-            }
-            Some(s) => Some(s.get_ref().trim().to_string()),
-            None => None,
-        };
+        let session = self.label(&e.session, "session", "the power-on session")?;
         Ok(CampaignEntry {
             file: resolve(base, &name),
             line: self.line(span.start),
             kind,
-            columns: e.columns.as_ref().map(|c| c.get_ref().clone()),
-            accel_unit,
+            read,
+            gyro_file: e.gyro_file.as_ref().map(|g| resolve(base, g.get_ref())),
             truth: e.truth.as_ref().map(|t| resolve(base, t.get_ref())),
             noise_floor_mps2,
             random_error: e.random_error.as_ref().map(|t| resolve(base, t.get_ref())),
             session,
         })
+    }
+
+    /// The entry's reading keys as the library's read options, each checked as the CLI's flag is.
+    fn read_options(&self, e: &RawEntry) -> Result<ReadOptions, CampaignError> {
+        let named = |value: &Option<Spanned<String>>, key: &str, expected: &str| {
+            value.as_ref().map(|v| {
+                let bad = self.at(v.span(), key, format!("'{}': expected {expected}", v.get_ref()));
+                (v.get_ref().clone(), bad)
+            })
+        };
+        let mut columns = ColumnMap::default();
+        if let Some(spec) = &e.columns {
+            columns = columns
+                .with_columns(spec.get_ref())
+                .map_err(|err| self.at(spec.span(), "columns", err.to_string()))?;
+        }
+        if let Some((text, bad)) = named(&e.accel_unit, "accel_unit", "g or m/s^2") {
+            columns.accel_unit = Some(AccelUnit::parse(&text).ok_or(bad)?);
+        }
+        if let Some((text, bad)) = named(&e.gyro_unit, "gyro_unit", "rad/s or deg/s") {
+            columns.gyro_unit = Some(GyroUnit::parse(&text).ok_or(bad)?);
+        }
+        if let Some((text, bad)) = named(&e.time_unit, "time_unit", "s, ms, us or ns") {
+            columns.time_unit = Some(TimeUnit::parse(&text).ok_or(bad)?);
+        }
+        let names = Format::ALL.map(Format::name).join(", ");
+        let format = match named(&e.format, "format", &format!("one of {names}")) {
+            Some((text, bad)) => Some(Format::parse(&text).ok_or(bad)?),
+            None => None,
+        };
+        let optional = |value: &Option<Spanned<f64>>, key: &str, ok: fn(f64) -> bool, why: &str| {
+            value
+                .as_ref()
+                .map(|_| self.number(value, 0..0, key, ok, why))
+                .transpose()
+        };
+        let nonzero = |v: f64| v != 0.0;
+        let positive = |v: f64| v > 0.0;
+        let mut accel_scale = optional(
+            &e.accel_scale,
+            "accel_scale",
+            nonzero,
+            "a finite, non-zero factor",
+        )?;
+        let mut gyro_scale = optional(&e.gyro_scale, "gyro_scale", nonzero, "a finite, non-zero factor")?;
+        // A 16-bit part's range names its scale; the scale itself may not be given as well.
+        for (range, key, scale_key, scale, of_range, ranges) in [
+            (
+                &e.accel_range_g,
+                "accel_range_g",
+                "accel_scale",
+                &mut accel_scale,
+                accel_scale_of_range_g as fn(f64) -> Option<f64>,
+                &ACCEL_RANGES_G[..],
+            ),
+            (
+                &e.gyro_range_dps,
+                "gyro_range_dps",
+                "gyro_scale",
+                &mut gyro_scale,
+                gyro_scale_of_range_dps,
+                &GYRO_RANGES_DPS[..],
+            ),
+        ] {
+            let Some(r) = range else { continue };
+            if scale.is_some() {
+                return Err(self.at(r.span(), key, format!("give `{key}` or `{scale_key}`, not both")));
+            }
+            let list: Vec<String> = ranges.iter().map(|v| v.to_string()).collect();
+            *scale = Some(of_range(*r.get_ref()).ok_or_else(|| {
+                self.at(
+                    r.span(),
+                    key,
+                    format!(
+                        "{}: a 16-bit part's ranges are {}; for another part give `{scale_key}` (SI units per count)",
+                        r.get_ref(),
+                        list.join(", ")
+                    ),
+                )
+            })?);
+        }
+        let accel_offset = match &e.accel_offset {
+            None => None,
+            Some(v) => match v.get_ref()[..] {
+                [x, y, z] if [x, y, z].iter().all(|c| c.is_finite()) => Some([x, y, z]),
+                _ => {
+                    return Err(self.at(
+                        v.span(),
+                        "accel_offset",
+                        "expected three finite numbers [x, y, z] (file units)",
+                    ))
+                }
+            },
+        };
+        Ok(ReadOptions {
+            format,
+            columns,
+            accel_scale,
+            accel_offset,
+            gyro_scale,
+            sample_rate_hz: optional(
+                &e.sample_rate_hz,
+                "sample_rate_hz",
+                positive,
+                "a positive rate in Hz",
+            )?,
+            topic: e.topic.as_ref().map(|t| t.get_ref().clone()),
+            retime: e.retime.unwrap_or(false),
+            ..ReadOptions::default()
+        })
+    }
+
+    /// An optional label (`session`, `placement`): trimmed, and not empty.
+    fn label(
+        &self,
+        value: &Option<Spanned<String>>,
+        key: &str,
+        what: &str,
+    ) -> Result<Option<String>, CampaignError> {
+        match value {
+            Some(s) if s.get_ref().trim().is_empty() => {
+                Err(self.at(s.span(), key, format!("empty: name {what}, or leave the key out")))
+            }
+            Some(s) => Ok(Some(s.get_ref().trim().to_string())),
+            None => Ok(None),
+        }
     }
 
     /// The entry's kind: a static one must not carry turntable keys.
@@ -453,6 +592,7 @@ impl Locator {
             ("out", e.out.as_ref().map(Spanned::span)),
             ("up", e.up.as_ref().map(Spanned::span)),
             ("direction", e.direction.as_ref().map(Spanned::span)),
+            ("placement", e.placement.as_ref().map(Spanned::span)),
         ];
         match kind_text.as_str() {
             "static" => {
@@ -483,20 +623,32 @@ impl Locator {
             |v| v > 0.0 && v <= 1000.0,
             "must be positive and at most 1000",
         )?;
-        let radius_m = self.number(
-            &e.radius_m,
-            span.clone(),
-            "radius_m",
-            |v| (0.0..=2.0).contains(&v),
-            "must be between 0 and 2 m",
-        )?;
-        let radius_tol_m = self.number(
-            &e.radius_tol_m,
-            span.clone(),
-            "radius_tol_m",
-            |v| v > 0.0 && v <= 2.0,
-            "must be positive (the ruler's tolerance), at most 2 m",
-        )?;
+        let radius = match (&e.radius_m, &e.radius_tol_m) {
+            (None, None) => None,
+            (None, Some(t)) => {
+                return Err(self.at(
+                    t.span(),
+                    "radius_tol_m",
+                    "needs `radius_m`: the tolerance of which radius? (leave both out to fit the radius from the runs)",
+                ))
+            }
+            (Some(_), _) => Some(RadiusPrior {
+                value_m: self.number(
+                    &e.radius_m,
+                    span.clone(),
+                    "radius_m",
+                    |v| (0.0..=2.0).contains(&v),
+                    "must be between 0 and 2 m",
+                )?,
+                tolerance_m: self.number(
+                    &e.radius_tol_m,
+                    span.clone(),
+                    "radius_tol_m",
+                    |v| v > 0.0 && v <= 2.0,
+                    "must be positive (the ruler's tolerance), at most 2 m",
+                )?,
+            }),
+        };
         let axis = |value: &Option<Spanned<String>>, key: &str| -> Result<SignedAxis, CampaignError> {
             let (text, s) = self.required(value, span.clone(), key)?;
             SignedAxis::parse(&text).ok_or_else(|| {
@@ -533,11 +685,11 @@ impl Locator {
         };
         Ok(TurntableEntry {
             rpm,
-            radius_m,
-            radius_tol_m,
+            radius,
             out,
             up,
             direction,
+            placement: self.label(&e.placement, "placement", "the device's placement on the platter")?,
         })
     }
 }
@@ -576,9 +728,65 @@ up = "-z"
         match &c.recordings[1].kind {
             EntryKind::Turntable(t) => {
                 assert_eq!(t.up, SignedAxis { axis: 2, sign: -1 });
-                assert_eq!(t.radius_m, 0.09);
+                assert_eq!(t.radius.map(|r| r.value_m), Some(0.09));
+                assert_eq!(t.placement, None);
             }
             other => panic!("{other:?}"),
+        }
+    }
+
+    /// Without `radius_m` and `radius_tol_m` the radius is left to the fit; a placement is kept.
+    #[test]
+    fn a_run_may_leave_its_radius_to_the_fit_and_name_its_placement() {
+        let text = GOOD.replace(
+            "radius_m = 0.09\nradius_tol_m = 0.002\n",
+            "placement = \" left \"\n",
+        );
+        match &parse(&text).unwrap().recordings[1].kind {
+            EntryKind::Turntable(t) => {
+                assert_eq!(t.radius, None);
+                assert_eq!(t.placement.as_deref(), Some("left"));
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    /// The CLI's reading flags as keys: a 16-bit part's ranges name its scales.
+    #[test]
+    fn an_entry_takes_the_reading_flags_and_a_parts_ranges() {
+        let keys = "format = \"csv\"\ntime_unit = \"ms\"\naccel_range_g = 2\ngyro_range_dps = 250\ngyro_file = \"g.csv\"\nretime = true\n";
+        let c = parse(&GOOD.replace("kind = \"static\"\n", &format!("kind = \"static\"\n{keys}"))).unwrap();
+        let e = &c.recordings[0];
+        assert_eq!(e.read.format, Some(Format::Csv));
+        assert_eq!(e.read.columns.time_unit, Some(TimeUnit::Ms));
+        assert_eq!(e.read.accel_scale, Some(2.0 * STANDARD_GRAVITY / 32768.0));
+        assert_eq!(e.read.gyro_scale, Some(250f64.to_radians() / 32768.0));
+        assert!(e.read.retime);
+        assert_eq!(e.gyro_file.as_deref(), Some(Path::new("runs/g.csv")));
+        let cases = [
+            (
+                "accel_range_g = 3\n",
+                "runs/c.toml:6: `accel_range_g`: 3: a 16-bit part's ranges are 2, 4, 8, 16",
+            ),
+            (
+                "accel_range_g = 2\naccel_scale = 0.001\n",
+                "runs/c.toml:6: `accel_range_g`: give `accel_range_g` or `accel_scale`, not both",
+            ),
+            (
+                "format = \"excel\"\n",
+                "runs/c.toml:6: `format`: 'excel': expected one of",
+            ),
+            ("time_unit = \"fortnight\"\n", "runs/c.toml:6: `time_unit`"),
+            (
+                "accel_offset = [1, 2]\n",
+                "runs/c.toml:6: `accel_offset`: expected three",
+            ),
+        ];
+        for (keys, start) in cases {
+            let e = parse(&GOOD.replace("kind = \"static\"\n", &format!("kind = \"static\"\n{keys}")))
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with(start), "{e} (wanted {start})");
         }
     }
 
@@ -605,6 +813,18 @@ up = "-z"
             (
                 GOOD.replace("out = \"+x\"", "out = \"+w\""),
                 "runs/c.toml:13: `out`",
+            ),
+            (
+                GOOD.replace("radius_m = 0.09\n", ""),
+                "runs/c.toml:11: `radius_tol_m`: needs `radius_m`",
+            ),
+            (
+                GOOD.replace("kind = \"static\"", "kind = \"static\"\nplacement = \"A\""),
+                "runs/c.toml:6: `placement`: only a turntable",
+            ),
+            (
+                GOOD.replace("up = \"-z\"", "up = \"-z\"\nplacement = \" \""),
+                "runs/c.toml:15: `placement`: empty",
             ),
         ];
         for (text, start) in cases {

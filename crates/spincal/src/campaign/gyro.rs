@@ -49,7 +49,11 @@ impl Default for GyroSettings {
     fn default() -> Self {
         GyroSettings {
             bias_instability_radps: 0.01f64.to_radians(),
-            prior_sd: [0.2, 0.2],
+            // K within 5 % of the identity: wider than any MEMS datasheet (the MPU-6050's
+            // sensitivity tolerance is ±3 %, its cross-axis ±2 %), yet narrow enough that the
+            // columns flat runs cannot see (rotation about x and y) do not leak into the one
+            // they can through the spindle's small tilt in the body frame.
+            prior_sd: [0.2, 0.05],
             block_s: 5.0,
             determined_tolerance_radps: 0.005,
             reference_rate_radps: 4.7,

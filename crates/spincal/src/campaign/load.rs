@@ -3,7 +3,7 @@
 use crate::campaign::file::{Campaign, EntryKind};
 use crate::campaign::prepare::UnitRecording;
 use crate::input::formats::{check_input, read_path, FormatError, ReadOptions};
-use crate::input::recording::ColumnMap;
+use crate::input::gyro_file::gyro_columns;
 use crate::output::identity;
 
 #[derive(Debug, thiserror::Error)]
@@ -34,8 +34,8 @@ pub enum LoadError {
         found: usize,
         expected: usize,
     },
-    #[error("{campaign}:{line}: `columns`: {message}")]
-    Columns {
+    #[error("{campaign}:{line}: `gyro_file`: {message}")]
+    GyroFile {
         campaign: String,
         line: usize,
         message: String,
@@ -49,7 +49,13 @@ pub enum LoadError {
         first_line: usize,
         first_file: String,
     },
-    #[error("{campaign}:{line}: `file`: {file} holds raw counts; give `accel_unit` or convert it first")]
+    #[error("{campaign}:{line}: `gyro_range_dps`: {file}'s gyro holds raw counts; give the range the part was set to (`gyro_range_dps`, the MPU-6050's default is 250) or `gyro_scale` (rad/s per count)")]
+    RawGyroCounts {
+        campaign: String,
+        line: usize,
+        file: String,
+    },
+    #[error("{campaign}:{line}: `accel_range_g`: {file} holds raw counts; give the range the part was set to (`accel_range_g`, the MPU-6050's default is 2) or `accel_scale` (m/s² per count)")]
     RawCounts {
         campaign: String,
         line: usize,
@@ -69,7 +75,11 @@ pub fn check_entries(campaign: &Campaign) -> Result<(), LoadError> {
             line: entry.line,
             source: Box::new(source),
         })?;
-        for (key, path) in [("truth", &entry.truth), ("random_error", &entry.random_error)] {
+        for (key, path) in [
+            ("gyro_file", &entry.gyro_file),
+            ("truth", &entry.truth),
+            ("random_error", &entry.random_error),
+        ] {
             if let Some(path) = path {
                 check_input(path).map_err(|source| LoadError::Companion {
                     campaign: name.clone(),
@@ -101,26 +111,41 @@ pub fn load_campaign(campaign: &Campaign) -> Result<Vec<UnitRecording>, LoadErro
     let name = campaign.path.display().to_string();
     let mut out = Vec::with_capacity(campaign.recordings.len());
     for entry in &campaign.recordings {
-        let mut columns = ColumnMap {
-            accel_unit: entry.accel_unit,
-            ..ColumnMap::default()
-        };
-        if let Some(spec) = &entry.columns {
-            columns = columns.with_columns(spec).map_err(|e| LoadError::Columns {
-                campaign: name.clone(),
-                line: entry.line,
-                message: e.to_string(),
-            })?;
-        }
-        let options = ReadOptions {
-            columns,
-            ..ReadOptions::default()
-        };
-        let loaded = read_path(&entry.file, &options).map_err(|source| LoadError::Recording {
+        let mut loaded = read_path(&entry.file, &entry.read).map_err(|source| LoadError::Recording {
             campaign: name.clone(),
             line: entry.line,
             source: Box::new(source),
         })?;
+        if let Some(path) = &entry.gyro_file {
+            let gyro = gyro_columns(
+                Some(path),
+                &loaded,
+                &entry.file.display().to_string(),
+                entry.read.retime,
+            )
+            .map_err(|e| LoadError::GyroFile {
+                campaign: name.clone(),
+                line: entry.line,
+                message: e.to_string(),
+            })?;
+            loaded.gyro_counts = gyro.as_ref().is_some_and(|g| g.counts) && entry.read.gyro_scale.is_none();
+            loaded.recording.gyro_radps = gyro.map(|g| match entry.read.gyro_scale {
+                Some(scale) => g.values.map(|axis| axis.into_iter().map(|v| v * scale).collect()),
+                None => g.values,
+            });
+        }
+        if loaded.gyro_counts {
+            return Err(LoadError::RawGyroCounts {
+                campaign: name.clone(),
+                line: entry.line,
+                file: entry
+                    .gyro_file
+                    .as_ref()
+                    .unwrap_or(&entry.file)
+                    .display()
+                    .to_string(),
+            });
+        }
         if loaded.raw_counts {
             return Err(LoadError::RawCounts {
                 campaign: name.clone(),

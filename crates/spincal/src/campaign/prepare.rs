@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::campaign::file::TurntableEntry;
-use crate::campaign::joint::{PoseInput, PoseWander, RunInput};
+use crate::campaign::joint::{check_placements, PoseInput, PoseWander, RunInput};
 use crate::correctors::static_detect::{detect_static, StaticOptions, StillInterval};
 use crate::input::inspect::saturated_mask;
 use crate::input::recording::Recording;
@@ -59,6 +59,9 @@ pub enum PrepareError {
         samples: usize,
         needed: usize,
     },
+    // Boxed: its names would make every campaign error large.
+    #[error(transparent)]
+    Placement(Box<crate::campaign::joint::PlacementError>),
 }
 
 /// Samples at each end of a still interval left out (the hand may still be settling).
@@ -246,6 +249,9 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
             }
         }
     }
+    let mut pose_sessions: Vec<usize> = out.poses.iter().map(|p| p.session).collect();
+    pose_sessions.dedup();
+    check_placements(&out.runs, &pose_sessions).map_err(|e| PrepareError::Placement(Box::new(e)))?;
     Ok(out)
 }
 

@@ -30,7 +30,14 @@ impl Campaign {
         let mut inputs = vec![self.path.clone()];
         for entry in &self.recordings {
             inputs.push(entry.file.clone());
-            inputs.extend(entry.truth.iter().chain(&entry.random_error).cloned());
+            inputs.extend(
+                entry
+                    .gyro_file
+                    .iter()
+                    .chain(&entry.truth)
+                    .chain(&entry.random_error)
+                    .cloned(),
+            );
         }
         inputs
     }

@@ -25,11 +25,14 @@ use crate::campaign::choice::{
 };
 use crate::campaign::evaluate::{conditions, Condition, Evaluation, HeldOutEvaluation};
 use crate::campaign::gyro::{fit_gyro, GyroFit};
-use crate::campaign::joint::{fit_joint, fit_joint_from, JointError, JointFit, JointSettings, GEOMETRY};
+use crate::campaign::joint::{
+    fit_joint, fit_joint_from, placement_fits, JointError, JointFit, JointSettings, PlacementFit, GEOMETRY,
+};
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
 use crate::campaign::thermal::{check_temperature_units, temperature_bands, thermal_stage, CampaignThermal};
 use crate::correctors::model_file::CorrectorFile;
 use crate::progress::{Observer, Progress};
+use crate::turntable::fit::RadiusPrior;
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -199,6 +202,10 @@ pub struct CampaignResult {
     pub unit: String,
     pub recordings: Vec<String>,
     pub joint: JointFit,
+    /// Each placement's chip radius: stated, fitted, and whether the runs contradict the
+    /// statement.
+    #[serde(default)]
+    pub placements: Vec<PlacementFit>,
     /// Sensor parameters the campaign does not determine, with what would.
     pub undetermined: Vec<(String, String)>,
     /// Whether the data or the prior decided the nonlinearity q.
@@ -305,6 +312,8 @@ pub fn calibrate_campaign(
         Err(e) => (None, Some(e.to_string())),
     };
     lap("gyro fit", &mut stages);
+    let placements = placement_fits(&prepared.runs, &joint);
+    let radii = check_radii(&prepared, &placements);
     let conditions = held_out_conditions(&prepared, stage.thermal.as_ref());
     let candidates: Vec<Box<dyn Candidate + Sync>> =
         settings.candidates.iter().map(|&k| candidate(k)).collect();
@@ -314,6 +323,7 @@ pub fn calibrate_campaign(
         joint: &settings.joint,
         conditions: &conditions,
         offset_sd: offset_spread(&joint, prepared.runs.len()).max(settings.joint.bias_instability_mps2),
+        radii: &radii,
     }
     .score(&candidates, observer);
     lap("held-out conditions", &mut stages);
@@ -332,7 +342,20 @@ pub fn calibrate_campaign(
         thermal: stage.thermal.as_ref(),
         gyro: gyro.as_ref(),
     };
+    let contradicted: Vec<String> = placements
+        .iter()
+        .filter(|p| p.contradicted)
+        .map(PlacementFit::sentence)
+        .collect();
     let (saved, verdict) = match best {
+        // A wrong radius moves the in-plane scale, and held-out runs share it: nothing is saved.
+        Some(_) if !contradicted.is_empty() => (
+            None,
+            format!(
+                "Nothing saved: {}. Measure the radius to the chip again, or leave `radius_m` out and record a second speed in the same placement so that the runs give it.",
+                contradicted.join("; ")
+            ),
+        ),
         Some(best) => save_best(best, settings, &prepared, &joint, &found, observer),
         None if conditions.is_empty() => (None, no_conditions_verdict(&prepared, &undetermined)),
         None => (
@@ -358,6 +381,7 @@ pub fn calibrate_campaign(
             unit: unit.to_string(),
             recordings: units.iter().map(|u| u.name.clone()).collect(),
             joint,
+            placements,
             undetermined,
             nonlinearity,
             terms_rule,
@@ -400,6 +424,24 @@ fn held_out_conditions(prepared: &Prepared, thermal: Option<&CampaignThermal>) -
         );
     }
     conditions
+}
+
+/// Per run, the radius its held-out physics check takes: the stated one, else its placement's
+/// as the joint fit found it (within its standard error), from the placement's runs.
+fn check_radii(prepared: &Prepared, placements: &[PlacementFit]) -> Vec<Option<RadiusPrior>> {
+    prepared
+        .runs
+        .iter()
+        .map(|run| {
+            run.entry.radius.or_else(|| {
+                let placement = placements.iter().find(|p| p.runs.contains(&run.name))?;
+                Some(RadiusPrior {
+                    value_m: placement.radius_m,
+                    tolerance_m: placement.radius_se_m?,
+                })
+            })
+        })
+        .collect()
 }
 
 /// The RMS over runs and axes of the joint fit's per-run bias offsets (at each run's middle), m/s².

@@ -7,7 +7,8 @@
 //! absorb a sensor error but the geometry a real platter has):
 //! - **a turntable run**: the best rigid-platter motion of a perfect sensor
 //!   (`fit_run_geometry`): the rotation rate (measured from the data), the radius within the
-//!   ruler's tolerance, the platter's tilt, the mount's rotation within its prior, wow; no bias
+//!   ruler's tolerance (or, where none was stated, within the standard error of the radius the
+//!   joint fit found for the run's placement), the platter's tilt, the mount's rotation within its prior, wow; no bias
 //!   offset, drift or scale freedom. It sees a scale or bias error along the spindle (the constant
 //!   part must be g cos α with sin α fixed by the rotating part's amplitude), a radial error beyond
 //!   the radius tolerance times ω², a circle that is not one (scale and cross-axis errors in the
@@ -49,6 +50,7 @@ use crate::campaign::joint::{fit_run_geometry, JointSettings};
 use crate::campaign::prepare::{Prepared, UnitRecording};
 use crate::correctors::physical::{propagated_variance, SensorCovariance, SensorModel};
 use crate::metrics::student_t_quantile;
+use crate::turntable::fit::RadiusPrior;
 
 /// Length of a block within a still pose, s: a pose's noise is nearly white, and what moves it as
 /// a whole (the bias between poses) is the offset term's.
@@ -141,6 +143,7 @@ pub(crate) fn condition_samples(
 
 /// Per-sample errors of a signal on a condition: `segments` holds the signal (corrected or not)
 /// on the condition's runs, then on its poses' windows, in the order of `runs` and `poses`.
+/// `radii`: per run, the radius its physics check takes (else its entry's).
 pub(crate) fn sample_errors(
     segments: &[Segment],
     runs: &[usize],
@@ -148,6 +151,7 @@ pub(crate) fn sample_errors(
     prepared: &Prepared,
     units: &[UnitRecording],
     joint: &JointSettings,
+    radii: &[Option<RadiusPrior>],
 ) -> Result<SampleErrors, String> {
     let mut physics = Vec::new();
     let mut truth: Option<Vec<Option<[f64; 3]>>> = Some(Vec::new());
@@ -157,7 +161,8 @@ pub(crate) fn sample_errors(
         let run = &prepared.runs[i];
         let unit = &units[prepared.run_origin[i]];
         let keep = |s: usize| run.keep[s] && signal.valid[s];
-        let seen = run.with_readings(signal.accel.clone(), (0..run.keep.len()).map(keep).collect());
+        let mut seen = run.with_readings(signal.accel.clone(), (0..run.keep.len()).map(keep).collect());
+        seen.entry.radius = radii.get(i).copied().flatten().or(run.entry.radius);
         let fit = fit_run_geometry(&seen, joint).map_err(|e| format!("{}: {e}", run.name))?;
         let reference = fit.run_reference(0, &run.time_s);
         physics.extend(

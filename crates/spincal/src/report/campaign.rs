@@ -179,6 +179,13 @@ fn sensor_section(r: &CampaignResult, h: &mut String) -> Result<(), PlotError> {
         );
     }
     h.push_str("</table>");
+    if !r.placements.is_empty() {
+        h.push_str("<p>Where the chip sat on the platter (runs of one placement share one radius; without a stated radius it comes from the runs' two speeds; its standard error includes its trade with the scale in the platter's plane and with the bias):</p><ul>");
+        for p in &r.placements {
+            let _ = write!(h, "<li>{}</li>", escape(&p.sentence()));
+        }
+        h.push_str("</ul>");
+    }
     if let Some(plot) = sensor_plot(r) {
         h.push_str(&figure(
             &plot,

@@ -93,3 +93,105 @@ pub fn still_pose(
         wander: None,
     }
 }
+
+/// A device on a turntable, from first principles: its centre at `centre_radius_m` from the
+/// spindle, its axes `out` and `up` (sensor axis index, sign) along the platter's radial and
+/// spindle directions but turned by `yaw_rad` about the spindle, and the chip `chip_offset_m`
+/// from the centre along the sensor's own axes. The platter turns counter-clockwise at
+/// `rate_radps` on a spindle tilted by `tilt_rad`.
+#[derive(Debug, Clone, Copy)]
+pub struct Placement {
+    pub centre_radius_m: f64,
+    pub out: (usize, f64),
+    pub up: (usize, f64),
+    pub yaw_rad: f64,
+    pub chip_offset_m: [f64; 3],
+}
+
+impl Placement {
+    /// The sensor axes of the platter's radial (x), tangential (y) and spindle (z) directions at
+    /// the device's centre, as rows: platter vector v is Σ v_j row_j in sensor coordinates.
+    fn platter_in_sensor(&self) -> [[f64; 3]; 3] {
+        let unit = |(axis, sign): (usize, f64)| {
+            let mut v = [0.0; 3];
+            v[axis] = sign;
+            v
+        };
+        let (out, up) = (unit(self.out), unit(self.up));
+        let cross = |a: [f64; 3], b: [f64; 3]| {
+            [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ]
+        };
+        let tangential = cross(up, out);
+        // The device turned by ψ about the spindle: the platter's radial direction, seen from
+        // the device, is turned by −ψ.
+        let (s, c) = self.yaw_rad.sin_cos();
+        let x: [f64; 3] = std::array::from_fn(|k| c * out[k] - s * tangential[k]);
+        let y: [f64; 3] = std::array::from_fn(|k| s * out[k] + c * tangential[k]);
+        [x, y, up]
+    }
+
+    /// The spindle's upward direction in sensor coordinates.
+    pub fn spindle_in_sensor(&self) -> [f64; 3] {
+        self.platter_in_sensor()[2]
+    }
+
+    /// The chip's distance from the spindle, m.
+    pub fn chip_radius_m(&self) -> f64 {
+        let [x, y, _] = self.platter_in_sensor();
+        let d = self.chip_offset_m;
+        let along = |axis: [f64; 3]| (0..3).map(|k| axis[k] * d[k]).sum::<f64>();
+        ((self.centre_radius_m + along(x)).powi(2) + along(y).powi(2)).sqrt()
+    }
+
+    /// The specific force at the chip in sensor coordinates at time `t` (s).
+    pub fn specific_force(&self, rate_radps: f64, tilt_rad: f64, phase_rad: f64, t: f64) -> [f64; 3] {
+        let [x, y, z] = self.platter_in_sensor();
+        let d = self.chip_offset_m;
+        let along = |axis: [f64; 3]| (0..3).map(|k| axis[k] * d[k]).sum::<f64>();
+        // The chip's position in the platter plane; its acceleration is −ω² times it.
+        let (px, py) = (self.centre_radius_m + along(x), along(y));
+        // World up seen from the turning platter turns backwards.
+        let theta = phase_rad - rate_radps * t;
+        let up = [
+            tilt_rad.sin() * theta.cos(),
+            tilt_rad.sin() * theta.sin(),
+            tilt_rad.cos(),
+        ];
+        let w2 = rate_radps * rate_radps;
+        let platter = [-w2 * px + G * up[0], -w2 * py + G * up[1], G * up[2]];
+        std::array::from_fn(|k| platter[0] * x[k] + platter[1] * y[k] + platter[2] * z[k])
+    }
+}
+
+/// One run of `duration_s` at `rate_hz` as the joint fit takes it: the device placed as
+/// `placement`, the platter at `rate_radps` (its nominal `rpm` is what the user states), tilted
+/// 2 mrad, white noise, bias offset `offset`.
+#[allow(clippy::too_many_arguments)]
+pub fn turntable_run(
+    sensor: &Sensor,
+    placement: &Placement,
+    entry: spincal::campaign::file::TurntableEntry,
+    rate_radps: f64,
+    offset: [f64; 3],
+    duration_s: f64,
+    rate_hz: f64,
+    name: &str,
+    rng: &mut ChaCha8Rng,
+) -> spincal::campaign::joint::RunInput {
+    let phase = rng.gen_range(0.0..std::f64::consts::TAU);
+    let samples = (duration_s * rate_hz) as usize;
+    let time_s: Vec<f64> = (0..samples).map(|s| s as f64 / rate_hz).collect();
+    let mut accel: [Vec<f64>; 3] = Default::default();
+    for &t in &time_s {
+        let clean = sensor.read(placement.specific_force(rate_radps, 2e-3, phase, t), offset);
+        for k in 0..3 {
+            let z: f64 = StandardNormal.sample(rng);
+            accel[k].push(clean[k] + sensor.noise_mps2 * z);
+        }
+    }
+    spincal::campaign::joint::RunInput::new(name.to_string(), time_s, accel, vec![true; samples], entry, None)
+}

@@ -6,6 +6,7 @@
 // Axis loops index the read and the true values side by side.
 #![allow(clippy::needless_range_loop)]
 
+mod campaign;
 mod writer;
 
 use spincal::input::formats::phone::{read_pair, PhoneError};

@@ -13,6 +13,7 @@ use crate::campaign::verdict::{
     ConditionSamples, Prediction, SampleErrors, Segment,
 };
 use crate::progress::{Observer, Progress};
+use crate::turntable::fit::RadiusPrior;
 
 /// Each condition of a campaign held out in turn: every candidate trained on the rest and scored
 /// on it by physics, and against truth where a simulation carries it.
@@ -23,6 +24,9 @@ pub struct HeldOutEvaluation<'a> {
     pub conditions: &'a [Condition],
     /// The spread of the per-run bias offsets, which a comparison allows for, m/s².
     pub offset_sd: f64,
+    /// Per run, the radius its physics check takes: the stated one, else its placement's as the
+    /// joint fit found it from the placement's runs.
+    pub radii: &'a [Option<RadiusPrior>],
 }
 
 impl Evaluation for HeldOutEvaluation<'_> {
@@ -68,7 +72,7 @@ impl HeldOutEvaluation<'_> {
             self.units,
             self.joint,
         );
-        let uncorrected = errors_on(None, condition, prepared, self.units, self.joint);
+        let uncorrected = errors_on(None, condition, prepared, self.units, self.joint, self.radii);
         candidates
             .iter()
             .map(|cand| {
@@ -111,9 +115,16 @@ impl HeldOutEvaluation<'_> {
             .train(training, &crate::progress::silent)
             .map_err(|e| format!("training failed: {e}"))
             .and_then(|model| {
-                errors_on(Some(&model), condition, self.prepared, self.units, self.joint)
-                    .map(|scored| (model, scored))
-                    .map_err(|e| format!("scoring failed: {e}"))
+                errors_on(
+                    Some(&model),
+                    condition,
+                    self.prepared,
+                    self.units,
+                    self.joint,
+                    self.radii,
+                )
+                .map(|scored| (model, scored))
+                .map_err(|e| format!("scoring failed: {e}"))
             });
         match scored {
             Ok((model, (segments, errors))) => {
@@ -183,6 +194,7 @@ fn errors_on(
     prepared: &Prepared,
     units: &[UnitRecording],
     joint: &JointSettings,
+    radii: &[Option<RadiusPrior>],
 ) -> Result<(Vec<Segment>, SampleErrors), String> {
     let segments = condition_signals(trained, condition, prepared, units)?;
     let errors = sample_errors(
@@ -192,6 +204,7 @@ fn errors_on(
         prepared,
         units,
         joint,
+        radii,
     )?;
     Ok((segments, errors))
 }

@@ -65,7 +65,11 @@ pub fn conditions(prepared: &Prepared) -> Vec<Condition> {
         }
     };
     group(&|r| format!("speed {:.1} rpm", r.entry.rpm));
-    group(&|r| format!("radius {:.3} m", r.entry.radius_m));
+    group(&|r| match (&r.entry.placement, r.entry.radius) {
+        (Some(label), _) => format!("placement {label}"),
+        (None, Some(stated)) => format!("radius {:.3} m", stated.value_m),
+        (None, None) => format!("placement of {}", r.name),
+    });
     group(&|r| format!("mounting out {}, up {}", r.entry.out.name(), r.entry.up.name()));
     let n_poses = prepared.poses.len();
     if n_poses >= 3 {

@@ -287,6 +287,7 @@ fn first_pass_problem<'a>(
             .map(|r| difference_noise(&r.accel_mps2, &r.keep))
             .collect(),
         block_samples,
+        placement_leader: super::placement::placement_leaders(runs),
     }
 }
 

@@ -17,7 +17,8 @@
 //! Every residual is divided by its noise (per run and axis; for a pose, the mean's standard error
 //! and the bias's wander about its session's line, from the random walk measured within the poses
 //! (`bias_random_walk`) or from what the first pass left, whichever is larger), and priors enter
-//! as residuals: (r − r_nominal)/tolerance and δ/σ_bias (bias instability between recordings),
+//! as residuals: (r − r_stated)/tolerance where the campaign states the radius (runs of one
+//! placement tied to one radius, `placement.rs`) and δ/σ_bias (bias instability between recordings),
 //! ε/σ_mount (how flat the sensor sits) and, for each free sensor term, its value over a
 //! datasheet-sized width (bias 0.5 m/s², scale 0.02, misalignment 0.02 rad, nonlinearity from the
 //! datasheet, about 10⁻⁴ /(m/s²)). The normal equations are accumulated per sample, never a
@@ -33,6 +34,7 @@ mod fit;
 mod input;
 mod kinematics;
 mod layout;
+mod placement;
 mod problem;
 mod result;
 mod settings;
@@ -46,6 +48,7 @@ pub use kinematics::mounting_matrix;
 pub(crate) use kinematics::rotation_of;
 pub(crate) use layout::{mid_time, GEOMETRY};
 pub use layout::{POSE_PARAMS, RUN_PARAMS, RUN_PARAM_NAMES};
+pub use placement::{check_placements, placement_fits, PlacementError, PlacementFit, RADIUS_FALSE_ALARM};
 pub use result::{JointFit, JointParam, PoseFit, RunFit};
 pub use settings::{JointSettings, SensorTerms, DEFAULT_NONLINEARITY_PCT_FS, DEFAULT_NONLINEARITY_RANGE_G};
 pub use spread::BiasSpread;

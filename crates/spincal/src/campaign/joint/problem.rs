@@ -13,6 +13,7 @@ use super::layout::{
     mid_time, pose_offset, run_offset, run_offset_at, session_offset, sessions, GEOMETRY, POSE_PARAMS,
     RUN_PARAMS, SESSION_PARAMS,
 };
+use super::placement::PLACEMENT_TIE_M;
 use crate::correctors::physical::{SensorModel, SENSOR_PARAMS};
 use crate::geometry::M3;
 use crate::optim::NormalEquations;
@@ -38,6 +39,8 @@ pub(crate) struct JointProblem<'a> {
     /// Per run and axis, the residual noise, m/s².
     pub(super) run_sigma: Vec<[f64; 3]>,
     pub(super) block_samples: Vec<usize>,
+    /// Per run, the first run of its placement, whose radius it shares (itself when first).
+    pub(super) placement_leader: Vec<usize>,
 }
 
 /// A still session's drift rate has a prior of the bias instability per this many seconds.
@@ -426,9 +429,16 @@ impl JointProblem<'_> {
                 add_outer(meat, &index, &block);
             }
         }
-        // Priors: radius within its tolerance, the run's bias offset within the instability.
+        // Priors: the radius within its stated tolerance and that of its placement's first run,
+        // the run's bias offset within the instability.
         let entry = &run.entry;
-        sse += want.add_prior(o, p[o] - entry.radius_m, entry.radius_tol_m);
+        if let Some(stated) = entry.radius {
+            sse += want.add_prior(o, p[o] - stated.value_m, stated.tolerance_m);
+        }
+        let leader = run_offset(self.placement_leader[i]);
+        if leader != o {
+            sse += want.add_tie(o, leader, p[o] - p[leader], PLACEMENT_TIE_M);
+        }
         sse += want.add_prior(o + 5, p[o + 5], self.mount_tilt_sigma);
         sse += want.add_prior(o + 6, p[o + 6], self.mount_tilt_sigma);
         for k in 0..3 {

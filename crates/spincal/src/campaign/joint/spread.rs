@@ -113,6 +113,24 @@ pub(super) fn estimate_bias_spread(
     if prior.dimension() == 0 {
         return None;
     }
+    let offsets =
+        problem.runs.iter().filter(|r| r.session.is_none()).count() + sessions(problem.runs, problem.poses);
+    let (lo, hi) = (
+        (SEARCH_G.0 * problem.gravity).ln(),
+        (SEARCH_G.1 * problem.gravity).ln(),
+    );
+    // One offset cannot be told from the unit's bias, so its likelihood is flat and its maximum
+    // an accident of the other priors: with one power-on there is no spread between power-ons,
+    // and the runs of that session share its offset (their drift within it stays free).
+    if offsets < 2 {
+        return Some(BiasSpread {
+            sd_mps2: lo.exp(),
+            estimated: true,
+            at_lower_bound: true,
+            offsets,
+            likelihood_ratio: 0.0,
+        });
+    }
     let n = p.len();
     let mut h = Mat::zeros(n, n);
     let mut g = vec![0.0; n];
@@ -145,8 +163,6 @@ pub(super) fn estimate_bias_spread(
         let value = -0.5 * min_sse - 0.5 * log_det - prior.dimension() as f64 * log_sigma;
         value.is_finite().then_some(value)
     };
-    let gravity = problem.gravity;
-    let (lo, hi) = ((SEARCH_G.0 * gravity).ln(), (SEARCH_G.1 * gravity).ln());
     let grid: Vec<(f64, f64)> = (0..GRID)
         .filter_map(|i| {
             let x = lo + (hi - lo) * i as f64 / (GRID - 1) as f64;
@@ -163,8 +179,7 @@ pub(super) fn estimate_bias_spread(
         sd_mps2: x.exp(),
         estimated: true,
         at_lower_bound: x <= lo + 0.05 * step,
-        offsets: problem.runs.iter().filter(|r| r.session.is_none()).count()
-            + sessions(problem.runs, problem.poses),
+        offsets,
         likelihood_ratio: (2.0 * (value - at_lower)).max(0.0),
     })
 }

@@ -270,7 +270,11 @@ pub fn run_start(run: &RunInput, gravity: f64) -> ([f64; RUN_PARAMS], f64) {
         0.0
     };
     let mut start = [0.0; RUN_PARAMS];
-    start[0] = run.entry.radius_m;
+    // Without a stated radius the centripetal level gives it (bias and scale aside).
+    start[0] = match run.entry.radius {
+        Some(stated) => stated.value_m,
+        None => (cx * cx + cy * cy).sqrt() / (found.rate_radps * found.rate_radps).max(1e-9),
+    };
     start[1] = found.rate_radps;
     start[2] = tilt.max(1e-4);
     start[3] = found.phase - beta;

@@ -136,6 +136,31 @@ impl std::fmt::Display for Format {
     }
 }
 
+/// Full scale of a signed 16-bit reading: a part set to ±R reads R at this many counts (the
+/// MPU-6050's, MPU-9250's, ICM-20948's and BMI160's registers alike).
+const SIXTEEN_BIT_FULL_SCALE: f64 = 32768.0;
+
+/// The accelerometer ranges, ± g, that such parts' configuration registers offer (the MPU-6050's
+/// AFS_SEL 0–3: ±2, 4, 8, 16 g).
+pub const ACCEL_RANGES_G: [f64; 4] = [2.0, 4.0, 8.0, 16.0];
+/// The gyro ranges, ± °/s (the MPU-6050's FS_SEL 0–3: ±250 … 2000 °/s; ±125 on the BMI160).
+pub const GYRO_RANGES_DPS: [f64; 5] = [125.0, 250.0, 500.0, 1000.0, 2000.0];
+
+/// m/s² per count of a 16-bit accelerometer set to ±`range_g` (one of [`ACCEL_RANGES_G`]);
+/// `None` for another range (give the scale itself then).
+pub fn accel_scale_of_range_g(range_g: f64) -> Option<f64> {
+    ACCEL_RANGES_G
+        .contains(&range_g)
+        .then(|| range_g * crate::input::recording::STANDARD_GRAVITY / SIXTEEN_BIT_FULL_SCALE)
+}
+
+/// rad/s per count of a 16-bit gyro set to ±`range_dps` (one of [`GYRO_RANGES_DPS`]).
+pub fn gyro_scale_of_range_dps(range_dps: f64) -> Option<f64> {
+    GYRO_RANGES_DPS
+        .contains(&range_dps)
+        .then(|| range_dps.to_radians() / SIXTEEN_BIT_FULL_SCALE)
+}
+
 /// How to read a file.
 #[derive(Debug, Clone, Default)]
 pub struct ReadOptions {
@@ -147,6 +172,9 @@ pub struct ReadOptions {
     pub accel_scale: Option<f64>,
     /// Per-axis offset subtracted before scaling, in file units.
     pub accel_offset: Option<[f64; 3]>,
+    /// rad/s per count (or per file unit): gyro = value · scale. Turns raw gyro counts into SI
+    /// ([`gyro_scale_of_range_dps`]).
+    pub gyro_scale: Option<f64>,
     /// Sample rate for formats without a time column (overrides `Fs` metadata; imucal: 204.8 Hz).
     pub sample_rate_hz: Option<f64>,
     pub gx1: Gx1Options,

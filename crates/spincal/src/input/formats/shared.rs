@@ -138,6 +138,7 @@ impl Loaded {
 }
 
 pub(super) fn apply_scale(loaded: &mut Loaded, options: &ReadOptions) -> Result<(), FormatError> {
+    apply_gyro_scale(loaded, options)?;
     if options.accel_scale.is_none() && options.accel_offset.is_none() {
         return Ok(());
     }
@@ -155,6 +156,29 @@ pub(super) fn apply_scale(loaded: &mut Loaded, options: &ReadOptions) -> Result<
     loaded
         .notes
         .push(format!("accel = (value − {offset:?}) × {scale} applied"));
+    Ok(())
+}
+
+/// The gyro columns times `gyro_scale` (as `accel_scale`: per count, or per file unit).
+fn apply_gyro_scale(loaded: &mut Loaded, options: &ReadOptions) -> Result<(), FormatError> {
+    let Some(scale) = options.gyro_scale else {
+        return Ok(());
+    };
+    if !scale.is_finite() || scale == 0.0 {
+        return Err(FormatError::BadScale(scale));
+    }
+    match &mut loaded.recording.gyro_radps {
+        Some(gyro) => {
+            gyro.iter_mut().flatten().for_each(|v| *v *= scale);
+            loaded.gyro_counts = false;
+            loaded
+                .notes
+                .push(format!("gyro = value × {scale:e} rad/s applied"));
+        }
+        None => loaded
+            .notes
+            .push("a gyro scale was given but the file has no gyro columns".into()),
+    }
     Ok(())
 }
 

@@ -331,11 +331,14 @@ impl<'a> Timeline<'a> {
         let geometry = run_truth(&drawn, &mut samples);
         let entry = TurntableEntry {
             rpm: run.rpm,
-            radius_m: run.radius_m,
-            radius_tol_m: run.radius_tol_m,
+            radius: Some(crate::turntable::fit::RadiusPrior {
+                value_m: run.radius_m,
+                tolerance_m: run.radius_tol_m,
+            }),
             out: run.out,
             up: run.up,
             direction: None,
+            placement: None,
         };
         let name = format!(
             "run-{}-{}rpm-r{:.3}-out{}-up{}",
@@ -624,14 +627,16 @@ impl SimulatedCampaign {
             text.push_str(&format!("\n[[recording]]\nfile = \"{}.csv\"\n", r.name));
             match &r.turntable {
                 None => text.push_str("kind = \"static\"\n"),
-                Some(t) => text.push_str(&format!(
-                    "kind = \"turntable\"\nrpm = {}\nradius_m = {}\nradius_tol_m = {}\nout = \"{}\"\nup = \"{}\"\n",
-                    t.rpm,
-                    t.radius_m,
-                    t.radius_tol_m,
-                    t.out.name(),
-                    t.up.name()
-                )),
+                Some(t) => {
+                    text.push_str(&format!("kind = \"turntable\"\nrpm = {}\n", t.rpm));
+                    if let Some(stated) = t.radius {
+                        text.push_str(&format!(
+                            "radius_m = {}\nradius_tol_m = {}\n",
+                            stated.value_m, stated.tolerance_m
+                        ));
+                    }
+                    text.push_str(&format!("out = \"{}\"\nup = \"{}\"\n", t.out.name(), t.up.name()));
+                }
             }
             let f = r.floor_mps2();
             text.push_str(&format!(

@@ -93,7 +93,8 @@ fn stream(
     };
     // The whole-file reader's own errors for bad options and a bad scale.
     check_options(options)?;
-    if options.accel_scale.is_some_and(|s| !s.is_finite() || s == 0.0) {
+    // A gyro scale is the whole-file reader's to apply.
+    if options.accel_scale.is_some_and(|s| !s.is_finite() || s == 0.0) || options.gyro_scale.is_some() {
         return Ok(None);
     }
     match streamed(path, options, format, detection, range_mps2) {
