@@ -307,7 +307,7 @@ mod tests {
             3e-3, 3e-3, 3e-3, 4e-4, 4e-4, 4e-4, 5e-4, 5e-4, 5e-4, 3e-5, 3e-5, 3e-5,
         ];
         let a: Vec<[f64; SENSOR_PARAMS]> = (0..SENSOR_PARAMS)
-            .map(|i| std::array::from_fn(|j| se[i] * rng.gen_range(-1.0..1.0)))
+            .map(|i| std::array::from_fn(|_| se[i] * rng.gen_range(-1.0..1.0)))
             .collect();
         let covariance = std::array::from_fn(|i| {
             std::array::from_fn(|j| (0..SENSOR_PARAMS).map(|l| a[i][l] * a[j][l]).sum())
