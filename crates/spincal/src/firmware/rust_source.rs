@@ -209,8 +209,7 @@ pub(crate) fn file(plan: &Plan, precisions: &[Precision], provenance: &str) -> S
             let _ = writeln!(
                 s,
                 "/// The physical model's parameter covariance in {t} (bias, scale error, misalignment,\n\
-                 /// quadratic: `spincal_embedded::PARAMS` order).\n#[rustfmt::skip]\n\
-                 pub static COVARIANCE_{upper}: spincal_embedded::Covariance<{t}> = {};\n",
+                 /// quadratic: `spincal_embedded::PARAMS` order).\n#[rustfmt::skip]\npub static COVARIANCE_{upper}: spincal_embedded::Covariance<{t}> = {};\n",
                 covariance(c, x)
             );
         }
