@@ -671,6 +671,73 @@ mod tests {
         assert!(past_turning_point.correct([-3.0, 0.0, 0.0]).is_none());
     }
 
+    /// The Jacobian against central differences of `correct`, and the error bar of a bias known
+    /// to ±σ: σ/(1 + s) on its own axis, carried into the others by the misalignment.
+    #[test]
+    fn the_error_bar_follows_the_jacobian() {
+        let p = Physical::<f64> {
+            bias: [0.04, -0.06, 0.08],
+            one_plus_scale: [1.004, 0.994, 1.003],
+            misalignment: [0.005, -0.003, 0.004],
+            quadratic: [6e-4, -6e-4, 3e-4],
+            lower: [-20.0; 3],
+            upper: [20.0; 3],
+        };
+        let m = [1.0, -9.7, 2.0];
+        let (f, jac) = p.correct_with_jacobian(m).unwrap();
+        assert_eq!(f, p.correct(m).unwrap());
+        let h = 1e-6;
+        for j in 0..PARAMS {
+            let moved = |d: f64| {
+                let mut q = p;
+                match j {
+                    0..=2 => q.bias[j] += d,
+                    3..=5 => q.one_plus_scale[j - 3] += d,
+                    6..=8 => q.misalignment[j - 6] += d,
+                    _ => q.quadratic[j - 9] += d,
+                }
+                q.correct(m).unwrap()
+            };
+            let (a, b) = (moved(h), moved(-h));
+            for k in 0..3 {
+                let numeric = (a[k] - b[k]) / (2.0 * h);
+                assert!(
+                    (numeric - jac[k][j]).abs() < 1e-6 * (1.0 + numeric.abs()),
+                    "f_{k} by θ_{j}: {} vs {numeric}",
+                    jac[k][j]
+                );
+            }
+        }
+        let sigma = 0.01;
+        let mut covariance = [[0.0; PARAMS]; PARAMS];
+        covariance[0][0] = sigma * sigma;
+        let e = p.predicted_error(&covariance, m).unwrap();
+        let sd_x = sigma / 1.004;
+        let [m_yx, m_zx, m_zy] = p.misalignment;
+        let expected = [sd_x, m_yx * sd_x, (m_zx - m_zy * m_yx) * sd_x];
+        for k in 0..3 {
+            assert!((e.sd[k] - expected[k].abs()).abs() < 1e-15, "{:?} vs {expected:?}", e.sd);
+        }
+        // Every axis's correction (about 0.05 m/s²) exceeds √2 of its sd (at most 0.01 m/s²).
+        assert!(e.better);
+        // A bias known only to ±1 m/s² is not: its sd swamps the x correction.
+        covariance[0][0] = 1.0;
+        assert!(!p.predicted_error(&covariance, m).unwrap().better);
+        // No covariance on the model: no error bar, as `spincal correct`.
+        let model = Model {
+            accel: Accel::Physical(p),
+            gyro: None,
+            covariance: None,
+        };
+        assert_eq!(model.predicted_error(m), None);
+        let model = Model {
+            covariance: Some(&covariance),
+            ..model
+        };
+        assert!(model.predicted_error(m).is_some());
+        assert_eq!(model.predicted_error([0.0, 0.0, -1e4]), None, "past the turning point");
+    }
+
     #[test]
     fn a_network_that_does_not_fit_its_state_is_invalid_not_a_panic() {
         static WEIGHTS: [f64; 3 * 4 + 3 * 4] = [0.1; 24];

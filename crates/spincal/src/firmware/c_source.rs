@@ -420,18 +420,13 @@ fn predicted_sd_decl(h: &mut String, plan: &Plan, n: &Names) {
              unsigned {p}_predicted_sd(const {p}_coefficients *c, const {r} accel[3], {r} sd[3]);\n"
         );
     } else {
-        let why = match &plan.accel {
-            AccelPlan::Physical(_) => {
-                "this physical model carries no parameter covariance (a model.json of format 1, or one not\n \
-                 * saved by a campaign)"
-            }
-            _ => "spincal gives an error bar for a physical model with a covariance only",
-        };
+        let why = plan.no_error_bar().unwrap_or_default();
         let _ = writeln!(
             h,
-            "/* 0: no {p}_predicted_sd: {why}; spincal correct writes no\n \
-             * <column>_corrected_sd or predicted_better for it either. */\n\
-             #define {u}_PREDICTS_SD 0\n"
+            "/* 0: no {p}_predicted_sd: {}; spincal correct\n \
+             * writes no <column>_corrected_sd or predicted_better for it either. */\n\
+             #define {u}_PREDICTS_SD 0\n",
+            super::wrap_words(why, "\n * ")
         );
     }
 }

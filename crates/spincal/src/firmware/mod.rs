@@ -254,6 +254,25 @@ pub fn write_export(export: &FirmwareExport, dir: &Path) -> Result<Vec<PathBuf>,
     Ok(written)
 }
 
+/// `text` wrapped at about 80 columns, each new line started with `continuation` (a generated
+/// comment's `\n * ` or `\n// `).
+fn wrap_words(text: &str, continuation: &str) -> String {
+    let mut out = String::new();
+    let mut line = 0;
+    for word in text.split(' ') {
+        if line > 0 && line + word.len() > 80 {
+            out.push_str(continuation);
+            line = 0;
+        } else if line > 0 {
+            out.push(' ');
+            line += 1;
+        }
+        out.push_str(word);
+        line += word.len();
+    }
+    out
+}
+
 // The network's tanh constants, one copy (the no_std crate's), written out by the C export.
 use spincal_embedded::{LN2_HI, LN2_HI_F, LN2_LO, LN2_LO_F, ROUNDER, ROUNDER_F, TANH_C, TANH_C_F};
 

@@ -234,6 +234,17 @@ impl Plan {
         })
     }
 
+    /// Why the export has no error bar (`None` when it has one), for the generated files.
+    pub fn no_error_bar(&self) -> Option<&'static str> {
+        match (&self.covariance, &self.accel) {
+            (Some(_), _) => None,
+            (None, AccelPlan::Physical(_)) => Some(
+                "this physical model carries no parameter covariance (a model.json of format 1, or one not saved by a campaign)",
+            ),
+            (None, _) => Some("spincal gives an error bar for a physical model with a covariance only"),
+        }
+    }
+
     /// Length of the stream state's history (0 without a network).
     pub fn history(&self) -> usize {
         match &self.accel {

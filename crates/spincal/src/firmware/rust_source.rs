@@ -184,11 +184,12 @@ pub(crate) fn file(plan: &Plan, precisions: &[Precision], provenance: &str) -> S
              // gives each sample's error bar and flag as `spincal correct` does (`<column>_corrected_sd`,\n\
              // `predicted_better`).\n"
         );
-    } else {
+    } else if let Some(why) = plan.no_error_bar() {
         let _ = writeln!(
             s,
-            "// No parameter covariance (`covariance: None`): `predicted_error` gives None, as `spincal\n\
-             // correct` writes no error bar for this model.\n"
+            "// No error bar (`covariance: None`, `predicted_error` gives None): {};\n\
+             // `spincal correct` writes none for it either.\n",
+            super::wrap_words(why, "\n// ")
         );
     }
     let _ = writeln!(
