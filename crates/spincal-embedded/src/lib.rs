@@ -716,7 +716,11 @@ mod tests {
         let [m_yx, m_zx, m_zy] = p.misalignment;
         let expected = [sd_x, m_yx * sd_x, (m_zx - m_zy * m_yx) * sd_x];
         for k in 0..3 {
-            assert!((e.sd[k] - expected[k].abs()).abs() < 1e-15, "{:?} vs {expected:?}", e.sd);
+            assert!(
+                (e.sd[k] - expected[k].abs()).abs() < 1e-15,
+                "{:?} vs {expected:?}",
+                e.sd
+            );
         }
         // Every axis's correction (about 0.05 m/s²) exceeds √2 of its sd (at most 0.01 m/s²).
         assert!(e.better);
@@ -735,7 +739,11 @@ mod tests {
             ..model
         };
         assert!(model.predicted_error(m).is_some());
-        assert_eq!(model.predicted_error([0.0, 0.0, -1e4]), None, "past the turning point");
+        assert_eq!(
+            model.predicted_error([0.0, 0.0, -1e4]),
+            None,
+            "past the turning point"
+        );
     }
 
     #[test]
