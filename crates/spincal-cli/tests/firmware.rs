@@ -353,22 +353,28 @@ fn build_no_std_library(dir: &Path) -> PathBuf {
         ));
         for (t, upper) in [("f32", "F32"), ("f64", "F64")] {
             lib.push_str(&format!(
-                "/// # Safety\n/// n samples of 3 values at accel and gyro, 9 n values at out, 2 n at flags.\n\
+                "/// # Safety\n/// n samples of 3 values at accel and gyro, 6 n values at out, n at flags.\n\
                  #[no_mangle]\npub unsafe extern \"C\" fn {kind}_rs_{t}(n: usize, accel: *const {t}, gyro: *const {t}, out: *mut {t}, flags: *mut u32) {{\n    \
                  let (accel, gyro) = (core::slice::from_raw_parts(accel, 3 * n), core::slice::from_raw_parts(gyro, 3 * n));\n    \
-                 let (out, flags) = (core::slice::from_raw_parts_mut(out, 9 * n), core::slice::from_raw_parts_mut(flags, 2 * n));\n    \
+                 let (out, flags) = (core::slice::from_raw_parts_mut(out, 6 * n), core::slice::from_raw_parts_mut(flags, n));\n    \
                  let mut state = m_{kind}::State{upper}::new();\n    \
                  for i in 0..n {{\n        \
                  let a = [accel[3 * i], accel[3 * i + 1], accel[3 * i + 2]];\n        \
                  let g = [gyro[3 * i], gyro[3 * i + 1], gyro[3 * i + 2]];\n        \
                  let c = m_{kind}::MODEL_{upper}.correct(&mut state, a, Some(g));\n        \
-                 out[9 * i..9 * i + 3].copy_from_slice(&c.accel);\n        \
-                 out[9 * i + 3..9 * i + 6].copy_from_slice(&c.gyro.unwrap_or(g));\n        \
-                 flags[2 * i] = u32::from(c.valid) | u32::from(c.outside_training_range) << 1 | u32::from(c.gyro.is_some()) << 2;\n        \
+                 out[6 * i..6 * i + 3].copy_from_slice(&c.accel);\n        \
+                 out[6 * i + 3..6 * i + 6].copy_from_slice(&c.gyro.unwrap_or(g));\n        \
+                 flags[i] = u32::from(c.valid) | u32::from(c.outside_training_range) << 1 | u32::from(c.gyro.is_some()) << 2;\n    \
+                 }}\n}}\n\n\
+                 /// # Safety\n/// n samples of 3 values at accel and at sd, n at flags.\n\
+                 #[no_mangle]\npub unsafe extern \"C\" fn {kind}_rs_sd_{t}(n: usize, accel: *const {t}, sd: *mut {t}, flags: *mut u32) {{\n    \
+                 let accel = core::slice::from_raw_parts(accel, 3 * n);\n    \
+                 let (sd, flags) = (core::slice::from_raw_parts_mut(sd, 3 * n), core::slice::from_raw_parts_mut(flags, n));\n    \
+                 for i in 0..n {{\n        \
                  // The error bar with the C export's bits: SD 8, BETTER 16.\n        \
-                 let p = m_{kind}::MODEL_{upper}.predicted_error(a);\n        \
-                 out[9 * i + 6..9 * i + 9].copy_from_slice(&p.map_or([0.0; 3], |p| p.sd));\n        \
-                 flags[2 * i + 1] = p.map_or(0, |p| 8 | u32::from(p.better) << 4);\n    \
+                 let p = m_{kind}::MODEL_{upper}.predicted_error([accel[3 * i], accel[3 * i + 1], accel[3 * i + 2]]);\n        \
+                 sd[3 * i..3 * i + 3].copy_from_slice(&p.map_or([0.0; 3], |p| p.sd));\n        \
+                 flags[i] = p.map_or(0, |p| 8 | u32::from(p.better) << 4);\n    \
                  }}\n}}\n\n"
             ));
         }
@@ -407,30 +413,35 @@ fn driver(kind: &str) -> String {
         "#include <stdio.h>\n#include <stdlib.h>\n#include \"{kind}_f32.h\"\n#include \"{kind}_f64.h\"\n\
          void {kind}_rs_f32(size_t n, const float *accel, const float *gyro, float *out, unsigned *flags);\n\
          void {kind}_rs_f64(size_t n, const double *accel, const double *gyro, double *out, unsigned *flags);\n\
-         int main(void)\n{{\n    size_t n, i;\n    int k;\n    double *a, *g, *o64;\n    float *a32, *g32, *o32;\n    unsigned *f32, *f64;\n    \
+         void {kind}_rs_sd_f32(size_t n, const float *accel, float *sd, unsigned *flags);\n\
+         void {kind}_rs_sd_f64(size_t n, const double *accel, double *sd, unsigned *flags);\n\
+         int main(void)\n{{\n    size_t n, i;\n    int k;\n    double *a, *g, *o64, *sd64;\n    float *a32, *g32, *o32, *sd32;\n    \
+         unsigned *f32, *f64, *p32, *p64;\n    \
          {kind}_f32_state s32;\n    {kind}_f64_state s64;\n    \
          if (scanf(\"%lu\", (unsigned long *)&n) != 1) {{\n        return 2;\n    }}\n    \
-         a = malloc(3 * n * sizeof *a);\n    g = malloc(3 * n * sizeof *g);\n    o64 = malloc(9 * n * sizeof *o64);\n    \
-         a32 = malloc(3 * n * sizeof *a32);\n    g32 = malloc(3 * n * sizeof *g32);\n    o32 = malloc(9 * n * sizeof *o32);\n    \
-         f32 = malloc(2 * n * sizeof *f32);\n    f64 = malloc(2 * n * sizeof *f64);\n    \
+         a = malloc(3 * n * sizeof *a);\n    g = malloc(3 * n * sizeof *g);\n    o64 = malloc(6 * n * sizeof *o64);\n    sd64 = malloc(3 * n * sizeof *sd64);\n    \
+         a32 = malloc(3 * n * sizeof *a32);\n    g32 = malloc(3 * n * sizeof *g32);\n    o32 = malloc(6 * n * sizeof *o32);\n    sd32 = malloc(3 * n * sizeof *sd32);\n    \
+         f32 = malloc(n * sizeof *f32);\n    f64 = malloc(n * sizeof *f64);\n    p32 = malloc(n * sizeof *p32);\n    p64 = malloc(n * sizeof *p64);\n    \
          for (i = 0; i < 3 * n; i += 3) {{\n        \
          if (scanf(\"%lf %lf %lf %lf %lf %lf\", &a[i], &a[i + 1], &a[i + 2], &g[i], &g[i + 1], &g[i + 2]) != 6) {{\n            return 3;\n        }}\n        \
          for (k = 0; k < 3; ++k) {{\n            a32[i + k] = (float)a[i + k];\n            g32[i + k] = (float)g[i + k];\n        }}\n    }}\n    \
          {kind}_f32_init(&s32);\n    {kind}_f64_init(&s64);\n    \
-         for (i = 0; i < n; ++i) {{\n        float ao[3], go[3] = {{0, 0, 0}}, sd32[3] = {{0, 0, 0}};\n        \
-         double bo[3], ho[3] = {{0, 0, 0}}, sd64[3] = {{0, 0, 0}};\n        unsigned p32 = 0, p64 = 0;\n        \
+         for (i = 0; i < n; ++i) {{\n        float ao[3], go[3] = {{0, 0, 0}}, e32[3] = {{0, 0, 0}};\n        \
+         double bo[3], ho[3] = {{0, 0, 0}}, e64[3] = {{0, 0, 0}};\n        unsigned q32 = 0, q64 = 0;\n        \
          unsigned c32 = {kind}_f32_correct(&{kind}_f32_model, &s32, &a32[3 * i], &g32[3 * i], ao, go);\n        \
          unsigned c64 = {kind}_f64_correct(&{kind}_f64_model, &s64, &a[3 * i], &g[3 * i], bo, ho);\n\
-         #if {upper}_F32_PREDICTS_SD\n        p32 = {kind}_f32_predicted_sd(&{kind}_f32_model, &a32[3 * i], sd32);\n#endif\n\
-         #if {upper}_F64_PREDICTS_SD\n        p64 = {kind}_f64_predicted_sd(&{kind}_f64_model, &a[3 * i], sd64);\n#endif\n        \
-         printf(\"%u %.9g %.9g %.9g %.9g %.9g %.9g %u %.9g %.9g %.9g \", c32, ao[0], ao[1], ao[2], go[0], go[1], go[2], p32, sd32[0], sd32[1], sd32[2]);\n        \
-         printf(\"%u %.17g %.17g %.17g %.17g %.17g %.17g %u %.17g %.17g %.17g\\n\", c64, bo[0], bo[1], bo[2], ho[0], ho[1], ho[2], p64, sd64[0], sd64[1], sd64[2]);\n    }}\n    \
+         #if {upper}_F32_PREDICTS_SD\n        q32 = {kind}_f32_predicted_sd(&{kind}_f32_model, &a32[3 * i], e32);\n#endif\n\
+         #if {upper}_F64_PREDICTS_SD\n        q64 = {kind}_f64_predicted_sd(&{kind}_f64_model, &a[3 * i], e64);\n#endif\n        \
+         printf(\"%u %.9g %.9g %.9g %.9g %.9g %.9g %u %.9g %.9g %.9g \", c32, ao[0], ao[1], ao[2], go[0], go[1], go[2], q32, e32[0], e32[1], e32[2]);\n        \
+         printf(\"%u %.17g %.17g %.17g %.17g %.17g %.17g %u %.17g %.17g %.17g\\n\", c64, bo[0], bo[1], bo[2], ho[0], ho[1], ho[2], q64, e64[0], e64[1], e64[2]);\n    }}\n    \
          {kind}_rs_f32(n, a32, g32, o32, f32);\n    {kind}_rs_f64(n, a, g, o64, f64);\n    \
+         {kind}_rs_sd_f32(n, a32, sd32, p32);\n    {kind}_rs_sd_f64(n, a, sd64, p64);\n    \
          for (i = 0; i < n; ++i) {{\n        \
-         const float *r = &o32[9 * i];\n        const double *d = &o64[9 * i];\n        \
-         printf(\"%u %.9g %.9g %.9g %.9g %.9g %.9g %u %.9g %.9g %.9g \", f32[2 * i], r[0], r[1], r[2], r[3], r[4], r[5], f32[2 * i + 1], r[6], r[7], r[8]);\n        \
-         printf(\"%u %.17g %.17g %.17g %.17g %.17g %.17g %u %.17g %.17g %.17g\\n\", f64[2 * i], d[0], d[1], d[2], d[3], d[4], d[5], f64[2 * i + 1], d[6], d[7], d[8]);\n    }}\n    \
-         free(a);\n    free(g);\n    free(o64);\n    free(a32);\n    free(g32);\n    free(o32);\n    free(f32);\n    free(f64);\n    return 0;\n}}\n"
+         const float *r = &o32[6 * i], *e = &sd32[3 * i];\n        const double *d = &o64[6 * i], *h = &sd64[3 * i];\n        \
+         printf(\"%u %.9g %.9g %.9g %.9g %.9g %.9g %u %.9g %.9g %.9g \", f32[i], r[0], r[1], r[2], r[3], r[4], r[5], p32[i], e[0], e[1], e[2]);\n        \
+         printf(\"%u %.17g %.17g %.17g %.17g %.17g %.17g %u %.17g %.17g %.17g\\n\", f64[i], d[0], d[1], d[2], d[3], d[4], d[5], p64[i], h[0], h[1], h[2]);\n    }}\n    \
+         free(a);\n    free(g);\n    free(o64);\n    free(sd64);\n    free(a32);\n    free(g32);\n    free(o32);\n    free(sd32);\n    \
+         free(f32);\n    free(f64);\n    free(p32);\n    free(p64);\n    return 0;\n}}\n"
     )
 }
 
