@@ -95,6 +95,8 @@ Examples:
         after_help = "Writes NAME_f32.h/.c and NAME_f64.h/.c (C99, no dynamic memory, only <math.h>),
 NAME_model.rs (statics for the no_std crate spincal-embedded) and fusion.txt (x-io Fusion's
 misalignment, sensitivity and offset, with what Fusion cannot hold and its largest effect).
+A physical model with its covariance also gets the error bar `correct` writes
+(NAME_fXX_predicted_sd in C, Model::predicted_error in Rust).
 --ardupilot / --px4 write a thermal model (from a campaign that logged its temperature) as the
 flight stacks' INS_TCALn_* / TC_An_* parameters, with what each stack cannot hold stated.
 

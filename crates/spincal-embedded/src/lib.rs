@@ -18,6 +18,7 @@
 //!         upper: [60.0; 3],
 //!     }),
 //!     gyro: None,
+//!     covariance: None,
 //! };
 //! let mut state = State::<f32, 0>::new();
 //! let out = MODEL.correct(&mut state, [0.1, -0.2, 9.9], None);
@@ -89,6 +90,73 @@ impl<T: Real> Physical<T> {
         (fx.is_finite() && fy.is_finite() && fz.is_finite()).then_some(f)
     }
 
+    /// The corrected force (as [`Physical::correct`]) and its Jacobian ∂f/∂θ with respect to
+    /// the [`PARAMS`] parameters, by spincal's `SensorModel::correct_with_jacobian` operation for
+    /// operation (implicit differentiation of m = h(b + D (I + M) f)); `None` where the model has
+    /// no inverse or the quadratic's slope vanishes.
+    pub fn correct_with_jacobian(&self, m: [T; 3]) -> Option<([T; 3], Jacobian<T>)> {
+        let f = self.correct(m)?;
+        let [m_yx, m_zx, m_zy] = self.misalignment;
+        // v = (I + M) f: the force as the three skewed axes see it.
+        let v = [f[0], f[1] + m_yx * f[0], f[2] + m_zx * f[0] + m_zy * f[1]];
+        // ∂v/∂θ for v = (u − b)/(1 + s), u = h⁻¹(m): bias, scale and q act on their own axis.
+        let mut jac = [[T::ZERO; PARAMS]; 3];
+        for k in 0..3 {
+            let d = self.one_plus_scale[k];
+            let u = self.bias[k] + d * v[k];
+            // q u² + u = m  ⇒  ∂u/∂q = −u² / (1 + 2 q u).
+            let slope = T::ONE + T::TWO * self.quadratic[k] * u;
+            if slope.abs() < T::EPSILON {
+                return None;
+            }
+            jac[k][k] = -T::ONE / d;
+            jac[k][3 + k] = -v[k] / d;
+            jac[k][9 + k] = -u * u / slope / d;
+        }
+        // f = (I + M)⁻¹ v: forward substitution carries v's derivatives, M's own enter directly.
+        for j in 0..PARAMS {
+            jac[1][j] = jac[1][j] - m_yx * jac[0][j];
+            jac[2][j] = jac[2][j] - m_zx * jac[0][j] - m_zy * jac[1][j];
+        }
+        jac[1][6] = jac[1][6] - f[0];
+        jac[2][6] = jac[2][6] + m_zy * f[0];
+        jac[2][7] = jac[2][7] - f[0];
+        jac[2][8] = jac[2][8] - f[1];
+        Some((f, jac))
+    }
+
+    /// The correction's standard deviation per axis that the parameters' `covariance` predicts,
+    /// √diag(J Σ Jᵀ), and whether on every axis the correction is predicted to beat no
+    /// correction: what `spincal correct` writes as `<column>_corrected_sd` and
+    /// `predicted_better`. `None` where the model has no inverse (`correct` leaves them empty).
+    pub fn predicted_error(&self, covariance: &Covariance<T>, m: [T; 3]) -> Option<PredictedError<T>> {
+        let (f, jac) = self.correct_with_jacobian(m)?;
+        let mut sd = [T::ZERO; 3];
+        let mut better = true;
+        for k in 0..3 {
+            let row = &jac[k];
+            let mut sum = T::ZERO;
+            for a in 0..PARAMS {
+                // spincal skips a parameter the correction does not depend on: the same sum.
+                if row[a] == T::ZERO {
+                    continue;
+                }
+                let mut inner = T::ZERO;
+                for b in 0..PARAMS {
+                    inner = inner + covariance[a][b] * row[b];
+                }
+                sum = sum + row[a] * inner;
+            }
+            let variance = if sum > T::ZERO { sum } else { T::ZERO };
+            sd[k] = variance.sqrt();
+            // Predicted to help when ĉ² > 2σ²: ĉ² − σ² estimates the true correction's square,
+            // and applying ĉ leaves σ².
+            let correction = f[k] - m[k];
+            better &= correction * correction > T::TWO * sd[k] * sd[k];
+        }
+        Some(PredictedError { sd, better })
+    }
+
     /// Whether reading `m` lies beyond the covered range by more than 10 % of its width.
     pub fn outside(&self, m: [T; 3]) -> bool {
         (0..3).any(|k| m[k] < self.lower[k] || m[k] > self.upper[k])
@@ -110,6 +178,26 @@ impl<T: Real> Physical<T> {
             },
         }
     }
+}
+
+/// Parameters of the physical model, in spincal's order: bias x, y, z (m/s²), scale error x,
+/// y, z, misalignment m_yx, m_zx, m_zy (rad), quadratic x, y, z (1/(m/s²)).
+pub const PARAMS: usize = 12;
+
+/// ∂f_k/∂θ_j of a physical correction: three rows of the [`PARAMS`] parameters.
+pub type Jacobian<T> = [[T; PARAMS]; 3];
+
+/// The covariance of a physical model's [`PARAMS`] parameters (their units' products), as the
+/// campaign's joint fit saved it in model.json's `uncertainty`.
+pub type Covariance<T> = [[T; PARAMS]; PARAMS];
+
+/// A correction's error as the model's covariance predicts it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PredictedError<T> {
+    /// Standard deviation of the correction per axis, m/s².
+    pub sd: [T; 3],
+    /// On every axis the correction's square exceeds twice its variance (`predicted_better`).
+    pub better: bool,
 }
 
 /// Offset plus matrix on the chosen axes (`linear`); the other axes pass through.
@@ -205,6 +293,10 @@ pub enum Accel<'a, T> {
 pub struct Model<'a, T> {
     pub accel: Accel<'a, T>,
     pub gyro: Option<Gyro<T>>,
+    /// The physical model's parameter covariance, when model.json carries one (`spincal
+    /// correct` then writes each row's error bar): see [`Model::predicted_error`]. `None` for
+    /// every other kind.
+    pub covariance: Option<&'a Covariance<T>>,
 }
 
 /// One corrected sample. An invalid sample carries the reading unchanged.
@@ -266,6 +358,17 @@ impl<T: Real> Model<'_, T> {
             _ => None,
         };
         out
+    }
+
+    /// The error of the correction of `accel` that the model's covariance predicts (as
+    /// [`Physical::predicted_error`]): for a physical model with a covariance, where it has an
+    /// inverse; `None` otherwise, as `spincal correct` writes no error bar then.
+    #[inline]
+    pub fn predicted_error(&self, accel: [T; 3]) -> Option<PredictedError<T>> {
+        match (&self.accel, self.covariance) {
+            (Accel::Physical(p), Some(covariance)) => p.predicted_error(covariance, accel),
+            _ => None,
+        }
     }
 
     /// The accelerometer alone (`gyro` of the result is `None`).
@@ -568,6 +671,81 @@ mod tests {
         assert!(past_turning_point.correct([-3.0, 0.0, 0.0]).is_none());
     }
 
+    /// The Jacobian against central differences of `correct`, and the error bar of a bias known
+    /// to ±σ: σ/(1 + s) on its own axis, carried into the others by the misalignment.
+    #[test]
+    fn the_error_bar_follows_the_jacobian() {
+        let p = Physical::<f64> {
+            bias: [0.04, -0.06, 0.08],
+            one_plus_scale: [1.004, 0.994, 1.003],
+            misalignment: [0.005, -0.003, 0.004],
+            quadratic: [6e-4, -6e-4, 3e-4],
+            lower: [-20.0; 3],
+            upper: [20.0; 3],
+        };
+        let m = [1.0, -9.7, 2.0];
+        let (f, jac) = p.correct_with_jacobian(m).unwrap();
+        assert_eq!(f, p.correct(m).unwrap());
+        let h = 1e-6;
+        for j in 0..PARAMS {
+            let moved = |d: f64| {
+                let mut q = p;
+                match j {
+                    0..=2 => q.bias[j] += d,
+                    3..=5 => q.one_plus_scale[j - 3] += d,
+                    6..=8 => q.misalignment[j - 6] += d,
+                    _ => q.quadratic[j - 9] += d,
+                }
+                q.correct(m).unwrap()
+            };
+            let (a, b) = (moved(h), moved(-h));
+            for k in 0..3 {
+                let numeric = (a[k] - b[k]) / (2.0 * h);
+                assert!(
+                    (numeric - jac[k][j]).abs() < 1e-6 * (1.0 + numeric.abs()),
+                    "f_{k} by θ_{j}: {} vs {numeric}",
+                    jac[k][j]
+                );
+            }
+        }
+        let sigma = 0.01;
+        let mut covariance = [[0.0; PARAMS]; PARAMS];
+        covariance[0][0] = sigma * sigma;
+        let e = p.predicted_error(&covariance, m).unwrap();
+        let sd_x = sigma / 1.004;
+        let [m_yx, m_zx, m_zy] = p.misalignment;
+        let expected = [sd_x, m_yx * sd_x, (m_zx - m_zy * m_yx) * sd_x];
+        for k in 0..3 {
+            assert!(
+                (e.sd[k] - expected[k].abs()).abs() < 1e-15,
+                "{:?} vs {expected:?}",
+                e.sd
+            );
+        }
+        // Every axis's correction (about 0.05 m/s²) exceeds √2 of its sd (at most 0.01 m/s²).
+        assert!(e.better);
+        // A bias known only to ±1 m/s² is not: its sd swamps the x correction.
+        covariance[0][0] = 1.0;
+        assert!(!p.predicted_error(&covariance, m).unwrap().better);
+        // No covariance on the model: no error bar, as `spincal correct`.
+        let model = Model {
+            accel: Accel::Physical(p),
+            gyro: None,
+            covariance: None,
+        };
+        assert_eq!(model.predicted_error(m), None);
+        let model = Model {
+            covariance: Some(&covariance),
+            ..model
+        };
+        assert!(model.predicted_error(m).is_some());
+        assert_eq!(
+            model.predicted_error([0.0, 0.0, -1e4]),
+            None,
+            "past the turning point"
+        );
+    }
+
     #[test]
     fn a_network_that_does_not_fit_its_state_is_invalid_not_a_panic() {
         static WEIGHTS: [f64; 3 * 4 + 3 * 4] = [0.1; 24];
@@ -588,6 +766,7 @@ mod tests {
         let model = Model {
             accel: Accel::Ann(net),
             gyro: None,
+            covariance: None,
         };
         let too_small = model.correct(&mut State::<f64, 2>::new(), [1.0, 2.0, 3.0], None);
         assert!(!too_small.valid);

@@ -27,6 +27,8 @@ pub trait Real:
     const ONE: Self;
     const TWO: Self;
     const FOUR: Self;
+    /// The machine epsilon (`f32::EPSILON`, `f64::EPSILON`).
+    const EPSILON: Self;
     /// Correctly rounded square root (`libm`, as IEEE 754 and C's `sqrt`/`sqrtf` give it).
     fn sqrt(self) -> Self;
     /// Hyperbolic tangent, see [`tanh_f64`] and [`tanh_f32`].
@@ -44,6 +46,7 @@ impl Real for f64 {
     const ONE: f64 = 1.0;
     const TWO: f64 = 2.0;
     const FOUR: f64 = 4.0;
+    const EPSILON: f64 = f64::EPSILON;
     #[inline]
     fn sqrt(self) -> f64 {
         libm::sqrt(self)
@@ -75,6 +78,7 @@ impl Real for f32 {
     const ONE: f32 = 1.0;
     const TWO: f32 = 2.0;
     const FOUR: f32 = 4.0;
+    const EPSILON: f32 = f32::EPSILON;
     #[inline]
     fn sqrt(self) -> f32 {
         libm::sqrtf(self)

@@ -85,6 +85,14 @@ fn fields(plan: &Plan) -> Vec<Field> {
             coverage_fields(&mut out, c);
         }
     }
+    if let Some(covariance) = &plan.covariance {
+        out.push(real(
+            "phys_covariance",
+            &[12, 12],
+            covariance.iter().flatten().copied().collect(),
+            "Sigma: the 12 parameters' covariance (b, s, m, q order), for the predicted sd",
+        ));
+    }
     if let Some(g) = &plan.gyro {
         gyro_fields(&mut out, g);
     }
@@ -224,12 +232,26 @@ fn initializer(field: &Field, precision: Precision) -> String {
         Values::Bytes(b) => b.iter().map(|x| format!("0x{x:02x}")).collect(),
     };
     let per_row = *field.dims.last().unwrap_or(&1);
-    let mut rows: Vec<String> = items.chunks(per_row.max(1)).map(|c| c.join(", ")).collect();
+    let wide = per_row > 8;
+    let mut rows: Vec<String> = items
+        .chunks(per_row.max(1))
+        .map(|c| {
+            if wide {
+                // A wide matrix's row wrapped six values to a line.
+                let lines: Vec<String> = c.chunks(6).map(|l| l.join(", ")).collect();
+                lines.join(",\n         ")
+            } else {
+                c.join(", ")
+            }
+        })
+        .collect();
     if field.dims.len() == 2 {
         rows = rows.into_iter().map(|r| format!("{{{r}}}")).collect();
     }
-    // Long arrays wrapped eight values to a line.
-    let text = if field.dims.len() == 1 && items.len() > 8 {
+    // Long arrays wrapped eight values to a line, wide matrices a row (or more) to a line.
+    let text = if field.dims.len() == 2 && wide {
+        rows.join(",\n        ")
+    } else if field.dims.len() == 1 && items.len() > 8 {
         items
             .chunks(8)
             .map(|c| c.join(", "))
@@ -320,6 +342,7 @@ fn header(plan: &Plan, n: &Names, fields: &[Field], precision: Precision, proven
          \x20   const {r} *gyro, {r} accel_out[3], {r} *gyro_out);\n"
     );
     let _ = precision;
+    predicted_sd_decl(&mut h, plan, n);
     let _ = writeln!(h, "#endif");
     h
 }
@@ -369,8 +392,104 @@ fn source(plan: &Plan, n: &Names, fields: &[Field], precision: Precision, proven
             physical_ann_fn(&mut s, n, net);
         }
     }
+    if let (Some(_), AccelPlan::Physical(ph)) = (&plan.covariance, &plan.accel) {
+        predicted_sd_fn(&mut s, n, ph, precision);
+    }
     correct_fn(&mut s, n, plan.gyro.as_ref());
     s
+}
+
+/// The header's part on the error bar: `P_predicted_sd`'s declaration, or why there is none.
+fn predicted_sd_decl(h: &mut String, plan: &Plan, n: &Names) {
+    let (p, u, r) = (&n.p, &n.u, n.r);
+    if plan.covariance.is_some() {
+        let _ = writeln!(
+            h,
+            "/* 1: the model carries its parameters' covariance, and {p}_predicted_sd gives each\n \
+             * sample's error bar as spincal correct does. */\n\
+             #define {u}_PREDICTS_SD 1\n\
+             /* Bits of the value {p}_predicted_sd returns (apart from the others, so all fit one word). */\n\
+             #define {u}_SD 8u      /* sd holds the correction's predicted standard deviations */\n\
+             #define {u}_BETTER 16u /* on every axis predicted to beat no correction (predicted_better) */\n\n\
+             /* The standard deviation per axis (m/s^2) of the correction of accel that the parameters'\n \
+             * covariance predicts, sqrt(diag(J Sigma J^T)) with J the correction's derivatives by the 12\n \
+             * parameters (spincal correct's <column>_corrected_sd), into sd. Returns SD | BETTER, BETTER\n \
+             * where on every axis the correction c = accel_out - accel has c^2 > 2 sd^2 (predicted to beat\n \
+             * no correction: spincal correct's predicted_better); 0 with sd zero where VALID is unset\n \
+             * (spincal correct leaves both empty there). Needs no state; accel and sd may be the same array. */\n\
+             unsigned {p}_predicted_sd(const {p}_coefficients *c, const {r} accel[3], {r} sd[3]);\n"
+        );
+    } else {
+        let why = plan.no_error_bar().unwrap_or_default();
+        let _ = writeln!(
+            h,
+            "/* 0: no {p}_predicted_sd: {}; spincal correct\n \
+             * writes no <column>_corrected_sd or predicted_better for it either. */\n\
+             #define {u}_PREDICTS_SD 0\n",
+            super::wrap_words(why, "\n * ")
+        );
+    }
+}
+
+/// `unsigned P_predicted_sd(c, accel, sd)`: the correction's Jacobian by spincal's
+/// `SensorModel::correct_with_jacobian` operations, √diag(J Σ Jᵀ) by `propagated_variance`'s,
+/// and the flag of `predicted_to_help`.
+fn predicted_sd_fn(s: &mut String, n: &Names, ph: &PhysicalPlan, precision: Precision) {
+    let (p, u, r, m) = (&n.p, &n.u, n.r, n.m);
+    let epsilon = match precision {
+        Precision::Float => format!("{:?}f", f32::EPSILON),
+        Precision::Double => format!("{:?}", f64::EPSILON),
+    };
+    let quadratic = if ph.is_linear() {
+        // q = 0: the slope 1 + 2 q u is 1, and dividing by it changes no bit.
+        "        jac[k][9 + k] = -u * u / d; /* q = 0: the slope 1 + 2 q u is 1 */\n".to_string()
+    } else {
+        format!(
+            "        /* q u^2 + u = m, so du/dq = -u^2 / (1 + 2 q u). */\n\
+             \x20       slope = 1 + 2 * c->phys_quadratic[k] * u;\n\
+             \x20       if (fabs{m}(slope) < {epsilon}) {{\n            sd[0] = 0;\n            sd[1] = 0;\n            sd[2] = 0;\n            return 0;\n        }}\n\
+             \x20       jac[k][9 + k] = -u * u / slope / d;\n"
+        )
+    };
+    let slope_decl = if ph.is_linear() {
+        String::new()
+    } else {
+        format!("    {r} slope;\n")
+    };
+    let _ = writeln!(
+        s,
+        "/* spincal correct's error bar and predicted_better (see the header). */\n\
+         unsigned {p}_predicted_sd(const {p}_coefficients *c, const {r} accel[3], {r} sd[3])\n{{\n    \
+         {r} m[3], f[3], v[3], jac[3][12];\n{slope_decl}    int k, j, a, b;\n    unsigned flags = {u}_SD | {u}_BETTER;\n    \
+         m[0] = accel[0];\n    m[1] = accel[1];\n    m[2] = accel[2];\n    \
+         if (!({p}_physical(c, m, f) & {u}_VALID)) {{\n        sd[0] = 0;\n        sd[1] = 0;\n        sd[2] = 0;\n        return 0;\n    }}\n    \
+         /* v = (I + M) f: the force as the three skewed axes see it. */\n    \
+         v[0] = f[0];\n    v[1] = f[1] + c->phys_misalignment[0] * f[0];\n    \
+         v[2] = f[2] + c->phys_misalignment[1] * f[0] + c->phys_misalignment[2] * f[1];\n    \
+         /* dv/dtheta for v = (u - b) / (1 + s), u the inverse of m: b, s and q act on their own axis. */\n    \
+         for (k = 0; k < 3; ++k) {{\n        for (j = 0; j < 12; ++j) {{\n            jac[k][j] = 0;\n        }}\n    }}\n    \
+         for (k = 0; k < 3; ++k) {{\n        \
+         const {r} d = c->phys_one_plus_scale[k];\n        \
+         const {r} u = c->phys_bias[k] + d * v[k];\n{quadratic}        \
+         jac[k][k] = -1 / d;\n        jac[k][3 + k] = -v[k] / d;\n    }}\n    \
+         /* f = (I + M)^-1 v: forward substitution carries v's derivatives; M's own enter directly. */\n    \
+         for (j = 0; j < 12; ++j) {{\n        \
+         jac[1][j] = jac[1][j] - c->phys_misalignment[0] * jac[0][j];\n        \
+         jac[2][j] = jac[2][j] - c->phys_misalignment[1] * jac[0][j] - c->phys_misalignment[2] * jac[1][j];\n    }}\n    \
+         jac[1][6] -= f[0];\n    jac[2][6] += c->phys_misalignment[2] * f[0];\n    jac[2][7] -= f[0];\n    jac[2][8] -= f[1];\n    \
+         /* diag(J Sigma J^T), skipping the parameters a row does not depend on (as spincal). */\n    \
+         for (k = 0; k < 3; ++k) {{\n        {r} sum = 0, correction;\n        \
+         for (a = 0; a < 12; ++a) {{\n            {r} inner = 0;\n            \
+         if (jac[k][a] == 0) {{\n                continue;\n            }}\n            \
+         for (b = 0; b < 12; ++b) {{\n                inner += c->phys_covariance[a][b] * jac[k][b];\n            }}\n            \
+         sum += jac[k][a] * inner;\n        }}\n        \
+         sd[k] = sqrt{m}(sum > 0 ? sum : 0);\n        \
+         /* Predicted to help when c^2 > 2 sd^2: c^2 - sd^2 estimates the true correction's square,\n         \
+         * and applying c leaves sd^2. */\n        \
+         correction = f[k] - m[k];\n        \
+         if (!(correction * correction > 2 * sd[k] * sd[k])) {{\n            flags &= ~{u}_BETTER;\n        }}\n    }}\n    \
+         return flags;\n}}\n"
+    );
 }
 
 /// `static unsigned P_physical(c, m, f)`: the inverse sensor model, VALID | OUTSIDE bits.

@@ -12,7 +12,12 @@
 //!   of the library's, within 2 ulps of the correctly rounded tanh;
 //! - a network keeps its training envelope as `correct` does: outside its input range `ann`
 //!   passes the reading through uncorrected and marks it invalid, `physical_ann` falls back to
-//!   the physical correction outside its input range, its covered cells or its output range.
+//!   the physical correction outside its input range, its covered cells or its output range;
+//! - a `physical` model with its parameters' covariance (the models `correct` gives an error bar)
+//!   gets the error bar too: `NAME_fXX_predicted_sd` in C and `Model::predicted_error` in Rust
+//!   give `correct`'s `<column>_corrected_sd` (the Jacobian by `correct_with_jacobian`'s
+//!   operations, √diag(J Σ Jᵀ) by `propagated_variance`'s, Σ a table in the coefficients) and
+//!   `predicted_better`; every other model exports none, and its header says so.
 
 mod c_source;
 mod fusion;
@@ -153,6 +158,17 @@ impl FirmwareExport {
             ));
         }
         text.push(')');
+        if let Some(rel) = e.sd_max_rel {
+            text.push_str(&format!(
+                "; its predicted standard deviation within {rel:.1e} of the double's (relative)"
+            ));
+            if e.better_differ > 0 {
+                text.push_str(&format!(
+                    ", predicted_better differing at {} grid points within rounding of its threshold",
+                    e.better_differ
+                ));
+            }
+        }
         text
     }
 }
@@ -238,6 +254,25 @@ pub fn write_export(export: &FirmwareExport, dir: &Path) -> Result<Vec<PathBuf>,
     Ok(written)
 }
 
+/// `text` wrapped at about 80 columns, each new line started with `continuation` (a generated
+/// comment's `\n * ` or `\n// `).
+fn wrap_words(text: &str, continuation: &str) -> String {
+    let mut out = String::new();
+    let mut line = 0;
+    for word in text.split(' ') {
+        if line > 0 && line + word.len() > 80 {
+            out.push_str(continuation);
+            line = 0;
+        } else if line > 0 {
+            out.push(' ');
+            line += 1;
+        }
+        out.push_str(word);
+        line += word.len();
+    }
+    out
+}
+
 // The network's tanh constants, one copy (the no_std crate's), written out by the C export.
 use spincal_embedded::{LN2_HI, LN2_HI_F, LN2_LO, LN2_LO_F, ROUNDER, ROUNDER_F, TANH_C, TANH_C_F};
 
@@ -273,6 +308,167 @@ mod tests {
                 "{x}"
             );
         }
+    }
+
+    use crate::correctors::model_file::CorrectorModel;
+    use crate::correctors::physical::{
+        predicted_to_help, PhysicalCorrector, SensorModel, SensorUncertainty, SENSOR_PARAMS,
+    };
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// A physical model with a covariance A Aᵀ of strongly correlated parameters (seeded), q's
+    /// rows included; `quadratic` false: physical-linear.
+    fn physical_with_covariance(quadratic: bool) -> PhysicalCorrector {
+        let mut rng = ChaCha8Rng::seed_from_u64(46);
+        // Standard errors of bias, scale, misalignment and q as a campaign leaves them.
+        let se = [
+            3e-3, 3e-3, 3e-3, 4e-4, 4e-4, 4e-4, 5e-4, 5e-4, 5e-4, 3e-5, 3e-5, 3e-5,
+        ];
+        let a: Vec<[f64; SENSOR_PARAMS]> = (0..SENSOR_PARAMS)
+            .map(|i| std::array::from_fn(|_| se[i] * rng.gen_range(-1.0..1.0)))
+            .collect();
+        let covariance = std::array::from_fn(|i| {
+            std::array::from_fn(|j| (0..SENSOR_PARAMS).map(|l| a[i][l] * a[j][l]).sum())
+        });
+        PhysicalCorrector {
+            sensor: SensorModel {
+                bias_mps2: [0.04, -0.06, 0.08],
+                scale_error: [0.004, -0.006, 0.003],
+                misalignment_rad: [0.005, -0.003, 0.004],
+                quadratic_per_mps2: if quadratic { [6e-4, -6e-4, 3e-4] } else { [0.0; 3] },
+            },
+            gravity_mps2: 9.81,
+            input_range_mps2: [[-12.0, 12.0]; 3],
+            uncertainty: Some(SensorUncertainty {
+                covariance,
+                noise_sd_mps2: [0.02; 3],
+            }),
+        }
+    }
+
+    /// The no_std crate's f64 error bar is the library's bit for bit (the C double export does
+    /// its operations: tests/firmware.rs), the flag `predicted_to_help`'s, for physical and
+    /// physical-linear, and both values of the flag occur.
+    #[test]
+    fn the_embedded_error_bar_is_the_librarys() {
+        for quadratic in [true, false] {
+            let p = physical_with_covariance(quadratic);
+            let file = CorrectorFile::new(CorrectorModel::Physical(Box::new(p.clone())));
+            let plan = plan::Plan::of(&file).unwrap();
+            let plan::AccelPlan::Physical(ph) = &plan.accel else {
+                panic!("a physical plan")
+            };
+            let embedded = spincal_embedded::Physical {
+                bias: ph.bias,
+                one_plus_scale: ph.one_plus_scale,
+                misalignment: ph.misalignment,
+                quadratic: ph.quadratic,
+                lower: ph.lower,
+                upper: ph.upper,
+            };
+            let covariance = plan.covariance.expect("the covariance");
+            let mut flags = [0usize; 2];
+            for m in fusion::grid(&[[-14.0, 14.0]; 3]) {
+                let sd = p.predicted_sd(m).unwrap();
+                let f = p.sensor.correct(m).unwrap();
+                let better = (0..3).all(|k| predicted_to_help(f[k] - m[k], sd[k]));
+                let ours = embedded.predicted_error(&covariance, m).unwrap();
+                assert_eq!(ours.sd.map(f64::to_bits), sd.map(f64::to_bits), "{m:?}");
+                assert_eq!(ours.better, better, "{m:?}");
+                flags[usize::from(better)] += 1;
+            }
+            assert!(flags[0] > 0 && flags[1] > 0, "{flags:?}");
+        }
+    }
+
+    /// The export carries the error bar exactly where `correct` writes one, and says so where not.
+    #[test]
+    fn the_error_bar_is_exported_only_where_correct_writes_one() {
+        let text = |file: &CorrectorFile, name: &str| {
+            let export = export_firmware(file, "m.json", &ExportOptions::default()).unwrap();
+            let get = |n: String| {
+                export
+                    .files
+                    .iter()
+                    .find(|(f, _)| *f == n)
+                    .map(|(_, t)| t.clone())
+                    .unwrap()
+            };
+            (
+                get(format!("spincal_{name}.h")),
+                get(format!("spincal_{name}.c")),
+                get("spincal_model.rs".into()),
+                export,
+            )
+        };
+        let with = physical_with_covariance(true);
+        let file = CorrectorFile::new(CorrectorModel::Physical(Box::new(with.clone())));
+        let (header, source, rust, export) = text(&file, "f32");
+        assert!(header.contains("#define SPINCAL_F32_PREDICTS_SD 1"), "{header}");
+        assert!(header.contains("unsigned spincal_f32_predicted_sd("), "{header}");
+        assert!(
+            source.contains("float phys_covariance") || header.contains("float phys_covariance[12][12];")
+        );
+        assert!(source.contains("sqrtf(sum > 0 ? sum : 0)"), "{source}");
+        assert!(rust.contains("pub static COVARIANCE_F32: spincal_embedded::Covariance<f32>"));
+        assert!(rust.contains("covariance: Some(&COVARIANCE_F64)"));
+        let rel = export
+            .float_error
+            .sd_max_rel
+            .expect("the float error bar's error");
+        assert!(rel < 1e-5, "{:?}", export.float_error);
+        assert!(export
+            .float_error_text()
+            .contains("predicted standard deviation within"));
+
+        // Without a covariance, and a physical_ann whose physical part has one: nothing new.
+        let without = PhysicalCorrector {
+            uncertainty: None,
+            ..with.clone()
+        };
+        let file = CorrectorFile::new(CorrectorModel::Physical(Box::new(without)));
+        let (header, source, rust, export) = text(&file, "f64");
+        assert!(header.contains("#define SPINCAL_F64_PREDICTS_SD 0"), "{header}");
+        assert!(header.contains("carries no parameter covariance"), "{header}");
+        assert!(!source.contains("predicted_sd") && !source.contains("phys_covariance"));
+        assert!(!rust.contains("COVARIANCE") && rust.contains("covariance: None"));
+        assert_eq!(export.float_error.sd_max_rel, None);
+        let coverage = crate::correctors::physical_ann::InputCoverage::of(&[
+            vec![0.0, 1.0],
+            vec![0.0, 1.0],
+            vec![9.0, 9.8],
+        ]);
+        use crate::correctors::ann::{AnnModel, Network, Scaling};
+        use crate::correctors::corrector::Axis;
+        let unit = || Scaling {
+            min: vec![-1.0; 3],
+            max: vec![1.0; 3],
+        };
+        // A 3-2-3 network of zero weights: its shape is what matters here.
+        let network = AnnModel {
+            axes: Axis::ALL.to_vec(),
+            delays: 0,
+            input_scaling: unit(),
+            output_scaling: unit(),
+            network: Network {
+                inputs: 3,
+                hidden: vec![2],
+                outputs: 3,
+                weights: vec![0.0; 2 * 4 + 3 * 3],
+            },
+            training: None,
+        };
+        let pa = crate::correctors::physical_ann::PhysicalAnnCorrector {
+            physical: with,
+            network,
+            coverage,
+        };
+        let file = CorrectorFile::new(CorrectorModel::PhysicalAnn(Box::new(pa)));
+        let (header, source, rust, _) = text(&file, "f32");
+        assert!(header.contains("#define SPINCAL_F32_PREDICTS_SD 0"), "{header}");
+        assert!(header.contains("error bar for a physical model with a covariance only"));
+        assert!(!source.contains("phys_covariance") && !rust.contains("COVARIANCE"));
     }
 
     #[test]

@@ -7,6 +7,7 @@ use serde::Serialize;
 
 use crate::correctors::corrector::Corrector;
 use crate::correctors::model_file::CorrectorModel;
+use crate::correctors::physical::predicted_to_help;
 use crate::input::recording::STANDARD_GRAVITY;
 
 use super::fusion::grid;
@@ -27,6 +28,12 @@ pub struct FloatError {
     /// Grid points where the float and double flags (valid, outside the training range) differ:
     /// readings within rounding of an envelope's edge.
     pub flags_differ: usize,
+    /// For a model with an error bar (`None` without): the largest |float − double| of the
+    /// predicted standard deviation over the grid, relative to the double's, on any axis.
+    pub sd_max_rel: Option<f64>,
+    /// Grid points where the float's `predicted_better` differs from the double's: a correction
+    /// within rounding of √2 standard deviations on some axis.
+    pub better_differ: usize,
 }
 
 /// The training range of a model: per axis [min, max] of the readings, and its description.
@@ -161,7 +168,15 @@ pub(crate) fn float_error(plan: &Plan, model: &CorrectorModel) -> FloatError {
             coverage: coverage(&pa.2),
         }),
     };
-    let embedded = spincal_embedded::Model { accel, gyro: None };
+    let covariance = plan.covariance.map(|c| c.map(|row| row.map(|v| v as f32)));
+    let embedded = spincal_embedded::Model {
+        accel,
+        gyro: None,
+        covariance: covariance.as_ref(),
+    };
+    let error_model = model.error_model();
+    let mut sd_max_rel = error_model.map(|_| 0.0f64);
+    let mut better_differ = 0;
     let (range, over) = training_box(model);
     let mut state = Box::new(spincal_embedded::State::<f32, MAX_HISTORY>::new());
     let mut max = [0.0f64; 3];
@@ -189,6 +204,27 @@ pub(crate) fn float_error(plan: &Plan, model: &CorrectorModel) -> FloatError {
         for k in 0..3 {
             max[k] = max[k].max((f64::from(single.accel[k]) - ours.accel_mps2[k]).abs());
         }
+        // The error bar, as `correct` gives it (RowCorrector) and the float export does.
+        let Some(physical) = error_model else {
+            continue;
+        };
+        let double = physical.predicted_sd(m).map(|sd| {
+            let better = (0..3).all(|k| predicted_to_help(ours.accel_mps2[k] - m[k], sd[k]));
+            (sd, better)
+        });
+        match (double, embedded.predicted_error(m32)) {
+            (Some((sd, better)), Some(float)) => {
+                for k in 0..3 {
+                    let diff = (f64::from(float.sd[k]) - sd[k]).abs();
+                    let rel = if diff == 0.0 { 0.0 } else { diff / sd[k] };
+                    sd_max_rel = sd_max_rel.map(|w| w.max(rel));
+                }
+                better_differ += usize::from(better != float.better);
+            }
+            (None, None) => {}
+            // One has an inverse (or a slope) the other lacks: within rounding of the edge.
+            _ => better_differ += 1,
+        }
     }
     FloatError {
         max_abs_mps2: max,
@@ -198,5 +234,7 @@ pub(crate) fn float_error(plan: &Plan, model: &CorrectorModel) -> FloatError {
         ),
         points,
         flags_differ,
+        sd_max_rel,
+        better_differ,
     }
 }

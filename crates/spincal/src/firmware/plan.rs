@@ -8,7 +8,7 @@ use crate::correctors::ann::{AnnModel, Scaling, EXTRAPOLATION_MARGIN};
 use crate::correctors::gyro::GyroModel;
 use crate::correctors::linear::LinearModel;
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
-use crate::correctors::physical::PhysicalCorrector;
+use crate::correctors::physical::{PhysicalCorrector, SensorCovariance};
 use crate::correctors::physical_ann::InputCoverage;
 use crate::correctors::static_cal::StaticCalibration;
 use crate::geometry::{inverse, M3};
@@ -185,6 +185,9 @@ pub(crate) struct Plan {
     pub kind: String,
     pub accel: AccelPlan,
     pub gyro: Option<GyroPlan>,
+    /// The physical model's parameter covariance, exactly when `spincal correct` writes an error
+    /// bar for the model (`CorrectorModel::error_model`: a `physical` kind with an uncertainty).
+    pub covariance: Option<SensorCovariance>,
 }
 
 impl Plan {
@@ -216,7 +219,30 @@ impl Plan {
             Some(g) => Some(gyro_plan(g)?),
             None => None,
         };
-        Ok(Plan { kind, accel, gyro })
+        // One rule with `correct`: a physical_ann's physical part may carry an uncertainty, but
+        // its rows get no error bar, so neither do the exports.
+        let covariance = file
+            .corrector
+            .error_model()
+            .and_then(|p| p.uncertainty.as_ref())
+            .map(|u| u.covariance);
+        Ok(Plan {
+            kind,
+            accel,
+            gyro,
+            covariance,
+        })
+    }
+
+    /// Why the export has no error bar (`None` when it has one), for the generated files.
+    pub fn no_error_bar(&self) -> Option<&'static str> {
+        match (&self.covariance, &self.accel) {
+            (Some(_), _) => None,
+            (None, AccelPlan::Physical(_)) => Some(
+                "this physical model carries no parameter covariance (a model.json of format 1, or one not saved by a campaign)",
+            ),
+            (None, _) => Some("spincal gives an error bar for a physical model with a covariance only"),
+        }
     }
 
     /// Length of the stream state's history (0 without a network).

@@ -6,6 +6,7 @@ use std::fmt::Write;
 
 use super::plan::{AccelPlan, CoveragePlan, GyroPlan, NetworkPlan, PhysicalPlan, Plan};
 use super::Precision;
+use crate::correctors::physical::SensorCovariance;
 use crate::geometry::M3;
 
 fn lit(x: f64, precision: Precision) -> String {
@@ -138,10 +139,30 @@ fn model(plan: &Plan, x: Precision) -> String {
             )
         }
     };
+    let covariance = match (&plan.covariance, x) {
+        (Some(_), Precision::Float) => "Some(&COVARIANCE_F32)",
+        (Some(_), Precision::Double) => "Some(&COVARIANCE_F64)",
+        (None, _) => "None",
+    };
     format!(
-        "spincal_embedded::Model {{\n    accel: {accel},\n    gyro: {},\n}}",
+        "spincal_embedded::Model {{\n    accel: {accel},\n    gyro: {},\n    covariance: {covariance},\n}}",
         gyro(plan.gyro.as_ref(), x)
     )
+}
+
+/// The 12 × 12 covariance, a row (wrapped six values to a line) per parameter.
+fn covariance(c: &SensorCovariance, x: Precision) -> String {
+    let rows: Vec<String> = c
+        .iter()
+        .map(|row| {
+            let lines: Vec<String> = row
+                .chunks(6)
+                .map(|l| l.iter().map(|&v| lit(v, x)).collect::<Vec<_>>().join(", "))
+                .collect();
+            format!("[\n        {},\n    ]", lines.join(",\n        "))
+        })
+        .collect();
+    format!("[\n    {},\n]", rows.join(",\n    "))
 }
 
 /// The file's text: `HISTORY`, a state type and a `MODEL_F32`/`MODEL_F64` per precision.
@@ -156,6 +177,21 @@ pub(crate) fn file(plan: &Plan, precisions: &[Precision], provenance: &str) -> S
          //     let out = MODEL_F32.correct(&mut state, accel_mps2, gyro);\n",
         plan.kind
     );
+    if plan.covariance.is_some() {
+        let _ = writeln!(
+            s,
+            "// The model carries its parameters' covariance: `MODEL_F32.predicted_error(accel_mps2)`\n\
+             // gives each sample's error bar and flag as `spincal correct` does (`<column>_corrected_sd`,\n\
+             // `predicted_better`).\n"
+        );
+    } else if let Some(why) = plan.no_error_bar() {
+        let _ = writeln!(
+            s,
+            "// No error bar (`covariance: None`, `predicted_error` gives None): {};\n\
+             // `spincal correct` writes none for it either.\n",
+            super::wrap_words(why, "\n// ")
+        );
+    }
     let _ = writeln!(
         s,
         "/// Values of a stream's delay history (the network's inputs; 0 without a network).\npub const HISTORY: usize = {};\n",
@@ -170,6 +206,14 @@ pub(crate) fn file(plan: &Plan, precisions: &[Precision], provenance: &str) -> S
             s,
             "/// One stream's state in {t}.\npub type State{upper} = spincal_embedded::State<{t}, HISTORY>;\n"
         );
+        if let Some(c) = &plan.covariance {
+            let _ = writeln!(
+                s,
+                "/// The physical model's parameter covariance in {t} (bias, scale error, misalignment,\n\
+                 /// quadratic: `spincal_embedded::PARAMS` order).\n#[rustfmt::skip]\npub static COVARIANCE_{upper}: spincal_embedded::Covariance<{t}> = {};\n",
+                covariance(c, x)
+            );
+        }
         let _ = writeln!(
             s,
             "/// The corrector in {t}.\n#[rustfmt::skip]\npub static MODEL_{upper}: spincal_embedded::Model<'static, {t}> = {};\n",
