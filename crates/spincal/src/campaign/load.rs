@@ -194,3 +194,59 @@ pub fn load_campaign(campaign: &Campaign) -> Result<Vec<UnitRecording>, LoadErro
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::recording::STANDARD_GRAVITY;
+
+    /// An MPU-6050 logger's raw counts read through the campaign's keys: its ranges name the
+    /// scales; without them the counts are refused with the key to give.
+    #[test]
+    fn a_breakout_boards_raw_counts_read_by_its_ranges() {
+        let dir = tempfile::tempdir().unwrap();
+        let rows: String = (0..200)
+            .map(|i| format!("{},{},{},131,-262,{}\n", i % 3, -(i % 2), 16384 + i % 5, 655))
+            .collect();
+        std::fs::write(
+            dir.path().join("still.csv"),
+            format!("Fs,100\nax,ay,az,gx,gy,gz\n{rows}"),
+        )
+        .unwrap();
+        let path = dir.path().join("c.toml");
+        let campaign = |keys: &str| {
+            let text = format!("[[recording]]\nfile = \"still.csv\"\nkind = \"static\"\n{keys}");
+            Campaign::parse(&text, &path).unwrap()
+        };
+        let loaded = load_campaign(&campaign("accel_range_g = 2\ngyro_range_dps = 250\n")).unwrap();
+        let rec = &loaded[0].recording;
+        let z = rec.accel_mps2[2].iter().sum::<f64>() / rec.len() as f64;
+        assert!((z - STANDARD_GRAVITY).abs() < 2e-3 * STANDARD_GRAVITY, "az {z}");
+        let gyro = rec.gyro_radps.as_ref().expect("the gyro, in rad/s");
+        // 131 counts per °/s at ±250 °/s (32768 / 250 = 131.07).
+        assert!(
+            (gyro[0][0] - 1f64.to_radians()).abs() < 2e-3 * 1f64.to_radians(),
+            "gx {}",
+            gyro[0][0]
+        );
+        assert!(
+            (gyro[1][0] + 2f64.to_radians()).abs() < 4e-3 * 1f64.to_radians(),
+            "gy {}",
+            gyro[1][0]
+        );
+        let e = load_campaign(&campaign("accel_range_g = 2\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(":1: `gyro_range_dps`") && e.contains("raw counts"),
+            "{e}"
+        );
+        let e = load_campaign(&campaign("gyro_range_dps = 250\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(":1: `accel_range_g`") && e.contains("raw counts"),
+            "{e}"
+        );
+    }
+}
