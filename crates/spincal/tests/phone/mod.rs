@@ -6,7 +6,7 @@
 // Axis loops index the read and the true values side by side.
 #![allow(clippy::needless_range_loop)]
 
-mod writer;
+pub(crate) mod writer;
 
 use spincal::input::formats::phone::{read_pair, PhoneError};
 use spincal::input::formats::{detect, read_bytes, read_path, Format, FormatError, Loaded, ReadOptions};

@@ -37,7 +37,7 @@ fn every_row_comes_out_in_its_order_with_refusals_and_skips_in_place() {
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(
         lines[0],
-        "t,ax,ay,az,ax_corrected,ay_corrected,az_corrected,valid,status"
+        "t,ax,ay,az,ax_corrected_mps2,ay_corrected_mps2,az_corrected_mps2,valid,status"
     );
     assert_eq!(lines.len(), 7, "{text}");
     assert!(
@@ -101,7 +101,7 @@ fn a_file_read_whole_names_its_columns_as_the_stream_does_and_agrees_on_the_valu
     let header = whole.lines().next().expect("a header");
     assert_eq!(
         header,
-        "line,t_s,ax_mps2,ay_mps2,az_mps2,ax_mps2_corrected,ay_mps2_corrected,az_mps2_corrected,valid,status"
+        "line,t_s,ax_mps2,ay_mps2,az_mps2,ax_corrected_mps2,ay_corrected_mps2,az_corrected_mps2,valid,status"
     );
     let corrected_of = |text: &str| -> Vec<Vec<f64>> {
         text.lines()
@@ -174,7 +174,7 @@ fn a_model_with_a_covariance_writes_each_rows_error_bar_and_flag() {
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(
         lines[0],
-        "t,ax,ay,az,ax_corrected,ay_corrected,az_corrected,ax_corrected_sd,ay_corrected_sd,az_corrected_sd,predicted_better,valid,status"
+        "t,ax,ay,az,ax_corrected_mps2,ay_corrected_mps2,az_corrected_mps2,ax_corrected_sd_mps2,ay_corrected_sd_mps2,az_corrected_sd_mps2,predicted_better,valid,status"
     );
     let fields: Vec<f64> = lines[1].split(',').take(11).map(|v| v.parse().unwrap()).collect();
     let g = crate::input::recording::STANDARD_GRAVITY;
