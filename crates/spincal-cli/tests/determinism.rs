@@ -81,7 +81,10 @@ fn calibration_results_are_identical_across_thread_counts() {
     // every candidate on every held-out condition.
     let rows = results[0]["paper"]["comparison"].as_array().unwrap().len();
     assert!(rows >= 6, "{rows} comparison rows");
-    assert_printed_tables_only_with_the_flag(&printed, &[HELD_OUT_TABLE, "the paper's protocol", "best on validation"]);
+    assert_printed_tables_only_with_the_flag(
+        &printed,
+        &[HELD_OUT_TABLE, "the paper's protocol", "best on validation"],
+    );
     // Recordings at the working directory's top: the unit is that folder's name, made safe (a
     // temporary folder's leading dot dropped).
     let folder = work.canonicalize().unwrap();
@@ -150,15 +153,25 @@ fn assert_printed_tables_only_with_the_flag(printed: &[String], headings: &[&str
     let (short, long) = (&printed[0], &printed[1]);
     let first = short.lines().next().unwrap_or_default();
     assert!(
-        first.starts_with("Saved OUT/model.json (") || first.starts_with("No model saved (no model.json in OUT)"),
+        first.starts_with("Saved OUT/model.json (")
+            || first.starts_with("No model saved (no model.json in OUT)"),
         "{short}"
     );
     assert_eq!(long.lines().next(), Some(first));
     for line in short.lines().filter(|l| !l.contains("--tables")) {
-        assert!(long.lines().any(|l| l == line), "{line:?} is missing with --tables:\n{long}");
+        assert!(
+            long.lines().any(|l| l == line),
+            "{line:?} is missing with --tables:\n{long}"
+        );
     }
     for heading in headings {
-        assert!(!short.contains(heading), "{heading:?} printed without --tables:\n{short}");
-        assert!(long.contains(heading), "{heading:?} missing with --tables:\n{long}");
+        assert!(
+            !short.contains(heading),
+            "{heading:?} printed without --tables:\n{short}"
+        );
+        assert!(
+            long.contains(heading),
+            "{heading:?} missing with --tables:\n{long}"
+        );
     }
 }

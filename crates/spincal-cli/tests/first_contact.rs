@@ -39,7 +39,11 @@ fn crc32(bytes: &[u8]) -> u32 {
     for &b in bytes {
         crc ^= u32::from(b);
         for _ in 0..8 {
-            crc = if crc & 1 != 0 { (crc >> 1) ^ 0xEDB8_8320 } else { crc >> 1 };
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ 0xEDB8_8320
+            } else {
+                crc >> 1
+            };
         }
     }
     !crc
@@ -61,10 +65,16 @@ fn init_writes_each_devices_campaign_and_never_replaces_a_file_unasked() {
             .args(["init", "--device", device])
             .output()
             .unwrap();
-        assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
+        assert_eq!(
+            run.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
         let stdout = String::from_utf8_lossy(&run.stdout);
         assert!(
-            stdout.starts_with("wrote campaign.toml") && stdout.contains("spincal calibrate --campaign campaign.toml"),
+            stdout.starts_with("wrote campaign.toml")
+                && stdout.contains("spincal calibrate --campaign campaign.toml"),
             "{stdout}"
         );
         let file = kit.join("campaign.toml");
@@ -106,7 +116,12 @@ fn init_writes_each_devices_campaign_and_never_replaces_a_file_unasked() {
         .arg(&file)
         .output()
         .unwrap();
-    assert_eq!(forced.status.code(), Some(0), "{}", String::from_utf8_lossy(&forced.stderr));
+    assert_eq!(
+        forced.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&forced.stderr)
+    );
     assert!(String::from_utf8_lossy(&forced.stderr).contains("replacing"));
     assert!(!std::fs::read_to_string(&file).unwrap().contains("# my notes"));
 
@@ -117,7 +132,9 @@ fn init_writes_each_devices_campaign_and_never_replaces_a_file_unasked() {
         .arg(&nested)
         .assert()
         .success();
-    assert!(std::fs::read_to_string(&nested).unwrap().contains("unit = \"unit-3\""));
+    assert!(std::fs::read_to_string(&nested)
+        .unwrap()
+        .contains("unit = \"unit-3\""));
     let in_the_way = spincal()
         .args(["init", "--device", "phone", "-o"])
         .arg(dir.path().join("new"))
@@ -142,5 +159,8 @@ fn an_unknown_device_is_a_usage_error_naming_the_choices() {
         stderr.contains("phone") && stderr.contains("breakout") && stderr.contains("flight-controller"),
         "{stderr}"
     );
-    assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none(), "wrote something");
+    assert!(
+        std::fs::read_dir(dir.path()).unwrap().next().is_none(),
+        "wrote something"
+    );
 }

@@ -56,7 +56,10 @@ fn the_breakout_template_reads_a_log_in_the_layout_it_asks_for() {
     }
     let campaign = Campaign::read_path(&path).unwrap();
     assert_eq!(campaign.unit, "mpu-6050 #2");
-    assert!(campaign.nonlinearity.is_some(), "the MPU-6050's datasheet is stated");
+    assert!(
+        campaign.nonlinearity.is_some(),
+        "the MPU-6050's datasheet is stated"
+    );
     let loaded = load_campaign(&campaign).unwrap();
     assert_eq!(loaded.len(), 4);
     for unit in &loaded {
@@ -66,7 +69,11 @@ fn the_breakout_template_reads_a_log_in_the_layout_it_asks_for() {
         assert!((z - STANDARD_GRAVITY).abs() < 0.01, "{}: {z}", unit.name);
         assert!((r.time_s[1] - r.time_s[0] - 0.01).abs() < 1e-12, "{}", unit.name);
         let gyro = r.gyro_radps.as_ref().expect("gyro columns");
-        assert!(gyro[0].iter().all(|w| w.abs() < 0.1_f64.to_radians()), "{}", unit.name);
+        assert!(
+            gyro[0].iter().all(|w| w.abs() < 0.1_f64.to_radians()),
+            "{}",
+            unit.name
+        );
         assert!(r.temperature_c.is_some(), "{}", unit.name);
     }
 }
@@ -82,7 +89,10 @@ fn the_phone_template_reads_phyphox_zips_with_both_sensors() {
     let gyro = writer::times(-0.01, 190.0, 420);
     let zip = writer::phyphox_zip(
         App::Android,
-        &[writer::accelerometer_set(App::Android, &accel), writer::gyroscope_set(App::Android, &gyro)],
+        &[
+            writer::accelerometer_set(App::Android, &accel),
+            writer::gyroscope_set(App::Android, &gyro),
+        ],
         VARIANTS[0],
         1_796_126_400.0,
     );

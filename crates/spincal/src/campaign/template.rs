@@ -328,7 +328,10 @@ mod tests {
     fn keys_still_coming_are_only_comments() {
         for device in Device::ALL {
             let text = campaign_template(device, "u");
-            for line in text.lines().filter(|l| l.contains("(coming)") || l.contains("placement")) {
+            for line in text
+                .lines()
+                .filter(|l| l.contains("(coming)") || l.contains("placement"))
+            {
                 assert!(line.trim_start().starts_with('#'), "{}: {line}", device.name());
             }
         }

@@ -66,7 +66,9 @@ pub fn safe_name(text: &str) -> String {
         .collect();
     let trimmed = replaced.trim_matches(|c: char| c == '.' || c.is_whitespace() || c == '-');
     let mut name: String = trimmed.chars().take(LONGEST_UNIT_NAME).collect();
-    name = name.trim_end_matches(|c: char| c == '.' || c.is_whitespace()).to_string();
+    name = name
+        .trim_end_matches(|c: char| c == '.' || c.is_whitespace())
+        .to_string();
     if name.is_empty() {
         return "unit".into();
     }
@@ -94,7 +96,11 @@ mod tests {
         std::fs::write(&file, "t,ax,ay,az\n").unwrap();
         assert_eq!(unit_name(&file), "phone-2026-11-28");
         // Through `..` and `.` as typed.
-        let typed = session.join(".").join("..").join("phone-2026-11-28").join("Raw Data.csv");
+        let typed = session
+            .join(".")
+            .join("..")
+            .join("phone-2026-11-28")
+            .join("Raw Data.csv");
         assert_eq!(unit_name(&typed), "phone-2026-11-28");
         // A folder recording (Sensor Logger, a bag) is its own unit.
         assert_eq!(unit_name(&session), "phone-2026-11-28");
@@ -123,6 +129,9 @@ mod tests {
         assert_eq!(safe_name(""), "unit");
         let long = "é".repeat(300);
         assert_eq!(safe_name(&long).chars().count(), LONGEST_UNIT_NAME);
-        assert_eq!(safe_name("phone 2026-11-28 (kitchen)"), "phone 2026-11-28 (kitchen)");
+        assert_eq!(
+            safe_name("phone 2026-11-28 (kitchen)"),
+            "phone 2026-11-28 (kitchen)"
+        );
     }
 }
