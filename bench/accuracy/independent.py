@@ -201,9 +201,9 @@ def evaluate(out):
         if os.path.exists(path):
             with open(path) as fh:
                 header = fh.readline().strip().split(",")
-            data = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[header.index(c) for c in ("ax_mps2_corrected", "ay_mps2_corrected", "az_mps2_corrected")])
-            if "ax_mps2_corrected_sd" in header:
-                sd = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[header.index("a%s_mps2_corrected_sd" % a) for a in "xyz"])
+            data = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[header.index(c) for c in ("ax_corrected_mps2", "ay_corrected_mps2", "az_corrected_mps2")])
+            if "ax_corrected_sd_mps2" in header:
+                sd = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[header.index("a%s_corrected_sd_mps2" % a) for a in "xyz"])
         else:
             data = raw
         for k in range(3):

@@ -96,9 +96,9 @@ def bench_correct(args):
     framed = corrector.correct(frame).to_pandas()
     # The numbers agree to the last bit.
     py = corrector.correct(array).accel
-    frame_equal = all(np.array_equal(framed[f"a{a}_mps2_corrected"].to_numpy(), py[:, i]) for i, a in enumerate("xy"))
+    frame_equal = all(np.array_equal(framed[f"a{a}_corrected_mps2"].to_numpy(), py[:, i]) for i, a in enumerate("xy"))
     got = np.genfromtxt(cli_out, delimiter=",", names=True)
-    diff = max(float(np.max(np.abs(got[f"a{a}_mps2_corrected"] - py[:, i]))) for i, a in enumerate("xy"))
+    diff = max(float(np.max(np.abs(got[f"a{a}_corrected_mps2"] - py[:, i]))) for i, a in enumerate("xy"))
     # The CLI's time to read and write the same rows without a model: what it spends beyond correcting.
     result = {
         "rows": rows,

@@ -28,6 +28,8 @@ struct Cli {
 enum Command {
     /// Simulate a campaign and calibrate it, then the default record-player session (the README's main command).
     Demo(commands::demo::DemoArgs),
+    /// Write a commented campaign file for a phone, a breakout board or a flight controller: what to record, for how long.
+    Init(commands::init::InitArgs),
     /// The whole job: turntable fit, every corrector trained and compared, model + report written.
     Calibrate(commands::calibrate::CalibrateArgs),
     /// Every corrector on turntable recordings, as the paper's Table 2 (text, CSV, JSON).
@@ -122,6 +124,7 @@ fn main() {
     ui::remove_temporaries_on_signals();
     let result = match cli.command {
         Command::Demo(args) => commands::demo::run(args, ui),
+        Command::Init(args) => commands::init::run(&args),
         Command::Calibrate(args) => commands::calibrate::run(args, ui),
         Command::Compare(args) => commands::compare::run(args, ui),
         Command::Fleet(args) => commands::fleet::run(args, ui),

@@ -59,7 +59,10 @@ fn train_then_correct_streams_every_row_with_validity() {
     );
     let text = std::fs::read_to_string(&corrected).unwrap();
     let lines: Vec<&str> = text.lines().collect();
-    assert_eq!(lines[0], "t,ax,ay,az,ax_corrected,ay_corrected,valid,status");
+    assert_eq!(
+        lines[0],
+        "t,ax,ay,az,ax_corrected_mps2,ay_corrected_mps2,valid,status"
+    );
     assert_eq!(lines.len(), 801, "every input row comes out");
     assert!(lines[1..].iter().all(|l| l.ends_with(",ok")));
     let valid: Vec<&str> = lines[1..].iter().map(|l| l.rsplit(',').nth(1).unwrap()).collect();

@@ -28,7 +28,8 @@ fn simulated_campaign_calibrates_end_to_end() {
         .unwrap();
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let stdout = String::from_utf8_lossy(&run.stdout);
-    assert!(stdout.contains("held-out condition"), "{stdout}");
+    // The held-out table is the report's (and --tables'), not the terminal's.
+    assert!(!stdout.contains("held-out condition"), "{stdout}");
     let results: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
     let saved = results["saved"].as_str();
@@ -97,11 +98,22 @@ fn simulated_campaign_calibrates_end_to_end() {
         verdict.contains(&format!("truth would have saved {would} ({agrees})")),
         "{verdict}"
     );
-    // The terminal shows the same verdict first.
-    assert!(
-        stdout.starts_with(&format!("unit {}: {verdict}", results["unit"].as_str().unwrap())),
-        "{stdout}"
-    );
+    // The terminal leads with one line: the model saved, where, and where it can be trusted (the
+    // verdict's first sentence, the error map's); the rest of the verdict follows.
+    let mut lines = stdout.lines();
+    let first = lines.next().unwrap();
+    let lead = format!("Saved {} ({saved}). ", out.join("model.json").display());
+    let sentence = first.strip_prefix(&lead).unwrap_or_else(|| panic!("{stdout}"));
+    assert!(sentence.starts_with("Trusted where"), "{stdout}");
+    let rest = lines
+        .next()
+        .and_then(|l| l.strip_prefix(&format!("unit {}: ", results["unit"].as_str().unwrap())))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert_eq!(format!("{sentence} {rest}"), verdict);
+    // The files it wrote, each named.
+    for name in ["model.json", "results.json", "report.html", "imucal.json"] {
+        assert!(stdout.contains(&out.join(name).display().to_string()), "{stdout}");
+    }
     // Judged by physics; the simulation's truth scores the same samples beside it.
     for row in results["held_out"].as_array().unwrap() {
         assert!(row["physics"]["ratio"].as_f64().is_some(), "{row}");
@@ -239,9 +251,9 @@ fn correct_applies_a_physical_corrector_to_every_row() {
     let text = std::fs::read_to_string(&out).unwrap();
     let rows: Vec<&str> = text.lines().skip(1).collect();
     assert_eq!(rows.len(), 2, "{text}");
-    // ax_mps2_corrected = (1.11 − 0.1) / 1.01 = 1.0.
+    // ax_corrected_mps2 = (1.11 − 0.1) / 1.01 = 1.0.
     assert!(
-        text.starts_with("t_s,ax_mps2,ay_mps2,az_mps2,ax_mps2_corrected,"),
+        text.starts_with("t_s,ax_mps2,ay_mps2,az_mps2,ax_corrected_mps2,"),
         "{text}"
     );
     let x: f64 = rows[0].split(',').nth(4).unwrap().parse().unwrap();

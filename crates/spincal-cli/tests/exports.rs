@@ -68,7 +68,7 @@ fn campaign_calibration_loads_in_imucal_applies_to_the_gyro_and_writes_imu_tk_fi
     let (out_header, out_rows) = read_csv(&corrected);
     let gx = out_header
         .iter()
-        .position(|h| h == "gx_radps_corrected")
+        .position(|h| h == "gx_corrected_radps")
         .expect("gyro corrected columns");
     for (row, out_row) in rows.iter().zip(&out_rows).step_by(97) {
         let w = gyro_corrector.correct([row[4], row[5], row[6]]);

@@ -288,7 +288,7 @@ fn statuses(output: &str) -> Vec<(String, Vec<String>)> {
     let mut lines = output.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let corrected: Vec<usize> = (0..header.len())
-        .filter(|&c| header[c].ends_with("_corrected"))
+        .filter(|&c| header[c].contains("_corrected_") && !header[c].contains("_corrected_sd_"))
         .collect();
     lines
         .map(|l| {

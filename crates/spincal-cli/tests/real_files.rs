@@ -261,7 +261,7 @@ fn static_exports_match_the_model_it_saves() {
     for row in body.iter().step_by(97) {
         let get = |name: &str| row[col(name)].parse::<f64>().unwrap();
         let raw = ["ax_counts", "ay_counts", "az_counts"].map(get);
-        let ours = ["ax_mps2_corrected", "ay_mps2_corrected", "az_mps2_corrected"].map(get);
+        let ours = ["ax_corrected_mps2", "ay_corrected_mps2", "az_corrected_mps2"].map(get);
         // imucal: R_a⁻¹ K_a⁻¹ (raw − b_a) = solve(K_a R_a, raw − b_a).
         let k_r: [[f64; 3]; 3] =
             std::array::from_fn(|r| std::array::from_fn(|c| (0..3).map(|i| k_a[r][i] * r_a[i][c]).sum()));
@@ -279,7 +279,7 @@ fn static_exports_match_the_model_it_saves() {
             );
         }
         let raw_g = ["gx_counts", "gy_counts", "gz_counts"].map(get);
-        let ours_g = ["gx_radps_corrected", "gy_radps_corrected", "gz_radps_corrected"].map(get);
+        let ours_g = ["gx_corrected_radps", "gy_corrected_radps", "gz_corrected_radps"].map(get);
         let k_r_g: [[f64; 3]; 3] =
             std::array::from_fn(|r| std::array::from_fn(|c| (0..3).map(|i| k_g[r][i] * r_g[i][c]).sum()));
         let theirs_g = solve(k_r_g, std::array::from_fn(|i| raw_g[i] - b_g[i]));

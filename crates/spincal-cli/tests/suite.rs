@@ -16,6 +16,7 @@ mod demo;
 mod determinism;
 mod exports;
 mod firmware;
+mod first_contact;
 mod fit_cli;
 mod fleet_cli;
 mod flight_cli;

@@ -16,9 +16,9 @@ fn corrected_magnitudes(text: &str) -> (f64, Vec<String>) {
             .unwrap_or_else(|| panic!("{name} in {header:?}"))
     };
     let (ax, ay, az) = (
-        col("ax_mps2_corrected"),
-        col("ay_mps2_corrected"),
-        col("az_mps2_corrected"),
+        col("ax_corrected_mps2"),
+        col("ay_corrected_mps2"),
+        col("az_corrected_mps2"),
     );
     let status = col("status");
     let mut norms = Vec::new();

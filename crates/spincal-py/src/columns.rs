@@ -34,6 +34,10 @@ pub struct ColumnPlan {
     pub time_to_s: f64,
     pub accel_to_mps2: f64,
     pub gyro_to_radps: f64,
+    /// The acceleration's unit (`mps2`, `g`) and the rate's (`radps`, `dps`; None without gyro
+    /// columns), as the corrected columns' names carry them.
+    pub accel_unit: String,
+    pub gyro_unit: Option<String>,
     /// The names of the columns used, time first (`(no time column)` when absent).
     pub names: Vec<String>,
 }
@@ -111,8 +115,32 @@ fn resolve(header: &[String], name: &str, map: &ColumnMap) -> Result<ColumnPlan,
         time_to_s: plan.time_to_s(),
         accel_to_mps2: plan.accel_to_mps2(),
         gyro_to_radps: plan.gyro_to_radps().unwrap_or(1.0),
+        accel_unit: plan.accel_unit().suffix().to_string(),
+        gyro_unit: plan.gyro_unit().map(|u| u.suffix().to_string()),
         names: plan.names().to_vec(),
     })
+}
+
+/// The names of the columns `spincal correct` adds (the library's one rule,
+/// `correctors::stream::corrected_column_names`): `axes` the corrected accelerometer axes
+/// (`x`, `y`, `z`), their values in `accel_unit`, the gyro's in `gyro_unit` when corrected,
+/// the predicted standard deviations and `predicted_better` when `predicted`.
+#[pyfunction]
+#[pyo3(signature = (axes, accel_unit, gyro_unit = None, predicted = false))]
+pub fn corrected_column_names(
+    axes: Vec<String>,
+    accel_unit: &str,
+    gyro_unit: Option<&str>,
+    predicted: bool,
+) -> PyResult<Vec<String>> {
+    use spincal::correctors::corrector::Axis;
+    let axes = axes
+        .iter()
+        .map(|a| Axis::parse(a).ok_or_else(|| usage(format!("axes: {a:?} is not x, y or z"))))
+        .collect::<PyResult<Vec<Axis>>>()?;
+    Ok(spincal::correctors::stream::corrected_column_names(
+        &axes, accel_unit, gyro_unit, predicted,
+    ))
 }
 
 /// Finds time, accel and gyro among a table's columns by the library's rules (as `spincal` reads a

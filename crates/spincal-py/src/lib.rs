@@ -48,6 +48,7 @@ fn _spincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<columns::ColumnPlan>()?;
     m.add("STATUS_NAMES", columns::STATUS_NAMES.to_vec())?;
     m.add_function(wrap_pyfunction!(columns::plan_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(columns::corrected_column_names, m)?)?;
     m.add_function(wrap_pyfunction!(columns::recording_from_columns, m)?)?;
     m.add_function(wrap_pyfunction!(params::default_params, m)?)?;
     m.add_function(wrap_pyfunction!(params::resolve_params, m)?)?;

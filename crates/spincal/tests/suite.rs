@@ -31,5 +31,6 @@ mod shared_files;
 mod sysid;
 mod sysid_benchmarks;
 mod temperature_checks;
+mod templates;
 mod thermal;
 mod turntable_fit;

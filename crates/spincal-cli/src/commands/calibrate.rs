@@ -71,6 +71,10 @@ pub struct CalibrateArgs {
     /// Hammerstein–Wiener orders nb,nf,nk.
     #[arg(long, default_value = "2,3,1")]
     pub hw: String,
+    /// Also print the per-condition tables (held-out residuals, the gyro's runs, the paper's
+    /// comparison); report.html always holds them.
+    #[arg(long)]
+    pub tables: bool,
 }
 
 fn parse_orders(text: &str, flag: &str) -> Result<Vec<usize>, UsageError> {
@@ -144,7 +148,7 @@ pub fn run_calibration(
     out: &Path,
     read_seconds: Option<f64>,
     ui: Ui,
-) -> anyhow::Result<CampaignOutput> {
+) -> anyhow::Result<(CampaignOutput, Vec<&'static str>)> {
     super::create_folder("--out", out)?;
     let mut output = calibrate_with_progress(recordings, settings, ui)?;
     if let Some(seconds) = read_seconds {
@@ -156,14 +160,15 @@ pub fn run_calibration(
             },
         );
     }
-    super::campaign::write_calibration(&output, out)?;
-    Ok(output)
+    let written = super::campaign::write_calibration(&output, out)?;
+    Ok((output, written))
 }
 
-/// A short summary for the terminal: the verdict and held-out table, then the paper's figures.
-pub fn summary(output: &CampaignOutput, out: &Path) -> String {
-    let mut text = super::campaign::summary(output, out);
-    if let Some(paper) = &output.result.paper {
+/// A short summary for the terminal: the campaign's (what was saved, where it can be trusted,
+/// the verdict), then with `tables` the paper's figures.
+pub fn summary(output: &CampaignOutput, out: &Path, written: &[&str], tables: bool) -> String {
+    let mut text = super::campaign::summary(output, out, written, tables);
+    if let Some(paper) = output.result.paper.as_ref().filter(|_| tables) {
         text.push_str("\nthe paper's protocol (60/20/20 on the first recording; reported, not what decided the saving):\n");
         text.push_str(
             "model        train fit %  validation fit %  test fit %   (simulation for dynamic models)\n",
@@ -189,7 +194,7 @@ pub fn summary(output: &CampaignOutput, out: &Path) -> String {
 
 pub fn run(args: CalibrateArgs, ui: Ui) -> anyhow::Result<()> {
     if let Some(file) = &args.campaign {
-        return super::campaign::calibrate(file, &args.out, args.fit.json, ui);
+        return super::campaign::calibrate(file, &args.out, args.fit.json, args.tables, ui);
     }
     super::fit::require_recordings(&args.fit.recordings)?;
     let settings = args.params()?;
@@ -208,11 +213,11 @@ pub fn run(args: CalibrateArgs, ui: Ui) -> anyhow::Result<()> {
         .map(|p| args.fit.read.read(p))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let read_seconds = clock.elapsed().as_secs_f64();
-    let output = run_calibration(&recordings, &settings, &args.out, Some(read_seconds), ui)?;
+    let (output, written) = run_calibration(&recordings, &settings, &args.out, Some(read_seconds), ui)?;
     if args.fit.json {
         return ui::print_json(&output.result);
     }
-    ui::print(&summary(&output, &args.out))
+    ui::print(&summary(&output, &args.out, &written, args.tables))
 }
 
 #[cfg(test)]

@@ -16,18 +16,20 @@ use spincal::simulate::fleet::WriteError;
 
 use crate::ui::{self, Ui, UsageError};
 
-/// Calibrates the unit a campaign file describes; writes into `out` and prints the summary.
-pub fn calibrate(file: &Path, out: &Path, json: bool, ui: Ui) -> anyhow::Result<()> {
-    let output = calibrate_to(file, out, ui)?;
+/// Calibrates the unit a campaign file describes; writes into `out` and prints the summary (the
+/// per-condition tables too with `tables`).
+pub fn calibrate(file: &Path, out: &Path, json: bool, tables: bool, ui: Ui) -> anyhow::Result<()> {
+    let (output, written) = calibrate_to(file, out, ui)?;
     if json {
         return ui::print_json(&output.result);
     }
-    ui::print(&summary(&output, out))
+    ui::print(&summary(&output, out, &written, tables))
 }
 
 /// Calibrates the unit a campaign file describes; writes results.json, report.html and (when a
-/// corrector held on every held-out condition) model.json into `out`.
-pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignOutput> {
+/// corrector held on every held-out condition) model.json into `out`. Returns the result and
+/// the names of the files written.
+pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<(CampaignOutput, Vec<&'static str>)> {
     let campaign = Campaign::read_path(file).map_err(|e| UsageError(e.to_string()))?;
     let outputs = CAMPAIGN_FILE_NAMES.map(|name| out.join(name));
     let inputs = campaign.inputs();
@@ -38,35 +40,123 @@ pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<CampaignO
     let bar = ui.progress(1, "calibrating the campaign");
     let output = calibrate_campaign_file(&campaign, &Params::default(), &|p| crate::ui::show(&bar, p))?;
     bar.finish_and_clear();
-    write_calibration(&output, out)?;
-    Ok(output)
+    let written = write_calibration(&output, out)?;
+    Ok((output, written))
 }
 
 /// Writes every file of a calibration into `out` (`campaign_files`: with the paper's sections
 /// where its protocol ran) and sets aside its own earlier outputs that this one does not write.
-pub fn write_calibration(output: &CampaignOutput, out: &Path) -> anyhow::Result<()> {
+/// Returns the names written.
+pub fn write_calibration(output: &CampaignOutput, out: &Path) -> anyhow::Result<Vec<&'static str>> {
     let files = campaign_files(
         &output.result,
         output.saved.as_ref(),
         output.paper_signals.as_deref(),
     )
     .context("drawing the campaign report")?;
-    let written: Vec<&str> = files.iter().map(|(name, _)| *name).collect();
+    let written: Vec<&'static str> = files.iter().map(|(name, _)| *name).collect();
     super::set_aside_stale(out, &CAMPAIGN_FILE_NAMES, &written)?;
     for (name, text) in files {
         super::write_text(&out.join(name), &text)?;
     }
-    Ok(())
+    Ok(written)
 }
 
 fn fmt3(v: &[f64; 3]) -> String {
     format!("{:.4} {:.4} {:.4}", v[0], v[1], v[2])
 }
 
-/// The terminal summary: the verdict first, then the held-out table.
-pub fn summary(output: &CampaignOutput, out: &Path) -> String {
+/// The first line: whether a model was saved, where, and where it can be trusted.
+pub fn lead_line(output: &CampaignOutput, out: &Path) -> String {
     let r = &output.result;
-    let mut text = format!("unit {}: {}\n\n", r.unit, r.verdict);
+    let model = out.join("model.json");
+    match (&r.saved, &r.error_map) {
+        (Some(kind), Some(map)) => format!("Saved {} ({kind}). {}", model.display(), map.sentence()),
+        (Some(kind), None) => format!(
+            "Saved {} ({kind}). Trusted as far as the {} held-out conditions it never trained on show (a {kind} model has no covariance to map its error by).",
+            model.display(),
+            r.conditions.len()
+        ),
+        (None, _) => format!("No model saved (no model.json in {}).", out.display()),
+    }
+}
+
+/// The terminal summary: the line on what was saved and where it can be trusted, the verdict,
+/// then only what needs the user (parameters not determined, the gyro's summary and saturation,
+/// temperature findings) and the files written. The fit's details and the per-condition
+/// tables, which report.html always holds, follow only with `tables`.
+pub fn summary(output: &CampaignOutput, out: &Path, written: &[&str], tables: bool) -> String {
+    let r = &output.result;
+    // The verdict leads with the error map's sentence, which the first line already gives.
+    let verdict = r
+        .error_map
+        .as_ref()
+        .and_then(|map| r.verdict.strip_prefix(&map.sentence()))
+        .map_or(r.verdict.as_str(), str::trim_start);
+    let mut text = format!("{}\nunit {}: {verdict}\n", lead_line(output, out), r.unit);
+    for placement in &r.placements {
+        let _ = writeln!(text, "{}", placement.sentence());
+    }
+    if !r.undetermined.is_empty() {
+        text.push_str("\nnot determined by this campaign (one standard error moves a 1 g reading by more than 0.02 m/s²):\n");
+        for (name, advice) in &r.undetermined {
+            let _ = writeln!(text, "  {name}: {advice}");
+        }
+    }
+    if let Some(g) = &r.gyro {
+        let b = g.model.bias_radps.map(f64::to_degrees);
+        let k = &g.model.sensitivity;
+        let _ = writeln!(
+            text,
+            "\ngyroscope (the record player as a rate table): bias {:.4} {:.4} {:.4} °/s; scale error {:+.3} {:+.3} {:+.3} %",
+            b[0],
+            b[1],
+            b[2],
+            100.0 * (k[0][0] - 1.0),
+            100.0 * (k[1][1] - 1.0),
+            100.0 * (k[2][2] - 1.0)
+        );
+        for (name, advice) in &g.undetermined {
+            let _ = writeln!(text, "  not determined: {name}: {advice}");
+        }
+        for s in &g.saturation {
+            let _ = writeln!(text, "  {}", s.describe());
+        }
+    }
+    if let Some(e) = &r.gyro_error {
+        let _ = writeln!(text, "\ngyroscope not calibrated: {e}");
+    }
+    if !r.temperature_findings.is_empty() {
+        let _ = writeln!(
+            text,
+            "\ntemperature: {} sample(s) kept out of the thermal fit:",
+            r.temperature_masked_samples
+        );
+        for finding in &r.temperature_findings {
+            let _ = writeln!(text, "  {finding}");
+        }
+    }
+    if let Some(note) = &r.thermal_note {
+        let _ = writeln!(text, "\n{note}");
+    }
+    if tables {
+        text.push_str(&tables_text(output));
+    }
+    let names: Vec<String> = written
+        .iter()
+        .map(|name| out.join(name).display().to_string())
+        .collect();
+    let _ = writeln!(text, "\nwrote {}", names.join(", "));
+    if !tables {
+        text.push_str("(the held-out tables and the fit's details: --tables, or report.html)\n");
+    }
+    text
+}
+
+/// The fit's details and the per-condition tables (`--tables`).
+fn tables_text(output: &CampaignOutput) -> String {
+    let r = &output.result;
+    let mut text = String::from("\n");
     let spread = &r.joint.bias_spread;
     let _ = writeln!(
         text,
@@ -99,9 +189,6 @@ pub fn summary(output: &CampaignOutput, out: &Path) -> String {
             rule.threshold
         );
     }
-    for placement in &r.placements {
-        let _ = writeln!(text, "{}", placement.sentence());
-    }
     text.push('\n');
     text.push_str("held-out condition            corrector        residual vs physics x y z (m/s²)  uncorrected              ratio (95 % bound) predicted  vs truth\n");
     for h in &r.held_out {
@@ -132,28 +219,8 @@ pub fn summary(output: &CampaignOutput, out: &Path) -> String {
             h.condition, h.candidate, rms, uncorrected, ratio, predicted, truth
         );
     }
-    if !r.undetermined.is_empty() {
-        text.push_str("\nnot determined by this campaign (one standard error moves a 1 g reading by more than 0.02 m/s²):\n");
-        for (name, advice) in &r.undetermined {
-            let _ = writeln!(text, "  {name}: {advice}");
-        }
-    }
     if let Some(g) = &r.gyro {
-        text.push_str("\ngyroscope (the record player as a rate table):\n");
-        let b = g.model.bias_radps.map(f64::to_degrees);
-        let k = &g.model.sensitivity;
-        let _ = writeln!(
-            text,
-            "  bias {:.4} {:.4} {:.4} °/s; scale error {:+.3} {:+.3} {:+.3} %",
-            b[0],
-            b[1],
-            b[2],
-            100.0 * (k[0][0] - 1.0),
-            100.0 * (k[1][1] - 1.0),
-            100.0 * (k[2][2] - 1.0)
-        );
-        text.push_str("  run                                      rate from accel (rad/s)  raw gyro       calibrated gyro
-");
+        text.push_str("\ngyroscope run                            rate from accel (rad/s)  raw gyro       calibrated gyro\n");
         for c in &g.rate_checks {
             let rel = |v: f64| 100.0 * (v.abs() / c.accel_rate_radps - 1.0);
             let _ = writeln!(
@@ -167,39 +234,7 @@ pub fn summary(output: &CampaignOutput, out: &Path) -> String {
                 rel(c.calibrated_gyro_rate_radps)
             );
         }
-        for (name, advice) in &g.undetermined {
-            let _ = writeln!(text, "  not determined: {name}: {advice}");
-        }
-        for s in &g.saturation {
-            let _ = writeln!(text, "  {}", s.describe());
-        }
     }
-    if let Some(e) = &r.gyro_error {
-        let _ = writeln!(text, "\ngyroscope not calibrated: {e}");
-    }
-    if !r.temperature_findings.is_empty() {
-        let _ = writeln!(
-            text,
-            "\ntemperature: {} sample(s) kept out of the thermal fit:",
-            r.temperature_masked_samples
-        );
-        for finding in &r.temperature_findings {
-            let _ = writeln!(text, "  {finding}");
-        }
-    }
-    if let Some(note) = &r.thermal_note {
-        let _ = writeln!(text, "\n{note}");
-    }
-    let dir = out.display();
-    let _ = writeln!(
-        text,
-        "\nwrote {}{dir}/results.json, {dir}/report.html, {dir}/imucal.json, {dir}/imu_tk_*.calib",
-        if output.saved.is_some() {
-            format!("{dir}/model.json, ")
-        } else {
-            String::new()
-        }
-    );
     text
 }
 

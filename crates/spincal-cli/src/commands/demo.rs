@@ -66,7 +66,8 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
         true,
     )?;
     let campaign_out = args.out.join("campaign-calibration");
-    let campaign = super::campaign::calibrate_to(&campaign_dir.join("campaign.toml"), &campaign_out, ui)?;
+    let (campaign, campaign_written) =
+        super::campaign::calibrate_to(&campaign_dir.join("campaign.toml"), &campaign_out, ui)?;
     let mut recordings = Vec::new();
     for (k, (name, table)) in default_session().into_iter().enumerate() {
         let sim = simulate(&SensorProfile::default(), &table, args.seed + k as u64)?;
@@ -91,17 +92,17 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
         seed: args.seed,
         ..Params::default()
     };
-    let output = run_calibration(&recordings, &settings, &args.out, None, ui)?;
+    let (output, written) = run_calibration(&recordings, &settings, &args.out, None, ui)?;
     if args.json {
         return ui::print_json(&output.result);
     }
     ui::print(&format!(
         "== Campaign (one unit: still poses and turntable runs) ==\n{}",
-        super::campaign::summary(&campaign, &campaign_out)
+        super::campaign::summary(&campaign, &campaign_out, &campaign_written, false)
     ))?;
     ui::print(&format!(
         "\n== The paper's protocol (two turntable recordings: held out in turn, and 60/20/20 on the first) ==\n{}",
-        summary(&output, &args.out)
+        summary(&output, &args.out, &written, false)
     ))?;
     ui::print(&format!(
         "open {}/report.html (the paper's protocol) and {}/report.html (the campaign)\n",

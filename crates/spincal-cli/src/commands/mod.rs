@@ -9,6 +9,7 @@ pub mod demo;
 pub mod export;
 pub mod fit;
 pub mod fleet;
+pub mod init;
 pub mod input;
 pub mod inspect;
 pub mod sensitivity;
@@ -42,6 +43,11 @@ static FORCE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new
 /// Records the global `--force` flag.
 pub fn set_force(force: bool) {
     FORCE.store(force, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Whether `--force` was given.
+pub fn force() -> bool {
+    FORCE.load(std::sync::atomic::Ordering::Relaxed)
 }
 
 /// Refuses, before any work, to replace an existing output that spincal did not write (a usage

@@ -411,11 +411,12 @@ class Corrected:
     variance); other kinds give None for both.
 
     :meth:`to_pandas` and :meth:`to_polars` give the columns ``spincal correct`` adds to its
-    input (``<column>_corrected`` per corrected axis in the input's unit, then
-    ``<column>_corrected_sd`` and ``predicted_better`` where predicted, ``valid``,
-    ``status``) with the input's index: ``frame.join(out.to_pandas())`` is the CLI's output.
-    Arrays, recordings and files are in SI units, so their columns are named ``ax_mps2``,
-    ``gx_radps`` … (``ax_mps2_corrected``).
+    input, named by the library's one rule: ``<axis>_corrected_<unit>`` per corrected axis in
+    the input's unit (``ax_corrected_g``, ``gx_corrected_dps``), then
+    ``<axis>_corrected_sd_<unit>`` and ``predicted_better`` where predicted, ``valid``,
+    ``status``, with the input's index: ``frame.join(out.to_pandas())`` is the CLI's output.
+    Arrays, recordings and files are in SI units, so their columns are ``ax_corrected_mps2``,
+    ``gx_corrected_radps`` ….
     """
 
     accel: FloatArray
@@ -431,6 +432,8 @@ class Corrected:
     index: Any = field(repr=False, default=None)
     predicted_sd: Optional[FloatArray] = field(repr=False, default=None)
     predicted_better: Optional[BoolArray] = field(repr=False, default=None)
+    accel_unit: str = field(repr=False, default="mps2")
+    gyro_unit: str = field(repr=False, default="radps")
 
     def __len__(self) -> int:
         return int(self.accel.shape[0])
@@ -454,28 +457,32 @@ class Corrected:
         return np.asarray(categories, dtype=object)[codes]
 
     def _output_columns(self) -> Dict[str, FloatArray]:
-        """The corrected columns in the input's units, computed as the CLI computes them."""
-        out: Dict[str, FloatArray] = {}
+        """The corrected columns in the input's units, computed and named as the CLI does."""
         from_mps2 = 1.0 / self.accel_to_mps2
-        for axis in self.axes:
-            a = "xyz".index(axis)
-            values = self.accel[:, a]
-            out[f"{self.columns[1 + a]}_corrected"] = values if from_mps2 == 1.0 else values * from_mps2
+        k = self.gyro_to_radps
+        values: List[FloatArray] = [
+            self.accel[:, "xyz".index(axis)] if from_mps2 == 1.0 else self.accel[:, "xyz".index(axis)] * from_mps2
+            for axis in self.axes
+        ]
         if self.gyro is not None:
-            for a in range(3):
-                values = self.gyro[:, a]
-                k = self.gyro_to_radps
-                out[f"{self.columns[4 + a]}_corrected"] = values if k == 1.0 else values / k
+            values += [self.gyro[:, a] if k == 1.0 else self.gyro[:, a] / k for a in range(3)]
         if self.predicted_sd is not None:
-            for axis in self.axes:
-                a = "xyz".index(axis)
-                values = self.predicted_sd[:, a]
-                out[f"{self.columns[1 + a]}_corrected_sd"] = values if from_mps2 == 1.0 else values * from_mps2
-        return out
+            values += [
+                self.predicted_sd[:, "xyz".index(axis)] if from_mps2 == 1.0 else self.predicted_sd[:, "xyz".index(axis)] * from_mps2
+                for axis in self.axes
+            ]
+        names = _spincal.corrected_column_names(
+            list(self.axes),
+            self.accel_unit,
+            None if self.gyro is None else self.gyro_unit,
+            self.predicted_sd is not None,
+        )
+        # predicted_better, the last name where predicted, is added by the frames themselves.
+        return dict(zip(names, values))
 
     def to_pandas(self) -> Any:
-        """A pandas DataFrame with the input's index: ``<column>_corrected`` per corrected axis
-        (and gyro axis) in the input's unit, ``valid`` (bool) and ``status`` (categorical).
+        """A pandas DataFrame with the input's index: ``<axis>_corrected_<unit>`` per corrected
+        axis (and gyro axis) in the input's unit, ``valid`` (bool) and ``status`` (categorical).
 
         Example::
 
@@ -535,7 +542,7 @@ class Corrector:
         >>> c = spincal.load_corrector("cal/model.json")                          # doctest: +SKIP
         >>> out = c.correct(frame)                                                # doctest: +SKIP
         >>> out.to_pandas().columns.tolist()                                      # doctest: +SKIP
-        ['ax_g_corrected', 'ay_g_corrected', 'valid', 'status']
+        ['ax_corrected_g', 'ay_corrected_g', 'valid', 'status']
     """
 
     __slots__ = ("_inner",)
@@ -710,6 +717,8 @@ class Corrector:
             columns=tuple(plan.names),
             accel_to_mps2=plan.accel_to_mps2,
             gyro_to_radps=plan.gyro_to_radps,
+            accel_unit=plan.accel_unit,
+            gyro_unit=plan.gyro_unit or "radps",
             index=index,
             predicted_sd=sd,
             predicted_better=better,

@@ -147,8 +147,18 @@ class ColumnPlan:
     @property
     def gyro_to_radps(self) -> float: ...
     @property
+    def accel_unit(self) -> str: ...
+    @property
+    def gyro_unit(self) -> Optional[str]: ...
+    @property
     def names(self) -> List[str]: ...
 
+def corrected_column_names(
+    axes: Sequence[str],
+    accel_unit: str,
+    gyro_unit: Optional[str] = None,
+    predicted: bool = False,
+) -> List[str]: ...
 def plan_columns(
     header: Sequence[str],
     *,

@@ -63,9 +63,9 @@ def test_correcting_an_array_equals_spincal_correct_to_the_last_bit(simulated, t
     result = corrector.correct(rec.accel)  # a Fortran-ordered view: read in place
     # A corrected column for exactly the axes the corrector changes (the paper's x and y).
     assert corrector.axes == ["x", "y"], corrector.axes
-    assert [c for c in rows[0] if c.endswith("_corrected")] == [f"a{a}_mps2_corrected" for a in corrector.axes]
+    assert [c for c in rows[0] if "_corrected_" in c] == [f"a{a}_corrected_mps2" for a in corrector.axes]
     for axis, name in enumerate(["ax", "ay", "az"]):
-        column = f"{name}_mps2_corrected"
+        column = f"{name}_corrected_mps2"
         if "xyz"[axis] not in corrector.axes:
             # An axis it does not change passes through unchanged.
             assert np.array_equal(result.accel[:, axis], rec.accel[:, axis]), name

@@ -69,7 +69,7 @@ def test_a_dataframe_corrected_in_python_equals_spincal_correct_gyro_included(ca
     ours = frame.join(corrected.to_pandas())
     # The same columns, in the same order, as the CLI writes.
     assert list(ours.columns) == list(rows[0].keys())
-    assert "gx_dps_corrected" in ours.columns and "ax_g_corrected" in ours.columns
+    assert "gx_corrected_dps" in ours.columns and "ax_corrected_g" in ours.columns
     assert list(ours.index) == list(frame.index)
     refused = 0
     for k, (label, row) in enumerate(zip(ours.index, rows)):
@@ -82,7 +82,7 @@ def test_a_dataframe_corrected_in_python_equals_spincal_correct_gyro_included(ca
         assert status == row["status"], k
         assert bool(ours.at[label, "valid"]) == (row["valid"] == "1"), k
         for column in ours.columns:
-            if column.endswith(("_corrected", "_corrected_sd")):
+            if "_corrected_" in column:
                 # Bit for bit: the CLI prints the shortest text that reads back to the same double.
                 assert float(row[column]) == ours.at[label, column], (k, column)
         if "predicted_better" in ours.columns:
@@ -90,7 +90,7 @@ def test_a_dataframe_corrected_in_python_equals_spincal_correct_gyro_included(ca
     assert refused == 2
     # A physical model from a campaign carries its covariance: every row has its error bar.
     if spincal.load_corrector(model).kind in ("physical", "physical_linear"):
-        assert "ax_g_corrected_sd" in ours.columns and "predicted_better" in ours.columns
+        assert "ax_corrected_sd_g" in ours.columns and "predicted_better" in ours.columns
         assert corrected.predicted_sd is not None and np.all(corrected.predicted_sd[ours["valid"].to_numpy()] > 0)
     reasons = [corrected.refused[p] for p in sorted(corrected.refused)]
     assert "column ay_g: the value is NaN" in reasons[0]
@@ -98,7 +98,44 @@ def test_a_dataframe_corrected_in_python_equals_spincal_correct_gyro_included(ca
     # The physical model has no delays and no thermal lag: a row whose time goes back is corrected.
     assert rows[300]["status"] == "ok" and ours.iloc[300]["status"] == "ok"
     # The gyro really was corrected, and differs from the measurement.
-    assert not np.array_equal(ours["gx_dps_corrected"].dropna(), frame["gx_dps"][ours["gx_dps_corrected"].notna()])
+    assert not np.array_equal(ours["gx_corrected_dps"].dropna(), frame["gx_dps"][ours["gx_corrected_dps"].notna()])
+
+
+@pytest.mark.parametrize(
+    "header, units",
+    [
+        (["t", "ax", "ay", "az", "gx", "gy", "gz"], ("mps2", "radps")),
+        (
+            ["time", "acc_x_mps2", "acc_y_mps2", "acc_z_mps2", "gyr_x_dps", "gyr_y_dps", "gyr_z_dps"],
+            ("mps2", "dps"),
+        ),
+    ],
+)
+def test_the_cli_and_python_name_the_corrected_columns_alike(campaign_model, cli, tmp_path, header, units):
+    """One rule, `<axis>_corrected_<unit>`, whatever the input's names: the CLI's header and
+    Python's frame agree, column for column."""
+    model, recordings = campaign_model
+    source = pd.read_csv(next(p for p in recordings if p.name.startswith("run-")), float_precision="round_trip").iloc[:500]
+    gyro = source[["gx_radps", "gy_radps", "gz_radps"]].to_numpy()
+    if units[1] == "dps":
+        gyro = np.degrees(gyro)
+    frame = pd.DataFrame(
+        np.column_stack([source["t_s"], source[["ax_mps2", "ay_mps2", "az_mps2"]].to_numpy(), gyro]), columns=header
+    )
+    path = tmp_path / "in.csv"
+    frame.to_csv(path, index=False)
+    frame = pd.read_csv(path, float_precision="round_trip")
+    cli_out = tmp_path / "cli.csv"
+    cli("correct", "--model", model, path, "-o", cli_out)
+    cli_header = list(_cli_rows(cli_out)[0].keys())
+    corrector = spincal.load_corrector(model)
+    ours = frame.join(corrector.correct(frame).to_pandas())
+    assert list(ours.columns) == cli_header
+    accel, rate = units
+    expected = [f"a{a}_corrected_{accel}" for a in corrector.axes] + [f"g{a}_corrected_{rate}" for a in "xyz"]
+    if corrector.kind in ("physical", "physical_linear"):
+        expected += [f"a{a}_corrected_sd_{accel}" for a in corrector.axes] + ["predicted_better"]
+    assert cli_header[len(header) : -2] == expected
 
 
 def test_polars_gives_the_same_rows_as_pandas(campaign_model, tmp_path):
@@ -245,10 +282,10 @@ def test_the_output_frame_keeps_the_index_and_the_status(small_corrector):
     frame = pd.DataFrame(rec.accel, columns=["acc_x", "acc_y", "acc_z"], index=index)
     out = corrector.correct(frame).to_pandas()
     assert out.index.equals(index)
-    assert list(out.columns) == [f"acc_{a}_corrected" for a in corrector.axes] + ["valid", "status"]
+    assert list(out.columns) == [f"a{a}_corrected_mps2" for a in corrector.axes] + ["valid", "status"]
     assert out["status"].dtype == "category" and set(out["status"].unique()) <= {"ok", "physics-only", "outside-range"}
-    np.testing.assert_array_equal(out["acc_x_corrected"].to_numpy(), corrector.correct(rec.accel).accel[:, 0])
-    assert not math.isnan(out["acc_y_corrected"].iloc[-1])
+    np.testing.assert_array_equal(out["ax_corrected_mps2"].to_numpy(), corrector.correct(rec.accel).accel[:, 0])
+    assert not math.isnan(out["ay_corrected_mps2"].iloc[-1])
 
 
 def test_a_thermal_model_corrects_a_frame_by_its_temperature_as_the_cli_does(cli, tmp_path):
@@ -275,7 +312,7 @@ def test_a_thermal_model_corrects_a_frame_by_its_temperature_as_the_cli_does(cli
     for k, row in enumerate(rows):
         assert ours.at[k, "status"] == row["status"], k
         assert bool(ours.at[k, "valid"]) == (row["valid"] == "1"), k
-        for column in ("ax_mps2_corrected", "ay_mps2_corrected", "az_mps2_corrected"):
+        for column in ("ax_corrected_mps2", "ay_corrected_mps2", "az_corrected_mps2"):
             assert float(row[column]) == ours.at[k, column], (k, column)
     assert ours.at[50, "status"] == "no-temperature"
     # A lone 95 °C among warm rows is a glitch a die cannot make: kept out of the die estimate.

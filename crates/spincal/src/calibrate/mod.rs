@@ -92,8 +92,11 @@ pub fn calibrate_with_runner(
         },
         ..settings.clone()
     };
-    let unit = recordings.first().map_or("", |r| r.source.name.as_str());
-    let mut output = calibrate_campaign(unit, &units, &spine, observer)?;
+    // Named after the first recording's folder: apps give every export the same file name.
+    let unit = recordings.first().map_or_else(String::new, |r| {
+        crate::campaign::unit_name::unit_name(std::path::Path::new(&r.source.name))
+    });
+    let mut output = calibrate_campaign(&unit, &units, &spine, observer)?;
     let r = &mut output.result;
     r.verdict = paper_verdict(
         &r.verdict,

@@ -10,7 +10,8 @@
 //! split), `verdict` judges a held-out condition by physics alone (and, in simulations, against
 //! truth too), `choice` decides what is saved and `select` runs it all. `params` holds the
 //! settings of every calibration, a campaign's or the paper's one-recording protocol
-//! (`crate::calibrate`).
+//! (`crate::calibrate`). `template` writes the commented campaign files `spincal init` starts
+//! from; `unit_name` names a unit nobody named after its folder.
 
 pub mod candidate;
 pub mod checks;
@@ -27,5 +28,7 @@ pub mod prepare;
 pub mod run;
 pub mod select;
 pub mod series_candidates;
+pub mod template;
 pub mod thermal;
+pub mod unit_name;
 pub mod verdict;

@@ -7,7 +7,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod campaign;
-mod writer;
+pub(crate) mod writer;
 
 use spincal::input::formats::phone::{read_pair, PhoneError};
 use spincal::input::formats::{detect, read_bytes, read_path, Format, FormatError, Loaded, ReadOptions};

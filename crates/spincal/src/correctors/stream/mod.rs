@@ -5,7 +5,8 @@
 //! [`RowSink`]:
 //! - delimited text (and standard input) is read row by row in constant memory; every
 //!   data row comes out as its original text, then one corrected column per corrected axis (in
-//!   the input's unit, named `<input column>_corrected`), `valid` and `status`;
+//!   the input's unit, named by [`corrected_column_names`]: `ax_corrected_mps2`,
+//!   `ax_corrected_g`, `gx_corrected_dps`), `valid` and `status`;
 //! - every other format, and the reading options that need the whole file (a scale for raw counts,
 //!   a sample rate, retiming, 3DM-GX1 gains), is read whole by [`read_path`]; every
 //!   sample comes out with its source line, time in s and its values under unit-named columns
@@ -26,6 +27,7 @@ use std::path::Path;
 
 pub use sink::{DelimitedSink, RowSink};
 pub use summary::StreamSummary;
+pub use text::corrected_column_names;
 
 use crate::correctors::model_file::CorrectorFile;
 use crate::correctors::rows::SingularGyro;

@@ -131,7 +131,7 @@ impl StreamSummary {
         }
         if let Some(line) = self.first_not_predicted_better {
             out.push(format!(
-                "{name}: on {} of {} rows (first at line {line}) the model's own covariance does not predict the correction to beat no correction on every axis (`predicted_better` 0: a correction smaller than √2 of its standard deviation, `<column>_corrected_sd`); there the campaign did not determine the sensor",
+                "{name}: on {} of {} rows (first at line {line}) the model's own covariance does not predict the correction to beat no correction on every axis (`predicted_better` 0: a correction smaller than √2 of its standard deviation, `<axis>_corrected_sd_<unit>`); there the campaign did not determine the sensor",
                 self.not_predicted_better, self.rows
             ));
         }

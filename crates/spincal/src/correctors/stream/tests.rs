@@ -37,7 +37,7 @@ fn every_row_comes_out_in_its_order_with_refusals_and_skips_in_place() {
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(
         lines[0],
-        "t,ax,ay,az,ax_corrected,ay_corrected,az_corrected,valid,status"
+        "t,ax,ay,az,ax_corrected_mps2,ay_corrected_mps2,az_corrected_mps2,valid,status"
     );
     assert_eq!(lines.len(), 7, "{text}");
     assert!(
@@ -101,7 +101,7 @@ fn a_file_read_whole_names_its_columns_as_the_stream_does_and_agrees_on_the_valu
     let header = whole.lines().next().expect("a header");
     assert_eq!(
         header,
-        "line,t_s,ax_mps2,ay_mps2,az_mps2,ax_mps2_corrected,ay_mps2_corrected,az_mps2_corrected,valid,status"
+        "line,t_s,ax_mps2,ay_mps2,az_mps2,ax_corrected_mps2,ay_corrected_mps2,az_corrected_mps2,valid,status"
     );
     let corrected_of = |text: &str| -> Vec<Vec<f64>> {
         text.lines()
@@ -174,7 +174,7 @@ fn a_model_with_a_covariance_writes_each_rows_error_bar_and_flag() {
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(
         lines[0],
-        "t,ax,ay,az,ax_corrected,ay_corrected,az_corrected,ax_corrected_sd,ay_corrected_sd,az_corrected_sd,predicted_better,valid,status"
+        "t,ax,ay,az,ax_corrected_g,ay_corrected_g,az_corrected_g,ax_corrected_sd_g,ay_corrected_sd_g,az_corrected_sd_g,predicted_better,valid,status"
     );
     let fields: Vec<f64> = lines[1].split(',').take(11).map(|v| v.parse().unwrap()).collect();
     let g = crate::input::recording::STANDARD_GRAVITY;
@@ -193,5 +193,29 @@ fn a_model_with_a_covariance_writes_each_rows_error_bar_and_flag() {
         lines[2].contains(",,,,,,,0,\"refused") || lines[2].contains(",,,,,,,0,refused"),
         "{}",
         lines[2]
+    );
+}
+
+/// One rule whatever the input's names: spincal's axis, `corrected`, the unit the values are in.
+#[test]
+fn corrected_columns_are_named_by_axis_and_unit() {
+    use crate::correctors::corrector::Axis;
+    let names = super::corrected_column_names(&[Axis::X, Axis::Z], "g", Some("dps"), true);
+    assert_eq!(
+        names,
+        [
+            "ax_corrected_g",
+            "az_corrected_g",
+            "gx_corrected_dps",
+            "gy_corrected_dps",
+            "gz_corrected_dps",
+            "ax_corrected_sd_g",
+            "az_corrected_sd_g",
+            "predicted_better"
+        ]
+    );
+    assert_eq!(
+        super::corrected_column_names(&[Axis::Y], "mps2", None, false),
+        ["ay_corrected_mps2"]
     );
 }

@@ -31,6 +31,31 @@ fn refused_fields(text: &str, delimiter: Delimiter, width: usize) -> Vec<String>
     fields
 }
 
+/// The names of the columns a corrected row adds, one rule for every writer (the text stream,
+/// the whole-file path, Python's frames): `<axis>_corrected_<unit>` for each corrected
+/// accelerometer axis (`ax_corrected_mps2`, `ay_corrected_g`), then the gyro's three when it is
+/// corrected (`gx_corrected_dps`), then, when the model predicts its error, each accelerometer
+/// axis's standard deviation (`ax_corrected_sd_mps2`) and `predicted_better`. The axis is
+/// spincal's (`ax` … `gz`), never the input's column name; the unit is the one the values are in
+/// (the input's, in the text stream: `mps2`, `g`, `radps`, `dps`).
+pub fn corrected_column_names(
+    axes: &[Axis],
+    accel_unit: &str,
+    gyro_unit: Option<&str>,
+    predicted: bool,
+) -> Vec<String> {
+    let accel = |a: &Axis, what: &str| format!("a{}_{what}_{accel_unit}", a.name());
+    let mut names: Vec<String> = axes.iter().map(|a| accel(a, "corrected")).collect();
+    if let Some(unit) = gyro_unit {
+        names.extend(["x", "y", "z"].map(|a| format!("g{a}_corrected_{unit}")));
+    }
+    if predicted {
+        names.extend(axes.iter().map(|a| accel(a, "corrected_sd")));
+        names.push("predicted_better".into());
+    }
+    names
+}
+
 /// The columns a corrected row adds: the corrected accelerometer axes, the gyro's when it is
 /// corrected, and, for a model whose covariance predicts its error, each corrected axis's
 /// predicted standard deviation and the flag `predicted_better`.
@@ -49,20 +74,15 @@ impl CorrectedColumns {
         }
     }
 
-    /// The names, from the corrected accelerometer and gyro columns' names (`<name>_corrected`,
-    /// `<name>_corrected_sd`, `predicted_better`).
-    pub(super) fn names(&self, accel: impl Fn(Axis) -> String, gyro: &[String]) -> Vec<String> {
-        let accel: Vec<String> = self.axes.iter().map(|&a| accel(a)).collect();
-        let mut names: Vec<String> = accel
-            .iter()
-            .chain(gyro.iter().filter(|_| self.gyro))
-            .map(|n| format!("{n}_corrected"))
-            .collect();
-        if self.predicted {
-            names.extend(accel.iter().map(|n| format!("{n}_corrected_sd")));
-            names.push("predicted_better".into());
-        }
-        names
+    /// The names ([`corrected_column_names`]), the accelerometer's values in `accel_unit`, the
+    /// gyro's in `gyro_unit`.
+    pub(super) fn names(&self, accel_unit: &str, gyro_unit: &str) -> Vec<String> {
+        corrected_column_names(
+            &self.axes,
+            accel_unit,
+            self.gyro.then_some(gyro_unit),
+            self.predicted,
+        )
     }
 
     /// A row with none of them (skipped or refused).
@@ -288,10 +308,10 @@ pub(super) fn correct_text(
     let sep = rows.delimiter.as_char();
     let mut sink = DelimitedSink::new(out, sep);
     let added = CorrectedColumns::new(&corrector, gyro.is_some());
-    let gyro_names: Vec<String> = gyro.iter().flatten().map(|&c| header[c].clone()).collect();
+    // Named in the units the values are written in: the file's own.
     let corrected_names = added.names(
-        |a| header[columns.accel_columns()[a.index()]].clone(),
-        &gyro_names,
+        columns.accel_unit().suffix(),
+        columns.gyro_unit().map_or("radps", |u| u.suffix()),
     );
     let names: Vec<String> = header
         .iter()

@@ -38,7 +38,7 @@ fn check_counts(model: &CorrectorFile, loaded: &Loaded, name: &str) -> Result<()
 }
 
 /// Corrects every sample of `loaded` into `sink`: `line` (for text), `t_s`, the values under
-/// unit-named columns, `temp_c` and `label` where present, then `<column>_corrected`, `valid`
+/// unit-named columns, `temp_c` and `label` where present, then the corrected columns, `valid`
 /// and `status`.
 pub(super) fn correct_loaded(
     model: &CorrectorFile,
@@ -79,11 +79,10 @@ pub(super) fn correct_loaded(
     if loaded.labels.is_some() {
         header.push("label".into());
     }
-    // One naming with the streamed path: `<axis>_<unit>_corrected`, the unit the corrected value
-    // is in (SI here: a calibration of counts gives m/s² and rad/s).
+    // One naming with the streamed path (`corrected_column_names`), in the unit the corrected
+    // values are in: SI here (a calibration of counts gives m/s² and rad/s).
     let added = CorrectedColumns::new(&corrector, gyro.is_some());
-    let gyro_names = ["x", "y", "z"].map(|a| format!("g{a}_radps"));
-    header.extend(added.names(|a| format!("a{a}_mps2"), &gyro_names));
+    header.extend(added.names("mps2", "radps"));
     header.extend(["valid".to_string(), "status".to_string()]);
     sink.header(&header)?;
     let mut summary = StreamSummary::new(name);

@@ -167,6 +167,9 @@ pub struct ColumnPlan {
     pub(super) scales: Vec<f64>,
     /// Their names in the file (or `column N`).
     pub(super) names: Vec<String>,
+    /// The acceleration's unit and the rate's (when the table has it).
+    pub(super) accel_unit: AccelUnit,
+    pub(super) gyro_unit: Option<GyroUnit>,
     /// The time column's unit and where it came from (see [`super::time`]).
     pub(super) time_unit: TimeUnit,
     pub(super) time_source: TimeUnitSource,
@@ -211,11 +214,12 @@ impl ColumnPlan {
             accel_unit.to_si(),
             accel_unit.to_si(),
         ];
-        if gyro {
-            let unit = map
-                .gyro_unit
+        let gyro_unit = gyro.then(|| {
+            map.gyro_unit
                 .or_else(|| unit_from_name(&name_of(indices[4]), GyroUnit::parse))
-                .unwrap_or(GyroUnit::Radps);
+                .unwrap_or(GyroUnit::Radps)
+        });
+        if let Some(unit) = gyro_unit {
             scales.extend([unit.to_si(); 3]);
         }
         let temperature = has_temperature.then(|| {
@@ -227,6 +231,8 @@ impl ColumnPlan {
         let names = indices.iter().map(|&i| name_of(i)).collect();
         Ok(ColumnPlan {
             gyro,
+            accel_unit,
+            gyro_unit,
             temperature,
             indices,
             scales,
@@ -277,6 +283,16 @@ impl ColumnPlan {
     /// Multiply the acceleration columns by this to get m/s².
     pub fn accel_to_mps2(&self) -> f64 {
         self.scales[1]
+    }
+
+    /// The acceleration columns' unit.
+    pub fn accel_unit(&self) -> AccelUnit {
+        self.accel_unit
+    }
+
+    /// The rate columns' unit, when the table has them.
+    pub fn gyro_unit(&self) -> Option<GyroUnit> {
+        self.gyro_unit
     }
 
     /// Multiply the rate columns by this to get rad/s, when the table has them.

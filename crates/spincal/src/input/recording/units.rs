@@ -85,6 +85,13 @@ impl GyroUnit {
             GyroUnit::Dps => std::f64::consts::PI / 180.0,
         }
     }
+    /// The unit as a column-name suffix (`gx_dps`).
+    pub fn suffix(self) -> &'static str {
+        match self {
+            GyroUnit::Radps => "radps",
+            GyroUnit::Dps => "dps",
+        }
+    }
     pub fn parse(text: &str) -> Option<GyroUnit> {
         match text.to_ascii_lowercase().as_str() {
             "radps" | "rad/s" => Some(GyroUnit::Radps),
