@@ -328,10 +328,7 @@ mod tests {
     fn keys_still_coming_are_only_comments() {
         for device in Device::ALL {
             let text = campaign_template(device, "u");
-            for line in text
-                .lines()
-                .filter(|l| l.contains("(coming)"))
-            {
+            for line in text.lines().filter(|l| l.contains("(coming)")) {
                 assert!(line.trim_start().starts_with('#'), "{}: {line}", device.name());
             }
         }
