@@ -15,7 +15,10 @@ fuzz_target!(|data: &[u8]| {
             for r in &c.recordings {
                 assert!(r.line >= 1);
                 if let EntryKind::Turntable(t) = &r.kind {
-                    assert!(t.rpm > 0.0 && t.radius_tol_m > 0.0 && t.radius_m >= 0.0);
+                    assert!(t.rpm > 0.0);
+                    if let Some(stated) = t.radius {
+                        assert!(stated.tolerance_m > 0.0 && stated.value_m >= 0.0);
+                    }
                     assert_ne!(t.out.axis, t.up.axis);
                 }
             }
