@@ -120,9 +120,11 @@ pub(super) fn estimate_bias_spread(
         (SEARCH_G.1 * problem.gravity).ln(),
     );
     // One offset cannot be told from the unit's bias, so its likelihood is flat and its maximum
-    // an accident of the other priors: with one power-on there is no spread between power-ons,
-    // and the runs of that session share its offset (their drift within it stays free).
-    if offsets < 2 {
+    // an accident of the other priors. Where runs are tied to that one power-on, that accident
+    // would loosen their tie (a phone's radius then took a 1.2 mm error bar): there is no spread
+    // between power-ons, and the runs share the session's offset (their drift within a run stays
+    // free). A lone still session keeps the likelihood's value, which also sizes its drift prior.
+    if offsets < 2 && problem.runs.iter().any(|r| r.session.is_some()) {
         return Some(BiasSpread {
             sd_mps2: lo.exp(),
             estimated: true,
