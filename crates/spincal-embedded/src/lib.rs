@@ -641,16 +641,21 @@ mod tests {
         }
     }
 
-    #[test]
-    fn physical_inverts_the_sensor_model() {
-        let p = Physical::<f64> {
+    /// A sensor with every term of the model, well inside its invertible range.
+    fn sensor() -> Physical<f64> {
+        Physical::<f64> {
             bias: [0.04, -0.06, 0.08],
             one_plus_scale: [1.004, 0.994, 1.003],
             misalignment: [0.005, -0.003, 0.004],
             quadratic: [6e-4, -6e-4, 3e-4],
             lower: [-20.0; 3],
             upper: [20.0; 3],
-        };
+        }
+    }
+
+    #[test]
+    fn physical_inverts_the_sensor_model() {
+        let p = sensor();
         let f = [1.0, -9.8, 2.0];
         // The forward model: u = b + D (I + M) f, m = u + q u².
         let [m_yx, m_zx, m_zy] = p.misalignment;
@@ -675,14 +680,7 @@ mod tests {
     /// to ±σ: σ/(1 + s) on its own axis, carried into the others by the misalignment.
     #[test]
     fn the_error_bar_follows_the_jacobian() {
-        let p = Physical::<f64> {
-            bias: [0.04, -0.06, 0.08],
-            one_plus_scale: [1.004, 0.994, 1.003],
-            misalignment: [0.005, -0.003, 0.004],
-            quadratic: [6e-4, -6e-4, 3e-4],
-            lower: [-20.0; 3],
-            upper: [20.0; 3],
-        };
+        let p = sensor();
         let m = [1.0, -9.7, 2.0];
         let (f, jac) = p.correct_with_jacobian(m).unwrap();
         assert_eq!(f, p.correct(m).unwrap());

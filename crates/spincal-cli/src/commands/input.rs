@@ -121,12 +121,16 @@ impl ReadArgs {
                 .into());
             }
         }
-        let range = |value: Option<f64>, flag: &str, of_range: fn(f64) -> Option<f64>, ranges: &[f64]| {
+        // A 16-bit part's range names its scale (`scale_flag` for any other part).
+        let range = |value: Option<f64>,
+                     flag: &str,
+                     scale_flag: &str,
+                     of_range: fn(f64) -> Result<f64, formats::UnknownRange>| {
             value
                 .map(|r| {
-                    of_range(r).ok_or_else(|| {
+                    of_range(r).map_err(|unknown| {
                         UsageError(format!(
-                            "--{flag} {r}: a 16-bit part's ranges are {ranges:?}; for another part give the scale itself"
+                            "--{flag} {unknown}; for another part give --{scale_flag}"
                         ))
                     })
                 })
@@ -135,14 +139,14 @@ impl ReadArgs {
         let accel_range = range(
             self.accel_range_g,
             "accel-range-g",
+            "accel-scale",
             formats::accel_scale_of_range_g,
-            &formats::ACCEL_RANGES_G,
         )?;
         let gyro_range = range(
             self.gyro_range_dps,
             "gyro-range-dps",
+            "gyro-scale",
             formats::gyro_scale_of_range_dps,
-            &formats::GYRO_RANGES_DPS,
         )?;
         Ok(ReadOptions {
             format: self.format.map(Into::into),

@@ -45,7 +45,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use crate::input::formats::{
-    accel_scale_of_range_g, gyro_scale_of_range_dps, Format, ReadOptions, ACCEL_RANGES_G, GYRO_RANGES_DPS,
+    accel_scale_of_range_g, gyro_scale_of_range_dps, Format, ReadOptions, UnknownRange,
 };
 use crate::input::recording::{AccelUnit, ColumnMap, GyroUnit, TimeUnit, STANDARD_GRAVITY};
 use crate::turntable::fit::RadiusPrior;
@@ -500,14 +500,13 @@ impl Locator {
         )?;
         let mut gyro_scale = optional(&e.gyro_scale, "gyro_scale", nonzero, "a finite, non-zero factor")?;
         // A 16-bit part's range names its scale; the scale itself may not be given as well.
-        for (range, key, scale_key, scale, of_range, ranges) in [
+        for (range, key, scale_key, scale, of_range) in [
             (
                 &e.accel_range_g,
                 "accel_range_g",
                 "accel_scale",
                 &mut accel_scale,
-                accel_scale_of_range_g as fn(f64) -> Option<f64>,
-                &ACCEL_RANGES_G[..],
+                accel_scale_of_range_g as fn(f64) -> Result<f64, UnknownRange>,
             ),
             (
                 &e.gyro_range_dps,
@@ -515,23 +514,17 @@ impl Locator {
                 "gyro_scale",
                 &mut gyro_scale,
                 gyro_scale_of_range_dps,
-                &GYRO_RANGES_DPS[..],
             ),
         ] {
             let Some(r) = range else { continue };
             if scale.is_some() {
                 return Err(self.at(r.span(), key, format!("give `{key}` or `{scale_key}`, not both")));
             }
-            let list: Vec<String> = ranges.iter().map(|v| v.to_string()).collect();
-            *scale = Some(of_range(*r.get_ref()).ok_or_else(|| {
+            *scale = Some(of_range(*r.get_ref()).map_err(|unknown| {
                 self.at(
                     r.span(),
                     key,
-                    format!(
-                        "{}: a 16-bit part's ranges are {}; for another part give `{scale_key}` (SI units per count)",
-                        r.get_ref(),
-                        list.join(", ")
-                    ),
+                    format!("{unknown}; for another part give `{scale_key}` (SI units per count)"),
                 )
             })?);
         }

@@ -141,19 +141,23 @@ impl Placement {
 
     /// The chip's distance from the spindle, m.
     pub fn chip_radius_m(&self) -> f64 {
+        let (px, py) = self.chip_in_platter_plane();
+        px.hypot(py)
+    }
+
+    /// The chip's position in the platter plane, radial and tangential from the spindle, m.
+    fn chip_in_platter_plane(&self) -> (f64, f64) {
         let [x, y, _] = self.platter_in_sensor();
         let d = self.chip_offset_m;
         let along = |axis: [f64; 3]| (0..3).map(|k| axis[k] * d[k]).sum::<f64>();
-        ((self.centre_radius_m + along(x)).powi(2) + along(y).powi(2)).sqrt()
+        (self.centre_radius_m + along(x), along(y))
     }
 
     /// The specific force at the chip in sensor coordinates at time `t` (s).
     pub fn specific_force(&self, rate_radps: f64, tilt_rad: f64, phase_rad: f64, t: f64) -> [f64; 3] {
         let [x, y, z] = self.platter_in_sensor();
-        let d = self.chip_offset_m;
-        let along = |axis: [f64; 3]| (0..3).map(|k| axis[k] * d[k]).sum::<f64>();
-        // The chip's position in the platter plane; its acceleration is −ω² times it.
-        let (px, py) = (self.centre_radius_m + along(x), along(y));
+        // The chip's acceleration is −ω² times its position in the platter plane.
+        let (px, py) = self.chip_in_platter_plane();
         // World up seen from the turning platter turns backwards.
         let theta = phase_rad - rate_radps * t;
         let up = [

@@ -146,19 +146,40 @@ pub const ACCEL_RANGES_G: [f64; 4] = [2.0, 4.0, 8.0, 16.0];
 /// The gyro ranges, ± °/s (the MPU-6050's FS_SEL 0–3: ±250 … 2000 °/s; ±125 on the BMI160).
 pub const GYRO_RANGES_DPS: [f64; 5] = [125.0, 250.0, 500.0, 1000.0, 2000.0];
 
-/// m/s² per count of a 16-bit accelerometer set to ±`range_g` (one of [`ACCEL_RANGES_G`]);
-/// `None` for another range (give the scale itself then).
-pub fn accel_scale_of_range_g(range_g: f64) -> Option<f64> {
-    ACCEL_RANGES_G
-        .contains(&range_g)
-        .then(|| range_g * crate::input::recording::STANDARD_GRAVITY / SIXTEEN_BIT_FULL_SCALE)
+/// A range that no 16-bit part's registers offer (give the scale itself then).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{range}: a 16-bit part's ranges are {offered}")]
+pub struct UnknownRange {
+    pub range: f64,
+    /// The ranges there are, listed.
+    pub offered: String,
+}
+
+/// The SI value of one count of a 16-bit part set to ±`range`, one of `ranges`, whose full
+/// scale is `range` · `si_per_unit`.
+fn scale_of_range(range: f64, ranges: &[f64], si_per_unit: f64) -> Result<f64, UnknownRange> {
+    if ranges.contains(&range) {
+        return Ok(range * si_per_unit / SIXTEEN_BIT_FULL_SCALE);
+    }
+    let offered: Vec<String> = ranges.iter().map(f64::to_string).collect();
+    Err(UnknownRange {
+        range,
+        offered: offered.join(", "),
+    })
+}
+
+/// m/s² per count of a 16-bit accelerometer set to ±`range_g` (one of [`ACCEL_RANGES_G`]).
+pub fn accel_scale_of_range_g(range_g: f64) -> Result<f64, UnknownRange> {
+    scale_of_range(
+        range_g,
+        &ACCEL_RANGES_G,
+        crate::input::recording::STANDARD_GRAVITY,
+    )
 }
 
 /// rad/s per count of a 16-bit gyro set to ±`range_dps` (one of [`GYRO_RANGES_DPS`]).
-pub fn gyro_scale_of_range_dps(range_dps: f64) -> Option<f64> {
-    GYRO_RANGES_DPS
-        .contains(&range_dps)
-        .then(|| range_dps.to_radians() / SIXTEEN_BIT_FULL_SCALE)
+pub fn gyro_scale_of_range_dps(range_dps: f64) -> Result<f64, UnknownRange> {
+    scale_of_range(range_dps, &GYRO_RANGES_DPS, 1f64.to_radians())
 }
 
 /// How to read a file.
