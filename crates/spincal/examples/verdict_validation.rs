@@ -76,12 +76,13 @@ fn oracle(sim: &SimulatedCampaign) -> Vec<(String, f64)> {
         };
         for &i in &c.runs {
             let run = &prepared.runs[i];
-            let truth = units[prepared.run_origin[i]].truth.as_ref().expect("simulated");
+            let origin = &prepared.run_origin[i];
+            let truth = units[origin.recording].truth.as_ref().expect("simulated");
             for s in (0..run.time_s.len()).filter(|&s| run.keep[s]) {
-                let a = &run.accel_mps2;
+                let (a, t) = (&run.accel_mps2, origin.start + s);
                 add(
                     [a[0][s], a[1][s], a[2][s]],
-                    [truth[0][s], truth[1][s], truth[2][s]],
+                    [truth[0][t], truth[1][t], truth[2][t]],
                 );
             }
         }

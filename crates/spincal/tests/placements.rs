@@ -179,3 +179,175 @@ fn a_placement_the_runs_cannot_determine_is_refused_by_name() {
     let e = check_placements(&[runs[0].clone(), moved], &[0]).unwrap_err();
     assert!(matches!(e, PlacementError::Mounting { .. }), "{e}");
 }
+
+/// A 33⅓ rpm run with a 5-minute logging gap, across which the platter's angle moved by an
+/// unknown amount (its speed wandered while nothing was recorded), beside a 45 rpm run of the
+/// same placement and 12 still poses; one power-on, no radius stated. `prepare` cuts the run at
+/// the gap into two segments with their own phase: each segment's rate and the chip's radius are
+/// then found: the radius within 3 of its standard errors and 2 mm, each segment's rate at its
+/// stated precision. Fitted whole, one phase across the gap, the same run's rate is off by more
+/// than 10 standard errors.
+#[test]
+fn a_run_is_cut_at_a_logging_gap_into_segments_with_their_own_phase() {
+    use spincal::campaign::prepare::{prepare, UnitRecording};
+    use spincal::input::recording::Recording;
+    let mut segment_z = Vec::new();
+    for seed in 7..=12 {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let sensor = Sensor::draw(&mut rng);
+        let poses: Vec<_> = (0..12)
+            .map(|p| {
+                still_pose(
+                    &sensor,
+                    random_gravity(&mut rng),
+                    [0.0; 3],
+                    400,
+                    0,
+                    10.0 * p as f64,
+                    &mut rng,
+                )
+            })
+            .collect();
+        let placement = Placement {
+            centre_radius_m: 0.09,
+            out: (0, 1.0),
+            up: (2, 1.0),
+            yaw_rad: 0.05,
+            chip_offset_m: [0.01, -0.02, 0.004],
+        };
+        let rate = |rpm: f64| 1.01 * rpm * RPM;
+        let slow = 100.0 / 3.0;
+        // Each call draws its own phase: the angle after the gap is unrelated to the one before.
+        let halves: Vec<RunInput> = (0..2)
+            .map(|_| {
+                let e = entry(&placement, "A", slow, None);
+                turntable_run(
+                    &sensor,
+                    &placement,
+                    e,
+                    rate(slow),
+                    [0.0; 3],
+                    30.0,
+                    100.0,
+                    "half",
+                    &mut rng,
+                )
+            })
+            .collect();
+        let gap_s = 300.0;
+        let time_s: Vec<f64> = halves[0]
+            .time_s
+            .iter()
+            .copied()
+            .chain(halves[1].time_s.iter().map(|t| t + 30.0 + gap_s))
+            .collect();
+        let accel: [Vec<f64>; 3] = std::array::from_fn(|k| {
+            [halves[0].accel_mps2[k].clone(), halves[1].accel_mps2[k].clone()].concat()
+        });
+        let fast = turntable_run(
+            &sensor,
+            &placement,
+            entry(&placement, "A", 45.0, None),
+            rate(45.0),
+            [0.0; 3],
+            30.0,
+            100.0,
+            "fast",
+            &mut rng,
+        );
+        let unit = |name: &str, time_s: &[f64], accel: &[Vec<f64>; 3], rpm: f64| UnitRecording {
+            name: name.into(),
+            recording: Recording {
+                time_s: time_s.to_vec(),
+                accel_mps2: accel.clone(),
+                gyro_radps: None,
+                temperature_c: None,
+                source: Default::default(),
+            },
+            turntable: Some(entry(&placement, "A", rpm, None)),
+            truth: None,
+            floor_mps2: None,
+            random_mps2: None,
+            session: Some("power-on".into()),
+        };
+        let prepared = prepare(&[
+            unit("gapped.csv", &time_s, &accel, slow),
+            unit("fast.csv", &fast.time_s, &fast.accel_mps2, 45.0),
+        ])
+        .unwrap();
+        assert_eq!(
+            prepared.runs.len(),
+            3,
+            "seed {seed}: two segments and the 45 rpm run"
+        );
+        assert_eq!(prepared.split_runs.len(), 1);
+        let split = &prepared.split_runs[0];
+        assert_eq!(split.gaps.len(), 1);
+        assert!(
+            (split.gaps[0].length_s - (gap_s + 0.01)).abs() < 1e-6,
+            "{:?}",
+            split.gaps
+        );
+        assert_eq!(
+            (prepared.run_origin[1].start, prepared.run_origin[1].end),
+            (3000, 6000)
+        );
+        let joint = fit_joint(&prepared.runs, &poses, &settings(), &spincal::progress::silent).unwrap();
+        let omega_error = |run: &spincal::campaign::joint::RunFit| {
+            let omega = &run.params[1];
+            let se = omega.std_error.expect("a standard error");
+            ((omega.value - rate(slow)) / se, se)
+        };
+        for run in &joint.runs[..2] {
+            let (z, se) = omega_error(run);
+            eprintln!(
+                "seed {seed} {}: rate error {z:.2} se (se {se:.2e} rad/s)",
+                run.name
+            );
+            segment_z.push(z.abs());
+        }
+        let fits = placement_fits(&prepared.runs, &joint);
+        assert_eq!(fits.len(), 1);
+        let (radius, se) = (fits[0].radius_m, fits[0].radius_se_m.unwrap());
+        let truth = placement.chip_radius_m();
+        eprintln!(
+            "seed {seed}: radius {:.3} mm (true {:.3}), se {:.3} mm",
+            1e3 * radius,
+            1e3 * truth,
+            1e3 * se
+        );
+        assert!(
+            (radius - truth).abs() < 3.0 * se && (radius - truth).abs() < 2e-3,
+            "seed {seed}: {}",
+            fits[0].sentence()
+        );
+        // The same run whole: one phase across the gap.
+        let mut whole = vec![RunInput::new(
+            "gapped.csv".into(),
+            time_s.clone(),
+            accel.clone(),
+            vec![true; time_s.len()],
+            entry(&placement, "A", slow, None),
+            None,
+        )
+        .in_session(Some(0))];
+        whole.push(prepared.runs[2].clone());
+        let joint = fit_joint(&whole, &poses, &settings(), &spincal::progress::silent).unwrap();
+        let (z, _) = omega_error(&joint.runs[0]);
+        eprintln!("seed {seed} whole: rate error {z:.1} se");
+        assert!(
+            z.abs() > 10.0,
+            "seed {seed}: the whole run's rate is {z:.1} se off"
+        );
+    }
+    // The segments' rates are unbiased at their stated precision: the median |error|/se is 0.67
+    // for a normal error. (Measured on seeds 7–18: median 0.57, one segment of 24 at 7.6 se; the
+    // runs without a gap scatter as widely, RMS 1.6 se, so that is the joint fit's rate error
+    // bar on 30 s runs, not the cut. Whole, the same runs were 16–67 se off.)
+    segment_z.sort_by(f64::total_cmp);
+    let median = 0.5 * (segment_z[5] + segment_z[6]);
+    assert!(
+        median < 1.5,
+        "median |rate error| / se {median:.2}: {segment_z:?}"
+    );
+}

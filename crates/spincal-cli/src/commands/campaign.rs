@@ -97,6 +97,9 @@ pub fn summary(output: &CampaignOutput, out: &Path, written: &[&str], tables: bo
     for placement in &r.placements {
         let _ = writeln!(text, "{}", placement.sentence());
     }
+    for split in r.split_runs.iter().filter_map(|s| s.sentence()) {
+        let _ = writeln!(text, "{split}");
+    }
     if !r.undetermined.is_empty() {
         text.push_str("\nnot determined by this campaign (one standard error moves a 1 g reading by more than 0.02 m/s²):\n");
         for (name, advice) in &r.undetermined {

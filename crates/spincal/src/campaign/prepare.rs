@@ -1,5 +1,5 @@
-//! From a unit's recordings to the joint fit's inputs: turntable runs as they are (saturated
-//! samples left out), still recordings cut into poses.
+//! From a unit's recordings to the joint fit's inputs: turntable runs cut at their logging gaps
+//! (saturated samples left out), still recordings cut into poses.
 
 use serde::{Deserialize, Serialize};
 
@@ -8,6 +8,9 @@ use crate::campaign::joint::{check_placements, PoseInput, PoseWander, RunInput};
 use crate::correctors::static_detect::{detect_static, StaticOptions, StillInterval};
 use crate::input::inspect::saturated_mask;
 use crate::input::recording::Recording;
+use crate::turntable::segments::{
+    phase_segments, PhaseSegments, MIN_SEGMENT_REVOLUTIONS, MIN_SEGMENT_SAMPLES,
+};
 
 /// One recording of the unit, loaded.
 #[derive(Debug, Clone)]
@@ -28,9 +31,9 @@ pub struct UnitRecording {
     pub session: Option<String>,
 }
 
-/// Where a pose came from.
+/// Where a pose or a run came from.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct PoseOrigin {
+pub struct Origin {
     /// Index into the unit's recordings.
     pub recording: usize,
     /// Samples `[start, end)` of that recording.
@@ -42,10 +45,12 @@ pub struct PoseOrigin {
 #[derive(Debug, Clone)]
 pub struct Prepared {
     pub runs: Vec<RunInput>,
-    /// Index into the unit's recordings, per run.
-    pub run_origin: Vec<usize>,
+    /// Per run, its recording and samples (a run cut at a logging gap is several runs).
+    pub run_origin: Vec<Origin>,
     pub poses: Vec<PoseInput>,
-    pub pose_origin: Vec<PoseOrigin>,
+    pub pose_origin: Vec<Origin>,
+    /// The runs cut at logging gaps, with where and why.
+    pub split_runs: Vec<PhaseSegments>,
 }
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -59,6 +64,8 @@ pub enum PrepareError {
         samples: usize,
         needed: usize,
     },
+    #[error("{name}: its {gaps} logging gaps leave no stretch of {MIN_SEGMENT_REVOLUTIONS} revolutions and {MIN_SEGMENT_SAMPLES} samples, so no part of it can be fitted (the platter's angle across a gap is not known); record the run without gaps")]
+    NoSegment { name: String, gaps: usize },
     // Boxed: its names would make every campaign error large.
     #[error(transparent)]
     Placement(Box<crate::campaign::joint::PlacementError>),
@@ -187,6 +194,7 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
         run_origin: Vec::new(),
         poses: Vec::new(),
         pose_origin: Vec::new(),
+        split_runs: Vec::new(),
     };
     let sessions = session_indices(recordings);
     for (index, unit) in recordings.iter().enumerate() {
@@ -200,19 +208,63 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
                         needed: 100,
                     });
                 }
-                let keep = saturated_mask(rec, None).iter().map(|s| !s).collect();
-                out.runs.push(
-                    RunInput::new(
-                        unit.name.clone(),
-                        rec.time_s.clone(),
-                        rec.accel_mps2.clone(),
-                        keep,
-                        entry.clone(),
-                        rec.gyro_radps.clone(),
-                    )
-                    .in_session(sessions[index]),
-                );
-                out.run_origin.push(index);
+                let omega = entry.rpm * std::f64::consts::TAU / 60.0;
+                let segments = phase_segments(rec, omega);
+                if segments.ranges.is_empty() {
+                    return Err(PrepareError::NoSegment {
+                        name: unit.name.clone(),
+                        gaps: segments.gaps.len(),
+                    });
+                }
+                let saturated = saturated_mask(rec, None);
+                let several = segments.ranges.len() > 1;
+                for (k, range) in segments.ranges.iter().enumerate() {
+                    let (name, entry) = if several {
+                        // The segments share the chip's position (one placement), not their phase.
+                        let placement = entry.placement.clone().or_else(|| Some(unit.name.clone()));
+                        let name = format!(
+                            "{} segment {} ({:.1}–{:.1} s)",
+                            unit.name,
+                            k + 1,
+                            rec.time_s[range.start],
+                            rec.time_s[range.end - 1]
+                        );
+                        (
+                            name,
+                            TurntableEntry {
+                                placement,
+                                ..entry.clone()
+                            },
+                        )
+                    } else {
+                        (unit.name.clone(), entry.clone())
+                    };
+                    let slice = |v: &[f64]| v[range.clone()].to_vec();
+                    out.runs.push(
+                        RunInput::new(
+                            name,
+                            slice(&rec.time_s),
+                            std::array::from_fn(|a| slice(&rec.accel_mps2[a])),
+                            saturated[range.clone()].iter().map(|s| !s).collect(),
+                            entry,
+                            rec.gyro_radps
+                                .as_ref()
+                                .map(|g| std::array::from_fn(|a| slice(&g[a]))),
+                        )
+                        .in_session(sessions[index]),
+                    );
+                    out.run_origin.push(Origin {
+                        recording: index,
+                        start: range.start,
+                        end: range.end,
+                    });
+                }
+                if segments.is_split() {
+                    out.split_runs.push(PhaseSegments {
+                        recording: unit.name.clone(),
+                        ..segments
+                    });
+                }
             }
             None => {
                 if rec.len() < 10 {
@@ -240,7 +292,7 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
                         unit.name.clone()
                     };
                     out.poses.push(pose_input(rec, name, start, end, session));
-                    out.pose_origin.push(PoseOrigin {
+                    out.pose_origin.push(Origin {
                         recording: index,
                         start,
                         end,

@@ -33,6 +33,7 @@ use crate::campaign::thermal::{check_temperature_units, temperature_bands, therm
 use crate::correctors::model_file::CorrectorFile;
 use crate::progress::{Observer, Progress};
 use crate::turntable::fit::RadiusPrior;
+use crate::turntable::segments::PhaseSegments;
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -206,6 +207,9 @@ pub struct CampaignResult {
     /// statement.
     #[serde(default)]
     pub placements: Vec<PlacementFit>,
+    /// The runs cut at logging gaps into segments with their own phase.
+    #[serde(default)]
+    pub split_runs: Vec<PhaseSegments>,
     /// Sensor parameters the campaign does not determine, with what would.
     pub undetermined: Vec<(String, String)>,
     /// Whether the data or the prior decided the nonlinearity q.
@@ -382,6 +386,7 @@ pub fn calibrate_campaign(
             recordings: units.iter().map(|u| u.name.clone()).collect(),
             joint,
             placements,
+            split_runs: prepared.split_runs.clone(),
             undetermined,
             nonlinearity,
             terms_rule,

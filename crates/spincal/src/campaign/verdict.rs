@@ -111,12 +111,12 @@ pub(crate) fn condition_samples(
     let mut random: Option<Vec<[f64; 3]>> = Some(Vec::new());
     for &i in runs {
         let run = &prepared.runs[i];
-        let unit = &units[prepared.run_origin[i]];
-        let n = run.time_s.len();
+        let origin = &prepared.run_origin[i];
+        let unit = &units[origin.recording];
         push_blocks(&mut block, &run.time_s, joint.block_s);
         random = match (random, &unit.random_mps2) {
             (Some(mut r), Some(u)) => {
-                r.extend((0..n).map(|s| [u[0][s], u[1][s], u[2][s]]));
+                r.extend((origin.start..origin.end).map(|s| [u[0][s], u[1][s], u[2][s]]));
                 Some(r)
             }
             _ => None,
@@ -159,7 +159,8 @@ pub(crate) fn sample_errors(
     for &i in runs {
         let signal = segment.next().ok_or("a run's signal is missing")?;
         let run = &prepared.runs[i];
-        let unit = &units[prepared.run_origin[i]];
+        let origin = &prepared.run_origin[i];
+        let unit = &units[origin.recording];
         let keep = |s: usize| run.keep[s] && signal.valid[s];
         let mut seen = run.with_readings(signal.accel.clone(), (0..run.keep.len()).map(keep).collect());
         seen.entry.radius = radii.get(i).copied().flatten().or(run.entry.radius);
@@ -172,7 +173,9 @@ pub(crate) fn sample_errors(
         truth = match (truth, &unit.truth) {
             (Some(mut t), Some(true_force)) => {
                 t.extend((0..run.time_s.len()).map(|s| {
-                    keep(s).then(|| std::array::from_fn(|k| signal.accel[k][s] - true_force[k][s]))
+                    keep(s).then(|| {
+                        std::array::from_fn(|k| signal.accel[k][s] - true_force[k][origin.start + s])
+                    })
                 }));
                 Some(t)
             }

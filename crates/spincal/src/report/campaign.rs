@@ -186,6 +186,14 @@ fn sensor_section(r: &CampaignResult, h: &mut String) -> Result<(), PlotError> {
         }
         h.push_str("</ul>");
     }
+    let splits: Vec<String> = r.split_runs.iter().filter_map(|s| s.sentence()).collect();
+    if !splits.is_empty() {
+        h.push_str("<p>Runs cut at logging gaps:</p><ul>");
+        for sentence in &splits {
+            let _ = write!(h, "<li>{}</li>", escape(sentence));
+        }
+        h.push_str("</ul>");
+    }
     if let Some(plot) = sensor_plot(r) {
         h.push_str(&figure(
             &plot,
