@@ -102,9 +102,10 @@ pub fn phase_segments(recording: &Recording, omega_radps: f64) -> PhaseSegments 
     }
     cuts.push(n);
     if gaps.is_empty() {
+        let whole: Range<usize> = 0..n;
         return PhaseSegments {
             recording: recording.source.name.clone(),
-            ranges: vec![0..n],
+            ranges: vec![whole],
             gaps,
             left_out: 0,
         };
