@@ -154,6 +154,30 @@ fn gaps_and_saturation_are_reported_not_hidden() {
     );
 }
 
+/// A 5-minute logging gap in the middle of a run (the platter's angle across it unknown): the fit
+/// says where it cut the run and fits a phase per segment.
+#[test]
+fn a_logging_gap_cuts_the_run_and_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = simulated(dir.path(), "src.csv", &["--seed", "5"]);
+    let text = std::fs::read_to_string(&src).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    for line in lines.iter_mut().skip(3001) {
+        let mut fields: Vec<String> = line.split(',').map(String::from).collect();
+        fields[0] = format!("{:.4}", fields[0].parse::<f64>().unwrap() + 300.0);
+        *line = fields.join(",");
+    }
+    let f = write(dir.path(), "gapped.csv", &(lines.join("\n") + "\n"));
+    let out = spincal().arg("fit").arg(&f).output().unwrap();
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        text.contains("gapped.csv: cut at 1 gap (300.0 s after line 3001) into 2 segments"),
+        "{text}"
+    );
+    assert!(text.contains("phase_segment2"), "{text}");
+}
+
 #[test]
 fn contradicting_bounds_and_bad_flags_are_usage_errors() {
     let dir = tempfile::tempdir().unwrap();

@@ -240,6 +240,9 @@ pub fn render(fit: &TurntableFit) -> String {
             text.push_str(&format!("  warning: {}\n", crate::ui::in_flags(&w)));
         }
     }
+    for cut in fit.split_recordings.iter().filter_map(|s| s.sentence()) {
+        text.push_str(&format!("note: {cut}\n"));
+    }
     text.push_str(&format!(
         "\nparameter        value          std. error     unit    bound hit\n{}\n",
         "-".repeat(66)

@@ -131,9 +131,23 @@ pub(crate) fn for_each_sample(
     mounting: &Mounting,
     gravity: f64,
     time_s: &[f64],
+    f: impl FnMut(usize, [f64; 3]),
+) {
+    for_each_sample_about(session, mounting, gravity, time_s, None, f)
+}
+
+/// [`for_each_sample`] with the drift measured from `drift_origin_s` (a segment of a recording
+/// cut at a gap keeps the recording's), else from the middle of `time_s`.
+pub(crate) fn for_each_sample_about(
+    session: &Session,
+    mounting: &Mounting,
+    gravity: f64,
+    time_s: &[f64],
+    drift_origin_s: Option<f64>,
     mut f: impl FnMut(usize, [f64; 3]),
 ) {
     let (t0, t_mid) = time_origin(time_s);
+    let t_mid = drift_origin_s.unwrap_or(t_mid);
     let s = session.direction.sign();
     let w = session.omega_radps;
     let (mean, amplitude) = levels(session, mounting, gravity);
@@ -211,15 +225,18 @@ pub(crate) fn time_origin(time_s: &[f64]) -> (f64, f64) {
     }
 }
 
-/// Derivatives of the three axes at every sample: calls `f(i, &SampleDerivatives)`.
+/// Derivatives of the three axes at every sample: calls `f(i, &SampleDerivatives)`; the drift
+/// about `drift_origin_s` as in [`for_each_sample_about`].
 pub(crate) fn for_each_derivative(
     session: &Session,
     mounting: &Mounting,
     gravity: f64,
     time_s: &[f64],
+    drift_origin_s: Option<f64>,
     mut f: impl FnMut(usize, &SampleDerivatives),
 ) {
     let (t0, t_mid) = time_origin(time_s);
+    let t_mid = drift_origin_s.unwrap_or(t_mid);
     let s = session.direction.sign();
     let w = session.omega_radps;
     let r = session.radius_m;
@@ -333,7 +350,7 @@ mod tests {
         let t = grid(300, 50.0);
         let g = 9.81;
         let mut analytic = vec![SampleDerivatives::default(); t.len()];
-        for_each_derivative(&session(), &mounting(), g, &t, |i, d| analytic[i] = *d);
+        for_each_derivative(&session(), &mounting(), g, &t, None, |i, d| analytic[i] = *d);
         type Perturb = fn(&mut Session, &mut Mounting, f64);
         type Pick = fn(&SampleDerivatives) -> [f64; 3];
         let cases: [(&str, Perturb, Pick); 5] = [

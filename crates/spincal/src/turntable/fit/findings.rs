@@ -5,12 +5,12 @@ use faer::{Mat, Side};
 
 use super::options::FitOptions;
 use super::problem::{Problem, Role};
-use super::result::{DriftFinding, FittedParam, RecordingFit};
+use super::result::{DriftFinding, FittedParam, RecordingFit, SegmentPhase};
 use super::start::{wrap_angle, FirstLook};
-use crate::input::recording::STANDARD_GRAVITY;
+use crate::input::recording::{Recording, STANDARD_GRAVITY};
 use crate::metrics::FitSums;
 use crate::optim::{Bounds, LmReport, NormalEquations};
-use crate::turntable::model::{for_each_sample, Mounting, Session};
+use crate::turntable::model::{for_each_sample_about, Mounting, Session};
 
 /// The fitted values (angles wrapped) with standard errors and correlations.
 pub(super) struct Estimates {
@@ -64,11 +64,15 @@ pub(super) fn estimates(problem: &Problem, bounds: &Bounds, lm: &LmReport) -> Es
 }
 
 /// Each drift term as a change over its recording; significant beyond 5 standard errors and 1 mg.
-pub(super) fn drift_findings(problem: &Problem, estimates: &Estimates) -> Vec<DriftFinding> {
+pub(super) fn drift_findings(
+    problem: &Problem,
+    estimates: &Estimates,
+    recordings: &[&Recording],
+) -> Vec<DriftFinding> {
     let mut drift = Vec::new();
     for (i, def) in problem.defs.iter().enumerate() {
         if let Role::Drift(k, a) = def.role {
-            let span = problem.recordings[k].duration_s();
+            let span = recordings[k].duration_s();
             let se = estimates.params[i].std_error.unwrap_or(f64::NAN) * span;
             let change = estimates.values[i] * span;
             drift.push(DriftFinding {
@@ -83,36 +87,63 @@ pub(super) fn drift_findings(problem: &Problem, estimates: &Estimates) -> Vec<Dr
     drift
 }
 
-/// The fitted model against each recording: fit % and residual RMS per axis.
+/// The fitted model against each recording (over its pieces): fit % and residual RMS per axis,
+/// and a cut recording's phase per segment.
 pub(super) fn recording_fits(
     problem: &Problem,
+    recordings: &[&Recording],
     looks: &[FirstLook],
     sessions: &[Session],
     mounting: &Mounting,
 ) -> Vec<RecordingFit> {
     let mut fits = Vec::new();
-    for (k, rec) in problem.recordings.iter().enumerate() {
+    for (k, rec) in recordings.iter().enumerate() {
+        let pieces: Vec<usize> = (0..problem.recordings.len())
+            .filter(|&piece| problem.recording_of[piece] == k)
+            .collect();
         // The model is compared sample by sample, never stored (it would be as large as the
         // recording).
         let mut sums = [0, 1, 2].map(|a| FitSums::new(&rec.accel_mps2[a]));
-        for_each_sample(
-            &sessions[k],
-            mounting,
-            problem.gravity,
-            &rec.time_s,
-            |i, model| {
-                for (a, sums) in sums.iter_mut().enumerate() {
-                    sums.add(rec.accel_mps2[a][i], model[a]);
-                }
-            },
-        );
+        for &piece in &pieces {
+            let data = problem.recordings[piece];
+            let origin = problem.drift_origin[piece];
+            for_each_sample_about(
+                &sessions[piece],
+                mounting,
+                problem.gravity,
+                &data.time_s,
+                origin,
+                |i, model| {
+                    for (a, sums) in sums.iter_mut().enumerate() {
+                        sums.add(data.accel_mps2[a][i], model[a]);
+                    }
+                },
+            );
+        }
+        let cut = problem.drift_origin[pieces[0]].is_some();
         fits.push(RecordingFit {
             name: rec.source.name.clone(),
             rate: looks[k].rate.clone(),
             inspection: looks[k].inspection.clone(),
-            session: sessions[k],
+            session: sessions[pieces[0]],
             fit_percent: sums.map(|s| s.fit_percent()),
             residual_rms_mps2: sums.map(|s| s.rmse()),
+            segments: if cut {
+                pieces
+                    .iter()
+                    .map(|&piece| {
+                        let time = &problem.recordings[piece].time_s;
+                        SegmentPhase {
+                            start_s: time[0],
+                            end_s: time[time.len() - 1],
+                            phase_rad: wrap_angle(sessions[piece].phase_rad),
+                        }
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            },
+            drift_origin_s: problem.drift_origin[pieces[0]],
         });
     }
     fits

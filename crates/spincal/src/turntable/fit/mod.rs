@@ -7,7 +7,9 @@
 //! not determine (null directions of the column-scaled JᵀJ).
 //!
 //! Parameters: shared by all recordings: β and the three offsets (the sensor and its mounting);
-//! per recording: r (or one shared r), ω, α, φ and, when fitted, a drift per axis.
+//! per recording: r (or one shared r), ω, α, φ and, when fitted, a drift per axis. A recording
+//! with a logging gap longer than two revolutions is cut there, each piece with its own φ
+//! (`turntable::segments`).
 
 use std::borrow::Cow;
 
@@ -20,18 +22,20 @@ use crate::optim::{
 use crate::progress::Observer;
 use findings::{drift_findings, estimates, recording_fits, remedy_for};
 use parameters::{build_problem, parameter_table};
+use pieces::cut_at_gaps;
 use problem::Problem;
 use start::first_look;
 
 mod findings;
 mod options;
 mod parameters;
+mod pieces;
 mod problem;
 mod result;
 mod start;
 
 pub use options::{AxesObjective, DriftMode, FitError, FitOptions, RadiusPrior};
-pub use result::{DriftFinding, FittedParam, RecordingFit, TurntableFit};
+pub use result::{DriftFinding, FittedParam, RecordingFit, SegmentPhase, TurntableFit};
 
 /// Fits the turntable model to the recordings jointly: a first look at each recording (rate,
 /// sinusoid start, inspection), the parameter table, bounded Nelder–Mead on the moment cost, the
@@ -62,14 +66,23 @@ pub fn fit_turntable(
         .collect::<Result<Vec<_>, _>>()?;
     let recordings: Vec<&Recording> = unsaturated.iter().map(|r| r.as_ref()).collect();
     let recordings = recordings.as_slice();
-    let defs = parameter_table(recordings, options, &looks)?;
+    let pieces = cut_at_gaps(recordings, &looks)?;
+    let defs = parameter_table(recordings, options, &looks, &pieces)?;
     let bounds = Bounds {
         names: defs.iter().map(|d| d.name.clone()).collect(),
         lower: defs.iter().map(|d| d.lower).collect(),
         upper: defs.iter().map(|d| d.upper).collect(),
     };
     bounds.validate()?;
-    let problem = build_problem(recordings, options, &looks, defs);
+    let piece_refs: Vec<&Recording> = pieces.recordings.iter().map(|r| r.as_ref()).collect();
+    let problem = build_problem(
+        &piece_refs,
+        pieces.recording_of.clone(),
+        pieces.drift_origin.clone(),
+        options,
+        &looks,
+        defs,
+    );
     let start: Vec<f64> = problem.defs.iter().map(|d| d.start).collect();
     let (nm, lm) = solve(&problem, &start, &bounds, options, observer)?;
     let estimates = estimates(&problem, &bounds, &lm);
@@ -81,8 +94,8 @@ pub fn fit_turntable(
         .collect();
     let remedy = remedy_for(&undetermined, recordings.len(), options);
     let (mounting, sessions) = problem.unpack(&estimates.values);
-    let drift = drift_findings(&problem, &estimates);
-    let recording_fits = recording_fits(&problem, &looks, &sessions, &mounting);
+    let drift = drift_findings(&problem, &estimates, recordings);
+    let recording_fits = recording_fits(&problem, recordings, &looks, &sessions, &mounting);
     Ok(TurntableFit {
         gravity_mps2: options.gravity_mps2,
         axes: options.axes,
@@ -100,6 +113,7 @@ pub fn fit_turntable(
         lm_stop: lm.stop,
         noise_mps2: looks.iter().map(|l| l.start.noise).collect(),
         start,
+        split_recordings: pieces.cut,
     })
 }
 
@@ -230,8 +244,9 @@ mod tests {
             .iter()
             .map(|r| first_look(r, inspect(r, None), &options).unwrap())
             .collect();
-        let defs = parameter_table(&recordings, &options, &looks).unwrap();
-        let problem = build_problem(&recordings, &options, &looks, defs);
+        let pieces = cut_at_gaps(&recordings, &looks).unwrap();
+        let defs = parameter_table(&recordings, &options, &looks, &pieces).unwrap();
+        let problem = build_problem(&recordings, vec![0, 1], vec![None, None], &options, &looks, defs);
         let n = problem.defs.len();
         // Away from the start, so every derivative matters.
         let p: Vec<f64> = problem

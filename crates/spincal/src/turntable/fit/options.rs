@@ -142,4 +142,6 @@ pub enum FitError {
         "{file}: the fit did not produce finite parameters (the data may not contain a turntable signal)"
     )]
     NotFinite { file: String },
+    #[error("{file}: its {gaps} logging gaps leave no stretch of {} revolutions and {} samples, so no part of it can be fitted (the platter's angle across a gap is not known); record the run without gaps", crate::turntable::segments::MIN_SEGMENT_REVOLUTIONS, crate::turntable::segments::MIN_SEGMENT_SAMPLES)]
+    NoSegment { file: String, gaps: usize },
 }

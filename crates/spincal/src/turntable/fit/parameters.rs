@@ -2,21 +2,24 @@
 //! problem built from it.
 
 use super::options::{DriftMode, FitError, FitOptions};
+use super::pieces::Pieces;
 use super::problem::{ParamDef, Problem, Role};
 use super::start::{wrap_angle, FirstLook};
 use crate::input::recording::Recording;
 use crate::turntable::moments::CostMoments;
 
 /// Every free parameter with its unit, bounds and starting value: shared ones first (β, offsets,
-/// a shared radius), then each recording's; the user's `--bounds` replace the defaults.
+/// a shared radius), then each recording's (a phase per piece of a recording cut at a gap); the
+/// user's `--bounds` replace the defaults.
 pub(super) fn parameter_table(
     recordings: &[&Recording],
     options: &FitOptions,
     looks: &[FirstLook],
+    pieces: &Pieces,
 ) -> Result<Vec<ParamDef>, FitError> {
     let mut defs = shared_parameters(options, looks);
     for k in 0..recordings.len() {
-        defs.extend(recording_parameters(k, recordings, options, looks));
+        defs.extend(recording_parameters(k, recordings, options, looks, pieces));
     }
     for (name, lower, upper) in &options.bounds {
         let Some(def) = defs.iter_mut().find(|d| &d.name == name) else {
@@ -51,7 +54,7 @@ fn radius_start(options: &FitOptions, look: &FirstLook) -> f64 {
 
 /// β's start: the first recording's mean levels are ω²r cos β + b_x and ω²r sin β + b_y, taken
 /// with zero offsets.
-fn beta_start(looks: &[FirstLook]) -> f64 {
+pub(super) fn beta_start(looks: &[FirstLook]) -> f64 {
     let s0 = &looks[0].start;
     s0.mean[1].atan2(s0.mean[0])
 }
@@ -94,12 +97,14 @@ fn shared_parameters(options: &FitOptions, looks: &[FirstLook]) -> Vec<ParamDef>
     defs
 }
 
-/// Recording `k`'s own parameters: its radius (when not shared), ω, tilt, phase and drift.
+/// Recording `k`'s own parameters: its radius (when not shared), ω, tilt, phase (one per piece)
+/// and drift.
 fn recording_parameters(
     k: usize,
     recordings: &[&Recording],
     options: &FitOptions,
     looks: &[FirstLook],
+    pieces: &Pieces,
 ) -> Vec<ParamDef> {
     let g = options.gravity_mps2;
     let pi = std::f64::consts::PI;
@@ -145,14 +150,24 @@ fn recording_parameters(
         upper: 30f64.to_radians(),
         start: (amplitude / g).clamp(0.0, 0.49).asin(),
     });
-    defs.push(ParamDef {
-        name: format!("phase{suffix}"),
-        unit: "rad",
-        role: Role::Phase(k),
-        lower: -2.0 * pi,
-        upper: 2.0 * pi,
-        start: wrap_angle(s.cos[0].atan2(s.sin[0]) + beta0),
-    });
+    let own: Vec<usize> = (0..pieces.recording_of.len())
+        .filter(|&piece| pieces.recording_of[piece] == k)
+        .collect();
+    for (j, &piece) in own.iter().enumerate() {
+        let name = if own.len() > 1 {
+            format!("phase{suffix}_segment{}", j + 1)
+        } else {
+            format!("phase{suffix}")
+        };
+        defs.push(ParamDef {
+            name,
+            unit: "rad",
+            role: Role::Phase(piece),
+            lower: -2.0 * pi,
+            upper: 2.0 * pi,
+            start: pieces.phase_start[piece].unwrap_or_else(|| wrap_angle(s.cos[0].atan2(s.sin[0]) + beta0)),
+        });
+    }
     if options.drift == DriftMode::Fit {
         let span = recordings[k].duration_s();
         for &a in axes {
@@ -169,10 +184,13 @@ fn recording_parameters(
     defs
 }
 
-/// The least-squares problem: residuals weighted by each recording's noise, the radius prior,
-/// and the per-block moments that make Nelder–Mead's cost O(blocks).
+/// The least-squares problem over the pieces: residuals weighted by each recording's noise, the
+/// radius prior, and the per-block moments that make Nelder–Mead's cost O(blocks) (for whole
+/// recordings; a cut recording's pieces keep its drift origin, which the moments do not know).
 pub(super) fn build_problem<'a>(
-    recordings: &'a [&'a Recording],
+    pieces: &'a [&'a Recording],
+    recording_of: Vec<usize>,
+    drift_origin: Vec<Option<f64>>,
     options: &FitOptions,
     looks: &[FirstLook],
     defs: Vec<ParamDef>,
@@ -182,22 +200,28 @@ pub(super) fn build_problem<'a>(
             .position(|d| matches!(d.role, Role::Radius(_)))
             .map(|i| (i, p))
     });
-    let n = recordings.len();
     Problem {
-        recordings,
-        directions: looks.iter().map(|l| l.direction).collect(),
+        recordings: pieces,
+        directions: recording_of.iter().map(|&k| looks[k].direction).collect(),
         axes: options.axes.axes(),
-        weights: looks.iter().map(|l| l.start.noise.map(|v| 1.0 / v)).collect(),
+        weights: recording_of
+            .iter()
+            .map(|&k| looks[k].start.noise.map(|v| 1.0 / v))
+            .collect(),
         gravity: options.gravity_mps2,
         prior,
-        n_recordings: n,
-        moments: (0..n)
-            .map(|k| {
-                let omega = defs.iter().find(|d| d.role == Role::Omega(k))?;
+        moments: (0..pieces.len())
+            .map(|piece| {
+                if drift_origin[piece].is_some() {
+                    return None;
+                }
+                let omega = defs.iter().find(|d| d.role == Role::Omega(recording_of[piece]))?;
                 let centre = 0.5 * (omega.lower + omega.upper);
-                CostMoments::new(recordings[k], centre, 0.5 * (omega.upper - omega.lower).abs())
+                CostMoments::new(pieces[piece], centre, 0.5 * (omega.upper - omega.lower).abs())
             })
             .collect(),
+        recording_of,
+        drift_origin,
         defs,
     }
 }

@@ -6,16 +6,18 @@ use faer::Mat;
 use super::options::RadiusPrior;
 use crate::input::recording::Recording;
 use crate::optim::NormalEquations;
-use crate::turntable::model::{for_each_derivative, for_each_sample, Direction, Mounting, Session};
+use crate::turntable::model::{for_each_derivative, for_each_sample_about, Direction, Mounting, Session};
 use crate::turntable::moments::CostMoments;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) enum Role {
     Beta,
     Offset(usize),
+    /// Per recording (`None`: shared by all).
     Radius(Option<usize>),
     Omega(usize),
     Tilt(usize),
+    /// Per piece: a recording cut at its logging gaps has one phase per segment.
     Phase(usize),
     Drift(usize, usize),
 }
@@ -30,22 +32,29 @@ pub(super) struct ParamDef {
     pub(super) start: f64,
 }
 
-/// The weighted least-squares problem over all recordings.
+/// The weighted least-squares problem over all recordings, each cut into pieces at its logging
+/// gaps (a recording without one is one piece): the pieces of a recording share its parameters
+/// but their phase.
 pub(super) struct Problem<'a> {
+    /// The pieces, in recording order.
     pub(super) recordings: &'a [&'a Recording],
+    /// Per piece, its recording and the drift's time origin (the recording's middle when cut,
+    /// else `None`: the piece's own middle).
+    pub(super) recording_of: Vec<usize>,
+    pub(super) drift_origin: Vec<Option<f64>>,
     pub(super) defs: Vec<ParamDef>,
     pub(super) directions: Vec<Direction>,
     pub(super) axes: &'static [usize],
-    /// 1 / noise per recording and axis.
+    /// 1 / noise per piece and axis (its recording's).
     pub(super) weights: Vec<[f64; 3]>,
     pub(super) gravity: f64,
     pub(super) prior: Option<(usize, RadiusPrior)>,
-    pub(super) n_recordings: usize,
-    /// Per recording, the cost's moments when ω's bounds are narrow enough for them to pay off.
+    /// Per piece, the cost's moments when ω's bounds are narrow enough for them to pay off.
     pub(super) moments: Vec<Option<CostMoments>>,
 }
 
 impl Problem<'_> {
+    /// The mounting and each piece's session.
     pub(super) fn unpack(&self, p: &[f64]) -> (Mounting, Vec<Session>) {
         let mut mounting = Mounting {
             beta_rad: 0.0,
@@ -63,16 +72,18 @@ impl Problem<'_> {
                 drift_mps2_per_s: [0.0; 3],
             })
             .collect();
+        let of = &self.recording_of;
+        let pieces_of = |k: usize| (0..of.len()).filter(move |&piece| of[piece] == k);
         for (def, &v) in self.defs.iter().zip(p) {
             match def.role {
                 Role::Beta => mounting.beta_rad = v,
                 Role::Offset(a) => mounting.offset_mps2[a] = v,
                 Role::Radius(None) => sessions.iter_mut().for_each(|s| s.radius_m = v),
-                Role::Radius(Some(k)) => sessions[k].radius_m = v,
-                Role::Omega(k) => sessions[k].omega_radps = v,
-                Role::Tilt(k) => sessions[k].tilt_rad = v,
-                Role::Phase(k) => sessions[k].phase_rad = v,
-                Role::Drift(k, a) => sessions[k].drift_mps2_per_s[a] = v,
+                Role::Radius(Some(k)) => pieces_of(k).for_each(|i| sessions[i].radius_m = v),
+                Role::Omega(k) => pieces_of(k).for_each(|i| sessions[i].omega_radps = v),
+                Role::Tilt(k) => pieces_of(k).for_each(|i| sessions[i].tilt_rad = v),
+                Role::Phase(piece) => sessions[piece].phase_rad = v,
+                Role::Drift(k, a) => pieces_of(k).for_each(|i| sessions[i].drift_mps2_per_s[a] = v),
             }
         }
         (mounting, sessions)
@@ -108,12 +119,20 @@ impl Problem<'_> {
                 &rec.accel_mps2[1][..n],
                 &rec.accel_mps2[2][..n],
             );
-            for_each_sample(&sessions[k], &mounting, self.gravity, &rec.time_s, |i, m| {
-                let ex = w[0] * (m[0] - x[i]);
-                let ey = w[1] * (m[1] - y[i]);
-                let ez = w[2] * (m[2] - z[i]);
-                total += ex * ex + ey * ey + ez * ez;
-            });
+            let origin = self.drift_origin[k];
+            for_each_sample_about(
+                &sessions[k],
+                &mounting,
+                self.gravity,
+                &rec.time_s,
+                origin,
+                |i, m| {
+                    let ex = w[0] * (m[0] - x[i]);
+                    let ey = w[1] * (m[1] - y[i]);
+                    let ez = w[2] * (m[2] - z[i]);
+                    total += ex * ex + ey * ey + ez * ez;
+                },
+            );
         }
         if let Some((index, prior)) = self.prior {
             total += ((p[index] - prior.value_m) / prior.tolerance_m).powi(2);
@@ -124,7 +143,7 @@ impl Problem<'_> {
 
 impl Problem<'_> {
     pub(super) fn n_residuals(&self) -> usize {
-        (0..self.n_recordings).map(|k| self.rows_of(k)).sum::<usize>() + usize::from(self.prior.is_some())
+        (0..self.recordings.len()).map(|k| self.rows_of(k)).sum::<usize>() + usize::from(self.prior.is_some())
     }
 }
 
@@ -145,12 +164,20 @@ impl NormalEquations for Problem<'_> {
         let mut total = 0.0;
         for (k, rec) in self.recordings.iter().enumerate() {
             let w = self.weights[k];
-            for_each_sample(&sessions[k], &mounting, self.gravity, &rec.time_s, |i, m| {
-                for &a in self.axes {
-                    let r = w[a] * (m[a] - rec.accel_mps2[a][i]);
-                    total += r * r;
-                }
-            });
+            let origin = self.drift_origin[k];
+            for_each_sample_about(
+                &sessions[k],
+                &mounting,
+                self.gravity,
+                &rec.time_s,
+                origin,
+                |i, m| {
+                    for &a in self.axes {
+                        let r = w[a] * (m[a] - rec.accel_mps2[a][i]);
+                        total += r * r;
+                    }
+                },
+            );
         }
         if let Some((index, prior)) = self.prior {
             total += ((p[index] - prior.value_m) / prior.tolerance_m).powi(2);
@@ -166,48 +193,57 @@ impl NormalEquations for Problem<'_> {
         jtr.fill(0.0);
         let mut total = 0.0;
         let column = |role: Role| self.defs.iter().position(|d| d.role == role);
-        for (k, rec) in self.recordings.iter().enumerate() {
+        for (piece, rec) in self.recordings.iter().enumerate() {
+            let k = self.recording_of[piece];
             let radius_col = column(Role::Radius(Some(k))).or_else(|| column(Role::Radius(None)));
             let role_cols = [
                 radius_col,
                 column(Role::Omega(k)),
                 column(Role::Tilt(k)),
-                column(Role::Phase(k)),
+                column(Role::Phase(piece)),
                 column(Role::Beta),
             ];
             let offset_cols = [0, 1, 2].map(|a| column(Role::Offset(a)));
             let drift_cols = [0, 1, 2].map(|a| column(Role::Drift(k, a)));
-            let weights = self.weights[k];
+            let weights = self.weights[piece];
             // Per axis, the rows' seven derivative slots (radius, ω, tilt, phase, β, offset,
             // drift) always land in the same columns: accumulate a dense 7 × 7 block per axis
             // (fixed indices, no branches in the sample loop) and scatter it once.
             let mut block = [[[0.0f64; SLOTS]; SLOTS]; 3];
             let mut block_r = [[0.0f64; SLOTS]; 3];
-            for_each_derivative(&sessions[k], &mounting, self.gravity, &rec.time_s, |i, d| {
-                for &a in self.axes {
-                    let w = weights[a];
-                    let r = w * (d.value[a] - rec.accel_mps2[a][i]);
-                    total += r * r;
-                    let v = [
-                        w * d.radius[a],
-                        w * d.omega[a],
-                        w * d.tilt[a],
-                        w * d.phase[a],
-                        w * d.beta[a],
-                        w,
-                        w * d.drift,
-                    ];
-                    // The full square (fixed bounds unroll and vectorise); the scatter reads
-                    // the upper triangle.
-                    let (b, br) = (&mut block[a], &mut block_r[a]);
-                    for x in 0..SLOTS {
-                        br[x] += v[x] * r;
-                        for y in 0..SLOTS {
-                            b[x][y] += v[x] * v[y];
+            let origin = self.drift_origin[piece];
+            for_each_derivative(
+                &sessions[piece],
+                &mounting,
+                self.gravity,
+                &rec.time_s,
+                origin,
+                |i, d| {
+                    for &a in self.axes {
+                        let w = weights[a];
+                        let r = w * (d.value[a] - rec.accel_mps2[a][i]);
+                        total += r * r;
+                        let v = [
+                            w * d.radius[a],
+                            w * d.omega[a],
+                            w * d.tilt[a],
+                            w * d.phase[a],
+                            w * d.beta[a],
+                            w,
+                            w * d.drift,
+                        ];
+                        // The full square (fixed bounds unroll and vectorise); the scatter reads
+                        // the upper triangle.
+                        let (b, br) = (&mut block[a], &mut block_r[a]);
+                        for x in 0..SLOTS {
+                            br[x] += v[x] * r;
+                            for y in 0..SLOTS {
+                                b[x][y] += v[x] * v[y];
+                            }
                         }
                     }
-                }
-            });
+                },
+            );
             for &a in self.axes {
                 let cols = [
                     role_cols[0],

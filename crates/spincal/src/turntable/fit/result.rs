@@ -5,7 +5,8 @@ use serde::{Deserialize, Serialize};
 use super::options::AxesObjective;
 use crate::input::inspect::Inspection;
 use crate::optim::LmStop;
-use crate::turntable::model::{evaluate, Mounting, Session};
+use crate::turntable::model::{evaluate, for_each_sample_about, Mounting, Session};
+use crate::turntable::segments::PhaseSegments;
 use crate::turntable::spectrum::RateEstimate;
 
 /// One fitted parameter as reported.
@@ -33,6 +34,15 @@ pub struct DriftFinding {
     pub significant: bool,
 }
 
+/// One stretch of a recording cut at its logging gaps: its own phase, referred to its first
+/// sample.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SegmentPhase {
+    pub start_s: f64,
+    pub end_s: f64,
+    pub phase_rad: f64,
+}
+
 /// Per-recording outcome.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RecordingFit {
@@ -44,6 +54,13 @@ pub struct RecordingFit {
     pub fit_percent: [f64; 3],
     /// RMS of measured − model per axis, m/s².
     pub residual_rms_mps2: [f64; 3],
+    /// A recording cut at its logging gaps: each segment's phase (`session` holds the first's);
+    /// empty for a recording fitted whole.
+    #[serde(default)]
+    pub segments: Vec<SegmentPhase>,
+    /// A cut recording's drift origin (its middle), s; `None`: the middle of the times given.
+    #[serde(default)]
+    pub drift_origin_s: Option<f64>,
 }
 
 /// The complete result of a turntable fit.
@@ -71,21 +88,16 @@ pub struct TurntableFit {
     pub noise_mps2: Vec<[f64; 3]>,
     /// Starting values handed to Nelder–Mead (free parameters, SI), for reproduction by peers.
     pub start: Vec<f64>,
+    /// The recordings cut at logging gaps, with where.
+    #[serde(default)]
+    pub split_recordings: Vec<PhaseSegments>,
 }
 
 impl TurntableFit {
     /// The fitted model at the samples of recording `k`, m/s², including the sensor's offsets and
     /// drift: what the sensor should read (used for the model-against-measurement fit).
     pub fn model(&self, k: usize, time_s: &[f64]) -> [Vec<f64>; 3] {
-        let mut out = [Vec::new(), Vec::new(), Vec::new()];
-        evaluate(
-            &self.recordings[k].session,
-            &self.mounting,
-            self.gravity_mps2,
-            time_s,
-            &mut out,
-        );
-        out
+        self.evaluate(k, &self.recordings[k].session, &self.mounting, time_s)
     }
 
     /// The reference acceleration at the samples of recording `k`, m/s²: the turntable's physical
@@ -100,8 +112,50 @@ impl TurntableFit {
             offset_mps2: [0.0; 3],
             ..self.mounting
         };
+        self.evaluate(k, &session, &mounting, time_s)
+    }
+
+    /// Recording `k`'s model at `time_s`: whole, or segment by segment with each segment's phase
+    /// (a sample before the first segment, or in a stretch too short to fit, takes the phase of
+    /// the segment before it, or the first).
+    fn evaluate(&self, k: usize, session: &Session, mounting: &Mounting, time_s: &[f64]) -> [Vec<f64>; 3] {
         let mut out = [Vec::new(), Vec::new(), Vec::new()];
-        evaluate(&session, &mounting, self.gravity_mps2, time_s, &mut out);
+        let fit = &self.recordings[k];
+        if fit.segments.is_empty() {
+            evaluate(session, mounting, self.gravity_mps2, time_s, &mut out);
+            return out;
+        }
+        for axis in out.iter_mut() {
+            axis.resize(time_s.len(), 0.0);
+        }
+        let segment_of = |t: f64| fit.segments.iter().rposition(|s| s.start_s <= t).unwrap_or(0);
+        let mut start = 0;
+        while start < time_s.len() {
+            let j = segment_of(time_s[start]);
+            let end = (start..time_s.len())
+                .find(|&i| segment_of(time_s[i]) != j)
+                .unwrap_or(time_s.len());
+            let segment = &fit.segments[j];
+            // The phase refers to the segment's first sample; these times may start elsewhere.
+            let here = Session {
+                phase_rad: segment.phase_rad + session.omega_radps * (time_s[start] - segment.start_s),
+                ..*session
+            };
+            let times = &time_s[start..end];
+            for_each_sample_about(
+                &here,
+                mounting,
+                self.gravity_mps2,
+                times,
+                fit.drift_origin_s,
+                |i, a| {
+                    for axis in 0..3 {
+                        out[axis][start + i] = a[axis];
+                    }
+                },
+            );
+            start = end;
+        }
         out
     }
 }

@@ -17,7 +17,7 @@ pub(super) struct SinusoidFit {
     pub(super) noise: [f64; 3],
 }
 
-fn sinusoid_fit(rec: &Recording, omega: f64) -> SinusoidFit {
+pub(super) fn sinusoid_fit(rec: &Recording, omega: f64) -> SinusoidFit {
     let t0 = rec.time_s[0];
     let t_mid = 0.5 * (t0 + rec.time_s[rec.len() - 1]);
     let mut out = SinusoidFit {
