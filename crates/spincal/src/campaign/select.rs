@@ -367,6 +367,12 @@ pub fn calibrate_campaign(
             nothing_saved_verdict(&summaries, &prepared, &undetermined, truth_check.as_ref()),
         ),
     };
+    // With no candidate eligible, a contradicted radius is still a cause worth naming first.
+    let verdict = if saved.is_none() && best.is_none() && !contradicted.is_empty() {
+        format!("{}. {verdict}", contradicted.join("; "))
+    } else {
+        verdict
+    };
     lap("final training", &mut stages);
     let error_map = saved
         .as_ref()
