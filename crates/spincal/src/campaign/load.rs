@@ -3,7 +3,7 @@
 use crate::campaign::file::{Campaign, EntryKind};
 use crate::campaign::prepare::UnitRecording;
 use crate::input::formats::{check_input, read_path, FormatError, ReadOptions};
-use crate::input::gyro_file::gyro_columns;
+use crate::input::gyro_file::attach_gyro_file;
 use crate::output::identity;
 
 #[derive(Debug, thiserror::Error)]
@@ -117,22 +117,18 @@ pub fn load_campaign(campaign: &Campaign) -> Result<Vec<UnitRecording>, LoadErro
             source: Box::new(source),
         })?;
         if let Some(path) = &entry.gyro_file {
-            let gyro = gyro_columns(
-                Some(path),
-                &loaded,
-                &entry.file.display().to_string(),
-                entry.read.retime,
-            )
-            .map_err(|e| LoadError::GyroFile {
-                campaign: name.clone(),
-                line: entry.line,
-                message: e.to_string(),
-            })?;
-            loaded.gyro_counts = gyro.as_ref().is_some_and(|g| g.counts) && entry.read.gyro_scale.is_none();
-            loaded.recording.gyro_radps = gyro.map(|g| match entry.read.gyro_scale {
-                Some(scale) => g.values.map(|axis| axis.into_iter().map(|v| v * scale).collect()),
-                None => g.values,
-            });
+            let (merged, counts, note) = attach_gyro_file(loaded.recording, path, entry.read.retime)
+                .map_err(|e| LoadError::GyroFile {
+                    campaign: name.clone(),
+                    line: entry.line,
+                    message: e.to_string(),
+                })?;
+            loaded.recording = merged;
+            loaded.recording.source.time_notes.extend(note);
+            loaded.gyro_counts = counts && entry.read.gyro_scale.is_none();
+            if let (Some(scale), Some(gyro)) = (entry.read.gyro_scale, loaded.recording.gyro_radps.as_mut()) {
+                gyro.iter_mut().flatten().for_each(|v| *v *= scale);
+            }
         }
         if loaded.gyro_counts {
             return Err(LoadError::RawGyroCounts {

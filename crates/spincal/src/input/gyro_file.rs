@@ -1,5 +1,6 @@
 //! The gyroscope beside a recording: the recording's own gyro columns, or a second file sampled
-//! beside it (imu_tk's layout, `t gx gy gz`), and whether the values are raw counts.
+//! beside it (imu_tk's layout, `t gx gy gz`) or on its own samples of the same clock (merged on
+//! time), and whether the values are raw counts.
 
 use std::path::Path;
 
@@ -39,6 +40,16 @@ pub enum GyroFileError {
         file: String,
         found: usize,
         expected: usize,
+    },
+    #[error("{file}: {covered} of the recording's {samples} samples fall within the gyro file's span ({gyro_from_s:.3}–{gyro_to_s:.3} s; the recording's {from_s:.3}–{to_s:.3} s) outside its gaps; the two files must be on one clock and overlap for at least half the recording")]
+    NoOverlap {
+        file: String,
+        covered: usize,
+        samples: usize,
+        gyro_from_s: f64,
+        gyro_to_s: f64,
+        from_s: f64,
+        to_s: f64,
     },
     #[error("{file}: sample {sample} is at {at_s} s, the recording's at {expected_s} s; the gyro file must sample beside it")]
     Time {
@@ -120,4 +131,145 @@ fn read_beside(path: &Path, rec: &Recording, retime: bool) -> Result<([Vec<f64>;
     // Its three value columns are the gyro whatever the reader took them for.
     let counts = loaded.raw_counts || loaded.gyro_counts;
     Ok((g.gyro_radps.unwrap_or(g.accel_mps2), counts))
+}
+
+/// A gyroscope at least this many of its median intervals from its neighbours is a dropped
+/// stretch: a recording sample inside it gets no interpolated value.
+pub const GYRO_GAP_INTERVALS: f64 = 3.0;
+
+/// `recording` with the gyro of `path`: sample for sample when the file samples beside it, else
+/// merged on time (one clock): the gyro interpolated linearly onto the recording's times, and the
+/// recording's samples outside the gyro's span or in its gaps dropped. Refused when fewer than
+/// half the samples are covered (the files are likely on different clocks). Returns the merged
+/// recording, whether the gyro values are raw counts, and a note when merged on time.
+pub fn attach_gyro_file(
+    recording: Recording,
+    path: &Path,
+    retime: bool,
+) -> Result<(Recording, bool, Option<String>), GyroFileError> {
+    let options = ReadOptions {
+        retime,
+        ..Default::default()
+    };
+    let loaded = formats::read_path(path, &options)?;
+    let counts = loaded.raw_counts || loaded.gyro_counts;
+    let g = loaded.recording;
+    let values = g.gyro_radps.clone().unwrap_or_else(|| g.accel_mps2.clone());
+    let looks_like_counts = GyroColumns::new(values.clone(), counts, String::new()).counts;
+    let half = 0.5 / recording.sample_rate_hz();
+    let beside = g.len() == recording.len()
+        && (0..g.len()).all(|i| (g.time_s[i] - recording.time_s[i]).abs() <= half.max(0.011));
+    if beside {
+        let mut merged = recording;
+        merged.gyro_radps = Some(values);
+        return Ok((merged, looks_like_counts, None));
+    }
+    let widest = GYRO_GAP_INTERVALS * crate::input::recording::sample_interval(&g.time_s);
+    let (keep, at_times) =
+        crate::input::recording::interpolate_onto(&recording.time_s, &g.time_s, &values, widest);
+    let covered = keep.iter().filter(|k| **k).count();
+    let span = |t: &[f64]| {
+        (
+            t.first().copied().unwrap_or(f64::NAN),
+            t.last().copied().unwrap_or(f64::NAN),
+        )
+    };
+    if 2 * covered < recording.len() || covered < 2 {
+        let ((gyro_from_s, gyro_to_s), (from_s, to_s)) = (span(&g.time_s), span(&recording.time_s));
+        return Err(GyroFileError::NoOverlap {
+            file: path.display().to_string(),
+            covered,
+            samples: recording.len(),
+            gyro_from_s,
+            gyro_to_s,
+            from_s,
+            to_s,
+        });
+    }
+    let note = format!(
+        "{}: the gyroscope ({} samples, {:.1} Hz) interpolated linearly onto the recording's {} timestamps ({:.1} Hz); {} samples outside its span or in its gaps (> {GYRO_GAP_INTERVALS} intervals) dropped",
+        path.display(),
+        g.len(),
+        g.sample_rate_hz(),
+        recording.len(),
+        recording.sample_rate_hz(),
+        recording.len() - covered
+    );
+    let mut merged = recording.select(&keep);
+    merged.gyro_radps = Some(std::array::from_fn(|a| {
+        at_times[a]
+            .iter()
+            .zip(&keep)
+            .filter(|(_, k)| **k)
+            .map(|(v, _)| *v)
+            .collect()
+    }));
+    Ok((merged, looks_like_counts, Some(note)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(dir: &Path, name: &str, rows: impl Iterator<Item = String>) -> std::path::PathBuf {
+        let path = dir.join(name);
+        // imu_tk's layout: `t gx gy gz`, whitespace, no header.
+        let mut text = String::new();
+        for row in rows {
+            text.push_str(&row);
+            text.push('\n');
+        }
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    fn recording(n: usize, rate_hz: f64, start_s: f64) -> Recording {
+        Recording {
+            time_s: (0..n).map(|i| start_s + i as f64 / rate_hz).collect(),
+            accel_mps2: [vec![0.0; n], vec![0.0; n], vec![9.81; n]],
+            gyro_radps: None,
+            temperature_c: None,
+            source: Default::default(),
+        }
+    }
+
+    /// A gyro at 200 Hz starting 0.5 s late, beside an accelerometer at 100 Hz: the accelerometer's
+    /// first 0.5 s are dropped and a linear gyro signal is interpolated exactly.
+    #[test]
+    fn a_gyro_on_its_own_samples_of_one_clock_is_merged_on_time() {
+        let dir = tempfile::tempdir().unwrap();
+        let gyro = write(
+            dir.path(),
+            "gyro.csv",
+            (0..2000).map(|i| {
+                let t = 0.5 + i as f64 / 200.0;
+                format!("{t:.6} {:.9} 0.01 -0.02", 0.1 * t)
+            }),
+        );
+        let (merged, counts, note) = attach_gyro_file(recording(1000, 100.0, 0.0), &gyro, false).unwrap();
+        assert!(!counts);
+        assert_eq!(merged.len(), 1000 - 50, "{note:?}");
+        assert!(note.unwrap().contains("50 samples outside its span"));
+        let g = merged.gyro_radps.unwrap();
+        for (t, v) in merged.time_s.iter().zip(&g[0]) {
+            assert!((v - 0.1 * t).abs() < 1e-8, "{t}: {v}");
+        }
+        // On another clock (starting 20 s later): refused with both spans.
+        let far = write(
+            dir.path(),
+            "far.csv",
+            (0..2000).map(|i| format!("{:.6} 0 0 0", 20.0 + i as f64 / 200.0)),
+        );
+        let e = attach_gyro_file(recording(1000, 100.0, 0.0), &far, false).unwrap_err();
+        assert!(matches!(e, GyroFileError::NoOverlap { covered: 0, .. }), "{e}");
+        assert!(e.to_string().contains("20.000–29.995 s"), "{e}");
+        // Sample for sample beside it: attached as it is, no note.
+        let beside = write(
+            dir.path(),
+            "beside.csv",
+            (0..1000).map(|i| format!("{:.6} 0.5 0 0", i as f64 / 100.0)),
+        );
+        let (merged, _, note) = attach_gyro_file(recording(1000, 100.0, 0.0), &beside, false).unwrap();
+        assert_eq!((merged.len(), note), (1000, None));
+    }
 }

@@ -232,6 +232,46 @@ impl Recording {
     }
 }
 
+/// `source` (three axes at `source_time`) at each of `target_time`, linearly interpolated between
+/// the two source samples around it, and which targets have a value: none before the first or
+/// after the last source sample (never extrapolated), none where the two around it are more than
+/// `widest_s` apart (a dropped stretch, not jitter). Both times increase.
+pub fn interpolate_onto(
+    target_time: &[f64],
+    source_time: &[f64],
+    source: &[Vec<f64>; 3],
+    widest_s: f64,
+) -> (Vec<bool>, [Vec<f64>; 3]) {
+    let n = target_time.len();
+    let mut keep = vec![false; n];
+    let mut out: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; n]);
+    let g = source_time;
+    if g.len() < 2 {
+        return (keep, out);
+    }
+    let mut j = 0;
+    for (i, &t) in target_time.iter().enumerate() {
+        if t < g[0] || t > g[g.len() - 1] {
+            continue;
+        }
+        // Target times increase, so the bracket only moves forward.
+        while j + 2 < g.len() && g[j + 1] < t {
+            j += 1;
+        }
+        let (t0, t1) = (g[j], g[j + 1]);
+        if t1 - t0 > widest_s {
+            continue;
+        }
+        let w = if t1 > t0 { (t - t0) / (t1 - t0) } else { 0.0 };
+        for a in 0..3 {
+            let (v0, v1) = (source[a][j], source[a][j + 1]);
+            out[a][i] = v0 + w * (v1 - v0);
+        }
+        keep[i] = true;
+    }
+    (keep, out)
+}
+
 /// The sampling interval from all the timestamps: the median of (t\[i+k\] − t\[i\]) / k over
 /// non-overlapping windows of k steps (k up to 64). Unlike the median step it is right for
 /// quantised clocks, whose steps alternate between whole ticks (a 3DM-GX1 at 1 or 2 ticks of

@@ -10,7 +10,7 @@
 use super::super::{Format, FormatError, Loaded};
 use super::text::Stream;
 use super::PhoneError;
-use crate::input::recording::{sample_interval, Recording, RecordingError, Source};
+use crate::input::recording::{interpolate_onto, sample_interval, Recording, RecordingError, Source};
 use crate::input::table::Location;
 
 /// An accelerometer sample is dropped when the gyroscope samples around it are further apart
@@ -127,35 +127,8 @@ pub(crate) fn merge(
 
 /// The gyroscope at each accelerometer time, and which accelerometer samples have one.
 fn interpolate(accel: &Stream, gyro: &Stream) -> Result<(Vec<bool>, [Vec<f64>; 3]), FormatError> {
-    let n = accel.len();
-    let mut keep = vec![false; n];
-    let mut out: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; n]);
-    if gyro.len() < 2 {
-        return Ok((keep, out));
-    }
     let widest = PAIR_GAP_INTERVALS * sample_interval(&gyro.time_s);
-    let g = &gyro.time_s;
-    let mut j = 0;
-    for (i, &t) in accel.time_s.iter().enumerate() {
-        if t < g[0] || t > g[g.len() - 1] {
-            continue;
-        }
-        // Accelerometer times increase, so the bracket only moves forward.
-        while j + 2 < g.len() && g[j + 1] < t {
-            j += 1;
-        }
-        let (t0, t1) = (g[j], g[j + 1]);
-        if t1 - t0 > widest {
-            continue;
-        }
-        let w = if t1 > t0 { (t - t0) / (t1 - t0) } else { 0.0 };
-        for a in 0..3 {
-            let (v0, v1) = (gyro.xyz[a][j], gyro.xyz[a][j + 1]);
-            out[a][i] = v0 + w * (v1 - v0);
-        }
-        keep[i] = true;
-    }
-    Ok((keep, out))
+    Ok(interpolate_onto(&accel.time_s, &gyro.time_s, &gyro.xyz, widest))
 }
 
 /// Reads the accelerometer of one phyphox zip and the gyroscope of another, put on one clock by
