@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs what the test suite needs beyond the Rust toolchain, and builds the tests. Safe to run
 # repeatedly.
+# - the pinned Rust toolchain (rust-toolchain.toml): scripts/toolchain.sh, without a download when
+#   the machine's stable is that release.
 # - chromium (Debian package): the headless browser that renders the HTML report and figures in tests.
 # - gcc-arm-none-eabi, libnewlib-arm-none-eabi, qemu-system-arm: the firmware export on a Cortex-M4F.
 # - the test venv (.venv) and the Python package's wheel: scripts/python_env.sh.
@@ -9,6 +11,7 @@
 # venv's maturin and shares the library's artifacts with that build, comes last.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
+bash "$root/scripts/toolchain.sh"
 logs=$(mktemp -d "${TMPDIR:-/tmp}/spincal-setup.XXXXXX")
 
 as_root() {
