@@ -26,7 +26,8 @@ def _cli_defaults(cli):
     """The defaults `spincal calibrate --help` states, by flag: declared in the CLI's arguments,
     apart from the library's Params::default."""
     text = " ".join(cli("calibrate", "--help").stdout.split())
-    found = dict(re.findall(r"--([a-z-]+) <[A-Z_]+>[^\[]*?\[default: ([^\]]+)\]", text))
+    # A flag, its help (which names no other flag's start), then its default.
+    found = dict(re.findall(r"--([a-z-]+) <[A-Z_]+>(?:(?! --[a-z])[^\[])*\[default: ([^\]]+)\]", text))
     assert {"restarts", "correct-axes", "delays", "seed", "arx", "bj", "narx", "hw"} <= found.keys(), found
     return found
 
