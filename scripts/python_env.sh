@@ -17,6 +17,15 @@ if [ "$step" = venv ] || [ "$step" = all ]; then
         python3 -m venv "$venv"
     fi
     "$venv/bin/pip" install --quiet --disable-pip-version-check -r "$root/scripts/requirements-test.txt"
+    # Every package in the venv is pinned in the file (transitively): a dependency that pulls in
+    # a new package fails here, naming it, instead of floating to whatever is newest.
+    unpinned=$("$venv/bin/pip" freeze --disable-pip-version-check --exclude spincal \
+        | grep -vixF -f <(grep -v '^#' "$root/scripts/requirements-test.txt" | grep .) || true)
+    if [ -n "$unpinned" ]; then
+        echo "spincal setup: the venv holds packages that scripts/requirements-test.txt does not pin:" >&2
+        echo "$unpinned" >&2
+        exit 1
+    fi
     echo "spincal setup: test venv ready ($("$venv/bin/python" --version))"
 fi
 

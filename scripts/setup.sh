@@ -1,7 +1,12 @@
 #!/usr/bin/env bash
 # Installs what the test suite needs beyond the Rust toolchain, and builds the tests. Safe to run
 # repeatedly.
+# - the pinned Rust toolchain (rust-toolchain.toml): scripts/toolchain.sh, without a download when
+#   the machine's stable is that release.
 # - chromium (Debian package): the headless browser that renders the HTML report and figures in tests.
+# - a C++ compiler (g++): libfuzzer-sys's build script compiles libFuzzer's C++ sources even for
+#   `cargo check` of the fuzz targets (.ci/run).
+# - python3-venv (Debian): Debian's python3 makes no venv without it (no ensurepip).
 # - gcc-arm-none-eabi, libnewlib-arm-none-eabi, qemu-system-arm: the firmware export on a Cortex-M4F.
 # - the test venv (.venv) and the Python package's wheel: scripts/python_env.sh.
 # The Debian packages and the venv's downloads are mostly waiting on the network, so they run in the
@@ -9,6 +14,7 @@
 # venv's maturin and shares the library's artifacts with that build, comes last.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
+bash "$root/scripts/toolchain.sh"
 logs=$(mktemp -d "${TMPDIR:-/tmp}/spincal-setup.XXXXXX")
 
 as_root() {
@@ -37,6 +43,21 @@ else
     packages+=(gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)
 fi
 
+# The fuzz targets' check: libfuzzer-sys builds with the cc crate, which runs $CXX or c++.
+if command -v "${CXX:-c++}" >/dev/null 2>&1; then
+    echo "spincal setup: C++ compiler present ($("${CXX:-c++}" --version | head -n 1))"
+else
+    packages+=(g++)
+fi
+# The test venv: `python3 -m venv` needs ensurepip, which Debian ships in python3-venv.
+venv_needs_apt=0
+if command -v python3 >/dev/null 2>&1 && python3 -c 'import ensurepip, venv' >/dev/null 2>&1; then
+    echo "spincal setup: python3 with venv present ($(python3 --version))"
+else
+    packages+=(python3 python3-venv)
+    venv_needs_apt=1
+fi
+
 pids=()
 names=()
 if [ ${#packages[@]} -gt 0 ]; then
@@ -48,9 +69,11 @@ if [ ${#packages[@]} -gt 0 ]; then
     pids+=($!)
     names+=(apt)
 fi
-bash "$root/scripts/python_env.sh" venv >"$logs/venv.log" 2>&1 &
-pids+=($!)
-names+=(venv)
+if [ "$venv_needs_apt" -eq 0 ]; then
+    bash "$root/scripts/python_env.sh" venv >"$logs/venv.log" 2>&1 &
+    pids+=($!)
+    names+=(venv)
+fi
 
 echo "spincal setup: building the workspace's tests (release) meanwhile"
 build_status=0
@@ -71,6 +94,11 @@ done
 if [ ${#packages[@]} -gt 0 ]; then
     /usr/bin/chromium --version
     arm-none-eabi-gcc --version | head -n 1
+    "${CXX:-c++}" --version | head -n 1
+fi
+# Without python3-venv before apt ran, the venv could not be made in the background.
+if [ "$venv_needs_apt" -eq 1 ]; then
+    bash "$root/scripts/python_env.sh" venv
 fi
 
 bash "$root/scripts/python_env.sh" wheel

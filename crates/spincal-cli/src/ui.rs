@@ -43,6 +43,25 @@ impl Ui {
         }
     }
 
+    /// One bar per label in `multi`, each prefixed with its label (padded to the longest):
+    /// "waiting" until its unit starts.
+    pub fn labelled_bars(&self, multi: &MultiProgress, labels: &[String]) -> Vec<ProgressBar> {
+        let width = labels.iter().map(String::len).max().unwrap_or(4);
+        let template =
+            format!("{{prefix:<{width}}} {{msg:>20}} [{{bar:30}}] {{pos}}/{{len}} {{elapsed_precise}}");
+        labels
+            .iter()
+            .map(|label| {
+                let bar = multi.add(self.progress(1, "waiting"));
+                if let Ok(style) = ProgressStyle::with_template(&template) {
+                    bar.set_style(style.progress_chars("=> "));
+                }
+                bar.set_prefix(label.clone());
+                bar
+            })
+            .collect()
+    }
+
     /// A spinner for work of unknown length.
     pub fn spinner(&self, message: &str) -> ProgressBar {
         if !self.show_progress {
@@ -62,6 +81,16 @@ pub fn show(bar: &ProgressBar, p: Progress) {
         bar.set_length(total.max(1) as u64);
     }
     bar.set_position(p.done as u64);
+}
+
+/// A fit's progress as a spinner shows it: its stage, iteration and cost.
+pub fn iteration_message(p: &Progress) -> String {
+    format!(
+        "{}: iteration {}, cost {:.6e}",
+        p.stage,
+        p.done,
+        p.cost.unwrap_or(f64::NAN)
+    )
 }
 
 /// Writes `text` to stdout; a closed pipe ends the program quietly with success.

@@ -8,6 +8,7 @@ mod harness;
 mod support;
 
 mod ann_cli;
+mod architecture;
 mod bags_cli;
 mod bounded;
 mod browser;

@@ -82,6 +82,60 @@ pub struct StaticCalibration {
     pub gyro: Option<GyroCalibration>,
 }
 
+impl GyroCalibration {
+    /// The gyro's calibration as text (what `spincal static` prints): b and K with their
+    /// standard errors, then each rotation.
+    pub fn text(&self) -> String {
+        let report = self;
+        let unit = &report.input_unit;
+        let Some(g) = &report.fit else {
+            return format!(
+                "gyro ({}): not calibrated: {}\n",
+                report.source,
+                report.error.as_deref().unwrap_or("")
+            );
+        };
+        let m = &g.model;
+        let triple = |v: &[f64; 3]| format!("[{:.6e}, {:.6e}, {:.6e}]", v[0], v[1], v[2]);
+        let mut s = format!(
+            "gyro ({}, {unit}): m = b + K ω from {} rotations between still poses; b from {}\n",
+            report.source,
+            g.rotations.len(),
+            match g.bias_from {
+                crate::correctors::gyro_poses::GyroBiasSource::FirstInterval => "the first still interval",
+                crate::correctors::gyro_poses::GyroBiasSource::AllIntervals => "all still intervals",
+            }
+        );
+        s += &format!(
+            "  b [{unit}]: {} ± {}\n",
+            triple(&m.bias_radps),
+            triple(&g.bias_se)
+        );
+        s += &format!("  K [{unit} per rad/s], row per gyro axis, ± 1 SE:\n");
+        for i in 0..3 {
+            s += &format!(
+                "    {} ± {}\n",
+                triple(&m.sensitivity[i]),
+                triple(&g.sensitivity_se[i])
+            );
+        }
+        let worst = g.rotations.iter().map(|r| r.residual_deg).fold(0.0, f64::max);
+        s += &format!(
+            "  rotation residuals: RMS {:.3}°, largest {worst:.3}° ({} iterations, {})\n",
+            g.rms_residual_deg,
+            g.iterations,
+            g.stop.describe()
+        );
+        for r in &g.rotations {
+            s += &format!(
+                "    {:9.3} – {:9.3} s  turned {:7.2}°  gravity moved {:7.2}°  residual {:.3}°\n",
+                r.t_start_s, r.t_end_s, r.angle_deg, r.gravity_angle_deg, r.residual_deg
+            );
+        }
+        s
+    }
+}
+
 impl StaticCalibration {
     /// The gyro model, when the gyro was calibrated.
     pub fn gyro_model(&self) -> Option<&GyroModel> {

@@ -499,11 +499,12 @@ fn streaming_correction_matches_batch_application() {
 
 /// The paper's single-speed case: calibrated on one 33⅓ rpm recording, nothing can be held out,
 /// so nothing is saved, with the reason, which parameters the recording determines and what to
-/// record next; calibrated on 33⅓ and 45 rpm (each held out in turn), what is saved never makes a
-/// 40 rpm recording of the same sensor at another radius worse than uncorrected against the true
-/// specific force. Five seeds.
+/// record next. Calibrated on 33⅓ and 45 rpm (each held out in turn) nothing is saved either:
+/// two turntable runs at one radius do not determine the sensor's biases and scales (README's
+/// quick start), measured on all five seeds (2026-11-29: saved in 0 of 5), so the verdict says
+/// so instead of a model that was never checked on a condition it did not train on. Five seeds.
 #[test]
-fn a_single_speed_calibration_never_makes_another_speed_worse() {
+fn a_turntable_only_calibration_saves_nothing_and_says_why() {
     use spincal::calibrate::calibrate;
     use spincal::campaign::params::{NetworkChoice, Params};
     use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
@@ -535,7 +536,6 @@ fn a_single_speed_calibration_never_makes_another_speed_worse() {
         )
         .unwrap()
     };
-    let mut saved_count = 0;
     for seed in 0..5 {
         let trained_on = simulate(&sensor, &TurntableSetup::default(), seed).unwrap();
         let alone = calibrate(std::slice::from_ref(&trained_on.recording), &settings, &|_| {}).unwrap();
@@ -557,47 +557,15 @@ fn a_single_speed_calibration_never_makes_another_speed_worse() {
 
         let both = [trained_on.recording.clone(), at(45.0, seed + 100).recording];
         let out = calibrate(&both, &settings, &|_| {}).unwrap();
-        let Some(saved) = &out.saved else {
-            assert!(
-                out.result.verdict.starts_with("Nothing saved"),
-                "{}",
-                out.result.verdict
-            );
-            continue;
-        };
-        saved_count += 1;
-        assert!(out.result.validated_off_training_condition);
-        let other = simulate(
-            &sensor,
-            &TurntableSetup {
-                rpm: 40.0,
-                radius_m: 0.14,
-                ..TurntableSetup::default()
-            },
-            seed + 200,
-        )
-        .unwrap();
-        let corrected = saved.corrector.correct(&other.recording);
-        for axis in saved.corrector.corrected_axes() {
-            let k = axis.index();
-            let rms = |v: &[f64]| {
-                (v.iter()
-                    .zip(&other.true_accel_mps2[k])
-                    .map(|(a, b)| (a - b).powi(2))
-                    .sum::<f64>()
-                    / v.len() as f64)
-                    .sqrt()
-            };
-            let (after, before) = (rms(&corrected.accel_mps2[k]), rms(&other.recording.accel_mps2[k]));
-            println!(
-                "seed {seed} {:?} axis {axis}: {after:.4} vs uncorrected {before:.4} m/s²",
-                out.result.saved
-            );
-            assert!(
-                after <= before * 1.001,
-                "seed {seed}, axis {axis}: {after} > {before}"
-            );
-        }
+        let verdict = &out.result.verdict;
+        assert!(
+            out.saved.is_none(),
+            "seed {seed}: saved {:?}: {verdict}",
+            out.result.saved
+        );
+        assert!(
+            verdict.starts_with("Nothing saved") && verdict.contains("Record next"),
+            "seed {seed}: {verdict}"
+        );
     }
-    println!("saved in {saved_count} of 5 seeds");
 }

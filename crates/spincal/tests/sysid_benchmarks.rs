@@ -149,8 +149,9 @@ fn cascaded_tanks_separate_test_record() {
 }
 
 /// Issue 31, item 8: on WH2009, a nonlinear model with the orders stated in BENCHMARKS.md beats
-/// the linear ARX [6 8 1] (fitted here, same protocol) in simulation on the test part.
-fn wiener_hammerstein_2009_beats_arx(spec: &ModelSpec) {
+/// the linear ARX [6 8 1] (fitted here, same protocol) in simulation on the test part, and stays
+/// within `bound` where given (its test simulation RMSE as measured here, with a stated margin).
+fn wiener_hammerstein_2009_beats_arx(spec: &ModelSpec, bound: Option<f64>) {
     let Some(t) = table("sysid/WienerHammerBenchmark.csv", &["uBenchMark", "yBenchMark"]) else {
         return;
     };
@@ -177,18 +178,34 @@ fn wiener_hammerstein_2009_beats_arx(spec: &ModelSpec) {
         "{}: RMSE {sim} not below half of ARX [6 8 1]'s {arx}",
         scored.structure
     );
+    if let Some(bound) = bound {
+        assert!(
+            sim < bound,
+            "{}: RMSE {sim} above {bound}, the measured value with its margin",
+            scored.structure
+        );
+    }
 }
 
 #[test]
 fn wiener_hammerstein_2009_narx_beats_arx() {
-    wiener_hammerstein_2009_beats_arx(&ModelSpec {
-        max_iterations: 30,
-        focus: NarxFocus::Prediction,
-        ..ModelSpec::new(ModelKind::Narx, &[6, 8, 1]).unwrap()
-    });
+    wiener_hammerstein_2009_beats_arx(
+        &ModelSpec {
+            max_iterations: 30,
+            focus: NarxFocus::Prediction,
+            ..ModelSpec::new(ModelKind::Narx, &[6, 8, 1]).unwrap()
+        },
+        Some(1.3 * NARX_RMSE_MEASURED),
+    );
 }
+
+/// WH2009's NARX [6 8 1] (30 iterations, prediction focus) test simulation RMSE as this test
+/// measured it (2026-11-29, release, Xeon): 8.7976e-3. Half of ARX [6 8 1]'s 5.8041e-2 (the
+/// claim above) would let it grow 3.3-fold unnoticed; the bound is 1.3 × this.
+const NARX_RMSE_MEASURED: f64 = 8.7976e-3;
 
 #[test]
 fn wiener_hammerstein_2009_hw_beats_arx() {
-    wiener_hammerstein_2009_beats_arx(&ModelSpec::new(ModelKind::Hw, &[4, 4, 1]).unwrap());
+    // Half of ARX's RMSE is already within 1.3× of HW's (22.08 mV measured, BENCHMARKS.md).
+    wiener_hammerstein_2009_beats_arx(&ModelSpec::new(ModelKind::Hw, &[4, 4, 1]).unwrap(), None);
 }

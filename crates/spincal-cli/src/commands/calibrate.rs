@@ -126,18 +126,6 @@ impl CalibrateArgs {
     }
 }
 
-/// Runs the library's calibration with a progress bar that names each stage.
-fn calibrate_with_progress(
-    recordings: &[Recording],
-    settings: &Params,
-    ui: Ui,
-) -> anyhow::Result<CampaignOutput> {
-    let bar = ui.progress(1, "calibrating");
-    let output = calibrate(recordings, settings, &|p| crate::ui::show(&bar, p))?;
-    bar.finish_and_clear();
-    Ok(output)
-}
-
 /// Runs a calibration with progress bars and writes its files (those of a campaign: model.json
 /// when saved, results.json, report.html, and the other tools' files when saved).
 /// `read_seconds` is how long reading the recordings took, when they were read (a stage of its
@@ -150,15 +138,12 @@ pub fn run_calibration(
     ui: Ui,
 ) -> anyhow::Result<(CampaignOutput, Vec<&'static str>)> {
     super::create_folder("--out", out)?;
-    let mut output = calibrate_with_progress(recordings, settings, ui)?;
+    // A progress bar that names each stage.
+    let bar = ui.progress(1, "calibrating");
+    let mut output = calibrate(recordings, settings, &|p| crate::ui::show(&bar, p))?;
+    bar.finish_and_clear();
     if let Some(seconds) = read_seconds {
-        output.result.stage_seconds.insert(
-            0,
-            spincal::progress::StageTime {
-                stage: "read".to_string(),
-                seconds,
-            },
-        );
+        output.result.add_read_seconds(seconds);
     }
     let written = super::campaign::write_calibration(&output, out)?;
     Ok((output, written))
@@ -196,12 +181,12 @@ pub fn run(args: CalibrateArgs, ui: Ui) -> anyhow::Result<()> {
     if let Some(file) = &args.campaign {
         return super::campaign::calibrate(file, &args.out, args.fit.json, args.tables, ui);
     }
-    super::fit::require_recordings(&args.fit.recordings)?;
+    super::require_recordings(&args.fit.recordings)?;
     let settings = args.params()?;
-    let inputs: Vec<&Path> = args.fit.recordings.iter().map(PathBuf::as_path).collect();
-    let outputs = CAMPAIGN_FILE_NAMES.map(|name| args.out.join(name));
-    let outputs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).collect();
-    super::check_outputs(&inputs, &outputs)?;
+    super::check_paths(
+        &args.fit.recordings,
+        &CAMPAIGN_FILE_NAMES.map(|name| args.out.join(name)),
+    )?;
     if args.out.exists() && !args.out.is_dir() {
         super::create_folder("--out", &args.out)?;
     }

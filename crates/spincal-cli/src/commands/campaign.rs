@@ -3,7 +3,7 @@
 //! model.json out.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::Context;
 use spincal::campaign::file::Campaign;
@@ -31,11 +31,10 @@ pub fn calibrate(file: &Path, out: &Path, json: bool, tables: bool, ui: Ui) -> a
 /// the names of the files written.
 pub fn calibrate_to(file: &Path, out: &Path, ui: Ui) -> anyhow::Result<(CampaignOutput, Vec<&'static str>)> {
     let campaign = Campaign::read_path(file).map_err(|e| UsageError(e.to_string()))?;
-    let outputs = CAMPAIGN_FILE_NAMES.map(|name| out.join(name));
-    let inputs = campaign.inputs();
-    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
-    let outputs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).collect();
-    super::check_outputs(&inputs, &outputs)?;
+    super::check_paths(
+        &campaign.inputs(),
+        &CAMPAIGN_FILE_NAMES.map(|name| out.join(name)),
+    )?;
     super::create_folder("--out", out)?;
     let bar = ui.progress(1, "calibrating the campaign");
     let output = calibrate_campaign_file(&campaign, &Params::default(), &|p| crate::ui::show(&bar, p))?;
@@ -60,10 +59,6 @@ pub fn write_calibration(output: &CampaignOutput, out: &Path) -> anyhow::Result<
         super::write_text(&out.join(name), &text)?;
     }
     Ok(written)
-}
-
-fn fmt3(v: &[f64; 3]) -> String {
-    format!("{:.4} {:.4} {:.4}", v[0], v[1], v[2])
 }
 
 /// The first line: whether a model was saved, where, and where it can be trusted.
@@ -143,7 +138,7 @@ pub fn summary(output: &CampaignOutput, out: &Path, written: &[&str], tables: bo
         let _ = writeln!(text, "\n{note}");
     }
     if tables {
-        text.push_str(&tables_text(output));
+        text.push_str(&super::tables::campaign_tables_text(output));
     }
     let names: Vec<String> = written
         .iter()
@@ -156,97 +151,9 @@ pub fn summary(output: &CampaignOutput, out: &Path, written: &[&str], tables: bo
     text
 }
 
-/// The fit's details and the per-condition tables (`--tables`).
-fn tables_text(output: &CampaignOutput) -> String {
-    let r = &output.result;
-    let mut text = String::from("\n");
-    let spread = &r.joint.bias_spread;
-    let _ = writeln!(
-        text,
-        "bias offsets between power-on sessions: {}",
-        match (spread.estimated, spread.at_lower_bound) {
-            (false, _) => format!("σ = {:.4} m/s² (given)", spread.sd_mps2),
-            (true, true) => format!(
-                "none seen (σ below {:.5} m/s², from {} offsets)",
-                spread.sd_mps2, spread.offsets
-            ),
-            (true, false) => format!(
-                "σ = {:.4} m/s² (from {} offsets; likelihood ratio against none {:.1})",
-                spread.sd_mps2, spread.offsets, spread.likelihood_ratio
-            ),
-        }
-    );
-    if let Some(rule) = &r.terms_rule {
-        let z = rule.nonlinearity_z;
-        let _ = writeln!(
-            text,
-            "nonlinearity q: {} (|q/se| {:.1} {:.1} {:.1} against {:.2})",
-            if rule.keeps_nonlinearity {
-                "kept"
-            } else {
-                "left out"
-            },
-            z[0].abs(),
-            z[1].abs(),
-            z[2].abs(),
-            rule.threshold
-        );
-    }
-    text.push('\n');
-    text.push_str("held-out condition            corrector        residual vs physics x y z (m/s²)  uncorrected              ratio (95 % bound) predicted  vs truth\n");
-    for h in &r.held_out {
-        let (rms, uncorrected, ratio) = match &h.physics {
-            Some(p) => (
-                fmt3(&p.rms_mps2),
-                fmt3(&p.uncorrected_rms_mps2),
-                format!(
-                    "{:.2} ≤{:.2}{}",
-                    p.ratio,
-                    p.upper_ratio,
-                    if p.worse { " worse" } else { "" }
-                ),
-            ),
-            None => (h.note.clone().unwrap_or_default(), String::new(), String::new()),
-        };
-        let predicted = h
-            .predicted
-            .as_ref()
-            .map_or(String::new(), |p| format!("{:.2}", p.ratio));
-        let truth = h
-            .truth
-            .as_ref()
-            .map_or(String::new(), |t| format!("{:.2}", t.ratio));
-        let _ = writeln!(
-            text,
-            "{:<29} {:<16} {:<33} {:<24} {:<18} {:<10} {}",
-            h.condition, h.candidate, rms, uncorrected, ratio, predicted, truth
-        );
-    }
-    if let Some(g) = &r.gyro {
-        text.push_str("\ngyroscope run                            rate from accel (rad/s)  raw gyro       calibrated gyro\n");
-        for c in &g.rate_checks {
-            let rel = |v: f64| 100.0 * (v.abs() / c.accel_rate_radps - 1.0);
-            let _ = writeln!(
-                text,
-                "  {:<40} {:<24.6} {:.6} ({:+.3} %)  {:.6} ({:+.4} %)",
-                c.run,
-                c.accel_rate_radps,
-                c.raw_gyro_rate_radps,
-                rel(c.raw_gyro_rate_radps),
-                c.calibrated_gyro_rate_radps,
-                rel(c.calibrated_gyro_rate_radps)
-            );
-        }
-    }
-    text
-}
-
 /// Writes a simulated campaign into `dir` and says so.
 pub fn simulate(dir: &Path, seed: u64, setup_file: Option<&Path>, json: bool) -> anyhow::Result<()> {
-    let setup = match setup_file {
-        Some(path) => super::values::read_json_file::<CampaignSetup>(path, "a campaign setup")?,
-        None => CampaignSetup::default(),
-    };
+    let setup: CampaignSetup = super::values::read_json_or_default(setup_file, "a campaign setup")?;
     let sim = write_simulated_campaign(dir, &setup, seed, false)?;
     if json {
         return ui::print_json(&serde_json::json!({

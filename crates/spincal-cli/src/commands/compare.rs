@@ -28,7 +28,7 @@ pub fn run(args: CompareArgs, ui: Ui) -> anyhow::Result<()> {
         )
         .into());
     }
-    super::fit::require_recordings(&args.calibrate.fit.recordings)?;
+    super::require_recordings(&args.calibrate.fit.recordings)?;
     let inputs: Vec<&std::path::Path> = args
         .calibrate
         .fit

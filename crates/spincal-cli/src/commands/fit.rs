@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use spincal::input::recording::STANDARD_GRAVITY;
-use spincal::turntable::fit::FittedParam;
 use spincal::turntable::fit::{fit_turntable, FitOptions, RadiusPrior, TurntableFit};
 
 use super::input::ReadArgs;
@@ -72,23 +71,14 @@ pub struct FitArgs {
     pub reference_csv: Vec<PathBuf>,
 }
 
-/// Parses `name=lo:hi,name=lo:hi`.
+/// Parses `name=lo:hi,name=lo:hi` (the library's reader, worded for the flag).
 pub fn parse_bounds(text: &str) -> Result<Vec<(String, f64, f64)>, UsageError> {
-    text.split(',')
-        .filter(|s| !s.trim().is_empty())
-        .map(|item| {
-            let bad = || {
-                UsageError(format!(
-                    "--bounds '{item}': expected name=lower:upper, e.g. radius=0.05:0.15"
-                ))
-            };
-            let (name, range) = item.split_once('=').ok_or_else(bad)?;
-            let (lo, hi) = range.split_once(':').ok_or_else(bad)?;
-            let lo: f64 = lo.trim().parse().map_err(|_| bad())?;
-            let hi: f64 = hi.trim().parse().map_err(|_| bad())?;
-            Ok((name.trim().to_string(), lo, hi))
-        })
-        .collect()
+    spincal::turntable::fit::parse_bounds(text).map_err(|e| {
+        UsageError(format!(
+            "--bounds '{}': expected name=lower:upper, e.g. radius=0.05:0.15",
+            e.item
+        ))
+    })
 }
 
 impl TurntableArgs {
@@ -114,27 +104,13 @@ impl TurntableArgs {
     }
 }
 
-/// Recordings are required by every command but `calibrate --campaign`, which checks itself.
-pub fn require_recordings(recordings: &[PathBuf]) -> Result<(), UsageError> {
-    if recordings.is_empty() {
-        return Err(UsageError(
-            "no recordings given: name at least one recording file".into(),
-        ));
-    }
-    Ok(())
-}
-
 pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
-    require_recordings(&args.turntable.recordings)?;
+    super::require_recordings(&args.turntable.recordings)?;
     let options = args.turntable.options()?;
-    let inputs: Vec<&std::path::Path> = args.turntable.recordings.iter().map(PathBuf::as_path).collect();
-    let outputs: Vec<&std::path::Path> = args
-        .output
-        .iter()
-        .chain(&args.reference_csv)
-        .map(PathBuf::as_path)
-        .collect();
-    super::check_outputs(&inputs, &outputs)?;
+    super::check_paths(
+        &args.turntable.recordings,
+        args.output.iter().chain(&args.reference_csv),
+    )?;
     if !args.reference_csv.is_empty() && args.reference_csv.len() != args.turntable.recordings.len() {
         return Err(UsageError(format!(
             "--reference-csv names {} file(s) for {} recording(s): give one per recording, in order",
@@ -152,69 +128,23 @@ pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
     let refs: Vec<_> = recordings.iter().collect();
     let spinner = ui.spinner("fitting");
     let fit = fit_turntable(&refs, &options, &|p| {
-        spinner.set_message(format!(
-            "{}: iteration {}, cost {:.6e}",
-            p.stage,
-            p.done,
-            p.cost.unwrap_or(f64::NAN)
-        ));
+        spinner.set_message(ui::iteration_message(&p))
     })?;
     spinner.finish_and_clear();
     for (k, path) in args.reference_csv.iter().enumerate() {
         let rec = &recordings[k];
-        let reference = spincal::input::recording::Recording {
-            time_s: rec.time_s.clone(),
-            accel_mps2: fit.reference(k, &rec.time_s),
-            gyro_radps: None,
-            temperature_c: None,
-            source: spincal::input::recording::Source::default(),
-        };
-        reference
+        fit.reference_recording(k, rec)
             .write_csv_path(path, spincal::input::recording::AccelUnit::G)
             .with_context(|| format!("writing the reference of {}", rec.source.name))?;
     }
     if let Some(path) = &args.output {
         // Marked as spincal's, so that a later run replaces it (and keeps anyone else's file).
-        let mut json = serde_json::to_value(&fit)?;
-        if let Some(map) = json.as_object_mut() {
-            map.insert("spincal_version".into(), env!("CARGO_PKG_VERSION").into());
-        }
-        super::write_text(path, &(serde_json::to_string_pretty(&json)? + "\n"))?;
+        super::write_text(path, &fit.to_json_file()?)?;
     }
     if args.turntable.json {
         return ui::print_json(&fit);
     }
     ui::print(&render(&fit))
-}
-
-/// Value and standard error in display units (angles in degrees).
-/// A parameter in the units the report uses too: angles in degrees, drift as the change in g over
-/// its recording, everything else in SI.
-fn display(p: &FittedParam, fit: &TurntableFit) -> (f64, Option<f64>, String) {
-    if p.unit == "rad" {
-        return (
-            p.value.to_degrees(),
-            p.std_error.map(f64::to_degrees),
-            "deg".into(),
-        );
-    }
-    if p.name.starts_with("drift_") {
-        // `drift_x` (one recording) or `drift_x[k]` (1-based).
-        let k = p
-            .name
-            .split_once('[')
-            .and_then(|(_, rest)| rest.trim_end_matches(']').parse::<usize>().ok())
-            .map_or(0, |k| k - 1);
-        if let Some(r) = fit.recordings.get(k) {
-            let factor = r.inspection.duration_s / STANDARD_GRAVITY;
-            return (
-                p.value * factor,
-                p.std_error.map(|se| se * factor),
-                "g/rec".into(),
-            );
-        }
-    }
-    (p.value, p.std_error, p.unit.clone())
 }
 
 fn text_note_units(text: &mut String) {
@@ -249,7 +179,7 @@ pub fn render(fit: &TurntableFit) -> String {
     ));
     text_note_units(&mut text);
     for p in &fit.params {
-        let (value, se, unit) = display(p, fit);
+        let (value, se, unit) = fit.display_value(p);
         let se = match se {
             Some(se) => format!("{se:<14.6e}"),
             None => format!("{:<14}", "not determined"),

@@ -7,15 +7,13 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
-use indicatif::ProgressStyle;
-use spincal::campaign::file::Campaign;
 use spincal::fleet::{
-    calibrate_fleet, campaign_path, expand_sources, fleet_table, unit_labels, FleetSettings, FleetTable,
-    OutlierSettings, UnitOutcome,
+    calibrate_fleet, campaign_inputs, expand_sources, failures, fleet_outputs, fleet_table, unit_labels,
+    FleetSettings, FleetTable, OutlierSettings, UnitOutcome,
 };
 use spincal::progress::Progress;
 use spincal::simulate::campaign::CampaignSetup;
-use spincal::simulate::fleet::{simulate_fleet, FleetSetup, WriteError};
+use spincal::simulate::fleet::{faulty_indices, simulate_fleet, FleetSetup, WriteError};
 
 use crate::ui::{self, Ui, UnitsFailed, UsageError};
 
@@ -58,34 +56,11 @@ pub struct FleetArgs {
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     pub threads: Option<u64>,
     /// Chance that a unit like the others is flagged on one parameter (two-sided, 0 to 1).
-    #[arg(long, default_value_t = 1e-4, value_parser = probability, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 1e-4, value_parser = super::probability, allow_negative_numbers = true)]
     pub false_alarm: f64,
     /// Print the fleet table as JSON instead of the summary.
     #[arg(long)]
     pub json: bool,
-}
-
-fn probability(text: &str) -> Result<f64, String> {
-    let v: f64 = text.parse().map_err(|_| format!("{text}: not a number"))?;
-    if v > 0.0 && v < 1.0 {
-        Ok(v)
-    } else {
-        Err(format!("{text}: must lie strictly between 0 and 1"))
-    }
-}
-
-/// Every file a run writes, per unit and for the fleet.
-fn outputs_of(out: &Path, labels: &[String]) -> Vec<PathBuf> {
-    let mut outputs: Vec<PathBuf> = ["fleet.csv", "fleet.json", "fleet.html"]
-        .iter()
-        .map(|n| out.join(n))
-        .collect();
-    for label in labels {
-        for name in ["model.json", "results.json", "report.html"] {
-            outputs.push(out.join(label).join(name));
-        }
-    }
-    outputs
 }
 
 pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
@@ -97,34 +72,11 @@ pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
     let labels = unit_labels(&sources);
     // Outputs may not be inputs: every campaign that can be read names its files (one that
     // cannot fails as its own unit later).
-    let mut inputs: Vec<PathBuf> = Vec::new();
-    for source in &sources {
-        if let Ok(campaign) = campaign_path(source).and_then(|p| Ok(Campaign::read_path(&p)?)) {
-            inputs.extend(campaign.inputs());
-        }
-    }
-    let outputs = outputs_of(&args.out, &labels);
-    super::check_outputs(
-        &inputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
-        &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
-    )?;
+    super::check_paths(&campaign_inputs(&sources), &fleet_outputs(&args.out, &labels))?;
     super::create_folder("--out", &args.out)?;
 
     let multi = ui.multi();
-    let width = labels.iter().map(String::len).max().unwrap_or(4);
-    let bars: Vec<_> = labels
-        .iter()
-        .map(|label| {
-            let bar = multi.add(ui.progress(1, "waiting"));
-            let template =
-                format!("{{prefix:<{width}}} {{msg:>20}} [{{bar:30}}] {{pos}}/{{len}} {{elapsed_precise}}");
-            if let Ok(style) = ProgressStyle::with_template(&template) {
-                bar.set_style(style.progress_chars("=> "));
-            }
-            bar.set_prefix(label.clone());
-            bar
-        })
-        .collect();
+    let bars = ui.labelled_bars(&multi, &labels);
     let settings = FleetSettings {
         threads: args.threads.map(|t| t as usize),
         ..FleetSettings::default()
@@ -146,8 +98,7 @@ pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
             let files = spincal::report::campaign::campaign_files(&cal.result, cal.model.as_ref(), None)
                 .context("drawing a unit's report")?;
             let names: Vec<PathBuf> = files.iter().map(|(name, _)| dir.join(name)).collect();
-            let inputs: Vec<&Path> = cal.inputs.iter().map(PathBuf::as_path).collect();
-            super::check_outputs(&inputs, &names.iter().map(PathBuf::as_path).collect::<Vec<_>>())?;
+            super::check_paths(&cal.inputs, &names)?;
             spincal::output::create_folder(&dir).with_context(|| format!("creating {}", dir.display()))?;
             for ((_, text), path) in files.iter().zip(&names) {
                 super::write_text(path, text)?;
@@ -174,19 +125,9 @@ pub fn run(args: FleetArgs, ui: Ui) -> anyhow::Result<()> {
     } else {
         ui::print(&summary(&table, &outcomes, &args.out))?;
     }
-    let failed: Vec<String> = outcomes
-        .iter()
-        .filter_map(|o| o.result.as_ref().err().map(|e| format!("  {}: {e}", o.unit)))
-        .collect();
-    if failed.is_empty() {
+    let Some(message) = failures(&outcomes) else {
         return Ok(());
-    }
-    let message = format!(
-        "{} of {} units failed:\n{}",
-        failed.len(),
-        outcomes.len(),
-        failed.join("\n")
-    );
+    };
     if table.units_ok == 0 {
         anyhow::bail!(message);
     }
@@ -241,20 +182,16 @@ pub fn simulate(
     setup_file: Option<&Path>,
     json: bool,
 ) -> anyhow::Result<()> {
-    let campaign = match setup_file {
-        Some(path) => super::values::read_json_file::<CampaignSetup>(path, "a campaign setup")?,
-        None => CampaignSetup::default(),
-    };
-    if let Some(bad) = faulty.iter().find(|&&k| k == 0 || k > units) {
-        return Err(UsageError(format!(
+    let campaign: CampaignSetup = super::values::read_json_or_default(setup_file, "a campaign setup")?;
+    let faulty = faulty_indices(units, faulty).map_err(|bad| {
+        UsageError(format!(
             "--faulty {bad}: units are numbered 1 to {units} (unit-01 is 1)"
         ))
-        .into());
-    }
+    })?;
     let setup = FleetSetup {
         units,
         campaign,
-        faulty: faulty.iter().map(|k| k - 1).collect(),
+        faulty,
         ..FleetSetup::default()
     };
     let fleet = simulate_fleet(&setup, seed).map_err(|e| UsageError(e.to_string()))?;
@@ -265,16 +202,11 @@ pub fn simulate(
     if json {
         return ui::print_json(&serde_json::json!({
             "units": folders,
-            "faulty": fleet.units.iter().filter(|u| u.faulty).map(|u| &u.name).collect::<Vec<_>>(),
+            "faulty": fleet.faulty_names(),
             "truth": dir.join("fleet-truth.json"),
         }));
     }
-    let faulty_names: Vec<&str> = fleet
-        .units
-        .iter()
-        .filter(|u| u.faulty)
-        .map(|u| u.name.as_str())
-        .collect();
+    let faulty_names = fleet.faulty_names();
     ui::print(&format!(
         "wrote {} unit campaigns into {} ({}), each with its own sensor errors, and {}\n",
         folders.len(),

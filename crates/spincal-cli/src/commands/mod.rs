@@ -24,7 +24,7 @@ pub mod values;
 
 pub use input::{format_line, InputArgs};
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
@@ -35,6 +35,36 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> anyhow::Result<()> 
     spincal::output::check_outputs(inputs, outputs)
         .map_err(|e| anyhow::Error::from(crate::ui::UsageError(e.to_string())))?;
     claim_outputs(outputs)
+}
+
+/// Recordings are required by every command but `calibrate --campaign`, which checks itself.
+pub fn require_recordings(recordings: &[PathBuf]) -> Result<(), crate::ui::UsageError> {
+    if recordings.is_empty() {
+        return Err(crate::ui::UsageError(
+            "no recordings given: name at least one recording file".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// A probability strictly between 0 and 1 (`fleet --false-alarm`).
+pub fn probability(text: &str) -> Result<f64, String> {
+    let v: f64 = text.parse().map_err(|_| format!("{text}: not a number"))?;
+    if v > 0.0 && v < 1.0 {
+        Ok(v)
+    } else {
+        Err(format!("{text}: must lie strictly between 0 and 1"))
+    }
+}
+
+/// [`check_outputs`] for paths held as `PathBuf`s.
+pub fn check_paths<'a>(
+    inputs: impl IntoIterator<Item = &'a PathBuf>,
+    outputs: impl IntoIterator<Item = &'a PathBuf>,
+) -> anyhow::Result<()> {
+    let inputs: Vec<&Path> = inputs.into_iter().map(PathBuf::as_path).collect();
+    let outputs: Vec<&Path> = outputs.into_iter().map(PathBuf::as_path).collect();
+    check_outputs(&inputs, &outputs)
 }
 
 /// Whether `--force` was given: existing outputs that spincal did not write may be replaced.

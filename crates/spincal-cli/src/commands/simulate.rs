@@ -198,10 +198,7 @@ fn simulate_thermal(
     json: bool,
 ) -> anyhow::Result<()> {
     use spincal::simulate::thermal::{simulate_thermal_campaign, ThermalProfile};
-    let profile = match setup {
-        Some(path) => super::values::read_json_file::<ThermalProfile>(path, "a thermal profile")?,
-        None => ThermalProfile::default(),
-    };
+    let profile: ThermalProfile = super::values::read_json_or_default(setup, "a thermal profile")?;
     profile.check().map_err(|e| UsageError(e.to_string()))?;
     let campaign = simulate_thermal_campaign(&profile, seed);
     match campaign.write_folder(dir, seed, &profile) {

@@ -9,9 +9,7 @@ use spincal::correctors::gyro_poses::{GyroBiasSource, GyroPoseOptions};
 use spincal::correctors::static_cal::StaticModel;
 use spincal::correctors::static_detect::StaticOptions;
 use spincal::input::gyro_file::gyro_columns;
-use spincal::static_calibration::{
-    calibrate_static, GyroCalibration, StaticCalibration, StaticSettings, StillRecording,
-};
+use spincal::static_calibration::{calibrate_static, StaticCalibration, StaticSettings, StillRecording};
 
 use super::values::StaticModelArg;
 use super::{format_line, InputArgs};
@@ -99,16 +97,11 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         .iter()
         .flat_map(|dir| EXPORT_FILES.map(|name| dir.join(name)))
         .collect();
-    let outputs: Vec<&std::path::Path> = args
-        .output
-        .iter()
-        .chain(&args.yaml)
-        .chain(&export_paths)
-        .map(|p| p.as_path())
+    let inputs: Vec<PathBuf> = std::iter::once(&args.input.rec)
+        .chain(&args.gyro_file)
+        .cloned()
         .collect();
-    let mut inputs = vec![args.input.rec.as_path()];
-    inputs.extend(args.gyro_file.as_deref());
-    super::check_outputs(&inputs, &outputs)?;
+    super::check_paths(&inputs, args.output.iter().chain(&args.yaml).chain(&export_paths))?;
     let loaded = args.input.load(ui)?;
     let rec = &loaded.recording;
     let gyro_columns = gyro_columns(
@@ -215,57 +208,7 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         fit.stop.describe()
     );
     if let Some(report) = &calibration.gyro {
-        s += &gyro_text(report);
+        s += &report.text();
     }
     ui::print(&s)
-}
-
-/// The gyro's calibration as text: b and K with their standard errors, then each rotation.
-fn gyro_text(report: &GyroCalibration) -> String {
-    let unit = &report.input_unit;
-    let Some(g) = &report.fit else {
-        return format!(
-            "gyro ({}): not calibrated: {}\n",
-            report.source,
-            report.error.as_deref().unwrap_or("")
-        );
-    };
-    let m = &g.model;
-    let triple = |v: &[f64; 3]| format!("[{:.6e}, {:.6e}, {:.6e}]", v[0], v[1], v[2]);
-    let mut s = format!(
-        "gyro ({}, {unit}): m = b + K ω from {} rotations between still poses; b from {}\n",
-        report.source,
-        g.rotations.len(),
-        match g.bias_from {
-            GyroBiasSource::FirstInterval => "the first still interval",
-            GyroBiasSource::AllIntervals => "all still intervals",
-        }
-    );
-    s += &format!(
-        "  b [{unit}]: {} ± {}\n",
-        triple(&m.bias_radps),
-        triple(&g.bias_se)
-    );
-    s += &format!("  K [{unit} per rad/s], row per gyro axis, ± 1 SE:\n");
-    for i in 0..3 {
-        s += &format!(
-            "    {} ± {}\n",
-            triple(&m.sensitivity[i]),
-            triple(&g.sensitivity_se[i])
-        );
-    }
-    let worst = g.rotations.iter().map(|r| r.residual_deg).fold(0.0, f64::max);
-    s += &format!(
-        "  rotation residuals: RMS {:.3}°, largest {worst:.3}° ({} iterations, {})\n",
-        g.rms_residual_deg,
-        g.iterations,
-        g.stop.describe()
-    );
-    for r in &g.rotations {
-        s += &format!(
-            "    {:9.3} – {:9.3} s  turned {:7.2}°  gravity moved {:7.2}°  residual {:.3}°\n",
-            r.t_start_s, r.t_end_s, r.angle_deg, r.gravity_angle_deg, r.residual_deg
-        );
-    }
-    s
 }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
-use spincal::correctors::ann::{parse_grid, sweep, AnnProblem, SweepRow, SweepSettings};
+use spincal::correctors::ann::{parse_grid, sweep, sweep_table_csv, AnnProblem, SweepRow, SweepSettings};
 use spincal::progress::Progress;
 use spincal::report::plot::{Figure, HeatMap};
 
@@ -108,9 +108,9 @@ pub fn run(args: SweepArgs, ui: Ui) -> anyhow::Result<()> {
     };
     let csv_path = args.output.with_extension("csv");
     let json_path = args.output.with_extension("json");
-    super::write_text(&csv_path, &table_csv(&rows))?;
+    super::write_text(&csv_path, &sweep_table_csv(&rows))?;
     let mut heatmap_paths = Vec::new();
-    if let Some(map) = heat_map(&rows) {
+    if let Some(map) = HeatMap::of_sweep(&rows) {
         let stem = args.output.display().to_string();
         let svg_path = PathBuf::from(format!("{stem}-heatmap.svg"));
         let png_path = PathBuf::from(format!("{stem}-heatmap.png"));
@@ -132,69 +132,6 @@ pub fn run(args: SweepArgs, ui: Ui) -> anyhow::Result<()> {
         let _ = writeln!(text, "wrote {}", p.display());
     }
     ui::print(&text)
-}
-
-/// Validation fit % over first × second hidden-layer sizes (the paper's Fig. 12), with one-layer
-/// networks in the first column; `None` when the grid has no one- or two-layer entries. Validation,
-/// not test: the picture is what one chooses an architecture from.
-fn heat_map(rows: &[SweepRow]) -> Option<HeatMap> {
-    let shallow: Vec<&SweepRow> = rows.iter().filter(|r| matches!(r.hidden.len(), 1 | 2)).collect();
-    if shallow.is_empty() {
-        return None;
-    }
-    let mut firsts: Vec<usize> = shallow.iter().map(|r| r.hidden[0]).collect();
-    firsts.sort_unstable();
-    firsts.dedup();
-    let mut seconds: Vec<usize> = shallow.iter().filter_map(|r| r.hidden.get(1).copied()).collect();
-    seconds.sort_unstable();
-    seconds.dedup();
-    // Column 0: a single hidden layer; then one column per second-layer size.
-    let cols = seconds.len() + 1;
-    let mut values = vec![f64::NAN; firsts.len() * cols];
-    for r in &shallow {
-        let row = firsts.binary_search(&r.hidden[0]).expect("collected above");
-        let col = match r.hidden.get(1) {
-            None => 0,
-            Some(s) => 1 + seconds.binary_search(s).expect("collected above"),
-        };
-        values[row * cols + col] = r.validation_fit_percent;
-    }
-    let mut col_labels = vec!["none".to_string()];
-    col_labels.extend(seconds.iter().map(usize::to_string));
-    let row_labels = firsts.iter().map(usize::to_string).collect();
-    Some(
-        HeatMap::new(
-            "Validation fit % by hidden-layer sizes (best of restarts)",
-            "hidden layer 2 size (none: one hidden layer)",
-            "hidden layer 1 size",
-            col_labels,
-            row_labels,
-            values,
-        )
-        .value_label("fit %")
-        .decimals(1),
-    )
-}
-
-fn table_csv(rows: &[SweepRow]) -> String {
-    let mut out = String::from(
-        "architecture,best_validation_mse,train_fit_percent,validation_fit_percent,test_fit_percent,epochs,best_restart,seconds\n",
-    );
-    for r in rows {
-        let _ = writeln!(
-            out,
-            "{},{},{},{},{},{},{},{}",
-            r.architecture,
-            r.best_validation_mse,
-            r.train_fit_percent,
-            r.validation_fit_percent,
-            r.test_fit_percent,
-            r.epochs,
-            r.best_restart,
-            r.seconds
-        );
-    }
-    out
 }
 
 fn summary(output: &SweepOutput, csv: &std::path::Path, json: &std::path::Path) -> String {
@@ -221,31 +158,4 @@ fn summary(output: &SweepOutput, csv: &std::path::Path, json: &std::path::Path) 
     }
     let _ = writeln!(out, "wrote {} and {}", csv.display(), json.display());
     out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn heat_map_places_one_and_two_layer_rows() {
-        let row = |hidden: Vec<usize>, fit: f64| SweepRow {
-            architecture: spincal::correctors::ann::architecture_label(&hidden),
-            hidden,
-            best_validation_mse: 0.1,
-            train_fit_percent: fit,
-            validation_fit_percent: fit,
-            test_fit_percent: fit,
-            epochs: 1,
-            best_restart: 0,
-            seconds: 0.0,
-        };
-        let map = heat_map(&[row(vec![2], 50.0), row(vec![3, 4], 70.0), row(vec![3], 60.0)]).unwrap();
-        assert_eq!(map.row_labels, vec!["2", "3"]);
-        assert_eq!(map.col_labels, vec!["none", "4"]);
-        assert_eq!(map.get(0, 0), 50.0);
-        assert!(map.get(0, 1).is_nan());
-        assert_eq!(map.get(1, 0), 60.0);
-        assert_eq!(map.get(1, 1), 70.0);
-    }
 }

@@ -79,28 +79,7 @@ pub struct SysidArgs {
 }
 
 fn parse_range(text: &str, n: usize) -> Result<Range<usize>, UsageError> {
-    let bad = || {
-        UsageError(format!(
-            "'{text}' is not a range START..END (0-based, end excluded)"
-        ))
-    };
-    let (a, b) = text.split_once("..").ok_or_else(bad)?;
-    let start = if a.trim().is_empty() {
-        0
-    } else {
-        a.trim().parse().map_err(|_| bad())?
-    };
-    let end = if b.trim().is_empty() {
-        n
-    } else {
-        b.trim().parse().map_err(|_| bad())?
-    };
-    if start >= end || end > n {
-        return Err(UsageError(format!(
-            "range {start}..{end} is empty or beyond the {n} samples"
-        )));
-    }
-    Ok(start..end)
+    spincal::sysid::parse_range(text, n).map_err(|e| UsageError(e.to_string()))
 }
 
 pub fn run(args: SysidArgs, ui: Ui) -> anyhow::Result<()> {

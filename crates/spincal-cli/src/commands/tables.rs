@@ -1,6 +1,9 @@
 //! The comparison of correctors as text and CSV, shared by `calibrate`, `compare` and `demo`.
 
+use std::fmt::Write as _;
+
 use spincal::campaign::paper::{ComparisonRow, CrossRow, PaperProtocol, PartScore};
+use spincal::campaign::select::CampaignOutput;
 
 fn fit_or_dash(score: Option<&PartScore>) -> String {
     match score {
@@ -116,4 +119,93 @@ pub fn table_text(result: &PaperProtocol) -> String {
     );
     text.push_str(&cross_condition_text(&result.cross_condition));
     text
+}
+
+/// A campaign's fit details and per-condition tables (`calibrate --campaign --tables`).
+pub fn campaign_tables_text(output: &CampaignOutput) -> String {
+    let r = &output.result;
+    let mut text = String::from("\n");
+    let spread = &r.joint.bias_spread;
+    let _ = writeln!(
+        text,
+        "bias offsets between power-on sessions: {}",
+        match (spread.estimated, spread.at_lower_bound) {
+            (false, _) => format!("σ = {:.4} m/s² (given)", spread.sd_mps2),
+            (true, true) => format!(
+                "none seen (σ below {:.5} m/s², from {} offsets)",
+                spread.sd_mps2, spread.offsets
+            ),
+            (true, false) => format!(
+                "σ = {:.4} m/s² (from {} offsets; likelihood ratio against none {:.1})",
+                spread.sd_mps2, spread.offsets, spread.likelihood_ratio
+            ),
+        }
+    );
+    if let Some(rule) = &r.terms_rule {
+        let z = rule.nonlinearity_z;
+        let _ = writeln!(
+            text,
+            "nonlinearity q: {} (|q/se| {:.1} {:.1} {:.1} against {:.2})",
+            if rule.keeps_nonlinearity {
+                "kept"
+            } else {
+                "left out"
+            },
+            z[0].abs(),
+            z[1].abs(),
+            z[2].abs(),
+            rule.threshold
+        );
+    }
+    text.push('\n');
+    text.push_str("held-out condition            corrector        residual vs physics x y z (m/s²)  uncorrected              ratio (95 % bound) predicted  vs truth\n");
+    for h in &r.held_out {
+        let (rms, uncorrected, ratio) = match &h.physics {
+            Some(p) => (
+                fmt3(&p.rms_mps2),
+                fmt3(&p.uncorrected_rms_mps2),
+                format!(
+                    "{:.2} ≤{:.2}{}",
+                    p.ratio,
+                    p.upper_ratio,
+                    if p.worse { " worse" } else { "" }
+                ),
+            ),
+            None => (h.note.clone().unwrap_or_default(), String::new(), String::new()),
+        };
+        let predicted = h
+            .predicted
+            .as_ref()
+            .map_or(String::new(), |p| format!("{:.2}", p.ratio));
+        let truth = h
+            .truth
+            .as_ref()
+            .map_or(String::new(), |t| format!("{:.2}", t.ratio));
+        let _ = writeln!(
+            text,
+            "{:<29} {:<16} {:<33} {:<24} {:<18} {:<10} {}",
+            h.condition, h.candidate, rms, uncorrected, ratio, predicted, truth
+        );
+    }
+    if let Some(g) = &r.gyro {
+        text.push_str("\ngyroscope run                            rate from accel (rad/s)  raw gyro       calibrated gyro\n");
+        for c in &g.rate_checks {
+            let rel = |v: f64| 100.0 * (v.abs() / c.accel_rate_radps - 1.0);
+            let _ = writeln!(
+                text,
+                "  {:<40} {:<24.6} {:.6} ({:+.3} %)  {:.6} ({:+.4} %)",
+                c.run,
+                c.accel_rate_radps,
+                c.raw_gyro_rate_radps,
+                rel(c.raw_gyro_rate_radps),
+                c.calibrated_gyro_rate_radps,
+                rel(c.calibrated_gyro_rate_radps)
+            );
+        }
+    }
+    text
+}
+
+fn fmt3(v: &[f64; 3]) -> String {
+    format!("{:.4} {:.4} {:.4}", v[0], v[1], v[2])
 }

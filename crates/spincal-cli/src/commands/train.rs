@@ -174,40 +174,19 @@ pub fn run(args: TrainArgs, ui: Ui) -> anyhow::Result<()> {
     if let Some(path) = &args.output {
         file.write_path(path)?;
     }
-    let (hidden, delays, epochs, stop, fits, uncorrected, axes) = match &file.corrector {
-        CorrectorModel::Ann(m) => {
-            let t = m
-                .training
-                .as_ref()
-                .context("a freshly trained model has its summary")?;
-            (
-                Some(m.network.hidden.clone()),
-                m.delays,
-                Some(t.report.epochs),
-                Some(t.report.stop.describe().to_string()),
-                &t.fits,
-                &t.uncorrected,
-                m.axes.clone(),
-            )
-        }
-        CorrectorModel::Linear(m) => {
-            let t = m
-                .training
-                .as_ref()
-                .context("a freshly fitted model has its summary")?;
-            (None, 0, None, None, &t.fits, &t.uncorrected, m.axes.clone())
-        }
-        _ => anyhow::bail!("unexpected corrector kind"),
-    };
+    let outline = file
+        .corrector
+        .training_outline()
+        .context("a freshly trained model has its summary")?;
     let summary = Summary {
         kind: file.corrector.kind(),
-        axes,
-        hidden,
-        delays,
-        epochs,
-        stop,
-        fits,
-        uncorrected,
+        axes: outline.axes,
+        hidden: outline.hidden,
+        delays: outline.delays,
+        epochs: outline.epochs,
+        stop: outline.stop,
+        fits: outline.fits,
+        uncorrected: outline.uncorrected,
         model_file: args.output.as_ref().map(|p| p.display().to_string()),
     };
     if args.json {

@@ -250,6 +250,14 @@ pub fn read_json_file<T: serde::de::DeserializeOwned>(
     serde_json::from_str::<T>(&text).with_context(|| format!("{}: not {what}", path.display()))
 }
 
+/// [`read_json_file`] when a file is named, else the default.
+pub fn read_json_or_default<T: serde::de::DeserializeOwned + Default>(
+    path: Option<&std::path::Path>,
+    what: &str,
+) -> anyhow::Result<T> {
+    path.map_or_else(|| Ok(T::default()), |path| read_json_file(path, what))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,6 +1,7 @@
 """Settings as Python values, merged into the library's Params; results with parameters by name."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -21,12 +22,36 @@ def _resolved(changes):
     return json.loads(_spincal.resolve_params(json.dumps(changes)))
 
 
-def test_default_params_are_the_librarys():
+def _cli_defaults(cli):
+    """The defaults `spincal calibrate --help` states, by flag: declared in the CLI's arguments,
+    apart from the library's Params::default."""
+    text = " ".join(cli("calibrate", "--help").stdout.split())
+    # A flag, its help (which names no other flag's start), then its default.
+    found = dict(re.findall(r"--([a-z-]+) <[A-Z_]+>(?:(?! --[a-z])[^\[])*\[default: ([^\]]+)\]", text))
+    assert {"restarts", "correct-axes", "delays", "seed", "arx", "bj", "narx", "hw"} <= found.keys(), found
+    return found
+
+
+def test_default_params_are_the_stated_ones(cli):
     defaults = spincal.default_params()
-    # The same JSON the library's Params::default serialises, nothing added on the Python side.
-    assert defaults == json.loads(_spincal.default_params())
+    # What the Python package hands out is what the library resolves from no changes at all.
     assert defaults == _resolved({})
-    assert defaults["network"]["mode"] == "sweep" and defaults["network"]["grid"] == _spincal.sweep_grid("small")
+    # The grids computed here from their stated rules: the small one (one hidden layer of 1–8
+    # units, two of 2–8 × 2–6 in even sizes) and the paper's (1–15, then 1–15 × 1–10: 165).
+    small = [[n] for n in range(1, 9)] + [[a, b] for a in range(2, 9, 2) for b in range(2, 7, 2)]
+    full = [[n] for n in range(1, 16)] + [[a, b] for a in range(1, 16) for b in range(1, 11)]
+    assert len(full) == 165
+    assert _spincal.sweep_grid("small") == small and _spincal.sweep_grid("full") == full
+    network = defaults["network"]
+    assert network["mode"] == "sweep" and network["grid"] == small
+    # Every default the CLI states for `calibrate` is the library's.
+    stated = _cli_defaults(cli)
+    assert network["restarts"] == int(stated["restarts"])
+    assert network["hessian_samples"] == int(stated["sweep-hessian-samples"])
+    assert defaults["correct_axes"] == stated["correct-axes"].split(",")
+    assert defaults["delays"] == int(stated["delays"]) and defaults["seed"] == int(stated["seed"])
+    orders = {spec["kind"]: spec["orders"] for spec in defaults["sysid"]}
+    assert orders == {kind: [int(v) for v in stated[kind].split(",")] for kind in ["arx", "bj", "narx", "hw"]}
 
 
 def test_keywords_are_python_values_and_equal_the_params_dict():

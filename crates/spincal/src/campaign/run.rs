@@ -8,7 +8,7 @@ use crate::campaign::file::Campaign;
 use crate::campaign::load::{load_campaign, LoadError};
 use crate::campaign::params::Params;
 use crate::campaign::select::{calibrate_campaign, CampaignCalError, CampaignOutput};
-use crate::progress::{Observer, StageTime};
+use crate::progress::Observer;
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -69,12 +69,6 @@ pub fn calibrate_campaign_file(
             campaign: campaign.path.display().to_string(),
             source,
         })?;
-    output.result.stage_seconds.insert(
-        0,
-        StageTime {
-            stage: "read".into(),
-            seconds: read_seconds,
-        },
-    );
+    output.result.add_read_seconds(read_seconds);
     Ok(output)
 }

@@ -273,6 +273,19 @@ pub struct CampaignOutput {
     pub paper_signals: Option<Box<PaperSignals>>,
 }
 
+impl CampaignResult {
+    /// Records how long reading the recordings took, as the first of the stages.
+    pub fn add_read_seconds(&mut self, seconds: f64) {
+        self.stage_seconds.insert(
+            0,
+            crate::progress::StageTime {
+                stage: "read".into(),
+                seconds,
+            },
+        );
+    }
+}
+
 /// Calibrates a unit from its recordings.
 pub fn calibrate_campaign(
     unit: &str,

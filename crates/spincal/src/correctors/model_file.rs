@@ -44,7 +44,49 @@ pub enum CorrectorModel {
     PhysicalAnn(Box<PhysicalAnnCorrector>),
 }
 
+/// What a trained network or linear map records of its training: the summary `train` shows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainingOutline<'a> {
+    /// Hidden-layer sizes (networks only).
+    pub hidden: Option<Vec<usize>>,
+    /// Previous samples per axis fed to a network (0 for a linear map).
+    pub delays: usize,
+    /// LM epochs run and why training stopped (networks only).
+    pub epochs: Option<usize>,
+    pub stop: Option<String>,
+    /// Fit per part (training, validation, test), corrected and uncorrected.
+    pub fits: &'a crate::correctors::division::PartFits,
+    pub uncorrected: &'a crate::correctors::division::PartFits,
+    pub axes: Vec<Axis>,
+}
+
 impl CorrectorModel {
+    /// The training summary of a network or linear map trained in this run; `None` for other
+    /// kinds and for a model read from a file without one.
+    pub fn training_outline(&self) -> Option<TrainingOutline<'_>> {
+        match self {
+            CorrectorModel::Ann(m) => m.training.as_ref().map(|t| TrainingOutline {
+                hidden: Some(m.network.hidden.clone()),
+                delays: m.delays,
+                epochs: Some(t.report.epochs),
+                stop: Some(t.report.stop.describe().to_string()),
+                fits: &t.fits,
+                uncorrected: &t.uncorrected,
+                axes: m.axes.clone(),
+            }),
+            CorrectorModel::Linear(m) => m.training.as_ref().map(|t| TrainingOutline {
+                hidden: None,
+                delays: 0,
+                epochs: None,
+                stop: None,
+                fits: &t.fits,
+                uncorrected: &t.uncorrected,
+                axes: m.axes.clone(),
+            }),
+            _ => None,
+        }
+    }
+
     fn inner(&self) -> &dyn Corrector {
         match self {
             CorrectorModel::Ann(m) => m.as_ref(),

@@ -233,6 +233,50 @@ pub fn unit_labels(sources: &[PathBuf]) -> Vec<String> {
     out
 }
 
+/// Every file a fleet run into `out` writes: `fleet.csv`, `fleet.json`, `fleet.html`, then per
+/// unit label `<label>/model.json`, `results.json` and `report.html`.
+pub fn fleet_outputs(out: &Path, labels: &[String]) -> Vec<PathBuf> {
+    let mut outputs: Vec<PathBuf> = ["fleet.csv", "fleet.json", "fleet.html"]
+        .iter()
+        .map(|n| out.join(n))
+        .collect();
+    for label in labels {
+        for name in ["model.json", "results.json", "report.html"] {
+            outputs.push(out.join(label).join(name));
+        }
+    }
+    outputs
+}
+
+/// The files every readable campaign among `sources` names (a source that cannot be read is
+/// left out here: it fails as its own unit when calibrated).
+pub fn campaign_inputs(sources: &[PathBuf]) -> Vec<PathBuf> {
+    let mut inputs = Vec::new();
+    for source in sources {
+        if let Ok(campaign) = campaign_path(source).and_then(|p| Ok(Campaign::read_path(&p)?)) {
+            inputs.extend(campaign.inputs());
+        }
+    }
+    inputs
+}
+
+/// The failed units of a fleet run as one message (`k of n units failed:` then `  unit: why`
+/// per line); `None` when every unit was calibrated.
+pub fn failures(outcomes: &[UnitOutcome]) -> Option<String> {
+    let failed: Vec<String> = outcomes
+        .iter()
+        .filter_map(|o| o.result.as_ref().err().map(|e| format!("  {}: {e}", o.unit)))
+        .collect();
+    (!failed.is_empty()).then(|| {
+        format!(
+            "{} of {} units failed:\n{}",
+            failed.len(),
+            outcomes.len(),
+            failed.join("\n")
+        )
+    })
+}
+
 /// The units a fleet run calibrates, and the folders it leaves out with the reason.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Sources {

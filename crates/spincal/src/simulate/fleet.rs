@@ -115,6 +115,15 @@ pub struct SimulatedFleet {
 }
 
 impl SimulatedFleet {
+    /// The names of the units made faulty, in fleet order.
+    pub fn faulty_names(&self) -> Vec<&str> {
+        self.units
+            .iter()
+            .filter(|u| u.faulty)
+            .map(|u| u.name.as_str())
+            .collect()
+    }
+
     /// The truth of every unit, in order (for `fleet-truth.json`).
     pub fn truth(&self) -> Vec<UnitTruth> {
         self.units
@@ -155,6 +164,15 @@ pub(crate) fn create_folder_for(dir: &Path, files: &[PathBuf]) -> Result<(), Wri
         path: dir.display().to_string(),
         message: e.to_string(),
     })
+}
+
+/// Unit numbers as the folders name them (1-based: `unit-01` is 1) as the zero-based indices
+/// of [`FleetSetup::faulty`]; `Err` holds the first number that is not a unit of `units`.
+pub fn faulty_indices(units: usize, numbers: &[usize]) -> Result<Vec<usize>, usize> {
+    match numbers.iter().find(|&&k| k == 0 || k > units) {
+        Some(&bad) => Err(bad),
+        None => Ok(numbers.iter().map(|k| k - 1).collect()),
+    }
 }
 
 /// Simulates the fleet. Deterministic for a given seed.

@@ -393,3 +393,58 @@ pub fn fit_and_score_parts(
         seconds,
     })
 }
+
+/// A sample range `START..END` that cannot be read or does not fit the data.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum RangeError {
+    #[error("'{0}' is not a range START..END (0-based, end excluded)")]
+    Unreadable(String),
+    #[error("range {start}..{end} is empty or beyond the {samples} samples")]
+    OutOfData {
+        start: usize,
+        end: usize,
+        samples: usize,
+    },
+}
+
+/// Parses a 0-based sample range `START..END` (end excluded; either may be left out: `..END`,
+/// `START..`) of data with `samples` samples.
+pub fn parse_range(text: &str, samples: usize) -> Result<std::ops::Range<usize>, RangeError> {
+    let bad = || RangeError::Unreadable(text.to_string());
+    let (a, b) = text.split_once("..").ok_or_else(bad)?;
+    let bound = |s: &str, empty: usize| {
+        if s.trim().is_empty() {
+            Ok(empty)
+        } else {
+            s.trim().parse().map_err(|_| bad())
+        }
+    };
+    let (start, end) = (bound(a, 0)?, bound(b, samples)?);
+    if start >= end || end > samples {
+        return Err(RangeError::OutOfData { start, end, samples });
+    }
+    Ok(start..end)
+}
+
+#[cfg(test)]
+mod range_tests {
+    use super::*;
+
+    #[test]
+    fn ranges_are_read_with_open_ends_and_checked_against_the_data() {
+        assert_eq!(parse_range("2..5", 10), Ok(2..5));
+        assert_eq!(parse_range("..4", 10), Ok(0..4));
+        assert_eq!(parse_range(" 3 .. ", 10), Ok(3..10));
+        assert_eq!(parse_range("3-5", 10), Err(RangeError::Unreadable("3-5".into())));
+        assert_eq!(
+            parse_range("a..5", 10),
+            Err(RangeError::Unreadable("a..5".into()))
+        );
+        assert_eq!(
+            parse_range("5..11", 10).unwrap_err().to_string(),
+            "range 5..11 is empty or beyond the 10 samples"
+        );
+        assert!(parse_range("5..5", 10).is_err());
+    }
+}

@@ -21,6 +21,7 @@ pub use compare::{
     fit_and_score, fit_and_score_parts, score, DataPart, FitScore, FittedModel, ModelKind, ModelSpec,
     PredictionKind, ScoredFit, Scores, SysidModel,
 };
+pub use compare::{parse_range, RangeError};
 pub use hw::{HwFit, HwModel, HwParams, PiecewiseLinear};
 pub use narx::{NarxFit, NarxFocus, NarxModel, NarxParams};
 pub use pem::{PemFit, PemParams};

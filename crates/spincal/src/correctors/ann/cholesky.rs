@@ -5,7 +5,7 @@
 //! column after column, each a fused multiply-subtract (a − l₀c₀, then − l₁c₁, …, each rounded
 //! once), so the factor is the same to the bit whatever the vector width, and on every machine.
 //! The loops run compiled for the CPU's vector extension ([`pulp::Arch`]); where the products'
-//! wide kernels run ([`crate::simd::has_avx512`]), the trailing matrix is updated four of its
+//! wide kernels run ([`crate::simd::wide_kernels_chosen`]), the trailing matrix is updated four of its
 //! columns at a time in 512-bit registers, each panel value loaded once for the four.
 
 use pulp::{Arch, Simd, WithSimd};
@@ -43,7 +43,7 @@ impl Cholesky {
             n,
             a: &mut self.factor,
             #[cfg(target_arch = "x86_64")]
-            wide: crate::simd::has_avx512(),
+            wide: crate::simd::wide_kernels_chosen(),
         })
     }
 
@@ -96,7 +96,8 @@ fn minus_product(t: f64, l: f64, c: f64) -> f64 {
 }
 
 /// Overwrites the lower triangle of the column-major n×n `a` with its Cholesky factor; false at
-/// the first pivot that is not positive and finite. `wide`: the CPU has AVX-512F.
+/// the first pivot that is not positive and finite. `wide`: update the trailing matrix in
+/// AVX-512, only where [`crate::simd::has_avx512`] is true.
 #[inline(always)]
 fn factor_in_place(n: usize, a: &mut [f64], wide: bool) -> bool {
     let mut k0 = 0;
@@ -136,7 +137,8 @@ fn factor_in_place(n: usize, a: &mut [f64], wide: bool) -> bool {
             #[cfg(target_arch = "x86_64")]
             if wide && width == PANEL && j + GROUP <= n {
                 // SAFETY: `wide` only where `simd::has_avx512` says the CPU has the kernel's
-                // features; each panel column holds n values.
+                // features (the dispatch's choice implies it; the tests check it); each panel
+                // column holds n values.
                 unsafe { trailing_group_avx512(&panel, rest, n, k1, j) };
                 j += GROUP;
                 continue;
@@ -278,8 +280,8 @@ mod tests {
     #[test]
     fn the_panel_update_keeps_the_bits_of_one_column_at_a_time() {
         // Each trailing entry gets its updates in column order either way, with the four-lane
-        // loops and (where the CPU has it) the AVX-512 group update; 37 and 45 leave short
-        // groups, panels and row tails.
+        // loops and (wherever the CPU has it, whatever the dispatch chooses) the AVX-512 group
+        // update; 37 and 45 leave short groups, panels and row tails.
         for n in [37, 45] {
             check_against_column_at_a_time(n);
         }
@@ -297,6 +299,12 @@ mod tests {
         }
         let mut narrow = l.clone();
         assert!(factor_in_place(n, &mut narrow, false));
+        #[cfg(target_arch = "x86_64")]
+        let wide = crate::simd::has_avx512().then(|| {
+            let mut wide = l.clone();
+            assert!(factor_in_place(n, &mut wide, true));
+            wide
+        });
         for k in 0..n {
             let d = l[k * n + k].sqrt();
             l[k * n + k] = d;
@@ -322,6 +330,14 @@ mod tests {
                     l[j * n + i].to_bits(),
                     "four-lane ({i},{j})"
                 );
+                #[cfg(target_arch = "x86_64")]
+                if let Some(wide) = &wide {
+                    assert_eq!(
+                        wide[j * n + i].to_bits(),
+                        l[j * n + i].to_bits(),
+                        "AVX-512 ({i},{j})"
+                    );
+                }
             }
         }
     }

@@ -117,8 +117,9 @@ impl Fma4 for pulp::x86::V3 {
     }
 }
 
-/// AVX2 lanes where the wide kernels run ([`crate::simd::has_avx512`]): the wide tile then runs
-/// in 512-bit registers, two dot products to a register (the low four lanes for one column of
+/// AVX2 lanes with the wide tile, made only where the CPU has AVX-512F
+/// ([`crate::simd::has_avx512`]; the dispatch takes them where
+/// [`crate::simd::wide_kernels_chosen`]): the wide tile runs in 512-bit registers, two dot products to a register (the low four lanes for one column of
 /// `b`, the high four for the next), so that each sum takes the same fused multiply-adds in the
 /// same order as with four lanes and the result stays the same to the bit on every machine.
 #[cfg(target_arch = "x86_64")]
@@ -278,7 +279,7 @@ pub(crate) trait Fma4Op {
 pub(crate) fn dispatch<Op: Fma4Op>(op: Op) -> Op::Output {
     #[cfg(target_arch = "x86_64")]
     if let Some(v3) = pulp::x86::V3::try_new() {
-        return match Avx512::try_new(v3) {
+        return match Avx512::try_new(v3).filter(|_| crate::simd::wide_kernels_chosen()) {
             Some(wide) => vectorized(v3, op, wide),
             None => vectorized(v3, op, v3),
         };
@@ -496,7 +497,8 @@ mod tests {
                 product,
                 "dispatched and portable lanes differ"
             );
-            // Each vector width this CPU has, whichever `dispatched` chose.
+            // Each vector width this CPU has, whichever `dispatched` chose (the wide tile on
+            // every CPU with AVX-512F, AMD's included, though the dispatch takes it on Intel's).
             #[cfg(target_arch = "x86_64")]
             {
                 if let Some(v3) = pulp::x86::V3::try_new() {

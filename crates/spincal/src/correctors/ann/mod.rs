@@ -23,8 +23,8 @@ pub use lm::{full_jacobian, JtjConvention, LmSettings, LmWorkspace, StopReason, 
 pub use network::{Layout, Network, MAX_HIDDEN_LAYERS};
 pub use sweep::{
     architecture_label, default_grid, parse_grid, parse_hidden_sizes, reduce_sweep, run_sweep_job,
-    run_sweep_locally, small_grid, sweep, SizesError, SweepJobs, SweepRow, SweepRun, SweepSettings,
-    SWEEP_HESSIAN_SAMPLES,
+    run_sweep_locally, small_grid, sweep, sweep_table_csv, SizesError, SweepJobs, SweepRow, SweepRun,
+    SweepSettings, SWEEP_HESSIAN_SAMPLES,
 };
 
 use crate::correctors::corrector::{

@@ -121,6 +121,29 @@ pub struct SweepRow {
     pub seconds: f64,
 }
 
+/// The sweep's table as CSV (what `spincal sweep` writes): one row per architecture.
+pub fn sweep_table_csv(rows: &[SweepRow]) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::from(
+        "architecture,best_validation_mse,train_fit_percent,validation_fit_percent,test_fit_percent,epochs,best_restart,seconds\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            out,
+            "{},{},{},{},{},{},{},{}",
+            r.architecture,
+            r.best_validation_mse,
+            r.train_fit_percent,
+            r.validation_fit_percent,
+            r.test_fit_percent,
+            r.epochs,
+            r.best_restart,
+            r.seconds
+        );
+    }
+    out
+}
+
 /// Trains every architecture of the grid `restarts` times on rayon's current thread pool (faer
 /// runs sequentially inside each run). Results, including which restart is kept, do not depend
 /// on the number of threads: every run has its own seed and is reduced in grid order. The same

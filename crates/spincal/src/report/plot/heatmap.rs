@@ -8,6 +8,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 #[cfg(test)]
 use super::svg_texts;
 use super::{clear, format_tick, render_error, sealed, Figure, PlotError};
+use crate::correctors::ann::SweepRow;
 
 /// A `rows × cols` grid of values, row 0 at the bottom. NaN cells are left blank.
 #[derive(Debug, Clone, PartialEq)]
@@ -35,6 +36,48 @@ pub struct HeatMap {
 }
 
 impl HeatMap {
+    /// A sweep's validation fit % over first × second hidden-layer sizes (the paper's Fig. 12), with one-layer
+    /// networks in the first column; `None` when the grid has no one- or two-layer entries. Validation,
+    /// not test: the picture is what one chooses an architecture from.
+    pub fn of_sweep(rows: &[SweepRow]) -> Option<HeatMap> {
+        let shallow: Vec<&SweepRow> = rows.iter().filter(|r| matches!(r.hidden.len(), 1 | 2)).collect();
+        if shallow.is_empty() {
+            return None;
+        }
+        let mut firsts: Vec<usize> = shallow.iter().map(|r| r.hidden[0]).collect();
+        firsts.sort_unstable();
+        firsts.dedup();
+        let mut seconds: Vec<usize> = shallow.iter().filter_map(|r| r.hidden.get(1).copied()).collect();
+        seconds.sort_unstable();
+        seconds.dedup();
+        // Column 0: a single hidden layer; then one column per second-layer size.
+        let cols = seconds.len() + 1;
+        let mut values = vec![f64::NAN; firsts.len() * cols];
+        for r in &shallow {
+            let row = firsts.binary_search(&r.hidden[0]).expect("collected above");
+            let col = match r.hidden.get(1) {
+                None => 0,
+                Some(s) => 1 + seconds.binary_search(s).expect("collected above"),
+            };
+            values[row * cols + col] = r.validation_fit_percent;
+        }
+        let mut col_labels = vec!["none".to_string()];
+        col_labels.extend(seconds.iter().map(usize::to_string));
+        let row_labels = firsts.iter().map(usize::to_string).collect();
+        Some(
+            HeatMap::new(
+                "Validation fit % by hidden-layer sizes (best of restarts)",
+                "hidden layer 2 size (none: one hidden layer)",
+                "hidden layer 1 size",
+                col_labels,
+                row_labels,
+                values,
+            )
+            .value_label("fit %")
+            .decimals(1),
+        )
+    }
+
     /// A heat map of `values` (row-major, `row_labels.len() × col_labels.len()`).
     pub fn new(
         title: impl Into<String>,
@@ -278,6 +321,29 @@ impl Figure for HeatMap {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn heat_map_places_one_and_two_layer_rows() {
+        let row = |hidden: Vec<usize>, fit: f64| SweepRow {
+            architecture: crate::correctors::ann::architecture_label(&hidden),
+            hidden,
+            best_validation_mse: 0.1,
+            train_fit_percent: fit,
+            validation_fit_percent: fit,
+            test_fit_percent: fit,
+            epochs: 1,
+            best_restart: 0,
+            seconds: 0.0,
+        };
+        let map =
+            HeatMap::of_sweep(&[row(vec![2], 50.0), row(vec![3, 4], 70.0), row(vec![3], 60.0)]).unwrap();
+        assert_eq!(map.row_labels, vec!["2", "3"]);
+        assert_eq!(map.col_labels, vec!["none", "4"]);
+        assert_eq!(map.get(0, 0), 50.0);
+        assert!(map.get(0, 1).is_nan());
+        assert_eq!(map.get(1, 0), 60.0);
+        assert_eq!(map.get(1, 1), 70.0);
+    }
 
     fn sweep() -> HeatMap {
         let sizes = [2, 4, 6, 8, 10];

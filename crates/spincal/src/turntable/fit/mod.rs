@@ -35,7 +35,9 @@ mod result;
 mod start;
 
 pub use options::{AxesObjective, DriftMode, FitError, FitOptions, RadiusPrior};
-pub use result::{DriftFinding, FittedParam, RecordingFit, SegmentPhase, TurntableFit};
+pub use result::{
+    parse_bounds, BoundsError, DriftFinding, FittedParam, RecordingFit, SegmentPhase, TurntableFit,
+};
 
 /// Fits the turntable model to the recordings jointly: a first look at each recording (rate,
 /// sinusoid start, inspection), the parameter table, bounded Nelder–Mead on the moment cost, the

@@ -4,6 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use super::options::AxesObjective;
 use crate::input::inspect::Inspection;
+use crate::input::recording::{Recording, Source, STANDARD_GRAVITY};
 use crate::optim::LmStop;
 use crate::turntable::model::{evaluate, for_each_sample_about, Mounting, Session};
 use crate::turntable::segments::PhaseSegments;
@@ -158,4 +159,80 @@ impl TurntableFit {
         }
         out
     }
+
+    /// Recording `k`'s [`reference`](Self::reference) as a recording of its own (its times, no
+    /// gyro or temperature): what `train` and `sweep` take as the truth.
+    pub fn reference_recording(&self, k: usize, recording: &Recording) -> Recording {
+        Recording {
+            time_s: recording.time_s.clone(),
+            accel_mps2: self.reference(k, &recording.time_s),
+            gyro_radps: None,
+            temperature_c: None,
+            source: Source::default(),
+        }
+    }
+
+    /// The fit as the JSON file spincal writes (pretty, newline-terminated), marked with
+    /// `spincal_version` so that a later run recognises it as spincal's and replaces it.
+    pub fn to_json_file(&self) -> serde_json::Result<String> {
+        let mut json = serde_json::to_value(self)?;
+        if let Some(map) = json.as_object_mut() {
+            map.insert("spincal_version".into(), env!("CARGO_PKG_VERSION").into());
+        }
+        Ok(serde_json::to_string_pretty(&json)? + "\n")
+    }
+
+    /// Parameter `p` in the units the reports use: angles in degrees, drift as the change in g
+    /// over its recording (`g/rec`), everything else in SI. Returns (value, standard error, unit).
+    pub fn display_value(&self, p: &FittedParam) -> (f64, Option<f64>, String) {
+        if p.unit == "rad" {
+            return (
+                p.value.to_degrees(),
+                p.std_error.map(f64::to_degrees),
+                "deg".into(),
+            );
+        }
+        if p.name.starts_with("drift_") {
+            // `drift_x` (one recording) or `drift_x[k]` (1-based).
+            let k = p
+                .name
+                .split_once('[')
+                .and_then(|(_, rest)| rest.trim_end_matches(']').parse::<usize>().ok())
+                .map_or(0, |k| k - 1);
+            if let Some(r) = self.recordings.get(k) {
+                let factor = r.inspection.duration_s / STANDARD_GRAVITY;
+                return (
+                    p.value * factor,
+                    p.std_error.map(|se| se * factor),
+                    "g/rec".into(),
+                );
+            }
+        }
+        (p.value, p.std_error, p.unit.clone())
+    }
+}
+
+/// A `--bounds`-style list `name=lower:upper,…` that cannot be read: the item that is wrong.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("bounds item '{item}': expected name=lower:upper, e.g. radius=0.05:0.15")]
+pub struct BoundsError {
+    pub item: String,
+}
+
+/// Parses bounds to replace, `name=lower:upper,…` (SI, names as the fit reports them); empty
+/// items are skipped.
+pub fn parse_bounds(text: &str) -> Result<Vec<(String, f64, f64)>, BoundsError> {
+    text.split(',')
+        .filter(|s| !s.trim().is_empty())
+        .map(|item| {
+            let bad = || BoundsError {
+                item: item.to_string(),
+            };
+            let (name, range) = item.split_once('=').ok_or_else(bad)?;
+            let (lo, hi) = range.split_once(':').ok_or_else(bad)?;
+            let lo: f64 = lo.trim().parse().map_err(|_| bad())?;
+            let hi: f64 = hi.trim().parse().map_err(|_| bad())?;
+            Ok((name.trim().to_string(), lo, hi))
+        })
+        .collect()
 }

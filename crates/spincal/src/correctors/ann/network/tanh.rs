@@ -15,8 +15,8 @@ pub fn tanh(x: f64) -> f64 {
 #[inline(always)]
 pub fn tanh_in_place(values: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
-    if crate::simd::has_avx512() {
-        // SAFETY: the CPU has the kernel's features (checked just above).
+    if crate::simd::wide_kernels_chosen() {
+        // SAFETY: the dispatch chooses the wide kernels only where the CPU has their features.
         unsafe { tanh_in_place_avx512(values) };
         return;
     }
@@ -161,4 +161,52 @@ fn tanh_lanes<const N: usize>(x: [f64; N]) -> [f64; N] {
     });
     let u: [f64; N] = from_fn(|i| scale[i] * expm1_r[i] + (scale[i] - 1.0));
     from_fn(|i| (-u[i] / (2.0 + u[i])).copysign(x[i]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The AVX-512 path forced wherever the CPU has the instructions (whatever the dispatch
+    /// chooses there), against the scalar tanh and the four-lane path, bit for bit: every
+    /// exponent range, the clamp at 20, ±0, ±∞, NaN, and lengths that leave 16-, 8- and
+    /// single-value tails.
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn the_wide_path_has_the_scalar_bits_wherever_the_cpu_has_it() {
+        if !crate::simd::has_avx512() {
+            eprintln!("skipped: this CPU has no AVX-512F");
+            return;
+        }
+        let mut values: Vec<f64> = (-700..=700).map(|e| f64::from(e) * 0.037).collect();
+        values.extend((-60..=20).flat_map(|e| {
+            let x = 2f64.powi(e) * 1.3;
+            [x, -x]
+        }));
+        values.extend([
+            0.0,
+            -0.0,
+            19.999,
+            20.0,
+            20.001,
+            f64::MAX,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ]);
+        values.extend([f64::NAN, -f64::NAN, f64::MIN_POSITIVE, 5e-324]);
+        for len in [values.len(), values.len() - 1, values.len() - 9, 16, 8, 7, 1, 0] {
+            let input = &values[..len];
+            let mut wide = input.to_vec();
+            // SAFETY: the CPU has AVX-512F and x86-64-v3 (checked above).
+            unsafe { tanh_in_place_avx512(&mut wide) };
+            let mut narrow = input.to_vec();
+            tanh_chunks(&mut narrow);
+            for ((x, w), n) in input.iter().zip(&wide).zip(&narrow) {
+                let scalar = tanh(*x);
+                let same = |a: f64| a.to_bits() == scalar.to_bits() || (a.is_nan() && scalar.is_nan());
+                assert!(same(*w), "wide tanh({x:e}) = {w:e}, scalar {scalar:e}");
+                assert!(same(*n), "four-lane tanh({x:e}) = {n:e}, scalar {scalar:e}");
+            }
+        }
+    }
 }
