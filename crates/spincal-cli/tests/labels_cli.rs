@@ -64,7 +64,10 @@ fn a_turntable_run_without_gyro_listed_as_static_is_refused() {
     let toml_path = camp.join("campaign.toml");
     let toml = std::fs::read_to_string(&toml_path).unwrap();
     let blocks: Vec<&str> = toml.split("[[recording]]").collect();
-    let turntable = blocks.iter().position(|b| b.contains("kind = \"turntable\"")).unwrap();
+    let turntable = blocks
+        .iter()
+        .position(|b| b.contains("kind = \"turntable\""))
+        .unwrap();
     let file = blocks[turntable]
         .lines()
         .find_map(|l| l.strip_prefix("file = \""))
@@ -81,7 +84,11 @@ fn a_turntable_run_without_gyro_listed_as_static_is_refused() {
         .lines()
         .map(|l| l.split(',').take(4).collect::<Vec<_>>().join(",") + "\n")
         .collect();
-    assert!(text.starts_with("t_s,ax_mps2,ay_mps2,az_mps2\n"), "{}", &text[..40]);
+    assert!(
+        text.starts_with("t_s,ax_mps2,ay_mps2,az_mps2\n"),
+        "{}",
+        &text[..40]
+    );
     std::fs::write(&csv, text).unwrap();
     let before = tree(dir.path());
     let out = dir.path().join("cal");
@@ -94,8 +101,14 @@ fn a_turntable_run_without_gyro_listed_as_static_is_refused() {
         os("--quiet"),
     ]);
     assert_eq!(code, 1, "{err}");
-    assert!(err.contains(&file) && err.contains("`kind`: listed as `static`"), "{err}");
-    assert!(err.contains("turn at 33.") && err.contains("kind = \"turntable\""), "{err}");
+    assert!(
+        err.contains(&file) && err.contains("`kind`: listed as `static`"),
+        "{err}"
+    );
+    assert!(
+        err.contains("turn at 33.") && err.contains("kind = \"turntable\""),
+        "{err}"
+    );
     assert!(!out.exists(), "no output folder");
     assert_eq!(tree(dir.path()), before, "no file changed");
 }
@@ -140,7 +153,11 @@ fn a_file_in_g_read_as_mps2_stops_correct_and_names_the_unit() {
     ]);
     assert_eq!(code, 0, "{err}");
     let corrected = std::fs::read_to_string(&out).unwrap();
-    assert!(corrected.lines().skip(1).all(|l| l.ends_with(",1,ok")), "{}", &corrected[..300]);
+    assert!(
+        corrected.lines().skip(1).all(|l| l.ends_with(",1,ok")),
+        "{}",
+        &corrected[..300]
+    );
 }
 
 #[test]
@@ -163,10 +180,17 @@ fn a_linear_map_that_ignores_z_is_refused_and_saves_nothing() {
     ]);
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("rec.csv: nothing saved (--correct-axes"), "{err}");
-    assert!(err.contains("measured z barely moves in the training data"), "{err}");
+    assert!(
+        err.contains("measured z barely moves in the training data"),
+        "{err}"
+    );
     assert!(err.contains("so it reads about 9.8"), "{err}");
     assert!(err.contains("leave z out of the corrected axes"), "{err}");
-    assert_eq!(tree(dir.path()), before, "the earlier model and the inputs are kept");
+    assert_eq!(
+        tree(dir.path()),
+        before,
+        "the earlier model and the inputs are kept"
+    );
 }
 
 #[test]
@@ -189,12 +213,18 @@ fn a_corrected_value_beyond_any_sensor_is_refused_with_empty_values() {
     let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
     let ax = header.iter().position(|h| *h == "ax_corrected_g").unwrap();
     let rows: Vec<&str> = text.lines().skip(1).collect();
-    assert_eq!(rows.len(), std::fs::read_to_string(&rec).unwrap().lines().count() - 1);
+    assert_eq!(
+        rows.len(),
+        std::fs::read_to_string(&rec).unwrap().lines().count() - 1
+    );
     for row in &rows {
         let fields: Vec<&str> = row.split(',').collect();
         assert!(!row.ends_with(",ok"), "{row}");
         assert!(fields[ax].is_empty(), "{row}");
-        assert!(row.contains("refused: line") && row.contains("the corrected ax is"), "{row}");
+        assert!(
+            row.contains("refused: line") && row.contains("the corrected ax is"),
+            "{row}"
+        );
         assert!(row.contains("beyond ±500 g"), "{row}");
     }
     assert!(err.contains("beyond ±500 g"), "{err}");
@@ -220,7 +250,10 @@ fn export_refuses_a_coefficient_float_cannot_hold() {
         out.as_os_str(),
     ]);
     assert_eq!(code, 1, "{err}");
-    assert!(err.contains("edited.json: cannot export: lin_matrix[0][0]:"), "{err}");
+    assert!(
+        err.contains("edited.json: cannot export: lin_matrix[0][0]:"),
+        "{err}"
+    );
     assert!(err.contains("1e308 is not a finite float"), "{err}");
     assert!(err.contains("export double only"), "{err}");
     assert!(!out.exists(), "nothing written");

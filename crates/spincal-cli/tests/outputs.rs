@@ -367,7 +367,10 @@ fn a_corrected_value_that_is_not_finite_is_never_ok() {
     // values turned into m/s² with the header, or `correct` stops at the unit).
     let original = std::fs::read_to_string(&rec).unwrap();
     let mut lines = original.lines();
-    let header = lines.next().unwrap().replacen("t_s,ax_g,ay_g,az_g", "t_s,ax_mps2,ay_mps2,az_mps2", 1);
+    let header = lines
+        .next()
+        .unwrap()
+        .replacen("t_s,ax_g,ay_g,az_g", "t_s,ax_mps2,ay_mps2,az_mps2", 1);
     let mut text = header + "\n";
     for line in lines {
         let mut fields: Vec<String> = line.split(',').map(str::to_string).collect();

@@ -76,7 +76,11 @@ fn real_still_recordings_are_not_taken_for_turning() {
     let files: [(&str, Option<Format>, Option<f64>); 4] = [
         ("imu/imu_tk_xsens/xsens_acc.mat", None, None),
         ("imu/realsense_t265/t265_acc.mat", None, None),
-        ("imu/mpu6050/example_data_calibration.csv", Some(Format::Mpu6050), None),
+        (
+            "imu/mpu6050/example_data_calibration.csv",
+            Some(Format::Mpu6050),
+            None,
+        ),
         ("imu/imucal/annotated_session.csv", None, Some(204.8)),
     ];
     for (relative, format, sample_rate_hz) in files {

@@ -112,7 +112,15 @@ pub fn linear_model(dir: &Path) -> (PathBuf, PathBuf) {
         .arg(&reference));
     run(spincal()
         // x and y: a flat run leaves z at gravity, which a map cannot learn (refused).
-        .args(["train", "--kind", "linear", "--correct-axes", "x,y", "--quiet", "--data"])
+        .args([
+            "train",
+            "--kind",
+            "linear",
+            "--correct-axes",
+            "x,y",
+            "--quiet",
+            "--data",
+        ])
         .arg(&rec)
         .arg("--reference")
         .arg(&reference)

@@ -151,9 +151,18 @@ mod tests {
         assert_eq!(err.axis, Axis::Z);
         assert!(err.gain.abs() < IGNORED_GAIN, "{err:?}");
         assert!((err.level_mps2 - 9.8).abs() < 0.01, "{err:?}");
-        assert!(err.to_string().contains("train only the axes the data move"), "{err}");
+        assert!(
+            err.to_string().contains("train only the axes the data move"),
+            "{err}"
+        );
         // The axes the run moves pass; so does z once the data move it.
-        let xy = LinearModel::fit(&measured, &reference, &[Axis::X, Axis::Y], DivisionMode::Contiguous).unwrap();
+        let xy = LinearModel::fit(
+            &measured,
+            &reference,
+            &[Axis::X, Axis::Y],
+            DivisionMode::Contiguous,
+        )
+        .unwrap();
         assert!(check_inputs_used(&CorrectorModel::Linear(Box::new(xy)), &measured).is_ok());
         let (measured, reference) = flat_run(3, true);
         let model = LinearModel::fit(&measured, &reference, &Axis::ALL, DivisionMode::Contiguous).unwrap();

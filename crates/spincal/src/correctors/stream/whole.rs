@@ -48,7 +48,8 @@ pub(super) fn correct_loaded(
 ) -> Result<StreamSummary, CorrectError> {
     check_counts(model, loaded, name)?;
     let rec = &loaded.recording;
-    if let Some(expected) = unit_check::expected_gravity_mps2(&model.corrector).filter(|_| !loaded.raw_counts) {
+    if let Some(expected) = unit_check::expected_gravity_mps2(&model.corrector).filter(|_| !loaded.raw_counts)
+    {
         let a = &rec.accel_mps2;
         let mut magnitudes: Vec<f64> = (0..rec.len())
             .map(|s| (a[0][s] * a[0][s] + a[1][s] * a[1][s] + a[2][s] * a[2][s]).sqrt())
