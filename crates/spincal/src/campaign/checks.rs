@@ -163,7 +163,8 @@ fn still_pose_line(rec: &Recording, start: usize, end: usize) -> Option<RateEsti
     let a = &rec.accel_mps2;
     let n = (end - start) as f64;
     let mean: [f64; 3] = std::array::from_fn(|k| a[k][start..end].iter().sum::<f64>() / n);
-    if !(norm(&mean) > 0.0) {
+    let length = norm(&mean);
+    if length.is_nan() || length <= 0.0 {
         return None;
     }
     let down = unit(mean);
