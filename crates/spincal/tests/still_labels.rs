@@ -61,8 +61,7 @@ fn a_turntable_run_without_gyro_listed_as_static_is_refused_by_name() {
     units[run].recording.gyro_radps = None;
     let name = units[run].name.clone();
     let err = calibrate_campaign("unit", &units, &Default::default(), &spincal::progress::silent)
-        .err()
-        .expect("refused")
+        .expect_err("refused")
         .to_string();
     assert!(err.contains(&name) && err.contains("`kind`"), "{err}");
     assert!(err.contains("listed as `static`") && err.contains("33."), "{err}");
