@@ -69,7 +69,7 @@ enum Command {
     #[command(after_help = "Examples:
   spincal train --data rec.csv --reference ref.csv --hidden 10,6 -o ann.json
   spincal train --data rec.csv --reference ref.csv --correct-axes x --delays 2 --restarts 20 --seed 7 -o x.json
-  spincal train --data rec.csv --reference ref.csv --kind linear -o linear.json --json")]
+  spincal train --data rec.csv --reference ref.csv --kind linear --correct-axes x,y -o linear.json --json")]
     Train(commands::train::TrainArgs),
     /// Train a grid of network architectures and tabulate their fit (the paper's Fig. 12).
     #[command(after_help = "Examples:

@@ -27,9 +27,9 @@ use spincal::correctors::division::DivisionMode;
 use spincal::correctors::gyro::{GyroInputUnit, GyroModel};
 use spincal::correctors::linear::LinearModel;
 use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
-use spincal::correctors::physical::{PhysicalCorrector, SensorModel, SensorUncertainty};
+use spincal::correctors::physical::{predicted_to_help, PhysicalCorrector, SensorModel, SensorUncertainty};
 use spincal::correctors::physical_ann::{InputCoverage, PhysicalAnnCorrector};
-use spincal::correctors::rows::{RowCorrector, RowOutcome, UnitFactors};
+use spincal::correctors::rows::{PredictedError, RowCorrector, RowOutcome, UnitFactors};
 use spincal::correctors::static_cal::{StaticCalibration, StaticModel};
 use spincal::firmware::{export_firmware, fusion_values, ExportOptions};
 use spincal::input::recording::{Recording, STANDARD_GRAVITY};
@@ -488,6 +488,16 @@ fn library(file: &CorrectorFile, samples: &Samples) -> Vec<Out> {
             let c = stream.correct_sample(a);
             let predicted = match rows.correct(None, a, None, None, |_| String::new()) {
                 RowOutcome::Corrected { predicted, .. } => predicted,
+                // `correct` refuses a row beyond ±500 g (rows::MAX_CORRECTED_ACCEL_MPS2: the
+                // sample past the quadratic's turning point); the firmware has no such bound, so
+                // there its error bar is held against the model's own covariance.
+                RowOutcome::Refused(why) if why.contains("beyond ±500 g") => {
+                    file.corrector.error_model().and_then(|model| {
+                        let sd_mps2 = model.predicted_sd(a)?;
+                        let better = (0..3).all(|k| predicted_to_help(c.accel_mps2[k] - a[k], sd_mps2[k]));
+                        Some(PredictedError { sd_mps2, better })
+                    })
+                }
                 RowOutcome::Refused(why) => panic!("{a:?} refused: {why}"),
             };
             Out {

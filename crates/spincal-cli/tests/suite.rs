@@ -26,6 +26,7 @@ mod help_examples;
 mod hostile;
 mod hostile_models;
 mod io_commands;
+mod labels_cli;
 mod outputs;
 mod phone_cli;
 mod real_files;

@@ -28,6 +28,7 @@ mod readers_prop;
 mod real_imu;
 mod sessions;
 mod shared_files;
+mod still_labels;
 mod sysid;
 mod sysid_benchmarks;
 mod temperature_checks;

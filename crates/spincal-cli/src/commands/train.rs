@@ -170,6 +170,12 @@ pub fn run(args: TrainArgs, ui: Ui) -> anyhow::Result<()> {
             )?))
         }
     };
+    spincal::correctors::excitation::check_inputs_used(&model, &measured).with_context(|| {
+        format!(
+            "{}: nothing saved (--correct-axes chooses the axes trained)",
+            args.data.data.display()
+        )
+    })?;
     let file = CorrectorFile::new(model);
     if let Some(path) = &args.output {
         file.write_path(path)?;

@@ -111,7 +111,16 @@ pub fn linear_model(dir: &Path) -> (PathBuf, PathBuf) {
         .arg("--reference-csv")
         .arg(&reference));
     run(spincal()
-        .args(["train", "--kind", "linear", "--quiet", "--data"])
+        // x and y: a flat run leaves z at gravity, which a map cannot learn (refused).
+        .args([
+            "train",
+            "--kind",
+            "linear",
+            "--correct-axes",
+            "x,y",
+            "--quiet",
+            "--data",
+        ])
         .arg(&rec)
         .arg("--reference")
         .arg(&reference)

@@ -97,6 +97,12 @@ pub(crate) fn still_intervals(rec: &Recording, name: &str) -> Result<Vec<StillIn
     })
 }
 
+/// The samples `[start, end)` of a still interval that make its pose (the edges left out).
+pub(crate) fn pose_samples(interval: &StillInterval) -> (usize, usize) {
+    let edge = ((interval.len() as f64) * EDGE_FRACTION) as usize;
+    (interval.start + edge, interval.end - edge)
+}
+
 /// Mean per axis over `[start, end)` and its standard error: from block means (coloured noise
 /// widens it), never below the white-noise value from first differences, nor below `floor`.
 fn mean_and_error(axes: &[Vec<f64>; 3], start: usize, end: usize, floor: f64) -> ([f64; 3], [f64; 3]) {
@@ -278,8 +284,7 @@ pub fn prepare(recordings: &[UnitRecording]) -> Result<Prepared, PrepareError> {
                 let session = sessions[index].unwrap_or_default();
                 let several = intervals.len() > 1;
                 for (k, interval) in intervals.iter().enumerate() {
-                    let edge = ((interval.len() as f64) * EDGE_FRACTION) as usize;
-                    let (start, end) = (interval.start + edge, interval.end - edge);
+                    let (start, end) = pose_samples(interval);
                     let name = if several {
                         format!(
                             "{} pose {} ({:.1}–{:.1} s)",

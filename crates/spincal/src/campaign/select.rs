@@ -18,7 +18,7 @@ use crate::campaign::paper::{PaperProtocol, PaperSignals};
 use crate::campaign::params::{ParamError, Params};
 
 use crate::campaign::candidate::{candidate, Candidate};
-use crate::campaign::checks::{check_prepared, check_recordings, InputError};
+use crate::campaign::checks::{check_poses_still, check_prepared, check_recordings, InputError};
 use crate::campaign::choice::{
     choose_by_physics, no_conditions_verdict, nothing_saved_verdict, save_best, summarise, truth_check,
     CandidateSummary, Found, HeldOutScore, TruthCheck,
@@ -302,6 +302,7 @@ pub fn calibrate_campaign(
     let stage = thermal_stage(units, &settings.thermal, settings.joint.gravity_mps2);
     let units = stage.normalised_units.as_deref().unwrap_or(units);
     let prepared = prepare(units)?;
+    check_poses_still(units, &prepared)?;
     check_prepared(&prepared, settings.joint.gravity_mps2)?;
     observer(Progress::step("joint fit", 0, Some(1)));
     let mut stages = Vec::new();

@@ -7,6 +7,7 @@
 pub mod ann;
 pub mod corrector;
 pub mod division;
+pub mod excitation;
 pub mod gyro;
 pub mod gyro_poses;
 pub mod linear;

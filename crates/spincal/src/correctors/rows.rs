@@ -16,6 +16,14 @@ use crate::thermal::ThermalModel;
 /// °C: enough for the lag near the range's ends, not for a glitch.
 const FEED_MARGIN_C: f64 = 5.0;
 
+/// The largest corrected acceleration a row may carry, m/s² (500 g): above the widest range of any
+/// MEMS accelerometer (±400 g, H3LIS331DL), so a value beyond it is no reading but a model far
+/// outside what it was made for (a weight edited to 1e308 gives 1.3e306).
+pub const MAX_CORRECTED_ACCEL_MPS2: f64 = 500.0 * crate::input::recording::STANDARD_GRAVITY;
+/// The largest corrected rate a row may carry, rad/s (40,000 °/s): twice the widest range of a MEMS
+/// gyroscope (±20,000 °/s, ADXRS649), for the same reason.
+pub const MAX_CORRECTED_GYRO_RADPS: f64 = 40_000.0 * std::f64::consts::PI / 180.0;
+
 /// Factors that turn a file's values into SI units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UnitFactors {
@@ -130,6 +138,37 @@ struct Thermal<'a> {
     track: TemperatureTrack,
     /// The last die temperature estimated, °C.
     last_die_c: Option<f64>,
+}
+
+/// Why a finite corrected row is no reading at all: an axis beyond [`MAX_CORRECTED_ACCEL_MPS2`]
+/// or [`MAX_CORRECTED_GYRO_RADPS`] (`None`: plausible).
+fn implausible(axes: &[Axis], accel_mps2: &[f64; 3], rate_radps: Option<&[f64; 3]>) -> Option<String> {
+    let beyond = |what: &str, v: f64, unit: &str, limit: f64, limit_text: &str| {
+        format!(
+            "the corrected {what} is {v:.3e} {unit}, beyond {limit_text} ({limit:.0} {unit}) that no sensor reads: the model is far outside what it was made for"
+        )
+    };
+    if let Some(axis) = axes
+        .iter()
+        .find(|a| accel_mps2[a.index()].abs() > MAX_CORRECTED_ACCEL_MPS2)
+    {
+        return Some(beyond(
+            &format!("a{}", axis.name()),
+            accel_mps2[axis.index()],
+            "m/s²",
+            MAX_CORRECTED_ACCEL_MPS2,
+            "±500 g",
+        ));
+    }
+    let rate = rate_radps?;
+    let k = (0..3).find(|&k| rate[k].abs() > MAX_CORRECTED_GYRO_RADPS)?;
+    Some(beyond(
+        &format!("g{}", ["x", "y", "z"][k]),
+        rate[k],
+        "rad/s",
+        MAX_CORRECTED_GYRO_RADPS,
+        "±40,000 °/s",
+    ))
 }
 
 /// The gyro sensitivity in a model file cannot be inverted.
@@ -288,6 +327,9 @@ impl<'a> RowCorrector<'a> {
                 "the corrected value is not finite (the input is far outside anything the model was made for)"
                     .to_string(),
             );
+        }
+        if let Some(why) = implausible(&self.axes, &sample.accel_mps2, rate.as_ref()) {
+            return RowOutcome::Refused(why);
         }
         let predicted = self.error_model.and_then(|model| {
             let sd_mps2 = model.predicted_sd(accel_mps2)?;

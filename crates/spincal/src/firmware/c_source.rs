@@ -263,6 +263,27 @@ fn initializer(field: &Field, precision: Precision) -> String {
     format!("{{{text}}}")
 }
 
+/// The first coefficient that `precision` cannot hold as a finite number (a weight of 1e308 is
+/// `inff` in float, which C reads as infinity and no correction survives): its C field with its
+/// index (`net_weights[3]`, `st_matrix[1][2]`) and its value.
+pub(crate) fn unwritable(plan: &Plan, precision: Precision) -> Option<(String, f64)> {
+    let finite = |x: f64| match precision {
+        Precision::Double => x.is_finite(),
+        Precision::Float => (x as f32).is_finite(),
+    };
+    fields(plan).into_iter().find_map(|f| {
+        let Values::Real(values) = &f.values else {
+            return None;
+        };
+        let i = values.iter().position(|&x| !finite(x))?;
+        let index = match f.dims[..] {
+            [_, columns] => format!("[{}][{}]", i / columns, i % columns),
+            _ => format!("[{i}]"),
+        };
+        Some((format!("{}{index}", f.name), values[i]))
+    })
+}
+
 /// Header and source of one precision: `(header file name, header, source file name, source)`.
 pub(crate) fn files(
     plan: &Plan,

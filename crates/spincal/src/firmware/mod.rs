@@ -209,6 +209,29 @@ pub fn export_firmware(
     let mut precisions = options.precisions.clone();
     precisions.sort_by_key(|p| p.suffix());
     precisions.dedup();
+    // Every coefficient must be a finite literal in each precision asked for (C has no
+    // literal for infinity: `inff` does not compile, and an overflow would be one).
+    for &precision in &precisions {
+        if let Some((field, value)) = c_source::unwritable(&plan, precision) {
+            return Err(FirmwareError::TooLarge {
+                file: source.into(),
+                field,
+                reason: format!(
+                    "{value:e} is not a finite {} ({}), so the {} export cannot hold it; the model's coefficients are far outside what a calibration gives: refit it{}",
+                    precision.c_type(),
+                    match precision {
+                        Precision::Float => "|x| < 3.4e38",
+                        Precision::Double => "|x| < 1.8e308",
+                    },
+                    precision.suffix(),
+                    match precision {
+                        Precision::Float => ", or export double only",
+                        Precision::Double => "",
+                    }
+                ),
+            });
+        }
+    }
     let float_error = numerics::float_error(&plan, &model.corrector);
     let mut files = Vec::new();
     for &precision in &precisions {

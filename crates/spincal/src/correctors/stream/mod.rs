@@ -12,6 +12,10 @@
 //!   sample comes out with its source line, time in s and its values under unit-named columns
 //!   (`ax_mps2`, `gx_radps`; `counts` for raw counts), then the same corrected columns.
 //!
+//! Before any row is written, the first rows' median |a| is held against the gravity the model
+//! expects: a file about 9.81 times too weak or too strong is in another unit than it is read in,
+//! and stops the correction naming the unit ([`CorrectError::AccelUnit`]).
+//!
 //! A row that cannot be corrected is written in place with status `refused: line N, <reason>` and
 //! empty corrected columns; a row missing a value used is `skipped: …`. [`StreamSummary`] counts
 //! what the stream saw and words what a user should be told; the library never prints.
@@ -19,6 +23,7 @@
 mod sink;
 mod summary;
 mod text;
+mod unit_check;
 mod whole;
 
 use std::fs::File;
@@ -52,6 +57,18 @@ pub enum CorrectError {
         holds: &'static str,
         takes: &'static str,
         advice: &'static str,
+    },
+    /// The first rows' median |a| is about g/9.81 or g·9.81 of the gravity the model expects: the
+    /// values are in another unit than the one they are read in.
+    #[error("{file}: the first {rows} rows read {median_mps2:.3} m/s² (median |a|) where the model expects about {expected_mps2:.3} m/s² at rest: the values look like {looks_like}, read as {read_as}; {fix}")]
+    AccelUnit {
+        file: String,
+        rows: usize,
+        median_mps2: f64,
+        expected_mps2: f64,
+        looks_like: &'static str,
+        read_as: &'static str,
+        fix: &'static str,
     },
     #[error("{file}: cannot open: {source}")]
     Open {
@@ -101,7 +118,10 @@ impl CorrectError {
     pub fn is_usage(&self) -> bool {
         matches!(
             self,
-            CorrectError::UnitUnknown { .. } | CorrectError::CountsMismatch { .. } | CorrectError::Output(_)
+            CorrectError::UnitUnknown { .. }
+                | CorrectError::CountsMismatch { .. }
+                | CorrectError::AccelUnit { .. }
+                | CorrectError::Output(_)
         )
     }
 

@@ -4,7 +4,7 @@
 use std::io::{BufRead, Write};
 
 use super::sink::{field, DelimitedSink, RowSink};
-use super::{CorrectError, StreamSummary};
+use super::{unit_check, CorrectError, StreamSummary};
 use crate::correctors::corrector::Axis;
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::correctors::rows::{RowCorrector, RowOutcome, RowValue, UnitFactors};
@@ -131,7 +131,9 @@ impl CorrectedColumns {
     }
 }
 
-/// Rows read ahead to learn the time column's unit when the model needs time.
+/// Rows read ahead before any is written: to learn the time column's unit when the model needs
+/// time, and to hold the acceleration unit against the model's gravity (at least
+/// [`unit_check::UNIT_CHECK_ROWS`]).
 const LOOK_AHEAD_ROWS: usize = 256;
 
 /// A row read and not yet corrected.
@@ -260,11 +262,13 @@ pub(super) fn correct_text(
     rows.choose_columns(&used);
     let with_gyro = columns.gyro_columns().is_some();
     let needs_time = RowCorrector::new(model, UnitFactors::SI, with_gyro)?.needs_time();
-    // A model that needs time learns the time column's unit from the first rows, as a file read
-    // whole does; the rows read ahead are corrected first, in their order.
+    // The first rows are read ahead: a model that needs time learns the time column's unit from
+    // them, as a file read whole does, and the acceleration unit is held against the model's
+    // gravity; they are corrected first, in their order.
+    let expected_gravity = unit_check::expected_gravity_mps2(&model.corrector);
     let mut pending = Vec::new();
     let mut notes = Vec::new();
-    if needs_time {
+    if needs_time || expected_gravity.is_some() {
         let mut values = Vec::with_capacity(width);
         while pending.len() < LOOK_AHEAD_ROWS {
             let Some(record) = rows.next_record(&mut values)? else {
@@ -277,6 +281,22 @@ pub(super) fn correct_text(
                 values: values.clone(),
             });
         }
+    }
+    if let Some(expected) = expected_gravity {
+        let to_mps2 = columns.accel_to_mps2();
+        let mut magnitudes: Vec<f64> = pending
+            .iter()
+            .filter(|p| matches!(p.record, Record::Parsed { .. }))
+            .map(|p| {
+                let a = columns.accel_columns().map(|c| p.values[c] * to_mps2);
+                (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+            })
+            .filter(|m| m.is_finite())
+            .take(unit_check::UNIT_CHECK_ROWS)
+            .collect();
+        unit_check::check_accel_unit(name, &mut magnitudes, expected)?;
+    }
+    if needs_time {
         let k = columns.time_to_s();
         let mut times: Vec<f64> = pending
             .iter()

@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use super::sink::{field, RowSink};
 use super::text::CorrectedColumns;
-use super::{CorrectError, StreamSummary};
+use super::{unit_check, CorrectError, StreamSummary};
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::correctors::rows::{RowCorrector, RowOutcome, RowValue, UnitFactors};
 use crate::input::formats::Loaded;
@@ -48,6 +48,16 @@ pub(super) fn correct_loaded(
 ) -> Result<StreamSummary, CorrectError> {
     check_counts(model, loaded, name)?;
     let rec = &loaded.recording;
+    if let Some(expected) = unit_check::expected_gravity_mps2(&model.corrector).filter(|_| !loaded.raw_counts)
+    {
+        let a = &rec.accel_mps2;
+        let mut magnitudes: Vec<f64> = (0..rec.len())
+            .map(|s| (a[0][s] * a[0][s] + a[1][s] * a[1][s] + a[2][s] * a[2][s]).sqrt())
+            .filter(|m| m.is_finite())
+            .take(unit_check::UNIT_CHECK_ROWS)
+            .collect();
+        unit_check::check_accel_unit(name, &mut magnitudes, expected)?;
+    }
     // The gyro is corrected when the model's calibration takes the file's unit (counts or rad/s).
     let gyro_unit_fits = model
         .gyro
