@@ -30,6 +30,23 @@ fn entry(placement: &Placement, label: &str, rpm: f64, radius: Option<RadiusPrio
     }
 }
 
+/// 12 still poses at random orientations, 400 samples each, 10 s apart, in power-on session 0.
+fn still_poses(sensor: &Sensor, rng: &mut ChaCha8Rng) -> Vec<spincal::campaign::joint::PoseInput> {
+    (0..12)
+        .map(|p| {
+            still_pose(
+                sensor,
+                random_gravity(rng),
+                [0.0; 3],
+                400,
+                0,
+                10.0 * p as f64,
+                rng,
+            )
+        })
+        .collect()
+}
+
 /// A phone-like campaign of `seed`: 12 still poses and, in two placements of the device (centre
 /// at 100 mm, the second turned 180°), runs at 33⅓ and 45 rpm with the platter 1 % fast; one
 /// power-on throughout. `stated`: what the user writes as each placement's radius.
@@ -39,19 +56,7 @@ fn campaign(
 ) -> (Vec<RunInput>, Vec<f64>, Vec<spincal::campaign::joint::PoseInput>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let sensor = Sensor::draw(&mut rng);
-    let poses = (0..12)
-        .map(|p| {
-            still_pose(
-                &sensor,
-                random_gravity(&mut rng),
-                [0.0; 3],
-                400,
-                0,
-                10.0 * p as f64,
-                &mut rng,
-            )
-        })
-        .collect();
+    let poses = still_poses(&sensor, &mut rng);
     let chip = [rng.gen_range(-0.03..0.03), rng.gen_range(-0.03..0.03), 0.004];
     let placements = [(0, 1.0), (0, -1.0)].map(|out| Placement {
         centre_radius_m: 0.10,
@@ -195,19 +200,7 @@ fn a_run_is_cut_at_a_logging_gap_into_segments_with_their_own_phase() {
     for seed in 7..=12 {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let sensor = Sensor::draw(&mut rng);
-        let poses: Vec<_> = (0..12)
-            .map(|p| {
-                still_pose(
-                    &sensor,
-                    random_gravity(&mut rng),
-                    [0.0; 3],
-                    400,
-                    0,
-                    10.0 * p as f64,
-                    &mut rng,
-                )
-            })
-            .collect();
+        let poses = still_poses(&sensor, &mut rng);
         let placement = Placement {
             centre_radius_m: 0.09,
             out: (0, 1.0),

@@ -89,48 +89,78 @@ impl GyroColumns {
 
     /// Raw counts when the reader says so, or when an axis's mean is beyond any rate.
     fn new(values: [Vec<f64>; 3], reader_counts: bool, source: String) -> GyroColumns {
-        let looks_like_counts = values.iter().any(|axis| {
-            let mean = axis.iter().sum::<f64>() / axis.len().max(1) as f64;
-            mean.abs() > GYRO_COUNTS_RADPS
-        });
         GyroColumns {
+            counts: reader_counts || beyond_any_rate(&values),
             values,
-            counts: reader_counts || looks_like_counts,
             source,
         }
     }
 }
 
-/// A gyro file's three value columns, checked to sample beside `rec` (the same number of
-/// samples at the same times, within half a sample), and whether the reader took them for raw
-/// counts.
-fn read_beside(path: &Path, rec: &Recording, retime: bool) -> Result<([Vec<f64>; 3], bool), GyroFileError> {
+/// Whether an axis's mean is beyond any rate a session turns at for long (raw counts).
+fn beyond_any_rate(values: &[Vec<f64>; 3]) -> bool {
+    values.iter().any(|axis| {
+        let mean = axis.iter().sum::<f64>() / axis.len().max(1) as f64;
+        mean.abs() > GYRO_COUNTS_RADPS
+    })
+}
+
+/// A gyro file as read: its times, its three value columns (the gyro whatever the reader took
+/// them for) and whether the reader took them for raw counts.
+struct GyroFile {
+    time_s: Vec<f64>,
+    values: [Vec<f64>; 3],
+    reader_counts: bool,
+}
+
+/// Reads a gyro file with the recording's re-timing.
+fn read_gyro_file(path: &Path, retime: bool) -> Result<GyroFile, GyroFileError> {
     let options = ReadOptions {
         retime,
         ..Default::default()
     };
     let loaded = formats::read_path(path, &options)?;
     let g = loaded.recording;
+    Ok(GyroFile {
+        time_s: g.time_s,
+        values: g.gyro_radps.unwrap_or(g.accel_mps2),
+        reader_counts: loaded.raw_counts || loaded.gyro_counts,
+    })
+}
+
+/// The first of as many samples as `rec` whose time is off the recording's by more than half a
+/// sample (at least 11 ms); `None` when the file samples beside it.
+fn first_sample_off_time(time_s: &[f64], rec: &Recording) -> Option<usize> {
+    let half = 0.5 / rec.sample_rate_hz();
+    (0..time_s.len()).find(|&i| (time_s[i] - rec.time_s[i]).abs() > half.max(0.011))
+}
+
+/// A gyro file's three value columns, checked to sample beside `rec` (the same number of
+/// samples at the same times, within half a sample), and whether the reader took them for raw
+/// counts.
+fn read_beside(path: &Path, rec: &Recording, retime: bool) -> Result<([Vec<f64>; 3], bool), GyroFileError> {
+    let GyroFile {
+        time_s,
+        values,
+        reader_counts,
+    } = read_gyro_file(path, retime)?;
     let file = path.display().to_string();
-    if g.len() != rec.len() {
+    if time_s.len() != rec.len() {
         return Err(GyroFileError::Length {
             file,
-            found: g.len(),
+            found: time_s.len(),
             expected: rec.len(),
         });
     }
-    let half = 0.5 / rec.sample_rate_hz();
-    if let Some(i) = (0..g.len()).find(|&i| (g.time_s[i] - rec.time_s[i]).abs() > half.max(0.011)) {
+    if let Some(i) = first_sample_off_time(&time_s, rec) {
         return Err(GyroFileError::Time {
             file,
             sample: i + 1,
-            at_s: g.time_s[i],
+            at_s: time_s[i],
             expected_s: rec.time_s[i],
         });
     }
-    // Its three value columns are the gyro whatever the reader took them for.
-    let counts = loaded.raw_counts || loaded.gyro_counts;
-    Ok((g.gyro_radps.unwrap_or(g.accel_mps2), counts))
+    Ok((values, reader_counts))
 }
 
 /// A gyroscope at least this many of its median intervals from its neighbours is a dropped
@@ -147,26 +177,21 @@ pub fn attach_gyro_file(
     path: &Path,
     retime: bool,
 ) -> Result<(Recording, bool, Option<String>), GyroFileError> {
-    let options = ReadOptions {
-        retime,
-        ..Default::default()
-    };
-    let loaded = formats::read_path(path, &options)?;
-    let counts = loaded.raw_counts || loaded.gyro_counts;
-    let g = loaded.recording;
-    let values = g.gyro_radps.clone().unwrap_or_else(|| g.accel_mps2.clone());
-    let looks_like_counts = GyroColumns::new(values.clone(), counts, String::new()).counts;
-    let half = 0.5 / recording.sample_rate_hz();
-    let beside = g.len() == recording.len()
-        && (0..g.len()).all(|i| (g.time_s[i] - recording.time_s[i]).abs() <= half.max(0.011));
-    if beside {
+    let GyroFile {
+        time_s,
+        values,
+        reader_counts,
+    } = read_gyro_file(path, retime)?;
+    let counts = reader_counts || beyond_any_rate(&values);
+    if time_s.len() == recording.len() && first_sample_off_time(&time_s, &recording).is_none() {
         let mut merged = recording;
         merged.gyro_radps = Some(values);
-        return Ok((merged, looks_like_counts, None));
+        return Ok((merged, counts, None));
     }
-    let widest = GYRO_GAP_INTERVALS * crate::input::recording::sample_interval(&g.time_s);
+    let interval = crate::input::recording::sample_interval(&time_s);
+    let widest = GYRO_GAP_INTERVALS * interval;
     let (keep, at_times) =
-        crate::input::recording::interpolate_onto(&recording.time_s, &g.time_s, &values, widest);
+        crate::input::recording::interpolate_onto(&recording.time_s, &time_s, &values, widest);
     let covered = keep.iter().filter(|k| **k).count();
     let span = |t: &[f64]| {
         (
@@ -175,7 +200,7 @@ pub fn attach_gyro_file(
         )
     };
     if 2 * covered < recording.len() || covered < 2 {
-        let ((gyro_from_s, gyro_to_s), (from_s, to_s)) = (span(&g.time_s), span(&recording.time_s));
+        let ((gyro_from_s, gyro_to_s), (from_s, to_s)) = (span(&time_s), span(&recording.time_s));
         return Err(GyroFileError::NoOverlap {
             file: path.display().to_string(),
             covered,
@@ -189,8 +214,8 @@ pub fn attach_gyro_file(
     let note = format!(
         "{}: the gyroscope ({} samples, {:.1} Hz) interpolated linearly onto the recording's {} timestamps ({:.1} Hz); {} samples outside its span or in its gaps (> {GYRO_GAP_INTERVALS} intervals) dropped",
         path.display(),
-        g.len(),
-        g.sample_rate_hz(),
+        time_s.len(),
+        1.0 / interval,
         recording.len(),
         recording.sample_rate_hz(),
         recording.len() - covered
@@ -204,7 +229,7 @@ pub fn attach_gyro_file(
             .map(|(v, _)| *v)
             .collect()
     }));
-    Ok((merged, looks_like_counts, Some(note)))
+    Ok((merged, counts, Some(note)))
 }
 
 #[cfg(test)]
