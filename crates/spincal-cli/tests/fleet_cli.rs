@@ -1,41 +1,51 @@
-//! `spincal simulate --fleet` and `spincal fleet` from the outside: files per unit and for the
-//! fleet, a broken unit reported while the others are written (exit code 3), the faulty unit
-//! flagged, a unit's results equal to `calibrate --campaign`'s, and every number of fleet.html
-//! read from fleet.json.
+//! `spincal simulate --fleet` and `spincal fleet` from the outside, on the suite's one fleet
+//! (`suite_fleet`, calibrated once by the library): the CLI writes the same units, a broken unit
+//! is reported while the others are written (exit code 3), each unit's results equal the
+//! library's calibration of it and `calibrate --campaign`'s, and every number of fleet.html is
+//! read from fleet.json. The fleet's statistics and the faulty unit's flags are the library's
+//! fleet test.
 
 use assert_cmd::Command;
+
+use crate::suite_fleet::{self, comparable_results, normalised, REFERENCE_UNITS};
 
 fn spincal() -> Command {
     Command::cargo_bin("spincal").unwrap()
 }
 
-fn without_time(text: &str) -> serde_json::Value {
-    let mut value: serde_json::Value = serde_json::from_str(text).unwrap();
-    value.as_object_mut().unwrap().remove("seconds_total");
-    value.as_object_mut().unwrap().remove("stage_seconds");
-    value
-}
-
 #[test]
 fn a_simulated_fleet_is_calibrated_and_a_broken_unit_is_reported_alone() {
+    let stored = suite_fleet::suite_fleet();
     let dir = tempfile::tempdir().unwrap();
-    let setup = crate::harness::short_campaign_setup(dir.path());
     let fleet = dir.path().join("fleet");
     let run = spincal()
-        .args([
-            "simulate", "--fleet", "8", "--faulty", "2", "--seed", "11", "--out",
-        ])
+        .args(["simulate", "--fleet", "8", "--faulty"])
+        .arg((suite_fleet::FAULTY + 1).to_string())
+        .args(["--seed", &suite_fleet::SEED.to_string(), "--out"])
         .arg(&fleet)
         .arg("--setup")
-        .arg(&setup)
+        .arg(stored.setup_json())
         .output()
         .unwrap();
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-    assert!(String::from_utf8_lossy(&run.stdout).contains("faulty: unit-02"));
-    let truth: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(fleet.join("fleet-truth.json")).unwrap()).unwrap();
-    assert_eq!(truth["units"].as_array().unwrap().len(), 8);
-    assert_eq!(truth["units"][1]["faulty"], true);
+    assert!(String::from_utf8_lossy(&run.stdout).contains("faulty: unit-06"));
+    // The CLI's fleet is the suite's fleet, file for file.
+    let mut files = 0;
+    for unit in stored.unit_names() {
+        for name in crate::harness::listing(&stored.unit(&unit)) {
+            let ours = std::fs::read(fleet.join(&unit).join(&name)).unwrap();
+            assert!(
+                ours == std::fs::read(stored.unit(&unit).join(&name)).unwrap(),
+                "{unit}/{name}"
+            );
+            files += 1;
+        }
+    }
+    assert!(files >= 8 * 5, "{files} files");
+    assert_eq!(
+        std::fs::read(fleet.join("fleet-truth.json")).unwrap(),
+        std::fs::read(stored.units().join("fleet-truth.json")).unwrap()
+    );
 
     // Writing the fleet again refuses and changes nothing.
     let again = spincal()
@@ -46,7 +56,7 @@ fn a_simulated_fleet_is_calibrated_and_a_broken_unit_is_reported_alone() {
     assert_eq!(again.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&again.stderr).contains("already exists"));
 
-    // A ninth unit with a recording missing.
+    // A third unit with a recording missing.
     let broken = dir.path().join("broken");
     std::fs::create_dir(&broken).unwrap();
     for name in crate::harness::listing(&fleet.join("unit-01")) {
@@ -58,7 +68,7 @@ fn a_simulated_fleet_is_calibrated_and_a_broken_unit_is_reported_alone() {
     let out = dir.path().join("cal");
     let run = spincal()
         .arg("fleet")
-        .arg(&fleet)
+        .args(REFERENCE_UNITS.map(|u| stored.unit(u)))
         .arg(&broken)
         .arg("--out")
         .arg(&out)
@@ -72,36 +82,52 @@ fn a_simulated_fleet_is_calibrated_and_a_broken_unit_is_reported_alone() {
         stderr.contains("broken") && stderr.contains("still-poses.csv"),
         "{stderr}"
     );
-    assert!(stdout.contains("8 calibrated, 1 failed"), "{stdout}");
-    for unit in 1..=8 {
-        let unit_dir = out.join(format!("unit-{unit:02}"));
-        assert!(unit_dir.join("results.json").exists(), "unit-{unit:02}");
-        assert!(unit_dir.join("report.html").exists(), "unit-{unit:02}");
+    assert!(stdout.contains("2 calibrated, 1 failed"), "{stdout}");
+    for unit in REFERENCE_UNITS {
+        let unit_dir = out.join(unit);
+        assert!(unit_dir.join("report.html").exists(), "{unit}");
+        // The library's calibration of the same unit, to the byte.
+        let results = std::fs::read_to_string(unit_dir.join("results.json")).unwrap();
+        assert!(
+            comparable_results(&normalised(&results, &stored.units())) == stored.results(unit),
+            "{unit}: results.json differs from the library's"
+        );
+        let model = std::fs::read_to_string(unit_dir.join("model.json")).ok();
+        assert_eq!(
+            model.map(|m| normalised(&m, &stored.units())),
+            stored.model(unit),
+            "{unit}"
+        );
     }
     assert!(!out.join("broken").exists());
 
     let csv = std::fs::read_to_string(out.join("fleet.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
-    assert_eq!(lines.len(), 10, "{csv}");
+    assert_eq!(lines.len(), 4, "{csv}");
     assert!(
         lines[0].starts_with("unit,source,status,saved,held_out_rms (m/s²),bias_x (m/s²),bias_x SE (m/s²)")
     );
     assert!(
-        lines[9].starts_with("broken,") && lines[9].contains(",failed,"),
+        lines[3].starts_with("broken,") && lines[3].contains(",failed,"),
         "{}",
-        lines[9]
+        lines[3]
     );
 
+    // Two units are too few to judge outliers: nothing is flagged, and fleet.json says so.
     let table: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("fleet.json")).unwrap()).unwrap();
-    let flagged: Vec<&str> = table["rows"]
+    assert!(table["rows"]
         .as_array()
         .unwrap()
         .iter()
-        .filter(|r| !r["flags"].as_array().unwrap().is_empty())
-        .map(|r| r["unit"].as_str().unwrap())
-        .collect();
-    assert_eq!(flagged, ["unit-02"], "{stdout}");
+        .all(|r| r["flags"].as_array().unwrap().is_empty()));
+    let stats = table["stats"]
+        .as_array()
+        .expect("fleet.json has each parameter's statistics");
+    assert!(
+        !stats.is_empty() && stats.iter().all(|p| p["judged"] == false),
+        "{stdout}"
+    );
 
     // Every number in fleet.html is the one at its pointer in fleet.json.
     let html = std::fs::read_to_string(out.join("fleet.html")).unwrap();
@@ -118,25 +144,28 @@ fn a_simulated_fleet_is_calibrated_and_a_broken_unit_is_reported_alone() {
         }
         checked += 1;
     }
-    assert!(checked > 8 * 24, "only {checked} numbers tied to fleet.json");
+    assert!(checked > 2 * 24, "only {checked} numbers tied to fleet.json");
     assert!(html.contains("<svg"), "no plots");
 
-    // One unit of the fleet equals `calibrate --campaign` on the same campaign.
+    // The faulty unit alone: `calibrate --campaign` gives the fleet's results.
     let alone = dir.path().join("alone");
     let run = spincal()
         .args(["calibrate", "--campaign"])
-        .arg(fleet.join("unit-02").join("campaign.toml"))
+        .arg(stored.unit("unit-06").join("campaign.toml"))
         .arg("--out")
         .arg(&alone)
         .output()
         .unwrap();
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let a = std::fs::read_to_string(alone.join("results.json")).unwrap();
-    let b = std::fs::read_to_string(out.join("unit-02").join("results.json")).unwrap();
-    assert!(without_time(&a) == without_time(&b), "results.json differs");
+    let b = std::fs::read_to_string(out.join("unit-06").join("results.json")).unwrap();
+    assert!(
+        comparable_results(&a) == comparable_results(&b),
+        "results.json differs"
+    );
     assert_eq!(
         std::fs::read(alone.join("model.json")).ok(),
-        std::fs::read(out.join("unit-02").join("model.json")).ok()
+        std::fs::read(out.join("unit-06").join("model.json")).ok()
     );
 }
 

@@ -5,6 +5,8 @@
 
 mod common;
 mod harness;
+#[path = "../../spincal/tests/common/suite_fleet.rs"]
+mod suite_fleet;
 mod support;
 
 mod ann_cli;

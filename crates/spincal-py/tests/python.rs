@@ -5,13 +5,17 @@
 //! The package is assembled in a temporary folder (the pure-Python sources plus the freshly built
 //! `lib_spincal.so` as `spincal/_spincal.abi3.so`) and put first on `PYTHONPATH`; the venv at the
 //! repository root (`bash scripts/setup.sh`) provides numpy, pytest, pandas, tqdm and ray. The
-//! tests compare against the `spincal` binary of the same build.
+//! tests compare against the `spincal` binary of the same build, and the Ray tests against the
+//! suite's one fleet (`SPINCAL_SUITE_FLEET`, made by the library if the library's tests have not).
 //!
 //! Without the venv the test is skipped with the reason printed, unless
 //! `SPINCAL_REQUIRE_PYTHON=1` (CI), where it fails; pytest's own skips also fail then.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+#[path = "../../spincal/tests/common/suite_fleet.rs"]
+mod suite_fleet;
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -133,6 +137,9 @@ fn pytest_suite_passes_against_this_build() {
     let installed = package.join("_spincal.abi3.so");
     std::fs::copy(&module, &installed).unwrap();
 
+    // The suite's one fleet, which the Ray tests compare their calibrations with.
+    let stored = suite_fleet::suite_fleet();
+
     let tests = root().join("crates/spincal-py/tests/python");
     let mut command = Command::new(&python);
     command
@@ -142,6 +149,7 @@ fn pytest_suite_passes_against_this_build() {
         .env("PYTHONPATH", &package_root)
         .env("SPINCAL_CLI", &cli)
         .env("SPINCAL_EXPECT_MODULE", &installed)
+        .env("SPINCAL_SUITE_FLEET", &stored.dir)
         .env("PYTHONDONTWRITEBYTECODE", "1");
     let output = command.output().expect("running the venv's python");
     let stdout = String::from_utf8_lossy(&output.stdout);

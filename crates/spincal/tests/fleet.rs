@@ -9,38 +9,19 @@
 //!   other unit is flagged on anything;
 //! - a unit with a missing recording and a folder without campaign.toml fail with located
 //!   messages while every other unit is calibrated;
-//! - results are those of calibrating each unit alone (the CLI's path, on all threads), and the
+//! - results are those of calibrating a unit alone (the CLI's path, on all threads), and the
 //!   same with 1 and 2 fleet workers: results.json and model.json equal byte for byte, apart from
-//!   `seconds_total` and `stage_seconds` (wall time).
+//!   `seconds_total` and `stage_seconds` (wall time);
+//! - the units are the suite's one fleet (`common::suite_fleet`), stored for the CLI's and
+//!   Python's fleet tests or found equal to the stored calibration.
 
 use std::path::PathBuf;
 
+use crate::common::suite_fleet::{self, setup, SEED};
 use spincal::fleet::{
     calibrate_fleet, fleet_table, silent_fleet, FleetSettings, OutlierSettings, UnitOutcome,
 };
-use spincal::simulate::campaign::{CampaignSetup, RunSetup};
 use spincal::simulate::fleet::{simulate_fleet, FleetSetup};
-
-/// The default campaign with shorter turntable runs (30 s instead of 60 s) to keep the test short.
-fn setup() -> FleetSetup {
-    let base = CampaignSetup::default();
-    FleetSetup {
-        units: 8,
-        campaign: CampaignSetup {
-            runs: base
-                .runs
-                .iter()
-                .map(|r| RunSetup {
-                    duration_s: 30.0,
-                    ..r.clone()
-                })
-                .collect(),
-            ..base
-        },
-        faulty: vec![5],
-        ..FleetSetup::default()
-    }
-}
 
 /// results.json without the wall time, and model.json.
 fn comparable(outcome: &UnitOutcome) -> (String, Option<String>) {
@@ -54,7 +35,7 @@ fn comparable(outcome: &UnitOutcome) -> (String, Option<String>) {
 #[test]
 fn a_fleet_recovers_each_unit_flags_the_faulty_one_and_reports_broken_ones() {
     let dir = tempfile::tempdir().unwrap();
-    let fleet = simulate_fleet(&setup(), 2026).unwrap();
+    let fleet = simulate_fleet(&setup(), SEED).unwrap();
     let mut sources: Vec<PathBuf> = fleet.write_folders(dir.path()).unwrap();
     // A ninth unit whose turntable recording is missing, and a folder with no campaign at all.
     let broken = simulate_fleet(
@@ -177,9 +158,14 @@ fn a_fleet_recovers_each_unit_flags_the_faulty_one_and_reports_broken_ones() {
     assert_eq!(csv.lines().count(), 1 + sources.len());
     assert!(csv.lines().next().unwrap().contains("bias_x SE (m/s²)"), "{csv}");
 
-    // Each unit alone, on the CLI's path (all threads, conditions in parallel): the same bytes.
+    // The suite's one fleet: stored for the CLI's and Python's tests, or checked equal to the
+    // stored one (another process's calibration of the same units).
+    suite_fleet::record(&fleet, dir.path(), &good);
+
+    // A good unit and the faulty one alone, on the CLI's path (all threads, conditions in
+    // parallel): the same bytes.
     let started = std::time::Instant::now();
-    for outcome in &good {
+    for outcome in [good[0], good[suite_fleet::FAULTY]] {
         let campaign =
             spincal::campaign::file::Campaign::read_path(&outcome.source.join("campaign.toml")).unwrap();
         let alone = spincal::campaign::run::calibrate_campaign_file(
@@ -201,7 +187,7 @@ fn a_fleet_recovers_each_unit_flags_the_faulty_one_and_reports_broken_ones() {
             outcome.unit
         );
     }
-    println!("each unit alone: {:.1} s", started.elapsed().as_secs_f64());
+    println!("two units alone: {:.1} s", started.elapsed().as_secs_f64());
 
     // One worker: the same results (the faulty unit, a good one, the broken ones).
     let subset: Vec<PathBuf> = [0, 3, 6, sources.len() - 1].map(|i| sources[i].clone()).to_vec();
