@@ -10,6 +10,7 @@ use crate::correctors::gyro_poses::{fit_gyro_poses, still_poses, GyroPoseFit, Gy
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::correctors::static_cal::{
     fit_static, pose_means, spread_about, StaticCalError, StaticFit, StaticFitOptions, StaticModel,
+    POORLY_DETERMINED_FRACTION_OF_G,
 };
 use crate::correctors::static_detect::{
     detect_static, labelled_intervals, StaticDetectError, StaticOptions, StillInterval,
@@ -78,6 +79,8 @@ pub struct StaticCalibration {
     /// RMS of |mean| − g before calibration (only when the input is already m/s²).
     pub rms_before_mps2: Option<f64>,
     pub fit: StaticFit,
+    /// Set when the poses left the model asked for poorly determined and a smaller one is saved.
+    pub reduced: Option<ModelReduction>,
     /// The gyroscope's calibration, when there is a gyro.
     pub gyro: Option<GyroCalibration>,
 }
@@ -165,6 +168,66 @@ pub enum StaticCalibrationError {
     },
     #[error("calibrating the gyroscope of {source_name}: {reason}")]
     Gyro { source_name: String, reason: String },
+    #[error("the {intervals} still poses from {from} leave {} poorly determined even in the model of {} (1-σ effect on a 1 g reading above {} % of g), so no model is saved; {}", named(poorly_determined), StaticModel::BiasScale.describe(), 100.0 * POORLY_DETERMINED_FRACTION_OF_G, advice(poorly_determined))]
+    Undetermined {
+        intervals: usize,
+        from: String,
+        poorly_determined: Vec<(String, f64)>,
+    },
+}
+
+/// `name (± effect m/s²)`, comma-separated.
+fn named(parameters: &[(String, f64)]) -> String {
+    let named: Vec<String> = parameters
+        .iter()
+        .map(|(n, e)| format!("{n} (± {e:.3} m/s²)"))
+        .collect();
+    named.join(", ")
+}
+
+/// The poses that determine `parameters`: each axis up and down for a bias or a scale, tilts
+/// between two axes for a misalignment or a nonlinearity (with an axis level, a pose says
+/// nothing to first order about them).
+fn advice(parameters: &[(String, f64)]) -> String {
+    let axis_terms = parameters
+        .iter()
+        .any(|(n, _)| n.starts_with("bias") || n.starts_with("scale"));
+    let tilt_terms = parameters
+        .iter()
+        .any(|(n, _)| n.starts_with("misalignment") || n.starts_with("nonlinearity"));
+    let mut poses = Vec::new();
+    if axis_terms {
+        poses.push("poses with each axis pointing up and down");
+    }
+    if tilt_terms {
+        poses.push("poses tilted about 45° between two axes");
+    }
+    format!(
+        "record {}, each held still for a second or more",
+        poses.join(" and ")
+    )
+}
+
+/// A smaller model saved because the poses left the one asked for poorly determined.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelReduction {
+    pub requested: StaticModel,
+    /// The requested model's parameters the poses left poorly determined, with the 1-σ effect of
+    /// each on a 1 g reading, m/s².
+    pub poorly_determined: Vec<(String, f64)>,
+}
+
+impl ModelReduction {
+    /// One line: what was asked, what the poses left undetermined, what was saved.
+    pub fn sentence(&self, saved: StaticModel) -> String {
+        format!(
+            "the poses leave {} poorly determined in the model of {}, so the model of {} is saved (every parameter of it determined); to fit the larger one, {}",
+            named(&self.poorly_determined),
+            self.requested.describe(),
+            saved.describe(),
+            advice(&self.poorly_determined)
+        )
+    }
 }
 
 /// Calibrates a still recording (see the module's documentation).
@@ -184,18 +247,17 @@ pub fn calibrate_static(
         ),
     };
     let means = pose_means(&intervals);
-    let fit = fit_static(
-        &means,
-        &StaticFitOptions {
-            model: settings.model,
-            gravity_mps2: settings.gravity_mps2,
-            input_unit: if input.raw_counts { "counts" } else { "m/s^2" }.into(),
+    let (fit, reduced) = fit_determined(&means, settings, input.raw_counts).map_err(|e| match e {
+        Undetermined::Fit(source) => StaticCalibrationError::Fit {
+            intervals: intervals.len(),
+            from: from.to_string(),
+            source,
         },
-    )
-    .map_err(|source| StaticCalibrationError::Fit {
-        intervals: intervals.len(),
-        from: from.to_string(),
-        source,
+        Undetermined::Poorly(poorly_determined) => StaticCalibrationError::Undetermined {
+            intervals: intervals.len(),
+            from: from.to_string(),
+            poorly_determined,
+        },
     })?;
     let rms_before_mps2 = (!input.raw_counts).then(|| {
         let norms: Vec<f64> = means
@@ -244,8 +306,57 @@ pub fn calibrate_static(
         intervals,
         rms_before_mps2,
         fit,
+        reduced,
         gyro,
     })
+}
+
+enum Undetermined {
+    Fit(StaticCalError),
+    Poorly(Vec<(String, f64)>),
+}
+
+/// The model asked for when the poses determine every parameter of it; else the next smaller
+/// one that they do (misalignment before scale and bias), with what the larger left undetermined.
+/// A model is never saved with a parameter the poses leave poorly determined.
+fn fit_determined(
+    means: &[[f64; 3]],
+    settings: &StaticSettings,
+    raw_counts: bool,
+) -> Result<(StaticFit, Option<ModelReduction>), Undetermined> {
+    let mut first_poor: Option<Vec<(String, f64)>> = None;
+    let mut model = settings.model;
+    loop {
+        let fit = fit_static(
+            means,
+            &StaticFitOptions {
+                model,
+                gravity_mps2: settings.gravity_mps2,
+                input_unit: if raw_counts { "counts" } else { "m/s^2" }.into(),
+            },
+        );
+        let fit = match (fit, &first_poor) {
+            (Ok(fit), _) => fit,
+            // Too few poses for the smaller model: report what the larger left undetermined.
+            (Err(_), Some(poor)) => return Err(Undetermined::Poorly(poor.clone())),
+            (Err(e), None) => return Err(Undetermined::Fit(e)),
+        };
+        let poor = fit.poorly_determined();
+        if poor.is_empty() {
+            let reduced = first_poor.map(|poorly_determined| ModelReduction {
+                requested: settings.model,
+                poorly_determined,
+            });
+            return Ok((fit, reduced));
+        }
+        let smaller = match model {
+            StaticModel::Nonlinear => StaticModel::Misalignment,
+            StaticModel::Misalignment => StaticModel::BiasScale,
+            StaticModel::BiasScale => return Err(Undetermined::Poorly(first_poor.unwrap_or(poor))),
+        };
+        first_poor.get_or_insert(poor);
+        model = smaller;
+    }
 }
 
 #[cfg(test)]
@@ -269,6 +380,88 @@ mod tests {
             source: "gyro.txt".into(),
         };
         (recording, gyro, setup)
+    }
+
+    /// Pose means of a sensor with bias, scale and a small misalignment, 1 mg of noise.
+    fn means(directions: &[[f64; 3]], seed: u64) -> Vec<[f64; 3]> {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let noise = Normal::new(0.0, 0.01).unwrap();
+        let g = crate::input::recording::STANDARD_GRAVITY;
+        directions
+            .iter()
+            .map(|d| {
+                let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                let u = d.map(|v| v / n);
+                let tilted = [u[0] + 0.004 * u[1], u[1] - 0.003 * u[2], u[2] + 0.002 * u[0]];
+                std::array::from_fn(|k| {
+                    [1.02, 0.99, 1.01][k] * g * tilted[k] + [0.2, -0.1, 0.15][k] + noise.sample(&mut rng)
+                })
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_model_the_poses_do_not_determine_is_never_saved() {
+        let faces = [
+            [1.0, 0.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+        ];
+        let settings = StaticSettings::default();
+        // Six faces twice: an axis level says nothing about the misalignments, so the 9-term
+        // model gives way to bias and scale, and the reason is kept.
+        let level: Vec<[f64; 3]> = faces.iter().chain(&faces).copied().collect();
+        let (fit, reduced) = fit_determined(&means(&level, 1), &settings, false).ok().unwrap();
+        assert_eq!(fit.calibration.model, StaticModel::BiasScale);
+        let reduced = reduced.expect("the reduction is reported");
+        assert_eq!(reduced.requested, StaticModel::Misalignment);
+        let names: Vec<&str> = reduced
+            .poorly_determined
+            .iter()
+            .map(|(n, _)| n.as_str())
+            .collect();
+        assert!(names.contains(&"misalignment_yz"), "{names:?}");
+        assert!(reduced
+            .sentence(fit.calibration.model)
+            .contains("tilted about 45°"));
+        // Tilts between the axes determine them: the 9-term model is kept.
+        let tilted: Vec<[f64; 3]> = level
+            .iter()
+            .copied()
+            .chain([
+                [1.0, 1.0, 0.0],
+                [0.0, 1.0, 1.0],
+                [1.0, 0.0, 1.0],
+                [-1.0, 1.0, 0.0],
+                [0.0, -1.0, 1.0],
+                [1.0, 0.0, -1.0],
+            ])
+            .collect();
+        let (fit, reduced) = fit_determined(&means(&tilted, 2), &settings, false).ok().unwrap();
+        assert_eq!(fit.calibration.model, StaticModel::Misalignment);
+        assert!(reduced.is_none());
+        // Never +x or −x: bias_x and scale_x cannot be told apart in any model.
+        let no_x: Vec<[f64; 3]> = (0..12)
+            .map(|k| {
+                let a = k as f64 * 0.5;
+                [0.0, a.cos(), a.sin()]
+            })
+            .collect();
+        match fit_determined(&means(&no_x, 3), &settings, false) {
+            Err(Undetermined::Poorly(poor)) => {
+                assert!(
+                    poor.iter().any(|(n, _)| n == "bias_x" || n == "scale_x"),
+                    "{poor:?}"
+                )
+            }
+            Err(Undetermined::Fit(e)) => panic!("{e}"),
+            Ok((fit, _)) => panic!("saved {:?}", fit.calibration.model),
+        }
     }
 
     #[test]

@@ -46,16 +46,16 @@ pub struct StaticArgs {
     #[arg(long)]
     pub detect: bool,
     /// Initial still period that sets the noise level, s.
-    #[arg(long, default_value_t = 3.0, value_parser = super::values::positive, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = StaticOptions::default().init_s, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub init: f64,
     /// Still where the moving variance is below this many times the initial one.
-    #[arg(long, default_value_t = 3.0, value_parser = super::values::positive, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = StaticOptions::default().threshold_factor, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub threshold_factor: f64,
     /// Moving-variance window, s.
-    #[arg(long, default_value_t = 1.0, value_parser = super::values::positive, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = StaticOptions::default().window_s, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub window: f64,
     /// Shortest still interval used, s.
-    #[arg(long, default_value_t = 2.0, value_parser = super::values::positive, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = StaticOptions::default().min_interval_s, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub min_interval: f64,
     /// Also calibrate the gyroscope, read from this file (imu_tk's layout `t gx gy gz`, rad/s or
     /// raw counts) sampled beside the recording, from the still poses and the rotations between
@@ -180,7 +180,7 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     s += &format!("bias [{}]: {:?}\n", c.input_unit, c.bias);
     s += &format!("scale [m/s² per {}]: {:?}\n", c.input_unit, c.scale);
     s += &format!("misalignment [α_yz, α_zy, α_zx]: {:?}\n", c.misalignment);
-    if settings.model == StaticModel::Nonlinear {
+    if c.model == StaticModel::Nonlinear {
         s += &format!("nonlinearity [1/(m/s²)]: {:?}\n", c.nonlinearity);
     }
     if fit.param_std.is_empty() {
@@ -189,14 +189,8 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         let std: Vec<String> = fit.param_std.iter().map(|v| format!("{v:.3e}")).collect();
         s += &format!("1-σ uncertainties [b, s, α, q]: [{}]\n", std.join(", "));
     }
-    let poor = fit.poorly_determined();
-    if !poor.is_empty() {
-        let named: Vec<String> = poor.iter().map(|(n, e)| format!("{n} (± {e:.3} m/s²)")).collect();
-        eprintln!(
-            "warning: the poses leave {} poorly determined (1-σ effect on a 1 g reading above {} % of g); record more poses with each axis pointing up and down, or use a smaller model (--model 6)",
-            named.join(", "),
-            100.0 * spincal::correctors::static_cal::POORLY_DETERMINED_FRACTION_OF_G
-        );
+    if let Some(reduced) = &calibration.reduced {
+        eprintln!("note: {}", reduced.sentence(c.model));
     }
     if let Some(b) = calibration.rms_before_mps2 {
         s += &format!("RMS of |a| − g over the poses before: {b:.6} m/s²\n");

@@ -964,7 +964,9 @@ def static_calibration(
     static`` makes: still intervals found by moving variance, then bias, scale and misalignment
     fitted to gravity, and the recording's own gyro (when it has one) from those poses and the
     rotations between them. A setting left ``None`` takes ``spincal static``'s default (standard
-    gravity, a 3 s initial still period, a 1 s window, threshold ×3, intervals of 2 s or more).
+    gravity, a 3 s initial still period, a 1 s window, threshold ×3, intervals of 1 s or more).
+    A model the poses leave a parameter of poorly determined is never returned: the next smaller
+    one they determine is (``result.reduced`` says why), or :class:`Error` when none is.
     Returns the :class:`StaticResult` and the ``static`` :class:`Corrector`.
 
     Example::

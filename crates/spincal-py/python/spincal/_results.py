@@ -239,8 +239,10 @@ class CampaignResult(Result):
 
 class StaticResult(Result):
     """Static calibration: ``intervals`` (the still intervals used) and ``intervals_from``,
-    ``fit`` (the calibration, pose norms, residuals), ``rms_before_mps2``, and ``gyro`` (the
-    gyroscope's fit or why it failed, when the recording has a gyro)."""
+    ``fit`` (the calibration, pose norms, residuals), ``rms_before_mps2``, ``reduced`` (set when
+    the poses left the model asked for poorly determined and a smaller one was fitted: the model
+    asked for and the parameters it left open), and ``gyro`` (the gyroscope's fit or why it
+    failed, when the recording has a gyro)."""
 
 
 class AllanResult(Result):
