@@ -44,6 +44,8 @@ pub enum OutputError {
     Reserved { path: String },
     #[error("{path}: is a file, not a folder; name a folder for the outputs (it is made if missing)")]
     NotAFolder { path: String },
+    #[error("{path}: cannot write: the folder {folder} does not exist; create it first or name a file in an existing folder")]
+    MissingFolder { path: String, folder: String },
     #[error("{path}: cannot write: {source}")]
     Io {
         path: String,
@@ -53,9 +55,18 @@ pub enum OutputError {
 }
 
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
-    move |source| OutputError::Io {
-        path: path.display().to_string(),
-        source,
+    move |source| {
+        let missing_folder = path.parent().filter(|p| !p.as_os_str().is_empty() && !p.exists());
+        match missing_folder {
+            Some(folder) if source.kind() == std::io::ErrorKind::NotFound => OutputError::MissingFolder {
+                path: path.display().to_string(),
+                folder: folder.display().to_string(),
+            },
+            _ => OutputError::Io {
+                path: path.display().to_string(),
+                source,
+            },
+        }
     }
 }
 
@@ -805,6 +816,18 @@ mod tests {
         write_bytes(&path, b"new").unwrap();
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "new");
         assert_eq!(listing(dir.path()), ["out.csv"]);
+    }
+
+    #[test]
+    fn a_missing_folder_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("absent").join("cal.json");
+        let e = write_bytes(&path, b"{}").unwrap_err().to_string();
+        assert!(
+            e.contains("the folder") && e.contains("absent") && e.contains("does not exist"),
+            "{e}"
+        );
+        assert!(!dir.path().join("absent").exists());
     }
 
     /// Only a name `.<name>.spincal-<pid>-<n>.tmp` is a temporary's; only a gone writer's is removed.
