@@ -79,7 +79,9 @@ fn still(dir: &Path, duration_s: f64, gyro_span: (f64, f64)) -> (PathBuf, PathBu
 
 /// The number in `text` just before `marker` (`… 812 samples outside …`).
 fn count_before(text: &str, marker: &str) -> usize {
-    let head = &text[..text.find(marker).unwrap_or_else(|| panic!("{marker:?} in {text}"))];
+    let head = &text[..text
+        .find(marker)
+        .unwrap_or_else(|| panic!("{marker:?} in {text}"))];
     head.split_whitespace().last().unwrap().parse().unwrap()
 }
 
@@ -96,7 +98,9 @@ fn names_both_spans(stderr: &str, gyro: &Path) {
 fn correct_merges_the_gyro_in_its_stream_and_marks_the_rows_outside_it() {
     let dir = tempfile::tempdir().unwrap();
     let (acc, gyr) = still(dir.path(), 20.0, (3.0, 18.0));
-    let mut file = CorrectorFile::new(CorrectorModel::Static(Box::new(StaticCalibration::identity(9.81))));
+    let mut file = CorrectorFile::new(CorrectorModel::Static(Box::new(StaticCalibration::identity(
+        9.81,
+    ))));
     let mut gyro = GyroModel::IDEAL;
     gyro.bias_radps = [0.01, -0.02, 0.005];
     file.gyro = Some(gyro);
@@ -115,7 +119,10 @@ fn correct_merges_the_gyro_in_its_stream_and_marks_the_rows_outside_it() {
             .arg(&out),
     );
     assert_eq!(code, 0, "{stderr}");
-    assert!(stderr.contains("interpolated linearly onto the input's 2001 rows"), "{stderr}");
+    assert!(
+        stderr.contains("interpolated linearly onto the input's 2001 rows"),
+        "{stderr}"
+    );
     let outside = count_before(&stderr, "rows outside its span");
     // 0–3 s and 18–20 s: about 500 rows.
     assert!((480..=520).contains(&outside), "{stderr}");
@@ -150,9 +157,11 @@ fn correct_merges_the_gyro_in_its_stream_and_marks_the_rows_outside_it() {
 
     // A model without a gyro calibration: the gyro file has nothing to correct.
     let plain = dir.path().join("plain.json");
-    CorrectorFile::new(CorrectorModel::Static(Box::new(StaticCalibration::identity(9.81))))
-        .write_path(&plain)
-        .unwrap();
+    CorrectorFile::new(CorrectorModel::Static(Box::new(StaticCalibration::identity(
+        9.81,
+    ))))
+    .write_path(&plain)
+    .unwrap();
     let (code, _, stderr) = outcome(
         spincal()
             .args(["correct", "--model"])
@@ -187,7 +196,10 @@ fn allan_merges_the_gyro_on_time_and_analyses_the_covered_samples() {
     // interpolation between 190 Hz samples lowers it; within a factor of two.
     let density = report["gyro_params"]["noise_density"][0].as_f64().unwrap();
     let white = 0.002 / 3f64.sqrt() / 100f64.sqrt();
-    assert!(density > 0.3 * white && density < 1.5 * white, "{density} vs {white}");
+    assert!(
+        density > 0.3 * white && density < 1.5 * white,
+        "{density} vs {white}"
+    );
     assert_eq!(contents(&[&acc, &gyr]), before);
 
     let (_, far) = still(dir.path(), 60.0, (40.0, 100.0));
@@ -205,7 +217,12 @@ fn static_merges_a_gyro_file_on_its_own_clock() {
     let n = s.time_s.len();
     let write = |name: &str, v: &[Vec<f64>; 3], rows: std::ops::Range<usize>| {
         let text: String = rows
-            .map(|i| format!("{:.5} {:.3} {:.3} {:.3}\n", s.time_s[i], v[0][i], v[1][i], v[2][i]))
+            .map(|i| {
+                format!(
+                    "{:.5} {:.3} {:.3} {:.3}\n",
+                    s.time_s[i], v[0][i], v[1][i], v[2][i]
+                )
+            })
             .collect();
         let path = dir.path().join(name);
         std::fs::write(&path, text).unwrap();
@@ -247,7 +264,13 @@ fn turntable_pair(dir: &Path, gyro_span: (f64, f64)) -> (PathBuf, PathBuf) {
     let unit = header[ax].trim_start_matches("ax");
     std::fs::write(&accel_path, format!("t_s,ax{unit},ay{unit},az{unit}\n{accel}")).unwrap();
     // The platter's rate: a constant about z, as the gyro would read it.
-    let (_, gyr) = pair(dir, 0.0, gyro_span, |_, _| [0.0; 3], |_, _| [0.0, 0.0, 3.5]);
+    let (_, gyr) = pair(
+        dir,
+        0.0,
+        gyro_span,
+        |_, _| [0.0; 3],
+        |_, rng| [0.0, 0.0, 3.5].map(|v| v + 0.01 * rng.gen_range(-1.0..1.0)),
+    );
     (accel_path, gyr)
 }
 
@@ -258,7 +281,10 @@ fn fit_merges_each_recordings_gyro_file() {
     let before = contents(&[&run, &gyr]);
     let (code, stdout, stderr) = outcome(spincal().arg("fit").arg(&run).arg("--gyro-file").arg(&gyr));
     assert_eq!(code, 0, "{stderr}");
-    assert!(stderr.contains("samples outside its span or in its gaps"), "{stderr}");
+    assert!(
+        stderr.contains("samples outside its span or in its gaps"),
+        "{stderr}"
+    );
     assert!(!stdout.is_empty());
     assert_eq!(contents(&[&run, &gyr]), before);
     // One gyro file for two recordings: which is whose is not known.
@@ -271,7 +297,10 @@ fn fit_merges_each_recordings_gyro_file() {
             .arg(&gyr),
     );
     assert_eq!(code, 2, "{stderr}");
-    assert!(stderr.contains("--gyro-file names 1 file(s) for 2 recording(s)"), "{stderr}");
+    assert!(
+        stderr.contains("--gyro-file names 1 file(s) for 2 recording(s)"),
+        "{stderr}"
+    );
 }
 
 #[test]

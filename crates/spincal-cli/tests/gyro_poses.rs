@@ -306,7 +306,10 @@ fn bad_gyro_input_is_refused_with_its_location() {
             .arg(&short)
             .args(["--sample-rate", "100"]),
     );
-    assert!(e.contains("short.txt") && e.contains("samples") && e.contains("as long"), "{e}");
+    assert!(
+        e.contains("short.txt") && e.contains("samples") && e.contains("as long"),
+        "{e}"
+    );
 
     // NaN in the gyro: named by sample (the reader or the fit, whichever sees it first).
     let nan = dir.path().join("nan.txt");

@@ -145,7 +145,9 @@ impl PyCorrector {
             accel_scale,
             retime,
         )?;
-        let inputs: Vec<&std::path::Path> = std::iter::once(input.as_path()).chain(gyro_file.as_deref()).collect();
+        let inputs: Vec<&std::path::Path> = std::iter::once(input.as_path())
+            .chain(gyro_file.as_deref())
+            .collect();
         spincal::output::check_outputs(&inputs, &[&output]).map_err(errors::usage_error)?;
         spincal::output::claim_outputs(&[&output], force).map_err(errors::usage_error)?;
         let summary = py

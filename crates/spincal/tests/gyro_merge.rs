@@ -28,7 +28,14 @@ fn truth(t: f64) -> [f64; 3] {
 }
 
 /// Times at `rate_hz` from `from_s` to `to_s`, each moved by up to ±`jitter_s`, none in `gap`.
-fn clock(rng: &mut ChaCha8Rng, rate_hz: f64, from_s: f64, to_s: f64, jitter_s: f64, gap: Option<(f64, f64)>) -> Vec<f64> {
+fn clock(
+    rng: &mut ChaCha8Rng,
+    rate_hz: f64,
+    from_s: f64,
+    to_s: f64,
+    jitter_s: f64,
+    gap: Option<(f64, f64)>,
+) -> Vec<f64> {
     let n = ((to_s - from_s) * rate_hz) as usize;
     (0..=n)
         .map(|i| from_s + i as f64 / rate_hz + rng.gen_range(-jitter_s..jitter_s))
@@ -119,7 +126,9 @@ fn a_gyro_on_its_own_clock_is_merged_within_interpolation_error_and_the_uncovere
     let note = attach_gyro_file(&mut loaded, &s.gyro, &ReadOptions::default()).unwrap();
     let rec = &loaded.recording;
     assert_eq!(rec.len(), s.accel_t.len() - outside);
-    assert!(note.unwrap().contains(&format!("{outside} samples outside its span")));
+    assert!(note
+        .unwrap()
+        .contains(&format!("{outside} samples outside its span")));
     let gyro = rec.gyro_radps.as_ref().unwrap();
     let kept: Vec<f64> = (s.accel_t.iter().zip(&expected))
         .filter(|(_, c)| **c)
@@ -129,14 +138,21 @@ fn a_gyro_on_its_own_clock_is_merged_within_interpolation_error_and_the_uncovere
     for (i, &t) in rec.time_s.iter().enumerate() {
         let w = truth(t);
         for a in 0..3 {
-            assert!((gyro[a][i] - w[a]).abs() <= bound[a], "t {t} axis {a}: {} vs {}", gyro[a][i], w[a]);
+            assert!(
+                (gyro[a][i] - w[a]).abs() <= bound[a],
+                "t {t} axis {a}: {} vs {}",
+                gyro[a][i],
+                w[a]
+            );
         }
     }
 }
 
 /// A static calibration that removes nothing, with a gyro calibration that removes 0.01 rad/s on x.
 fn model() -> CorrectorFile {
-    let mut file = CorrectorFile::new(CorrectorModel::Static(Box::new(StaticCalibration::identity(9.81))));
+    let mut file = CorrectorFile::new(CorrectorModel::Static(Box::new(StaticCalibration::identity(
+        9.81,
+    ))));
     let mut gyro = GyroModel::IDEAL;
     gyro.bias_radps = [0.01, 0.0, 0.0];
     file.gyro = Some(gyro);
@@ -144,7 +160,10 @@ fn model() -> CorrectorFile {
 }
 
 fn column(header: &[&str], name: &str) -> usize {
-    header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("{name} in {header:?}"))
+    header
+        .iter()
+        .position(|h| *h == name)
+        .unwrap_or_else(|| panic!("{name} in {header:?}"))
 }
 
 #[test]
@@ -153,7 +172,14 @@ fn the_stream_merges_on_time_and_writes_every_row_marking_those_outside_the_gyro
     let expected = covered(&s.accel_t, &s.gyro_t);
     let bound = bound(&s.gyro_t);
     let mut out = Vec::new();
-    let summary = correct_to_writer(&model(), &s.accel, &ReadOptions::default(), Some(&s.gyro), &mut out).unwrap();
+    let summary = correct_to_writer(
+        &model(),
+        &s.accel,
+        &ReadOptions::default(),
+        Some(&s.gyro),
+        &mut out,
+    )
+    .unwrap();
     let text = String::from_utf8(out).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
@@ -185,14 +211,22 @@ fn the_stream_merges_on_time_and_writes_every_row_marking_those_outside_the_gyro
             let why = row[status].trim_matches('"');
             assert!(why.starts_with(&format!("no-gyro: line {}, ", k + 2)), "{why}");
             before += usize::from(why.contains("before the gyro's first sample"));
-            gap += usize::from(why.contains("in a gap of the gyro (10.0") || why.contains("in a gap of the gyro (9.99"));
+            gap += usize::from(
+                why.contains("in a gap of the gyro (10.0") || why.contains("in a gap of the gyro (9.99"),
+            );
             after += usize::from(why.contains("after the gyro's last sample"));
         }
     }
     assert!(before > 150 && gap > 30 && after > 250, "{before} {gap} {after}");
     assert_eq!(before + gap + after, summary.no_gyro);
-    assert!(summary.warnings().iter().any(|w| w.contains("outside the gyro file's span")));
-    assert!(summary.notes.iter().any(|n| n.contains("interpolated linearly onto the input's")));
+    assert!(summary
+        .warnings()
+        .iter()
+        .any(|w| w.contains("outside the gyro file's span")));
+    assert!(summary
+        .notes
+        .iter()
+        .any(|n| n.contains("interpolated linearly onto the input's")));
 
     // The file read whole (a scale makes it so) gives the same gyro values by the same rule.
     let whole = ReadOptions {
@@ -229,8 +263,14 @@ fn under_half_overlap_is_refused_naming_both_spans() {
     let spans = |e: &dyn std::fmt::Display| {
         let m = e.to_string();
         assert!(m.contains("gyro.txt"), "{m}");
-        assert!(m.contains(&format!("the gyro file's span ({gyro_span}")), "{m} / {gyro_span}");
-        assert!(m.contains(&format!("the recording's {accel_span}")), "{m} / {accel_span}");
+        assert!(
+            m.contains(&format!("the gyro file's span ({gyro_span}")),
+            "{m} / {gyro_span}"
+        );
+        assert!(
+            m.contains(&format!("the recording's {accel_span}")),
+            "{m} / {accel_span}"
+        );
     };
     let mut loaded = read_path(&s.accel, &ReadOptions::default()).unwrap();
     let e = attach_gyro_file(&mut loaded, &s.gyro, &ReadOptions::default()).unwrap_err();
@@ -238,9 +278,22 @@ fn under_half_overlap_is_refused_naming_both_spans() {
     spans(&e);
     // The stream refuses it too, and a file output is not written.
     let output = s.accel.with_file_name("corrected.csv");
-    let e = correct_to_path(&model(), &s.accel, &ReadOptions::default(), Some(&s.gyro), &output).unwrap_err();
-    assert!(matches!(&e, CorrectError::Gyro(g) if matches!(**g, GyroFileError::NoOverlap { .. })), "{e}");
+    let e = correct_to_path(
+        &model(),
+        &s.accel,
+        &ReadOptions::default(),
+        Some(&s.gyro),
+        &output,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(&e, CorrectError::Gyro(g) if matches!(**g, GyroFileError::NoOverlap { .. })),
+        "{e}"
+    );
     spans(&e);
     assert!(!output.exists());
-    assert_eq!((checksum(&s.accel), checksum(&s.gyro)), (accel_before, gyro_before));
+    assert_eq!(
+        (checksum(&s.accel), checksum(&s.gyro)),
+        (accel_before, gyro_before)
+    );
 }

@@ -74,7 +74,10 @@ pub fn gyro_columns(
         Some(path) => {
             let note = attach_gyro_file(loaded, path, options)?;
             let name = path.display().to_string();
-            Ok((GyroColumns::of(&loaded.recording, loaded.gyro_counts, &name), note))
+            Ok((
+                GyroColumns::of(&loaded.recording, loaded.gyro_counts, &name),
+                note,
+            ))
         }
         None => Ok((
             GyroColumns::of(&loaded.recording, loaded.gyro_counts, recording_name),
@@ -144,7 +147,8 @@ pub(crate) struct GyroFile {
 /// scale.
 pub(crate) fn read_gyro_file(path: &Path, options: &ReadOptions) -> Result<GyroFile, GyroFileError> {
     let loaded = formats::read_path(path, options)?;
-    let timed = options.sample_rate_hz.is_none() && !matches!(loaded.format, Format::Imucal | Format::Mpu6050);
+    let timed =
+        options.sample_rate_hz.is_none() && !matches!(loaded.format, Format::Imucal | Format::Mpu6050);
     let g = loaded.recording;
     let (values, reader_counts) = match g.gyro_radps {
         Some(values) => (values, loaded.gyro_counts),
@@ -312,7 +316,8 @@ mod tests {
             "far.csv",
             (0..2000).map(|i| format!("{:.6} 0 0 0", 20.0 + i as f64 / 200.0)),
         );
-        let e = attach_gyro_file(&mut recording(1000, 100.0, 0.0), &far, &ReadOptions::default()).unwrap_err();
+        let e =
+            attach_gyro_file(&mut recording(1000, 100.0, 0.0), &far, &ReadOptions::default()).unwrap_err();
         assert!(matches!(e, GyroFileError::NoOverlap { covered: 0, .. }), "{e}");
         assert!(e.to_string().contains("20.000–29.995 s"), "{e}");
         // Without a time of its own (time from a sample rate): sample for sample, no note, and
@@ -331,7 +336,17 @@ mod tests {
         assert_eq!((loaded.recording.len(), note), (1000, None));
         assert_eq!(loaded.recording.gyro_radps.unwrap()[0][999], 0.5);
         let e = attach_gyro_file(&mut recording(999, 100.0, 0.0), &untimed, &rate).unwrap_err();
-        assert!(matches!(e, GyroFileError::Length { found: 1000, expected: 999, .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                GyroFileError::Length {
+                    found: 1000,
+                    expected: 999,
+                    ..
+                }
+            ),
+            "{e}"
+        );
         // A recording with gyro columns of its own takes no second one.
         let mut own = recording(1000, 100.0, 0.0);
         own.recording.gyro_radps = Some(std::array::from_fn(|_| vec![0.0; 1000]));

@@ -14,7 +14,9 @@ use std::path::Path;
 
 use super::CorrectError;
 use crate::input::formats::{whitespace_map, ReadOptions};
-use crate::input::gyro_file::{gyro_read_options, read_gyro_file, GyroFileError, GYRO_COUNTS_RADPS, GYRO_GAP_INTERVALS};
+use crate::input::gyro_file::{
+    gyro_read_options, read_gyro_file, GyroFileError, GYRO_COUNTS_RADPS, GYRO_GAP_INTERVALS,
+};
 use crate::input::recording::{sample_interval, Bracket, ColumnPlan, RecordingError, Uncovered};
 use crate::input::table::{display_name, Location, Record, RowReader};
 
@@ -91,7 +93,9 @@ impl GyroRows {
         }
         let k = plan.time_to_s();
         let mut times: Vec<f64> = raw.iter().map(|(_, t, _)| t * k).collect();
-        let notes = plan.settle_time(&mut times, &name, &[]).map_err(RecordingError::from)?;
+        let notes = plan
+            .settle_time(&mut times, &name, &[])
+            .map_err(RecordingError::from)?;
         rows.time_to_s = plan.time_to_s();
         for (line, t, v) in raw {
             let sample = rows.checked(line, t, v)?;
@@ -205,7 +209,13 @@ impl GyroMerge {
         } else {
             let (rows, notes, counts) = GyroRows::open(path, &options)?;
             let times: Vec<f64> = rows.ahead.iter().map(|(t, _)| *t).collect();
-            (Samples::Rows(Box::new(rows)), true, counts, sample_interval(&times), notes)
+            (
+                Samples::Rows(Box::new(rows)),
+                true,
+                counts,
+                sample_interval(&times),
+                notes,
+            )
         };
         Ok(GyroMerge {
             file,
@@ -283,18 +293,20 @@ impl GyroMerge {
                 to_s: self.rows_last_s,
             }));
         }
-        let mut notes: Vec<String> = self.notes.iter().map(|n| format!("{}: {n}", self.file)).collect();
+        let mut notes: Vec<String> = (self.notes.iter())
+            .map(|n| format!("the gyroscope of {}: {n}", self.file))
+            .collect();
         if let Samples::Rows(rows) = &self.samples {
             if rows.left_out > 0 {
                 notes.push(format!(
-                    "{}: {} gyro rows without every value left out",
+                    "the gyroscope of {}: {} rows without every value left out",
                     self.file, rows.left_out
                 ));
             }
         }
         notes.push(if self.timed {
             format!(
-                "{}: the gyroscope ({} samples, {:.1} Hz) interpolated linearly onto the input's {} rows; {} rows outside its span or in its gaps (> {GYRO_GAP_INTERVALS} intervals) written without it (status no-gyro)",
+                "the gyroscope of {} ({} samples, {:.1} Hz) interpolated linearly onto the input's {} rows; {} rows outside its span or in its gaps (> {GYRO_GAP_INTERVALS} intervals) written without it (status no-gyro)",
                 self.file,
                 self.given,
                 1.0 / self.interval_s,
@@ -303,7 +315,7 @@ impl GyroMerge {
             )
         } else {
             format!(
-                "{}: no time column: its {} samples taken sample for sample",
+                "the gyroscope of {} has no time column: its {} samples taken sample for sample",
                 self.file, self.given
             )
         });

@@ -153,7 +153,13 @@ mod tests {
             Ok(source_time.get(k - 1).map(|&t| (t, [t, 2.0 * t, 0.0])))
         };
         assert_eq!(b.at(0.5, &mut next), Ok(Err(Uncovered::Before { first_s: 1.0 })));
-        assert_eq!(b.at(5.0, &mut next), Ok(Err(Uncovered::Gap { from_s: 3.0, to_s: 10.0 })));
+        assert_eq!(
+            b.at(5.0, &mut next),
+            Ok(Err(Uncovered::Gap {
+                from_s: 3.0,
+                to_s: 10.0
+            }))
+        );
         assert_eq!(b.at(12.0, &mut next), Ok(Err(Uncovered::After { last_s: 11.0 })));
     }
 }
