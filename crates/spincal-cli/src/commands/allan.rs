@@ -86,7 +86,7 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     };
     let options = args.input.read.options()?;
     let (gyro, note) = gyro_columns(args.gyro_file.as_deref(), &mut loaded, &name, &options)?;
-    super::input::print_gyro_note(note);
+    super::gyro_file::print_gyro_note(note);
     if let (Some(_), None) = (&args.kalibr, &gyro) {
         return Err(UsageError(format!(
             "{name}: no gyro columns, and Kalibr's file needs the gyroscope's noise too (pass --columns t,ax,ay,az,gx,gy,gz)"

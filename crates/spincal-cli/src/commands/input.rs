@@ -179,7 +179,8 @@ impl ReadArgs {
         loaded
     }
 
-    /// Reads one recording in SI units, with the gyro of `gyro_file` when given ([`attach_gyro`]);
+    /// Reads one recording in SI units, with the gyro of `gyro_file` when given (merged on time,
+    /// or sample for sample without a time column);
     /// a file of raw counts without a scale is refused.
     pub fn read(&self, path: &Path, gyro_file: Option<&Path>) -> anyhow::Result<Recording> {
         let options = self.options()?;
@@ -187,14 +188,7 @@ impl ReadArgs {
             formats::read_path(path, &options).with_context(|| format!("reading {}", path.display()))?;
         warn_left_out(path, &loaded.recording);
         if let Some(gyro) = gyro_file {
-            attach_gyro(&mut loaded, gyro, &options)?;
-            if loaded.gyro_counts {
-                return Err(UsageError(format!(
-                    "{}: the gyro values look like raw counts (an axis's mean beyond any rate); give --gyro-range-dps or --gyro-scale",
-                    gyro.display()
-                ))
-                .into());
-            }
+            super::gyro_file::attach_in_si(&mut loaded, gyro, &options)?;
         }
         if loaded.gyro_counts {
             // Raw gyro counts are not rad/s; without a gyro scale they are left out.
@@ -209,21 +203,6 @@ impl ReadArgs {
             .into());
         }
         Ok(loaded.recording)
-    }
-}
-
-/// Attaches the gyro of the file `gyro` to `loaded` by the library's one rule (merged on time, or
-/// sample for sample when it has no time column) and says on standard error what the merge did.
-pub fn attach_gyro(loaded: &mut Loaded, gyro: &Path, options: &ReadOptions) -> anyhow::Result<()> {
-    let note = spincal::input::gyro_file::attach_gyro_file(loaded, gyro, options)?;
-    print_gyro_note(note);
-    Ok(())
-}
-
-/// Prints the note of a gyro file merged on time (samples dropped, the rates).
-pub fn print_gyro_note(note: Option<String>) {
-    if let Some(note) = note {
-        eprintln!("note: {}", crate::ui::in_flags(&note));
     }
 }
 
@@ -264,29 +243,6 @@ impl InputArgs {
             .with_context(|| format!("reading {}", self.rec.display()));
         spinner.finish_and_clear();
         found
-    }
-}
-
-impl super::fit::TurntableArgs {
-    /// Reads the recordings, each with its `--gyro-file` when given (one per recording, in order).
-    pub fn read_recordings(&self) -> anyhow::Result<Vec<Recording>> {
-        if !self.gyro_file.is_empty() && self.gyro_file.len() != self.recordings.len() {
-            return Err(UsageError(format!(
-                "--gyro-file names {} file(s) for {} recording(s): give one per recording, in order",
-                self.gyro_file.len(),
-                self.recordings.len()
-            ))
-            .into());
-        }
-        let gyro = |k: usize| self.gyro_file.get(k).map(PathBuf::as_path);
-        (self.recordings.iter().enumerate())
-            .map(|(k, path)| self.read.read(path, gyro(k)))
-            .collect()
-    }
-
-    /// The files read: the recordings and their gyro files.
-    pub fn inputs(&self) -> Vec<PathBuf> {
-        self.recordings.iter().chain(&self.gyro_file).cloned().collect()
     }
 }
 

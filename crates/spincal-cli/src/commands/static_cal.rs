@@ -108,7 +108,7 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     let name = args.input.rec.display().to_string();
     let options = args.input.read.options()?;
     let (gyro_columns, note) = gyro_columns(args.gyro_file.as_deref(), &mut loaded, &name, &options)?;
-    super::input::print_gyro_note(note);
+    super::gyro_file::print_gyro_note(note);
     let rec = &loaded.recording;
     let settings = StaticSettings {
         model: args.model.into(),
