@@ -48,9 +48,14 @@ impl super::fit::TurntableArgs {
             ))
             .into());
         }
-        let gyro = |k: usize| self.gyro_file.get(k).map(PathBuf::as_path);
         (self.recordings.iter().enumerate())
-            .map(|(k, path)| self.read.read(path, gyro(k)))
+            .map(|(k, path)| {
+                self.read
+                    .read_with(path, |loaded, options| match self.gyro_file.get(k) {
+                        Some(gyro) => attach_in_si(loaded, gyro, options),
+                        None => Ok(()),
+                    })
+            })
             .collect()
     }
 

@@ -179,17 +179,23 @@ impl ReadArgs {
         loaded
     }
 
-    /// Reads one recording in SI units, with the gyro of `gyro_file` when given (merged on time,
-    /// or sample for sample without a time column);
-    /// a file of raw counts without a scale is refused.
-    pub fn read(&self, path: &Path, gyro_file: Option<&Path>) -> anyhow::Result<Recording> {
+    /// Reads one recording in SI units; a file of raw counts without a scale is refused.
+    pub fn read(&self, path: &Path) -> anyhow::Result<Recording> {
+        self.read_with(path, |_, _| Ok(()))
+    }
+
+    /// [`ReadArgs::read`], with `attach` given the file as read and the options (a gyro file is
+    /// attached to it there) before its units are checked.
+    pub fn read_with(
+        &self,
+        path: &Path,
+        attach: impl FnOnce(&mut Loaded, &ReadOptions) -> anyhow::Result<()>,
+    ) -> anyhow::Result<Recording> {
         let options = self.options()?;
         let mut loaded =
             formats::read_path(path, &options).with_context(|| format!("reading {}", path.display()))?;
         warn_left_out(path, &loaded.recording);
-        if let Some(gyro) = gyro_file {
-            super::gyro_file::attach_in_si(&mut loaded, gyro, &options)?;
-        }
+        attach(&mut loaded, &options)?;
         if loaded.gyro_counts {
             // Raw gyro counts are not rad/s; without a gyro scale they are left out.
             loaded.recording.gyro_radps = None;

@@ -98,8 +98,8 @@ impl DataArgs {
     }
 
     pub fn read(&self) -> anyhow::Result<(Recording, Recording)> {
-        let measured = self.read.read(&self.data, None)?;
-        let reference = ReadArgs::default().read(&self.reference, None)?;
+        let measured = self.read.read(&self.data)?;
+        let reference = ReadArgs::default().read(&self.reference)?;
         Ok((measured, reference))
     }
 }
