@@ -294,11 +294,22 @@ fn bad_gyro_input_is_refused_with_its_location() {
     let text = std::fs::read_to_string(&gyr).unwrap();
     let lines: Vec<&str> = text.lines().collect();
 
-    // A gyro file of another length.
+    // A gyro file of another length without a time of its own (both timed by --sample-rate):
+    // taken sample for sample, so refused; with its time it is merged on time instead.
     let short = dir.path().join("short.txt");
     std::fs::write(&short, lines[..lines.len() - 5].join("\n") + "\n").unwrap();
-    let e = fails(spincal().arg("static").arg(&acc).arg("--gyro-file").arg(&short));
-    assert!(e.contains("short.txt") && e.contains("samples"), "{e}");
+    let e = fails(
+        spincal()
+            .arg("static")
+            .arg(&acc)
+            .arg("--gyro-file")
+            .arg(&short)
+            .args(["--sample-rate", "100"]),
+    );
+    assert!(
+        e.contains("short.txt") && e.contains("samples") && e.contains("as long"),
+        "{e}"
+    );
 
     // NaN in the gyro: named by sample (the reader or the fit, whichever sees it first).
     let nan = dir.path().join("nan.txt");

@@ -23,6 +23,7 @@ mod first_contact;
 mod fit_cli;
 mod fleet_cli;
 mod flight_cli;
+mod gyro_file_cli;
 mod gyro_poses;
 mod help_examples;
 mod hostile;

@@ -113,9 +113,10 @@ impl PyCorrector {
     /// Corrects the file `input` into the file `output` through the library's streaming pipeline
     /// (the CLI's `spincal correct`, to the bit): delimited text in constant memory, other formats
     /// read whole. An output that is the input, or an existing file spincal did not write, is
-    /// refused unless `force`. Returns the summary as JSON text.
+    /// refused unless `force`. `gyro_file`: the gyroscope from a second file, merged on time
+    /// inside the stream (the CLI's `--gyro-file`). Returns the summary as JSON text.
     #[pyo3(signature = (input, output, *, format = None, columns = None, accel_unit = None, time_unit = None,
-        gyro_unit = None, sample_rate_hz = None, accel_scale = None, retime = false, force = false))]
+        gyro_unit = None, sample_rate_hz = None, accel_scale = None, retime = false, gyro_file = None, force = false))]
     #[allow(clippy::too_many_arguments)]
     fn correct_file(
         &self,
@@ -130,6 +131,7 @@ impl PyCorrector {
         sample_rate_hz: Option<f64>,
         accel_scale: Option<f64>,
         retime: bool,
+        gyro_file: Option<PathBuf>,
         force: bool,
     ) -> PyResult<String> {
         use spincal::correctors::stream::{correct_to_path, CorrectError};
@@ -143,16 +145,20 @@ impl PyCorrector {
             accel_scale,
             retime,
         )?;
-        spincal::output::check_outputs(&[&input], &[&output]).map_err(errors::usage_error)?;
+        let inputs: Vec<&std::path::Path> = std::iter::once(input.as_path())
+            .chain(gyro_file.as_deref())
+            .collect();
+        spincal::output::check_outputs(&inputs, &[&output]).map_err(errors::usage_error)?;
         spincal::output::claim_outputs(&[&output], force).map_err(errors::usage_error)?;
         let summary = py
-            .detach(|| correct_to_path(&self.file, &input, &options, &output))
+            .detach(|| correct_to_path(&self.file, &input, &options, gyro_file.as_deref(), &output))
             .map_err(|e| match e {
                 CorrectError::Format(e) => errors::format(*e),
                 CorrectError::Table(e) => errors::format(*e),
                 CorrectError::Columns(e) => errors::format(*e),
                 CorrectError::Open { .. } => errors::format(e),
                 CorrectError::Model(e) => errors::model(e),
+                CorrectError::Gyro(e) => errors::usage_error(*e),
                 CorrectError::Output(e) => errors::output(e),
                 e if e.is_usage() => errors::usage_error(e),
                 e => errors::output(e),

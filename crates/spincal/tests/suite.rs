@@ -19,6 +19,7 @@ mod fleet;
 #[cfg(all(feature = "ulog", feature = "dataflash"))]
 mod flight_logs;
 mod flight_stacks;
+mod gyro_merge;
 mod gyro_poses;
 mod model_validation;
 #[cfg(feature = "phone")]

@@ -39,9 +39,11 @@ pub struct AllanArgs {
     /// accelerometer and the gyroscope, the rate, the topic). Needs gyro columns.
     #[arg(long)]
     pub kalibr: Option<PathBuf>,
-    /// The gyroscope from a second file (imu_tk's layout: `t gx gy gz`), sample for sample beside
-    /// the recording, when the recording has no gyro columns. Raw counts need a --calibration
-    /// with a gyro model (`spincal static ACC --gyro-file GYRO -o cal.json`).
+    /// The gyroscope from a second file (imu_tk's layout `t gx gy gz`, or gyro columns), read with
+    /// the same flags, when the recording has no gyro columns: merged on time when it has a time
+    /// column (the recording's samples outside its span dropped, with a note), sample for sample
+    /// when it has none. Raw counts need a --calibration with a gyro model (`spincal static ACC
+    /// --gyro-file GYRO -o cal.json`).
     #[arg(long)]
     pub gyro_file: Option<PathBuf>,
     /// The ROS topic written into the Kalibr file.
@@ -73,7 +75,7 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
     inputs.extend(args.gyro_file.as_deref());
     inputs.extend(args.calibration.as_deref());
     super::check_outputs(&inputs, &outputs)?;
-    let loaded = args.input.load(ui)?;
+    let mut loaded = args.input.load(ui)?;
     let name = args.input.rec.display().to_string();
     let calibration = match &args.calibration {
         Some(path) => Some((
@@ -82,7 +84,9 @@ pub fn run(args: &AllanArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         )),
         None => None,
     };
-    let gyro = gyro_columns(args.gyro_file.as_deref(), &loaded, &name, args.input.read.retime)?;
+    let options = args.input.read.options()?;
+    let (gyro, note) = gyro_columns(args.gyro_file.as_deref(), &mut loaded, &name, &options)?;
+    super::gyro_file::print_gyro_note(note);
     if let (Some(_), None) = (&args.kalibr, &gyro) {
         return Err(UsageError(format!(
             "{name}: no gyro columns, and Kalibr's file needs the gyroscope's noise too (pass --columns t,ax,ay,az,gx,gy,gz)"

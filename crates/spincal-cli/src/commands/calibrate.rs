@@ -184,19 +184,14 @@ pub fn run(args: CalibrateArgs, ui: Ui) -> anyhow::Result<()> {
     super::require_recordings(&args.fit.recordings)?;
     let settings = args.params()?;
     super::check_paths(
-        &args.fit.recordings,
+        &args.fit.inputs(),
         &CAMPAIGN_FILE_NAMES.map(|name| args.out.join(name)),
     )?;
     if args.out.exists() && !args.out.is_dir() {
         super::create_folder("--out", &args.out)?;
     }
     let clock = std::time::Instant::now();
-    let recordings = args
-        .fit
-        .recordings
-        .iter()
-        .map(|p| args.fit.read.read(p))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    let recordings = args.fit.read_recordings()?;
     let read_seconds = clock.elapsed().as_secs_f64();
     let (output, written) = run_calibration(&recordings, &settings, &args.out, Some(read_seconds), ui)?;
     if args.fit.json {

@@ -29,22 +29,13 @@ pub fn run(args: CompareArgs, ui: Ui) -> anyhow::Result<()> {
         .into());
     }
     super::require_recordings(&args.calibrate.fit.recordings)?;
-    let inputs: Vec<&std::path::Path> = args
-        .calibrate
-        .fit
-        .recordings
-        .iter()
-        .map(|p| p.as_path())
-        .collect();
+    let inputs = args.calibrate.fit.inputs();
+    let inputs: Vec<&std::path::Path> = inputs.iter().map(|p| p.as_path()).collect();
     let outputs: Vec<&std::path::Path> = args.csv.iter().map(|p| p.as_path()).collect();
     super::check_outputs(&inputs, &outputs)?;
     let settings = args.calibrate.params()?;
     let fit = &args.calibrate.fit;
-    let recordings = fit
-        .recordings
-        .iter()
-        .map(|p| fit.read.read(p))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    let recordings = fit.read_recordings()?;
     let bar = ui.progress(1, "comparing");
     let paper = spincal::calibrate::paper_protocol(&recordings, &settings, &|p| crate::ui::show(&bar, p))?;
     bar.finish_and_clear();

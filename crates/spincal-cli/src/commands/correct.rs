@@ -28,6 +28,12 @@ pub struct CorrectArgs {
     /// Output CSV (standard output when absent).
     #[arg(short, long, value_name = "OUT.csv")]
     pub output: Option<PathBuf>,
+    /// The gyroscope from a second file (the input has no gyro columns; the model calibrates a
+    /// gyro), read with the same flags: merged on time inside the stream when it has a time
+    /// column (rows outside its span or in its gaps written with status `no-gyro`, valid 0;
+    /// refused under half overlap), sample for sample when it has none.
+    #[arg(long, value_name = "GYRO")]
+    pub gyro_file: Option<PathBuf>,
     /// How to read the input (the same flags as every command).
     #[command(flatten)]
     pub read: ReadArgs,
@@ -35,20 +41,24 @@ pub struct CorrectArgs {
 
 pub fn run(args: CorrectArgs, _ui: Ui) -> anyhow::Result<()> {
     let outputs: Vec<&std::path::Path> = args.output.iter().map(PathBuf::as_path).collect();
-    super::check_outputs(&[&args.input, &args.model], &outputs)?;
+    let inputs = [Some(&args.input), Some(&args.model), args.gyro_file.as_ref()];
+    let inputs: Vec<&std::path::Path> = inputs.into_iter().flatten().map(PathBuf::as_path).collect();
+    super::check_outputs(&inputs, &outputs)?;
     let model = CorrectorFile::read_path(&args.model)?;
     let mut options = args.read.options()?;
     if args.read.format == Some(FormatArg::Whitespace) && options.columns.table.delimiter.is_none() {
         options.columns.table.delimiter = Some(spincal::input::table::Delimiter::Whitespace);
     }
+    let gyro = args.gyro_file.as_deref();
     let result = match &args.output {
         Some(path) if !spincal::output::is_stdio(path) => {
-            stream::correct_to_path(&model, &args.input, &options, path)
+            stream::correct_to_path(&model, &args.input, &options, gyro, path)
         }
         _ => stream::correct_to_writer(
             &model,
             &args.input,
             &options,
+            gyro,
             &mut BufWriter::new(std::io::stdout().lock()),
         ),
     };

@@ -18,6 +18,12 @@ pub struct TurntableArgs {
     pub recordings: Vec<PathBuf>,
     #[command(flatten)]
     pub read: ReadArgs,
+    /// The gyroscope from a second file, one per recording in order (read with the same flags):
+    /// merged on time when it has a time column (interpolated onto the recording's times, the
+    /// recording's samples outside its span dropped with a note; refused under half overlap),
+    /// sample for sample when it has none (then as long as the recording).
+    #[arg(long, value_name = "GYRO")]
+    pub gyro_file: Vec<PathBuf>,
     /// Nominal speed, rpm: the spectral search looks within ±10 % of it.
     #[arg(long, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub rpm: Option<f64>,
@@ -108,7 +114,7 @@ pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
     super::require_recordings(&args.turntable.recordings)?;
     let options = args.turntable.options()?;
     super::check_paths(
-        &args.turntable.recordings,
+        &args.turntable.inputs(),
         args.output.iter().chain(&args.reference_csv),
     )?;
     if !args.reference_csv.is_empty() && args.reference_csv.len() != args.turntable.recordings.len() {
@@ -119,12 +125,7 @@ pub fn run(args: FitArgs, ui: Ui) -> anyhow::Result<()> {
         ))
         .into());
     }
-    let recordings = args
-        .turntable
-        .recordings
-        .iter()
-        .map(|p| args.turntable.read.read(p))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    let recordings = args.turntable.read_recordings()?;
     let refs: Vec<_> = recordings.iter().collect();
     let spinner = ui.spinner("fitting");
     let fit = fit_turntable(&refs, &options, &|p| {

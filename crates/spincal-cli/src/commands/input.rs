@@ -181,9 +181,21 @@ impl ReadArgs {
 
     /// Reads one recording in SI units; a file of raw counts without a scale is refused.
     pub fn read(&self, path: &Path) -> anyhow::Result<Recording> {
-        let mut loaded = formats::read_path(path, &self.options()?)
-            .with_context(|| format!("reading {}", path.display()))?;
+        self.read_with(path, |_, _| Ok(()))
+    }
+
+    /// [`ReadArgs::read`], with `attach` given the file as read and the options (a gyro file is
+    /// attached to it there) before its units are checked.
+    pub fn read_with(
+        &self,
+        path: &Path,
+        attach: impl FnOnce(&mut Loaded, &ReadOptions) -> anyhow::Result<()>,
+    ) -> anyhow::Result<Recording> {
+        let options = self.options()?;
+        let mut loaded =
+            formats::read_path(path, &options).with_context(|| format!("reading {}", path.display()))?;
         warn_left_out(path, &loaded.recording);
+        attach(&mut loaded, &options)?;
         if loaded.gyro_counts {
             // Raw gyro counts are not rad/s; without a gyro scale they are left out.
             loaded.recording.gyro_radps = None;

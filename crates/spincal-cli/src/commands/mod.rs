@@ -9,6 +9,7 @@ pub mod demo;
 pub mod export;
 pub mod fit;
 pub mod fleet;
+pub mod gyro_file;
 pub mod init;
 pub mod input;
 pub mod inspect;

@@ -58,8 +58,10 @@ pub struct StaticArgs {
     #[arg(long, default_value_t = StaticOptions::default().min_interval_s, value_parser = super::values::positive, allow_negative_numbers = true)]
     pub min_interval: f64,
     /// Also calibrate the gyroscope, read from this file (imu_tk's layout `t gx gy gz`, rad/s or
-    /// raw counts) sampled beside the recording, from the still poses and the rotations between
-    /// them. Without it, the recording's own gyro columns are used when it has them.
+    /// raw counts; read with the same flags) from the still poses and the rotations between them:
+    /// merged on time when it has a time column (the recording's samples outside its span dropped,
+    /// with a note), sample for sample when it has none. Without it, the recording's own gyro
+    /// columns are used when it has them.
     #[arg(long, value_name = "GYRO")]
     pub gyro_file: Option<PathBuf>,
     /// Starting guess of the gyro's scale, readings per rad/s (only its size is used: the fit
@@ -102,14 +104,12 @@ pub fn run(args: &StaticArgs, ui: &ui::Ui) -> anyhow::Result<()> {
         .cloned()
         .collect();
     super::check_paths(&inputs, args.output.iter().chain(&args.yaml).chain(&export_paths))?;
-    let loaded = args.input.load(ui)?;
+    let mut loaded = args.input.load(ui)?;
+    let name = args.input.rec.display().to_string();
+    let options = args.input.read.options()?;
+    let (gyro_columns, note) = gyro_columns(args.gyro_file.as_deref(), &mut loaded, &name, &options)?;
+    super::gyro_file::print_gyro_note(note);
     let rec = &loaded.recording;
-    let gyro_columns = gyro_columns(
-        args.gyro_file.as_deref(),
-        &loaded,
-        &args.input.rec.display().to_string(),
-        args.input.read.retime,
-    )?;
     let settings = StaticSettings {
         model: args.model.into(),
         gravity_mps2: args.gravity,

@@ -592,13 +592,23 @@ class Corrector:
         not write (or that changed since it did) raises :class:`UsageError` unless ``force``."""
         self._inner.save(os.fspath(path), force=force)
 
-    def correct_file(self, input: PathLike, output: PathLike, *, force: bool = False, **read: Any) -> Dict[str, Any]:
+    def correct_file(
+        self,
+        input: PathLike,
+        output: PathLike,
+        *,
+        gyro_file: Optional[PathLike] = None,
+        force: bool = False,
+        **read: Any,
+    ) -> Dict[str, Any]:
         """Corrects the file ``input`` into the file ``output`` exactly as ``spincal correct``
         does, to the bit, through the same library pipeline: delimited text is streamed in
         constant memory (every row out in the input's order, refused rows marked in place), other
         formats are read whole. ``read`` takes :func:`read`'s options (``format``, ``columns``,
         ``accel_unit``, ``time_unit``, ``gyro_unit``, ``sample_rate_hz``, ``accel_scale``,
-        ``retime``). An existing ``output`` that spincal did not write is refused unless
+        ``retime``). ``gyro_file``: the gyroscope from a second file (``spincal correct
+        --gyro-file``), merged on time inside the stream (rows outside its span written with
+        status ``no-gyro``). An existing ``output`` that spincal did not write is refused unless
         ``force``. Returns the summary: ``rows``, ``refused``, ``skipped``, … and ``warnings``
         (what the CLI prints), ``refusals`` (None when no row was refused).
 
@@ -615,6 +625,7 @@ class Corrector:
             os.fspath(input),
             os.fspath(output),
             columns=None if keys is None else ",".join(k for k in keys if k is not None),
+            gyro_file=None if gyro_file is None else os.fspath(gyro_file),
             force=force,
             **read,
         )

@@ -87,6 +87,7 @@ class Corrector:
         sample_rate_hz: Optional[float] = ...,
         accel_scale: Optional[float] = ...,
         retime: bool = ...,
+        gyro_file: Optional[str] = ...,
         force: bool = ...,
     ) -> str: ...
     def correct_columns(

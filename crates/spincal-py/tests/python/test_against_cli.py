@@ -265,6 +265,35 @@ def test_allan_of_white_noise():
     assert len(r.curve.tau_s) == len(r.curve.adev[0])
 
 
+def test_correct_file_merges_a_gyro_file_on_time_as_spincal_correct_does(cli, tmp_path):
+    """`correct_file(..., gyro_file=G)` is `spincal correct --gyro-file G`, to the byte: a gyro
+    at 190 Hz on its own jittered clock over 3–18 s of a 100 Hz accelerometer's 0–20 s."""
+    model = tmp_path / "model.json"
+    static = {"kind": "static", "model": "bias_scale", "bias": [0, 0, 0], "scale": [1, 1, 1],
+              "misalignment": [0, 0, 0], "nonlinearity": [0, 0, 0], "gravity_mps2": 9.81, "input_unit": "m/s^2"}
+    gyro_model = {"bias_radps": [0.01, 0, 0], "sensitivity": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "input_unit": "rad_per_s"}
+    model.write_text(json.dumps({"format_version": 2, "spincal_version": spincal.__version__,
+                                 "corrector": static, "gyro": gyro_model}))
+    rng = np.random.default_rng(3)
+    t = np.arange(2001) / 100 + rng.uniform(-0.002, 0.002, 2001)
+    accel = tmp_path / "acc.csv"
+    accel.write_text("t,ax,ay,az\n" + "".join(f"{x:.6f},0.01,-0.02,9.81\n" for x in t))
+    n = 15 * 190 + 1
+    tg = 3.0 + np.arange(n) / 190 + rng.uniform(-0.001, 0.001, n)
+    gyro = tmp_path / "gyr.txt"
+    gyro.write_text("".join(f"{x:.6f} {0.1 * np.sin(x):.7f} 0.2 0.3\n" for x in tg))
+    by_cli = tmp_path / "cli.csv"
+    cli("correct", "--model", model, accel, "--gyro-file", gyro, "-o", by_cli)
+    by_python = tmp_path / "python.csv"
+    summary = spincal.load_corrector(model).correct_file(accel, by_python, gyro_file=gyro)
+    assert by_python.read_bytes() == by_cli.read_bytes()
+    rows = _read_corrected(by_python)
+    assert len(rows) == 2001
+    no_gyro = [r for r in rows if r["status"].startswith("no-gyro")]
+    assert summary["no_gyro"] == len(no_gyro) and 450 < len(no_gyro) < 550
+    assert all(r["gx_corrected_radps"] == "" and r["valid"] == "0" for r in no_gyro)
+
+
 def test_correct_file_streams_a_file_to_a_file_equal_to_spincal_correct_to_the_byte(simulated, trained, cli, tmp_path):
     path, rec, _ = simulated
     model = trained / "model.json"

@@ -32,8 +32,9 @@
 //! flags: `format`, `columns`, `accel_unit`, `gyro_unit`, `time_unit`, `sample_rate_hz`,
 //! `retime`, `topic`, `accel_scale` and `accel_offset`, `gyro_scale`, or for a 16-bit part's raw
 //! counts its configured ranges `accel_range_g` (2, 4, 8, 16: the MPU-6050's AFS_SEL) and
-//! `gyro_range_dps` (125 … 2000: its FS_SEL); `gyro_file` (the gyro recorded beside it, sample
-//! for sample, as imu_tk lays it out); `truth`,
+//! `gyro_range_dps` (125 … 2000: its FS_SEL); `gyro_file` (the gyro recorded in a second file,
+//! imu_tk's `t gx gy gz` or with gyro columns, read with the entry's flags: merged on time when it
+//! has its own times, sample for sample when not, `input::gyro_file::attach_gyro_file`); `truth`,
 //! `noise_floor_mps2` (the RMS per axis of the error no corrector can remove, when known) and
 //! `random_error` (that error per sample, a file shaped like the recording: t and three axes, m/s²;
 //! the floor of any part of the recording is then its RMS over exactly those samples).

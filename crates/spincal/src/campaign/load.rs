@@ -117,18 +117,12 @@ pub fn load_campaign(campaign: &Campaign) -> Result<Vec<UnitRecording>, LoadErro
             source: Box::new(source),
         })?;
         if let Some(path) = &entry.gyro_file {
-            let (merged, counts, note) = attach_gyro_file(loaded.recording, path, entry.read.retime)
-                .map_err(|e| LoadError::GyroFile {
-                    campaign: name.clone(),
-                    line: entry.line,
-                    message: e.to_string(),
-                })?;
-            loaded.recording = merged;
-            loaded.recording.source.time_notes.extend(note);
-            loaded.gyro_counts = counts && entry.read.gyro_scale.is_none();
-            if let (Some(scale), Some(gyro)) = (entry.read.gyro_scale, loaded.recording.gyro_radps.as_mut()) {
-                gyro.iter_mut().flatten().for_each(|v| *v *= scale);
-            }
+            // The note of a merge on time goes into the recording's time notes.
+            attach_gyro_file(&mut loaded, path, &entry.read).map_err(|e| LoadError::GyroFile {
+                campaign: name.clone(),
+                line: entry.line,
+                message: e.to_string(),
+            })?;
         }
         if loaded.gyro_counts {
             return Err(LoadError::RawGyroCounts {

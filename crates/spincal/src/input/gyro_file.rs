@@ -1,15 +1,19 @@
-//! The gyroscope beside a recording: the recording's own gyro columns, or a second file sampled
-//! beside it (imu_tk's layout, `t gx gy gz`) or on its own samples of the same clock (merged on
-//! time), and whether the values are raw counts.
+//! The gyroscope beside a recording: the recording's own gyro columns, or a second file (imu_tk's
+//! layout `t gx gy gz`, or any file of the session with gyro columns). The one rule for every
+//! caller (a campaign entry's `gyro_file`, the commands' `--gyro-file`, `correct`'s stream): a
+//! second file with its own time column is merged on time (interpolated onto the recording's
+//! times, [`crate::input::recording::interpolate_onto`]); one without a time column (its time
+//! synthesised from a sample rate) is taken sample for sample and must be as long. It is read with
+//! the recording's reading flags that concern it ([`gyro_read_options`]).
 
 use std::path::Path;
 
-use crate::input::formats::{self, FormatError, Loaded, ReadOptions};
-use crate::input::recording::Recording;
+use crate::input::formats::{self, Format, FormatError, Loaded, ReadOptions};
+use crate::input::recording::{ColumnMap, Recording};
 
 /// A gyro reading above this (rad/s, mean of an axis over the file) is taken for raw counts: no
 /// handheld or turntable session turns that fast for long.
-const GYRO_COUNTS_RADPS: f64 = 50.0;
+pub(crate) const GYRO_COUNTS_RADPS: f64 = 50.0;
 
 /// Gyro readings sampled beside a recording.
 #[derive(Debug, Clone)]
@@ -34,7 +38,7 @@ pub enum GyroFileError {
     #[error(transparent)]
     Read(Box<FormatError>),
     #[error(
-        "{file}: {found} samples, but the recording has {expected}; the gyro file must sample beside it"
+        "{file}: {found} samples, but the recording has {expected}; a gyro file without a time column is taken sample for sample and must be as long (give it a time column to merge it on time)"
     )]
     Length {
         file: String,
@@ -51,31 +55,54 @@ pub enum GyroFileError {
         from_s: f64,
         to_s: f64,
     },
-    #[error("{file}: sample {sample} is at {at_s} s, the recording's at {expected_s} s; the gyro file must sample beside it")]
-    Time {
-        file: String,
-        sample: usize,
-        at_s: f64,
-        expected_s: f64,
-    },
+    #[error("{recording} has gyro columns already; a gyro file ({file}) is for a recording without them")]
+    GyroTwice { file: String, recording: String },
+    #[error("{file}: the model calibrates no gyroscope, so the gyro file has nothing to correct")]
+    NotUsed { file: String },
 }
 
-/// The gyro of `loaded` (read from `recording_name`): from `gyro_file` when given (sample for
-/// sample beside it, re-timed as the recording was with `retime`), else its own gyro columns;
-/// `None` when it has none.
+/// The gyro of `loaded` (read from `recording_name` with `options`): from `gyro_file` when given
+/// (attached by [`attach_gyro_file`], which may drop the recording's samples outside the gyro's
+/// span), else its own gyro columns; `None` when it has none. Returns the note of a merge on time.
 pub fn gyro_columns(
     gyro_file: Option<&Path>,
-    loaded: &Loaded,
+    loaded: &mut Loaded,
     recording_name: &str,
-    retime: bool,
-) -> Result<Option<GyroColumns>, GyroFileError> {
-    let rec = &loaded.recording;
+    options: &ReadOptions,
+) -> Result<(Option<GyroColumns>, Option<String>), GyroFileError> {
     match gyro_file {
         Some(path) => {
-            let (values, counts) = read_beside(path, rec, retime)?;
-            Ok(Some(GyroColumns::new(values, counts, path.display().to_string())))
+            let note = attach_gyro_file(loaded, path, options)?;
+            let name = path.display().to_string();
+            Ok((
+                GyroColumns::of(&loaded.recording, loaded.gyro_counts, &name),
+                note,
+            ))
         }
-        None => Ok(GyroColumns::of(rec, loaded.gyro_counts, recording_name)),
+        None => Ok((
+            GyroColumns::of(&loaded.recording, loaded.gyro_counts, recording_name),
+            None,
+        )),
+    }
+}
+
+/// How a gyro file beside a recording read with `recording` is read: the same format, separator,
+/// time unit, sample rate, re-timing and gyro unit and scale; not the recording's column choice
+/// nor its accelerometer's unit, scale or offset.
+pub fn gyro_read_options(recording: &ReadOptions) -> ReadOptions {
+    let mut columns = ColumnMap {
+        time_unit: recording.columns.time_unit,
+        gyro_unit: recording.columns.gyro_unit,
+        ..ColumnMap::default()
+    };
+    columns.table.delimiter = recording.columns.table.delimiter;
+    ReadOptions {
+        format: recording.format,
+        columns,
+        gyro_scale: recording.gyro_scale,
+        sample_rate_hz: recording.sample_rate_hz,
+        retime: recording.retime,
+        ..ReadOptions::default()
     }
 }
 
@@ -105,104 +132,91 @@ fn beyond_any_rate(values: &[Vec<f64>; 3]) -> bool {
     })
 }
 
-/// A gyro file as read: its times, its three value columns (the gyro whatever the reader took
-/// them for) and whether the reader took them for raw counts.
-struct GyroFile {
-    time_s: Vec<f64>,
-    values: [Vec<f64>; 3],
-    reader_counts: bool,
+/// A gyro file as read: its times, its three value columns in rad/s (or counts) and whether
+/// they are raw counts, and whether the times are the file's own.
+pub(crate) struct GyroFile {
+    pub(crate) time_s: Vec<f64>,
+    pub(crate) values: [Vec<f64>; 3],
+    pub(crate) counts: bool,
+    /// The file has a time column (not synthesised from a sample rate).
+    pub(crate) timed: bool,
 }
 
-/// Reads a gyro file with the recording's re-timing.
-fn read_gyro_file(path: &Path, retime: bool) -> Result<GyroFile, GyroFileError> {
-    let options = ReadOptions {
-        retime,
-        ..Default::default()
-    };
-    let loaded = formats::read_path(path, &options)?;
+/// Reads a gyro file with `options` (from [`gyro_read_options`]): its gyro columns, or, when it
+/// has none (imu_tk's `t gx gy gz`), the three it was read as acceleration, in the gyro's unit and
+/// scale.
+pub(crate) fn read_gyro_file(path: &Path, options: &ReadOptions) -> Result<GyroFile, GyroFileError> {
+    let loaded = formats::read_path(path, options)?;
+    let timed =
+        options.sample_rate_hz.is_none() && !matches!(loaded.format, Format::Imucal | Format::Mpu6050);
     let g = loaded.recording;
+    let (values, reader_counts) = match g.gyro_radps {
+        Some(values) => (values, loaded.gyro_counts),
+        None => {
+            let unit = options.columns.gyro_unit.map_or(1.0, |u| u.to_si());
+            let k = unit * options.gyro_scale.unwrap_or(1.0);
+            let mut values = g.accel_mps2;
+            if k != 1.0 {
+                values.iter_mut().flatten().for_each(|v| *v *= k);
+            }
+            (values, loaded.raw_counts && options.gyro_scale.is_none())
+        }
+    };
     Ok(GyroFile {
         time_s: g.time_s,
-        values: g.gyro_radps.unwrap_or(g.accel_mps2),
-        reader_counts: loaded.raw_counts || loaded.gyro_counts,
-    })
-}
-
-/// The first of as many samples as `rec` whose time is off the recording's by more than half a
-/// sample (at least 11 ms); `None` when the file samples beside it.
-fn first_sample_off_time(time_s: &[f64], rec: &Recording) -> Option<usize> {
-    let half = 0.5 / rec.sample_rate_hz();
-    (0..time_s.len()).find(|&i| (time_s[i] - rec.time_s[i]).abs() > half.max(0.011))
-}
-
-/// A gyro file's three value columns, checked to sample beside `rec` (the same number of
-/// samples at the same times, within half a sample), and whether the reader took them for raw
-/// counts.
-fn read_beside(path: &Path, rec: &Recording, retime: bool) -> Result<([Vec<f64>; 3], bool), GyroFileError> {
-    let GyroFile {
-        time_s,
+        counts: reader_counts || beyond_any_rate(&values),
         values,
-        reader_counts,
-    } = read_gyro_file(path, retime)?;
-    let file = path.display().to_string();
-    if time_s.len() != rec.len() {
-        return Err(GyroFileError::Length {
-            file,
-            found: time_s.len(),
-            expected: rec.len(),
-        });
-    }
-    if let Some(i) = first_sample_off_time(&time_s, rec) {
-        return Err(GyroFileError::Time {
-            file,
-            sample: i + 1,
-            at_s: time_s[i],
-            expected_s: rec.time_s[i],
-        });
-    }
-    Ok((values, reader_counts))
+        timed,
+    })
 }
 
 /// A gyroscope at least this many of its median intervals from its neighbours is a dropped
 /// stretch: a recording sample inside it gets no interpolated value.
 pub const GYRO_GAP_INTERVALS: f64 = 3.0;
 
-/// `recording` with the gyro of `path`: sample for sample when the file samples beside it, else
-/// merged on time (one clock): the gyro interpolated linearly onto the recording's times, and the
-/// recording's samples outside the gyro's span or in its gaps dropped. Refused when fewer than
-/// half the samples are covered (the files are likely on different clocks). Returns the merged
-/// recording, whether the gyro values are raw counts, and a note when merged on time.
+/// `loaded` with the gyro of the file at `path` (read with `options`, the recording's reading
+/// options: [`gyro_read_options`] is applied here). A file without a time column is taken sample
+/// for sample and must be as long; one with its own times is merged on time (one clock):
+/// the gyro interpolated linearly onto the recording's times, and the recording's samples outside
+/// the gyro's span or in its gaps dropped (labels with them), with a note in
+/// `source.time_notes`, also returned. Refused when fewer than half the samples are covered (the
+/// files are likely on different clocks), naming both spans, and when the recording has gyro
+/// columns of its own. Sets `loaded.gyro_counts`.
 pub fn attach_gyro_file(
-    recording: Recording,
+    loaded: &mut Loaded,
     path: &Path,
-    retime: bool,
-) -> Result<(Recording, bool, Option<String>), GyroFileError> {
-    let GyroFile {
-        time_s,
-        values,
-        reader_counts,
-    } = read_gyro_file(path, retime)?;
-    let counts = reader_counts || beyond_any_rate(&values);
-    if time_s.len() == recording.len() && first_sample_off_time(&time_s, &recording).is_none() {
-        let mut merged = recording;
-        merged.gyro_radps = Some(values);
-        return Ok((merged, counts, None));
+    options: &ReadOptions,
+) -> Result<Option<String>, GyroFileError> {
+    let file = path.display().to_string();
+    if loaded.recording.gyro_radps.is_some() {
+        return Err(GyroFileError::GyroTwice {
+            file,
+            recording: loaded.recording.source.name.clone(),
+        });
     }
-    let interval = crate::input::recording::sample_interval(&time_s);
+    let gyro = read_gyro_file(path, &gyro_read_options(options))?;
+    loaded.gyro_counts = gyro.counts;
+    let recording = &mut loaded.recording;
+    if !gyro.timed {
+        if gyro.time_s.len() != recording.len() {
+            return Err(GyroFileError::Length {
+                file,
+                found: gyro.time_s.len(),
+                expected: recording.len(),
+            });
+        }
+        recording.gyro_radps = Some(gyro.values);
+        return Ok(None);
+    }
+    let interval = crate::input::recording::sample_interval(&gyro.time_s);
     let widest = GYRO_GAP_INTERVALS * interval;
     let (keep, at_times) =
-        crate::input::recording::interpolate_onto(&recording.time_s, &time_s, &values, widest);
+        crate::input::recording::interpolate_onto(&recording.time_s, &gyro.time_s, &gyro.values, widest);
     let covered = keep.iter().filter(|k| **k).count();
-    let span = |t: &[f64]| {
-        (
-            t.first().copied().unwrap_or(f64::NAN),
-            t.last().copied().unwrap_or(f64::NAN),
-        )
-    };
     if 2 * covered < recording.len() || covered < 2 {
-        let ((gyro_from_s, gyro_to_s), (from_s, to_s)) = (span(&time_s), span(&recording.time_s));
+        let ((gyro_from_s, gyro_to_s), (from_s, to_s)) = (span(&gyro.time_s), span(&recording.time_s));
         return Err(GyroFileError::NoOverlap {
-            file: path.display().to_string(),
+            file,
             covered,
             samples: recording.len(),
             gyro_from_s,
@@ -212,9 +226,8 @@ pub fn attach_gyro_file(
         });
     }
     let note = format!(
-        "{}: the gyroscope ({} samples, {:.1} Hz) interpolated linearly onto the recording's {} timestamps ({:.1} Hz); {} samples outside its span or in its gaps (> {GYRO_GAP_INTERVALS} intervals) dropped",
-        path.display(),
-        time_s.len(),
+        "{file}: the gyroscope ({} samples, {:.1} Hz) interpolated linearly onto the recording's {} timestamps ({:.1} Hz); {} samples outside its span or in its gaps (> {GYRO_GAP_INTERVALS} intervals) dropped",
+        gyro.time_s.len(),
         1.0 / interval,
         recording.len(),
         recording.sample_rate_hz(),
@@ -229,7 +242,21 @@ pub fn attach_gyro_file(
             .map(|(v, _)| *v)
             .collect()
     }));
-    Ok((merged, counts, Some(note)))
+    merged.source.time_notes.push(note.clone());
+    *recording = merged;
+    if let Some(labels) = &mut loaded.labels {
+        let mut k = keep.iter();
+        labels.retain(|_| k.next().copied().unwrap_or(false));
+    }
+    Ok(Some(note))
+}
+
+/// The first and last of `t` (NaN when empty).
+fn span(t: &[f64]) -> (f64, f64) {
+    (
+        t.first().copied().unwrap_or(f64::NAN),
+        t.last().copied().unwrap_or(f64::NAN),
+    )
 }
 
 #[cfg(test)]
@@ -248,14 +275,15 @@ mod tests {
         path
     }
 
-    fn recording(n: usize, rate_hz: f64, start_s: f64) -> Recording {
-        Recording {
+    fn recording(n: usize, rate_hz: f64, start_s: f64) -> Loaded {
+        let recording = Recording {
             time_s: (0..n).map(|i| start_s + i as f64 / rate_hz).collect(),
             accel_mps2: [vec![0.0; n], vec![0.0; n], vec![9.81; n]],
             gyro_radps: None,
             temperature_c: None,
             source: Default::default(),
-        }
+        };
+        Loaded::new(recording, Format::Csv, false)
     }
 
     /// A gyro at 200 Hz starting 0.5 s late, beside an accelerometer at 100 Hz: the accelerometer's
@@ -271,10 +299,13 @@ mod tests {
                 format!("{t:.6} {:.9} 0.01 -0.02", 0.1 * t)
             }),
         );
-        let (merged, counts, note) = attach_gyro_file(recording(1000, 100.0, 0.0), &gyro, false).unwrap();
-        assert!(!counts);
+        let mut loaded = recording(1000, 100.0, 0.0);
+        let note = attach_gyro_file(&mut loaded, &gyro, &ReadOptions::default()).unwrap();
+        let merged = loaded.recording;
+        assert!(!loaded.gyro_counts);
         assert_eq!(merged.len(), 1000 - 50, "{note:?}");
         assert!(note.unwrap().contains("50 samples outside its span"));
+        assert_eq!(merged.source.time_notes.len(), 1);
         let g = merged.gyro_radps.unwrap();
         for (t, v) in merged.time_s.iter().zip(&g[0]) {
             assert!((v - 0.1 * t).abs() < 1e-8, "{t}: {v}");
@@ -285,16 +316,41 @@ mod tests {
             "far.csv",
             (0..2000).map(|i| format!("{:.6} 0 0 0", 20.0 + i as f64 / 200.0)),
         );
-        let e = attach_gyro_file(recording(1000, 100.0, 0.0), &far, false).unwrap_err();
+        let e =
+            attach_gyro_file(&mut recording(1000, 100.0, 0.0), &far, &ReadOptions::default()).unwrap_err();
         assert!(matches!(e, GyroFileError::NoOverlap { covered: 0, .. }), "{e}");
         assert!(e.to_string().contains("20.000–29.995 s"), "{e}");
-        // Sample for sample beside it: attached as it is, no note.
-        let beside = write(
+        // Without a time of its own (time from a sample rate): sample for sample, no note, and
+        // its length must match.
+        let untimed = write(
             dir.path(),
-            "beside.csv",
-            (0..1000).map(|i| format!("{:.6} 0.5 0 0", i as f64 / 100.0)),
+            "untimed.csv",
+            (0..1000).map(|i| format!("{i} 0.5 0 0")),
         );
-        let (merged, _, note) = attach_gyro_file(recording(1000, 100.0, 0.0), &beside, false).unwrap();
-        assert_eq!((merged.len(), note), (1000, None));
+        let rate = ReadOptions {
+            sample_rate_hz: Some(100.0),
+            ..Default::default()
+        };
+        let mut loaded = recording(1000, 100.0, 0.0);
+        let note = attach_gyro_file(&mut loaded, &untimed, &rate).unwrap();
+        assert_eq!((loaded.recording.len(), note), (1000, None));
+        assert_eq!(loaded.recording.gyro_radps.unwrap()[0][999], 0.5);
+        let e = attach_gyro_file(&mut recording(999, 100.0, 0.0), &untimed, &rate).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                GyroFileError::Length {
+                    found: 1000,
+                    expected: 999,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        // A recording with gyro columns of its own takes no second one.
+        let mut own = recording(1000, 100.0, 0.0);
+        own.recording.gyro_radps = Some(std::array::from_fn(|_| vec![0.0; 1000]));
+        let e = attach_gyro_file(&mut own, &gyro, &ReadOptions::default()).unwrap_err();
+        assert!(matches!(e, GyroFileError::GyroTwice { .. }), "{e}");
     }
 }

@@ -16,10 +16,18 @@
 //! expects: a file about 9.81 times too weak or too strong is in another unit than it is read in,
 //! and stops the correction naming the unit ([`CorrectError::AccelUnit`]).
 //!
+//! A gyro file (`gyro_file`: the recording has no gyro columns, the model calibrates a gyro) is
+//! merged on time inside the pipeline in constant memory (`gyro.rs`): each row gets the gyro
+//! interpolated at its time and three corrected gyro columns; a row outside the gyro's span or
+//! in its gaps is written with its accelerometer corrected, empty gyro columns, `valid` 0 and
+//! status `no-gyro: line N, <why>`; under half the rows covered stops the correction naming
+//! both spans (a file output is then not written).
+//!
 //! A row that cannot be corrected is written in place with status `refused: line N, <reason>` and
 //! empty corrected columns; a row missing a value used is `skipped: …`. [`StreamSummary`] counts
 //! what the stream saw and words what a user should be told; the library never prints.
 
+mod gyro;
 mod sink;
 mod summary;
 mod text;
@@ -85,6 +93,9 @@ pub enum CorrectError {
     Columns(Box<RecordingError>),
     #[error(transparent)]
     Model(#[from] SingularGyro),
+    /// The gyro file cannot be merged (no overlap, its length, the model takes no gyro, …).
+    #[error(transparent)]
+    Gyro(Box<crate::input::gyro_file::GyroFileError>),
     /// The temperature column is in another unit than its name says (the model needs it).
     #[error(transparent)]
     Temperature(#[from] crate::thermal::checks::TemperatureError),
@@ -159,18 +170,34 @@ pub fn reads_whole_file(input: &Path, options: &ReadOptions) -> Result<bool, Cor
     Ok(whole_file_options || delimited.is_none())
 }
 
-/// Corrects `input` (a path, or `-` for standard input) with `model` and writes the table to
-/// `out`, flushed. See the [module](self) for the layout.
+/// Corrects `input` (a path, or `-` for standard input) with `model`, with the gyro of
+/// `gyro_file` when given (read with `options` as [`gyro_read_options`] says), and writes the
+/// table to `out`, flushed. See the [module](self) for the layout.
+///
+/// [`gyro_read_options`]: crate::input::gyro_file::gyro_read_options
 pub fn correct_to_writer(
     model: &CorrectorFile,
     input: &Path,
     options: &ReadOptions,
+    gyro_file: Option<&Path>,
     out: &mut dyn Write,
 ) -> Result<StreamSummary, CorrectError> {
-    if reads_whole_file(input, options)? {
+    let gyro = match gyro_file {
+        Some(path) if model.gyro.is_none() => {
+            return Err(CorrectError::Gyro(Box::new(
+                crate::input::gyro_file::GyroFileError::NotUsed {
+                    file: display_name(path),
+                },
+            )))
+        }
+        Some(path) => Some(gyro::GyroMerge::open(path, options)?),
+        None => None,
+    };
+    // A gyro without time pairs with the input's samples one for one: the input is read whole.
+    if gyro.as_ref().is_some_and(|g| !g.timed) || reads_whole_file(input, options)? {
         let loaded = read_path(input, options)?;
         let mut sink = DelimitedSink::new(out, ',');
-        return whole::correct_loaded(model, &loaded, &display_name(input), &mut sink);
+        return whole::correct_loaded(model, &loaded, &display_name(input), gyro, &mut sink);
     }
     let (reader, name): (Box<dyn BufRead>, String) = if crate::output::is_stdio(input) {
         (
@@ -185,7 +212,7 @@ pub fn correct_to_writer(
         })?;
         (Box::new(BufReader::new(file)), display_name(input))
     };
-    text::correct_text(model, reader, &name, &options.columns, out)
+    text::correct_text(model, reader, &name, &options.columns, gyro, out)
 }
 
 /// [`correct_to_writer`] into the file `output`, written through a temporary file renamed into
@@ -197,12 +224,13 @@ pub fn correct_to_path(
     model: &CorrectorFile,
     input: &Path,
     options: &ReadOptions,
+    gyro_file: Option<&Path>,
     output: &Path,
 ) -> Result<StreamSummary, CorrectError> {
     // The stream's own error is kept apart so that it, not a generic write error, is returned.
     let mut outcome = None;
     let written = crate::output::write_file(output, |out| {
-        let result = correct_to_writer(model, input, options, out);
+        let result = correct_to_writer(model, input, options, gyro_file, out);
         let failed = result.is_err();
         outcome = Some(result);
         if failed {

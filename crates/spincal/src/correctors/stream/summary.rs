@@ -41,6 +41,10 @@ pub struct StreamSummary {
     /// (`predicted_better` 0), and the first's line.
     pub not_predicted_better: usize,
     pub first_not_predicted_better: Option<usize>,
+    /// Rows outside the gyro file's span or in its gaps (status `no-gyro`: accelerometer
+    /// corrected, gyro columns empty), and the first's reason.
+    pub no_gyro: usize,
+    pub first_no_gyro: Option<String>,
     /// Rows whose reported temperature broke the sample rules (status `suspect-temperature`),
     /// and the first's line.
     pub suspect_temperature: usize,
@@ -84,6 +88,12 @@ impl StreamSummary {
         if self.first_refusals.len() < LISTED_REFUSALS {
             self.first_refusals.push(reason.to_string());
         }
+    }
+
+    /// Counts a row written without a gyro (its status says why).
+    pub(super) fn no_gyro(&mut self, status: &str) {
+        self.no_gyro += 1;
+        self.first_no_gyro.get_or_insert_with(|| status.to_string());
     }
 
     /// Counts a skipped row.
@@ -144,6 +154,12 @@ impl StreamSummary {
                 crate::thermal::checks::PLAUSIBLE_C[0],
                 crate::thermal::checks::PLAUSIBLE_C[1],
                 crate::thermal::checks::MAX_SLEW_C_PER_S,
+            ));
+        }
+        if let Some(first) = &self.first_no_gyro {
+            out.push(format!(
+                "{name}: {} of {} rows lie outside the gyro file's span or in its gaps: written with the accelerometer corrected, empty gyro columns, valid 0; the first: {first}",
+                self.no_gyro, self.rows
             ));
         }
         if let Some(first) = &self.first_skipped {

@@ -21,7 +21,7 @@ fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
 
 fn corrected(model: &CorrectorFile, input: &Path, options: &ReadOptions) -> (String, StreamSummary) {
     let mut out = Vec::new();
-    let summary = correct_to_writer(model, input, options, &mut out).expect("corrected");
+    let summary = correct_to_writer(model, input, options, None, &mut out).expect("corrected");
     (String::from_utf8(out).expect("UTF-8"), summary)
 }
 
@@ -134,7 +134,7 @@ fn a_headerless_stream_needs_its_unit_and_the_file_is_left_as_it_was_on_failure(
         },
     )));
     let previous = write(dir.path(), "out.csv", "earlier output\n");
-    let e = correct_to_path(&model, &input, &ReadOptions::default(), &previous).expect_err("no unit");
+    let e = correct_to_path(&model, &input, &ReadOptions::default(), None, &previous).expect_err("no unit");
     assert!(matches!(e, CorrectError::UnitUnknown { .. }), "{e}");
     assert!(e.is_usage());
     assert_eq!(

@@ -3,6 +3,7 @@
 
 use std::io::{BufRead, Write};
 
+use super::gyro::{without_gyro, GyroMerge};
 use super::sink::{field, DelimitedSink, RowSink};
 use super::{unit_check, CorrectError, StreamSummary};
 use crate::correctors::corrector::Axis;
@@ -149,6 +150,8 @@ struct TextStream<'a, 'w> {
     columns: &'a ColumnPlan,
     header: &'a [String],
     gyro: Option<[usize; 3]>,
+    /// A gyro file merged on time (the input then has no gyro columns).
+    merged: Option<GyroMerge>,
     temperature: Option<(usize, TemperatureUnit)>,
     added: CorrectedColumns,
     /// The corrected columns of a row that has none (skipped or refused), made once.
@@ -199,10 +202,19 @@ impl TextStream<'_, '_> {
             };
             format!("column {} ({})", c + 1, header[c])
         };
+        let time = values[columns.time_column()];
+        let (mut gyro_values, mut no_gyro) = (gyro.map(|g| g.map(|c| values[c])), None);
+        if let Some(merged) = self.merged.as_mut().filter(|_| time.is_finite()) {
+            // Interpolated in rad/s; the corrector takes the file's gyro unit.
+            match merged.at(time * self.units.time_to_s)? {
+                Ok(w) => gyro_values = Some(w.map(|w| w / self.units.gyro_to_radps)),
+                Err(why) => no_gyro = Some(why),
+            }
+        }
         let outcome = self.corrector.correct(
-            Some(values[columns.time_column()]),
+            Some(time),
             columns.accel_columns().map(|c| values[c]),
-            gyro.map(|g| g.map(|c| values[c])),
+            gyro_values,
             self.temperature.map(|(c, unit)| unit.to_celsius(values[c])),
             value_name,
         );
@@ -215,7 +227,14 @@ impl TextStream<'_, '_> {
                 ..
             } => {
                 self.summary.corrected(line_no, status, predicted);
-                self.sink.row(text, &corrected, valid, status.as_str())?;
+                match no_gyro {
+                    Some(why) => {
+                        let status = without_gyro(status.as_str(), line_no, why);
+                        self.summary.no_gyro(&status);
+                        self.sink.row(text, &corrected, false, &status)?;
+                    }
+                    None => self.sink.row(text, &corrected, valid, status.as_str())?,
+                }
             }
             RowOutcome::Refused(reason) => {
                 let reason = format!("line {line_no}, {reason}");
@@ -234,6 +253,7 @@ pub(super) fn correct_text(
     reader: Box<dyn BufRead>,
     name: &str,
     map: &ColumnMap,
+    merged: Option<GyroMerge>,
     out: &mut dyn Write,
 ) -> Result<StreamSummary, CorrectError> {
     let mut rows = RowReader::new(reader, name, &map.table)?;
@@ -260,8 +280,12 @@ pub(super) fn correct_text(
         .filter(|&c| Some(c) != temperature.map(|(t, _)| t))
         .collect();
     rows.choose_columns(&used);
-    let with_gyro = columns.gyro_columns().is_some();
-    let needs_time = RowCorrector::new(model, UnitFactors::SI, with_gyro)?.needs_time();
+    if columns.gyro_columns().is_some() && merged.is_some() {
+        return Err(gyro_twice(name, merged));
+    }
+    let with_gyro = columns.gyro_columns().is_some() || merged.is_some();
+    // A merged gyro needs each row's time, as a model that corrects with time does.
+    let needs_time = RowCorrector::new(model, UnitFactors::SI, with_gyro)?.needs_time() || merged.is_some();
     // The first rows are read ahead: a model that needs time learns the time column's unit from
     // them, as a file read whole does, and the acceleration unit is held against the model's
     // gravity; they are corrected first, in their order.
@@ -325,9 +349,10 @@ pub(super) fn correct_text(
     };
     let corrector = RowCorrector::new(model, units, with_gyro)?;
     let gyro = columns.gyro_columns().filter(|_| corrector.corrects_gyro());
+    let merged = merged.filter(|_| corrector.corrects_gyro());
     let sep = rows.delimiter.as_char();
     let mut sink = DelimitedSink::new(out, sep);
-    let added = CorrectedColumns::new(&corrector, gyro.is_some());
+    let added = CorrectedColumns::new(&corrector, gyro.is_some() || merged.is_some());
     // Named in the units the values are written in: the file's own.
     let corrected_names = added.names(
         columns.accel_unit().suffix(),
@@ -348,6 +373,7 @@ pub(super) fn correct_text(
         columns: &columns,
         header: &header,
         gyro,
+        merged,
         temperature,
         blank: added.blank(),
         added,
@@ -364,6 +390,19 @@ pub(super) fn correct_text(
     while let Some(record) = rows.next_record(&mut values)? {
         stream.row(record, &rows.line_text(), &values)?;
     }
+    if let Some(merged) = stream.merged.take() {
+        // Before the last flush: under half the rows covered fails the correction.
+        let notes = merged.finish()?;
+        stream.summary.notes.extend(notes);
+    }
     stream.sink.flush()?;
     Ok(stream.summary)
+}
+
+/// The input has gyro columns and a gyro file was given too.
+pub(super) fn gyro_twice(name: &str, merged: Option<GyroMerge>) -> CorrectError {
+    CorrectError::Gyro(Box::new(crate::input::gyro_file::GyroFileError::GyroTwice {
+        file: merged.map(|m| m.file).unwrap_or_default(),
+        recording: name.to_string(),
+    }))
 }

@@ -3,6 +3,7 @@
 
 use std::fmt::Write as _;
 
+use super::gyro::{without_gyro, GyroMerge};
 use super::sink::{field, RowSink};
 use super::text::CorrectedColumns;
 use super::{unit_check, CorrectError, StreamSummary};
@@ -37,17 +38,21 @@ fn check_counts(model: &CorrectorFile, loaded: &Loaded, name: &str) -> Result<()
     })
 }
 
-/// Corrects every sample of `loaded` into `sink`: `line` (for text), `t_s`, the values under
-/// unit-named columns, `temp_c` and `label` where present, then the corrected columns, `valid`
-/// and `status`.
+/// Corrects every sample of `loaded` (with the gyro of `merged`, when given, at each sample's
+/// time) into `sink`: `line` (for text), `t_s`, the values under unit-named columns, `temp_c` and
+/// `label` where present, then the corrected columns, `valid` and `status`.
 pub(super) fn correct_loaded(
     model: &CorrectorFile,
     loaded: &Loaded,
     name: &str,
+    merged: Option<GyroMerge>,
     sink: &mut dyn RowSink,
 ) -> Result<StreamSummary, CorrectError> {
     check_counts(model, loaded, name)?;
     let rec = &loaded.recording;
+    if rec.gyro_radps.is_some() && merged.is_some() {
+        return Err(super::text::gyro_twice(name, merged));
+    }
     if let Some(expected) = unit_check::expected_gravity_mps2(&model.corrector).filter(|_| !loaded.raw_counts)
     {
         let a = &rec.accel_mps2;
@@ -59,20 +64,23 @@ pub(super) fn correct_loaded(
         unit_check::check_accel_unit(name, &mut magnitudes, expected)?;
     }
     // The gyro is corrected when the model's calibration takes the file's unit (counts or rad/s).
+    let gyro_counts = merged.as_ref().map_or(loaded.gyro_counts, |m| m.counts);
     let gyro_unit_fits = model
         .gyro
         .as_ref()
-        .is_some_and(|g| g.input_unit.is_rad_per_s() != loaded.gyro_counts);
+        .is_some_and(|g| g.input_unit.is_rad_per_s() != gyro_counts);
     let gyro = rec.gyro_radps.as_ref().filter(|_| gyro_unit_fits);
+    let mut merged = merged.filter(|_| gyro_unit_fits);
     if let (Some(_), Some(temperature)) = (&model.thermal, &rec.temperature_c) {
         let column = temperature_column(rec);
         check_unit(name, &column, temperature, unit_of_column(&column))?;
     }
     let units = UnitFactors::SI;
-    let mut corrector = RowCorrector::new(model, units, gyro.is_some())?;
+    let mut corrector = RowCorrector::new(model, units, gyro.is_some() || merged.is_some())?;
     let gyro = gyro.filter(|_| corrector.corrects_gyro());
+    merged = merged.filter(|_| corrector.corrects_gyro());
     let accel_unit = if loaded.raw_counts { "counts" } else { "mps2" };
-    let gyro_unit = if loaded.gyro_counts { "counts" } else { "radps" };
+    let gyro_unit = if gyro_counts { "counts" } else { "radps" };
     let lines = (rec.source.lines.len() == rec.len()).then_some(&rec.source.lines);
     let mut header: Vec<String> = Vec::new();
     if lines.is_some() {
@@ -91,16 +99,17 @@ pub(super) fn correct_loaded(
     }
     // One naming with the streamed path (`corrected_column_names`), in the unit the corrected
     // values are in: SI here (a calibration of counts gives m/s² and rad/s).
-    let added = CorrectedColumns::new(&corrector, gyro.is_some());
+    let added = CorrectedColumns::new(&corrector, gyro.is_some() || merged.is_some());
     header.extend(added.names("mps2", "radps"));
     header.extend(["valid".to_string(), "status".to_string()]);
     sink.header(&header)?;
     let mut summary = StreamSummary::new(name);
     summary.left_out = rec.source.incomplete_rows.describe();
     summary.notes = rec.source.time_notes.clone();
-    summary.gyro_uncorrected = model.gyro.is_some() && rec.gyro_radps.is_none();
-    if model.gyro.is_some() && rec.gyro_radps.is_some() && !gyro_unit_fits {
-        let (file, wanted) = if loaded.gyro_counts {
+    let with_gyro = rec.gyro_radps.is_some() || merged.is_some();
+    summary.gyro_uncorrected = model.gyro.is_some() && !with_gyro;
+    if model.gyro.is_some() && with_gyro && !gyro_unit_fits {
+        let (file, wanted) = if gyro_counts {
             ("raw counts", "rad/s")
         } else {
             ("rad/s", "raw counts")
@@ -137,10 +146,17 @@ pub(super) fn correct_loaded(
         if let Some(labels) = &loaded.labels {
             let _ = write!(input, "{sep}{}", field(&labels[i], sep));
         }
+        let (mut gyro_values, mut no_gyro) = (gyro.map(|g| std::array::from_fn(|a| g[a][i])), None);
+        if let Some(m) = merged.as_mut() {
+            match m.at(rec.time_s[i])? {
+                Ok(w) => gyro_values = Some(w),
+                Err(why) => no_gyro = Some(why),
+            }
+        }
         let outcome = corrector.correct(
             Some(rec.time_s[i]),
             std::array::from_fn(|a| rec.accel_mps2[a][i]),
-            gyro.map(|g| std::array::from_fn(|a| g[a][i])),
+            gyro_values,
             rec.temperature_c.as_ref().map(|t| t[i]),
             value_name,
         );
@@ -153,7 +169,14 @@ pub(super) fn correct_loaded(
                 ..
             } => {
                 summary.corrected(line_no, status, predicted);
-                sink.row(&input, &corrected, valid, status.as_str())?;
+                match no_gyro {
+                    Some(why) => {
+                        let status = without_gyro(status.as_str(), line_no, why);
+                        summary.no_gyro(&status);
+                        sink.row(&input, &corrected, false, &status)?;
+                    }
+                    None => sink.row(&input, &corrected, valid, status.as_str())?,
+                }
             }
             RowOutcome::Refused(reason) => {
                 let where_ = if lines.is_some() { "line" } else { "sample" };
@@ -162,6 +185,9 @@ pub(super) fn correct_loaded(
                 sink.row(&input, &corrected, false, &format!("refused: {reason}"))?;
             }
         }
+    }
+    if let Some(m) = merged {
+        summary.notes.extend(m.finish()?);
     }
     sink.flush()?;
     Ok(summary)

@@ -32,7 +32,8 @@ use crate::input::recording::{ColumnMap, Recording, RecordingError};
 use crate::input::table::TableError;
 
 use shared::{check_options, finish, read_mat, table_options};
-use text::{read_imucal, read_mpu6050, read_whitespace, whitespace_map, RAW_COUNTS_MPS2};
+pub(crate) use text::whitespace_map;
+use text::{read_imucal, read_mpu6050, read_whitespace, RAW_COUNTS_MPS2};
 
 pub use detect::{delimited_text_format, detect, Detection, DETECT_BYTES};
 use gx1::{Gx1Error, Gx1Options, Gx1Report};

@@ -122,7 +122,7 @@ pub(super) fn retime(loaded: &mut Loaded) {
 }
 
 impl Loaded {
-    pub(super) fn new(recording: Recording, format: Format, raw_counts: bool) -> Loaded {
+    pub(crate) fn new(recording: Recording, format: Format, raw_counts: bool) -> Loaded {
         Loaded {
             recording,
             format,

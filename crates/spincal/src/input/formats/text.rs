@@ -12,7 +12,7 @@ pub(super) const RAW_COUNTS_MPS2: f64 = 200.0;
 
 /// imu_tk's columns: without a header or a column choice, a file of other than 4 columns is read
 /// as its first four.
-pub(super) fn whitespace_map(mut map: ColumnMap, no_header: bool, width: usize) -> ColumnMap {
+pub(crate) fn whitespace_map(mut map: ColumnMap, no_header: bool, width: usize) -> ColumnMap {
     if map.columns.is_none() && no_header && width != 4 {
         map.columns = Some(vec!["1".into(), "2".into(), "3".into(), "4".into()]);
     }

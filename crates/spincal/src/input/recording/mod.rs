@@ -12,11 +12,13 @@ use serde::{Deserialize, Serialize};
 use crate::input::table::{Incomplete, Location, TableError};
 
 mod columns;
+mod interpolate;
 mod read;
 pub mod time;
 mod units;
 
 pub use columns::{temperature_unit_of_name, ColumnMap, ColumnPlan};
+pub use interpolate::{interpolate_onto, Bracket, Uncovered};
 pub use units::{AccelUnit, GyroUnit, TemperatureUnit, TimeUnit, STANDARD_GRAVITY};
 
 /// Where a recording came from and how it was read.
@@ -230,46 +232,6 @@ impl Recording {
         crate::output::write_file(path, |out| self.write_csv(out, unit))?;
         Ok(())
     }
-}
-
-/// `source` (three axes at `source_time`) at each of `target_time`, linearly interpolated between
-/// the two source samples around it, and which targets have a value: none before the first or
-/// after the last source sample (never extrapolated), none where the two around it are more than
-/// `widest_s` apart (a dropped stretch, not jitter). Both times increase.
-pub fn interpolate_onto(
-    target_time: &[f64],
-    source_time: &[f64],
-    source: &[Vec<f64>; 3],
-    widest_s: f64,
-) -> (Vec<bool>, [Vec<f64>; 3]) {
-    let n = target_time.len();
-    let mut keep = vec![false; n];
-    let mut out: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; n]);
-    let g = source_time;
-    if g.len() < 2 {
-        return (keep, out);
-    }
-    let mut j = 0;
-    for (i, &t) in target_time.iter().enumerate() {
-        if t < g[0] || t > g[g.len() - 1] {
-            continue;
-        }
-        // Target times increase, so the bracket only moves forward.
-        while j + 2 < g.len() && g[j + 1] < t {
-            j += 1;
-        }
-        let (t0, t1) = (g[j], g[j + 1]);
-        if t1 - t0 > widest_s {
-            continue;
-        }
-        let w = if t1 > t0 { (t - t0) / (t1 - t0) } else { 0.0 };
-        for a in 0..3 {
-            let (v0, v1) = (source[a][j], source[a][j + 1]);
-            out[a][i] = v0 + w * (v1 - v0);
-        }
-        keep[i] = true;
-    }
-    (keep, out)
 }
 
 /// The sampling interval from all the timestamps: the median of (t\[i+k\] − t\[i\]) / k over
