@@ -12,6 +12,7 @@ pub mod fleet;
 pub mod init;
 pub mod input;
 pub mod inspect;
+pub mod phone;
 pub mod sensitivity;
 pub mod simulate;
 pub mod static_cal;
