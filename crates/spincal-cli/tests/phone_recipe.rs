@@ -10,7 +10,8 @@ use serde_json::Value;
 /// The README's commands between `<!-- phone-recipe -->` and `<!-- /phone-recipe -->`: each line
 /// of the fenced block that starts with `spincal`, its trailing `# comment` removed, as words.
 fn recipe() -> Vec<Vec<String>> {
-    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md")).unwrap();
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md")).unwrap();
     let (_, rest) = readme
         .split_once("<!-- phone-recipe -->")
         .expect("the README's phone recipe marker");
@@ -32,7 +33,8 @@ fn recipe() -> Vec<Vec<String>> {
 }
 
 fn json(path: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))).unwrap()
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())))
+        .unwrap()
 }
 
 #[test]
@@ -65,7 +67,10 @@ fn the_readme_phone_recipe_runs_from_the_zips_to_a_corrected_file() {
             .iter()
             .find(|w| w[1] == command)
             .unwrap_or_else(|| panic!("no `spincal {command}` in the recipe"));
-        let at = words.iter().position(|w| w == flag).unwrap_or_else(|| panic!("no {flag}"));
+        let at = words
+            .iter()
+            .position(|w| w == flag)
+            .unwrap_or_else(|| panic!("no {flag}"));
         dir.path().join(&words[at + 1])
     };
     let session = word_after("simulate", "--phone");
@@ -120,5 +125,8 @@ fn the_readme_phone_recipe_runs_from_the_zips_to_a_corrected_file() {
             / rows.len() as f64
     };
     let (before, after) = ((mean_norm(raw) - g).abs(), (mean_norm(fixed) - g).abs());
-    assert!(after < 0.02 && after < before, "|a| − g: {before} before, {after} after");
+    assert!(
+        after < 0.02 && after < before,
+        "|a| − g: {before} before, {after} after"
+    );
 }

@@ -80,11 +80,7 @@ fn main() {
                 if g.error_pct().abs() <= 0.1 {
                     scale_ok += 1;
                 }
-                format!(
-                    "{:+.3} % ({:+.2})",
-                    g.error_pct(),
-                    g.z().unwrap_or(f64::NAN)
-                )
+                format!("{:+.3} % ({:+.2})", g.error_pct(), g.z().unwrap_or(f64::NAN))
             });
             cases += 1;
             radius_ok += usize::from(all_radius);

@@ -11,7 +11,12 @@ use crate::ui::{self, Ui, UsageError};
 
 /// Writes the session's zips, campaign.toml and truth.json into `dir`. Refuses to replace a file
 /// already there unless `replace_own` (the demo's own folder).
-pub fn write_session(dir: &Path, setup: &PhoneSetup, seed: u64, replace_own: bool) -> anyhow::Result<PhoneSession> {
+pub fn write_session(
+    dir: &Path,
+    setup: &PhoneSetup,
+    seed: u64,
+    replace_own: bool,
+) -> anyhow::Result<PhoneSession> {
     let session = simulate_phone(setup, seed).map_err(|e| UsageError(e.to_string()))?;
     match session.write_folder(dir, replace_own) {
         Err(e @ WriteError::Exists { .. }) => Err(UsageError(e.to_string()).into()),

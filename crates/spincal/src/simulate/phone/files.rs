@@ -27,7 +27,10 @@ pub(super) fn java_scientific(v: f64) -> String {
 
 /// One phyphox set as Android's CSV export writes it (comma, decimal point).
 fn phyphox_set(names: [&str; 3], stream: &SensorStream) -> Vec<u8> {
-    let mut text = format!("\"Time (s)\",\"{}\",\"{}\",\"{}\"\n", names[0], names[1], names[2]);
+    let mut text = format!(
+        "\"Time (s)\",\"{}\",\"{}\",\"{}\"\n",
+        names[0], names[1], names[2]
+    );
     for (s, &t) in stream.time_s.iter().enumerate() {
         text.push_str(&java_scientific(t));
         for k in 0..3 {
@@ -162,9 +165,11 @@ fn sensor_logger_files(r: &PhoneRecording, gravity: f64) -> Vec<(String, Vec<u8>
 /// A zip of `files` (name, bytes), deflated as the apps write them.
 fn zip(files: &[(String, Vec<u8>)]) -> Result<Vec<u8>, String> {
     let mut out = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
-    let options = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+    let options =
+        zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
     for (name, bytes) in files {
-        out.start_file(name.as_str(), options).map_err(|e| e.to_string())?;
+        out.start_file(name.as_str(), options)
+            .map_err(|e| e.to_string())?;
         out.write_all(bytes).map_err(|e| e.to_string())?;
     }
     Ok(out.finish().map_err(|e| e.to_string())?.into_inner())

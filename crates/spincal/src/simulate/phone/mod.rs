@@ -220,7 +220,10 @@ impl Channel {
                 values[k].push(code.clamp(-self.max_code - 1.0, self.max_code) * self.lsb);
             }
         }
-        SensorStream { time_s: times, values }
+        SensorStream {
+            time_s: times,
+            values,
+        }
     }
 }
 
@@ -354,7 +357,11 @@ pub fn simulate_phone(setup: &PhoneSetup, seed: u64) -> Result<PhoneSession, Sim
         let geometry = Geometry::new(placement, yaw, tilt, chip_offset_m);
         let spindle = geometry.to_body([0.0, 0.0, 1.0]);
         let k_spindle: f64 = (0..3)
-            .map(|i| (0..3).map(|j| spindle[i] * gyroscope.sensitivity[i][j] * spindle[j]).sum::<f64>())
+            .map(|i| {
+                (0..3)
+                    .map(|j| spindle[i] * gyroscope.sensitivity[i][j] * spindle[j])
+                    .sum::<f64>()
+            })
             .sum();
         placements.push(PlacementTruth {
             label: placement.label.clone(),
@@ -393,7 +400,9 @@ pub fn simulate_phone(setup: &PhoneSetup, seed: u64) -> Result<PhoneSession, Sim
                 placement: placement.label.clone(),
                 rpm,
                 out: placement.out,
-                stated_radius_m: setup.stated_radius_tol_m.map(|tol| (placement.centre_radius_m, tol)),
+                stated_radius_m: setup
+                    .stated_radius_tol_m
+                    .map(|tol| (placement.centre_radius_m, tol)),
             };
             let force_at = |t: f64, drift: [f64; 3]| {
                 let (force, _) = platter.at(&chip, t);
@@ -403,7 +412,14 @@ pub fn simulate_phone(setup: &PhoneSetup, seed: u64) -> Result<PhoneSession, Sim
                 let (_, rate) = platter.at(&chip, t);
                 add(gyroscope.measure(geometry.to_body([0.0, 0.0, rate])), drift)
             };
-            let recording = recorder.record(file.clone(), Some(entry), setup.run_s, force_at, rate_at, &mut rng);
+            let recording = recorder.record(
+                file.clone(),
+                Some(entry),
+                setup.run_s,
+                force_at,
+                rate_at,
+                &mut rng,
+            );
             let times = &recording.accel_mps2.time_s;
             let rate_radps = times
                 .iter()

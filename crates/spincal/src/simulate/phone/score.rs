@@ -72,7 +72,8 @@ impl PhoneScore {
                     se.map_or(String::new(), |s| format!(" ± {:.2}", 1e3 * s)),
                     1e3 * p.true_m,
                     1e3 * (f - p.true_m),
-                    p.z().map_or(String::new(), |z| format!(", {z:+.1} standard errors"))
+                    p.z()
+                        .map_or(String::new(), |z| format!(", {z:+.1} standard errors"))
                 ),
                 (None, _) => format!(
                     "placement {}: no radius fitted (true {:.2} mm)",
@@ -88,7 +89,8 @@ impl PhoneScore {
                 g.se.map_or(String::new(), |s| format!(" ± {s:.5}")),
                 g.true_scale,
                 g.error_pct(),
-                g.z().map_or(String::new(), |z| format!(", {z:+.1} standard errors"))
+                g.z()
+                    .map_or(String::new(), |z| format!(", {z:+.1} standard errors"))
             )),
             None => lines.push("gyroscope: not calibrated".into()),
         }

@@ -222,7 +222,10 @@ impl PhoneSetup {
                 return invalid(name, value, "must be zero or positive");
             }
         }
-        if !self.chip_height_m.is_finite() || !self.speed_error_pct.is_finite() || self.speed_error_pct <= -50.0 {
+        if !self.chip_height_m.is_finite()
+            || !self.speed_error_pct.is_finite()
+            || self.speed_error_pct <= -50.0
+        {
             return invalid(
                 "speed_error_pct",
                 self.speed_error_pct,
@@ -239,9 +242,17 @@ impl PhoneSetup {
             );
         }
         if self.rpm.is_empty() || self.rpm.iter().any(|r| !(*r > 0.0 && r.is_finite())) {
-            return invalid("rpm", self.rpm.first().copied().unwrap_or(0.0), "needs positive speeds");
+            return invalid(
+                "rpm",
+                self.rpm.first().copied().unwrap_or(0.0),
+                "needs positive speeds",
+            );
         }
-        if self.placements.iter().any(|p| !(p.centre_radius_m >= 0.0 && p.centre_radius_m.is_finite())) {
+        if self
+            .placements
+            .iter()
+            .any(|p| !(p.centre_radius_m >= 0.0 && p.centre_radius_m.is_finite()))
+        {
             return invalid("placements.centre_radius_m", 0.0, "must be zero or positive");
         }
         if self.placements.iter().any(|p| p.out.axis == 2) {
@@ -252,9 +263,18 @@ impl PhoneSetup {
                 return invalid("stated_radius_tol_m", tol, "must be positive");
             }
         }
-        let unsafe_label = |l: &str| l.is_empty() || !l.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+        let unsafe_label = |l: &str| {
+            l.is_empty()
+                || !l
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        };
         if self.placements.iter().any(|p| unsafe_label(&p.label)) {
-            return invalid("placements.label", 0.0, "labels are letters, digits, - or _ (they name files)");
+            return invalid(
+                "placements.label",
+                0.0,
+                "labels are letters, digits, - or _ (they name files)",
+            );
         }
         if self.placements.is_empty() {
             return invalid("placements", 0.0, "needs at least one placement");

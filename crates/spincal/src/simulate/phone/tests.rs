@@ -22,7 +22,10 @@ fn same_seed_same_session_and_the_clocks_are_the_phones() {
     assert_eq!(a.recordings.len(), 4);
     let [pa, pb] = [&a.truth.placements[0], &a.truth.placements[1]];
     let dy = a.truth.chip_offset_m[1];
-    assert!(((pa.chip_radius_m - pb.chip_radius_m) - 2.0 * dy).abs() < 2e-3, "{pa:?} {pb:?}");
+    assert!(
+        ((pa.chip_radius_m - pb.chip_radius_m) - 2.0 * dy).abs() < 2e-3,
+        "{pa:?} {pb:?}"
+    );
     for r in &a.recordings {
         let (accel, gyro) = (&r.accel_mps2.time_s, &r.gyro_radps.time_s);
         // Each sensor on its own jittered clock near its nominal rate.
@@ -75,7 +78,10 @@ fn exports_read_back_as_the_apps_files() {
         // The gyro is interpolated onto the accelerometer's times: the platter's rate on z.
         let gyro = rec.gyro_radps.as_ref().expect("the gyroscope");
         let mid = gyro[2][rec.len() / 2];
-        assert!((mid.abs() - 45.0 * 1.01 * std::f64::consts::PI / 30.0).abs() < 0.1, "{mid}");
+        assert!(
+            (mid.abs() - 45.0 * 1.01 * std::f64::consts::PI / 30.0).abs() < 0.1,
+            "{mid}"
+        );
         let campaign = crate::campaign::file::Campaign::read_path(&path.join("campaign.toml")).unwrap();
         assert_eq!(campaign.recordings.len(), session.recordings.len());
         let truth: PhoneTruth =
@@ -107,7 +113,10 @@ fn a_setup_the_simulation_cannot_run_is_refused_by_name() {
             ..short()
         },
     ];
-    for (setup, name) in bad.iter().zip(["accel_rate_hz", "jitter_s", "rpm", "placements.label"]) {
+    for (setup, name) in bad
+        .iter()
+        .zip(["accel_rate_hz", "jitter_s", "rpm", "placements.label"])
+    {
         match simulate_phone(setup, 1) {
             Err(SimulationError::Invalid { name: got, .. }) => assert_eq!(got, name),
             other => panic!("{name}: {other:?}"),
@@ -119,5 +128,8 @@ fn a_setup_the_simulation_cannot_run_is_refused_by_name() {
 fn phyphox_numbers_and_times_are_written_as_the_app_writes_them() {
     assert_eq!(files::java_scientific(-0.0123456789012), "-1.234567890E-2");
     assert_eq!(files::java_scientific(98.0665), "9.806650000E1");
-    assert_eq!(files::utc_text(1_795_867_200.25), "2026-11-28 12:00:00.250 UTC+00:00");
+    assert_eq!(
+        files::utc_text(1_795_867_200.25),
+        "2026-11-28 12:00:00.250 UTC+00:00"
+    );
 }
