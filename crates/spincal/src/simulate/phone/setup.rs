@@ -279,6 +279,22 @@ impl PhoneSetup {
         if self.placements.is_empty() {
             return invalid("placements", 0.0, "needs at least one placement");
         }
+        // Each run's file is named after its placement and its speed in whole rpm.
+        let mut names: Vec<String> = self
+            .placements
+            .iter()
+            .flat_map(|p| self.rpm.iter().map(move |r| format!("{}-{:.0}", p.label, r)))
+            .collect();
+        let runs = names.len();
+        names.sort();
+        names.dedup();
+        if names.len() < runs {
+            return invalid(
+                "placements.label",
+                0.0,
+                "two runs would share a file: labels must differ, and speeds by at least 1 rpm",
+            );
+        }
         if self.poses > 60 {
             return invalid("poses", self.poses as f64, "at most 60");
         }
