@@ -54,6 +54,28 @@ fn demo_writes_model_results_and_a_report_that_renders() {
         assert!(d.join(file).exists(), "{file} missing");
     }
 
+    // The third part: a phone's zips calibrated with no radius stated; each placement's chip
+    // radius within 2 mm of the simulation's truth, and the terminal says so beside the truth.
+    let phone_truth: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("phone/truth.json")).unwrap()).unwrap();
+    let phone: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("phone-calibration/results.json")).unwrap())
+            .unwrap();
+    for t in phone_truth["placements"].as_array().unwrap() {
+        let fitted = phone["placements"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["label"] == t["label"])
+            .unwrap();
+        let error = fitted["radius_m"].as_f64().unwrap() - t["chip_radius_m"].as_f64().unwrap();
+        assert!(error.abs() < 2e-3, "placement {}: {error} m", t["label"]);
+    }
+    let stdout = &support::demo().1;
+    assert!(
+        stdout.contains("A phone on the record player") && stdout.contains("placement A: chip at"),
+        "{stdout}"
+    );
     // Turntable parameters recovered: ω against the simulator's truth, the radius against 10 cm.
     for (k, name) in ["rec33", "rec45"].iter().enumerate() {
         let truth: Value =

@@ -32,6 +32,7 @@ mod io_commands;
 mod labels_cli;
 mod outputs;
 mod phone_cli;
+mod phone_recipe;
 mod real_files;
 mod resources;
 mod strobe;

@@ -1,6 +1,6 @@
 //! `spincal demo`: a simulated unit calibrated from a campaign (still poses and turntable runs,
 //! correctors chosen on held-out conditions), then the paper's single-recording protocol on the
-//! default session, with no input needed.
+//! default session, then a phone's session calibrated from its phyphox zips, with no input needed.
 
 use std::path::PathBuf;
 
@@ -15,7 +15,7 @@ use crate::ui::{self, Ui};
 
 #[derive(Args, Debug)]
 #[command(
-    after_help = "Runs two calibrations, each on simulated data:\n  1. a campaign (still poses and turntable runs, written to OUT/campaign) calibrated as\n     `spincal calibrate --campaign` does, into OUT/campaign-calibration (its verdict first);\n  2. the paper's protocol: two turntable recordings (OUT/rec33.csv, OUT/rec45.csv) calibrated as\n     `spincal calibrate` does, into OUT (results.json, report.html, model.json).\n\nExample:\n  spincal demo --out spincal-demo && xdg-open spincal-demo/report.html"
+    after_help = "Runs three calibrations, each on simulated data:\n  1. a campaign (still poses and turntable runs, written to OUT/campaign) calibrated as\n     `spincal calibrate --campaign` does, into OUT/campaign-calibration (its verdict first);\n  2. the paper's protocol: two turntable recordings (OUT/rec33.csv, OUT/rec45.csv) calibrated as\n     `spincal calibrate` does, into OUT (results.json, report.html, model.json);\n  3. a phone on the record player: phyphox zips (OUT/phone, no radius stated) calibrated as\n     `spincal calibrate --campaign` does, into OUT/phone-calibration, the chip's radius against the truth.\n\nExample:\n  spincal demo --out spincal-demo && xdg-open spincal-demo/report.html"
 )]
 pub struct DemoArgs {
     /// Folder for the simulated recordings and every result.
@@ -93,6 +93,8 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
         ..Params::default()
     };
     let (output, written) = run_calibration(&recordings, &settings, &args.out, None, ui)?;
+    let phone_out = args.out.join("phone-calibration");
+    let phone = super::phone::demo(&args.out.join("phone"), &phone_out, args.seed, ui)?;
     if args.json {
         return ui::print_json(&output.result);
     }
@@ -105,8 +107,12 @@ pub fn run(args: DemoArgs, ui: Ui) -> anyhow::Result<()> {
         summary(&output, &args.out, &written, false)
     ))?;
     ui::print(&format!(
-        "open {}/report.html (the paper's protocol) and {}/report.html (the campaign)\n",
+        "\n== A phone on the record player (phyphox zips, the chip's radius not stated) ==\n{phone}"
+    ))?;
+    ui::print(&format!(
+        "open {}/report.html (the paper's protocol), {}/report.html (the campaign) and {}/report.html (the phone)\n",
         args.out.display(),
-        campaign_out.display()
+        campaign_out.display(),
+        phone_out.display()
     ))
 }

@@ -13,6 +13,7 @@ pub mod gyro_file;
 pub mod init;
 pub mod input;
 pub mod inspect;
+pub mod phone;
 pub mod sensitivity;
 pub mod simulate;
 pub mod static_cal;

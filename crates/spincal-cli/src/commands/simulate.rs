@@ -22,11 +22,14 @@ use crate::ui::{self, UsageError};
                         unit-03 with +0.1 g bias on x and +5 % scale error on y) and fleet8/fleet-truth.json\n  \
                         spincal simulate --thermal warm7 --seed 7\n  \
                         writes warm7/: a warm-up, still poses and held-out poses through 25 °C warm-ups, each\n  \
-                        with the temperature as a lagging 1 °C sensor reports it, their truth and truth.json"
+                        with the temperature as a lagging 1 °C sensor reports it, their truth and truth.json\n  \
+                        spincal simulate --phone phone7 --seed 7\n  \
+                        writes phone7/: a phone's still poses and turntable runs as phyphox zips, campaign.toml\n  \
+                        (no radius: the chip's is found) and truth.json"
 )]
 pub struct SimulateArgs {
     /// Output CSV.
-    #[arg(short, long, required_unless_present_any = ["campaign", "fleet", "thermal"])]
+    #[arg(short, long, required_unless_present_any = ["campaign", "fleet", "thermal", "phone"])]
     pub output: Option<PathBuf>,
     /// Write a whole campaign of one unit into this folder instead (campaign.toml, still poses and
     /// turntable runs in m/s², each with its true specific force, and truth.json).
@@ -40,6 +43,14 @@ pub struct SimulateArgs {
     /// JSON (coefficient ranges, warm-up, sensor lag and resolution).
     #[arg(long, value_name = "DIR", conflicts_with_all = ["output", "fleet", "campaign"])]
     pub thermal: Option<PathBuf>,
+    /// Write a phone session into this folder instead: still poses (six at about 45°) and
+    /// turntable runs at 33⅓ and 45 rpm in two placements (the phone turned 180°), the platter 1 %
+    /// fast, each recording a phyphox simple-experiment zip (accelerometer at 100 Hz and gyroscope
+    /// at 200 Hz on their own jittered clocks, a consumer part's errors and noise), the chip off the
+    /// phone's centre; campaign.toml states no radius, truth.json holds the chip's. --setup takes
+    /// the PhoneSetup as JSON (`"app": "sensor-logger"` writes Sensor Logger zips).
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["output", "fleet", "campaign", "thermal"])]
+    pub phone: Option<PathBuf>,
     /// Write a fleet of N units into --out DIR instead: one campaign folder per unit (unit-01, …),
     /// each unit's sensor drawn around the default one (bias sd 0.005 g, scale error sd 0.3 %,
     /// misalignment sd 0.2° per axis), and fleet-truth.json.
@@ -53,7 +64,7 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "K", requires = "fleet", value_delimiter = ',')]
     pub faulty: Vec<usize>,
     /// With --campaign or --fleet: the campaign setup as JSON (fields of CampaignSetup; defaults
-    /// otherwise).
+    /// otherwise); with --thermal a ThermalProfile, with --phone a PhoneSetup.
     #[arg(long)]
     pub setup: Option<PathBuf>,
     /// Truth sidecar (default: the output name with .truth.json).
@@ -126,8 +137,11 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
     if let Some(dir) = &args.thermal {
         return simulate_thermal(dir, args.seed, args.setup.as_deref(), args.json);
     }
+    if let Some(dir) = &args.phone {
+        return super::phone::simulate(dir, args.seed, args.setup.as_deref(), args.json);
+    }
     if args.setup.is_some() && args.campaign.is_none() {
-        return Err(UsageError("--setup needs --campaign, --fleet or --thermal".into()).into());
+        return Err(UsageError("--setup needs --campaign, --fleet, --thermal or --phone".into()).into());
     }
     if let Some(dir) = &args.campaign {
         return super::campaign::simulate(dir, args.seed, args.setup.as_deref(), args.json);

@@ -147,6 +147,8 @@ pub enum WriteError {
     Exists { path: String },
     #[error("{path}: cannot create the folder: {message}")]
     Folder { path: String, message: String },
+    #[error("{path}: cannot write the archive: {message}")]
+    Archive { path: String, message: String },
     #[error(transparent)]
     Recording(#[from] RecordingError),
     #[error(transparent)]

@@ -9,6 +9,8 @@
 pub mod campaign;
 pub mod fleet;
 pub mod gyro_poses;
+#[cfg(feature = "phone")]
+pub mod phone;
 pub mod thermal;
 
 use rand::SeedableRng;

@@ -152,7 +152,7 @@ pub fn simulate_campaign(setup: &CampaignSetup, seed: u64) -> Result<SimulatedCa
     let mut timeline = Timeline::start(setup, seed);
     let mut recordings = Vec::new();
     // The still poses: one recording, the sensor turned by hand from one pose to the next.
-    let directions = pose_directions(setup, &mut timeline.rng);
+    let directions = pose_directions(setup.poses, setup.pose_tilt_deg, &mut timeline.rng);
     let mut true_poses = Vec::new();
     if !directions.is_empty() {
         let forces;
@@ -411,9 +411,9 @@ impl<'a> Timeline<'a> {
     }
 }
 
-/// The pose directions: a face (then an edge, 45° between two axes), tilted at random up to the
-/// limit.
-fn pose_directions(setup: &CampaignSetup, rng: &mut ChaCha8Rng) -> Vec<[f64; 3]> {
+/// The pose directions (unit vectors of gravity in the body frame): a face (then an edge, 45°
+/// between two axes), tilted at random up to `tilt_deg`. The phone simulation shares it.
+pub(crate) fn pose_directions(poses: usize, tilt_deg: f64, rng: &mut ChaCha8Rng) -> Vec<[f64; 3]> {
     let faces: [[f64; 3]; 6] = [
         [0.0, 0.0, 1.0],
         [0.0, 0.0, -1.0],
@@ -422,7 +422,7 @@ fn pose_directions(setup: &CampaignSetup, rng: &mut ChaCha8Rng) -> Vec<[f64; 3]>
         [0.0, 1.0, 0.0],
         [0.0, -1.0, 0.0],
     ];
-    let mut directions = Vec::with_capacity(setup.poses);
+    let mut directions = Vec::with_capacity(poses);
     let h = std::f64::consts::FRAC_1_SQRT_2;
     let edges: [[f64; 3]; 6] = [
         [h, h, 0.0],
@@ -432,9 +432,9 @@ fn pose_directions(setup: &CampaignSetup, rng: &mut ChaCha8Rng) -> Vec<[f64; 3]>
         [0.0, h, h],
         [0.0, -h, -h],
     ];
-    for p in 0..setup.poses {
+    for p in 0..poses {
         let face = if p % 12 < 6 { faces[p % 6] } else { edges[p % 6] };
-        let tilt = setup.pose_tilt_deg.to_radians() * rng.gen::<f64>().sqrt();
+        let tilt = tilt_deg.to_radians() * rng.gen::<f64>().sqrt();
         let azimuth = 2.0 * std::f64::consts::PI * rng.gen::<f64>();
         // Tilt `face` by `tilt` towards a random direction perpendicular to it.
         let any = if face[0].abs() < 0.9 {
