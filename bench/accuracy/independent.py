@@ -7,7 +7,7 @@ one CSV per still pose (time from 0 in each), four turntable runs, a campaign fi
 datasheet's range and nonlinearity and no truth keys. Held out: still poses at new random
 orientations and runs at new speeds, radii and mountings.
 
-    python independent.py generate OUT SEED POSES [--one-file] [--session-sd MPS2]
+    python independent.py generate OUT SEED POSES [--one-file] [--session-sd MPS2] [--ruler-sd M]
     python independent.py evaluate OUT          (after `spincal calibrate` and `spincal correct`)
 
 `evaluate` prints, per held-out file and axis, the RMS of corrected − truth over the RMS of the
@@ -126,8 +126,10 @@ HELD_OUT_RUNS = [(45.0, 0.12, "-x", "+z"), (33.333, 0.075, "+x", "-z")]
 HELD_OUT_POSES = 8
 
 
-def generate(out, seed, poses, one_file, session_sd):
+def generate(out, seed, poses, one_file, session_sd, ruler_sd):
     rng = np.random.default_rng(seed)
+    # The radius as a ruler reads it: its own stream, so the recordings stay those of ruler_sd = 0.
+    ruler = np.random.default_rng(seed + 1_000_000)
     sensor = draw_sensor(rng)
     os.makedirs(os.path.join(out, "held_out"), exist_ok=True)
     lines = ['unit = "independent-%d"' % seed, "range_g = 2", "nonlinearity_pct_fs = 0.5", ""]
@@ -167,7 +169,7 @@ def generate(out, seed, poses, one_file, session_sd):
             'file = "%s"' % name,
             'kind = "turntable"',
             "rpm = %s" % rpm,
-            "radius_m = %s" % radius,
+            "radius_m = %.5f" % (radius + ruler.normal(0, ruler_sd)),
             "radius_tol_m = 0.002",
             'out = "%s"' % out_axis,
             'up = "%s"' % up_axis,
@@ -204,6 +206,7 @@ def evaluate(out):
             data = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[header.index(c) for c in ("ax_corrected_mps2", "ay_corrected_mps2", "az_corrected_mps2")])
             if "ax_corrected_sd_mps2" in header:
                 sd = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[header.index("a%s_corrected_sd_mps2" % a) for a in "xyz"])
+                better = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[header.index("predicted_better")])
         else:
             data = raw
         for k in range(3):
@@ -218,11 +221,16 @@ def evaluate(out):
                     "systematic_mps2": float(np.mean(err)),
                     # The predicted sd of the correction (the parameters' part of the error).
                     "predicted_sd_mps2": None if sd is None else float(np.mean(sd[:, k])),
+                    # The share of the file's rows `correct` flags as predicted to beat no correction.
+                    "predicted_better_share": None if sd is None else float(np.mean(better)),
                 }
             )
     worst = max(r["ratio"] for r in rows)
     worse_than_raw = sum(r["ratio"] > r["raw_ratio"] for r in rows)
-    summary = {"worst_ratio": worst, "mean_ratio": float(np.mean([r["ratio"] for r in rows])), "worse_than_raw": worse_than_raw, "rows": rows}
+    # The per-row flag against truth: among file-axes corrected worse than raw, the share of rows
+    # still flagged as predicted better (should be low).
+    flagged = [r["predicted_better_share"] for r in rows if r["ratio"] > r["raw_ratio"] and r.get("predicted_better_share") is not None]
+    summary = {"worse_than_raw_flagged_better": float(np.mean(flagged)) if flagged else None, "worst_ratio": worst, "mean_ratio": float(np.mean([r["ratio"] for r in rows])), "worse_than_raw": worse_than_raw, "rows": rows}
     results = os.path.join(out, "cal", "results.json")
     error_map = json.load(open(results)).get("error_map") if os.path.exists(results) else None
     if error_map is not None and all(r["predicted_sd_mps2"] is not None for r in rows):
@@ -252,6 +260,7 @@ if __name__ == "__main__":
     if sys.argv[1] == "generate":
         args = sys.argv[2:]
         sd = float(args[args.index("--session-sd") + 1]) if "--session-sd" in args else 0.0
-        generate(args[0], int(args[1]), int(args[2]), "--one-file" in args, sd)
+        ruler_sd = float(args[args.index("--ruler-sd") + 1]) if "--ruler-sd" in args else 0.0
+        generate(args[0], int(args[1]), int(args[2]), "--one-file" in args, sd, ruler_sd)
     else:
         evaluate(sys.argv[2])

@@ -4,7 +4,7 @@
 # its held-out files corrected with `spincal correct`, and each held-out file and axis scored as
 # RMS(corrected − truth) / RMS(oracle − truth).
 #
-#   bash bench/accuracy/run.sh OUT_DIR UNITS POSES [--one-file] [--session-sd MPS2]
+#   bash bench/accuracy/run.sh OUT_DIR UNITS POSES [--one-file] [--session-sd MPS2] [--ruler-sd M]
 set -euo pipefail
 out=${1:?OUT_DIR}
 units=${2:-10}

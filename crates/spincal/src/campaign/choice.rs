@@ -326,6 +326,43 @@ pub const MAX_PREDICTED_RATIO: f64 = 1.1;
 
 const UNSAVABLE: &str = "scored only: no corrector file holds a dynamic model";
 
+/// The first held-out condition where a candidate's covariance predicts it worse than
+/// [`MAX_PREDICTED_RATIO`] times no correction, with that figure.
+fn predicted_harm<'a>(rows: &[&'a HeldOutScore]) -> Option<(f64, &'a str)> {
+    rows.iter().find_map(|row| {
+        row.predicted
+            .as_ref()
+            .filter(|p| p.ratio > MAX_PREDICTED_RATIO || p.ratio.is_nan())
+            .map(|p| (p.ratio, row.condition.as_str()))
+    })
+}
+
+/// A candidate with no covariance of its own (linear-12) fits, from the same folds, an affine map
+/// with at least the freedom of `physical-linear`: it cannot be better determined by them. Where
+/// physical-linear's covariance predicts a loss on a held-out condition, the campaign does not
+/// determine what linear-12 corrects either, and it is ruled out by the same check; without this,
+/// having no covariance would let it pass a check the physical model fails.
+pub(super) fn share_determination(summaries: &mut [CandidateSummary], held_out: &[HeldOutScore]) {
+    let rows: Vec<&HeldOutScore> = held_out
+        .iter()
+        .filter(|h| h.candidate == CandidateKind::PhysicalLinear.name())
+        .collect();
+    let Some((ratio, condition)) = predicted_harm(&rows) else {
+        return;
+    };
+    for s in summaries
+        .iter_mut()
+        .filter(|s| s.candidate == CandidateKind::Linear.name() && s.model_check.is_none())
+    {
+        let reason = format!(
+            "physical-linear, whose affine map it contains, is predicted by its parameters' covariance to leave {ratio:.2}× the uncorrected error on \"{condition}\": the campaign does not determine what it corrects, and linear-12 has no covariance to show otherwise"
+        );
+        s.model_check = Some(reason.clone());
+        s.why_not = Some(reason);
+        s.eligible = false;
+    }
+}
+
 pub(super) fn summarise(
     kind: CandidateKind,
     held_out: &[HeldOutScore],
@@ -347,14 +384,9 @@ pub(super) fn summarise(
                         row.condition
                     ));
                 }
-                if let Some(predicted) = row
-                    .predicted
-                    .as_ref()
-                    .filter(|p| p.ratio > MAX_PREDICTED_RATIO || p.ratio.is_nan())
-                {
+                if let Some((ratio, condition)) = predicted_harm(&[*row]) {
                     model_check.get_or_insert(format!(
-                        "its parameters' covariance predicts {:.2}× the uncorrected error on \"{}\": the campaign does not determine what it corrects",
-                        predicted.ratio, row.condition
+                        "its parameters' covariance predicts {ratio:.2}× the uncorrected error on \"{condition}\": the campaign does not determine what it corrects"
                     ));
                 }
                 sum += combined(p.rms_mps2);
@@ -411,5 +443,81 @@ pub(super) fn summarise(
         eligible: complete && why_not.is_none(),
         why_not,
         model_check,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A clear gain on one condition: corrected at half the uncorrected residual, tight.
+    fn gain() -> Comparison {
+        Comparison {
+            rms_mps2: [0.02; 3],
+            uncorrected_rms_mps2: [0.04; 3],
+            ratio: 0.5,
+            ratio_se: 0.01,
+            worse: false,
+            upper_ratio: 0.52,
+            shown_no_worse: true,
+            samples: 4000,
+            blocks: 40,
+        }
+    }
+
+    fn scores(physical_predicted_ratio: f64) -> Vec<HeldOutScore> {
+        let mut rows = Vec::new();
+        for condition in ["poses 1, 4, 7", "radius 0.090 m"] {
+            for (kind, predicted) in [
+                (CandidateKind::PhysicalLinear, Some(physical_predicted_ratio)),
+                (CandidateKind::Linear, None),
+            ] {
+                rows.push(HeldOutScore {
+                    condition: condition.into(),
+                    candidate: kind.name().into(),
+                    physics: Some(gain()),
+                    truth: None,
+                    predicted: predicted.map(|ratio| Prediction {
+                        predicted_rms_mps2: 0.03,
+                        ratio,
+                    }),
+                    floor_mps2: None,
+                    gain_error: Some(0.01),
+                    note: None,
+                });
+            }
+        }
+        rows
+    }
+
+    fn summaries(held_out: &[HeldOutScore]) -> Vec<CandidateSummary> {
+        let mut s: Vec<CandidateSummary> = [CandidateKind::PhysicalLinear, CandidateKind::Linear]
+            .iter()
+            .map(|&k| summarise(k, held_out, 2))
+            .collect();
+        share_determination(&mut s, held_out);
+        s
+    }
+
+    #[test]
+    fn linear_12_is_ruled_out_where_physical_linear_is_predicted_to_lose() {
+        let held_out = scores(1.25);
+        let s = summaries(&held_out);
+        assert!(!s[0].eligible && !s[1].eligible, "{s:#?}");
+        let why = s[1].why_not.as_deref().unwrap();
+        assert!(
+            why.contains("physical-linear") && why.contains("1.25×") && why.contains("poses 1, 4, 7"),
+            "{why}"
+        );
+        assert!(choose_by_physics(&s, None).is_none());
+    }
+
+    #[test]
+    fn linear_12_stays_eligible_where_the_campaign_determines_the_sensor() {
+        let held_out = scores(0.6);
+        let s = summaries(&held_out);
+        assert!(s[0].eligible && s[1].eligible, "{s:#?}");
+        assert!(s[1].model_check.is_none());
+        assert_eq!(choose_by_physics(&s, None).unwrap().candidate, "physical-linear");
     }
 }

@@ -20,8 +20,8 @@ use crate::campaign::params::{ParamError, Params};
 use crate::campaign::candidate::{candidate, Candidate};
 use crate::campaign::checks::{check_poses_still, check_prepared, check_recordings, InputError};
 use crate::campaign::choice::{
-    choose_by_physics, no_conditions_verdict, nothing_saved_verdict, save_best, summarise, truth_check,
-    CandidateSummary, Found, HeldOutScore, TruthCheck,
+    choose_by_physics, no_conditions_verdict, nothing_saved_verdict, save_best, share_determination,
+    summarise, truth_check, CandidateSummary, Found, HeldOutScore, TruthCheck,
 };
 use crate::campaign::evaluate::{conditions, Condition, Evaluation, HeldOutEvaluation};
 use crate::campaign::gyro::{fit_gyro, GyroFit};
@@ -345,11 +345,12 @@ pub fn calibrate_campaign(
     }
     .score(&candidates, observer);
     lap("held-out conditions", &mut stages);
-    let summaries: Vec<CandidateSummary> = settings
+    let mut summaries: Vec<CandidateSummary> = settings
         .candidates
         .iter()
         .map(|&kind| summarise(kind, &held_out, conditions.len()))
         .collect();
+    share_determination(&mut summaries, &held_out);
     let terms_rule = TermsRule::of(&joint);
     let set_aside = terms_rule.as_ref().map(|r| r.set_aside().name());
     let best = choose_by_physics(&summaries, set_aside);
