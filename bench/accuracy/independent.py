@@ -7,7 +7,7 @@ one CSV per still pose (time from 0 in each), four turntable runs, a campaign fi
 datasheet's range and nonlinearity and no truth keys. Held out: still poses at new random
 orientations and runs at new speeds, radii and mountings.
 
-    python independent.py generate OUT SEED POSES [--one-file] [--session-sd MPS2] [--ruler-sd M]
+    python independent.py generate OUT SEED POSES [--one-file] [--session-sd MPS2] [--ruler-sd M] [--q QX,QY,QZ]
     python independent.py evaluate OUT          (after `spincal calibrate` and `spincal correct`)
 
 `evaluate` prints, per held-out file and axis, the RMS of corrected − truth over the RMS of the
@@ -126,11 +126,14 @@ HELD_OUT_RUNS = [(45.0, 0.12, "-x", "+z"), (33.333, 0.075, "+x", "-z")]
 HELD_OUT_POSES = 8
 
 
-def generate(out, seed, poses, one_file, session_sd, ruler_sd):
+def generate(out, seed, poses, one_file, session_sd, ruler_sd, quadratic=None):
     rng = np.random.default_rng(seed)
     # The radius as a ruler reads it: its own stream, so the recordings stay those of ruler_sd = 0.
     ruler = np.random.default_rng(seed + 1_000_000)
     sensor = draw_sensor(rng)
+    if quadratic is not None:
+        # A set nonlinearity (the terms rule's experiment), drawn values discarded.
+        sensor["q"] = np.asarray(quadratic, dtype=float)
     os.makedirs(os.path.join(out, "held_out"), exist_ok=True)
     lines = ['unit = "independent-%d"' % seed, "range_g = 2", "nonlinearity_pct_fs = 0.5", ""]
     truth = {"sensor": {k: np.asarray(v).tolist() for k, v in sensor.items()}, "held_out": []}
@@ -261,6 +264,7 @@ if __name__ == "__main__":
         args = sys.argv[2:]
         sd = float(args[args.index("--session-sd") + 1]) if "--session-sd" in args else 0.0
         ruler_sd = float(args[args.index("--ruler-sd") + 1]) if "--ruler-sd" in args else 0.0
-        generate(args[0], int(args[1]), int(args[2]), "--one-file" in args, sd, ruler_sd)
+        q = [float(v) for v in args[args.index("--q") + 1].split(",")] if "--q" in args else None
+        generate(args[0], int(args[1]), int(args[2]), "--one-file" in args, sd, ruler_sd, q)
     else:
         evaluate(sys.argv[2])

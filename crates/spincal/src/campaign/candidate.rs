@@ -404,7 +404,12 @@ struct PhysicalCandidate(SensorTerms);
 
 impl Trainer for PhysicalCandidate {
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
-        let fit = t.fit(self.0, observer)?;
+        // q on the axes the campaign's terms rule keeps.
+        let terms = SensorTerms {
+            nonlinearity_axes: t.joint.terms.nonlinearity_axes,
+            ..self.0
+        };
+        let fit = t.fit(terms, observer)?;
         let mut physical = physical_corrector(t, &fit);
         // A model that leaves terms out (q at zero) errs by what it left out. Its error bars take
         // the fuller fit's covariance (what the kept terms may have absorbed of the left-out ones
@@ -412,7 +417,7 @@ impl Trainer for PhysicalCandidate {
         // larger. On 7 one-file poses of the independent generator this errs wide (error/sd RMS
         // 0.3–0.7); the left-out term and its alias alone with q² estimated as q̂² − se² erred
         // narrow (2.3): q̂ from so few poses cannot tell q² apart from zero.
-        if self.0 != t.joint.terms {
+        if terms != t.joint.terms {
             let full = t.fit(t.joint.terms, observer)?;
             if let (Some(uncertainty), Some(mut covariance)) =
                 (physical.uncertainty.as_mut(), full.sensor_covariance())
@@ -508,7 +513,11 @@ struct PhysicalAnnCandidate;
 
 impl Trainer for PhysicalAnnCandidate {
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
-        let fit = t.fit(SensorTerms::ALL, observer)?;
+        let terms = SensorTerms {
+            nonlinearity_axes: t.joint.terms.nonlinearity_axes,
+            ..SensorTerms::ALL
+        };
+        let fit = t.fit(terms, observer)?;
         let physical = physical_corrector(t, &fit);
         // Pooled samples: the physical correction as input, what it left against the joint
         // fit's reference as the target. Static (no delays): the samples are not one series.

@@ -59,9 +59,9 @@ pub(crate) const DATA_ONLY_Q_PRIOR_SD: f64 = 1e-2;
 pub const TERM_FALSE_ALARM: f64 = 1e-3;
 
 /// Which of the physical family's terms the saved model carries, by one rule on the joint fit's
-/// robust covariance (results.json): q is kept when some axis's |q̂/se| passes the Wald test at
-/// [`TERM_FALSE_ALARM`]; otherwise the model without q is the physical family's candidate. A
-/// held-out RMS, dominated by the noise, does not decide it.
+/// robust covariance (results.json): q is kept on each axis whose |q̂/se| passes the Wald test at
+/// [`TERM_FALSE_ALARM`] and held at zero on the others; with none kept, the model without q is
+/// the physical family's candidate. A held-out RMS, dominated by the noise, does not decide it.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct TermsRule {
     /// q̂/se per axis.
@@ -69,6 +69,9 @@ pub struct TermsRule {
     /// The |z| a term must reach.
     pub threshold: f64,
     pub keeps_nonlinearity: bool,
+    /// The axes whose q the saved physical model carries.
+    #[serde(default)]
+    pub nonlinearity_axes: [bool; 3],
     pub rule: String,
 }
 
@@ -83,12 +86,14 @@ impl TermsRule {
             q.std_error
                 .map_or(0.0, |se| if se > 0.0 { q.value / se } else { 0.0 })
         });
+        let nonlinearity_axes = nonlinearity_z.map(|z| z.abs() >= threshold);
         Some(TermsRule {
             nonlinearity_z,
             threshold,
-            keeps_nonlinearity: nonlinearity_z.iter().any(|z| z.abs() >= threshold),
+            keeps_nonlinearity: nonlinearity_axes.contains(&true),
+            nonlinearity_axes,
             rule: format!(
-                "q is kept when |q̂/se| ≥ {threshold:.2} on some axis (a Wald test at two-sided false-alarm probability {TERM_FALSE_ALARM:e} on the joint fit's robust covariance); otherwise the physical model without q is the family's candidate"
+                "q is kept on each axis where |q̂/se| ≥ {threshold:.2} (a Wald test at two-sided false-alarm probability {TERM_FALSE_ALARM:e} on the joint fit's robust covariance) and held at zero on the others; with no axis kept, the physical model without q is the family's candidate"
             ),
         })
     }
@@ -316,7 +321,26 @@ pub fn calibrate_campaign(
     if stage.thermal.is_some() {
         lap("thermal fit", &mut stages);
     }
-    let (joint, joint_settings, nonlinearity) = fit_with_nonlinearity_rule(&prepared, settings, observer)?;
+    let (joint, mut joint_settings, nonlinearity) =
+        fit_with_nonlinearity_rule(&prepared, settings, observer)?;
+    let terms_rule = TermsRule::of(&joint);
+    // Every later fit (each fold's, the saved one) carries q only on the axes the rule keeps. The
+    // saved model is trained from the campaign's fit with those terms; results.json reports the
+    // fit the rule judged.
+    let mut saved_from = None;
+    if let Some(rule) = terms_rule
+        .as_ref()
+        .filter(|r| r.keeps_nonlinearity && r.nonlinearity_axes != [true; 3])
+    {
+        joint_settings.terms.nonlinearity_axes = rule.nonlinearity_axes;
+        saved_from = Some(fit_joint_from(
+            &prepared.runs,
+            &prepared.poses,
+            &joint_settings,
+            Some(&joint),
+            observer,
+        )?);
+    }
     let settings = &Params {
         joint: joint_settings,
         ..settings.clone()
@@ -351,7 +375,6 @@ pub fn calibrate_campaign(
         .map(|&kind| summarise(kind, &held_out, conditions.len()))
         .collect();
     share_determination(&mut summaries, &held_out);
-    let terms_rule = TermsRule::of(&joint);
     let set_aside = terms_rule.as_ref().map(|r| r.set_aside().name());
     let best = choose_by_physics(&summaries, set_aside);
     let truth_check = truth_check(&summaries, &held_out, best, conditions.len(), set_aside);
@@ -375,7 +398,14 @@ pub fn calibrate_campaign(
                 contradicted.join("; ")
             ),
         ),
-        Some(best) => save_best(best, settings, &prepared, &joint, &found, observer),
+        Some(best) => save_best(
+            best,
+            settings,
+            &prepared,
+            saved_from.as_ref().unwrap_or(&joint),
+            &found,
+            observer,
+        ),
         None if conditions.is_empty() => (None, no_conditions_verdict(&prepared, &undetermined)),
         None => (
             None,

@@ -8,6 +8,14 @@ pub struct SensorTerms {
     pub bias_scale: bool,
     pub misalignment: bool,
     pub nonlinearity: bool,
+    /// With `nonlinearity`, the axes whose q is estimated (the campaign's terms rule keeps q only
+    /// where the data show it).
+    #[serde(default = "every_axis")]
+    pub nonlinearity_axes: [bool; 3],
+}
+
+fn every_axis() -> [bool; 3] {
+    [true; 3]
 }
 
 impl SensorTerms {
@@ -15,27 +23,34 @@ impl SensorTerms {
         bias_scale: true,
         misalignment: true,
         nonlinearity: true,
+        nonlinearity_axes: [true; 3],
     };
     pub const LINEAR: SensorTerms = SensorTerms {
         bias_scale: true,
         misalignment: true,
         nonlinearity: false,
+        nonlinearity_axes: [true; 3],
     };
     pub const BIAS_SCALE: SensorTerms = SensorTerms {
         bias_scale: true,
         misalignment: false,
         nonlinearity: false,
+        nonlinearity_axes: [true; 3],
     };
     /// The sensor held fixed (a perfect sensor): only the recordings' geometry is fitted.
     pub const NONE: SensorTerms = SensorTerms {
         bias_scale: false,
         misalignment: false,
         nonlinearity: false,
+        nonlinearity_axes: [true; 3],
     };
 
     /// The terms in words.
     pub fn describe(self) -> &'static str {
         match (self.bias_scale, self.misalignment, self.nonlinearity) {
+            (true, true, true) if self.nonlinearity_axes != [true; 3] => {
+                "bias, scale, misalignment and nonlinearity on some axes"
+            }
             (true, true, true) => "bias, scale, misalignment and nonlinearity",
             (true, true, false) => "bias, scale and misalignment",
             (true, false, false) => "bias and scale",
@@ -48,7 +63,7 @@ impl SensorTerms {
         match k {
             0..=5 => self.bias_scale,
             6..=8 => self.misalignment,
-            _ => self.nonlinearity,
+            _ => self.nonlinearity && self.nonlinearity_axes.get(k - 9).copied().unwrap_or(false),
         }
     }
 }
