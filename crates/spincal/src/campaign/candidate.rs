@@ -417,8 +417,13 @@ impl Trainer for PhysicalCandidate {
         // larger. On 7 one-file poses of the independent generator this errs wide (error/sd RMS
         // 0.3–0.7); the left-out term and its alias alone with q² estimated as q̂² − se² erred
         // narrow (2.3): q̂ from so few poses cannot tell q² apart from zero.
-        if terms != t.joint.terms {
-            let full = t.fit(t.joint.terms, observer)?;
+        // The fuller fit has q on every axis, also where the terms rule holds it at zero.
+        let full_terms = SensorTerms {
+            nonlinearity_axes: [true; 3],
+            ..t.joint.terms
+        };
+        if terms != full_terms {
+            let full = t.fit(full_terms, observer)?;
             if let (Some(uncertainty), Some(mut covariance)) =
                 (physical.uncertainty.as_mut(), full.sensor_covariance())
             {
