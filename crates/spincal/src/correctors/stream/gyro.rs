@@ -363,7 +363,7 @@ mod tests {
     /// calibrate, fit, allan and static take) and streamed (what correct takes), every row gets
     /// the file's own sample, bit for bit, so the merged gyro's white noise is the file's (within
     /// 4 %, 3.5 standard errors of a standard deviation over 4000 samples); interpolated between
-    /// samples it would read about 0.82 σ.
+    /// samples (weights within a fifth of an interval of 0 or 1) it reads about 0.91 σ.
     #[test]
     fn a_gyro_sampled_beside_the_rows_is_taken_sample_for_sample_whole_and_streamed() {
         let mut rng = ChaCha8Rng::seed_from_u64(11);
@@ -374,11 +374,8 @@ mod tests {
         let values: [Vec<f64>; 3] = std::array::from_fn(|a| {
             (0..n)
                 .map(|_| {
-                    0.1 * a as f64
-                        + sigma * {
-                            let z: f64 = StandardNormal.sample(&mut rng);
-                            z
-                        }
+                    let z: f64 = StandardNormal.sample(&mut rng);
+                    0.1 * a as f64 + sigma * z
                 })
                 .collect()
         });
@@ -420,6 +417,6 @@ mod tests {
         // The check can fail: interpolated onto the rows, the same file's noise is lowered.
         let (_, smoothed) = interpolate_onto(&accel_t[1..n - 1], &gyro_t, &values, 0.03);
         let smoothed_ratio = sd(&smoothed[0]) / sigma;
-        assert!(smoothed_ratio < 0.9, "interpolated: {smoothed_ratio} σ");
+        assert!(smoothed_ratio < 0.96, "interpolated: {smoothed_ratio} σ");
     }
 }
