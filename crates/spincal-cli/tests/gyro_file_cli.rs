@@ -2,7 +2,8 @@
 //! own jittered clock at another rate is merged on time by the library's one rule (the
 //! recording's samples outside its span dropped with a note, or, in `correct`'s stream, written
 //! with status `no-gyro`); under half overlap is refused naming both spans. Each test checks the
-//! exit code, the message and that the inputs are unchanged.
+//! exit code, the message and that the inputs are unchanged
+//! (`run_keeping`).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -28,6 +29,14 @@ fn outcome(cmd: &mut Command) -> (i32, String, String) {
 
 fn contents(paths: &[&Path]) -> Vec<Vec<u8>> {
     paths.iter().map(|p| std::fs::read(p).unwrap()).collect()
+}
+
+/// Runs `cmd` as [`outcome`] does and checks that it left `inputs` byte for byte as they were.
+fn run_keeping(cmd: &mut Command, inputs: &[&Path]) -> (i32, String, String) {
+    let before = contents(inputs);
+    let result = outcome(cmd);
+    assert_eq!(contents(inputs), before, "{cmd:?} changed its inputs");
+    result
 }
 
 /// Jittered times at `rate_hz` over `from_s`–`to_s` (±a fifth of an interval).
@@ -106,9 +115,9 @@ fn correct_merges_the_gyro_in_its_stream_and_marks_the_rows_outside_it() {
     file.gyro = Some(gyro);
     let model = dir.path().join("model.json");
     file.write_path(&model).unwrap();
-    let before = contents(&[&acc, &gyr, &model]);
+    let inputs = [acc.as_path(), gyr.as_path(), model.as_path()];
     let out = dir.path().join("out.csv");
-    let (code, _, stderr) = outcome(
+    let (code, _, stderr) = run_keeping(
         spincal()
             .args(["correct", "--model"])
             .arg(&model)
@@ -117,6 +126,7 @@ fn correct_merges_the_gyro_in_its_stream_and_marks_the_rows_outside_it() {
             .arg(&gyr)
             .arg("-o")
             .arg(&out),
+        &inputs,
     );
     assert_eq!(code, 0, "{stderr}");
     assert!(
@@ -135,12 +145,11 @@ fn correct_merges_the_gyro_in_its_stream_and_marks_the_rows_outside_it() {
     let row = text.lines().nth(1000).unwrap();
     let gx: f64 = row.split(',').nth(7).unwrap().parse().unwrap();
     assert!(gx.abs() < 0.003, "{row}");
-    assert_eq!(contents(&[&acc, &gyr, &model]), before);
 
     // Under half overlap: refused naming both spans, nothing written.
     let (_, far) = still(dir.path(), 20.0, (14.0, 30.0));
     let refused = dir.path().join("refused.csv");
-    let (code, _, stderr) = outcome(
+    let (code, _, stderr) = run_keeping(
         spincal()
             .args(["correct", "--model"])
             .arg(&model)
@@ -149,11 +158,11 @@ fn correct_merges_the_gyro_in_its_stream_and_marks_the_rows_outside_it() {
             .arg(&far)
             .arg("-o")
             .arg(&refused),
+        &inputs,
     );
     assert_eq!(code, 1, "{stderr}");
     names_both_spans(&stderr, &far);
     assert!(!refused.exists());
-    assert_eq!(contents(&[&acc, &gyr, &model]), before);
 
     // A model without a gyro calibration: the gyro file has nothing to correct.
     let plain = dir.path().join("plain.json");
@@ -178,14 +187,14 @@ fn correct_merges_the_gyro_in_its_stream_and_marks_the_rows_outside_it() {
 fn allan_merges_the_gyro_on_time_and_analyses_the_covered_samples() {
     let dir = tempfile::tempdir().unwrap();
     let (acc, gyr) = still(dir.path(), 60.0, (5.0, 55.0));
-    let before = contents(&[&acc, &gyr]);
-    let (code, stdout, stderr) = outcome(
+    let (code, stdout, stderr) = run_keeping(
         spincal()
             .arg("allan")
             .arg(&acc)
             .arg("--gyro-file")
             .arg(&gyr)
             .arg("--json"),
+        &[&acc, &gyr],
     );
     assert_eq!(code, 0, "{stderr}");
     let dropped = count_before(&stderr, "samples outside its span");
@@ -200,7 +209,6 @@ fn allan_merges_the_gyro_on_time_and_analyses_the_covered_samples() {
         density > 0.3 * white && density < 1.5 * white,
         "{density} vs {white}"
     );
-    assert_eq!(contents(&[&acc, &gyr]), before);
 
     let (_, far) = still(dir.path(), 60.0, (40.0, 100.0));
     let (code, _, stderr) = outcome(spincal().arg("allan").arg(&acc).arg("--gyro-file").arg(&far));
@@ -230,12 +238,13 @@ fn static_merges_a_gyro_file_on_its_own_clock() {
     };
     let acc = write("acc.txt", &s.accel, 0..n);
     let gyr = write("gyr.txt", &s.gyro, 100..n - 100);
-    let before = contents(&[&acc, &gyr]);
-    let (code, stdout, stderr) = outcome(spincal().arg("static").arg(&acc).arg("--gyro-file").arg(&gyr));
+    let (code, stdout, stderr) = run_keeping(
+        spincal().arg("static").arg(&acc).arg("--gyro-file").arg(&gyr),
+        &[&acc, &gyr],
+    );
     assert_eq!(code, 0, "{stderr}");
     assert!(stderr.contains("200 samples outside its span"), "{stderr}");
     assert!(stdout.contains("rotations between still poses"), "{stdout}");
-    assert_eq!(contents(&[&acc, &gyr]), before);
 }
 
 /// A turntable run (`spincal simulate`) split into its accelerometer and a gyro on another
@@ -278,15 +287,16 @@ fn turntable_pair(dir: &Path, gyro_span: (f64, f64)) -> (PathBuf, PathBuf) {
 fn fit_merges_each_recordings_gyro_file() {
     let dir = tempfile::tempdir().unwrap();
     let (run, gyr) = turntable_pair(dir.path(), (1.0, 29.0));
-    let before = contents(&[&run, &gyr]);
-    let (code, stdout, stderr) = outcome(spincal().arg("fit").arg(&run).arg("--gyro-file").arg(&gyr));
+    let (code, stdout, stderr) = run_keeping(
+        spincal().arg("fit").arg(&run).arg("--gyro-file").arg(&gyr),
+        &[&run, &gyr],
+    );
     assert_eq!(code, 0, "{stderr}");
     assert!(
         stderr.contains("samples outside its span or in its gaps"),
         "{stderr}"
     );
     assert!(!stdout.is_empty());
-    assert_eq!(contents(&[&run, &gyr]), before);
     // One gyro file for two recordings: which is whose is not known.
     let (code, _, stderr) = outcome(
         spincal()
@@ -307,9 +317,8 @@ fn fit_merges_each_recordings_gyro_file() {
 fn calibrate_refuses_a_gyro_file_on_another_span_before_any_work() {
     let dir = tempfile::tempdir().unwrap();
     let (run, far) = turntable_pair(dir.path(), (20.0, 60.0));
-    let before = contents(&[&run, &far]);
     let out = dir.path().join("cal");
-    let (code, _, stderr) = outcome(
+    let (code, _, stderr) = run_keeping(
         spincal()
             .arg("calibrate")
             .arg(&run)
@@ -317,9 +326,100 @@ fn calibrate_refuses_a_gyro_file_on_another_span_before_any_work() {
             .arg(&far)
             .arg("--out")
             .arg(&out),
+        &[&run, &far],
     );
     assert_eq!(code, 1, "{stderr}");
     names_both_spans(&stderr, &far);
     assert!(!out.exists(), "no output folder");
-    assert_eq!(contents(&[&run, &far]), before);
+}
+
+/// A gyro-only CSV with a header (`t,gx,gy,gz`, `time,gx,gy,gz`, or `t_s,gx_dps,gy_dps,gz_dps`
+/// in °/s) is read by the column rules of a recording's header: `correct`'s stream and `allan`
+/// (read whole) give the same values from each.
+#[test]
+fn a_gyro_only_csv_with_a_header_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let (acc, _) = still(dir.path(), 20.0, (0.0, 20.0));
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let samples: Vec<(f64, [f64; 3])> = clock(&mut rng, 190.0, 0.0, 20.0)
+        .into_iter()
+        .map(|t| {
+            (
+                t,
+                [0.01, -0.02, 0.005].map(|v: f64| v + 0.002 * rng.gen_range(-1.0..1.0)),
+            )
+        })
+        .collect();
+    let mut file = CorrectorFile::new(CorrectorModel::Static(Box::new(StaticCalibration::identity(
+        9.81,
+    ))));
+    file.gyro = Some(GyroModel::IDEAL);
+    let model = dir.path().join("model.json");
+    file.write_path(&model).unwrap();
+    let mut corrected = Vec::new();
+    let mut densities = Vec::new();
+    for (name, header, to_unit) in [
+        ("t.csv", "t,gx,gy,gz", 1.0),
+        ("time.csv", "time,gx,gy,gz", 1.0),
+        (
+            "dps.csv",
+            "t_s,gx_dps,gy_dps,gz_dps",
+            180.0 / std::f64::consts::PI,
+        ),
+    ] {
+        let mut text = format!("{header}\n");
+        for (t, w) in &samples {
+            let w = w.map(|v| v * to_unit);
+            text += &format!("{t:.6},{:.9},{:.9},{:.9}\n", w[0], w[1], w[2]);
+        }
+        let gyr = dir.path().join(name);
+        std::fs::write(&gyr, text).unwrap();
+        let out = dir.path().join(format!("out-{name}"));
+        let (code, _, stderr) = run_keeping(
+            spincal()
+                .args(["correct", "--model"])
+                .arg(&model)
+                .arg(&acc)
+                .arg("--gyro-file")
+                .arg(&gyr)
+                .arg("-o")
+                .arg(&out),
+            &[&acc, &gyr, &model],
+        );
+        assert_eq!(code, 0, "{header}: {stderr}");
+        let text = std::fs::read_to_string(&out).unwrap();
+        let gx: Vec<f64> = text
+            .lines()
+            .skip(1)
+            .filter(|row| !row.contains("no-gyro"))
+            .map(|row| row.split(',').nth(7).unwrap().parse().unwrap())
+            .collect();
+        let mean = gx.iter().sum::<f64>() / gx.len() as f64;
+        assert!((mean - 0.01).abs() < 5e-4, "{header}: mean gx {mean}");
+        corrected.push(gx);
+        let (code, stdout, stderr) = run_keeping(
+            spincal()
+                .arg("allan")
+                .arg(&acc)
+                .arg("--gyro-file")
+                .arg(&gyr)
+                .arg("--json"),
+            &[&acc, &gyr],
+        );
+        assert_eq!(code, 0, "{header}: {stderr}");
+        let report: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        densities.push(report["gyro_params"]["noise_density"][0].as_f64().unwrap());
+    }
+    for (k, gx) in corrected.iter().enumerate().skip(1) {
+        assert_eq!(gx.len(), corrected[0].len());
+        let worst = gx
+            .iter()
+            .zip(&corrected[0])
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-7, "variant {k}: {worst}");
+    }
+    for d in &densities[1..] {
+        assert!((d / densities[0] - 1.0).abs() < 1e-6, "{densities:?}");
+    }
 }

@@ -1,6 +1,7 @@
 //! The README's phone recipe, run as written: the commands between its `phone-recipe` markers,
 //! from the zips to a corrected file, then the chip's radius held against the simulation's truth
-//! and the corrected still pose against gravity.
+//! and the corrected still pose against gravity. Once as phyphox zips (the recipe as written), once
+//! as Sensor Logger zips (`simulate --setup` naming the app, with shorter runs).
 
 use std::path::Path;
 use std::process::Command;
@@ -39,19 +40,35 @@ fn json(path: &Path) -> Value {
 
 #[test]
 fn the_readme_phone_recipe_runs_from_the_zips_to_a_corrected_file() {
+    run_recipe(None);
+}
+
+/// The same recipe on Sensor Logger zips: `simulate` also takes a PhoneSetup naming the app, its
+/// runs 20 s (the default 30 s) to keep the test short.
+#[test]
+fn the_readme_phone_recipe_runs_from_sensor_logger_zips() {
+    run_recipe(Some(r#"{"app": "sensor-logger", "run_s": 20.0}"#));
+}
+
+/// Runs the README's recipe in a fresh folder, `simulate` given `setup` (PhoneSetup JSON) when
+/// some, and holds the results against the truth.
+fn run_recipe(setup: Option<&str>) {
     let commands = recipe();
     assert!(
         (3..=5).contains(&commands.len()),
         "the phone recipe is at most five commands: {commands:?}"
     );
     let dir = tempfile::tempdir().unwrap();
+    if let Some(setup) = setup {
+        std::fs::write(dir.path().join("setup.json"), setup).unwrap();
+    }
     for words in &commands {
-        let out = Command::new(env!("CARGO_BIN_EXE_spincal"))
-            .current_dir(dir.path())
-            .args(&words[1..])
-            .arg("--quiet")
-            .output()
-            .unwrap();
+        let mut command = Command::new(env!("CARGO_BIN_EXE_spincal"));
+        command.current_dir(dir.path()).args(&words[1..]).arg("--quiet");
+        if setup.is_some() && words[1] == "simulate" {
+            command.args(["--setup", "setup.json"]);
+        }
+        let out = command.output().unwrap();
         assert!(
             out.status.success(),
             "`{}` exited with {:?}:\n{}\n{}",
@@ -77,6 +94,18 @@ fn the_readme_phone_recipe_runs_from_the_zips_to_a_corrected_file() {
     let calibration = word_after("calibrate", "--out");
     let corrected = word_after("correct", "-o");
     let truth = json(&session.join("truth.json"));
+    if setup.is_some() {
+        let listing: Vec<String> = std::fs::read_dir(&session)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        let zip = std::fs::read(session.join("pose-01.zip")).unwrap();
+        let names = String::from_utf8_lossy(&zip);
+        assert!(
+            names.contains("TotalAcceleration.csv"),
+            "a Sensor Logger zip: {listing:?}"
+        );
+    }
     let results = json(&calibration.join("results.json"));
 
     // The chip's radius from the runs alone (no radius stated), within 2 mm and 3 standard

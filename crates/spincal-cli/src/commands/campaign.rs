@@ -92,6 +92,9 @@ pub fn summary(output: &CampaignOutput, out: &Path, written: &[&str], tables: bo
     for placement in &r.placements {
         let _ = writeln!(text, "{}", placement.sentence());
     }
+    if let Some(offset) = &r.chip_offset {
+        let _ = writeln!(text, "{}", offset.sentence());
+    }
     for split in r.split_runs.iter().filter_map(|s| s.sentence()) {
         let _ = writeln!(text, "{split}");
     }

@@ -161,6 +161,7 @@ fn paper_units(recordings: &[Recording], turntable: &TurntableFit, settings: &Pa
                     up,
                     direction: None,
                     placement: None,
+                    centre: None,
                 }),
                 truth: None,
                 floor_mps2: None,

@@ -15,6 +15,8 @@
 //! radius_m = 0.09                 # optional (with the next): the chip's radius by ruler
 //! radius_tol_m = 0.002
 //! placement = "A"                 # optional: runs made without moving the device
+//! centre_radius_m = 0.10          # optional (with the next): the radius of the device's centre,
+//! centre_radius_tol_m = 0.01      # the point it is turned about between placements
 //! out = "+x"                      # sensor axis pointing away from the spindle
 //! up = "+z"                       # sensor axis along the spindle, upwards
 //! direction = "cw"                # optional: cw or ccw seen from above; found from the data
@@ -25,6 +27,11 @@
 //! Runs with the same `placement` were made without moving the device: they share one radius,
 //! fitted from the runs. Without a stated radius the placement needs two speeds (or runs in a
 //! `session` with still poses, which pins their bias offset), and its radius is the runs' alone.
+//! Runs stating `centre_radius_m` say that their placements are the device turned about its
+//! centre, kept at that radius; each placement's turn is what its `out` says (all with one `up`).
+//! Their chip radii then locate the chip in the device (`campaign::joint::chip_offset`): the
+//! component along a turn of 180° from the radii and the centre's radius, both in-plane components
+//! and the centre's radius itself once the turns also include one of 90°.
 //!
 //! Optional per recording: `session` (recordings with the same label were made in one power-on
 //! of the sensor and share one bias offset; without it each recording has its own offset, and
@@ -117,6 +124,9 @@ pub struct TurntableEntry {
     pub direction: Option<Direction>,
     /// The placement it shares with runs made without moving the device, when the campaign says.
     pub placement: Option<String>,
+    /// The radius of the device's centre, the point it is turned about between placements
+    /// (`centre_radius_m` ± `centre_radius_tol_m`), when stated.
+    pub centre: Option<RadiusPrior>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -234,6 +244,8 @@ struct RawEntry {
     random_error: Option<Spanned<String>>,
     session: Option<Spanned<String>>,
     placement: Option<Spanned<String>>,
+    centre_radius_m: Option<Spanned<f64>>,
+    centre_radius_tol_m: Option<Spanned<f64>>,
 }
 
 /// 1-based line and column of a byte offset.
@@ -587,6 +599,11 @@ impl Locator {
             ("up", e.up.as_ref().map(Spanned::span)),
             ("direction", e.direction.as_ref().map(Spanned::span)),
             ("placement", e.placement.as_ref().map(Spanned::span)),
+            ("centre_radius_m", e.centre_radius_m.as_ref().map(Spanned::span)),
+            (
+                "centre_radius_tol_m",
+                e.centre_radius_tol_m.as_ref().map(Spanned::span),
+            ),
         ];
         match kind_text.as_str() {
             "static" => {
@@ -617,32 +634,18 @@ impl Locator {
             |v| v > 0.0 && v <= 1000.0,
             "must be positive and at most 1000",
         )?;
-        let radius = match (&e.radius_m, &e.radius_tol_m) {
-            (None, None) => None,
-            (None, Some(t)) => {
-                return Err(self.at(
-                    t.span(),
-                    "radius_tol_m",
-                    "needs `radius_m`: the tolerance of which radius? (leave both out to fit the radius from the runs)",
-                ))
-            }
-            (Some(_), _) => Some(RadiusPrior {
-                value_m: self.number(
-                    &e.radius_m,
-                    span.clone(),
-                    "radius_m",
-                    |v| (0.0..=2.0).contains(&v),
-                    "must be between 0 and 2 m",
-                )?,
-                tolerance_m: self.number(
-                    &e.radius_tol_m,
-                    span.clone(),
-                    "radius_tol_m",
-                    |v| v > 0.0 && v <= 2.0,
-                    "must be positive (the ruler's tolerance), at most 2 m",
-                )?,
-            }),
-        };
+        let radius = self.radius(
+            (&e.radius_m, "radius_m"),
+            (&e.radius_tol_m, "radius_tol_m"),
+            span.clone(),
+            "leave both out to fit the radius from the runs",
+        )?;
+        let centre = self.radius(
+            (&e.centre_radius_m, "centre_radius_m"),
+            (&e.centre_radius_tol_m, "centre_radius_tol_m"),
+            span.clone(),
+            "leave both out when the device was not turned about its centre",
+        )?;
         let axis = |value: &Option<Spanned<String>>, key: &str| -> Result<SignedAxis, CampaignError> {
             let (text, s) = self.required(value, span.clone(), key)?;
             SignedAxis::parse(&text).ok_or_else(|| {
@@ -684,6 +687,43 @@ impl Locator {
             up,
             direction,
             placement: self.label(&e.placement, "placement", "the device's placement on the platter")?,
+            centre,
+        })
+    }
+
+    /// A radius and its tolerance, both or neither (`radius_m`, or the device's centre).
+    fn radius(
+        &self,
+        (value, key): (&Option<Spanned<f64>>, &str),
+        (tolerance, tolerance_key): (&Option<Spanned<f64>>, &str),
+        span: Range<usize>,
+        neither: &str,
+    ) -> Result<Option<RadiusPrior>, CampaignError> {
+        Ok(match (value, tolerance) {
+            (None, None) => None,
+            (None, Some(t)) => {
+                return Err(self.at(
+                    t.span(),
+                    tolerance_key,
+                    format!("needs `{key}`: the tolerance of which radius? ({neither})"),
+                ))
+            }
+            (Some(_), _) => Some(RadiusPrior {
+                value_m: self.number(
+                    value,
+                    span.clone(),
+                    key,
+                    |v| (0.0..=2.0).contains(&v),
+                    "must be between 0 and 2 m",
+                )?,
+                tolerance_m: self.number(
+                    tolerance,
+                    span,
+                    tolerance_key,
+                    |v| v > 0.0 && v <= 2.0,
+                    "must be positive (the ruler's tolerance), at most 2 m",
+                )?,
+            }),
         })
     }
 }

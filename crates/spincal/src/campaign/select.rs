@@ -26,7 +26,8 @@ use crate::campaign::choice::{
 use crate::campaign::evaluate::{conditions, Condition, Evaluation, HeldOutEvaluation};
 use crate::campaign::gyro::{fit_gyro, GyroFit};
 use crate::campaign::joint::{
-    fit_joint, fit_joint_from, placement_fits, JointError, JointFit, JointSettings, PlacementFit, GEOMETRY,
+    chip_offset, fit_joint, fit_joint_from, placement_fits, ChipOffset, JointError, JointFit, JointSettings,
+    PlacementFit, GEOMETRY,
 };
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
 use crate::campaign::thermal::{check_temperature_units, temperature_bands, thermal_stage, CampaignThermal};
@@ -212,6 +213,9 @@ pub struct CampaignResult {
     /// statement.
     #[serde(default)]
     pub placements: Vec<PlacementFit>,
+    /// The chip's offset from the device's centre, when runs state the centre they turn about.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub chip_offset: Option<ChipOffset>,
     /// The runs cut at logging gaps into segments with their own phase.
     #[serde(default)]
     pub split_runs: Vec<PhaseSegments>,
@@ -355,6 +359,7 @@ pub fn calibrate_campaign(
     };
     lap("gyro fit", &mut stages);
     let placements = placement_fits(&prepared.runs, &joint);
+    let chip_offset = chip_offset(&prepared.runs, &joint);
     let radii = check_radii(&prepared, &placements);
     let conditions = held_out_conditions(&prepared, stage.thermal.as_ref());
     let candidates: Vec<Box<dyn Candidate + Sync>> =
@@ -437,6 +442,7 @@ pub fn calibrate_campaign(
             recordings: units.iter().map(|u| u.name.clone()).collect(),
             joint,
             placements,
+            chip_offset,
             split_runs: prepared.split_runs.clone(),
             undetermined,
             nonlinearity,

@@ -130,6 +130,11 @@ const PHONE: &str = r#"# spincal campaign: a smartphone on a record player (from
 #   The radius: not needed. The chip sits somewhere inside the phone; the two speeds of each
 #   placement give its radius (results.json's `placements`). A radius you state instead
 #   (radius_m with radius_tol_m) is checked against the runs and named when they contradict it.
+#   Where the chip sits in the phone: turn the phone about its centre between placements,
+#   measure that centre's distance from the spindle and add it to every run
+#   (centre_radius_m = 0.09 with centre_radius_tol_m = 0.005); A and B then give the offset along
+#   the phone's length (results.json's `chip_offset`), and a third placement turned 90°
+#   (out = "+x", the same two speeds) the offset across it as well.
 #   Phones' gyros usually reach ±2000 °/s, well above 45 rpm (270 °/s).
 #
 # Optional: the datasheet of the phone's accelerometer, if you know the part:

@@ -2,14 +2,16 @@
 //! layout `t gx gy gz`, or any file of the session with gyro columns). The one rule for every
 //! caller (a campaign entry's `gyro_file`, the commands' `--gyro-file`, `correct`'s stream): a
 //! second file with its own time column is merged on time (interpolated onto the recording's
-//! times, [`crate::input::recording::interpolate_onto`]); one without a time column (its time
+//! times, or, sampled beside them, taken sample for sample: [`crate::input::recording::Bracket::beside`]);
+//! one without a time column (its time
 //! synthesised from a sample rate) is taken sample for sample and must be as long. It is read with
 //! the recording's reading flags that concern it ([`gyro_read_options`]).
 
 use std::path::Path;
 
 use crate::input::formats::{self, Format, FormatError, Loaded, ReadOptions};
-use crate::input::recording::{ColumnMap, Recording};
+use crate::input::recording::{gyro_only_map, ColumnMap, Recording, RecordingError};
+use crate::input::table::{display_name, RowReader};
 
 /// A gyro reading above this (rad/s, mean of an axis over the file) is taken for raw counts: no
 /// handheld or turntable session turns that fast for long.
@@ -146,7 +148,19 @@ pub(crate) struct GyroFile {
 /// has none (imu_tk's `t gx gy gz`), the three it was read as acceleration, in the gyro's unit and
 /// scale.
 pub(crate) fn read_gyro_file(path: &Path, options: &ReadOptions) -> Result<GyroFile, GyroFileError> {
-    let loaded = formats::read_path(path, options)?;
+    let read = formats::read_path(path, options);
+    // A header of time and gyro columns alone: read them in the places of time and acceleration,
+    // by the column rules a recording's header is read with.
+    let gyro_only = match &read {
+        Err(FormatError::Recording(RecordingError::AmbiguousColumns { .. })) => {
+            gyro_only_options(path, options)
+        }
+        _ => None,
+    };
+    let (loaded, options) = match &gyro_only {
+        Some(gyro_only) => (formats::read_path(path, gyro_only)?, gyro_only),
+        None => (read?, options),
+    };
     let timed =
         options.sample_rate_hz.is_none() && !matches!(loaded.format, Format::Imucal | Format::Mpu6050);
     let g = loaded.recording;
@@ -170,6 +184,23 @@ pub(crate) fn read_gyro_file(path: &Path, options: &ReadOptions) -> Result<GyroF
     })
 }
 
+/// `options` for a delimited file whose header names time and three gyro columns and no
+/// acceleration ([`gyro_only_map`]); `None` for any other file.
+fn gyro_only_options(path: &Path, options: &ReadOptions) -> Option<ReadOptions> {
+    let file = std::fs::File::open(path).ok()?;
+    let reader = RowReader::new(
+        std::io::BufReader::new(file),
+        &display_name(path),
+        &options.columns.table,
+    )
+    .ok()?;
+    let columns = gyro_only_map(&reader.header, options.columns.clone());
+    columns.columns.is_some().then(|| ReadOptions {
+        columns,
+        ..options.clone()
+    })
+}
+
 /// A gyroscope at least this many of its median intervals from its neighbours is a dropped
 /// stretch: a recording sample inside it gets no interpolated value.
 pub const GYRO_GAP_INTERVALS: f64 = 3.0;
@@ -177,7 +208,9 @@ pub const GYRO_GAP_INTERVALS: f64 = 3.0;
 /// `loaded` with the gyro of the file at `path` (read with `options`, the recording's reading
 /// options: [`gyro_read_options`] is applied here). A file without a time column is taken sample
 /// for sample and must be as long; one with its own times is merged on time (one clock):
-/// the gyro interpolated linearly onto the recording's times, and the recording's samples outside
+/// the gyro interpolated linearly onto the recording's times (the k-th sample taken as it is
+/// while each pair lies within half the gyro's interval, `Bracket::beside`, the rule of
+/// `correct`'s stream), and the recording's samples outside
 /// the gyro's span or in its gaps dropped (labels with them), with a note in
 /// `source.time_notes`, also returned. Refused when fewer than half the samples are covered (the
 /// files are likely on different clocks), naming both spans, and when the recording has gyro
@@ -208,25 +241,17 @@ pub fn attach_gyro_file(
         recording.gyro_radps = Some(gyro.values);
         return Ok(None);
     }
-    // A gyro sampled beside the recording (as many samples, each within half an interval of
-    // the recording's): its own samples, not values interpolated between them, which would
-    // smooth its noise (the T265's gyro noise density read 53 % off allantools' that way).
-    if gyro.time_s.len() == recording.len() {
-        let half = 0.5 * crate::input::recording::sample_interval(&recording.time_s);
-        let beside = gyro
-            .time_s
-            .iter()
-            .zip(&recording.time_s)
-            .all(|(g, a)| (g - a).abs() <= half);
-        if beside {
-            recording.gyro_radps = Some(gyro.values);
-            return Ok(None);
-        }
-    }
+    // A gyro sampled beside the recording is taken sample for sample, by the rule `correct`'s
+    // stream follows (`Bracket::beside`, half the gyro's interval).
     let interval = crate::input::recording::sample_interval(&gyro.time_s);
     let widest = GYRO_GAP_INTERVALS * interval;
-    let (keep, at_times) =
-        crate::input::recording::interpolate_onto(&recording.time_s, &gyro.time_s, &gyro.values, widest);
+    let bracket = crate::input::recording::Bracket::new(widest).beside(0.5 * interval);
+    let (keep, at_times, paired) =
+        crate::input::recording::merge_onto(&recording.time_s, &gyro.time_s, &gyro.values, bracket);
+    if paired == recording.len() {
+        recording.gyro_radps = Some(at_times);
+        return Ok(None);
+    }
     let covered = keep.iter().filter(|k| **k).count();
     if 2 * covered < recording.len() || covered < 2 {
         let ((gyro_from_s, gyro_to_s), (from_s, to_s)) = (span(&gyro.time_s), span(&recording.time_s));
@@ -241,11 +266,12 @@ pub fn attach_gyro_file(
         });
     }
     let note = format!(
-        "{file}: the gyroscope ({} samples, {:.1} Hz) interpolated linearly onto the recording's {} timestamps ({:.1} Hz); {} samples outside its span or in its gaps (> {GYRO_GAP_INTERVALS} intervals) dropped",
+        "{file}: the gyroscope ({} samples, {:.1} Hz) interpolated linearly onto the recording's {} timestamps ({:.1} Hz){}; {} samples outside its span or in its gaps (> {GYRO_GAP_INTERVALS} intervals) dropped",
         gyro.time_s.len(),
         1.0 / interval,
         recording.len(),
         recording.sample_rate_hz(),
+        beside_note(paired),
         recording.len() - covered
     );
     let mut merged = recording.select(&keep);
@@ -264,6 +290,15 @@ pub fn attach_gyro_file(
         labels.retain(|_| k.next().copied().unwrap_or(false));
     }
     Ok(Some(note))
+}
+
+/// Words for the first `paired` targets taken sample for sample, when any.
+pub(crate) fn beside_note(paired: usize) -> String {
+    if paired == 0 {
+        String::new()
+    } else {
+        format!(" (the first {paired} taken sample for sample: each within half an interval of its row)")
+    }
 }
 
 /// The first and last of `t` (NaN when empty).

@@ -186,6 +186,14 @@ fn sensor_section(r: &CampaignResult, h: &mut String) -> Result<(), PlotError> {
         }
         h.push_str("</ul>");
     }
+    if let Some(offset) = &r.chip_offset {
+        let _ = write!(
+            h,
+            "<p>Where the chip sits in the device (from the radii of placements turned about its stated centre; standard errors from the radii's robust covariance, which carries their trade with the in-plane scale, the centre's tolerance and a turn by hand within {:.0}°): {}</p>",
+            crate::campaign::joint::TURN_SD_DEG,
+            escape(&offset.sentence())
+        );
+    }
     let splits: Vec<String> = r.split_runs.iter().filter_map(|s| s.sentence()).collect();
     if !splits.is_empty() {
         h.push_str("<p>Runs cut at logging gaps:</p><ul>");

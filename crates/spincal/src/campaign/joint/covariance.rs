@@ -48,6 +48,24 @@ impl JointFit {
     }
 }
 
+impl JointFit {
+    /// The robust covariance of the chip radii (each run's first parameter) of `runs`, across
+    /// runs: radii that share a sensor's in-plane scale carry its trade in their covariance.
+    /// `None` when the fit had no covariance or a radius was not free.
+    pub(crate) fn radii_covariance(&self, runs: &[usize]) -> Option<Vec<Vec<f64>>> {
+        let cov = self.state.covariance.as_ref()?;
+        let pos: Vec<usize> = runs
+            .iter()
+            .map(|&i| self.state.free_index.iter().position(|&k| k == run_offset(i)))
+            .collect::<Option<_>>()?;
+        Some(
+            pos.iter()
+                .map(|&a| pos.iter().map(|&b| cov[(a, b)]).collect())
+                .collect(),
+        )
+    }
+}
+
 /// H⁻¹ S H⁻¹ over the given parameters, with the small-sample factor G/(G − 1) omitted (blocks
 /// are many); `None` when H is singular there.
 pub(super) fn sandwich(h: &Mat<f64>, s: &Mat<f64>, index: &[usize]) -> Option<Mat<f64>> {

@@ -151,6 +151,34 @@ fn unit_from_name<U>(name: &str, parse: impl Fn(&str) -> Option<U>) -> Option<U>
     lower.rsplit_once('_').and_then(|(_, suffix)| parse(suffix))
 }
 
+/// The map a gyro-only file (a header naming time and three gyro columns, none for acceleration:
+/// `t,gx,gy,gz`, `time,gx_dps,…`) is read with: its time and gyro columns in the places of time
+/// and acceleration, the gyro's unit from their names unless `map` states it. `map` unchanged
+/// for any other header or when it chooses the columns itself.
+pub(crate) fn gyro_only_map(header: &[String], map: ColumnMap) -> ColumnMap {
+    if map.columns.is_some() || header.is_empty() {
+        return map;
+    }
+    let time_names: Vec<String> = TIME_NAMES.iter().map(|s| s.to_string()).collect();
+    let accel = (0..3).any(|a| find_any(header, &accel_names(a)).is_some());
+    let gyro: Option<Vec<usize>> = (0..3).map(|a| find_any(header, &gyro_names(a))).collect();
+    let (Some(time), Some(gyro), false) = (find_any(header, &time_names), gyro, accel) else {
+        return map;
+    };
+    let named = unit_from_name(&header[gyro[0]], GyroUnit::parse);
+    ColumnMap {
+        columns: Some(
+            std::iter::once(time)
+                .chain(gyro)
+                .map(|c| (c + 1).to_string())
+                .collect(),
+        ),
+        accel_unit: Some(AccelUnit::Mps2),
+        gyro_unit: map.gyro_unit.or(named),
+        ..map
+    }
+}
+
 /// Which columns of a table become time, acceleration, rate and temperature, and each one's
 /// factor to SI: the one reading of a header that every entry point shares (whole files, the
 /// streaming `correct`, Python's DataFrames).

@@ -1,6 +1,13 @@
 //! A second sensor's samples interpolated onto a recording's times: one rule for a phone's
 //! accelerometer/gyro pair, a gyro file merged on time and `correct`'s stream (which holds only
 //! the two samples around the current time).
+//!
+//! A gyro file sampled beside the recording (its k-th sample within half an interval of the
+//! k-th target) is taken sample for sample, not interpolated: interpolating between samples
+//! smooths their noise (the T265's gyro noise density read 53 % off allantools' that way).
+//! [`Bracket::beside`] decides that target by target, in order, so a file read whole and
+//! `correct`'s stream take the same values: the k-th sample is given while every pair so far
+//! lies within the tolerance, and from the first pair that does not, the rest is interpolated.
 
 /// Why a target time has no interpolated value.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -38,6 +45,10 @@ pub struct Bracket {
     first_s: Option<f64>,
     /// The source has no more samples.
     ended: bool,
+    /// Sample for sample while each pair lies within this, s (`None`: interpolated).
+    beside_s: Option<f64>,
+    /// Targets given their sample as it is.
+    paired: usize,
 }
 
 impl Bracket {
@@ -49,7 +60,22 @@ impl Bracket {
             after: None,
             first_s: None,
             ended: false,
+            beside_s: None,
+            paired: 0,
         }
+    }
+
+    /// A source that may be sampled beside the targets: the k-th target takes the k-th sample
+    /// as it is while every pair so far lies within `tolerance_s` (half an interval); from the
+    /// first pair that does not, the targets are interpolated.
+    pub fn beside(mut self, tolerance_s: f64) -> Bracket {
+        self.beside_s = Some(tolerance_s).filter(|t| t.is_finite() && *t > 0.0);
+        self
+    }
+
+    /// How many targets so far took a sample as it is ([`Bracket::beside`]).
+    pub fn paired(&self) -> usize {
+        self.paired
     }
 
     /// The source at `t` (targets increase from call to call), pulling source samples from
@@ -59,6 +85,23 @@ impl Bracket {
         t: f64,
         mut next: impl FnMut() -> Result<Option<(f64, [f64; 3])>, E>,
     ) -> Result<Result<[f64; 3], Uncovered>, E> {
+        if let Some(tolerance) = self.beside_s {
+            // One source sample per target while they pair; the bracket moves with them, so the
+            // interpolation that follows a broken pair starts from the samples already taken.
+            match next()? {
+                Some(sample) => {
+                    self.first_s.get_or_insert(sample.0);
+                    self.before = self.after.take();
+                    self.after = Some(sample);
+                    if (sample.0 - t).abs() <= tolerance {
+                        self.paired += 1;
+                        return Ok(Ok(sample.1));
+                    }
+                }
+                None => self.ended = true,
+            }
+            self.beside_s = None;
+        }
         // The bracket moves forward while it lacks two samples or its later one is before `t`;
         // at the source's end the last pair stays.
         while !self.ended && (self.before.is_none() || self.after.is_none_or(|(t1, _)| t1 < t)) {
@@ -103,10 +146,21 @@ pub fn interpolate_onto(
     source: &[Vec<f64>; 3],
     widest_s: f64,
 ) -> (Vec<bool>, [Vec<f64>; 3]) {
+    let (keep, out, _) = merge_onto(target_time, source_time, source, Bracket::new(widest_s));
+    (keep, out)
+}
+
+/// [`interpolate_onto`] by a given `bracket` (one made [`Bracket::beside`] takes a source
+/// sampled beside the targets sample for sample), and how many targets took a sample as it is.
+pub fn merge_onto(
+    target_time: &[f64],
+    source_time: &[f64],
+    source: &[Vec<f64>; 3],
+    mut bracket: Bracket,
+) -> (Vec<bool>, [Vec<f64>; 3], usize) {
     let n = target_time.len();
     let mut keep = vec![false; n];
     let mut out: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; n]);
-    let mut bracket = Bracket::new(widest_s);
     let mut j = 0;
     let mut next = || -> Result<_, std::convert::Infallible> {
         let sample = source_time
@@ -124,7 +178,7 @@ pub fn interpolate_onto(
             keep[i] = true;
         }
     }
-    (keep, out)
+    (keep, out, bracket.paired())
 }
 
 #[cfg(test)]

@@ -17,8 +17,9 @@ mod read;
 pub mod time;
 mod units;
 
+pub(crate) use columns::gyro_only_map;
 pub use columns::{temperature_unit_of_name, ColumnMap, ColumnPlan};
-pub use interpolate::{interpolate_onto, Bracket, Uncovered};
+pub use interpolate::{interpolate_onto, merge_onto, Bracket, Uncovered};
 pub use units::{AccelUnit, GyroUnit, TemperatureUnit, TimeUnit, STANDARD_GRAVITY};
 
 /// Where a recording came from and how it was read.

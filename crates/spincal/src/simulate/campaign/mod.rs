@@ -339,6 +339,7 @@ impl<'a> Timeline<'a> {
             up: run.up,
             direction: None,
             placement: None,
+            centre: None,
         };
         let name = format!(
             "run-{}-{}rpm-r{:.3}-out{}-up{}",
