@@ -187,6 +187,9 @@ const DRIFT_S: f64 = 100.0;
 /// (ε₁, ε₂) enter the gyro fit as parameters with the joint fit's covariance as their prior.
 const RATE_PARAMS: [usize; 3] = [1, 7, 8];
 const TILT_PARAMS: [usize; 2] = [5, 6];
+/// Two-sided false-alarm probability of the Wald test that keeps an undetermined term far from
+/// nominal: `campaign::select::TERM_FALSE_ALARM`'s value (not imported: select imports this module).
+const NOMINAL_FALSE_ALARM: f64 = 1e-3;
 /// Gauss–Newton iterations (the model is linear but for K times the tilt correction).
 const ITERATIONS: usize = 4;
 
@@ -602,7 +605,7 @@ pub fn fit_gyro(
     let no_poses = problem.poses.is_empty();
     // Terms left at nominal and the rest refitted, until no free term is left that the rule fixes
     // (fixing one term can leave another, which leant on it, undetermined).
-    let z = crate::metrics::student_t_quantile(1.0 - 0.5 * crate::campaign::select::TERM_FALSE_ALARM, 1e6);
+    let z = crate::metrics::student_t_quantile(1.0 - 0.5 * NOMINAL_FALSE_ALARM, 1e6);
     let mut undetermined_terms: Vec<(String, String)> = Vec::new();
     let mut left_at_nominal: Vec<String> = Vec::new();
     let mut params = free_params.clone();
@@ -651,7 +654,7 @@ pub fn fit_gyro(
         free_params,
         nominal_rule: format!(
             "a term whose standard error moves a reading at {:.1} rad/s by more than {:.3} rad/s (a bias: a reading by more than that) is not determined; it is left at its nominal value (bias 0, sensitivity 1, cross-axis 0), and the other terms refitted with it fixed, unless some run turned about its column and its estimate lies at least {z:.2} standard errors from nominal (a Wald test at two-sided false-alarm probability {:e}), when the estimate is the better known and is kept",
-            settings.reference_rate_radps, settings.determined_tolerance_radps, crate::campaign::select::TERM_FALSE_ALARM
+            settings.reference_rate_radps, settings.determined_tolerance_radps, NOMINAL_FALSE_ALARM
         ),
         session_drift,
         rate_checks,
