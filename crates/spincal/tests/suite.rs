@@ -20,6 +20,7 @@ mod fleet;
 mod flight_logs;
 mod flight_stacks;
 mod gyro_merge;
+mod gyro_nominal;
 mod gyro_poses;
 mod model_validation;
 #[cfg(feature = "phone")]

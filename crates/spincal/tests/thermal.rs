@@ -24,7 +24,7 @@ use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 use spincal::simulate::thermal::{
     sensor_reports, simulate_thermal_campaign, ThermalCampaign, ThermalProfile, ThermalRecording,
 };
-use spincal::thermal::{fit_thermal, ThermalModel, ThermalSettings};
+use spincal::thermal::{fit_thermal, ThermalError, ThermalModel, ThermalSettings};
 
 /// RMS over the held-out bands of 1 s means of (corrected − true) force, m/s², and the
 /// per-sample RMS (noise in); `correct(j, i)` is sample i of held-out recording j, corrected.
@@ -194,8 +194,9 @@ fn thermal_corrector_near_the_oracle_on_held_out_temperatures() {
     );
     // [1 s means, per sample] × [spincal/oracle, excess ratio, stepped over die-logged].
     let mut worst = [[0.0f64; 3]; 2];
-    // Each unit's (oracle, spincal, flight stacks, die logged) errors, units in parallel.
-    let errors: Vec<[(f64, f64); 4]> = (0..units)
+    // Each unit's (oracle, spincal, flight stacks, die logged) errors and (fitted, true) lag,
+    // units in parallel.
+    let errors: Vec<([(f64, f64); 4], [f64; 2])> = (0..units)
         .into_par_iter()
         .map(|seed| {
             let campaign = simulate_thermal_campaign(&profile, 1000 + seed);
@@ -213,10 +214,11 @@ fn thermal_corrector_near_the_oracle_on_held_out_temperatures() {
             let logged_model = spincal_fit(&logged);
             let logged_values = applied(&logged_model, &logged.held_out);
             let die_logged = band_error(&logged.held_out, |j, i| logged_values[j][i]);
-            [oracle, ours, peer, die_logged]
+            ([oracle, ours, peer, die_logged], [model.lag_s, truth.lag_s])
         })
         .collect();
-    for (seed, &[oracle, ours, peer, die_logged]) in errors.iter().enumerate() {
+    for (seed, &([oracle, ours, peer, die_logged], [lag, true_lag])) in errors.iter().enumerate() {
+        println!("{seed:>4}  lag {lag:.0} s (true {true_lag:.1} s)");
         // Per sample (noise in), as the campaign's held-out figures; and of 1 s means, where the
         // white noise shrinks to a seventh and what is left is mostly the model's error.
         for (metric, pick) in [("per sample", 1usize), ("1 s means", 0)] {
@@ -632,4 +634,53 @@ fn a_full_thermal_campaign_comes_near_the_oracle_on_every_held_out_condition() {
             "seed {seed}: mean {mean}, worst {worst}"
         );
     }
+}
+
+/// A lag best at the top of the grid is not determined there: the grid is extended, doubling its
+/// top, up to `MAX_LAG_S`. A sensor lagging its die by 150 s (the default grid stops at 80 s, which
+/// fits best there): the grid is extended to 160 s, and 80 s, no longer at the top, is kept (the
+/// residual is shallow in the lag: 2.0597e-3 against 2.0781e-3 m/s² at 160 s when measured). A grid
+/// whose best (here only) lag lies at or beyond `MAX_LAG_S` is refused naming the lag and what to
+/// record. (A sensor lagging 1200 s behaves as the 150 s one on these recordings: 80 s best after
+/// the extension; the lag rule cannot see a lag the recordings do not show.)
+#[test]
+fn thermal_lag_at_the_grid_top_extends_the_grid_then_is_refused() {
+    let fit = |lag_s: f64, settings: &ThermalSettings| {
+        let profile = ThermalProfile {
+            sensor_lag_s: lag_s,
+            ..ThermalProfile::default()
+        };
+        let campaign = simulate_thermal_campaign(&profile, 7000);
+        let stills: Vec<&Recording> = std::iter::once(&campaign.warmup)
+            .chain(&campaign.poses)
+            .map(|r| &r.recording)
+            .collect();
+        fit_thermal(&stills, settings, STANDARD_GRAVITY)
+    };
+    let default = ThermalSettings::default();
+    let slow = fit(150.0, &default).expect("a 150 s lag is within the extended grid");
+    println!(
+        "150 s lag: fitted {} s; scores {:?}",
+        slow.model.lag_s, slow.lag_scores
+    );
+    let tried: Vec<f64> = slow.lag_scores.iter().map(|s| s.0).collect();
+    assert!(tried.contains(&160.0), "the grid was not extended: {tried:?}");
+    assert!(
+        slow.model.lag_s >= 80.0 && slow.model.lag_s < *tried.last().unwrap(),
+        "{tried:?}"
+    );
+    let beyond = ThermalSettings {
+        lags_s: vec![400.0],
+        ..default.clone()
+    };
+    let e = fit(20.0, &beyond).expect_err("a lag at the grid's top beyond MAX_LAG_S is refused");
+    println!("{e}");
+    assert!(
+        matches!(e, ThermalError::LagAtEdge { lag_s, max_lag_s } if lag_s == 400.0 && max_lag_s == spincal::thermal::MAX_LAG_S),
+        "{e}"
+    );
+    assert!(
+        e.to_string().contains("record a longer warm-up or cool-down"),
+        "{e}"
+    );
 }

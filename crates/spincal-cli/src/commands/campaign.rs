@@ -107,18 +107,40 @@ pub fn summary(output: &CampaignOutput, out: &Path, written: &[&str], tables: bo
     if let Some(g) = &r.gyro {
         let b = g.model.bias_radps.map(f64::to_degrees);
         let k = &g.model.sensitivity;
+        let at_nominal = |i: usize| g.params.get(i).is_some_and(|p| !p.free);
+        let bias: Vec<String> = (0..3)
+            .map(|i| match at_nominal(i) {
+                true => "nominal".to_string(),
+                false => format!("{:.4}", b[i]),
+            })
+            .collect();
+        let scale: Vec<String> = (0..3)
+            .map(|i| match at_nominal(3 + 4 * i) {
+                true => "nominal".to_string(),
+                false => format!("{:+.3}", 100.0 * (k[i][i] - 1.0)),
+            })
+            .collect();
         let _ = writeln!(
             text,
-            "\ngyroscope (the record player as a rate table): bias {:.4} {:.4} {:.4} °/s; scale error {:+.3} {:+.3} {:+.3} %",
-            b[0],
-            b[1],
-            b[2],
-            100.0 * (k[0][0] - 1.0),
-            100.0 * (k[1][1] - 1.0),
-            100.0 * (k[2][2] - 1.0)
+            "\ngyroscope (the record player as a rate table): bias {} °/s; scale error {} %{}",
+            bias.join(" "),
+            scale.join(" "),
+            if g.saved_model().is_none() {
+                " (no term determined: no gyroscope part saved)"
+            } else {
+                ""
+            }
         );
+        if !g.undetermined.is_empty() {
+            let _ = writeln!(text, "  not determined ({}):", g.nominal_rule);
+        }
         for (name, advice) in &g.undetermined {
-            let _ = writeln!(text, "  not determined: {name}: {advice}");
+            let what = if g.left_at_nominal.contains(name) {
+                "left at nominal"
+            } else {
+                "kept"
+            };
+            let _ = writeln!(text, "    {name} ({what}): to determine it, {advice}");
         }
         for s in &g.saturation {
             let _ = writeln!(text, "  {}", s.describe());

@@ -127,13 +127,13 @@ pub(super) fn save_best(
                 100.0 * NON_INFERIORITY_MARGIN,
                 truth_sentence(found.truth_check)
             );
-            let verdict = verdict + &thermal_sentence(found.thermal);
+            let verdict = verdict
+                + &thermal_sentence(found.thermal)
+                + &found.gyro.map(GyroFit::nominal_sentence).unwrap_or_default();
             let mut file = CorrectorFile::new(model);
             file.thermal = found.thermal.map(|t| t.fit.model.clone());
-            file.gyro = found
-                .gyro
-                .map(|g| g.model.clone())
-                .filter(|m| m.validate().is_ok());
+            // Only the terms the campaign determines (the rest at nominal); nothing when none is.
+            file.gyro = found.gyro.and_then(GyroFit::saved_model).cloned();
             (Some(file), verdict)
         }
         Err(e) => (

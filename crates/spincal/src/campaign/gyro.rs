@@ -17,6 +17,13 @@
 //! are a block sandwich (5 s blocks of each run, each pose a block), plus what the joint fit's own
 //! uncertainty in each run's rate, wow and mount tilts carries over (delta method). The Earth's
 //! rotation (≤ 7.3·10⁻⁵ rad/s) is not modelled: it enters the bias.
+//!
+//! Only what the campaign determines is kept: a term whose standard error moves a reading at the
+//! reference rate by more than the tolerance is fixed at its nominal value (the prior's centre:
+//! bias 0, K's diagonal 1, off-diagonal 0) and the rest refitted with it fixed, until every free
+//! term is determined. Flat runs alone, for instance, leave K's x and y columns to the prior,
+//! and a term fitted from the prior and a leak through the spindle's small tilt made the
+//! corrected gyro worse than raw during rotations about x or y.
 
 // Per-axis arrays are indexed together; iterators would obscure that.
 #![allow(clippy::needless_range_loop)]
@@ -118,14 +125,27 @@ impl GyroRunSaturation {
 /// The gyroscope's calibration from a campaign.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct GyroFit {
+    /// The refit: terms the campaign does not determine at their nominal values. Saved with
+    /// the accelerometer's corrector unless no term is determined ([`GyroFit::saved_model`]).
     pub model: GyroModel,
-    /// b (3) then K row by row (9), with robust standard errors.
+    /// b (3) then K row by row (9) of the refit, with robust standard errors; a term left at
+    /// nominal has `free: false` and no standard error.
     pub params: Vec<JointParam>,
+    /// The same with every term free: the fit that decided which terms are determined.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub free_params: Vec<JointParam>,
+    /// The rule that left terms at nominal, in words.
+    #[serde(default)]
+    pub nominal_rule: String,
     /// Per still recording (session): the bias drift rate per axis, rad/s per s.
     pub session_drift: Vec<JointParam>,
     pub rate_checks: Vec<GyroRateCheck>,
     /// Parameters this campaign does not determine, with what would.
     pub undetermined: Vec<(String, String)>,
+    /// Those of them left at their nominal values (`nominal_rule`); the rest are kept, with
+    /// their standard errors.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub left_at_nominal: Vec<String>,
     /// How the standard errors were formed, in words.
     pub covariance: String,
     /// Runs whose gyro saturated: rows left out, or the run's gyro refused.
@@ -167,6 +187,9 @@ const DRIFT_S: f64 = 100.0;
 /// (ε₁, ε₂) enter the gyro fit as parameters with the joint fit's covariance as their prior.
 const RATE_PARAMS: [usize; 3] = [1, 7, 8];
 const TILT_PARAMS: [usize; 2] = [5, 6];
+/// Two-sided false-alarm probability of the Wald test that keeps an undetermined term far from
+/// nominal: `campaign::select::TERM_FALSE_ALARM`'s value (not imported: select imports this module).
+const NOMINAL_FALSE_ALARM: f64 = 1e-3;
 /// Gauss–Newton iterations (the model is linear but for K times the tilt correction).
 const ITERATIONS: usize = 4;
 
@@ -284,6 +307,8 @@ struct Problem<'a> {
     joint: &'a JointFit,
     /// Per run and axis, the residual noise, rad/s.
     run_sigma: Vec<[f64; 3]>,
+    /// Unknowns held at their current values (terms left at nominal).
+    fixed: Vec<bool>,
 }
 
 impl Problem<'_> {
@@ -399,7 +424,8 @@ impl Problem<'_> {
     fn solve(&self, mut x: Vec<f64>, iterations: usize) -> Result<(Vec<f64>, Mat<f64>), GyroError> {
         let n = self.layout.n();
         for _ in 0..iterations {
-            let sys = self.normal_equations(&x);
+            let mut sys = self.normal_equations(&x);
+            self.pin(&mut sys);
             let llt = sys.h.llt(faer::Side::Lower).map_err(|_| GyroError::Singular)?;
             let step = llt.solve(Mat::from_fn(n, 1, |i, _| sys.g[i]));
             for i in 0..n {
@@ -409,10 +435,45 @@ impl Problem<'_> {
                 return Err(GyroError::Singular);
             }
         }
-        let sys = self.normal_equations(&x);
+        let mut sys = self.normal_equations(&x);
+        self.pin(&mut sys);
         let llt = sys.h.llt(faer::Side::Lower).map_err(|_| GyroError::Singular)?;
-        let h_inv = llt.solve(Mat::<f64>::identity(n, n));
+        let mut h_inv = llt.solve(Mat::<f64>::identity(n, n));
+        // A fixed unknown has no variance (its unit pivot is bookkeeping).
+        for i in (0..n).filter(|&i| self.fixed[i]) {
+            h_inv[(i, i)] = 0.0;
+        }
         Ok((x, h_inv))
+    }
+
+    /// Fixed unknowns out of the normal equations: their step is zero and they inform no other.
+    fn pin(&self, sys: &mut System) {
+        let n = self.layout.n();
+        for i in (0..n).filter(|&i| self.fixed[i]) {
+            for j in 0..n {
+                sys.h[(i, j)] = 0.0;
+                sys.h[(j, i)] = 0.0;
+            }
+            sys.h[(i, i)] = 1.0;
+            sys.g[i] = 0.0;
+        }
+    }
+
+    /// The two passes from `x0` (white-noise weights, then each run weighted by its residual
+    /// RMS, which includes drift and unmodelled motion) and the robust covariance.
+    fn fit(&mut self, x0: Vec<f64>) -> Result<(Vec<f64>, Mat<f64>), GyroError> {
+        self.run_sigma = self
+            .runs
+            .iter()
+            .map(|run| crate::campaign::joint::difference_noise(run.gyro, &run.keep).map(|v| v.max(1e-9)))
+            .collect();
+        let (x, _) = self.solve(x0, ITERATIONS)?;
+        self.run_sigma = self.residual_rms(&x);
+        let (x, h_inv) = self.solve(x, ITERATIONS)?;
+        let meat = self.meat(&x);
+        let mut cov = &h_inv * &meat * &h_inv;
+        self.add_rate_uncertainty(&x, &mut cov)?;
+        Ok((x, cov))
     }
 
     /// Per run and axis, the residual RMS at `x`.
@@ -480,6 +541,9 @@ impl Problem<'_> {
         for a in 0..n {
             for b in 0..n {
                 meat[(a, b)] += info.h[(a, b)];
+                if self.fixed[a] || self.fixed[b] {
+                    meat[(a, b)] = 0.0;
+                }
             }
         }
         meat
@@ -514,56 +578,157 @@ pub fn fit_gyro(
         return Err(GyroError::Saturated(found.join("; ")));
     }
     let (pose_rows, sessions) = gyro_pose_rows(poses);
+    let layout = Layout {
+        runs: gyro_runs.len(),
+        sessions,
+    };
     let mut problem = Problem {
-        layout: Layout {
-            runs: gyro_runs.len(),
-            sessions,
-        },
-        run_sigma: gyro_runs
-            .iter()
-            .map(|run| crate::campaign::joint::difference_noise(run.gyro, &run.keep).map(|v| v.max(1e-9)))
-            .collect(),
+        fixed: vec![false; layout.n()],
+        layout,
+        run_sigma: Vec::new(),
         runs: gyro_runs,
         poses: pose_rows,
         settings,
         joint,
     };
-    let l = &problem.layout;
-    let mut x0 = vec![0.0; l.n()];
-    for k in 0..3 {
-        x0[l.axis(k) + 1 + k] = 1.0;
+    let nominal = |i: usize| if i >= 3 && (i - 3) % 4 == 0 { 1.0 } else { 0.0 };
+    let mut x0 = vec![0.0; problem.layout.n()];
+    for i in 0..12 {
+        x0[reported_index(&problem.layout, i)] = nominal(i);
     }
-    // First pass with white-noise weights, then each run weighted by its residual RMS (which
-    // includes drift and unmodelled motion), solved again from there.
-    let (x, _) = problem.solve(x0, ITERATIONS)?;
-    problem.run_sigma = problem.residual_rms(&x);
-    let (x, h_inv) = problem.solve(x, ITERATIONS)?;
-    let meat = problem.meat(&x);
-    let mut cov = &h_inv * &meat * &h_inv;
-    problem.add_rate_uncertainty(&x, &mut cov)?;
-
-    let l = &problem.layout;
-    let model = GyroModel {
-        bias_radps: std::array::from_fn(|k| x[l.axis(k)]),
-        sensitivity: std::array::from_fn(|k| std::array::from_fn(|j| x[l.axis(k) + 1 + j])),
-        input_unit: crate::correctors::gyro::GyroInputUnit::RadPerS,
-    };
-    let (params, session_drift) = reported_params(l, &x, &cov);
+    let (mut x, mut cov) = problem.fit(x0)?;
+    let (free_params, _) = reported_params(&problem.layout, &x, &cov, &problem.fixed);
+    let corrector = model_at(&problem.layout, &x)
+        .corrector()
+        .ok_or(GyroError::Singular)?;
+    let (_, spun) = problem.rate_checks(&x, &corrector);
+    let no_poses = problem.poses.is_empty();
+    // Terms left at nominal and the rest refitted, until no free term is left that the rule fixes
+    // (fixing one term can leave another, which leant on it, undetermined).
+    let z = crate::metrics::student_t_quantile(1.0 - 0.5 * NOMINAL_FALSE_ALARM, 1e6);
+    let mut undetermined_terms: Vec<(String, String)> = Vec::new();
+    let mut left_at_nominal: Vec<String> = Vec::new();
+    let mut params = free_params.clone();
+    loop {
+        let mut fixed_now = 0;
+        for (name, advice) in undetermined(&params, no_poses, spun, settings) {
+            let Some(i) = params.iter().position(|p| p.name == name) else {
+                continue;
+            };
+            let p = &params[i];
+            // A column no run spun is the prior's and a leak through the spindle's tilt; a
+            // term the data put z standard errors from nominal is better known than nominal.
+            let seen = i < 3 || spun[(i - 3) % 3];
+            let away = p
+                .std_error
+                .is_some_and(|se| (p.value - nominal(i)).abs() >= z * se);
+            if !undetermined_terms.iter().any(|(n, _)| *n == name) {
+                undetermined_terms.push((name.clone(), advice));
+            }
+            if seen && away {
+                continue;
+            }
+            let at = reported_index(&problem.layout, i);
+            problem.fixed[at] = true;
+            x[at] = nominal(i);
+            left_at_nominal.push(name);
+            fixed_now += 1;
+        }
+        if fixed_now == 0 || left_at_nominal.len() == params.len() {
+            break;
+        }
+        (x, cov) = problem.fit(x)?;
+        params = reported_params(&problem.layout, &x, &cov, &problem.fixed).0;
+    }
+    let (params, session_drift) = reported_params(&problem.layout, &x, &cov, &problem.fixed);
+    let model = model_at(&problem.layout, &x);
     let corrector = model.corrector().ok_or(GyroError::Singular)?;
-    let (rate_checks, spun) = problem.rate_checks(&x, &corrector);
-    let undetermined = undetermined(&params, problem.poses.is_empty(), spun, settings);
+    let (rate_checks, _) = problem.rate_checks(&x, &corrector);
+    // Reported in the order of the parameters.
+    let order = |name: &String| params.iter().position(|p| &p.name == name);
+    undetermined_terms.sort_by_key(|(name, _)| order(name));
+    left_at_nominal.sort_by_key(order);
     Ok(Some(GyroFit {
         model,
         params,
+        free_params,
+        nominal_rule: format!(
+            "a term whose standard error moves a reading at {:.1} rad/s by more than {:.3} rad/s (a bias: a reading by more than that) is not determined; it is left at its nominal value (bias 0, sensitivity 1, cross-axis 0), and the other terms refitted with it fixed, unless some run turned about its column and its estimate lies at least {z:.2} standard errors from nominal (a Wald test at two-sided false-alarm probability {:e}), when the estimate is the better known and is kept",
+            settings.reference_rate_radps, settings.determined_tolerance_radps, NOMINAL_FALSE_ALARM
+        ),
         session_drift,
         rate_checks,
-        undetermined,
+        undetermined: undetermined_terms,
+        left_at_nominal,
         covariance: format!(
-            "robust sandwich (scores summed over {:.1} s blocks of each run, each still pose a block); each run's mount tilts refitted within the joint fit's covariance; the joint fit's uncertainty in each run's speed and wow carried over by the delta method",
+            "robust sandwich (scores summed over {:.1} s blocks of each run, each still pose a block); each run's mount tilts refitted within the joint fit's covariance; the joint fit's uncertainty in each run's speed and wow carried over by the delta method; terms left at nominal held fixed",
             settings.block_s
         ),
         saturation,
     }))
+}
+
+impl GyroFit {
+    /// The model to save: `None` when the campaign determines none of the gyro's terms.
+    pub fn saved_model(&self) -> Option<&GyroModel> {
+        let determined = self.params.iter().any(|p| p.free);
+        (determined && self.model.validate().is_ok()).then_some(&self.model)
+    }
+
+    /// The gyro terms left at nominal and what would determine them, for a verdict: empty when
+    /// every term is determined.
+    pub fn nominal_sentence(&self) -> String {
+        if self.undetermined.is_empty() {
+            return String::new();
+        }
+        let left: Vec<&(String, String)> = self
+            .undetermined
+            .iter()
+            .filter(|(n, _)| self.left_at_nominal.contains(n))
+            .collect();
+        let kept: Vec<&str> = self
+            .undetermined
+            .iter()
+            .filter(|(n, _)| !self.left_at_nominal.contains(n))
+            .map(|(n, _)| n.as_str())
+            .collect();
+        let mut advice: Vec<&str> = Vec::new();
+        for (_, a) in &self.undetermined {
+            if !advice.contains(&a.as_str()) {
+                advice.push(a);
+            }
+        }
+        if self.saved_model().is_none() {
+            return format!(
+                " No gyroscope part saved: the campaign determines none of its terms. Record next: {}.",
+                advice.join("; ")
+            );
+        }
+        let mut text = String::from(" Gyroscope:");
+        if !left.is_empty() {
+            let names: Vec<&str> = left.iter().map(|(n, _)| n.as_str()).collect();
+            text += &format!(
+                " {} not determined by this campaign, left at nominal (bias 0, sensitivity 1, cross-axis 0) and the rest refitted without them.",
+                names.join(", ")
+            );
+        }
+        if !kept.is_empty() {
+            text += &format!(
+                " {} not determined to the tolerance but kept, their estimates far from nominal.",
+                kept.join(", ")
+            );
+        }
+        text + &format!(" To determine them record {}.", advice.join("; "))
+    }
+}
+
+/// The gyro model at unknowns `x`.
+fn model_at(l: &Layout, x: &[f64]) -> GyroModel {
+    GyroModel {
+        bias_radps: std::array::from_fn(|k| x[l.axis(k)]),
+        sensitivity: std::array::from_fn(|k| std::array::from_fn(|j| x[l.axis(k) + 1 + j])),
+        input_unit: crate::correctors::gyro::GyroInputUnit::RadPerS,
+    }
 }
 
 /// Every setting must be finite and positive.
@@ -682,10 +847,15 @@ fn gyro_pose_rows(poses: &[PoseInput]) -> (Vec<PoseRow>, usize) {
 }
 
 /// b and K (with names and standard errors from `cov`), then each session's drift rate per axis.
-fn reported_params(l: &Layout, x: &[f64], cov: &Mat<f64>) -> (Vec<JointParam>, Vec<JointParam>) {
+fn reported_params(
+    l: &Layout,
+    x: &[f64],
+    cov: &Mat<f64>,
+    fixed: &[bool],
+) -> (Vec<JointParam>, Vec<JointParam>) {
     let se = |i: usize| {
         let v = cov[(i, i)];
-        (v.is_finite() && v >= 0.0).then(|| v.sqrt())
+        (!fixed[i] && v.is_finite() && v >= 0.0).then(|| v.sqrt())
     };
     let mut params = Vec::with_capacity(12);
     for i in 0..12 {
@@ -699,7 +869,7 @@ fn reported_params(l: &Layout, x: &[f64], cov: &Mat<f64>) -> (Vec<JointParam>, V
             name,
             value: x[at],
             std_error: se(at),
-            free: true,
+            free: !fixed[at],
         });
     }
     let mut session_drift = Vec::new();
@@ -803,6 +973,7 @@ impl Problem<'_> {
     }
 }
 
+/// The free terms among `params` that the campaign does not determine, each with what would.
 fn undetermined(
     params: &[JointParam],
     no_poses: bool,
@@ -810,7 +981,7 @@ fn undetermined(
     settings: &GyroSettings,
 ) -> Vec<(String, String)> {
     let mut out = Vec::new();
-    for (i, p) in params.iter().enumerate() {
+    for (i, p) in params.iter().enumerate().filter(|(_, p)| p.free) {
         let effect = if i < 3 { 1.0 } else { settings.reference_rate_radps };
         let bad = p
             .std_error

@@ -275,9 +275,34 @@ fn gyro_section(g: &crate::campaign::gyro::GyroFit, h: &mut String) -> Result<()
         )?);
     }
     if !g.undetermined.is_empty() {
-        h.push_str("<ul>");
+        let _ = write!(
+            h,
+            "<h3>Not determined</h3><p>Rule: {}{}.</p><ul>",
+            escape(&g.nominal_rule),
+            if g.saved_model().is_none() {
+                "; no term is determined, so no gyroscope part is saved"
+            } else {
+                ""
+            }
+        );
         for (name, advice) in &g.undetermined {
-            let _ = write!(h, "<li>{}: {}</li>", escape(name), escape(advice));
+            let free = g.free_params.iter().find(|p| &p.name == name);
+            let what = if g.left_at_nominal.contains(name) {
+                "left at nominal"
+            } else {
+                "kept (far from nominal)"
+            };
+            let _ = write!(
+                h,
+                "<li>{}, {what}{}: to determine it, {}</li>",
+                escape(name),
+                free.map_or(String::new(), |p| format!(
+                    " (fitted free: {:.4e} ± {})",
+                    p.value,
+                    p.std_error.map_or("–".into(), |v| format!("{v:.1e}"))
+                )),
+                escape(advice)
+            );
         }
         h.push_str("</ul>");
     }
@@ -672,7 +697,7 @@ pub fn campaign_files(
         return Ok(files);
     }
     let sensor = &result.joint.sensor;
-    let gyro = result.gyro.as_ref().map(|g| &g.model);
+    let gyro = result.gyro.as_ref().and_then(|g| g.saved_model());
     let mut imucal = imucal_json(sensor, gyro);
     if let Some(thermal) = &result.thermal {
         let comment = imucal["comment"].as_str().unwrap_or_default().to_string();

@@ -10,7 +10,9 @@
 //!
 //! **Choices the data make.**
 //! - The lag τ: the value on `lags_s` with the smallest residual, at the fixed orders (`orders`)
-//!   or else the highest tried.
+//!   or else the highest tried. When that is the grid's top (and not 0), the grid is extended by
+//!   doubling its top up to [`MAX_LAG_S`]; a lag still best at [`MAX_LAG_S`] (or at a top beyond
+//!   it) is not determined by the recordings and the fit is refused ([`ThermalError::LagAtEdge`]).
 //! - The polynomial orders of β and ρ: fitted on the windows whose die temperature lies between the
 //!   `held_out_fraction` and 1 − `held_out_fraction` quantiles, scored on the rest (the coldest and
 //!   hottest bands) without truth: each held-out window is corrected and compared with gravity along
@@ -21,7 +23,7 @@ use faer::prelude::Solve;
 use faer::{Mat, MatMut, Side};
 use serde::{Deserialize, Serialize};
 
-use super::{ThermalModel, REFERENCE_PARAMS};
+use super::{ThermalModel, MAX_LAG_S, REFERENCE_PARAMS};
 use crate::geometry::{cross, unit, M3};
 use crate::input::recording::Recording;
 use crate::optim::{levenberg_marquardt, LeastSquares, LmOptions};
@@ -77,6 +79,10 @@ pub enum ThermalError {
     /// is not saved.
     #[error("the fitted thermal model is implausible ({field}: {reason}); it is not saved")]
     Implausible { field: String, reason: String },
+    /// The lag fits best at the longest tried, [`MAX_LAG_S`] or the grid's top beyond it: the
+    /// recordings do not determine it.
+    #[error("the temperature sensor's lag fits best at {lag_s:.0} s, the longest tried (the grid is extended up to {max_lag_s:.0} s): the recordings do not determine it, so no thermal model is saved; record a longer warm-up or cool-down, still, so that the die's temperature settles within it")]
+    LagAtEdge { lag_s: f64, max_lag_s: f64 },
     #[error("parameter thermal.{name} = {value}: {why}")]
     Setting {
         name: &'static str,
@@ -100,7 +106,8 @@ pub struct ThermalFit {
     pub model: ThermalModel,
     pub bias_order: usize,
     pub scale_order: usize,
-    /// (τ, RMS residual at the fixed or the highest orders) for each candidate lag.
+    /// (τ, RMS residual at the fixed or the highest orders) for each lag tried (`lags_s`, then
+    /// any the search extended it by).
     pub lag_scores: Vec<(f64, f64)>,
     /// Every order pair tried on the held-out bands (empty when the orders were fixed).
     pub order_scores: Vec<OrderScore>,
@@ -464,8 +471,8 @@ pub(crate) const MIN_SPAN_C: f64 = 3.0;
 /// Fits the thermal model to still recordings (each in one orientation) that carry a temperature.
 /// The temperatures are taken as given: a campaign checks them first
 /// ([`super::checks`], masking glitches, resets and implausible values). A model that breaks the
-/// plausibility limits ([`ThermalModel::check_plausible`]), or whose lag fits best at the top of
-/// `lags_s`, is refused.
+/// plausibility limits ([`ThermalModel::check_plausible`]) is refused; so is one whose lag fits
+/// best at the top of `lags_s` extended up to [`MAX_LAG_S`] ([`ThermalError::LagAtEdge`]).
 pub fn fit_thermal(
     stills: &[&Recording],
     settings: &ThermalSettings,
@@ -477,12 +484,7 @@ pub fn fit_thermal(
         Some([kb, ks]) => (kb, ks),
         None => (settings.max_bias_order, settings.max_scale_order),
     };
-    let (lag_scores, all, at_best_lag) = best_lag(stills, settings, (kb, ks), gravity)?;
-    let lag_s = lag_scores
-        .iter()
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|s| s.0)
-        .unwrap_or(0.0);
+    let (lag_scores, all, at_best_lag, lag_s) = best_lag(stills, settings, (kb, ks), gravity)?;
     let temps: Vec<f64> = all.iter().map(|w| w.die_c).collect();
     let search = OrderSearch {
         settings,
@@ -505,8 +507,6 @@ pub fn fit_thermal(
         solve(&all, chosen.0, chosen.1, reference_c, gravity)
     };
     let model = problem.model(&solved.params, lag_s, settings.smoothing_s, range);
-    // A lag searched for and found at the top of the grid is not determined (0 is a physical
-    // bound, not an edge: a sensor may not lag).
     model.check_plausible().map_err(|e| ThermalError::Implausible {
         field: e.field,
         reason: e.reason,
@@ -533,17 +533,23 @@ pub fn fit_thermal(
 /// (lag, residual RMS) per lag tried.
 type LagScores = Vec<(f64, f64)>;
 
-/// Each lag's residual RMS at `orders` (bias, scale) on every window, and the windows and fit of
-/// the best lag.
+/// Each lag's residual RMS at `orders` (bias, scale) on every window, the windows and fit of the
+/// best lag, and the best lag. A best lag at the grid's top is not determined (0 is a physical
+/// bound, not an edge: a sensor may not lag): the grid is extended by doubling its top up to
+/// [`MAX_LAG_S`], and a lag still best at the top is refused.
 fn best_lag(
     stills: &[&Recording],
     settings: &ThermalSettings,
     (kb, ks): (usize, usize),
     gravity: f64,
-) -> Result<(LagScores, Vec<Window>, Solved), ThermalError> {
+) -> Result<(LagScores, Vec<Window>, Solved, f64), ThermalError> {
     let mut lag_scores = Vec::new();
-    let mut best: Option<(f64, Vec<Window>, Solved)> = None;
-    for &lag in &settings.lags_s {
+    let mut best: Option<(f64, Vec<Window>, Solved, f64)> = None;
+    let mut grid = settings.lags_s.clone();
+    let mut next = 0;
+    while next < grid.len() {
+        let lag = grid[next];
+        next += 1;
         let all = windows(stills, settings, lag)?;
         let temps: Vec<f64> = all.iter().map(|w| w.die_c).collect();
         let (lo, hi) = (quantile(&temps, 0.0), quantile(&temps, 1.0));
@@ -557,11 +563,23 @@ fn best_lag(
         let (_, solved) = solve(&all, kb, ks, reference, gravity);
         lag_scores.push((lag, solved.rms));
         if best.as_ref().is_none_or(|(rms, ..)| solved.rms < *rms) {
-            best = Some((solved.rms, all, solved));
+            best = Some((solved.rms, all, solved, lag));
+        }
+        if next == grid.len() {
+            let top = grid.iter().copied().fold(0.0, f64::max);
+            let at_top = best.as_ref().is_some_and(|b| b.3 == top && top > 0.0);
+            if at_top && top < MAX_LAG_S {
+                grid.push((2.0 * top).min(MAX_LAG_S));
+            } else if at_top {
+                return Err(ThermalError::LagAtEdge {
+                    lag_s: top,
+                    max_lag_s: MAX_LAG_S,
+                });
+            }
         }
     }
-    let (_, all, at_best_lag) = best.expect("at least one lag (checked)");
-    Ok((lag_scores, all, at_best_lag))
+    let (_, all, at_best_lag, lag_s) = best.expect("at least one lag (checked)");
+    Ok((lag_scores, all, at_best_lag, lag_s))
 }
 
 /// What every order's held-out score shares: the lag and temperatures the model is made at.
