@@ -53,6 +53,7 @@ fn entry(placement: &Placement, label: &str, rpm: f64) -> TurntableEntry {
         up: axis(placement.up),
         direction: None,
         placement: Some(label.to_string()),
+        centre: None,
     }
 }
 
