@@ -57,15 +57,14 @@ fn entry(placement: &Placement, label: &str, rpm: f64) -> TurntableEntry {
     }
 }
 
+/// A placement's (out, up): each a sensor axis and its sign.
+type Mounting = ((usize, f64), (usize, f64));
+
 /// A campaign of `seed`: 12 still poses at random orientations (400 samples each) and, per
 /// placement `(out, up)`, runs at 33⅓ and 45 rpm (30 s each, the platter 1 % fast), the chip
 /// 100 mm out; one power-on throughout. The gyro reads beside the accelerometer everywhere.
 /// `ideal`: the gyro reads the true rate plus noise.
-fn campaign(
-    seed: u64,
-    placements: &[((usize, f64), (usize, f64))],
-    ideal: bool,
-) -> (GyroModel, Vec<RunInput>, Vec<PoseInput>) {
+fn campaign(seed: u64, placements: &[Mounting], ideal: bool) -> (GyroModel, Vec<RunInput>, Vec<PoseInput>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let sensor = Sensor::draw(&mut rng);
     let gyro = draw_gyro(&mut rng);

@@ -181,6 +181,9 @@ fn with_die_logged(campaign: &ThermalCampaign) -> ThermalCampaign {
     out
 }
 
+/// A unit's (oracle, spincal, flight stacks, die logged) errors and its (fitted, true) lag.
+type UnitErrors = ([(f64, f64); 4], [f64; 2]);
+
 #[test]
 fn thermal_corrector_near_the_oracle_on_held_out_temperatures() {
     let units: u64 = std::env::var("SPINCAL_THERMAL_UNITS")
@@ -196,7 +199,7 @@ fn thermal_corrector_near_the_oracle_on_held_out_temperatures() {
     let mut worst = [[0.0f64; 3]; 2];
     // Each unit's (oracle, spincal, flight stacks, die logged) errors and (fitted, true) lag,
     // units in parallel.
-    let errors: Vec<([(f64, f64); 4], [f64; 2])> = (0..units)
+    let errors: Vec<UnitErrors> = (0..units)
         .into_par_iter()
         .map(|seed| {
             let campaign = simulate_thermal_campaign(&profile, 1000 + seed);

@@ -591,7 +591,13 @@ pub fn fit_gyro(
         settings,
         joint,
     };
-    let nominal = |i: usize| if i >= 3 && (i - 3) % 4 == 0 { 1.0 } else { 0.0 };
+    let nominal = |i: usize| {
+        if i >= 3 && (i - 3).is_multiple_of(4) {
+            1.0
+        } else {
+            0.0
+        }
+    };
     let mut x0 = vec![0.0; problem.layout.n()];
     for i in 0..12 {
         x0[reported_index(&problem.layout, i)] = nominal(i);
