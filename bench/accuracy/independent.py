@@ -4,10 +4,13 @@ Written from first principles in numpy, sharing nothing with `spincal::simulate`
 consumer accelerometer (bias, scale, a general 3x3 misalignment, a quadratic up to 0.4 % of the
 reading at 1 g, white noise 0.02 m/s²) recorded as a user with a breakout board records it:
 one CSV per still pose (time from 0 in each), four turntable runs, a campaign file with the
-datasheet's range and nonlinearity and no truth keys. Held out: still poses at new random
+datasheet's range and nonlinearity and no truth keys. With `--session-sd`, each file (or, with
+`--sessions K`, each of K power-on sessions of consecutive recordings, named in the campaign file
+with `--session-keys`) carries its own bias offset; every held-out file has one of its own. Held out: still poses at new random
 orientations and runs at new speeds, radii and mountings.
 
     python independent.py generate OUT SEED POSES [--one-file] [--session-sd MPS2] [--ruler-sd M] [--q QX,QY,QZ]
+                                  [--sessions K [--session-keys]]
     python independent.py evaluate OUT          (after `spincal calibrate` and `spincal correct`)
 
 `evaluate` prints, per held-out file and axis, the RMS of corrected − truth over the RMS of the
@@ -126,7 +129,7 @@ HELD_OUT_RUNS = [(45.0, 0.12, "-x", "+z"), (33.333, 0.075, "+x", "-z")]
 HELD_OUT_POSES = 8
 
 
-def generate(out, seed, poses, one_file, session_sd, ruler_sd, quadratic=None):
+def generate(out, seed, poses, one_file, session_sd, ruler_sd, quadratic=None, sessions=0, session_keys=False):
     rng = np.random.default_rng(seed)
     # The radius as a ruler reads it: its own stream, so the recordings stay those of ruler_sd = 0.
     ruler = np.random.default_rng(seed + 1_000_000)
@@ -140,6 +143,20 @@ def generate(out, seed, poses, one_file, session_sd, ruler_sd, quadratic=None):
 
     def offset():
         return rng.normal(0, session_sd, 3) if session_sd > 0 else np.zeros(3)
+
+    # With `sessions` > 0 the training recordings (poses, then runs, in order) fall into that many
+    # power-on sessions of consecutive recordings, each with one offset; without, each file has its own.
+    training = poses + len(TRAIN_RUNS)
+    session_offsets = [offset() for _ in range(sessions)]
+
+    def session_of(i):
+        return i * sessions // training
+
+    def training_offset(i):
+        return session_offsets[session_of(i)] if sessions > 0 else offset()
+
+    def session_line(i):
+        return ['session = "power-on-%d"' % (session_of(i) + 1)] if sessions > 0 and session_keys else []
 
     if one_file:
         parts_t, parts_a, t0 = [], [], 0.0
@@ -161,16 +178,17 @@ def generate(out, seed, poses, one_file, session_sd, ruler_sd, quadratic=None):
         for p in range(poses):
             t, f = still(rng, 8.0)
             name = "pose-%02d.csv" % (p + 1)
-            write_csv(os.path.join(out, name), t, read(sensor, f, rng, offset()))
-            lines += ["[[recording]]", 'file = "%s"' % name, 'kind = "static"', ""]
+            write_csv(os.path.join(out, name), t, read(sensor, f, rng, training_offset(p)))
+            lines += ["[[recording]]", 'file = "%s"' % name, 'kind = "static"'] + session_line(p) + [""]
     for i, (rpm, radius, out_axis, up_axis) in enumerate(TRAIN_RUNS):
         t, f = run(rng, rpm, radius, out_axis, up_axis, 60.0)
         name = "run-%d.csv" % (i + 1)
-        write_csv(os.path.join(out, name), t, read(sensor, f, rng, offset()))
+        write_csv(os.path.join(out, name), t, read(sensor, f, rng, training_offset(poses + i)))
         lines += [
             "[[recording]]",
             'file = "%s"' % name,
             'kind = "turntable"',
+        ] + session_line(poses + i) + [
             "rpm = %s" % rpm,
             "radius_m = %.5f" % (radius + ruler.normal(0, ruler_sd)),
             "radius_tol_m = 0.002",
@@ -220,6 +238,8 @@ def evaluate(out):
                     "file": name,
                     "axis": "xyz"[k],
                     "ratio": float(np.sqrt(np.mean(err**2)) / oracle_rms),
+                    "mse": float(np.mean(err**2)),
+                    "oracle_mse": float(oracle_rms**2),
                     "raw_ratio": float(np.sqrt(np.mean((raw[:, k] - f[:, k]) ** 2)) / oracle_rms),
                     "systematic_mps2": float(np.mean(err)),
                     # The predicted sd of the correction (the parameters' part of the error).
@@ -233,7 +253,23 @@ def evaluate(out):
     # The per-row flag against truth: among file-axes corrected worse than raw, the share of rows
     # still flagged as predicted better (should be low).
     flagged = [r["predicted_better_share"] for r in rows if r["ratio"] > r["raw_ratio"] and r.get("predicted_better_share") is not None]
-    summary = {"worse_than_raw_flagged_better": float(np.mean(flagged)) if flagged else None, "worst_ratio": worst, "mean_ratio": float(np.mean([r["ratio"] for r in rows])), "worse_than_raw": worse_than_raw, "rows": rows}
+    # Per axis over every held-out file: RMS error against the oracle's, pooled (the measure of an
+    # offset the oracle cannot know either, where one file's small offset makes its own ratio large).
+    pooled = [
+        float(np.sqrt(sum(r["mse"] for r in rows if r["axis"] == a) / sum(r["oracle_mse"] for r in rows if r["axis"] == a)))
+        for a in "xyz"
+    ]
+    # What the saved model's own covariance predicts for that pooled ratio: each file's oracle error
+    # plus its predicted variance (the information the campaign left, if the covariance is right).
+    predicted_pooled = (
+        [
+            float(np.sqrt(sum(r["oracle_mse"] + r["predicted_sd_mps2"] ** 2 for r in rows if r["axis"] == a) / sum(r["oracle_mse"] for r in rows if r["axis"] == a)))
+            for a in "xyz"
+        ]
+        if all(r["predicted_sd_mps2"] is not None for r in rows)
+        else None
+    )
+    summary = {"pooled_ratio": pooled, "predicted_pooled_ratio": predicted_pooled, "worse_than_raw_flagged_better": float(np.mean(flagged)) if flagged else None, "worst_ratio": worst, "mean_ratio": float(np.mean([r["ratio"] for r in rows])), "worse_than_raw": worse_than_raw, "rows": rows}
     results = os.path.join(out, "cal", "results.json")
     error_map = json.load(open(results)).get("error_map") if os.path.exists(results) else None
     if error_map is not None and all(r["predicted_sd_mps2"] is not None for r in rows):
@@ -245,14 +281,21 @@ def evaluate(out):
             for name in truth["held_out"]
             if all(r["predicted_sd_mps2"] <= error_map["threshold"] * noise["xyz".index(r["axis"])] for r in rows if r["file"] == name)
         }
-        z = [r["systematic_mps2"] / r["predicted_sd_mps2"] for r in rows if r["predicted_sd_mps2"] > 0]
+        # A held-out file's systematic error holds its own session's offset, which the correction's
+        # sd leaves out: the model's session spread adds in quadrature (0 where it saw none).
+        model = json.load(open(os.path.join(out, "cal", "model.json")))
+        spread = model["corrector"].get("uncertainty", {}).get("session_spread_mps2") or 0.0
+        z = [r["systematic_mps2"] / np.hypot(r["predicted_sd_mps2"], spread) for r in rows if r["predicted_sd_mps2"] > 0]
+        z_correction = [r["systematic_mps2"] / r["predicted_sd_mps2"] for r in rows if r["predicted_sd_mps2"] > 0]
         summary.update(
             {
                 "share_determined": error_map["share_determined"],
                 "poses_outside": sum(p["worst_sd_over_noise"] > error_map["threshold"] for p in error_map["poses"]),
                 "held_out_inside": len(inside),
                 "worst_ratio_inside": max((r["ratio"] for r in rows if r["file"] in inside), default=None),
+                "session_spread_mps2": spread,
                 "z_sum_squares": float(np.sum(np.square(z))),
+                "z_correction_sum_squares": float(np.sum(np.square(z_correction))),
                 "z_count": len(z),
             }
         )
@@ -265,6 +308,7 @@ if __name__ == "__main__":
         sd = float(args[args.index("--session-sd") + 1]) if "--session-sd" in args else 0.0
         ruler_sd = float(args[args.index("--ruler-sd") + 1]) if "--ruler-sd" in args else 0.0
         q = [float(v) for v in args[args.index("--q") + 1].split(",")] if "--q" in args else None
-        generate(args[0], int(args[1]), int(args[2]), "--one-file" in args, sd, ruler_sd, q)
+        sessions = int(args[args.index("--sessions") + 1]) if "--sessions" in args else 0
+        generate(args[0], int(args[1]), int(args[2]), "--one-file" in args, sd, ruler_sd, q, sessions, "--session-keys" in args)
     else:
         evaluate(sys.argv[2])

@@ -4,7 +4,7 @@
 # its held-out files corrected with `spincal correct`, and each held-out file and axis scored as
 # RMS(corrected − truth) / RMS(oracle − truth).
 #
-#   bash bench/accuracy/run.sh OUT_DIR UNITS POSES [--one-file] [--session-sd MPS2] [--ruler-sd M]
+#   bash bench/accuracy/run.sh OUT_DIR UNITS POSES [independent.py generate's flags]
 set -euo pipefail
 out=${1:?OUT_DIR}
 units=${2:-10}
@@ -36,12 +36,13 @@ for seed in $(seq 1 "$units"); do
     echo "unit $seed: $saved $(echo "$score" | "$python" -c '
 import json, sys
 s = json.load(sys.stdin)
-line = "worst %.2f mean %.2f worse-than-raw %d" % (s["worst_ratio"], s["mean_ratio"], s["worse_than_raw"])
+line = "worst %.2f mean %.2f pooled x/y/z %s (predicted %s) worse-than-raw %d" % (s["worst_ratio"], s["mean_ratio"], "/".join("%.2f" % v for v in s["pooled_ratio"]), "-" if s["predicted_pooled_ratio"] is None else "/".join("%.2f" % v for v in s["predicted_pooled_ratio"]), s["worse_than_raw"])
 if "share_determined" in s:
     inside = s["worst_ratio_inside"]
-    line += "; determined %.0f %% of the sphere, %d recorded poses outside, %d held-out files inside (worst there %s), systematic/sd RMS %.2f over %d" % (
+    line += "; determined %.0f %% of the sphere, %d recorded poses outside, %d held-out files inside (worst there %s), session spread %.3f, systematic/sd RMS %.2f (the correction sd alone %.2f) over %d" % (
         100 * s["share_determined"], s["poses_outside"], s["held_out_inside"], "-" if inside is None else "%.2f" % inside,
-        (s["z_sum_squares"] / max(s["z_count"], 1)) ** 0.5, s["z_count"])
+        s["session_spread_mps2"], (s["z_sum_squares"] / max(s["z_count"], 1)) ** 0.5,
+        (s["z_correction_sum_squares"] / max(s["z_count"], 1)) ** 0.5, s["z_count"])
 print(line)')"
 done
 # Over every unit: the RMS of systematic error / predicted sd (issue 46: within 0.7–1.4).

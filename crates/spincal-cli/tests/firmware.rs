@@ -110,6 +110,7 @@ fn campaign_fit(sensor: &SensorModel) -> (SensorModel, SensorUncertainty) {
         SensorUncertainty {
             covariance,
             noise_sd_mps2: [noise_mps2; 3],
+            session_spread_mps2: None,
         },
     )
 }

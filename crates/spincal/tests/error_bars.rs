@@ -39,6 +39,7 @@ fn normalised_error_rms(poses: usize, seeds: std::ops::RangeInclusive<u64>) -> f
             uncertainty: Some(SensorUncertainty {
                 covariance: fit.sensor_covariance().expect("a covariance"),
                 noise_sd_mps2: [sensor.noise_mps2; 3],
+                session_spread_mps2: None,
             }),
         };
         for _ in 0..HELD_OUT {

@@ -96,3 +96,25 @@ fn one_file_per_pose_tells_the_bias_as_one_file_does_when_the_sensor_kept_it() {
     let rms_z = (z2 / n).sqrt();
     assert!((0.5..1.5).contains(&rms_z), "RMS of error/SE {rms_z}");
 }
+
+/// A fit given the spread (every later fit of a campaign: each fold's, the saved one) still counts
+/// the offsets behind it, so that a saved model says whether the campaign could see a spread
+/// between sessions at all: eight sessions can, one cannot.
+#[test]
+fn a_fit_given_the_spread_counts_the_sessions_behind_it() {
+    let (_, poses) = campaign(3, 8, 6, 0.05);
+    let given = JointSettings {
+        estimate_bias_spread: false,
+        bias_instability_mps2: 0.05,
+        ..JointSettings::default()
+    };
+    let spread = fit_joint(&[], &poses, &given, &spincal::progress::silent)
+        .unwrap()
+        .bias_spread;
+    assert!(!spread.estimated && spread.offsets == 8, "{spread:?}");
+    let (_, one) = campaign(3, 1, 12, 0.05);
+    let spread = fit_joint(&[], &one, &given, &spincal::progress::silent)
+        .unwrap()
+        .bias_spread;
+    assert_eq!(spread.offsets, 1, "{spread:?}");
+}

@@ -396,6 +396,8 @@ fn physical_corrector(t: &TrainingSet<'_>, fit: &JointFit) -> PhysicalCorrector 
         uncertainty: fit.sensor_covariance().map(|covariance| SensorUncertainty {
             covariance,
             noise_sd_mps2: reading_noise(&t.runs, &t.poses),
+            // One offset cannot be told from the bias: a campaign of one session saw no spread.
+            session_spread_mps2: (fit.bias_spread.offsets >= 2).then_some(fit.bias_spread.sd_mps2),
         }),
     }
 }

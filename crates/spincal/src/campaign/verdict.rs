@@ -240,6 +240,11 @@ pub struct Comparison {
     pub shown_no_worse: bool,
     pub samples: usize,
     pub blocks: usize,
+    /// The share of the difference's variance that the recordings' unknown bias offsets make
+    /// (the rest is the samples' noise): where it is most, longer recordings would not sharpen
+    /// the test, more of them would.
+    #[serde(default)]
+    pub offset_share: f64,
 }
 
 impl Comparison {
@@ -313,10 +318,16 @@ pub(crate) fn compare(
     // (2/3) Σ_k δ_k Δ_k, Δ_k the mean residual difference on axis k.
     let offset_variance =
         4.0 / 9.0 * offset_sd * offset_sd * shift.iter().map(|v| (v / nf).powi(2)).sum::<f64>();
-    let se = if b >= 2 {
-        (spread * b as f64 / (b - 1) as f64 / (nf * nf) + offset_variance).sqrt()
+    let (se, offset_share) = if b >= 2 {
+        let variance = spread * b as f64 / (b - 1) as f64 / (nf * nf) + offset_variance;
+        let share = if variance > 0.0 {
+            offset_variance / variance
+        } else {
+            0.0
+        };
+        (variance.sqrt(), share)
     } else {
-        f64::INFINITY
+        (f64::INFINITY, 0.0)
     };
     let ratio = (ms_c / ms_u).sqrt();
     let worse = if b >= 2 {
@@ -340,6 +351,7 @@ pub(crate) fn compare(
         shown_no_worse: upper_ratio <= 1.0 + NON_INFERIORITY_MARGIN,
         samples: n,
         blocks: b,
+        offset_share,
     })
 }
 
@@ -363,11 +375,14 @@ pub struct Pooled {
     pub difference: f64,
     pub se: f64,
     pub uncorrected: f64,
+    /// The share of the variance behind `se` that the recordings' bias offsets make.
+    #[serde(default)]
+    pub offset_share: f64,
 }
 
 impl Pooled {
     pub fn of(comparisons: &[&Comparison]) -> Option<Pooled> {
-        let (mut difference, mut uncorrected, mut variance) = (0.0, 0.0, 0.0);
+        let (mut difference, mut uncorrected, mut variance, mut from_offsets) = (0.0, 0.0, 0.0, 0.0);
         for c in comparisons {
             let (ms_c, ms_u) = (
                 combined(c.rms_mps2).powi(2),
@@ -377,12 +392,18 @@ impl Pooled {
             difference += ms_c - ms_u;
             uncorrected += ms_u;
             variance += se * se;
+            from_offsets += c.offset_share * se * se;
         }
         let n = comparisons.len() as f64;
         let pooled = Pooled {
             difference: difference / n,
             se: variance.sqrt() / n,
             uncorrected: uncorrected / n,
+            offset_share: if variance > 0.0 {
+                from_offsets / variance
+            } else {
+                0.0
+            },
         };
         (n > 0.0 && pooled.difference.is_finite() && pooled.se.is_finite()).then_some(pooled)
     }
@@ -503,6 +524,11 @@ mod tests {
         // An unknown bias offset as large as the shift makes it no longer significant.
         let unsure = compare(&residuals(&shifted), &residuals(&other), &block, 1.0).unwrap();
         assert!(!unsure.worse && unsure.ratio_se > worse.ratio_se, "{unsure:?}");
+        // And the offset, not the samples' noise, is then what limits the test.
+        assert!(
+            unsure.offset_share > 0.9 && worse.offset_share == 0.0,
+            "{unsure:?} {worse:?}"
+        );
         // Not shown worse is not shown no worse: the unsure one cannot be saved, the better one
         // can, and the worse one's bound lies above its ratio.
         assert!(

@@ -456,4 +456,21 @@ mod tests {
         assert!(physical.uncertainty.is_none());
         assert_eq!(physical.predicted_sd([9.81, 0.0, 0.0]), None);
     }
+
+    #[test]
+    fn an_uncertainty_without_a_session_spread_reads_as_one_the_campaign_did_not_see() {
+        let zeros = format!("[{}]", vec!["0"; 12].join(", "));
+        let covariance = format!("[{}]", vec![zeros.as_str(); 12].join(", "));
+        let text = format!(
+            r#"{{"format_version": 2, "spincal_version": "0.2.0", "corrector": {{"kind": "physical",
+            "sensor": {{"bias_mps2": [0.1, 0, 0], "scale_error": [0, 0, 0], "misalignment_rad": [0, 0, 0],
+            "quadratic_per_mps2": [0, 0, 0]}}, "gravity_mps2": 9.81, "input_range_mps2": [[-10, 10], [-10, 10], [-10, 10]],
+            "uncertainty": {{"covariance": {covariance}, "noise_sd_mps2": [0.02, 0.02, 0.02]}}}}}}"#
+        );
+        let file = CorrectorFile::from_json(&text, "v2.json").unwrap();
+        let CorrectorModel::Physical(physical) = &file.corrector else {
+            panic!("{:?}", file.corrector);
+        };
+        assert_eq!(physical.uncertainty.as_ref().unwrap().session_spread_mps2, None);
+    }
 }

@@ -222,6 +222,13 @@ pub struct SensorUncertainty {
     pub covariance: SensorCovariance,
     /// White noise of one reading per axis, m/s² (first differences of the campaign's recordings).
     pub noise_sd_mps2: [f64; 3],
+    /// The standard deviation of a power-on session's bias offset from the unit's bias, m/s², as
+    /// the campaign found it between its sessions (`BiasSpread`); `None` when it held one session
+    /// and so could not see it. A reading from a session the campaign did not hold is off by
+    /// such an offset, which no correction can know: it adds in quadrature to the corrected
+    /// reading's error, not to the correction's (the rows' sd and `predicted_better`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub session_spread_mps2: Option<f64>,
 }
 
 /// A correction is predicted to beat no correction on an axis when its square exceeds twice its
@@ -255,6 +262,14 @@ impl SensorUncertainty {
     /// correlation within ±1) and the noise is finite and non-negative.
     pub fn validate(&self) -> Result<(), ModelError> {
         check_finite("noise_sd_mps2", &self.noise_sd_mps2)?;
+        if let Some(spread) = self.session_spread_mps2 {
+            if !(spread.is_finite() && spread >= 0.0) {
+                return Err(ModelError::new(
+                    "session_spread_mps2",
+                    format!("{spread}: a standard deviation is finite and not negative"),
+                ));
+            }
+        }
         if let Some(k) = (0..3).find(|&k| self.noise_sd_mps2[k] < 0.0) {
             return Err(ModelError::new(
                 format!("noise_sd_mps2[{k}]"),
@@ -437,6 +452,7 @@ mod tests {
         let mut u = SensorUncertainty {
             covariance: [[0.0; SENSOR_PARAMS]; SENSOR_PARAMS],
             noise_sd_mps2: [0.02; 3],
+            session_spread_mps2: None,
         };
         for a in 0..SENSOR_PARAMS {
             u.covariance[a][a] = 1e-6;
@@ -449,6 +465,13 @@ mod tests {
         u.covariance[4][1] = 0.0;
         u.covariance[3][3] = -1.0;
         assert_eq!(u.validate().unwrap_err().field, "covariance[3][3]");
+        u.covariance[3][3] = 1e-6;
+        for bad in [-0.01, f64::NAN] {
+            u.session_spread_mps2 = Some(bad);
+            assert_eq!(u.validate().unwrap_err().field, "session_spread_mps2");
+        }
+        u.session_spread_mps2 = Some(0.05);
+        assert!(u.validate().is_ok());
     }
 
     #[test]

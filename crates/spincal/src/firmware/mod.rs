@@ -366,6 +366,7 @@ mod tests {
             uncertainty: Some(SensorUncertainty {
                 covariance,
                 noise_sd_mps2: [0.02; 3],
+                session_spread_mps2: None,
             }),
         }
     }

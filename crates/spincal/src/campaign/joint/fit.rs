@@ -15,7 +15,7 @@ use super::layout::{
 use super::problem::{JointProblem, Want};
 use super::result::{FitState, JointFit, JointParam, PoseFit, RunFit};
 use super::settings::{JointSettings, SensorTerms};
-use super::spread::{estimate_bias_spread, BiasSpread};
+use super::spread::{estimate_bias_spread, offset_count, BiasSpread};
 use super::start::run_start;
 use super::JointError;
 use crate::correctors::physical::{SensorModel, SENSOR_PARAMS, SENSOR_PARAM_NAMES};
@@ -110,7 +110,7 @@ fn fit_joint_with(
             sd_mps2: settings.bias_instability_mps2,
             estimated: false,
             at_lower_bound: false,
-            offsets: 0,
+            offsets: offset_count(&problem),
             likelihood_ratio: 0.0,
         },
     };

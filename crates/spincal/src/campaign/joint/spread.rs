@@ -102,6 +102,11 @@ impl OffsetPrior {
     }
 }
 
+/// The bias offsets of `problem`: still sessions plus runs not tied to a session.
+pub(super) fn offset_count(problem: &JointProblem<'_>) -> usize {
+    problem.runs.iter().filter(|r| r.session.is_none()).count() + sessions(problem.runs, problem.poses)
+}
+
 /// The marginal likelihood's maximum over σ for `problem` about `p`, with `free` the parameters
 /// the fit estimates. `None` when the problem has no offsets or its matrix is singular.
 pub(super) fn estimate_bias_spread(
@@ -113,8 +118,7 @@ pub(super) fn estimate_bias_spread(
     if prior.dimension() == 0 {
         return None;
     }
-    let offsets =
-        problem.runs.iter().filter(|r| r.session.is_none()).count() + sessions(problem.runs, problem.poses);
+    let offsets = offset_count(problem);
     let (lo, hi) = (
         (SEARCH_G.0 * problem.gravity).ln(),
         (SEARCH_G.1 * problem.gravity).ln(),

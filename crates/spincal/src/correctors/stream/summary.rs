@@ -2,6 +2,7 @@
 
 use serde::Serialize;
 
+use crate::correctors::model_file::CorrectorFile;
 use crate::correctors::rows::{PredictedError, RowStatus};
 
 /// Refused rows whose reasons are kept for the summary.
@@ -49,12 +50,21 @@ pub struct StreamSummary {
     /// and the first's line.
     pub suspect_temperature: usize,
     pub first_suspect_temperature: Option<usize>,
+    /// The model's spread of the bias between power-on sessions and its readings' noise (mean over
+    /// the axes), m/s², when the model predicts its error and the campaign saw that spread.
+    pub session_spread_mps2: Option<(f64, f64)>,
 }
 
 impl StreamSummary {
-    pub(super) fn new(file: &str) -> Self {
+    pub(super) fn new(file: &str, model: &CorrectorFile) -> Self {
+        let session_spread_mps2 = model
+            .corrector
+            .error_model()
+            .and_then(|p| p.uncertainty.as_ref())
+            .and_then(|u| Some((u.session_spread_mps2?, u.noise_sd_mps2.iter().sum::<f64>() / 3.0)));
         StreamSummary {
             file: file.to_string(),
+            session_spread_mps2,
             ..StreamSummary::default()
         }
     }
@@ -143,6 +153,12 @@ impl StreamSummary {
             out.push(format!(
                 "{name}: on {} of {} rows (first at line {line}) the model's own covariance does not predict the correction to beat no correction on every axis (`predicted_better` 0: a correction smaller than √2 of its standard deviation, `<axis>_corrected_sd_<unit>`); there the campaign did not determine the sensor",
                 self.not_predicted_better, self.rows
+            ));
+        }
+        // Below half a reading's noise, a session's offset adds under 12 % to one reading's error.
+        if let Some((spread, noise)) = self.session_spread_mps2.filter(|(s, n)| *s >= 0.5 * n) {
+            out.push(format!(
+                "{name}: the campaign found the bias differing between power-on sessions by {spread:.3} m/s² (standard deviation; one reading's noise is {noise:.3}): a reading from a session the campaign did not hold is off by such an offset, which no correction can know and which `<axis>_corrected_sd_<unit>` (the correction's own error) leaves out; add it in quadrature for the corrected reading's error, or calibrate in the session you measure"
             ));
         }
         if let Some(line) = self.first_suspect_temperature {

@@ -162,6 +162,7 @@ fn a_model_with_a_covariance_writes_each_rows_error_bar_and_flag() {
         uncertainty: Some(SensorUncertainty {
             covariance,
             noise_sd_mps2: [0.02; 3],
+            session_spread_mps2: None,
         }),
     };
     let model = CorrectorFile::new(CorrectorModel::Physical(Box::new(physical.clone())));

@@ -365,7 +365,7 @@ pub(super) fn correct_text(
         .chain(["valid".to_string(), "status".to_string()])
         .collect();
     sink.header(&names)?;
-    let mut summary = StreamSummary::new(name);
+    let mut summary = StreamSummary::new(name, model);
     summary.gyro_uncorrected = model.gyro.is_some() && !with_gyro;
     summary.notes = notes;
     let mut stream = TextStream {

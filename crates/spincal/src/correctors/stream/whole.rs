@@ -103,7 +103,7 @@ pub(super) fn correct_loaded(
     header.extend(added.names("mps2", "radps"));
     header.extend(["valid".to_string(), "status".to_string()]);
     sink.header(&header)?;
-    let mut summary = StreamSummary::new(name);
+    let mut summary = StreamSummary::new(name, model);
     summary.left_out = rec.source.incomplete_rows.describe();
     summary.notes = rec.source.time_notes.clone();
     let with_gyro = rec.gyro_radps.is_some() || merged.is_some();
