@@ -206,3 +206,38 @@ fn a_gyro_pinned_at_250_dps_is_named_and_kept_out_of_the_scale() {
         "{said}"
     );
 }
+
+/// Where no accelerometer correction is shown to help (here none is offered but the ARX model,
+/// which is scored only), the gyroscope's calibration the campaign determines is saved alone
+/// (format 3, kind `uncorrected`): the file reads back, corrects no accelerometer axis, and
+/// carries the same gyro model a campaign saves beside an accelerometer corrector. A file of that
+/// kind with nothing else in it is refused by name.
+#[test]
+fn the_gyro_is_saved_alone_when_no_accelerometer_correction_is_shown_to_help() {
+    use spincal::campaign::candidate::CandidateKind;
+    use spincal::campaign::params::Params;
+    use spincal::campaign::select::calibrate_campaign;
+    use spincal::correctors::corrector::Corrector;
+    use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
+    let sim = simulate_campaign(&CampaignSetup::default(), 2).unwrap();
+    let settings = Params {
+        candidates: vec![CandidateKind::Arx],
+        ..Params::default()
+    };
+    let out = calibrate_campaign("u", &units(&sim), &settings, &spincal::progress::silent).unwrap();
+    let r = &out.result;
+    assert_eq!(r.saved.as_deref(), Some("uncorrected"), "{}", r.verdict);
+    assert!(!r.validated_off_training_condition && r.error_map.is_none());
+    assert!(r.verdict.contains("gyroscope's calibration alone"), "{}", r.verdict);
+    let file = out.saved.expect("the gyro part is saved");
+    assert!(matches!(file.corrector, CorrectorModel::Uncorrected(_)));
+    assert!(file.corrector.corrected_axes().is_empty());
+    let gyro = r.gyro.as_ref().and_then(|g| g.saved_model()).expect("the campaign determines the gyro");
+    assert_eq!(file.gyro.as_ref(), Some(gyro));
+    let back = CorrectorFile::from_json(&file.to_json(), "model.json").unwrap();
+    assert_eq!(back.format_version, 3);
+    assert_eq!(back.gyro.as_ref(), Some(gyro));
+    let bare = CorrectorFile { gyro: None, ..file };
+    let refused = CorrectorFile::from_json(&bare.to_json(), "bare.json").unwrap_err().to_string();
+    assert!(refused.contains("corrector.kind") && refused.contains("bare.json"), "{refused}");
+}

@@ -67,6 +67,10 @@ pub fn lead_line(output: &CampaignOutput, out: &Path) -> String {
     let model = out.join("model.json");
     match (&r.saved, &r.error_map) {
         (Some(kind), Some(map)) => format!("Saved {} ({kind}). {}", model.display(), map.sentence()),
+        (Some(kind), None) if kind == "uncorrected" => format!(
+            "Saved {} (the gyroscope's calibration alone; the accelerometer left as read: no correction of it was shown to help).",
+            model.display()
+        ),
         (Some(kind), None) => format!(
             "Saved {} ({kind}). Trusted as far as the {} held-out conditions it never trained on show (a {kind} model has no covariance to map its error by).",
             model.display(),

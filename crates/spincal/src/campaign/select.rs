@@ -31,7 +31,7 @@ use crate::campaign::joint::{
 };
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
 use crate::campaign::thermal::{check_temperature_units, temperature_bands, thermal_stage, CampaignThermal};
-use crate::correctors::model_file::CorrectorFile;
+use crate::correctors::model_file::{CorrectorFile, CorrectorModel, Uncorrected};
 use crate::progress::{Observer, Progress};
 use crate::turntable::fit::RadiusPrior;
 use crate::turntable::segments::PhaseSegments;
@@ -423,6 +423,27 @@ pub fn calibrate_campaign(
     } else {
         verdict
     };
+    // No accelerometer correction shown to help: the gyro part the campaign determines is saved
+    // alone (format 3), where no stated radius is contradicted.
+    let gyro_alone = saved
+        .is_none()
+        .then(|| gyro.as_ref().and_then(GyroFit::saved_model))
+        .flatten()
+        .filter(|_| contradicted.is_empty());
+    let (saved, verdict) = match (saved, gyro_alone) {
+        (None, Some(model)) => {
+            let mut file = CorrectorFile::new(CorrectorModel::Uncorrected(Box::new(Uncorrected {
+                reason: "no accelerometer correction was shown to help on the campaign's held-out conditions".into(),
+            })));
+            file.gyro = Some(model.clone());
+            let sentence = gyro.as_ref().map(GyroFit::nominal_sentence).unwrap_or_default();
+            (
+                Some(file),
+                format!("{verdict} Saved the gyroscope's calibration alone (the accelerometer left as read: kind `uncorrected`).{sentence}"),
+            )
+        }
+        (saved, _) => (saved, verdict),
+    };
     lap("final training", &mut stages);
     let error_map = saved
         .as_ref()
@@ -433,8 +454,15 @@ pub fn calibrate_campaign(
         Some(map) => format!("{} {verdict}", map.sentence()),
         None => verdict,
     };
-    let saved_name = saved.as_ref().and(best).map(|b| b.candidate.clone());
-    let validated_off_training_condition = saved_name.is_some() && !conditions.is_empty();
+    let accel_saved = saved
+        .as_ref()
+        .is_some_and(|f| !matches!(f.corrector, CorrectorModel::Uncorrected(_)));
+    let validated_off_training_condition = accel_saved && best.is_some() && !conditions.is_empty();
+    let saved_name = match &saved {
+        Some(file) if !accel_saved => Some(file.corrector.kind().to_string()),
+        Some(_) => best.map(|b| b.candidate.clone()),
+        None => None,
+    };
     Ok(CampaignOutput {
         result: CampaignResult {
             spincal_version: env!("CARGO_PKG_VERSION").to_string(),

@@ -2,7 +2,9 @@
 //! `{"format_version": 2, "spincal_version": "…", "corrector": {"kind": "ann", …}}`.
 //!
 //! Format 2 added the physical corrector's `uncertainty` (its parameters' covariance and the
-//! readings' noise); format 1 files, which have none, still read.
+//! readings' noise); format 1 files, which have none, still read. Format 3 added the kind
+//! `uncorrected`: a file that saves a gyroscope part where no accelerometer correction was shown
+//! to help (an older build refuses it by its version, not by an unknown kind).
 //!
 //! A new kind of corrector is one more variant of [`CorrectorModel`] and one more arm in its
 //! `Corrector` impl and in [`CorrectorModel::validate`] (both matches have no wildcard, so the
@@ -25,7 +27,7 @@ use crate::correctors::physical_ann::PhysicalAnnCorrector;
 use crate::correctors::static_cal::StaticCalibration;
 
 /// The corrector file format this build writes.
-pub(crate) const FORMAT_VERSION: u32 = 2;
+pub(crate) const FORMAT_VERSION: u32 = 3;
 /// The oldest format this build still reads (every later one up to [`FORMAT_VERSION`] too).
 const OLDEST_READABLE_VERSION: u32 = 1;
 
@@ -42,6 +44,45 @@ pub enum CorrectorModel {
     Physical(Box<PhysicalCorrector>),
     /// That inverse followed by a network on what it left (`spincal calibrate --campaign`).
     PhysicalAnn(Box<PhysicalAnnCorrector>),
+    /// The accelerometer left as read, beside a gyroscope part (format 3).
+    Uncorrected(Box<Uncorrected>),
+}
+
+/// The accelerometer left as read: what a campaign saves when it shows no accelerometer
+/// correction to help but determines the gyroscope. `correct` then writes no corrected
+/// accelerometer columns.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Uncorrected {
+    /// Why the accelerometer is not corrected (the campaign's verdict on it).
+    pub reason: String,
+}
+
+impl Corrector for Uncorrected {
+    fn corrected_axes(&self) -> Vec<Axis> {
+        Vec::new()
+    }
+
+    fn warmup_samples(&self) -> usize {
+        0
+    }
+
+    fn stream(&self) -> Box<dyn SampleCorrector + '_> {
+        Box::new(AsRead)
+    }
+}
+
+/// Every sample as read.
+struct AsRead;
+
+impl SampleCorrector for AsRead {
+    fn correct_sample(&mut self, accel_mps2: [f64; 3]) -> crate::correctors::corrector::CorrectedSample {
+        crate::correctors::corrector::CorrectedSample {
+            accel_mps2,
+            valid: true,
+            outside_training_range: false,
+        }
+    }
 }
 
 /// What a trained network or linear map records of its training: the summary `train` shows.
@@ -94,6 +135,7 @@ impl CorrectorModel {
             CorrectorModel::Static(m) => m.as_ref(),
             CorrectorModel::Physical(m) => m.as_ref(),
             CorrectorModel::PhysicalAnn(m) => m.as_ref(),
+            CorrectorModel::Uncorrected(m) => m.as_ref(),
         }
     }
 
@@ -108,6 +150,7 @@ impl CorrectorModel {
             CorrectorModel::Static(m) => m.validate(),
             CorrectorModel::Physical(m) => m.validate(),
             CorrectorModel::PhysicalAnn(m) => m.validate(),
+            CorrectorModel::Uncorrected(_) => Ok(()),
         }
     }
 
@@ -129,6 +172,7 @@ impl CorrectorModel {
             CorrectorModel::Static(_) => "static",
             CorrectorModel::Physical(_) => "physical",
             CorrectorModel::PhysicalAnn(_) => "physical_ann",
+            CorrectorModel::Uncorrected(_) => "uncorrected",
         }
     }
 }
@@ -227,6 +271,12 @@ impl CorrectorFile {
     /// paths in the file (`corrector.network.weights`).
     pub fn validate(&self) -> Result<(), ModelError> {
         self.corrector.validate().map_err(|e| e.within("corrector"))?;
+        if matches!(self.corrector, CorrectorModel::Uncorrected(_)) && self.gyro.is_none() && self.thermal.is_none() {
+            return Err(ModelError::new(
+                "corrector.kind",
+                "uncorrected, with neither a gyro nor a thermal part: the file would correct nothing",
+            ));
+        }
         if let Some(thermal) = &self.thermal {
             thermal
                 .validate()

@@ -156,6 +156,10 @@ fn accelerometer_values(file: &CorrectorFile) -> Result<(FusionCalibration, Opti
         CorrectorModel::Linear(l) => linear_values(l),
         CorrectorModel::Static(s) => Ok(static_values(s)),
         CorrectorModel::Ann(a) => ann_values(file, a),
+        CorrectorModel::Uncorrected(u) => Err(format!(
+            "the model leaves the accelerometer as read (kind `uncorrected`: {}); keep the flight stack's own accelerometer calibration",
+            u.reason
+        )),
     }
 }
 

@@ -63,6 +63,7 @@ fn training_box(model: &CorrectorModel) -> ([[f64; 2]; 3], String) {
             [[-2.0 * g, 2.0 * g]; 3],
             "±2 g (a linear model stores no range)".into(),
         ),
+        CorrectorModel::Uncorrected(_) => ([[-2.0 * g, 2.0 * g]; 3], "±2 g (readings pass as read)".into()),
     }
 }
 

@@ -214,6 +214,16 @@ impl Plan {
                 NetworkPlan::of(&pa.network, "corrector.network")?,
                 CoveragePlan::of(&pa.coverage),
             ))),
+            CorrectorModel::Uncorrected(u) => {
+                return Err(FirmwareError::TooLarge {
+                    file: String::new(),
+                    field: "corrector.kind".into(),
+                    reason: format!(
+                        "uncorrected ({}): the firmware export needs an accelerometer corrector; apply the gyro part with `spincal correct`",
+                        u.reason
+                    ),
+                })
+            }
         };
         let gyro = match &file.gyro {
             Some(g) => Some(gyro_plan(g)?),

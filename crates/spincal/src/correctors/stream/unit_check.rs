@@ -27,6 +27,8 @@ pub(crate) fn expected_gravity_mps2(model: &CorrectorModel) -> Option<f64> {
         CorrectorModel::Physical(p) => Some(p.gravity_mps2),
         CorrectorModel::PhysicalAnn(p) => Some(p.physical.gravity_mps2),
         CorrectorModel::Static(s) => (s.input_unit == "m/s^2").then_some(s.gravity_mps2),
+        // The accelerometer passes as read: nothing of it is applied.
+        CorrectorModel::Uncorrected(_) => None,
     }
 }
 
