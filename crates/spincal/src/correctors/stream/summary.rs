@@ -52,19 +52,19 @@ pub struct StreamSummary {
     pub first_suspect_temperature: Option<usize>,
     /// The model's spread of the bias between power-on sessions and its readings' noise (mean over
     /// the axes), m/s², when the model predicts its error and the campaign saw that spread.
-    pub session_spread_mps2: Option<(f64, f64)>,
+    pub session_spread_and_noise_mps2: Option<(f64, f64)>,
 }
 
 impl StreamSummary {
     pub(super) fn new(file: &str, model: &CorrectorFile) -> Self {
-        let session_spread_mps2 = model
+        let session_spread_and_noise_mps2 = model
             .corrector
             .error_model()
             .and_then(|p| p.uncertainty.as_ref())
             .and_then(|u| Some((u.session_spread_mps2?, u.noise_sd_mps2.iter().sum::<f64>() / 3.0)));
         StreamSummary {
             file: file.to_string(),
-            session_spread_mps2,
+            session_spread_and_noise_mps2,
             ..StreamSummary::default()
         }
     }
@@ -156,7 +156,7 @@ impl StreamSummary {
             ));
         }
         // Below half a reading's noise, a session's offset adds under 12 % to one reading's error.
-        if let Some((spread, noise)) = self.session_spread_mps2.filter(|(s, n)| *s >= 0.5 * n) {
+        if let Some((spread, noise)) = self.session_spread_and_noise_mps2.filter(|(s, n)| *s >= 0.5 * n) {
             out.push(format!(
                 "{name}: the campaign found the bias differing between power-on sessions by {spread:.3} m/s² (standard deviation; one reading's noise is {noise:.3}): a reading from a session the campaign did not hold is off by such an offset, which no correction can know and which `<axis>_corrected_sd_<unit>` (the correction's own error) leaves out; add it in quadrature for the corrected reading's error, or calibrate in the session you measure"
             ));
