@@ -228,16 +228,29 @@ fn the_gyro_is_saved_alone_when_no_accelerometer_correction_is_shown_to_help() {
     let r = &out.result;
     assert_eq!(r.saved.as_deref(), Some("uncorrected"), "{}", r.verdict);
     assert!(!r.validated_off_training_condition && r.error_map.is_none());
-    assert!(r.verdict.contains("gyroscope's calibration alone"), "{}", r.verdict);
+    assert!(
+        r.verdict.contains("gyroscope's calibration alone"),
+        "{}",
+        r.verdict
+    );
     let file = out.saved.expect("the gyro part is saved");
     assert!(matches!(file.corrector, CorrectorModel::Uncorrected(_)));
     assert!(file.corrector.corrected_axes().is_empty());
-    let gyro = r.gyro.as_ref().and_then(|g| g.saved_model()).expect("the campaign determines the gyro");
+    let gyro = r
+        .gyro
+        .as_ref()
+        .and_then(|g| g.saved_model())
+        .expect("the campaign determines the gyro");
     assert_eq!(file.gyro.as_ref(), Some(gyro));
     let back = CorrectorFile::from_json(&file.to_json(), "model.json").unwrap();
     assert_eq!(back.format_version, 3);
     assert_eq!(back.gyro.as_ref(), Some(gyro));
     let bare = CorrectorFile { gyro: None, ..file };
-    let refused = CorrectorFile::from_json(&bare.to_json(), "bare.json").unwrap_err().to_string();
-    assert!(refused.contains("corrector.kind") && refused.contains("bare.json"), "{refused}");
+    let refused = CorrectorFile::from_json(&bare.to_json(), "bare.json")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        refused.contains("corrector.kind") && refused.contains("bare.json"),
+        "{refused}"
+    );
 }

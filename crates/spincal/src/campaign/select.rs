@@ -433,7 +433,8 @@ pub fn calibrate_campaign(
     let (saved, verdict) = match (saved, gyro_alone) {
         (None, Some(model)) => {
             let mut file = CorrectorFile::new(CorrectorModel::Uncorrected(Box::new(Uncorrected {
-                reason: "no accelerometer correction was shown to help on the campaign's held-out conditions".into(),
+                reason: "no accelerometer correction was shown to help on the campaign's held-out conditions"
+                    .into(),
             })));
             file.gyro = Some(model.clone());
             let sentence = gyro.as_ref().map(GyroFit::nominal_sentence).unwrap_or_default();

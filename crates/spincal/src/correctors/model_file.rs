@@ -271,7 +271,10 @@ impl CorrectorFile {
     /// paths in the file (`corrector.network.weights`).
     pub fn validate(&self) -> Result<(), ModelError> {
         self.corrector.validate().map_err(|e| e.within("corrector"))?;
-        if matches!(self.corrector, CorrectorModel::Uncorrected(_)) && self.gyro.is_none() && self.thermal.is_none() {
+        if matches!(self.corrector, CorrectorModel::Uncorrected(_))
+            && self.gyro.is_none()
+            && self.thermal.is_none()
+        {
             return Err(ModelError::new(
                 "corrector.kind",
                 "uncorrected, with neither a gyro nor a thermal part: the file would correct nothing",
@@ -509,8 +512,8 @@ mod tests {
 
     #[test]
     fn an_uncertainty_without_a_session_spread_reads_as_one_the_campaign_did_not_see() {
-        let zeros = format!("[{}]", vec!["0"; 12].join(", "));
-        let covariance = format!("[{}]", vec![zeros.as_str(); 12].join(", "));
+        let zeros = format!("[{}]", ["0"; 12].join(", "));
+        let covariance = format!("[{}]", [zeros.as_str(); 12].join(", "));
         let text = format!(
             r#"{{"format_version": 2, "spincal_version": "0.2.0", "corrector": {{"kind": "physical",
             "sensor": {{"bias_mps2": [0.1, 0, 0], "scale_error": [0, 0, 0], "misalignment_rad": [0, 0, 0],
