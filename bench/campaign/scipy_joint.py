@@ -3,6 +3,7 @@
 scipy.optimize.least_squares, on the problem written by the `joint_fit_bench` example.
 
 Usage: scipy_joint.py DIR [--reps N] [--methods trf,lm] [--jac 2-point|analytic]
+                     [--fixture PATH --command TEXT]
 
 DIR holds problem.json and spincal_fit.json from `joint_fit_bench SEED DIR`. The script does
 what fit_joint does after its starting values:
@@ -13,7 +14,11 @@ what fit_joint does after its starting values:
           component: the larger of r²/(1 − h) − σ² averaged over the session's poses (h the
           pose row's leverage under the pass-1 weights) and the bias random walk's D·T/15 over
           the session's span T (D from the poses' half-to-half differences, pooled over axes);
-  pass 2: solve again from pass 1's solution.
+  spread: when the settings ask for it (estimate_bias_spread), the bias offsets' prior width
+          sigma by the marginal likelihood at pass 1's solution under the new weights (the
+          Laplace approximation, campaign/joint/spread.rs): a grid of 24 log-spaced values over
+          1e-5 g .. 0.05 g, then scipy's bounded Brent search about the grid's best;
+  pass 2: solve again from pass 1's solution, the offsets' priors at that sigma.
 
 Both fits start from the example's starting vector (checked there to equal fit_joint's own).
 The starting values (the demodulation: a coarse scan over blocks, then Newton's method) are
@@ -25,9 +30,18 @@ over the samples of each run; priors enter as residuals:
   (r - r_nominal)/tol, eps1/sigma_mount, eps2/sigma_mount, run offsets delta/sigma_bias,
   session offsets delta_s/sigma_bias, session drift rates d_s/(sigma_bias/100 s), each free
   sensor term/its datasheet width.
+Runs tied to a power-on session or to a placement's radius (campaign keys the bench's
+simulated campaign does not use) are not implemented: the script stops on them.
+
+--fixture PATH writes, besides the usual output, a small JSON of the last method's fitted
+parameters with the standard errors spincal reported (the test suite's joint_scipy fixture;
+made by crates/spincal/tests/fixtures/joint_scipy/make.sh, whose command is --command).
 """
 import argparse
+import datetime
+import hashlib
 import json
+import os
 import statistics
 import sys
 import time
@@ -44,6 +58,10 @@ MIN_KEPT_VARIANCE = 0.05  # the least share of a pose residual's variance the fi
 # A still session's drift rate has a prior of the bias instability per this many seconds
 # (campaign/joint.rs SESSION_DRIFT_S, a private constant: not in the exported settings).
 SESSION_DRIFT_S = 100.0
+# The marginal likelihood's search range for the offsets' spread, as multiples of g, and its grid
+# (campaign/joint/spread.rs SEARCH_G and GRID).
+SPREAD_SEARCH_G = (1e-5, 0.05)
+SPREAD_GRID = 24
 
 
 def rot_x(e):
@@ -71,8 +89,12 @@ class Problem:
         terms = st["terms"]
         free = [terms["bias_scale"]] * 6 + [terms["misalignment"]] * 3 + [terms["nonlinearity"]] * 3
         self.sensor_free = np.array(free)
+        self.estimate_spread = bool(st.get("estimate_bias_spread", False))
         self.runs = []
         for r in prob["runs"]:
+            if r.get("session") is not None or r.get("placement") is not None or r["radius_m"] is None:
+                sys.exit(f"{r['name']}: a run tied to a session or placement, or without a stated "
+                         "radius: not implemented in this peer")
             t = np.asarray(r["time_s"], float)
             keep = np.asarray(r["keep"], bool)
             mid = 0.5 * (t[0] + t[-1])  # over all samples, kept or not
@@ -329,6 +351,66 @@ class Problem:
         self.set_weights(run_sigma, pose_sigma)
         return run_sigma, pose_sigma
 
+    def offset_columns(self):
+        """The bias offsets' parameters and their prior precision in units of 1/sigma^2: each
+        run's offset, each still session's offset, and its drift rate (SESSION_DRIFT_S^2)."""
+        cols, weight = [], []
+        for i in range(self.n_runs):
+            o = SENSOR + RUN * i
+            cols += [o + 9, o + 10, o + 11]
+            weight += [1.0] * 3
+        for s in range(self.n_sessions):
+            so = self.session_o + SESSION * s
+            cols += list(range(so, so + 6))
+            weight += [1.0] * 3 + [SESSION_DRIFT_S ** 2] * 3
+        return np.asarray(cols), np.asarray(weight)
+
+    def offset_rows(self):
+        """Rows of the residual vector that are the offsets' priors (see residuals())."""
+        first = self.m - 6 * self.n_runs - 6 * self.n_sessions - int(self.sensor_free.sum())
+        rows = [first + 6 * i + 3 + k for i in range(self.n_runs) for k in range(3)]
+        so = first + 6 * self.n_runs
+        rows += list(range(so, so + 6 * self.n_sessions))
+        return np.asarray(rows, int)
+
+    def spread(self, p):
+        """The offsets' spread sigma maximising the marginal likelihood about p (the Laplace
+        approximation with the Gauss-Newton Hessian):
+        log L = -1/2 min_d S(p + d; sigma) - 1/2 log det(J'J + Lambda) + 1/2 log det Lambda,
+        Lambda = diag(weight)/sigma^2 on the offsets. Returns (sigma, 2 (log L - log L(lower end)))."""
+        from scipy.optimize import minimize_scalar
+
+        keep = np.ones(self.m, bool)
+        keep[self.offset_rows()] = False
+        r0 = self.residuals(p)[keep]
+        J0 = self.jacobian(p)[keep]
+        H = J0.T @ J0
+        g0 = J0.T @ r0
+        base = float(r0 @ r0)
+        cols, weight = self.offset_columns()
+
+        def log_l(x):
+            lam = weight * np.exp(-2.0 * x)
+            A = H.copy()
+            A[cols, cols] += lam
+            b = g0.copy()
+            b[cols] += lam * p[cols]
+            c = np.linalg.cholesky(A)
+            y = np.linalg.solve(c, b)
+            min_sse = base + float(np.sum(lam * p[cols] ** 2)) - float(y @ y)
+            log_det = 2.0 * float(np.sum(np.log(np.diag(c))))
+            return -0.5 * min_sse - 0.5 * log_det - len(cols) * x
+
+        lo, hi = np.log(SPREAD_SEARCH_G[0] * self.g), np.log(SPREAD_SEARCH_G[1] * self.g)
+        grid = np.linspace(lo, hi, SPREAD_GRID)
+        values = [log_l(x) for x in grid]
+        k = int(np.argmax(values))
+        step = grid[1] - grid[0]
+        found = minimize_scalar(lambda x: -log_l(x), bounds=(max(grid[k] - step, lo), min(grid[k] + step, hi)),
+                                method="bounded", options=dict(xatol=1e-12))
+        x = float(found.x) if -found.fun >= values[k] else float(grid[k])
+        return float(np.exp(x)), max(2.0 * (log_l(x) - values[0]), 0.0)
+
 
 def random_walk(poses):
     """The bias's random-walk rate from the poses' half-to-half differences, pooled over axes:
@@ -452,6 +534,8 @@ def fit(prob_json, start, method, jac, tol):
     t0 = time.perf_counter()
     r1 = solve(prob, start, method, jac, tol)
     prob.reweight(r1.x)
+    if prob.estimate_spread:
+        prob.bias_sigma, prob.spread_lr = prob.spread(r1.x)
     r2 = solve(prob, r1.x, method, jac, tol)
     elapsed = time.perf_counter() - t0
     return prob, r1, r2, elapsed
@@ -478,11 +562,59 @@ def reference(prob_json, start, tol):
     se_all = np.sqrt(np.diag(np.linalg.inv(J.T @ J)))
     x1 = polish(prob, r1.x, se_all)
     prob.reweight(x1)
+    if prob.estimate_spread:
+        prob.bias_sigma, prob.spread_lr = prob.spread(x1)
     r2 = solve(prob, x1, "trf", "analytic", tol)
     J = prob.jacobian(r2.x)
     se_all = np.sqrt(np.diag(np.linalg.inv(J.T @ J)))
     x2 = polish(prob, r2.x, se_all)
     return prob, x2
+
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+# What made the fixture; tests/fixture_scripts.rs fails when one changes without a re-run.
+FIXTURE_SCRIPTS = [
+    "bench/campaign/scipy_joint.py",
+    "crates/spincal/tests/fixtures/joint_scipy/make.sh",
+    "crates/spincal/examples/joint_fit_bench.rs",
+    "crates/spincal/tests/common/joint_bench.rs",
+]
+
+
+def write_fixture(a, pj, sp, prob, x, summary):
+    """The test suite's fixture: scipy's parameters by name, with spincal's standard errors (the
+    test's unit), the spread, and how they were made. Small: no data (the test rebuilds it)."""
+    n = len(sp["values"])
+    fixture = dict(
+        what="spincal's joint campaign fit re-implemented in numpy and solved by "
+             "scipy.optimize.least_squares on the joint_fit_bench example's campaign; "
+             "values: scipy's after both passes; std_errors: spincal's robust ones at the time",
+        made_by=a.command,
+        date_utc=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M"),
+        versions=dict(numpy=np.__version__, scipy=scipy.__version__, python=sys.version.split()[0]),
+        seed=pj["seed"],
+        solver=dict(method=summary["method"], jac=summary["jac"], tolerances=summary["tolerances"],
+                    nfev=summary["nfev"], status=summary["status"]),
+        chi2=dict(scipy=summary["chi2"], spincal=sp["chi2"]),
+        measured=dict(
+            max_abs_diff_over_se_spincal_vs_scipy=summary["max_abs_diff_over_se"],
+            worst_param=summary["worst_param_se"],
+            distance_from_exact_minimiser_over_se=summary["distance_from_exact_minimiser_over_se"],
+        ),
+        names=sp["names"],
+        values=[float(v) for v in x[:n]],
+        std_errors=sp["std_errors"],
+        scripts_sha256={f: hashlib.sha256(open(os.path.join(ROOT, f), "rb").read()).hexdigest()
+                        for f in FIXTURE_SCRIPTS},
+    )
+    if prob.estimate_spread:
+        fixture["bias_spread_sd_mps2"] = dict(scipy=prob.bias_sigma,
+                                              spincal=sp.get("bias_spread", {}).get("sd_mps2"))
+    os.makedirs(os.path.dirname(os.path.abspath(a.fixture)), exist_ok=True)
+    with open(a.fixture, "w") as f:
+        json.dump(fixture, f, indent=1)
+        f.write("\n")
+    print(f"wrote {a.fixture}")
 
 
 def main():
@@ -495,6 +627,8 @@ def main():
     ap.add_argument("--xtol", type=float, default=1e-10)
     ap.add_argument("--gtol", type=float, default=1e-15)
     ap.add_argument("--out", default=None, help="JSON summary (default DIR/scipy_<method>_<jac>.json)")
+    ap.add_argument("--fixture", default=None, help="also write the test suite's small fixture here")
+    ap.add_argument("--command", default=None, help="the command that made the fixture, recorded in it")
     a = ap.parse_args()
     pj = json.load(open(f"{a.dir}/problem.json"))
     sp = json.load(open(f"{a.dir}/spincal_fit.json"))
@@ -593,8 +727,16 @@ def main():
         order = np.argsort(-np.nan_to_num(rel_scale))[:5]
         for k in order:
             print(f"    {names[k]:42s} spincal {ref[k]: .12e} scipy {x[k]: .12e} |Δ|/scale {rel_scale[k]:.1e} |Δ|/SE {rel_se[k]:.1e}")
+        spread_sp = sp.get("bias_spread", {}).get("sd_mps2")
+        if prob.estimate_spread:
+            summary["bias_spread_sd_mps2"] = dict(scipy=prob.bias_sigma, spincal=spread_sp)
+            print(f"  bias offsets' spread: scipy {prob.bias_sigma:.12e}, spincal {spread_sp:.12e} m/s^2 "
+                  f"(relative difference {abs(prob.bias_sigma / spread_sp - 1.0):.1e}); "
+                  f"likelihood ratio {prob.spread_lr:.3f}")
         out = a.out or f"{a.dir}/scipy_{method}_{a.jac}.json"
         json.dump(summary, open(out, "w"), indent=1)
+        if a.fixture:
+            write_fixture(a, pj, sp, prob, x, summary)
 
 
 if __name__ == "__main__":

@@ -12,8 +12,11 @@
 //!
 //! The starting vector comes from `campaign::joint::run_start`, the first pass's weights from
 //! `difference_noise`. What is not reachable from outside the crate: the weights of the second pass (`JointProblem::run_sigma`/`pose_sigma`, pub(crate)) and the still
-//! session's bias offset and drift (only in the pub(crate) `FitState`). The peer then does what `fit_joint` does: solve with those weights, reweight from
-//! the residuals (per run and axis; a variance component per still session), solve again.
+//! session's bias offset and drift (only in the pub(crate) `FitState`). The peer then does what
+//! `fit_joint` does: solve with those weights, reweight from the residuals (per run and axis; a
+//! variance component per still session), estimate the bias offsets' spread (`bias_spread`,
+//! written here for comparison), solve again. The campaign is `tests/common/joint_bench.rs`,
+//! shared with the suite's scipy fixture test (`tests/joint_scipy.rs`).
 //!
 //! Run single-threaded (RAYON_NUM_THREADS=1, `taskset -c 1`); `fit_joint` itself does not use
 //! rayon, faer is built without it.
@@ -24,8 +27,10 @@ use serde_json::{json, Value};
 use spincal::campaign::joint::{
     difference_noise, fit_joint, mounting_matrix, run_start, JointSettings, RUN_PARAMS,
 };
-use spincal::campaign::prepare::prepare;
-use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
+
+// The campaign's setup, shared with the scipy fixture test (tests/joint_scipy.rs).
+#[path = "../tests/common/joint_bench.rs"]
+mod joint_bench;
 
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -45,16 +50,7 @@ fn main() {
     let reps: usize = args.next().map_or(5, |s| s.parse().expect(usage)).max(1);
     std::fs::create_dir_all(&out_dir).expect("cannot create the output directory");
 
-    let mut setup = CampaignSetup {
-        poses: 6,
-        ..CampaignSetup::default()
-    };
-    for run in &mut setup.runs {
-        run.duration_s = 120.0;
-    }
-    let sim = simulate_campaign(&setup, seed).expect("simulation");
-    let units = sim.unit_recordings(false);
-    let prep = prepare(&units).expect("prepare");
+    let (sim, prep) = joint_bench::bench_campaign(seed).expect("the bench's campaign");
     let settings = JointSettings::default();
     let g = settings.gravity_mps2;
 
@@ -131,6 +127,9 @@ fn main() {
                 "rpm": r.entry.rpm,
                 "radius_m": r.entry.radius.map(|s| s.value_m),
                 "radius_tol_m": r.entry.radius.map(|s| s.tolerance_m),
+                // The peer implements neither ties (runs sharing a session or a placement).
+                "session": r.session,
+                "placement": r.entry.placement,
                 "out": r.entry.out.name(),
                 "up": r.entry.up.name(),
                 "mounting": mountings[i],
@@ -212,6 +211,7 @@ fn main() {
         "dof": fit.dof,
         "iterations_both_passes": fit.iterations,
         "stop": fit.stop,
+        "bias_spread": fit.bias_spread,
         "directions": fit.runs.iter().map(|r| r.direction).collect::<Vec<_>>(),
         "residual_rms_mps2": fit.runs.iter().map(|r| r.residual_rms_mps2).collect::<Vec<_>>(),
         "samples_used": fit.runs.iter().map(|r| r.samples_used).sum::<usize>(),

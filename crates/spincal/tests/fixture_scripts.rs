@@ -8,12 +8,13 @@ use std::process::Command;
 const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
 
 /// The fixtures with a peer script behind them (tests/fixtures/flight_stacks: see its README).
-const FIXTURES: [&str; 5] = [
+const FIXTURES: [&str; 6] = [
     "flight/manifest.json",
     "sysid/arx_lstsq.json",
     "sysid/silverbox_arx.json",
     "sysid/bj_peers.json",
     "ann/pyrenn_peer.json",
+    "joint_scipy/fit.json",
 ];
 
 fn sha256(path: &Path) -> String {

@@ -22,6 +22,7 @@ mod flight_stacks;
 mod gyro_merge;
 mod gyro_nominal;
 mod gyro_poses;
+mod joint_scipy;
 mod model_validation;
 #[cfg(feature = "phone")]
 mod phone;

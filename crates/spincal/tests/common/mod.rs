@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod independent;
+pub mod joint_bench;
 pub mod suite_fleet;
 pub mod synthetic;
 
