@@ -105,15 +105,6 @@ impl ErrorMap {
     }
 }
 
-/// Point `i` of `n` directions evenly spread over the sphere (a Fibonacci lattice), a unit vector.
-pub(crate) fn lattice_direction(i: usize, n: usize) -> [f64; 3] {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    let z = 1.0 - (2.0 * i as f64 + 1.0) / n.max(1) as f64;
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = golden * i as f64;
-    [r * phi.cos(), r * phi.sin(), z]
-}
-
 /// A unit vector from latitude and longitude in degrees.
 fn direction(latitude_deg: f64, longitude_deg: f64) -> [f64; 3] {
     let (lat, lon) = (latitude_deg.to_radians(), longitude_deg.to_radians());
@@ -155,7 +146,7 @@ pub fn error_map(physical: &PhysicalCorrector, poses: &[PoseInput]) -> Option<Er
         .collect();
     let determined = (0..SHARE_POINTS)
         .filter(|&i| {
-            let n = lattice_direction(i, SHARE_POINTS);
+            let n = crate::geometry::lattice_direction(i, SHARE_POINTS);
             worst_ratio(physical, noise, still(n)) <= DETERMINED_SD_OVER_NOISE
         })
         .count();

@@ -26,8 +26,8 @@ use crate::campaign::choice::{
 use crate::campaign::evaluate::{conditions, Condition, Evaluation, HeldOutEvaluation};
 use crate::campaign::gyro::{fit_gyro, GyroFit};
 use crate::campaign::joint::{
-    chip_offset, Advice, fit_joint, fit_joint_from, placement_fits, ChipOffset, JointError, JointFit, JointSettings,
-    PlacementFit, GEOMETRY,
+    chip_offset, fit_joint, fit_joint_from, placement_fits, Advice, ChipOffset, JointError, JointFit,
+    JointSettings, PlacementFit, GEOMETRY,
 };
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
 use crate::campaign::thermal::{check_temperature_units, temperature_bands, thermal_stage, CampaignThermal};

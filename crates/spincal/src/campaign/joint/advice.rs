@@ -15,8 +15,8 @@ use serde::{Deserialize, Deserializer, Serialize};
 
 use super::input::PoseInput;
 use super::result::JointFit;
-use crate::campaign::error_map::lattice_direction;
 use crate::correctors::physical::{SensorModel, SENSOR_PARAMS};
+use crate::geometry::{cross, dot, lattice_direction};
 
 /// Candidate directions of gravity over the sphere.
 const CANDIDATES: usize = 2000;
@@ -103,7 +103,9 @@ impl JointFit {
                     3..=8 => gravity,
                     _ => gravity * gravity,
                 };
-                p.free && p.std_error.is_none_or(|se| se.is_nan() || se * effect > tolerance_mps2)
+                p.free
+                    && p.std_error
+                        .is_none_or(|se| se.is_nan() || se * effect > tolerance_mps2)
             })
             .collect();
         if bad.is_empty() {
@@ -208,7 +210,9 @@ impl PosePlan {
             .collect();
         let hold = self
             .hold_s
-            .map_or("as long as the campaign's poses".to_string(), |t| format!("{t:.0} s"));
+            .map_or("as long as the campaign's poses".to_string(), |t| {
+                format!("{t:.0} s")
+            });
         format!(
             "a still pose with {} (gravity along ({:.2}, {:.2}, {:.2}) in the sensor frame), held {hold}",
             elevations.join(", "),
@@ -220,7 +224,7 @@ impl PosePlan {
 
     fn assumption(&self) -> String {
         format!(
-            " (as a recording of its own, its bias offset {:.1e} m/s² from the others as the campaign found; in the same power-on it would do a little better)",
+            " (as a file of its own: its bias offset from the others taken as {:.1e} m/s², the spread the campaign found)",
             self.offset_sd
         )
     }
@@ -247,7 +251,8 @@ fn best_poses(
         let Some(a) = pose_information(sensor, u, gravity, plan) else {
             continue;
         };
-        let ca: [f64; SENSOR_PARAMS] = std::array::from_fn(|r| (0..SENSOR_PARAMS).map(|j| c[r][j] * a[j]).sum());
+        let ca: [f64; SENSOR_PARAMS] =
+            std::array::from_fn(|r| (0..SENSOR_PARAMS).map(|j| c[r][j] * a[j]).sum());
         let aca: f64 = (0..SENSOR_PARAMS).map(|j| a[j] * ca[j]).sum();
         if !(aca.is_finite() && aca >= 0.0) {
             continue;
@@ -305,19 +310,9 @@ fn pose_information(
         return None;
     }
     let scale = var.sqrt();
-    Some(std::array::from_fn(|j| (0..3).map(|k| jac[k][j] * w[k]).sum::<f64>() / scale))
-}
-
-fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+    Some(std::array::from_fn(|j| {
+        (0..3).map(|k| jac[k][j] * w[k]).sum::<f64>() / scale
+    }))
 }
 
 fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
