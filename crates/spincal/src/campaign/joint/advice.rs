@@ -5,8 +5,9 @@
 //! informs the sensor only along one reading direction w, the normal of the two directions the
 //! angles move the reading: information a aᵀ with a = Jᵀw / √(wᵀΣw), J = ∂m/∂θ at f = g·u and
 //! Σ = σ²/N + s² (per axis). With C the fit's covariance, Sherman–Morrison gives
-//! var'_k = C_kk − (C a)_k² / (1 + aᵀC a). Turntable runs are not candidates: their information
-//! is not modelled here, so the advice names still poses only.
+//! var'_k = C_kk − (C a)_k² / (1 + aᵀC a). Turntable runs are not candidates: a run's centripetal
+//! level rests on ω, which the fit takes from the platter's tilt modulation, whose size is not
+//! known before the run is recorded; unmodelled and unvalidated, runs are left out.
 
 // Per-axis and per-parameter arrays are indexed together; iterators would obscure that.
 #![allow(clippy::needless_range_loop)]
@@ -42,7 +43,7 @@ pub struct Advice {
     /// The parameter's standard error predicted once that pose is recorded.
     pub predicted_std_error: Option<f64>,
     /// The new pose's bias offset from the others assumed (its own recording, the spread the
-    /// campaign found), m/s².
+    /// campaign found), m/s²; NaN in advice read from an older results.json.
     pub offset_sd_mps2: f64,
     /// What to record, in words a user can follow.
     pub sentence: String,
@@ -58,7 +59,8 @@ impl<'de> Deserialize<'de> for Advice {
             pose_direction: Option<[f64; 3]>,
             hold_s: Option<f64>,
             predicted_std_error: Option<f64>,
-            offset_sd_mps2: f64,
+            // NaN (an older file's) is written as null.
+            offset_sd_mps2: Option<f64>,
             sentence: String,
         }
         #[derive(Deserialize)]
@@ -74,7 +76,7 @@ impl<'de> Deserialize<'de> for Advice {
                 pose_direction: c.pose_direction,
                 hold_s: c.hold_s,
                 predicted_std_error: c.predicted_std_error,
-                offset_sd_mps2: c.offset_sd_mps2,
+                offset_sd_mps2: c.offset_sd_mps2.unwrap_or(f64::NAN),
                 sentence: c.sentence,
             },
             Either::Pair(parameter, sentence) => Advice {
@@ -125,8 +127,14 @@ impl JointFit {
                     (_, None) if best.is_none() => {
                         "the fit has no covariance to plan from: record still poses at orientations spread over the sphere, away from those held".to_string()
                     }
-                    (None, _) | (_, None) => format!(
-                        "every direction of gravity lies within {HELD_POSE_DEG:.0}° of a held pose or none informs {short}: record turntable runs, or the held poses again in one power-on"
+                    (_, None) => format!(
+                        "every direction of gravity lies within {HELD_POSE_DEG:.0}° of a held pose or none informs {short}: repeat the held poses in one power-on, each held longer"
+                    ),
+                    (None, Some((u, var))) => format!(
+                        "{}: se of {short} → {:.2e}{}",
+                        plan.describe(u),
+                        var.max(0.0).sqrt(),
+                        plan.assumption()
                     ),
                     (Some(se), Some((u, var))) => {
                         let after = var.max(0.0).sqrt();
@@ -318,4 +326,32 @@ fn pose_information(
 fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
     let n = dot(&v, &v).sqrt();
     (n.is_finite() && n > 0.0).then(|| v.map(|x| x / n))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn advice_reads_back_and_older_pairs_still_read() {
+        let a = Advice {
+            parameter: "quadratic_x (1/(m/s²))".into(),
+            std_error: Some(3e-4),
+            pose_direction: Some([0.6, 0.0, 0.8]),
+            hold_s: None,
+            predicted_std_error: Some(1e-5),
+            offset_sd_mps2: 1e-4,
+            sentence: "a still pose".into(),
+        };
+        let back: Advice = serde_json::from_str(&serde_json::to_string(&a).unwrap()).unwrap();
+        assert_eq!(back, a);
+        let old: Vec<Advice> =
+            serde_json::from_str(r#"[["bias_x (m/s²)", "still poses with the x axis up and down"]]"#)
+                .unwrap();
+        assert_eq!(old[0].parameter, "bias_x (m/s²)");
+        assert!(old[0].pose_direction.is_none() && old[0].offset_sd_mps2.is_nan());
+        // Written again (NaN as null) and read once more.
+        let again: Vec<Advice> = serde_json::from_str(&serde_json::to_string(&old).unwrap()).unwrap();
+        assert_eq!(again[0].sentence, old[0].sentence);
+    }
 }
