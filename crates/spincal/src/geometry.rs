@@ -75,6 +75,15 @@ pub(crate) fn unit(v: [f64; 3]) -> [f64; 3] {
     v.map(|x| x / n)
 }
 
+/// Point `i` of `n` directions evenly spread over the sphere (a Fibonacci lattice), a unit vector.
+pub(crate) fn lattice_direction(i: usize, n: usize) -> [f64; 3] {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let z = 1.0 - (2.0 * i as f64 + 1.0) / n.max(1) as f64;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = golden * i as f64;
+    [r * phi.cos(), r * phi.sin(), z]
+}
+
 /// Hamilton product a ⊗ b (scalar first).
 pub(crate) fn quat_mul(a: &Quat, b: &Quat) -> Quat {
     [

@@ -5,6 +5,7 @@
 
 mod common;
 
+mod advice;
 mod ann;
 mod ann_peer;
 mod architecture;

@@ -104,8 +104,8 @@ pub fn summary(output: &CampaignOutput, out: &Path, written: &[&str], tables: bo
     }
     if !r.undetermined.is_empty() {
         text.push_str("\nnot determined by this campaign (one standard error moves a 1 g reading by more than 0.02 m/s²):\n");
-        for (name, advice) in &r.undetermined {
-            let _ = writeln!(text, "  {name}: {advice}");
+        for a in &r.undetermined {
+            let _ = writeln!(text, "  {}: {}", a.parameter, a.sentence);
         }
     }
     if let Some(g) = &r.gyro {

@@ -5,7 +5,7 @@
 
 use crate::campaign::candidate::{candidate, CandidateKind, Trained, TrainingSet};
 use crate::campaign::gyro::GyroFit;
-use crate::campaign::joint::JointFit;
+use crate::campaign::joint::{Advice, JointFit};
 use crate::campaign::params::Params;
 use crate::campaign::prepare::Prepared;
 use crate::campaign::thermal::CampaignThermal;
@@ -147,7 +147,7 @@ pub(super) fn save_best(
 pub(super) fn nothing_saved_verdict(
     summaries: &[CandidateSummary],
     prepared: &Prepared,
-    undetermined: &[(String, String)],
+    undetermined: &[Advice],
     truth_check: Option<&TruthCheck>,
 ) -> String {
     let reasons: Vec<String> = summaries
@@ -166,7 +166,7 @@ pub(super) fn nothing_saved_verdict(
             prepared.poses.len()
         )
     } else if unknown {
-        let mut advice: Vec<&str> = undetermined.iter().map(|(_, a)| a.as_str()).collect();
+        let mut advice: Vec<&str> = undetermined.iter().map(|a| a.sentence.as_str()).collect();
         advice.dedup();
         advice.truncate(3);
         format!(" Record next: {}.", advice.join("; "))
@@ -192,7 +192,7 @@ fn thermal_sentence(thermal: Option<&CampaignThermal>) -> String {
     )
 }
 
-pub(super) fn no_conditions_verdict(prepared: &Prepared, undetermined: &[(String, String)]) -> String {
+pub(super) fn no_conditions_verdict(prepared: &Prepared, undetermined: &[Advice]) -> String {
     let mut next = vec![
         "a turntable run at a second speed or radius (e.g. 45 rpm, or the sensor at another radius)"
             .to_string(),
@@ -200,9 +200,9 @@ pub(super) fn no_conditions_verdict(prepared: &Prepared, undetermined: &[(String
     if prepared.poses.len() < 6 {
         next.push("six still poses (each face up in turn, a few seconds each)".into());
     }
-    for (_, advice) in undetermined.iter().take(3) {
-        if !next.contains(advice) {
-            next.push(advice.clone());
+    for advice in undetermined.iter().take(3) {
+        if !next.contains(&advice.sentence) {
+            next.push(advice.sentence.clone());
         }
     }
     format!(

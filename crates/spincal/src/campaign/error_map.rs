@@ -144,13 +144,9 @@ pub fn error_map(physical: &PhysicalCorrector, poses: &[PoseInput]) -> Option<Er
                 .map(move |&lon| worst_ratio(physical, noise, still(direction(lat, lon))))
         })
         .collect();
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
     let determined = (0..SHARE_POINTS)
         .filter(|&i| {
-            let z = 1.0 - (2.0 * i as f64 + 1.0) / SHARE_POINTS as f64;
-            let r = (1.0 - z * z).sqrt();
-            let phi = golden * i as f64;
-            let n = [r * phi.cos(), r * phi.sin(), z];
+            let n = crate::geometry::lattice_direction(i, SHARE_POINTS);
             worst_ratio(physical, noise, still(n)) <= DETERMINED_SD_OVER_NOISE
         })
         .count();

@@ -26,8 +26,8 @@ use crate::campaign::choice::{
 use crate::campaign::evaluate::{conditions, Condition, Evaluation, HeldOutEvaluation};
 use crate::campaign::gyro::{fit_gyro, GyroFit};
 use crate::campaign::joint::{
-    chip_offset, fit_joint, fit_joint_from, placement_fits, ChipOffset, JointError, JointFit, JointSettings,
-    PlacementFit, GEOMETRY,
+    chip_offset, fit_joint, fit_joint_from, placement_fits, Advice, ChipOffset, JointError, JointFit,
+    JointSettings, PlacementFit, GEOMETRY,
 };
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
 use crate::campaign::thermal::{check_temperature_units, temperature_bands, thermal_stage, CampaignThermal};
@@ -219,8 +219,9 @@ pub struct CampaignResult {
     /// The runs cut at logging gaps into segments with their own phase.
     #[serde(default)]
     pub split_runs: Vec<PhaseSegments>,
-    /// Sensor parameters the campaign does not determine, with what would.
-    pub undetermined: Vec<(String, String)>,
+    /// Sensor parameters the campaign does not determine, each with the still pose that most
+    /// reduces its variance.
+    pub undetermined: Vec<Advice>,
     /// Whether the data or the prior decided the nonlinearity q.
     pub nonlinearity: NonlinearitySource,
     /// Which of the physical family's terms the saved model carries, and why.

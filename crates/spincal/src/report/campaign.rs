@@ -221,13 +221,8 @@ fn sensor_section(r: &CampaignResult, h: &mut String) -> Result<(), PlotError> {
 fn undetermined_section(r: &CampaignResult, h: &mut String) {
     if !r.undetermined.is_empty() {
         h.push_str("<h2>What this campaign does not determine</h2><ul>");
-        for (name, advice) in &r.undetermined {
-            let verb = if advice.starts_with("the campaign already") {
-                ""
-            } else {
-                "record "
-            };
-            let _ = write!(h, "<li>{}: {verb}{}</li>", escape(name), escape(advice));
+        for a in &r.undetermined {
+            let _ = write!(h, "<li>{}: {}</li>", escape(&a.parameter), escape(&a.sentence));
         }
         h.push_str("</ul>");
     }

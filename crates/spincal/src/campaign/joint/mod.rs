@@ -42,6 +42,7 @@ mod settings;
 mod spread;
 mod start;
 
+pub use advice::{Advice, HELD_POSE_DEG};
 pub(crate) use fit::fit_run_geometry;
 pub use fit::{fit_joint, fit_joint_from};
 pub use input::{bias_random_walk, difference_noise, PoseInput, PoseWander, RunInput};
