@@ -423,3 +423,80 @@ fn a_gyro_only_csv_with_a_header_is_read() {
         assert!((d / densities[0] - 1.0).abs() < 1e-6, "{densities:?}");
     }
 }
+
+/// A model of kind `uncorrected` (format 3: a campaign that determined the gyroscope but showed no
+/// accelerometer correction to help) corrects the gyro columns and writes no corrected
+/// accelerometer column; the firmware export refuses it, naming the kind.
+#[test]
+fn a_gyro_saved_alone_corrects_the_gyro_and_leaves_the_accelerometer_as_read() {
+    use spincal::correctors::model_file::Uncorrected;
+    let dir = tempfile::tempdir().unwrap();
+    let mut file = CorrectorFile::new(CorrectorModel::Uncorrected(Box::new(Uncorrected {
+        reason: "no accelerometer correction was shown to help".into(),
+    })));
+    let mut gyro = GyroModel::IDEAL;
+    gyro.bias_radps = [0.01, -0.02, 0.005];
+    gyro.sensitivity[2][2] = 1.01;
+    file.gyro = Some(gyro);
+    let model = dir.path().join("model.json");
+    file.write_path(&model).unwrap();
+    let recording = dir.path().join("rec.csv");
+    let mut text = String::from("t_s,ax_mps2,ay_mps2,az_mps2,gx_radps,gy_radps,gz_radps\n");
+    for i in 0..200 {
+        text.push_str(&format!(
+            "{},0.1,-0.2,9.8,0.01,-0.02,{}\n",
+            i as f64 * 0.01,
+            0.005 + 1.01 * 2.0
+        ));
+    }
+    std::fs::write(&recording, &text).unwrap();
+    let out = dir.path().join("out.csv");
+    let (code, _, stderr) = run_keeping(
+        spincal()
+            .args(["correct", "--model"])
+            .arg(&model)
+            .arg(&recording)
+            .arg("-o")
+            .arg(&out),
+        &[recording.as_path(), model.as_path()],
+    );
+    assert_eq!(code, 0, "{stderr}");
+    let written = std::fs::read_to_string(&out).unwrap();
+    let mut lines = written.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert!(
+        !header.iter().any(|c| c.starts_with("ax_corrected")),
+        "{header:?}"
+    );
+    let column = |name: &str| {
+        header
+            .iter()
+            .position(|c| *c == name)
+            .unwrap_or_else(|| panic!("{name}: {header:?}"))
+    };
+    let (gx, gz, status) = (
+        column("gx_corrected_radps"),
+        column("gz_corrected_radps"),
+        column("status"),
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 200);
+    for row in &rows {
+        assert_eq!(row[status], "ok", "{row:?}");
+        assert!(row[gx].parse::<f64>().unwrap().abs() < 1e-12, "{row:?}");
+        assert!((row[gz].parse::<f64>().unwrap() - 2.0).abs() < 1e-12, "{row:?}");
+    }
+    let (code, _, stderr) = run_keeping(
+        spincal()
+            .args(["export", "--model"])
+            .arg(&model)
+            .arg("--out")
+            .arg(dir.path().join("fw")),
+        &[model.as_path()],
+    );
+    assert_ne!(code, 0);
+    assert!(
+        stderr.contains("uncorrected") && stderr.contains("corrector.kind"),
+        "{stderr}"
+    );
+}
