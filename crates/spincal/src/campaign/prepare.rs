@@ -77,13 +77,15 @@ const EDGE_FRACTION: f64 = 0.1;
 const POSE_BLOCKS: usize = 8;
 
 /// Still intervals of a still recording: the detector's, or the whole recording when it is one
-/// short pose the detector cannot set a threshold on.
+/// short pose the detector cannot set a threshold on. A long file is cut as `spincal static` cuts
+/// it (`StaticOptions::default`); a file of one short pose with everything scaled to its length.
 pub(crate) fn still_intervals(rec: &Recording, name: &str) -> Result<Vec<StillInterval>, PrepareError> {
+    let defaults = StaticOptions::default();
     let options = StaticOptions {
-        init_s: (0.3 * rec.duration_s()).clamp(0.5, 3.0),
-        window_s: (0.1 * rec.duration_s()).clamp(0.2, 1.0),
-        min_interval_s: (0.4 * rec.duration_s()).clamp(0.5, 2.0),
-        ..StaticOptions::default()
+        init_s: (0.3 * rec.duration_s()).clamp(0.5, defaults.init_s),
+        window_s: (0.1 * rec.duration_s()).clamp(0.2, defaults.window_s),
+        min_interval_s: (0.4 * rec.duration_s()).clamp(0.5, defaults.min_interval_s),
+        ..defaults
     };
     let found = detect_static(&rec.time_s, &rec.accel_mps2, &options)
         .map(|d| d.intervals)
