@@ -12,7 +12,7 @@ use crate::campaign::thermal::CampaignThermal;
 use crate::campaign::verdict::{
     combined, pooled_upper_ratio, Comparison, Pooled, Prediction, NON_INFERIORITY_MARGIN, NO_WORSE_CONFIDENCE,
 };
-use crate::correctors::model_file::CorrectorFile;
+use crate::correctors::model_file::{CorrectorFile, CorrectorModel, Uncorrected};
 use crate::progress::{Observer, Progress};
 use serde::{Deserialize, Serialize};
 
@@ -127,13 +127,9 @@ pub(super) fn save_best(
                 100.0 * NON_INFERIORITY_MARGIN,
                 truth_sentence(found.truth_check)
             );
-            let verdict = verdict
-                + &thermal_sentence(found.thermal)
-                + &found.gyro.map(GyroFit::nominal_sentence).unwrap_or_default();
             let mut file = CorrectorFile::new(model);
             file.thermal = found.thermal.map(|t| t.fit.model.clone());
-            // Only the terms the campaign determines (the rest at nominal); nothing when none is.
-            file.gyro = found.gyro.and_then(GyroFit::saved_model).cloned();
+            let verdict = verdict + &thermal_sentence(found.thermal) + &with_gyro(&mut file, found.gyro);
             (Some(file), verdict)
         }
         Err(e) => (
@@ -141,6 +137,28 @@ pub(super) fn save_best(
             format!("Nothing saved: the final training of {} failed: {e}", kind.name()),
         ),
     }
+}
+
+/// The gyro part of `file`: only the terms the campaign determines (the rest at nominal), nothing
+/// when none is; returns what the verdict says of it.
+fn with_gyro(file: &mut CorrectorFile, gyro: Option<&GyroFit>) -> String {
+    file.gyro = gyro.and_then(GyroFit::saved_model).cloned();
+    gyro.map(GyroFit::nominal_sentence).unwrap_or_default()
+}
+
+/// Where no accelerometer corrector is saved: the gyro part the campaign determines, alone (format
+/// 3, the accelerometer left as read), and the verdict's sentence on it; `None` when the campaign
+/// determines no gyro term.
+pub(super) fn save_gyro_alone(gyro: Option<&GyroFit>) -> Option<(CorrectorFile, String)> {
+    gyro.and_then(GyroFit::saved_model)?;
+    let mut file = CorrectorFile::new(CorrectorModel::Uncorrected(Box::new(Uncorrected {
+        reason: "no accelerometer correction was shown to help on the campaign's held-out conditions".into(),
+    })));
+    let sentence = with_gyro(&mut file, gyro);
+    Some((
+        file,
+        format!(" Saved the gyroscope's calibration alone (the accelerometer left as read: kind `uncorrected`).{sentence}"),
+    ))
 }
 
 /// Why no candidate was saved although there were conditions to hold out.

@@ -33,6 +33,7 @@ use faer::Mat;
 use serde::{Deserialize, Serialize};
 
 use crate::campaign::joint::{mid_time, JointFit, JointParam, PoseInput, RunInput};
+use crate::campaign::verdict::{term_threshold, TERM_FALSE_ALARM};
 use crate::correctors::gyro::{GyroCorrector, GyroModel};
 use crate::input::inspect::{gyro_rails_hit, gyro_saturated_mask, GYRO_SATURATED_SHARE};
 
@@ -187,9 +188,6 @@ const DRIFT_S: f64 = 100.0;
 /// (ε₁, ε₂) enter the gyro fit as parameters with the joint fit's covariance as their prior.
 const RATE_PARAMS: [usize; 3] = [1, 7, 8];
 const TILT_PARAMS: [usize; 2] = [5, 6];
-/// Two-sided false-alarm probability of the Wald test that keeps an undetermined term far from
-/// nominal: `campaign::select::TERM_FALSE_ALARM`'s value (not imported: select imports this module).
-const NOMINAL_FALSE_ALARM: f64 = 1e-3;
 /// Gauss–Newton iterations (the model is linear but for K times the tilt correction).
 const ITERATIONS: usize = 4;
 
@@ -591,12 +589,10 @@ pub fn fit_gyro(
         settings,
         joint,
     };
-    let nominal = |i: usize| {
-        if i >= 3 && (i - 3).is_multiple_of(4) {
-            1.0
-        } else {
-            0.0
-        }
+    // Reported order: b, then K row by row.
+    let nominal = |i: usize| match i {
+        0..=2 => GyroModel::IDEAL.bias_radps[i],
+        _ => GyroModel::IDEAL.sensitivity[(i - 3) / 3][(i - 3) % 3],
     };
     let mut x0 = vec![0.0; problem.layout.n()];
     for i in 0..12 {
@@ -611,7 +607,8 @@ pub fn fit_gyro(
     let no_poses = problem.poses.is_empty();
     // Terms left at nominal and the rest refitted, until no free term is left that the rule fixes
     // (fixing one term can leave another, which leant on it, undetermined).
-    let z = crate::metrics::student_t_quantile(1.0 - 0.5 * NOMINAL_FALSE_ALARM, 1e6);
+    // The accelerometer's terms rule: a Wald test at `TERM_FALSE_ALARM`.
+    let z = term_threshold();
     let mut undetermined_terms: Vec<(String, String)> = Vec::new();
     let mut left_at_nominal: Vec<String> = Vec::new();
     let mut params = free_params.clone();
@@ -660,7 +657,7 @@ pub fn fit_gyro(
         free_params,
         nominal_rule: format!(
             "a term whose standard error moves a reading at {:.1} rad/s by more than {:.3} rad/s (a bias: a reading by more than that) is not determined; it is left at its nominal value (bias 0, sensitivity 1, cross-axis 0), and the other terms refitted with it fixed, unless some run turned about its column and its estimate lies at least {z:.2} standard errors from nominal (a Wald test at two-sided false-alarm probability {:e}), when the estimate is the better known and is kept",
-            settings.reference_rate_radps, settings.determined_tolerance_radps, NOMINAL_FALSE_ALARM
+            settings.reference_rate_radps, settings.determined_tolerance_radps, TERM_FALSE_ALARM
         ),
         session_drift,
         rate_checks,

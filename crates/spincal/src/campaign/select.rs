@@ -20,8 +20,8 @@ use crate::campaign::params::{ParamError, Params};
 use crate::campaign::candidate::{candidate, Candidate};
 use crate::campaign::checks::{check_poses_still, check_prepared, check_recordings, InputError};
 use crate::campaign::choice::{
-    choose_by_physics, no_conditions_verdict, nothing_saved_verdict, save_best, share_determination,
-    summarise, truth_check, CandidateSummary, Found, HeldOutScore, TruthCheck,
+    choose_by_physics, no_conditions_verdict, nothing_saved_verdict, save_best, save_gyro_alone,
+    share_determination, summarise, truth_check, CandidateSummary, Found, HeldOutScore, TruthCheck,
 };
 use crate::campaign::evaluate::{conditions, Condition, Evaluation, HeldOutEvaluation};
 use crate::campaign::gyro::{fit_gyro, GyroFit};
@@ -31,7 +31,8 @@ use crate::campaign::joint::{
 };
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
 use crate::campaign::thermal::{check_temperature_units, temperature_bands, thermal_stage, CampaignThermal};
-use crate::correctors::model_file::{CorrectorFile, CorrectorModel, Uncorrected};
+use crate::campaign::verdict::{term_threshold, TERM_FALSE_ALARM};
+use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::progress::{Observer, Progress};
 use crate::turntable::fit::RadiusPrior;
 use crate::turntable::segments::PhaseSegments;
@@ -56,9 +57,6 @@ pub enum CampaignCalError {
 /// regularises only what the campaign cannot see at all.
 pub(crate) const DATA_ONLY_Q_PRIOR_SD: f64 = 1e-2;
 
-/// Two-sided false-alarm probability of the Wald test that decides a term.
-pub const TERM_FALSE_ALARM: f64 = 1e-3;
-
 /// Which of the physical family's terms the saved model carries, by one rule on the joint fit's
 /// robust covariance (results.json): q is kept on each axis whose |q̂/se| passes the Wald test at
 /// [`TERM_FALSE_ALARM`] and held at zero on the others; with none kept, the model without q is
@@ -81,7 +79,7 @@ impl TermsRule {
         if !joint.terms.nonlinearity {
             return None;
         }
-        let threshold = crate::metrics::student_t_quantile(1.0 - 0.5 * TERM_FALSE_ALARM, 1e6);
+        let threshold = term_threshold();
         let nonlinearity_z: [f64; 3] = std::array::from_fn(|k| {
             let q = &joint.sensor_params[9 + k];
             q.std_error
@@ -426,24 +424,11 @@ pub fn calibrate_campaign(
     };
     // No accelerometer correction shown to help: the gyro part the campaign determines is saved
     // alone (format 3), where no stated radius is contradicted.
-    let gyro_alone = saved
-        .is_none()
-        .then(|| gyro.as_ref().and_then(GyroFit::saved_model))
-        .flatten()
-        .filter(|_| contradicted.is_empty());
+    let gyro_alone = (saved.is_none() && contradicted.is_empty())
+        .then(|| save_gyro_alone(gyro.as_ref()))
+        .flatten();
     let (saved, verdict) = match (saved, gyro_alone) {
-        (None, Some(model)) => {
-            let mut file = CorrectorFile::new(CorrectorModel::Uncorrected(Box::new(Uncorrected {
-                reason: "no accelerometer correction was shown to help on the campaign's held-out conditions"
-                    .into(),
-            })));
-            file.gyro = Some(model.clone());
-            let sentence = gyro.as_ref().map(GyroFit::nominal_sentence).unwrap_or_default();
-            (
-                Some(file),
-                format!("{verdict} Saved the gyroscope's calibration alone (the accelerometer left as read: kind `uncorrected`).{sentence}"),
-            )
-        }
+        (None, Some((file, sentence))) => (Some(file), verdict + &sentence),
         (saved, _) => (saved, verdict),
     };
     lap("final training", &mut stages);

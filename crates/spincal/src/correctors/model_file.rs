@@ -20,7 +20,9 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::correctors::ann::AnnModel;
-use crate::correctors::corrector::{join_field, Axis, Corrector, ModelError, SampleCorrector};
+use crate::correctors::corrector::{
+    join_field, Axis, CorrectedSample, Corrector, ModelError, SampleCorrector,
+};
 use crate::correctors::linear::LinearModel;
 use crate::correctors::physical::PhysicalCorrector;
 use crate::correctors::physical_ann::PhysicalAnnCorrector;
@@ -76,8 +78,8 @@ impl Corrector for Uncorrected {
 struct AsRead;
 
 impl SampleCorrector for AsRead {
-    fn correct_sample(&mut self, accel_mps2: [f64; 3]) -> crate::correctors::corrector::CorrectedSample {
-        crate::correctors::corrector::CorrectedSample {
+    fn correct_sample(&mut self, accel_mps2: [f64; 3]) -> CorrectedSample {
+        CorrectedSample {
             accel_mps2,
             valid: true,
             outside_training_range: false,

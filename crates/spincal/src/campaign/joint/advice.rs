@@ -285,24 +285,20 @@ fn pose_information(
 ) -> Option<[f64; SENSOR_PARAMS]> {
     let f = u.map(|v| gravity * v);
     let lin = sensor.linear_response(f, [0.0; 3]);
-    let v = sensor.skewed(f);
     let q = sensor.quadratic_per_mps2;
     let h: [f64; 3] = std::array::from_fn(|k| 1.0 + 2.0 * q[k] * lin[k]);
-    let d = sensor.scale_error.map(|s| 1.0 + s);
-    // ∂m/∂θ, 3 × 12.
-    let mut jac = [[0.0; SENSOR_PARAMS]; 3];
-    for k in 0..3 {
-        jac[k][k] = h[k];
-        jac[k][3 + k] = h[k] * v[k];
-        jac[k][9 + k] = lin[k] * lin[k];
-    }
-    jac[1][6] = h[1] * d[1] * f[0];
-    jac[2][7] = h[2] * d[2] * f[0];
-    jac[2][8] = h[2] * d[2] * f[1];
-    // The directions the pose's angles move the reading: ∂m/∂f along two tangents of the sphere.
+    // ∂m/∂f = diag(h′) D (I + M).
     let lm = sensor.linear_matrix();
+    let dm_df: [[f64; 3]; 3] = std::array::from_fn(|k| std::array::from_fn(|j| h[k] * lm[k][j]));
+    // ∂m/∂θ (3 × 12) from the correction's Jacobian: f̂(m(θ), θ) = f at fixed f gives
+    // ∂m/∂θ = −(∂m/∂f) ∂f̂/∂θ.
+    let (_, corrected) = sensor.correct_with_jacobian(sensor.measure(f))?;
+    let jac: [[f64; SENSOR_PARAMS]; 3] = std::array::from_fn(|k| {
+        std::array::from_fn(|p| -(0..3).map(|i| dm_df[k][i] * corrected[i][p]).sum::<f64>())
+    });
+    // The directions the pose's angles move the reading: ∂m/∂f along two tangents of the sphere.
     let moved = |t: [f64; 3]| -> [f64; 3] {
-        std::array::from_fn(|k| h[k] * (0..3).map(|j| lm[k][j] * t[j]).sum::<f64>())
+        std::array::from_fn(|k| (0..3).map(|j| dm_df[k][j] * t[j]).sum::<f64>())
     };
     let smallest = (0..3).min_by(|&a, &b| u[a].abs().total_cmp(&u[b].abs()))?;
     let mut e = [0.0; 3];
