@@ -5,7 +5,7 @@
 
 use faer::Mat;
 
-use super::covariance::sandwich;
+use super::covariance::{free_inverse, sandwich};
 use super::input::{bias_random_walk, difference_noise, PoseInput, RunInput};
 use super::kinematics::{mounting_matrix, PoseFrame};
 use super::layout::{
@@ -147,7 +147,7 @@ fn fit_joint_with(
         stop: report.stop,
         bias_spread,
         covariance: format!(
-            "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run, each still pose and each prior a block of its own (batch-means HAC); each pose weighted by its mean's error and the bias's wander between poses ({})",
+            "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run (each block's score restored by the block jackknife, CR3), each still pose and each prior a block of its own (batch-means HAC), no run parameter's variance below the model's own H⁻¹; each pose weighted by its mean's error and the bias's wander between poses ({})",
             settings.block_s,
             blocks,
             match walk {
@@ -336,7 +336,8 @@ fn reweight_poses(
     walk: Option<f64>,
 ) {
     let poses = problem.poses;
-    let leverage = problem.pose_leverage(p, jtj, free);
+    let index: Vec<usize> = (0..p.len()).filter(|&k| free[k]).collect();
+    let leverage = free_inverse(jtj, &index).map(|inverse| problem.pose_leverage(p, &inverse));
     for session in 0..sessions(problem.runs, poses) {
         let members: Vec<usize> = (0..poses.len())
             .filter(|&i| poses[i].session == session)
@@ -384,22 +385,26 @@ fn robust_covariance(
     free: &[bool],
 ) -> (Option<Mat<f64>>, Vec<usize>) {
     let n = p.len();
-    let mut meat = Mat::<f64>::zeros(n, n);
+    let index: Vec<usize> = (0..n).filter(|&k| free[k]).collect();
+    let Some(full) = free_inverse(jtj, &index) else {
+        return (None, index);
+    };
     let pose_kept: Vec<[f64; 3]> = problem
-        .pose_leverage(p, jtj, free)
-        .unwrap_or_default()
+        .pose_leverage(p, &full)
         .iter()
         .map(|h| h.map(|h| (1.0 - h).max(MIN_KEPT_VARIANCE)))
         .collect();
+    let mut meat = Mat::<f64>::zeros(n, n);
     problem.evaluate(
         p,
         Want::Meat {
             meat: &mut meat,
             pose_kept: &pose_kept,
+            inverse: &full,
         },
     );
-    let index: Vec<usize> = (0..n).filter(|&k| free[k]).collect();
-    let cov = sandwich(jtj, &meat, &index);
+    let runs = SENSOR_PARAMS..run_offset(problem.runs.len());
+    let cov = sandwich(jtj, &meat, &index, |k| runs.contains(&k));
     (cov, index)
 }
 

@@ -26,7 +26,10 @@
 //!
 //! Standard errors are the sandwich H⁻¹ S H⁻¹ with S from scores summed over blocks of
 //! consecutive samples (batch-means HAC): residuals coloured by wow, flutter or drift within a
-//! block are accounted for; a pose and each prior are blocks of their own.
+//! block are accounted for; a pose and each prior are blocks of their own. A run's block score
+//! is restored by the block jackknife (CR3; a run fits its own fifteen parameters from its few
+//! blocks) and a pose's residual by its leverage (HC2), and no run parameter's variance is taken
+//! below the model's own H⁻¹ (six blocks make a noisy estimate; white noise is the floor).
 
 mod advice;
 mod covariance;

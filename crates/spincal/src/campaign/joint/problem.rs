@@ -6,7 +6,8 @@
 
 use faer::Mat;
 
-use super::covariance::inverse_on;
+use super::covariance::jackknife_score;
+
 use super::input::{PoseInput, RunInput};
 use super::kinematics::{PoseFrame, RunGeometry};
 use super::layout::{
@@ -171,9 +172,17 @@ pub(crate) enum Want<'a> {
     /// Σ over blocks of s sᵀ (s: the block's score Jᵀr), into the matrix; a pose's residual on
     /// each axis divided by √(share of its variance the fit left it), `pose_kept` (HC2: few
     /// poses and many parameters leave residuals well below the noise that made them).
+    ///
+    /// A run's block score is first divided by what the fit left of it (CR3, the block
+    /// jackknife, in parameter space): s̃ = (I − A P)⁻¹ s, with A the block's JᵀJ and P the
+    /// inverse normal matrix over the run's and the sensor's parameters (`inverse`, n × n, zero
+    /// where fixed). A run of a few blocks fits its own fifteen parameters from them, which leaves
+    /// the raw scores far below the noise that made them: on a 30 s phone run of six 5 s blocks
+    /// the rate's standard error came out a third of the Cramér–Rao bound.
     Meat {
         meat: &'a mut Mat<f64>,
         pose_kept: &'a [[f64; 3]],
+        inverse: &'a Mat<f64>,
     },
 }
 
@@ -277,18 +286,9 @@ impl JointProblem<'_> {
     }
 
     /// Leverage of each pose's residual per axis: h = jᵀ (JᵀJ)⁻¹ j over the free parameters, with
-    /// `jtj` the weighted normal matrix at `p`. The share of that residual the fit itself
-    /// absorbs; `None` when `jtj` is singular.
-    pub(super) fn pose_leverage(&self, p: &[f64], jtj: &Mat<f64>, free: &[bool]) -> Option<Vec<[f64; 3]>> {
-        let index: Vec<usize> = (0..p.len()).filter(|&k| free[k]).collect();
-        let covariance = inverse_on(jtj, &index)?;
-        let position: Vec<Option<usize>> = {
-            let mut position = vec![None; p.len()];
-            for (a, &k) in index.iter().enumerate() {
-                position[k] = Some(a);
-            }
-            position
-        };
+    /// `inverse` the weighted normal matrix's inverse at `p` (n × n, zero where fixed). The share
+    /// of that residual the fit itself absorbs.
+    pub(super) fn pose_leverage(&self, p: &[f64], inverse: &Mat<f64>) -> Vec<[f64; 3]> {
         let sensor = SensorModel::from_params(p);
         let mut out = Vec::with_capacity(self.poses.len());
         for pi in 0..self.poses.len() {
@@ -297,18 +297,15 @@ impl JointProblem<'_> {
             self.pose_rows(p, &sensor, pi, |k, row, _| {
                 let mut sum = 0.0;
                 for (a, &ka) in columns.iter().enumerate() {
-                    let Some(ia) = position[ka] else { continue };
                     for (b, &kb) in columns.iter().enumerate() {
-                        if let Some(ib) = position[kb] {
-                            sum += row[a] * covariance[(ia, ib)] * row[b];
-                        }
+                        sum += row[a] * inverse[(ka, kb)] * row[b];
                     }
                 }
                 h[k] = sum;
             });
             out.push(h);
         }
-        Some(out)
+        out
     }
 
     /// Model − measured mean of pose `i`, m/s².
@@ -374,6 +371,7 @@ impl JointProblem<'_> {
         let index: Vec<usize> = (0..SENSOR_PARAMS).chain(o..o + RUN_PARAMS).collect();
         let mut local = LocalSystem::new(index.clone());
         let mut block = vec![0.0; index.len()];
+        let mut block_jtj = Mat::<f64>::zeros(index.len(), index.len());
         let mut in_block = 0;
         let mut row = vec![0.0; index.len()];
         let sigma = self.run_sigma[i];
@@ -408,8 +406,13 @@ impl JointProblem<'_> {
                 row[SENSOR_PARAMS + GEOMETRY + 3 + k] = slope * tau;
                 match &mut *want {
                     Want::Meat { .. } => {
-                        for (b, v) in block.iter_mut().zip(&row) {
+                        for (a, (b, v)) in block.iter_mut().zip(&row).enumerate() {
                             *b += v * r;
+                            if *v != 0.0 {
+                                for (c, w) in row.iter().enumerate().skip(a) {
+                                    block_jtj[(a, c)] += v * w;
+                                }
+                            }
                         }
                     }
                     _ => local.add_row(&row, r),
@@ -417,16 +420,16 @@ impl JointProblem<'_> {
             }
             in_block += 1;
             if in_block == self.block_samples[i] {
-                if let Want::Meat { meat, .. } = &mut *want {
-                    add_outer(meat, &index, &block);
+                if let Want::Meat { meat, inverse, .. } = &mut *want {
+                    add_block_score(meat, inverse, &index, &block, &mut block_jtj);
                 }
                 block.fill(0.0);
                 in_block = 0;
             }
         });
         if in_block > 0 {
-            if let Want::Meat { meat, .. } = &mut *want {
-                add_outer(meat, &index, &block);
+            if let Want::Meat { meat, inverse, .. } = &mut *want {
+                add_block_score(meat, inverse, &index, &block, &mut block_jtj);
             }
         }
         // Priors: the radius within its stated tolerance and that of its placement's first run,
@@ -531,6 +534,32 @@ impl JointProblem<'_> {
         }
         sse
     }
+}
+
+/// A run block's score into the meat, divided by what the fit left of it (see [`Want::Meat`]);
+/// `block_jtj` holds the block's JᵀJ in its upper triangle and is cleared. Kept as it is where
+/// the block alone determines a direction (I − A P singular): nothing is left to judge it by.
+fn add_block_score(
+    meat: &mut Mat<f64>,
+    inverse: &Mat<f64>,
+    index: &[usize],
+    score: &[f64],
+    block_jtj: &mut Mat<f64>,
+) {
+    let k = index.len();
+    let a = Mat::from_fn(k, k, |r, c| {
+        if r <= c {
+            block_jtj[(r, c)]
+        } else {
+            block_jtj[(c, r)]
+        }
+    });
+    let p = Mat::from_fn(k, k, |r, c| inverse[(index[r], index[c])]);
+    match jackknife_score(&a, &p, score) {
+        Some(corrected) => add_outer(meat, index, &corrected),
+        None => add_outer(meat, index, score),
+    }
+    block_jtj.fill(0.0);
 }
 
 fn add_outer(meat: &mut Mat<f64>, index: &[usize], score: &[f64]) {
