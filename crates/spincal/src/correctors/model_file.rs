@@ -24,7 +24,7 @@ use crate::correctors::corrector::{
     join_field, Axis, CorrectedSample, Corrector, ModelError, SampleCorrector,
 };
 use crate::correctors::linear::LinearModel;
-use crate::correctors::physical::PhysicalCorrector;
+use crate::correctors::physical::{PhysicalCorrector, SensorUncertainty};
 use crate::correctors::physical_ann::PhysicalAnnCorrector;
 use crate::correctors::static_cal::StaticCalibration;
 
@@ -156,12 +156,13 @@ impl CorrectorModel {
         }
     }
 
-    /// The corrector whose error its parameters' covariance predicts: the physical kind saved with
-    /// an uncertainty. Other kinds predict none (a network's error has no covariance; the network
-    /// on top of physics is not in its physical part's).
-    pub fn error_model(&self) -> Option<&PhysicalCorrector> {
+    /// The corrector whose error its parameters' covariance predicts: the physical kind and the
+    /// linear map saved with an uncertainty. Other kinds predict none (a network's error has no
+    /// covariance; the network on top of physics is not in its physical part's).
+    pub fn error_model(&self) -> Option<ErrorModel<'_>> {
         match self {
-            CorrectorModel::Physical(p) if p.uncertainty.is_some() => Some(p),
+            CorrectorModel::Physical(p) if p.uncertainty.is_some() => Some(ErrorModel::Physical(p)),
+            CorrectorModel::Linear(l) if l.uncertainty.is_some() => Some(ErrorModel::Linear(l)),
             _ => None,
         }
     }
@@ -175,6 +176,58 @@ impl CorrectorModel {
             CorrectorModel::Physical(_) => "physical",
             CorrectorModel::PhysicalAnn(_) => "physical_ann",
             CorrectorModel::Uncorrected(_) => "uncorrected",
+        }
+    }
+}
+
+/// A saved corrector whose parameters' covariance predicts the error of its correction (both
+/// correct all three axes and have 12 parameters): what `correct`, Python and the firmware
+/// export give an error bar for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ErrorModel<'a> {
+    Physical(&'a PhysicalCorrector),
+    Linear(&'a LinearModel),
+}
+
+impl<'a> ErrorModel<'a> {
+    /// The covariance of its 12 parameters, the readings' noise and the sessions' spread.
+    pub fn uncertainty(&self) -> &'a SensorUncertainty {
+        let uncertainty = match self {
+            ErrorModel::Physical(p) => p.uncertainty.as_ref(),
+            ErrorModel::Linear(l) => l.uncertainty.as_ref(),
+        };
+        uncertainty.expect("an error model carries its uncertainty (CorrectorModel::error_model)")
+    }
+
+    /// The standard deviation per axis of the correction of reading `m` that the covariance
+    /// predicts, √diag(J Σ Jᵀ); `None` where the model has no inverse.
+    pub fn predicted_sd(&self, m: [f64; 3]) -> Option<[f64; 3]> {
+        match self {
+            ErrorModel::Physical(p) => p.predicted_sd(m),
+            ErrorModel::Linear(l) => l.predicted_sd(m),
+        }
+    }
+
+    /// The corrected reading; `None` where the model has no inverse.
+    pub fn corrected(&self, m: [f64; 3]) -> Option<[f64; 3]> {
+        match self {
+            ErrorModel::Physical(p) => p.sensor.correct(m),
+            ErrorModel::Linear(l) => Some(l.apply(m)),
+        }
+    }
+
+    /// The reading a still sensor gives under specific force `f` (sensor frame, m/s²): the
+    /// physical model's forward model, or the linear map's inverse; `None` where it has none.
+    pub fn reading_of(&self, f: [f64; 3]) -> Option<[f64; 3]> {
+        match self {
+            ErrorModel::Physical(p) => Some(p.sensor.measure(f)),
+            ErrorModel::Linear(l) => {
+                let matrix: crate::geometry::M3 =
+                    std::array::from_fn(|i| std::array::from_fn(|j| l.matrix[i][j]));
+                let inverse = crate::geometry::inverse(&matrix)?;
+                let v: [f64; 3] = std::array::from_fn(|i| f[i] - l.offset_mps2[i]);
+                Some(crate::geometry::apply(&inverse, &v))
+            }
         }
     }
 }

@@ -185,8 +185,8 @@ pub(crate) struct Plan {
     pub kind: String,
     pub accel: AccelPlan,
     pub gyro: Option<GyroPlan>,
-    /// The physical model's parameter covariance, exactly when `spincal correct` writes an error
-    /// bar for the model (`CorrectorModel::error_model`: a `physical` kind with an uncertainty).
+    /// The 12 parameters' covariance, exactly when `spincal correct` writes an error bar for the
+    /// model (`CorrectorModel::error_model`: a `physical` or `linear` kind with an uncertainty).
     pub covariance: Option<SensorCovariance>,
 }
 
@@ -234,8 +234,7 @@ impl Plan {
         let covariance = file
             .corrector
             .error_model()
-            .and_then(|p| p.uncertainty.as_ref())
-            .map(|u| u.covariance);
+            .map(|e| e.uncertainty().covariance);
         Ok(Plan {
             kind,
             accel,
@@ -251,7 +250,12 @@ impl Plan {
             (None, AccelPlan::Physical(_)) => Some(
                 "this physical model carries no parameter covariance (a model.json of format 1, or one not saved by a campaign)",
             ),
-            (None, _) => Some("spincal gives an error bar for a physical model with a covariance only"),
+            (None, AccelPlan::Linear(_)) => Some(
+                "this linear map carries no parameter covariance (one not saved by a campaign as linear-12, or saved before it did)",
+            ),
+            (None, _) => Some(
+                "spincal gives an error bar for a physical model or a linear map with a covariance only",
+            ),
         }
     }
 
