@@ -272,7 +272,13 @@ fn correct_with_a_linear_12_model_writes_its_error_bar() {
     let covariance: Vec<String> = (0..12)
         .map(|a| {
             let row: Vec<String> = (0..12)
-                .map(|b| if a == b { variances[a].to_string() } else { "0".into() })
+                .map(|b| {
+                    if a == b {
+                        variances[a].to_string()
+                    } else {
+                        "0".into()
+                    }
+                })
                 .collect();
             format!("[{}]", row.join(", "))
         })
@@ -309,7 +315,10 @@ fn correct_with_a_linear_12_model_writes_its_error_bar() {
         let written = std::fs::read_to_string(&out).unwrap();
         let header = written.lines().next().unwrap();
         if !error_bar {
-            assert!(!header.contains("_corrected_sd_") && !header.contains("predicted_better"), "{written}");
+            assert!(
+                !header.contains("_corrected_sd_") && !header.contains("predicted_better"),
+                "{written}"
+            );
             continue;
         }
         assert!(
@@ -319,7 +328,10 @@ fn correct_with_a_linear_12_model_writes_its_error_bar() {
             "{written}"
         );
         let file = spincal::correctors::model_file::CorrectorFile::from_json(text, name).unwrap();
-        let error_model = file.corrector.error_model().expect("a linear map with a covariance");
+        let error_model = file
+            .corrector
+            .error_model()
+            .expect("a linear map with a covariance");
         let mut flags = Vec::new();
         for row in written.lines().skip(1) {
             let v: Vec<f64> = row.split(',').take(11).map(|x| x.parse().unwrap()).collect();
@@ -328,9 +340,8 @@ fn correct_with_a_linear_12_model_writes_its_error_bar() {
             for k in 0..3 {
                 assert!((v[7 + k] - sd[k]).abs() <= 1e-12 * sd[k], "axis {k}: {row}");
             }
-            let better = (0..3).all(|k| {
-                spincal::correctors::physical::predicted_to_help(v[4 + k] - m[k], sd[k])
-            });
+            let better =
+                (0..3).all(|k| spincal::correctors::physical::predicted_to_help(v[4 + k] - m[k], sd[k]));
             assert_eq!(v[10], f64::from(u8::from(better)), "{row}");
             flags.push(better);
         }

@@ -160,7 +160,12 @@ impl<T: Real> Physical<T> {
 /// √diag(J Σ Jᵀ) of a correction `f` of reading `m` with Jacobian `jac`, in spincal's
 /// `propagated_variance` operations, and `predicted_better`: on every axis the correction's
 /// square exceeds twice its variance (`predicted_to_help`). One rule for every kind.
-fn error_of<T: Real>(jac: &Jacobian<T>, covariance: &Covariance<T>, f: [T; 3], m: [T; 3]) -> PredictedError<T> {
+fn error_of<T: Real>(
+    jac: &Jacobian<T>,
+    covariance: &Covariance<T>,
+    f: [T; 3],
+    m: [T; 3],
+) -> PredictedError<T> {
     let mut sd = [T::ZERO; 3];
     let mut better = true;
     for k in 0..3 {

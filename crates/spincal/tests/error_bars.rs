@@ -76,7 +76,11 @@ fn the_predicted_sd_covers_the_error_at_new_orientations() {
 /// (33⅓ and 45 rpm, 20 s at 100 Hz, radius unstated) in the poses' session. Also the share of
 /// held-out readings flagged `predicted_better`, the library's rule on the map's sd, and the
 /// physical kind's RMS on the same readings.
-fn linear_normalised_error_rms(poses: usize, runs: bool, seeds: std::ops::RangeInclusive<u64>) -> LinearCoverage {
+fn linear_normalised_error_rms(
+    poses: usize,
+    runs: bool,
+    seeds: std::ops::RangeInclusive<u64>,
+) -> LinearCoverage {
     let (mut z2, mut physical_z2, mut n, mut better) = (0.0, 0.0, 0usize, 0usize);
     for seed in seeds {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -109,7 +113,9 @@ fn linear_normalised_error_rms(poses: usize, runs: bool, seeds: std::ops::RangeI
                     centre: None,
                 };
                 let rate = 1.01 * rpm * std::f64::consts::PI / 30.0;
-                let run = turntable_run(&sensor, &placement, entry, rate, [0.0; 3], 20.0, 100.0, "run", &mut rng);
+                let run = turntable_run(
+                    &sensor, &placement, entry, rate, [0.0; 3], 20.0, 100.0, "run", &mut rng,
+                );
                 run_inputs.push(run.in_session(Some(0)));
             }
         }
@@ -131,7 +137,9 @@ fn linear_normalised_error_rms(poses: usize, runs: bool, seeds: std::ops::RangeI
             panic!("physical trains a physical model");
         };
         let error_model = CorrectorModel::Linear(map.clone());
-        let error_model = error_model.error_model().expect("linear-12 carries its covariance");
+        let error_model = error_model
+            .error_model()
+            .expect("linear-12 carries its covariance");
         for _ in 0..HELD_OUT {
             let f = random_gravity(&mut rng);
             let reading = sensor.read(f, [0.0; 3]);
@@ -185,7 +193,12 @@ fn the_linear_maps_predicted_sd_covers_its_error_at_new_orientations() {
         );
         if runs {
             let ratio = c.rms / c.physical_rms;
-            assert!((0.7..1.4).contains(&ratio), "RMS {} against physical {}", c.rms, c.physical_rms);
+            assert!(
+                (0.7..1.4).contains(&ratio),
+                "RMS {} against physical {}",
+                c.rms,
+                c.physical_rms
+            );
         } else {
             assert!((0.7..1.4).contains(&c.rms), "RMS of error/predicted sd {}", c.rms);
         }

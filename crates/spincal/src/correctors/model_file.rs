@@ -4,7 +4,10 @@
 //! Format 2 added the physical corrector's `uncertainty` (its parameters' covariance and the
 //! readings' noise); format 1 files, which have none, still read. Format 3 added the kind
 //! `uncorrected`: a file that saves a gyroscope part where no accelerometer correction was shown
-//! to help (an older build refuses it by its version, not by an unknown kind).
+//! to help (an older build refuses it by its version, not by an unknown kind). A `linear` map's
+//! optional `uncertainty` (a campaign's linear-12) came within format 3: a file without it reads
+//! as before, and an older build reading one with it ignores the field (`LinearModel` takes
+//! unknown fields), so it is a compatible change and the version stands.
 //!
 //! A new kind of corrector is one more variant of [`CorrectorModel`] and one more arm in its
 //! `Corrector` impl and in [`CorrectorModel::validate`] (both matches have no wildcard, so the
@@ -563,6 +566,38 @@ mod tests {
         };
         assert!(physical.uncertainty.is_none());
         assert_eq!(physical.predicted_sd([9.81, 0.0, 0.0]), None);
+    }
+
+    #[test]
+    fn a_linear_map_reads_with_and_without_its_covariance_and_only_on_three_axes() {
+        let zeros = format!("[{}]", ["0"; 12].join(", "));
+        let covariance = format!("[{}]", [zeros.as_str(); 12].join(", "));
+        let three = r#""axes": ["x", "y", "z"], "offset_mps2": [0.1, 0, 0],
+            "matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "training": null"#;
+        let two = r#""axes": ["x", "y"], "offset_mps2": [0.1, 0],
+            "matrix": [[1, 0], [0, 1]], "training": null"#;
+        let file = |map: &str, uncertainty: bool| {
+            let u = if uncertainty {
+                format!(
+                    r#", "uncertainty": {{"covariance": {covariance}, "noise_sd_mps2": [0.02, 0.02, 0.02]}}"#
+                )
+            } else {
+                String::new()
+            };
+            format!(
+                r#"{{"format_version": 3, "spincal_version": "0.2.0", "corrector": {{"kind": "linear", {map}{u}}}}}"#
+            )
+        };
+        let old = CorrectorFile::from_json(&file(three, false), "old.json").unwrap();
+        assert!(old.corrector.error_model().is_none());
+        let new = CorrectorFile::from_json(&file(three, true), "new.json").unwrap();
+        let model = new
+            .corrector
+            .error_model()
+            .expect("a linear map with a covariance");
+        assert_eq!(model.predicted_sd([1.0, 2.0, 9.8]), Some([0.0; 3]));
+        let err = CorrectorFile::from_json(&file(two, true), "two.json").unwrap_err();
+        assert!(err.to_string().contains("corrector.uncertainty"), "{err}");
     }
 
     #[test]

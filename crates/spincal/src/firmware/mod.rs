@@ -453,7 +453,10 @@ mod tests {
         }
         assert!(flags[0] > 0 && flags[1] > 0, "{flags:?}");
         // A map of fewer axes has no error bar.
-        let two = spincal_embedded::Linear { n_axes: 2, ..embedded };
+        let two = spincal_embedded::Linear {
+            n_axes: 2,
+            ..embedded
+        };
         assert_eq!(two.predicted_error(&covariance, [0.0, 0.0, 9.8]), None);
     }
 
@@ -504,9 +507,16 @@ mod tests {
         assert!(header.contains("double lin_covariance[12][12];"), "{header}");
         assert!(source.contains("jac[k][3 + 3 * k + j] = m[j];"), "{source}");
         assert!(source.contains("c->lin_covariance[a][b]") && !source.contains("phys_"));
-        assert!(rust.contains("linear map's parameter covariance in f64"), "{rust}");
+        assert!(
+            rust.contains("linear map's parameter covariance in f64"),
+            "{rust}"
+        );
         assert!(rust.contains("covariance: Some(&COVARIANCE_F32)"));
-        assert!(export.float_error.sd_max_rel.is_some_and(|r| r < 1e-5), "{:?}", export.float_error);
+        assert!(
+            export.float_error.sd_max_rel.is_some_and(|r| r < 1e-5),
+            "{:?}",
+            export.float_error
+        );
         let without = crate::correctors::linear::LinearModel {
             uncertainty: None,
             ..linear_with_covariance()
@@ -514,7 +524,10 @@ mod tests {
         let file = CorrectorFile::new(CorrectorModel::Linear(Box::new(without)));
         let (header, _, rust, _) = text(&file, "f32");
         assert!(header.contains("#define SPINCAL_F32_PREDICTS_SD 0"), "{header}");
-        assert!(header.contains("linear map carries no parameter covariance"), "{header}");
+        assert!(
+            header.contains("linear map carries no parameter covariance"),
+            "{header}"
+        );
         assert!(rust.contains("covariance: None"));
 
         // Without a covariance, and a physical_ann whose physical part has one: nothing new.
@@ -562,7 +575,10 @@ mod tests {
         let file = CorrectorFile::new(CorrectorModel::PhysicalAnn(Box::new(pa)));
         let (header, source, rust, _) = text(&file, "f32");
         assert!(header.contains("#define SPINCAL_F32_PREDICTS_SD 0"), "{header}");
-        assert!(header.contains("error bar for a physical model or a linear map with a"), "{header}");
+        assert!(
+            header.contains("error bar for a physical model or a linear map with a"),
+            "{header}"
+        );
         assert!(!source.contains("phys_covariance") && !rust.contains("COVARIANCE"));
     }
 

@@ -231,10 +231,7 @@ impl Plan {
         };
         // One rule with `correct`: a physical_ann's physical part may carry an uncertainty, but
         // its rows get no error bar, so neither do the exports.
-        let covariance = file
-            .corrector
-            .error_model()
-            .map(|e| e.uncertainty().covariance);
+        let covariance = file.corrector.error_model().map(|e| e.uncertainty().covariance);
         Ok(Plan {
             kind,
             accel,
