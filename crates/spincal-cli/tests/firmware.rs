@@ -26,7 +26,7 @@ use spincal::correctors::corrector::{Axis, Corrector};
 use spincal::correctors::division::DivisionMode;
 use spincal::correctors::gyro::{GyroInputUnit, GyroModel};
 use spincal::correctors::linear::LinearModel;
-use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
+use spincal::correctors::model_file::{CorrectorFile, CorrectorModel, Uncorrected};
 use spincal::correctors::physical::{predicted_to_help, PhysicalCorrector, SensorModel, SensorUncertainty};
 use spincal::correctors::physical_ann::{InputCoverage, PhysicalAnnCorrector};
 use spincal::correctors::rows::{PredictedError, RowCorrector, RowOutcome, UnitFactors};
@@ -37,13 +37,14 @@ use spincal::simulate::campaign::profile_sensor_model;
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
 
 /// The kinds, by the name their files and symbols get.
-const KINDS: [&str; 6] = [
+const KINDS: [&str; 7] = [
     "physical",
     "physical_linear",
     "linear",
     "static",
     "ann",
     "physical_ann",
+    "uncorrected",
 ];
 
 /// Held-out samples run through every build.
@@ -237,6 +238,14 @@ fn models_and_samples() -> (Vec<(&'static str, CorrectorFile)>, Samples, f64) {
         (
             "physical_ann",
             with_gyro(CorrectorModel::PhysicalAnn(Box::new(physical_ann))),
+        ),
+        // A gyro part saved alone (format 3): the accelerometer passes as read, the gyro is the
+        // library's.
+        (
+            "uncorrected",
+            with_gyro(CorrectorModel::Uncorrected(Box::new(Uncorrected {
+                reason: "no accelerometer correction shown to help".into(),
+            }))),
         ),
     ];
 

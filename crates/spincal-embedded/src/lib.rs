@@ -299,6 +299,8 @@ pub enum Accel<'a, T> {
     Static(Static<T>),
     Ann(Network<'a, T>),
     PhysicalAnn(PhysicalAnn<'a, T>),
+    /// The reading unchanged (a model.json of kind `uncorrected`: its gyro part alone).
+    AsRead,
 }
 
 /// A saved corrector: the accelerometer's and, if calibrated, the gyroscope's.
@@ -395,6 +397,12 @@ impl<T: Real> Model<'_, T> {
             Accel::Static(s) => s.sample(m),
             Accel::Ann(n) => n.stream_sample(&mut state.history, &mut state.seen, m),
             Accel::PhysicalAnn(pa) => pa.sample(&mut state.history, m),
+            Accel::AsRead => Corrected {
+                accel: m,
+                gyro: None,
+                valid: true,
+                outside_training_range: false,
+            },
         }
     }
 }

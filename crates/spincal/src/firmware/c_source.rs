@@ -84,6 +84,7 @@ fn fields(plan: &Plan) -> Vec<Field> {
             network_fields(&mut out, n);
             coverage_fields(&mut out, c);
         }
+        AccelPlan::AsRead => {}
     }
     if let Some(covariance) = &plan.covariance {
         let (name, order) = covariance_field(plan);
@@ -421,6 +422,7 @@ fn source(plan: &Plan, n: &Names, fields: &[Field], precision: Precision, proven
             coverage_fn(&mut s, n, cov);
             physical_ann_fn(&mut s, n, net);
         }
+        AccelPlan::AsRead => as_read_fn(&mut s, n),
     }
     match (&plan.covariance, &plan.accel) {
         (Some(_), AccelPlan::Physical(ph)) => predicted_sd_fn(&mut s, n, ph, precision),
@@ -610,6 +612,18 @@ fn linear_fn(s: &mut String, n: &Names, l: &LinearPlan) {
         s,
         "static unsigned {p}_accel(const {p}_coefficients *c, {p}_state *state, const {r} m[3], {r} out[3])\n{{\n    \
          (void)state;\n    out[0] = m[0];\n    out[1] = m[1];\n    out[2] = m[2];\n{body}    return {u}_VALID;\n}}\n"
+    );
+}
+
+/// The accelerometer as read (a file that corrects the gyroscope alone): `spincal correct`
+/// writes no corrected accelerometer column for it, so the reading is the sample's value.
+fn as_read_fn(s: &mut String, n: &Names) {
+    let (p, u, r) = (&n.p, &n.u, n.r);
+    let _ = writeln!(
+        s,
+        "/* The accelerometer as read: this model corrects only the gyroscope. */\n\
+         static unsigned {p}_accel(const {p}_coefficients *c, {p}_state *state, const {r} m[3], {r} out[3])\n{{\n    \
+         (void)c;\n    (void)state;\n    out[0] = m[0];\n    out[1] = m[1];\n    out[2] = m[2];\n    return {u}_VALID;\n}}\n"
     );
 }
 

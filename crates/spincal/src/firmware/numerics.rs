@@ -156,6 +156,7 @@ pub(crate) fn float_error(plan: &Plan, model: &CorrectorModel) -> FloatError {
                 matrix,
             })
         }
+        AccelPlan::AsRead => spincal_embedded::Accel::AsRead,
         AccelPlan::Static(s) => spincal_embedded::Accel::Static(spincal_embedded::Static {
             bias: three(&s.bias),
             scale: three(&s.scale),

@@ -176,6 +176,8 @@ pub(crate) enum AccelPlan {
     Static(StaticPlan),
     Ann(NetworkPlan),
     PhysicalAnn(Box<(PhysicalPlan, NetworkPlan, CoveragePlan)>),
+    /// The accelerometer as read (kind `uncorrected`: the file corrects the gyroscope alone).
+    AsRead,
 }
 
 /// Everything the generated sources hold.
@@ -214,12 +216,14 @@ impl Plan {
                 NetworkPlan::of(&pa.network, "corrector.network")?,
                 CoveragePlan::of(&pa.coverage),
             ))),
+            // A gyro part saved alone: the accelerometer passes through as `correct` leaves it.
+            CorrectorModel::Uncorrected(_) if file.gyro.is_some() => AccelPlan::AsRead,
             CorrectorModel::Uncorrected(u) => {
                 return Err(FirmwareError::TooLarge {
                     file: String::new(),
                     field: "corrector.kind".into(),
                     reason: format!(
-                        "uncorrected ({}): the firmware export needs an accelerometer corrector; apply the gyro part with `spincal correct`",
+                        "uncorrected ({}) with no gyro part: nothing the firmware export can correct",
                         u.reason
                     ),
                 })
@@ -246,6 +250,9 @@ impl Plan {
             (Some(_), _) => None,
             (None, AccelPlan::Physical(_)) => Some(
                 "this physical model carries no parameter covariance (a model.json of format 1, or one not saved by a campaign)",
+            ),
+            (None, AccelPlan::AsRead) => Some(
+                "this file corrects only the gyroscope (kind uncorrected): the accelerometer passes as read",
             ),
             (None, AccelPlan::Linear(_)) => Some(
                 "this linear map carries no parameter covariance (one not saved by a campaign as linear-12, or saved before it did)",

@@ -128,6 +128,7 @@ fn model(plan: &Plan, x: Precision) -> String {
             matrix3(&s.matrix, x)
         ),
         AccelPlan::Ann(n) => format!("spincal_embedded::Accel::Ann({})", network(n, x)),
+        AccelPlan::AsRead => "spincal_embedded::Accel::AsRead".into(),
         AccelPlan::PhysicalAnn(pa) => {
             let (p, n, c) = (&pa.0, &pa.1, &pa.2);
             format!(
