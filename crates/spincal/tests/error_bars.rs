@@ -176,10 +176,10 @@ struct LinearCoverage {
 /// linear-12's error bars cover its error at orientations the campaign never held: RMS of
 /// error/sd within 0.7–1.4 over 12 units from 24 one-file poses (0.98 measured). From 12 poses
 /// of one session with two turntable runs the physical kind's own error bars are too narrow on
-/// this generator (RMS 1.83 measured), and the map, which inherits the joint fit's covariance,
+/// this generator (RMS 1.75 measured), and the map, which inherits the joint fit's covariance,
 /// is as narrow (1.98): asserted within 0.7–1.4 of the physical kind's RMS there, so that the map
-/// adds no overconfidence of its own. The reference's error (the joint fit's sensor covariance
-/// carried into the map) is what makes the error bars: without it the map's sd is far narrower.
+/// adds no overconfidence of its own. Each part of the map's covariance alone errs narrow
+/// (`campaign::candidate`'s `map_covariance` gives the figures).
 #[test]
 fn the_linear_maps_predicted_sd_covers_its_error_at_new_orientations() {
     for (poses, runs) in [(24, false), (12, true)] {
