@@ -259,3 +259,94 @@ fn correct_applies_a_physical_corrector_to_every_row() {
     let x: f64 = rows[0].split(',').nth(4).unwrap().parse().unwrap();
     assert!((x - 1.0).abs() < 1e-9, "{text}");
 }
+
+/// `correct` with a campaign's linear-12 model.json (a linear map with its 12 parameters'
+/// covariance) writes each row's predicted sd per axis and `predicted_better`, the library's
+/// values; the same map without a covariance (an older file) writes neither.
+#[test]
+fn correct_with_a_linear_12_model_writes_its_error_bar() {
+    let dir = tempfile::tempdir().unwrap();
+    let variances = [
+        1e-4, 4e-4, 1e-4, 1e-6, 1e-6, 1e-6, 4e-6, 1e-6, 1e-6, 1e-6, 1e-6, 9e-6,
+    ];
+    let covariance: Vec<String> = (0..12)
+        .map(|a| {
+            let row: Vec<String> = (0..12)
+                .map(|b| {
+                    if a == b {
+                        variances[a].to_string()
+                    } else {
+                        "0".into()
+                    }
+                })
+                .collect();
+            format!("[{}]", row.join(", "))
+        })
+        .collect();
+    let map = r#""axes": ["x", "y", "z"], "offset_mps2": [-0.1, 0.2, -0.05],
+        "matrix": [[0.99, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.01]], "training": null"#;
+    let with = format!(
+        r#"{{"format_version": 3, "spincal_version": "test", "corrector": {{"kind": "linear", {map},
+            "uncertainty": {{"covariance": [{}], "noise_sd_mps2": [0.02, 0.02, 0.02]}}}}}}"#,
+        covariance.join(", ")
+    );
+    let without = format!(
+        r#"{{"format_version": 3, "spincal_version": "test", "corrector": {{"kind": "linear", {map}}}}}"#
+    );
+    let input = dir.path().join("in.csv");
+    std::fs::write(
+        &input,
+        "t_s,ax_mps2,ay_mps2,az_mps2\n0,1.11,-0.2,9.75\n0.01,-10,-0.18,0.2\n0.02,9.8,0.1,0.05\n",
+    )
+    .unwrap();
+    for (name, text, error_bar) in [("with.json", &with, true), ("without.json", &without, false)] {
+        let model = dir.path().join(name);
+        std::fs::write(&model, text).unwrap();
+        let out = dir.path().join(format!("out-{name}.csv"));
+        spincal()
+            .arg("correct")
+            .arg(&input)
+            .arg("--model")
+            .arg(&model)
+            .arg("-o")
+            .arg(&out)
+            .assert()
+            .success();
+        let written = std::fs::read_to_string(&out).unwrap();
+        let header = written.lines().next().unwrap();
+        if !error_bar {
+            assert!(
+                !header.contains("_corrected_sd_") && !header.contains("predicted_better"),
+                "{written}"
+            );
+            continue;
+        }
+        assert!(
+            header.starts_with(
+                "t_s,ax_mps2,ay_mps2,az_mps2,ax_corrected_mps2,ay_corrected_mps2,az_corrected_mps2,ax_corrected_sd_mps2,ay_corrected_sd_mps2,az_corrected_sd_mps2,predicted_better,"
+            ),
+            "{written}"
+        );
+        let file = spincal::correctors::model_file::CorrectorFile::from_json(text, name).unwrap();
+        let error_model = file
+            .corrector
+            .error_model()
+            .expect("a linear map with a covariance");
+        let mut flags = Vec::new();
+        for row in written.lines().skip(1) {
+            let v: Vec<f64> = row.split(',').take(11).map(|x| x.parse().unwrap()).collect();
+            let m = [v[1], v[2], v[3]];
+            let sd = error_model.predicted_sd(m).unwrap();
+            for k in 0..3 {
+                assert!((v[7 + k] - sd[k]).abs() <= 1e-12 * sd[k], "axis {k}: {row}");
+            }
+            let better =
+                (0..3).all(|k| spincal::correctors::physical::predicted_to_help(v[4 + k] - m[k], sd[k]));
+            assert_eq!(v[10], f64::from(u8::from(better)), "{row}");
+            flags.push(better);
+        }
+        // Every correction of the first row is well beyond its sd; the second's x is none
+        // (0.99 · −10 − 0.1 = −10).
+        assert_eq!(flags[..2], [true, false], "{written}");
+    }
+}

@@ -26,7 +26,7 @@ use spincal::correctors::corrector::{Axis, Corrector};
 use spincal::correctors::division::DivisionMode;
 use spincal::correctors::gyro::{GyroInputUnit, GyroModel};
 use spincal::correctors::linear::LinearModel;
-use spincal::correctors::model_file::{CorrectorFile, CorrectorModel};
+use spincal::correctors::model_file::{CorrectorFile, CorrectorModel, Uncorrected};
 use spincal::correctors::physical::{predicted_to_help, PhysicalCorrector, SensorModel, SensorUncertainty};
 use spincal::correctors::physical_ann::{InputCoverage, PhysicalAnnCorrector};
 use spincal::correctors::rows::{PredictedError, RowCorrector, RowOutcome, UnitFactors};
@@ -37,13 +37,14 @@ use spincal::simulate::campaign::profile_sensor_model;
 use spincal::simulate::{simulate, SensorProfile, TurntableSetup};
 
 /// The kinds, by the name their files and symbols get.
-const KINDS: [&str; 6] = [
+const KINDS: [&str; 7] = [
     "physical",
     "physical_linear",
     "linear",
     "static",
     "ann",
     "physical_ann",
+    "uncorrected",
 ];
 
 /// Held-out samples run through every build.
@@ -150,7 +151,12 @@ fn models_and_samples() -> (Vec<(&'static str, CorrectorFile)>, Samples, f64) {
         },
         ..physical.clone()
     };
-    let linear = LinearModel::fit(measured, &reference, &Axis::ALL, DivisionMode::Contiguous).unwrap();
+    // A linear map with a covariance, as a campaign's linear-12 saves it (the physical fit's
+    // numbers stand in for one of the same size): the error bar is exported for it too.
+    let linear = LinearModel {
+        uncertainty: physical.uncertainty.clone(),
+        ..LinearModel::fit(measured, &reference, &Axis::ALL, DivisionMode::Contiguous).unwrap()
+    };
     let settings = LmSettings {
         max_epochs: 40,
         ..LmSettings::default()
@@ -232,6 +238,14 @@ fn models_and_samples() -> (Vec<(&'static str, CorrectorFile)>, Samples, f64) {
         (
             "physical_ann",
             with_gyro(CorrectorModel::PhysicalAnn(Box::new(physical_ann))),
+        ),
+        // A gyro part saved alone (format 3): the accelerometer passes as read, the gyro is the
+        // library's.
+        (
+            "uncorrected",
+            with_gyro(CorrectorModel::Uncorrected(Box::new(Uncorrected {
+                reason: "no accelerometer correction shown to help".into(),
+            }))),
         ),
     ];
 
@@ -697,7 +711,7 @@ fn every_kind_exported_to_c_and_no_std_rust_matches_the_library() {
         let has_error_bar = file.corrector.error_model().is_some();
         assert_eq!(
             has_error_bar,
-            matches!(*kind, "physical" | "physical_linear"),
+            matches!(*kind, "physical" | "physical_linear" | "linear"),
             "{kind}"
         );
         if has_error_bar {
@@ -969,7 +983,7 @@ fn float_export_on_a_cortex_m4f_under_qemu_matches_the_host() {
             .arg(&elf));
         assert_eq!(on_m4.lines().count(), n, "{kind}: QEMU printed:\n{on_m4}");
         // The error bar is compared too where the export gives one.
-        let fields = if matches!(*kind, "physical" | "physical_linear") {
+        let fields = if matches!(*kind, "physical" | "physical_linear" | "linear") {
             11
         } else {
             7

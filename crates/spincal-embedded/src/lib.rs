@@ -131,30 +131,7 @@ impl<T: Real> Physical<T> {
     /// `predicted_better`. `None` where the model has no inverse (`correct` leaves them empty).
     pub fn predicted_error(&self, covariance: &Covariance<T>, m: [T; 3]) -> Option<PredictedError<T>> {
         let (f, jac) = self.correct_with_jacobian(m)?;
-        let mut sd = [T::ZERO; 3];
-        let mut better = true;
-        for k in 0..3 {
-            let row = &jac[k];
-            let mut sum = T::ZERO;
-            for a in 0..PARAMS {
-                // spincal skips a parameter the correction does not depend on: the same sum.
-                if row[a] == T::ZERO {
-                    continue;
-                }
-                let mut inner = T::ZERO;
-                for b in 0..PARAMS {
-                    inner = inner + covariance[a][b] * row[b];
-                }
-                sum = sum + row[a] * inner;
-            }
-            let variance = if sum > T::ZERO { sum } else { T::ZERO };
-            sd[k] = variance.sqrt();
-            // Predicted to help when ĉ² > 2σ²: ĉ² − σ² estimates the true correction's square,
-            // and applying ĉ leaves σ².
-            let correction = f[k] - m[k];
-            better &= correction * correction > T::TWO * sd[k] * sd[k];
-        }
-        Some(PredictedError { sd, better })
+        Some(error_of(&jac, covariance, f, m))
     }
 
     /// Whether reading `m` lies beyond the covered range by more than 10 % of its width.
@@ -180,15 +157,51 @@ impl<T: Real> Physical<T> {
     }
 }
 
+/// √diag(J Σ Jᵀ) of a correction `f` of reading `m` with Jacobian `jac`, in spincal's
+/// `propagated_variance` operations, and `predicted_better`: on every axis the correction's
+/// square exceeds twice its variance (`predicted_to_help`). One rule for every kind.
+fn error_of<T: Real>(
+    jac: &Jacobian<T>,
+    covariance: &Covariance<T>,
+    f: [T; 3],
+    m: [T; 3],
+) -> PredictedError<T> {
+    let mut sd = [T::ZERO; 3];
+    let mut better = true;
+    for k in 0..3 {
+        let row = &jac[k];
+        let mut sum = T::ZERO;
+        for a in 0..PARAMS {
+            // spincal skips a parameter the correction does not depend on: the same sum.
+            if row[a] == T::ZERO {
+                continue;
+            }
+            let mut inner = T::ZERO;
+            for b in 0..PARAMS {
+                inner = inner + covariance[a][b] * row[b];
+            }
+            sum = sum + row[a] * inner;
+        }
+        let variance = if sum > T::ZERO { sum } else { T::ZERO };
+        sd[k] = variance.sqrt();
+        // Predicted to help when ĉ² > 2σ²: ĉ² − σ² estimates the true correction's square,
+        // and applying ĉ leaves σ².
+        let correction = f[k] - m[k];
+        better &= correction * correction > T::TWO * sd[k] * sd[k];
+    }
+    PredictedError { sd, better }
+}
+
 /// Parameters of the physical model, in spincal's order: bias x, y, z (m/s²), scale error x,
 /// y, z, misalignment m_yx, m_zx, m_zy (rad), quadratic x, y, z (1/(m/s²)).
 pub const PARAMS: usize = 12;
 
-/// ∂f_k/∂θ_j of a physical correction: three rows of the [`PARAMS`] parameters.
+/// ∂f_k/∂θ_j of a correction: three rows of the [`PARAMS`] parameters.
 pub type Jacobian<T> = [[T; PARAMS]; 3];
 
-/// The covariance of a physical model's [`PARAMS`] parameters (their units' products), as the
-/// campaign's joint fit saved it in model.json's `uncertainty`.
+/// The covariance of a model's [`PARAMS`] parameters (their units' products), as a campaign saved
+/// it in model.json's `uncertainty`: a physical model's in [`PARAMS`] order, a linear map's in
+/// [`Linear::predicted_error`]'s (the offsets, then the matrix row by row).
 pub type Covariance<T> = [[T; PARAMS]; PARAMS];
 
 /// A correction's error as the model's covariance predicts it.
@@ -286,6 +299,8 @@ pub enum Accel<'a, T> {
     Static(Static<T>),
     Ann(Network<'a, T>),
     PhysicalAnn(PhysicalAnn<'a, T>),
+    /// The reading unchanged (a model.json of kind `uncorrected`: its gyro part alone).
+    AsRead,
 }
 
 /// A saved corrector: the accelerometer's and, if calibrated, the gyroscope's.
@@ -293,9 +308,9 @@ pub enum Accel<'a, T> {
 pub struct Model<'a, T> {
     pub accel: Accel<'a, T>,
     pub gyro: Option<Gyro<T>>,
-    /// The physical model's parameter covariance, when model.json carries one (`spincal
-    /// correct` then writes each row's error bar): see [`Model::predicted_error`]. `None` for
-    /// every other kind.
+    /// The parameters' covariance of a physical model or a linear map, when model.json carries
+    /// one (`spincal correct` then writes each row's error bar): see [`Model::predicted_error`].
+    /// `None` for every other kind.
     pub covariance: Option<&'a Covariance<T>>,
 }
 
@@ -361,12 +376,14 @@ impl<T: Real> Model<'_, T> {
     }
 
     /// The error of the correction of `accel` that the model's covariance predicts (as
-    /// [`Physical::predicted_error`]): for a physical model with a covariance, where it has an
-    /// inverse; `None` otherwise, as `spincal correct` writes no error bar then.
+    /// [`Physical::predicted_error`] and [`Linear::predicted_error`]): for a physical model with
+    /// a covariance, where it has an inverse, and a linear map of the three axes with one;
+    /// `None` otherwise, as `spincal correct` writes no error bar then.
     #[inline]
     pub fn predicted_error(&self, accel: [T; 3]) -> Option<PredictedError<T>> {
         match (&self.accel, self.covariance) {
             (Accel::Physical(p), Some(covariance)) => p.predicted_error(covariance, accel),
+            (Accel::Linear(l), Some(covariance)) => l.predicted_error(covariance, accel),
             _ => None,
         }
     }
@@ -380,11 +397,36 @@ impl<T: Real> Model<'_, T> {
             Accel::Static(s) => s.sample(m),
             Accel::Ann(n) => n.stream_sample(&mut state.history, &mut state.seen, m),
             Accel::PhysicalAnn(pa) => pa.sample(&mut state.history, m),
+            Accel::AsRead => Corrected {
+                accel: m,
+                gyro: None,
+                valid: true,
+                outside_training_range: false,
+            },
         }
     }
 }
 
 impl<T: Real> Linear<T> {
+    /// The correction's standard deviation per axis that the covariance of the map's 12
+    /// parameters (offset x, y, z, then the matrix row by row) predicts, and `predicted_better`,
+    /// as `spincal correct` writes them (∂f_i/∂c_i = 1, ∂f_i/∂A_ij = m_j). `None` unless the map
+    /// is of the three axes in the order x, y, z (the only maps saved with a covariance).
+    pub fn predicted_error(&self, covariance: &Covariance<T>, m: [T; 3]) -> Option<PredictedError<T>> {
+        if self.n_axes != 3 || self.axes != [0, 1, 2] {
+            return None;
+        }
+        let mut jac = [[T::ZERO; PARAMS]; 3];
+        for i in 0..3 {
+            jac[i][i] = T::ONE;
+            for j in 0..3 {
+                jac[i][3 + 3 * i + j] = m[j];
+            }
+        }
+        let f = self.sample(m).accel;
+        Some(error_of(&jac, covariance, f, m))
+    }
+
     fn sample(&self, m: [T; 3]) -> Corrected<T> {
         let mut out = m;
         let n = self.n_axes;

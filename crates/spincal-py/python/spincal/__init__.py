@@ -405,7 +405,7 @@ class Corrected:
     value that is not a finite number, time going backwards; the row's corrected values are
     NaN), the words of ``spincal correct``'s status column. ``refused`` maps each refused row's
     position to its reason. For a model whose parameters' covariance predicts its error (the
-    ``physical`` kind from a campaign), ``predicted_sd`` (n, 3) m/s² is each row's predicted
+    ``physical`` kind and the ``linear`` map of ``linear-12`` from a campaign), ``predicted_sd`` (n, 3) m/s² is each row's predicted
     standard deviation of the correction and ``predicted_better`` (n,) whether on every corrected
     axis the correction is predicted to beat no correction (its square above twice its
     variance); other kinds give None for both.

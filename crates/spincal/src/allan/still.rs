@@ -305,6 +305,7 @@ mod tests {
                 offset_mps2: vec![0.0; 3],
                 matrix: vec![vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]],
                 training: None,
+                uncertainty: None,
             },
         )));
         let with_linear = StillNoise {

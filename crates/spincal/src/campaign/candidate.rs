@@ -402,6 +402,41 @@ fn physical_corrector(t: &TrainingSet<'_>, fit: &JointFit) -> PhysicalCorrector 
     }
 }
 
+/// The covariance that a correction from `fit` (made with `terms`) takes for its error bars, and
+/// the sensor of the fuller fit it comes from. A model that leaves terms out (q at zero) errs by
+/// what it left out: its error bars take the fuller fit's covariance (what the kept terms may
+/// have absorbed of the left-out ones included), each left-out term's variance raised to its
+/// squared estimate where that is larger. On 7 one-file poses of the independent generator this
+/// errs wide (error/sd RMS 0.3–0.7); the left-out term and its alias alone with q² estimated as
+/// q̂² − se² erred narrow (2.3): q̂ from so few poses cannot tell q² apart from zero. The fuller
+/// fit has q on every axis, also where the terms rule holds it at zero.
+fn error_bar_covariance(
+    t: &TrainingSet<'_>,
+    fit: &JointFit,
+    terms: SensorTerms,
+    observer: &Observer,
+) -> Result<(Option<SensorCovariance>, SensorModel), String> {
+    let full_terms = SensorTerms {
+        nonlinearity_axes: [true; 3],
+        ..t.joint.terms
+    };
+    if terms == full_terms {
+        return Ok((fit.sensor_covariance(), fit.sensor));
+    }
+    let full = t.fit(full_terms, observer)?;
+    let covariance = match (fit.sensor_covariance(), full.sensor_covariance()) {
+        (Some(_), Some(mut covariance)) => {
+            let (kept, theta) = (fit.sensor.params(), full.sensor.params());
+            for q in (0..SENSOR_PARAMS).filter(|&q| kept[q] == 0.0) {
+                covariance[q][q] = covariance[q][q].max(theta[q] * theta[q]);
+            }
+            Some(covariance)
+        }
+        (own, _) => own,
+    };
+    Ok((covariance, full.sensor))
+}
+
 struct PhysicalCandidate(SensorTerms);
 
 impl Trainer for PhysicalCandidate {
@@ -413,28 +448,11 @@ impl Trainer for PhysicalCandidate {
         };
         let fit = t.fit(terms, observer)?;
         let mut physical = physical_corrector(t, &fit);
-        // A model that leaves terms out (q at zero) errs by what it left out. Its error bars take
-        // the fuller fit's covariance (what the kept terms may have absorbed of the left-out ones
-        // included), each left-out term's variance raised to its squared estimate where that is
-        // larger. On 7 one-file poses of the independent generator this errs wide (error/sd RMS
-        // 0.3–0.7); the left-out term and its alias alone with q² estimated as q̂² − se² erred
-        // narrow (2.3): q̂ from so few poses cannot tell q² apart from zero.
-        // The fuller fit has q on every axis, also where the terms rule holds it at zero.
-        let full_terms = SensorTerms {
-            nonlinearity_axes: [true; 3],
-            ..t.joint.terms
-        };
-        if terms != full_terms {
-            let full = t.fit(full_terms, observer)?;
-            if let (Some(uncertainty), Some(mut covariance)) =
-                (physical.uncertainty.as_mut(), full.sensor_covariance())
-            {
-                let (kept, theta) = (physical.sensor.params(), full.sensor.params());
-                for q in (0..SENSOR_PARAMS).filter(|&q| kept[q] == 0.0) {
-                    covariance[q][q] = covariance[q][q].max(theta[q] * theta[q]);
-                }
-                uncertainty.covariance = covariance;
-            }
+        if let (Some(uncertainty), (Some(covariance), _)) = (
+            physical.uncertainty.as_mut(),
+            error_bar_covariance(t, &fit, terms, observer)?,
+        ) {
+            uncertainty.covariance = covariance;
         }
         Ok(Trained::Corrector(CorrectorModel::Physical(Box::new(physical))))
     }
@@ -445,66 +463,227 @@ const LINEAR_SAMPLES_PER_RUN: usize = 4000;
 
 struct LinearCandidate;
 
+/// Directions of gravity (a Fibonacci lattice) over which the map's departure from the fuller
+/// model is averaged.
+const DEPARTURE_DIRECTIONS: usize = 500;
+
+/// One sample of the 12-parameter map's least squares: the reading, the joint fit's reference
+/// for it, and its weight.
+struct MapPoint {
+    m: [f64; 3],
+    f: [f64; 3],
+    w: f64,
+}
+
+/// `[m, 1]`: the map's regressors (the offset last).
+fn regressors(m: [f64; 3]) -> [f64; 4] {
+    [m[0], m[1], m[2], 1.0]
+}
+
+/// The index in `LinearModel::params` (offsets, then the matrix row by row) of corrected axis
+/// `k`'s coefficient on regressor `a` of [`regressors`].
+fn map_param(k: usize, a: usize) -> usize {
+    if a == 3 {
+        k
+    } else {
+        3 + 3 * k + a
+    }
+}
+
 impl Trainer for LinearCandidate {
     fn train(&self, t: &TrainingSet<'_>, observer: &Observer) -> Result<Trained, String> {
         // The reference is the full physical fit's specific force.
         let fit = t.fit(t.joint.terms, observer)?;
-        // Normal equations of f_k = c_k + Σ_j A_kj m_j, rows weighted equally per sample; a
-        // pose's mean counts as many samples as it averages (capped like a run).
-        let mut ata = [[0.0f64; 4]; 4];
-        let mut atb = [[0.0f64; 4]; 3];
-        let mut add = |m: [f64; 3], f: [f64; 3], w: f64| {
-            let x = [m[0], m[1], m[2], 1.0];
-            for a in 0..4 {
-                for b in 0..4 {
-                    ata[a][b] += w * x[a] * x[b];
-                }
-                for k in 0..3 {
-                    atb[k][a] += w * x[a] * f[k];
-                }
-            }
-        };
+        // Rows weighted equally per sample; a pose's mean counts as many samples as it averages
+        // (capped like a run).
+        let mut points = Vec::new();
         for (i, run) in t.runs.iter().enumerate() {
             let reference = fit.run_reference(i, &run.time_s);
             let step = (run.time_s.len() / LINEAR_SAMPLES_PER_RUN).max(1);
             for s in (0..run.time_s.len()).step_by(step) {
                 if run.keep[s] {
-                    let m = [run.accel_mps2[0][s], run.accel_mps2[1][s], run.accel_mps2[2][s]];
-                    add(m, [reference[0][s], reference[1][s], reference[2][s]], 1.0);
+                    points.push(MapPoint {
+                        m: [run.accel_mps2[0][s], run.accel_mps2[1][s], run.accel_mps2[2][s]],
+                        f: [reference[0][s], reference[1][s], reference[2][s]],
+                        w: 1.0,
+                    });
                 }
             }
         }
         for (p, pose) in t.poses.iter().enumerate() {
-            let w = pose.samples.min(LINEAR_SAMPLES_PER_RUN) as f64;
-            add(pose.mean_mps2, fit.poses[p].specific_force_mps2, w);
+            points.push(MapPoint {
+                m: pose.mean_mps2,
+                f: fit.poses[p].specific_force_mps2,
+                w: pose.samples.min(LINEAR_SAMPLES_PER_RUN) as f64,
+            });
         }
-        let a = faer::Mat::from_fn(4, 4, |i, j| ata[i][j]);
-        let lu = a.partial_piv_lu();
-        let mut matrix = vec![vec![0.0; 3]; 3];
-        let mut offset = vec![0.0; 3];
-        for k in 0..3 {
-            let rhs = faer::Mat::from_fn(4, 1, |i, _| atb[k][i]);
-            let x = faer::prelude::Solve::solve(&lu, &rhs);
-            for j in 0..3 {
-                matrix[k][j] = x[(j, 0)];
+        // Normal equations of f_k = c_k + Σ_j A_kj m_j, one matrix for the three axes.
+        let mut ata = [[0.0f64; 4]; 4];
+        for point in &points {
+            let x = regressors(point.m);
+            for a in 0..4 {
+                for b in 0..4 {
+                    ata[a][b] += point.w * x[a] * x[b];
+                }
             }
-            offset[k] = x[(3, 0)];
         }
+        let lu = faer::Mat::from_fn(4, 4, |i, j| ata[i][j]).partial_piv_lu();
+        let identity = faer::Mat::<f64>::identity(4, 4);
+        let inverse = faer::prelude::Solve::solve(&lu, &identity);
+        let n_inv: [[f64; 4]; 4] = std::array::from_fn(|i| std::array::from_fn(|j| inverse[(i, j)]));
+        let mut xtf = [[0.0f64; 4]; 3];
+        for point in &points {
+            let x = regressors(point.m);
+            for k in 0..3 {
+                for a in 0..4 {
+                    xtf[k][a] += point.w * x[a] * point.f[k];
+                }
+            }
+        }
+        let solution: [[f64; 4]; 3] =
+            std::array::from_fn(|k| std::array::from_fn(|a| (0..4).map(|b| n_inv[a][b] * xtf[k][b]).sum()));
+        let matrix: Vec<Vec<f64>> = (0..3).map(|k| solution[k][..3].to_vec()).collect();
+        let offset: Vec<f64> = (0..3).map(|k| solution[k][3]).collect();
         if matrix.iter().flatten().chain(&offset).any(|v| !v.is_finite()) {
             return Err(
                 "the 12-parameter map is singular on this training set (too few distinct orientations)"
                     .into(),
             );
         }
-        Ok(Trained::Corrector(CorrectorModel::Linear(Box::new(
-            LinearModel {
-                axes: Axis::ALL.to_vec(),
-                offset_mps2: offset,
-                matrix,
-                training: None,
-            },
-        ))))
+        let mut model = LinearModel {
+            axes: Axis::ALL.to_vec(),
+            offset_mps2: offset,
+            matrix,
+            training: None,
+            uncertainty: None,
+        };
+        let (sensor_covariance, fuller) = error_bar_covariance(t, &fit, t.joint.terms, observer)?;
+        model.uncertainty = sensor_covariance.map(|covariance| SensorUncertainty {
+            covariance: map_covariance(
+                &model,
+                &points,
+                &n_inv,
+                &fit.sensor,
+                &covariance,
+                &fuller,
+                t.joint.gravity_mps2,
+            ),
+            noise_sd_mps2: reading_noise(&t.runs, &t.poses),
+            // As the physical kind's (`physical_corrector`).
+            session_spread_mps2: (fit.bias_spread.offsets >= 2).then_some(fit.bias_spread.sd_mps2),
+        });
+        Ok(Trained::Corrector(CorrectorModel::Linear(Box::new(model))))
     }
+}
+
+/// The covariance of the 12-parameter map (`LinearModel::params` order), as its error bars take
+/// it. The map is least squares from the readings to a reference that the joint fit estimates:
+/// a pose's reference is the gravity direction the sensor model fits to that pose's reading, so
+/// the map follows the fitted model's inverse g_θ̂(m) and inherits its parameters' error, which
+/// the map's own residuals cannot show. Three parts, added:
+/// - the reference's error: the map as the least-squares projection of g_θ (over the training
+///   readings, with their weights) moves with θ by G = (XᵀWX)⁻¹ XᵀW ∂g/∂θ, so G Σ_θ Gᵀ with Σ_θ
+///   the physical kind's error-bar covariance (`error_bar_covariance`: the fuller fit's, a
+///   left-out term's variance raised to its squared estimate);
+/// - what a map cannot hold: the fuller fit's inverse is not affine where it has q, and a map
+///   fitted where the training readings crowd (a run's, near one direction of gravity) follows
+///   its tangent there. The mean square over every direction of gravity of the map's departure
+///   from the fuller fit's inverse at a still reading (per axis) is added to that axis's offset
+///   variance, so every row's sd carries it: an RMS over directions, not the departure at a
+///   given reading;
+/// - the map's sampling error: the heteroscedasticity-robust sandwich (XᵀWX)⁻¹ Σ w² r rᵀ x xᵀ
+///   (XᵀWX)⁻¹ of its residuals r, a pose's mean one point.
+///
+/// Measured on the independent generator (tests/error_bars.rs, 12 units, RMS of error/sd at new
+/// orientations; 24 one-file poses | 12 poses and two runs): the sandwich alone 3.1 | –, the
+/// reference's error alone 9.6 | –, the departure alone 1.25 | 8.1, departure and reference
+/// 1.05 | 2.0, all three 0.98 | 1.98 (the physical kind's own: 0.78 | 1.75). So the reference's
+/// error matters where runs crowd the readings, the departure where poses spread them, and the
+/// departure averaged over the training readings instead of the sphere erred narrow with runs
+/// (2.3).
+fn map_covariance(
+    model: &LinearModel,
+    points: &[MapPoint],
+    n_inv: &[[f64; 4]; 4],
+    sensor: &SensorModel,
+    sensor_covariance: &SensorCovariance,
+    fuller: &SensorModel,
+    gravity_mps2: f64,
+) -> SensorCovariance {
+    // G: ∂(map parameter)/∂θ.
+    let mut xtj = [[[0.0f64; SENSOR_PARAMS]; 4]; 3];
+    for point in points {
+        let Some((_, jac)) = sensor.correct_with_jacobian(point.m) else {
+            continue;
+        };
+        let x = regressors(point.m);
+        for k in 0..3 {
+            for a in 0..4 {
+                for q in 0..SENSOR_PARAMS {
+                    xtj[k][a][q] += point.w * x[a] * jac[k][q];
+                }
+            }
+        }
+    }
+    let mut g = [[0.0f64; SENSOR_PARAMS]; SENSOR_PARAMS];
+    for k in 0..3 {
+        for a in 0..4 {
+            for q in 0..SENSOR_PARAMS {
+                g[map_param(k, a)][q] = (0..4).map(|b| n_inv[a][b] * xtj[k][b][q]).sum();
+            }
+        }
+    }
+    let mut covariance = [[0.0f64; SENSOR_PARAMS]; SENSOR_PARAMS];
+    for i in 0..SENSOR_PARAMS {
+        for j in 0..SENSOR_PARAMS {
+            let mut sum = 0.0;
+            for a in 0..SENSOR_PARAMS {
+                for b in 0..SENSOR_PARAMS {
+                    sum += g[i][a] * sensor_covariance[a][b] * g[j][b];
+                }
+            }
+            covariance[i][j] = sum;
+        }
+    }
+    // The sandwich of the map's residuals.
+    for point in points {
+        let x = regressors(point.m);
+        let nx: [f64; 4] = std::array::from_fn(|a| (0..4).map(|b| n_inv[a][b] * x[b]).sum());
+        let fitted = model.apply(point.m);
+        let r: [f64; 3] = std::array::from_fn(|k| point.f[k] - fitted[k]);
+        for k in 0..3 {
+            for l in 0..3 {
+                for a in 0..4 {
+                    for b in 0..4 {
+                        covariance[map_param(k, a)][map_param(l, b)] +=
+                            point.w * point.w * r[k] * r[l] * nx[a] * nx[b];
+                    }
+                }
+            }
+        }
+    }
+    // What the map leaves of the fuller model's inverse over every direction of gravity.
+    let mut departure = [0.0f64; 3];
+    for i in 0..DEPARTURE_DIRECTIONS {
+        let n = crate::geometry::lattice_direction(i, DEPARTURE_DIRECTIONS);
+        let m = fuller.measure(n.map(|v| gravity_mps2 * v));
+        let (mapped, truth) = (model.apply(m), fuller.correct(m).unwrap_or(m));
+        for k in 0..3 {
+            departure[k] += (mapped[k] - truth[k]).powi(2) / DEPARTURE_DIRECTIONS as f64;
+        }
+    }
+    for k in 0..3 {
+        covariance[k][k] += departure[k];
+    }
+    // Symmetric to the last bit, as model.json's reader checks.
+    for i in 0..SENSOR_PARAMS {
+        for j in 0..i {
+            let mean = 0.5 * (covariance[i][j] + covariance[j][i]);
+            covariance[i][j] = mean;
+            covariance[j][i] = mean;
+        }
+    }
+    covariance
 }
 
 /// Samples per run pooled for the network on top of physics (evenly spaced).

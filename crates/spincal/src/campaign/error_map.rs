@@ -5,7 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::campaign::joint::PoseInput;
-use crate::correctors::physical::PhysicalCorrector;
+use crate::correctors::model_file::ErrorModel;
 
 /// A direction is determined where, on every axis, the predicted standard deviation of the
 /// correction is at most this share of one reading's noise: the corrected reading's error is then
@@ -113,8 +113,8 @@ fn direction(latitude_deg: f64, longitude_deg: f64) -> [f64; 3] {
 
 /// The largest over the axes of the predicted sd over the noise, for the still reading that
 /// gravity `g` along `n` gives; infinite where the model has no inverse or no covariance.
-fn worst_ratio(physical: &PhysicalCorrector, noise: [f64; 3], reading: [f64; 3]) -> f64 {
-    match physical.predicted_sd(reading) {
+fn worst_ratio(model: ErrorModel<'_>, noise: [f64; 3], reading: Option<[f64; 3]>) -> f64 {
+    match reading.and_then(|m| model.predicted_sd(m)) {
         Some(sd) => (0..3)
             .map(|k| sd[k] / noise[k].max(f64::MIN_POSITIVE))
             .fold(0.0, f64::max),
@@ -122,12 +122,11 @@ fn worst_ratio(physical: &PhysicalCorrector, noise: [f64; 3], reading: [f64; 3])
     }
 }
 
-/// The error map of a physical corrector saved with its uncertainty, with the campaign's still
-/// poses placed on it; `None` without an uncertainty.
-pub fn error_map(physical: &PhysicalCorrector, poses: &[PoseInput]) -> Option<ErrorMap> {
-    let noise = physical.uncertainty.as_ref()?.noise_sd_mps2;
-    let g = physical.gravity_mps2;
-    let still = |n: [f64; 3]| physical.sensor.measure(n.map(|v| g * v));
+/// The error map of a corrector saved with its uncertainty (physical or linear-12) under local
+/// gravity `gravity_mps2`, with the campaign's still poses placed on it.
+pub fn error_map(model: ErrorModel<'_>, gravity_mps2: f64, poses: &[PoseInput]) -> ErrorMap {
+    let noise = model.uncertainty().noise_sd_mps2;
+    let still = |n: [f64; 3]| model.reading_of(n.map(|v| gravity_mps2 * v));
     let rows = (180.0 / LATITUDE_STEP_DEG) as usize;
     let columns = (360.0 / LONGITUDE_STEP_DEG) as usize;
     let latitude_deg: Vec<f64> = (0..rows)
@@ -141,29 +140,29 @@ pub fn error_map(physical: &PhysicalCorrector, poses: &[PoseInput]) -> Option<Er
         .flat_map(|&lat| {
             longitude_deg
                 .iter()
-                .map(move |&lon| worst_ratio(physical, noise, still(direction(lat, lon))))
+                .map(move |&lon| worst_ratio(model, noise, still(direction(lat, lon))))
         })
         .collect();
     let determined = (0..SHARE_POINTS)
         .filter(|&i| {
             let n = crate::geometry::lattice_direction(i, SHARE_POINTS);
-            worst_ratio(physical, noise, still(n)) <= DETERMINED_SD_OVER_NOISE
+            worst_ratio(model, noise, still(n)) <= DETERMINED_SD_OVER_NOISE
         })
         .count();
     let poses = poses
         .iter()
         .map(|pose| {
-            let f = physical.sensor.correct(pose.mean_mps2).unwrap_or(pose.mean_mps2);
+            let f = model.corrected(pose.mean_mps2).unwrap_or(pose.mean_mps2);
             let norm = f.iter().map(|v| v * v).sum::<f64>().sqrt().max(f64::MIN_POSITIVE);
             PoseOnMap {
                 name: pose.name.clone(),
                 latitude_deg: (f[2] / norm).clamp(-1.0, 1.0).asin().to_degrees(),
                 longitude_deg: f[1].atan2(f[0]).to_degrees(),
-                worst_sd_over_noise: worst_ratio(physical, noise, pose.mean_mps2),
+                worst_sd_over_noise: worst_ratio(model, noise, Some(pose.mean_mps2)),
             }
         })
         .collect();
-    Some(ErrorMap {
+    ErrorMap {
         latitude_deg,
         longitude_deg,
         worst_sd_over_noise,
@@ -171,13 +170,13 @@ pub fn error_map(physical: &PhysicalCorrector, poses: &[PoseInput]) -> Option<Er
         share_determined: determined as f64 / SHARE_POINTS as f64,
         noise_sd_mps2: noise,
         poses,
-    })
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::correctors::physical::{SensorModel, SensorUncertainty, SENSOR_PARAMS};
+    use crate::correctors::physical::{PhysicalCorrector, SensorModel, SensorUncertainty, SENSOR_PARAMS};
 
     fn corrector(variances: [f64; SENSOR_PARAMS]) -> PhysicalCorrector {
         let mut covariance = [[0.0; SENSOR_PARAMS]; SENSOR_PARAMS];
@@ -201,7 +200,8 @@ mod tests {
         // The sd of f_z is |f_z| · sd(s_z), so only directions near level are within 0.75 × 0.02.
         let mut v = [0.0; SENSOR_PARAMS];
         v[5] = 0.01f64.powi(2);
-        let map = error_map(&corrector(v), &[]).unwrap();
+        let physical = corrector(v);
+        let map = error_map(ErrorModel::Physical(&physical), 9.81, &[]);
         // |sin lat| · 9.81 · 0.01 ≤ 0.015 ⇔ |sin lat| ≤ 0.153: that share of the sphere.
         assert!(
             (map.share_determined - 0.153).abs() < 0.01,
@@ -216,6 +216,34 @@ mod tests {
             at(equator),
             at(pole)
         );
+    }
+
+    /// The linear map's A_zz plays the physical model's 1 + s_z: the same loose term gives the
+    /// same map.
+    #[test]
+    fn a_linear_map_with_a_loose_zz_gives_the_physical_map() {
+        let mut v = [0.0; SENSOR_PARAMS];
+        v[5] = 0.01f64.powi(2);
+        let physical = corrector(v);
+        let mut linear = crate::correctors::linear::LinearModel {
+            axes: crate::correctors::corrector::Axis::ALL.to_vec(),
+            offset_mps2: vec![0.0; 3],
+            matrix: vec![vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]],
+            training: None,
+            uncertainty: physical.uncertainty.clone(),
+        };
+        // A_zz is parameter 3 + 3·2 + 2 = 11.
+        let u = linear.uncertainty.as_mut().unwrap();
+        u.covariance[5][5] = 0.0;
+        u.covariance[11][11] = v[5];
+        let (a, b) = (
+            error_map(ErrorModel::Physical(&physical), 9.81, &[]),
+            error_map(ErrorModel::Linear(&linear), 9.81, &[]),
+        );
+        assert_eq!(a.share_determined, b.share_determined);
+        for (x, y) in a.worst_sd_over_noise.iter().zip(&b.worst_sd_over_noise) {
+            assert!((x - y).abs() < 1e-9 * x.max(1.0), "{x} {y}");
+        }
     }
 
     #[test]
@@ -233,11 +261,12 @@ mod tests {
             gyro_sigma_mean_radps: None,
             wander: None,
         };
+        let physical = corrector(v);
         let map = error_map(
-            &corrector(v),
+            ErrorModel::Physical(&physical),
+            9.81,
             &[pose("level", [9.81, 0.0, 0.0]), pose("up", [0.0, 0.0, 9.81])],
-        )
-        .unwrap();
+        );
         let outside: Vec<&str> = map.poses_outside().iter().map(|p| p.name.as_str()).collect();
         assert_eq!(outside, ["up"]);
         assert!(

@@ -249,8 +249,9 @@ pub struct CampaignResult {
     pub candidates: Vec<CandidateSummary>,
     /// What the rule chooses when scored against truth (simulations only).
     pub truth_check: Option<TruthCheck>,
-    /// Where the saved physical corrector can be trusted: its predicted error over every
-    /// direction of gravity (a saved `physical` or `physical-linear` model only).
+    /// Where the saved corrector can be trusted: its predicted error over every direction of
+    /// gravity (a saved `physical`, `physical-linear` or `linear-12` model, which carry their
+    /// parameters' covariance).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error_map: Option<ErrorMap>,
     /// The saved corrector's name, if any.
@@ -435,7 +436,7 @@ pub fn calibrate_campaign(
     let error_map = saved
         .as_ref()
         .and_then(|file| file.corrector.error_model())
-        .and_then(|physical| error_map(physical, &prepared.poses));
+        .map(|model| error_map(model, settings.joint.gravity_mps2, &prepared.poses));
     // The verdict leads with where the saved correction can be trusted.
     let verdict = match &error_map {
         Some(map) => format!("{} {verdict}", map.sentence()),

@@ -13,6 +13,7 @@ use crate::correctors::corrector::{
 use crate::correctors::division::{
     check_axes, check_pairing, Division, DivisionMode, PairingError, Part, PartFits,
 };
+use crate::correctors::physical::{propagated_variance, SensorJacobian, SensorUncertainty, SENSOR_PARAMS};
 use crate::input::recording::Recording;
 use crate::metrics::fit_percent;
 
@@ -34,6 +35,14 @@ pub struct LinearModel {
     /// Row i gives corrected axis i from the measured axes.
     pub matrix: Vec<Vec<f64>>,
     pub training: Option<LinearSummary>,
+    /// The covariance of the 12 parameters in [`LinearModel::params`] order (the offsets, then
+    /// the matrix row by row), the readings' noise and the sessions' spread, as a campaign's
+    /// `linear-12` saves them (`campaign::candidate`: what the covariance includes); only on a
+    /// map of all three axes in the order x, y, z. `correct` then writes each row's predicted
+    /// standard deviation and `predicted_better`, by the physical kind's rule. Optional: a file
+    /// without it reads (no error bar), and an older build reading one with it ignores it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<SensorUncertainty>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -65,6 +74,18 @@ impl LinearModel {
             let field = format!("matrix[{i}]");
             check_len(&field, row.len(), k, &why)?;
             check_finite(&field, row)?;
+        }
+        if let Some(uncertainty) = &self.uncertainty {
+            if self.axes != Axis::ALL {
+                return Err(ModelError::new(
+                    "uncertainty",
+                    format!(
+                        "a covariance of the 12 parameters of a map of the axes x, y, z, but the map is of {}",
+                        self.axes.iter().map(|a| a.name()).collect::<Vec<_>>().join(", ")
+                    ),
+                ));
+            }
+            uncertainty.validate().map_err(|e| e.within("uncertainty"))?;
         }
         if let Some(training) = &self.training {
             training.fits.check(k).map_err(|e| e.within("training.fits"))?;
@@ -119,6 +140,7 @@ impl LinearModel {
             offset_mps2,
             matrix,
             training: None,
+            uncertainty: None,
         };
         let corrected = model.correct(measured);
         let fits_of = |signal: &[Vec<f64>; 3]| -> PartFits {
@@ -147,21 +169,63 @@ impl LinearModel {
     }
 }
 
+impl LinearModel {
+    /// The corrected reading: the map on its axes, the others as read.
+    pub fn apply(&self, accel_mps2: [f64; 3]) -> [f64; 3] {
+        let mut out = accel_mps2;
+        for (i, axis) in self.axes.iter().enumerate() {
+            let mut v = self.offset_mps2[i];
+            for (j, from) in self.axes.iter().enumerate() {
+                v += self.matrix[i][j] * accel_mps2[from.index()];
+            }
+            out[axis.index()] = v;
+        }
+        out
+    }
+
+    /// The 12 parameters of a map of the three axes: the offsets, then the matrix row by row
+    /// (`None` for a map of fewer axes).
+    pub fn params(&self) -> Option<[f64; SENSOR_PARAMS]> {
+        if self.axes != Axis::ALL {
+            return None;
+        }
+        let mut p = [0.0; SENSOR_PARAMS];
+        p[..3].copy_from_slice(&self.offset_mps2);
+        for i in 0..3 {
+            p[3 + 3 * i..6 + 3 * i].copy_from_slice(&self.matrix[i]);
+        }
+        Some(p)
+    }
+
+    /// The corrected reading and its Jacobian by the 12 parameters ([`LinearModel::params`]
+    /// order): ∂f_i/∂c_i = 1, ∂f_i/∂A_ij = m_j. `None` for a map of fewer than three axes.
+    pub fn correct_with_jacobian(&self, m: [f64; 3]) -> Option<([f64; 3], SensorJacobian)> {
+        if self.axes != Axis::ALL {
+            return None;
+        }
+        let mut jac = [[0.0; SENSOR_PARAMS]; 3];
+        for i in 0..3 {
+            jac[i][i] = 1.0;
+            jac[i][3 + 3 * i..6 + 3 * i].copy_from_slice(&m);
+        }
+        Some((self.apply(m), jac))
+    }
+
+    /// The standard deviation per axis of the correction of reading `m` that the parameters'
+    /// covariance predicts, √diag(J Σ Jᵀ) (`None` without an uncertainty).
+    pub fn predicted_sd(&self, m: [f64; 3]) -> Option<[f64; 3]> {
+        let uncertainty = self.uncertainty.as_ref()?;
+        let (_, jac) = self.correct_with_jacobian(m)?;
+        Some(propagated_variance(&jac, &uncertainty.covariance).map(f64::sqrt))
+    }
+}
+
 struct LinearStream<'a>(&'a LinearModel);
 
 impl SampleCorrector for LinearStream<'_> {
     fn correct_sample(&mut self, accel_mps2: [f64; 3]) -> CorrectedSample {
-        let model = self.0;
-        let mut out = accel_mps2;
-        for (i, axis) in model.axes.iter().enumerate() {
-            let mut v = model.offset_mps2[i];
-            for (j, from) in model.axes.iter().enumerate() {
-                v += model.matrix[i][j] * accel_mps2[from.index()];
-            }
-            out[axis.index()] = v;
-        }
         CorrectedSample {
-            accel_mps2: out,
+            accel_mps2: self.0.apply(accel_mps2),
             valid: true,
             outside_training_range: false,
         }

@@ -4,7 +4,10 @@
 //! Format 2 added the physical corrector's `uncertainty` (its parameters' covariance and the
 //! readings' noise); format 1 files, which have none, still read. Format 3 added the kind
 //! `uncorrected`: a file that saves a gyroscope part where no accelerometer correction was shown
-//! to help (an older build refuses it by its version, not by an unknown kind).
+//! to help (an older build refuses it by its version, not by an unknown kind). A `linear` map's
+//! optional `uncertainty` (a campaign's linear-12) came within format 3: a file without it reads
+//! as before, and an older build reading one with it ignores the field (`LinearModel` takes
+//! unknown fields), so it is a compatible change and the version stands.
 //!
 //! A new kind of corrector is one more variant of [`CorrectorModel`] and one more arm in its
 //! `Corrector` impl and in [`CorrectorModel::validate`] (both matches have no wildcard, so the
@@ -24,7 +27,7 @@ use crate::correctors::corrector::{
     join_field, Axis, CorrectedSample, Corrector, ModelError, SampleCorrector,
 };
 use crate::correctors::linear::LinearModel;
-use crate::correctors::physical::PhysicalCorrector;
+use crate::correctors::physical::{PhysicalCorrector, SensorUncertainty};
 use crate::correctors::physical_ann::PhysicalAnnCorrector;
 use crate::correctors::static_cal::StaticCalibration;
 
@@ -156,12 +159,13 @@ impl CorrectorModel {
         }
     }
 
-    /// The corrector whose error its parameters' covariance predicts: the physical kind saved with
-    /// an uncertainty. Other kinds predict none (a network's error has no covariance; the network
-    /// on top of physics is not in its physical part's).
-    pub fn error_model(&self) -> Option<&PhysicalCorrector> {
+    /// The corrector whose error its parameters' covariance predicts: the physical kind and the
+    /// linear map saved with an uncertainty. Other kinds predict none (a network's error has no
+    /// covariance; the network on top of physics is not in its physical part's).
+    pub fn error_model(&self) -> Option<ErrorModel<'_>> {
         match self {
-            CorrectorModel::Physical(p) if p.uncertainty.is_some() => Some(p),
+            CorrectorModel::Physical(p) if p.uncertainty.is_some() => Some(ErrorModel::Physical(p)),
+            CorrectorModel::Linear(l) if l.uncertainty.is_some() => Some(ErrorModel::Linear(l)),
             _ => None,
         }
     }
@@ -175,6 +179,58 @@ impl CorrectorModel {
             CorrectorModel::Physical(_) => "physical",
             CorrectorModel::PhysicalAnn(_) => "physical_ann",
             CorrectorModel::Uncorrected(_) => "uncorrected",
+        }
+    }
+}
+
+/// A saved corrector whose parameters' covariance predicts the error of its correction (both
+/// correct all three axes and have 12 parameters): what `correct`, Python and the firmware
+/// export give an error bar for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ErrorModel<'a> {
+    Physical(&'a PhysicalCorrector),
+    Linear(&'a LinearModel),
+}
+
+impl<'a> ErrorModel<'a> {
+    /// The covariance of its 12 parameters, the readings' noise and the sessions' spread.
+    pub fn uncertainty(&self) -> &'a SensorUncertainty {
+        let uncertainty = match self {
+            ErrorModel::Physical(p) => p.uncertainty.as_ref(),
+            ErrorModel::Linear(l) => l.uncertainty.as_ref(),
+        };
+        uncertainty.expect("an error model carries its uncertainty (CorrectorModel::error_model)")
+    }
+
+    /// The standard deviation per axis of the correction of reading `m` that the covariance
+    /// predicts, √diag(J Σ Jᵀ); `None` where the model has no inverse.
+    pub fn predicted_sd(&self, m: [f64; 3]) -> Option<[f64; 3]> {
+        match self {
+            ErrorModel::Physical(p) => p.predicted_sd(m),
+            ErrorModel::Linear(l) => l.predicted_sd(m),
+        }
+    }
+
+    /// The corrected reading; `None` where the model has no inverse.
+    pub fn corrected(&self, m: [f64; 3]) -> Option<[f64; 3]> {
+        match self {
+            ErrorModel::Physical(p) => p.sensor.correct(m),
+            ErrorModel::Linear(l) => Some(l.apply(m)),
+        }
+    }
+
+    /// The reading a still sensor gives under specific force `f` (sensor frame, m/s²): the
+    /// physical model's forward model, or the linear map's inverse; `None` where it has none.
+    pub fn reading_of(&self, f: [f64; 3]) -> Option<[f64; 3]> {
+        match self {
+            ErrorModel::Physical(p) => Some(p.sensor.measure(f)),
+            ErrorModel::Linear(l) => {
+                let matrix: crate::geometry::M3 =
+                    std::array::from_fn(|i| std::array::from_fn(|j| l.matrix[i][j]));
+                let inverse = crate::geometry::inverse(&matrix)?;
+                let v: [f64; 3] = std::array::from_fn(|i| f[i] - l.offset_mps2[i]);
+                Some(crate::geometry::apply(&inverse, &v))
+            }
         }
     }
 }
@@ -510,6 +566,38 @@ mod tests {
         };
         assert!(physical.uncertainty.is_none());
         assert_eq!(physical.predicted_sd([9.81, 0.0, 0.0]), None);
+    }
+
+    #[test]
+    fn a_linear_map_reads_with_and_without_its_covariance_and_only_on_three_axes() {
+        let zeros = format!("[{}]", ["0"; 12].join(", "));
+        let covariance = format!("[{}]", [zeros.as_str(); 12].join(", "));
+        let three = r#""axes": ["x", "y", "z"], "offset_mps2": [0.1, 0, 0],
+            "matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "training": null"#;
+        let two = r#""axes": ["x", "y"], "offset_mps2": [0.1, 0],
+            "matrix": [[1, 0], [0, 1]], "training": null"#;
+        let file = |map: &str, uncertainty: bool| {
+            let u = if uncertainty {
+                format!(
+                    r#", "uncertainty": {{"covariance": {covariance}, "noise_sd_mps2": [0.02, 0.02, 0.02]}}"#
+                )
+            } else {
+                String::new()
+            };
+            format!(
+                r#"{{"format_version": 3, "spincal_version": "0.2.0", "corrector": {{"kind": "linear", {map}{u}}}}}"#
+            )
+        };
+        let old = CorrectorFile::from_json(&file(three, false), "old.json").unwrap();
+        assert!(old.corrector.error_model().is_none());
+        let new = CorrectorFile::from_json(&file(three, true), "new.json").unwrap();
+        let model = new
+            .corrector
+            .error_model()
+            .expect("a linear map with a covariance");
+        assert_eq!(model.predicted_sd([1.0, 2.0, 9.8]), Some([0.0; 3]));
+        let err = CorrectorFile::from_json(&file(two, true), "two.json").unwrap_err();
+        assert!(err.to_string().contains("corrector.uncertainty"), "{err}");
     }
 
     #[test]

@@ -215,7 +215,9 @@ pub type SensorJacobian = [[f64; SENSOR_PARAMS]; 3];
 pub type SensorCovariance = [[f64; SENSOR_PARAMS]; SENSOR_PARAMS];
 
 /// What a fitted sensor model's correction is uncertain by: its parameters' covariance (the joint
-/// fit's robust sandwich; zero rows for terms held fixed) and the white noise of one reading.
+/// fit's robust sandwich; zero rows for terms held fixed) and the white noise of one reading. A
+/// campaign's linear map carries the same, its covariance in its own parameters' order
+/// (`LinearModel::params`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SensorUncertainty {

@@ -6,8 +6,8 @@
 
 use crate::correctors::corrector::{Axis, Corrector, SampleCorrector};
 use crate::correctors::gyro::GyroCorrector;
-use crate::correctors::model_file::CorrectorFile;
-use crate::correctors::physical::{predicted_to_help, PhysicalCorrector};
+use crate::correctors::model_file::{CorrectorFile, ErrorModel};
+use crate::correctors::physical::predicted_to_help;
 use crate::thermal::causal::CausalDieTemperature;
 use crate::thermal::checks::{SampleCheck, TemperatureTrack};
 use crate::thermal::ThermalModel;
@@ -127,7 +127,7 @@ pub struct RowCorrector<'a> {
     /// The thermal model and its die-temperature estimate, when the model file has one.
     thermal: Option<Thermal<'a>>,
     /// The model whose covariance predicts each row's error, when it has one.
-    error_model: Option<&'a PhysicalCorrector>,
+    error_model: Option<ErrorModel<'a>>,
 }
 
 /// What a row corrector keeps to correct for temperature.

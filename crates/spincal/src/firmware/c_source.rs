@@ -84,19 +84,29 @@ fn fields(plan: &Plan) -> Vec<Field> {
             network_fields(&mut out, n);
             coverage_fields(&mut out, c);
         }
+        AccelPlan::AsRead => {}
     }
     if let Some(covariance) = &plan.covariance {
+        let (name, order) = covariance_field(plan);
         out.push(real(
-            "phys_covariance",
+            name,
             &[12, 12],
             covariance.iter().flatten().copied().collect(),
-            "Sigma: the 12 parameters' covariance (b, s, m, q order), for the predicted sd",
+            &format!("Sigma: the 12 parameters' covariance ({order}), for the predicted sd"),
         ));
     }
     if let Some(g) = &plan.gyro {
         gyro_fields(&mut out, g);
     }
     out
+}
+
+/// The covariance's C field and its parameters' order, by the kind that carries it.
+fn covariance_field(plan: &Plan) -> (&'static str, &'static str) {
+    match plan.accel {
+        AccelPlan::Linear(_) => ("lin_covariance", "offsets, then the matrix row by row"),
+        _ => ("phys_covariance", "b, s, m, q order"),
+    }
 }
 
 /// The inverse sensor model's bias, scale, misalignment, quadratic term and training range.
@@ -412,9 +422,12 @@ fn source(plan: &Plan, n: &Names, fields: &[Field], precision: Precision, proven
             coverage_fn(&mut s, n, cov);
             physical_ann_fn(&mut s, n, net);
         }
+        AccelPlan::AsRead => as_read_fn(&mut s, n),
     }
-    if let (Some(_), AccelPlan::Physical(ph)) = (&plan.covariance, &plan.accel) {
-        predicted_sd_fn(&mut s, n, ph, precision);
+    match (&plan.covariance, &plan.accel) {
+        (Some(_), AccelPlan::Physical(ph)) => predicted_sd_fn(&mut s, n, ph, precision),
+        (Some(_), AccelPlan::Linear(_)) => linear_predicted_sd_fn(&mut s, n),
+        _ => {}
     }
     correct_fn(&mut s, n, plan.gyro.as_ref());
     s
@@ -498,11 +511,22 @@ fn predicted_sd_fn(s: &mut String, n: &Names, ph: &PhysicalPlan, precision: Prec
          jac[1][j] = jac[1][j] - c->phys_misalignment[0] * jac[0][j];\n        \
          jac[2][j] = jac[2][j] - c->phys_misalignment[1] * jac[0][j] - c->phys_misalignment[2] * jac[1][j];\n    }}\n    \
          jac[1][6] -= f[0];\n    jac[2][6] += c->phys_misalignment[2] * f[0];\n    jac[2][7] -= f[0];\n    jac[2][8] -= f[1];\n    \
-         /* diag(J Sigma J^T), skipping the parameters a row does not depend on (as spincal). */\n    \
+         {}",
+        error_bar_loop(n, "phys_covariance")
+    );
+}
+
+/// The end of `P_predicted_sd`: √diag(J Σ Jᵀ) from `jac`, skipping the parameters a row does not
+/// depend on, in `propagated_variance`'s order, and the flag of `predicted_to_help` from the
+/// correction `f - m`. One text for every kind.
+fn error_bar_loop(n: &Names, covariance: &str) -> String {
+    let (u, r, m) = (&n.u, n.r, n.m);
+    format!(
+        "/* diag(J Sigma J^T), skipping the parameters a row does not depend on (as spincal). */\n    \
          for (k = 0; k < 3; ++k) {{\n        {r} sum = 0, correction;\n        \
          for (a = 0; a < 12; ++a) {{\n            {r} inner = 0;\n            \
          if (jac[k][a] == 0) {{\n                continue;\n            }}\n            \
-         for (b = 0; b < 12; ++b) {{\n                inner += c->phys_covariance[a][b] * jac[k][b];\n            }}\n            \
+         for (b = 0; b < 12; ++b) {{\n                inner += c->{covariance}[a][b] * jac[k][b];\n            }}\n            \
          sum += jac[k][a] * inner;\n        }}\n        \
          sd[k] = sqrt{m}(sum > 0 ? sum : 0);\n        \
          /* Predicted to help when c^2 > 2 sd^2: c^2 - sd^2 estimates the true correction's square,\n         \
@@ -510,6 +534,26 @@ fn predicted_sd_fn(s: &mut String, n: &Names, ph: &PhysicalPlan, precision: Prec
          correction = f[k] - m[k];\n        \
          if (!(correction * correction > 2 * sd[k] * sd[k])) {{\n            flags &= ~{u}_BETTER;\n        }}\n    }}\n    \
          return flags;\n}}\n"
+    )
+}
+
+/// `unsigned P_predicted_sd(c, accel, sd)` of a linear map of the three axes: the map's
+/// Jacobian by its 12 parameters (∂f_i/∂c_i = 1, ∂f_i/∂A_ij = m_j, `LinearModel::
+/// correct_with_jacobian`), then the loop every kind shares.
+fn linear_predicted_sd_fn(s: &mut String, n: &Names) {
+    let (p, u, r) = (&n.p, &n.u, n.r);
+    let _ = writeln!(
+        s,
+        "/* spincal correct's error bar and predicted_better (see the header). */\n\
+         unsigned {p}_predicted_sd(const {p}_coefficients *c, const {r} accel[3], {r} sd[3])\n{{\n    \
+         {r} m[3], f[3], jac[3][12];\n    int k, j, a, b;\n    unsigned flags = {u}_SD | {u}_BETTER;\n    \
+         m[0] = accel[0];\n    m[1] = accel[1];\n    m[2] = accel[2];\n    \
+         (void){p}_accel(c, 0, m, f);\n    \
+         /* df_i/dc_i = 1, df_i/dA_ij = m_j: offsets first, then the matrix row by row. */\n    \
+         for (k = 0; k < 3; ++k) {{\n        for (j = 0; j < 12; ++j) {{\n            jac[k][j] = 0;\n        }}\n        \
+         jac[k][k] = 1;\n        for (j = 0; j < 3; ++j) {{\n            jac[k][3 + 3 * k + j] = m[j];\n        }}\n    }}\n    \
+         {}",
+        error_bar_loop(n, "lin_covariance")
     );
 }
 
@@ -568,6 +612,18 @@ fn linear_fn(s: &mut String, n: &Names, l: &LinearPlan) {
         s,
         "static unsigned {p}_accel(const {p}_coefficients *c, {p}_state *state, const {r} m[3], {r} out[3])\n{{\n    \
          (void)state;\n    out[0] = m[0];\n    out[1] = m[1];\n    out[2] = m[2];\n{body}    return {u}_VALID;\n}}\n"
+    );
+}
+
+/// The accelerometer as read (a file that corrects the gyroscope alone): `spincal correct`
+/// writes no corrected accelerometer column for it, so the reading is the sample's value.
+fn as_read_fn(s: &mut String, n: &Names) {
+    let (p, u, r) = (&n.p, &n.u, n.r);
+    let _ = writeln!(
+        s,
+        "/* The accelerometer as read: this model corrects only the gyroscope. */\n\
+         static unsigned {p}_accel(const {p}_coefficients *c, {p}_state *state, const {r} m[3], {r} out[3])\n{{\n    \
+         (void)c;\n    (void)state;\n    out[0] = m[0];\n    out[1] = m[1];\n    out[2] = m[2];\n    return {u}_VALID;\n}}\n"
     );
 }
 

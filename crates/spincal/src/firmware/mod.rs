@@ -13,11 +13,12 @@
 //! - a network keeps its training envelope as `correct` does: outside its input range `ann`
 //!   passes the reading through uncorrected and marks it invalid, `physical_ann` falls back to
 //!   the physical correction outside its input range, its covered cells or its output range;
-//! - a `physical` model with its parameters' covariance (the models `correct` gives an error bar)
-//!   gets the error bar too: `NAME_fXX_predicted_sd` in C and `Model::predicted_error` in Rust
-//!   give `correct`'s `<column>_corrected_sd` (the Jacobian by `correct_with_jacobian`'s
-//!   operations, √diag(J Σ Jᵀ) by `propagated_variance`'s, Σ a table in the coefficients) and
-//!   `predicted_better`; every other model exports none, and its header says so.
+//! - a `physical` model or a `linear` map with its parameters' covariance (the models `correct`
+//!   gives an error bar: `CorrectorModel::error_model`) gets the error bar too:
+//!   `NAME_fXX_predicted_sd` in C and `Model::predicted_error` in Rust give `correct`'s
+//!   `<column>_corrected_sd` (the Jacobian by `correct_with_jacobian`'s operations, √diag(J Σ Jᵀ)
+//!   by `propagated_variance`'s, Σ a table in the coefficients) and `predicted_better`; every
+//!   other model exports none, and its header says so.
 
 mod c_source;
 mod fusion;
@@ -406,6 +407,59 @@ mod tests {
         }
     }
 
+    /// A linear map of the three axes with a covariance A Aᵀ (seeded), as a campaign's linear-12.
+    fn linear_with_covariance() -> crate::correctors::linear::LinearModel {
+        let p = physical_with_covariance(false);
+        crate::correctors::linear::LinearModel {
+            axes: crate::correctors::corrector::Axis::ALL.to_vec(),
+            offset_mps2: vec![-0.04, 0.06, -0.08],
+            matrix: vec![
+                vec![0.996, 0.0, 0.0],
+                vec![-0.005, 1.006, 0.0],
+                vec![0.003, -0.004, 0.997],
+            ],
+            training: None,
+            uncertainty: p.uncertainty,
+        }
+    }
+
+    /// The no_std crate's f64 error bar of a linear map is the library's bit for bit, the flag
+    /// `predicted_to_help`'s on the library's correction, and both values of the flag occur.
+    #[test]
+    fn the_embedded_linear_error_bar_is_the_librarys() {
+        let l = linear_with_covariance();
+        let file = CorrectorFile::new(CorrectorModel::Linear(Box::new(l.clone())));
+        let plan = plan::Plan::of(&file).unwrap();
+        let plan::AccelPlan::Linear(lp) = &plan.accel else {
+            panic!("a linear plan")
+        };
+        let embedded = spincal_embedded::Linear {
+            axes: [0, 1, 2],
+            n_axes: 3,
+            offset: [lp.offset[0], lp.offset[1], lp.offset[2]],
+            matrix: std::array::from_fn(|i| [lp.matrix[i][0], lp.matrix[i][1], lp.matrix[i][2]]),
+        };
+        let covariance = plan.covariance.expect("the covariance");
+        let error_model = file.corrector.error_model().expect("an error model");
+        let mut flags = [0usize; 2];
+        for m in fusion::grid(&[[-14.0, 14.0]; 3]) {
+            let sd = error_model.predicted_sd(m).unwrap();
+            let f = l.apply(m);
+            let better = (0..3).all(|k| predicted_to_help(f[k] - m[k], sd[k]));
+            let ours = embedded.predicted_error(&covariance, m).unwrap();
+            assert_eq!(ours.sd.map(f64::to_bits), sd.map(f64::to_bits), "{m:?}");
+            assert_eq!(ours.better, better, "{m:?}");
+            flags[usize::from(better)] += 1;
+        }
+        assert!(flags[0] > 0 && flags[1] > 0, "{flags:?}");
+        // A map of fewer axes has no error bar.
+        let two = spincal_embedded::Linear {
+            n_axes: 2,
+            ..embedded
+        };
+        assert_eq!(two.predicted_error(&covariance, [0.0, 0.0, 9.8]), None);
+    }
+
     /// The export carries the error bar exactly where `correct` writes one, and says so where not.
     #[test]
     fn the_error_bar_is_exported_only_where_correct_writes_one() {
@@ -445,6 +499,36 @@ mod tests {
         assert!(export
             .float_error_text()
             .contains("predicted standard deviation within"));
+
+        // A linear map with a covariance: its own field and Jacobian, the shared loop.
+        let file = CorrectorFile::new(CorrectorModel::Linear(Box::new(linear_with_covariance())));
+        let (header, source, rust, export) = text(&file, "f64");
+        assert!(header.contains("#define SPINCAL_F64_PREDICTS_SD 1"), "{header}");
+        assert!(header.contains("double lin_covariance[12][12];"), "{header}");
+        assert!(source.contains("jac[k][3 + 3 * k + j] = m[j];"), "{source}");
+        assert!(source.contains("c->lin_covariance[a][b]") && !source.contains("phys_"));
+        assert!(
+            rust.contains("linear map's parameter covariance in f64"),
+            "{rust}"
+        );
+        assert!(rust.contains("covariance: Some(&COVARIANCE_F32)"));
+        assert!(
+            export.float_error.sd_max_rel.is_some_and(|r| r < 1e-5),
+            "{:?}",
+            export.float_error
+        );
+        let without = crate::correctors::linear::LinearModel {
+            uncertainty: None,
+            ..linear_with_covariance()
+        };
+        let file = CorrectorFile::new(CorrectorModel::Linear(Box::new(without)));
+        let (header, _, rust, _) = text(&file, "f32");
+        assert!(header.contains("#define SPINCAL_F32_PREDICTS_SD 0"), "{header}");
+        assert!(
+            header.contains("linear map carries no parameter covariance"),
+            "{header}"
+        );
+        assert!(rust.contains("covariance: None"));
 
         // Without a covariance, and a physical_ann whose physical part has one: nothing new.
         let without = PhysicalCorrector {
@@ -491,7 +575,10 @@ mod tests {
         let file = CorrectorFile::new(CorrectorModel::PhysicalAnn(Box::new(pa)));
         let (header, source, rust, _) = text(&file, "f32");
         assert!(header.contains("#define SPINCAL_F32_PREDICTS_SD 0"), "{header}");
-        assert!(header.contains("error bar for a physical model with a covariance only"));
+        assert!(
+            header.contains("error bar for a physical model or a linear map with a"),
+            "{header}"
+        );
         assert!(!source.contains("phys_covariance") && !rust.contains("COVARIANCE"));
     }
 

@@ -156,6 +156,7 @@ pub(crate) fn float_error(plan: &Plan, model: &CorrectorModel) -> FloatError {
                 matrix,
             })
         }
+        AccelPlan::AsRead => spincal_embedded::Accel::AsRead,
         AccelPlan::Static(s) => spincal_embedded::Accel::Static(spincal_embedded::Static {
             bias: three(&s.bias),
             scale: three(&s.scale),
@@ -206,10 +207,10 @@ pub(crate) fn float_error(plan: &Plan, model: &CorrectorModel) -> FloatError {
             max[k] = max[k].max((f64::from(single.accel[k]) - ours.accel_mps2[k]).abs());
         }
         // The error bar, as `correct` gives it (RowCorrector) and the float export does.
-        let Some(physical) = error_model else {
+        let Some(error_model) = error_model else {
             continue;
         };
-        let double = physical.predicted_sd(m).map(|sd| {
+        let double = error_model.predicted_sd(m).map(|sd| {
             let better = (0..3).all(|k| predicted_to_help(ours.accel_mps2[k] - m[k], sd[k]));
             (sd, better)
         });

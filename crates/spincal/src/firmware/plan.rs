@@ -176,6 +176,8 @@ pub(crate) enum AccelPlan {
     Static(StaticPlan),
     Ann(NetworkPlan),
     PhysicalAnn(Box<(PhysicalPlan, NetworkPlan, CoveragePlan)>),
+    /// The accelerometer as read (kind `uncorrected`: the file corrects the gyroscope alone).
+    AsRead,
 }
 
 /// Everything the generated sources hold.
@@ -185,8 +187,8 @@ pub(crate) struct Plan {
     pub kind: String,
     pub accel: AccelPlan,
     pub gyro: Option<GyroPlan>,
-    /// The physical model's parameter covariance, exactly when `spincal correct` writes an error
-    /// bar for the model (`CorrectorModel::error_model`: a `physical` kind with an uncertainty).
+    /// The 12 parameters' covariance, exactly when `spincal correct` writes an error bar for the
+    /// model (`CorrectorModel::error_model`: a `physical` or `linear` kind with an uncertainty).
     pub covariance: Option<SensorCovariance>,
 }
 
@@ -214,12 +216,14 @@ impl Plan {
                 NetworkPlan::of(&pa.network, "corrector.network")?,
                 CoveragePlan::of(&pa.coverage),
             ))),
+            // A gyro part saved alone: the accelerometer passes through as `correct` leaves it.
+            CorrectorModel::Uncorrected(_) if file.gyro.is_some() => AccelPlan::AsRead,
             CorrectorModel::Uncorrected(u) => {
                 return Err(FirmwareError::TooLarge {
                     file: String::new(),
                     field: "corrector.kind".into(),
                     reason: format!(
-                        "uncorrected ({}): the firmware export needs an accelerometer corrector; apply the gyro part with `spincal correct`",
+                        "uncorrected ({}) with no gyro part: nothing the firmware export can correct",
                         u.reason
                     ),
                 })
@@ -231,11 +235,7 @@ impl Plan {
         };
         // One rule with `correct`: a physical_ann's physical part may carry an uncertainty, but
         // its rows get no error bar, so neither do the exports.
-        let covariance = file
-            .corrector
-            .error_model()
-            .and_then(|p| p.uncertainty.as_ref())
-            .map(|u| u.covariance);
+        let covariance = file.corrector.error_model().map(|e| e.uncertainty().covariance);
         Ok(Plan {
             kind,
             accel,
@@ -251,7 +251,15 @@ impl Plan {
             (None, AccelPlan::Physical(_)) => Some(
                 "this physical model carries no parameter covariance (a model.json of format 1, or one not saved by a campaign)",
             ),
-            (None, _) => Some("spincal gives an error bar for a physical model with a covariance only"),
+            (None, AccelPlan::AsRead) => Some(
+                "this file corrects only the gyroscope (kind uncorrected): the accelerometer passes as read",
+            ),
+            (None, AccelPlan::Linear(_)) => Some(
+                "this linear map carries no parameter covariance (one not saved by a campaign as linear-12, or saved before it did)",
+            ),
+            (None, _) => Some(
+                "spincal gives an error bar for a physical model or a linear map with a covariance only",
+            ),
         }
     }
 

@@ -128,6 +128,7 @@ fn model(plan: &Plan, x: Precision) -> String {
             matrix3(&s.matrix, x)
         ),
         AccelPlan::Ann(n) => format!("spincal_embedded::Accel::Ann({})", network(n, x)),
+        AccelPlan::AsRead => "spincal_embedded::Accel::AsRead".into(),
         AccelPlan::PhysicalAnn(pa) => {
             let (p, n, c) = (&pa.0, &pa.1, &pa.2);
             format!(
@@ -163,6 +164,14 @@ fn covariance(c: &SensorCovariance, x: Precision) -> String {
         })
         .collect();
     format!("[\n    {},\n]", rows.join(",\n    "))
+}
+
+fn capitalised(text: &str) -> String {
+    let mut chars = text.chars();
+    chars
+        .next()
+        .map(|c| c.to_uppercase().chain(chars).collect())
+        .unwrap_or_default()
 }
 
 /// The file's text: `HISTORY`, a state type and a `MODEL_F32`/`MODEL_F64` per precision.
@@ -207,10 +216,16 @@ pub(crate) fn file(plan: &Plan, precisions: &[Precision], provenance: &str) -> S
             "/// One stream's state in {t}.\npub type State{upper} = spincal_embedded::State<{t}, HISTORY>;\n"
         );
         if let Some(c) = &plan.covariance {
+            let order = match plan.accel {
+                AccelPlan::Linear(_) => "the linear map's parameter covariance in {t} (the offsets, then\n\
+                                         /// the matrix row by row: `spincal_embedded::Linear::predicted_error`'s order)",
+                _ => "the physical model's parameter covariance in {t} (bias, scale error, misalignment,\n\
+                      /// quadratic: `spincal_embedded::PARAMS` order)",
+            };
             let _ = writeln!(
                 s,
-                "/// The physical model's parameter covariance in {t} (bias, scale error, misalignment,\n\
-                 /// quadratic: `spincal_embedded::PARAMS` order).\n#[rustfmt::skip]\npub static COVARIANCE_{upper}: spincal_embedded::Covariance<{t}> = {};\n",
+                "/// {}.\n#[rustfmt::skip]\npub static COVARIANCE_{upper}: spincal_embedded::Covariance<{t}> = {};\n",
+                capitalised(&order.replace("{t}", t)),
                 covariance(c, x)
             );
         }

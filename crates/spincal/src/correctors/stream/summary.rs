@@ -60,7 +60,7 @@ impl StreamSummary {
         let session_spread_and_noise_mps2 = model
             .corrector
             .error_model()
-            .and_then(|p| p.uncertainty.as_ref())
+            .map(|e| e.uncertainty())
             .and_then(|u| Some((u.session_spread_mps2?, u.noise_sd_mps2.iter().sum::<f64>() / 3.0)));
         StreamSummary {
             file: file.to_string(),

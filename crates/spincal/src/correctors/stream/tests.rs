@@ -131,6 +131,7 @@ fn a_headerless_stream_needs_its_unit_and_the_file_is_left_as_it_was_on_failure(
             offset_mps2: vec![0.0],
             matrix: vec![vec![1.0, 0.0, 0.0]],
             training: None,
+            uncertainty: None,
         },
     )));
     let previous = write(dir.path(), "out.csv", "earlier output\n");
