@@ -16,7 +16,7 @@ use spincal::campaign::params::Params;
 use spincal::campaign::prepare::UnitRecording;
 use spincal::campaign::select::calibrate_campaign;
 use spincal::correctors::model_file::CorrectorFile;
-use spincal::correctors::rows::{RowCorrector, RowOutcome, UnitFactors};
+use spincal::correctors::rows::{RowCorrector, RowOutcome, RowStatus, UnitFactors};
 use spincal::input::recording::Recording;
 use spincal::input::recording::STANDARD_GRAVITY;
 use spincal::progress::silent;
@@ -27,7 +27,9 @@ use spincal::simulate::thermal::{
 use spincal::thermal::{fit_thermal, ThermalError, ThermalModel, ThermalSettings};
 
 /// RMS over the held-out bands of 1 s means of (corrected − true) force, m/s², and the
-/// per-sample RMS (noise in); `correct(j, i)` is sample i of held-out recording j, corrected.
+/// per-sample RMS (noise in); `correct(j, i)` is sample i of held-out recording j, corrected. A
+/// second holding a sample that is not finite (a row `correct` leaves outside the model's
+/// temperature range, see `streamed`) is left out.
 fn band_error(held_out: &[ThermalRecording], correct: impl Fn(usize, usize) -> [f64; 3]) -> (f64, f64) {
     let mut temps: Vec<f64> = held_out.iter().flat_map(|r| r.die_c.iter().copied()).collect();
     temps.sort_by(f64::total_cmp);
@@ -42,9 +44,12 @@ fn band_error(held_out: &[ThermalRecording], correct: impl Fn(usize, usize) -> [
             if end - start < rate || (mid > cold && mid < hot) {
                 continue;
             }
+            let corrected: Vec<[f64; 3]> = (start..end).map(|i| correct(j, i)).collect();
+            if corrected.iter().flatten().any(|v| !v.is_finite()) {
+                continue;
+            }
             let mut mean = [0.0; 3];
-            for i in start..end {
-                let f = correct(j, i);
+            for f in corrected {
                 for k in 0..3 {
                     let e = f[k] - r.true_force_mps2[k];
                     mean[k] += e / (end - start) as f64;
@@ -384,15 +389,19 @@ fn rms_per_axis(values: &[Vec<f64>; 3]) -> [f64; 3] {
 }
 
 /// The held-out session streamed through `spincal correct`'s row corrector in time order, as one
-/// logger file (the causal die estimate runs across its poses).
-fn streamed(file: &CorrectorFile, held_out: &[ThermalRecording]) -> Vec<Vec<[f64; 3]>> {
+/// logger file (the causal die estimate runs across its poses), and the share of its rows outside
+/// the model's temperature range: `correct` leaves those without the thermal correction and marks
+/// them, and here they are NaN, to be judged apart (the goal is at temperatures between those
+/// recorded).
+fn streamed(file: &CorrectorFile, held_out: &[ThermalRecording]) -> (Vec<Vec<[f64; 3]>>, f64) {
     let units = UnitFactors {
         time_to_s: 1.0,
         accel_to_mps2: 1.0,
         gyro_to_radps: 1.0,
     };
     let mut rows = RowCorrector::new(file, units, false).expect("no gyro");
-    held_out
+    let mut outside = 0usize;
+    let out = held_out
         .iter()
         .map(|r| {
             let rec = &r.recording;
@@ -402,13 +411,19 @@ fn streamed(file: &CorrectorFile, held_out: &[ThermalRecording]) -> Vec<Vec<[f64
                     match rows.correct(Some(rec.time_s[i]), reading(rec, i), None, temperature, |_| {
                         String::new()
                     }) {
+                        RowOutcome::Corrected { status: RowStatus::OutsideTemperatureRange, .. } => {
+                            outside += 1;
+                            [f64::NAN; 3]
+                        }
                         RowOutcome::Corrected { accel_mps2, .. } => accel_mps2,
                         RowOutcome::Refused(why) => panic!("row {i} refused: {why}"),
                     }
                 })
                 .collect()
         })
-        .collect()
+        .collect();
+    let rows: usize = held_out.iter().map(|r| r.recording.len()).sum();
+    (out, outside as f64 / rows as f64)
 }
 
 /// The campaign path end to end: still recordings with a logged temperature (whole degrees,
@@ -458,7 +473,27 @@ fn a_campaign_with_temperature_saves_a_thermal_model_that_holds_when_streamed() 
                 "the verdict states the range: {}",
                 result.verdict
             );
-            let ours_values = streamed(file, held_out);
+            println!(
+                "seed {seed}: saved {:?}; thermal sessions {} spread {:.2e} m/s² (lower bound {}, LR {:.1}), orders β {:?} ρ {:?}, lag {} s\n  β {:?} (true {:?})\n  ρ {:?} (true {:?})\n  tests {:?}",
+                result.saved,
+                thermal.fit.sessions.count,
+                thermal.fit.sessions.spread_sd_mps2,
+                thermal.fit.sessions.at_lower_bound,
+                thermal.fit.sessions.likelihood_ratio,
+                thermal.fit.terms.bias_orders,
+                thermal.fit.terms.scale_orders,
+                model.lag_s,
+                model.bias_per_c,
+                truth.bias_per_c,
+                model.scale_per_c,
+                truth.scale_per_c,
+                thermal.fit.terms.tests.iter().map(|t| (t.part.clone(), t.axis, t.order, (t.z * 10.0).round() / 10.0)).collect::<Vec<_>>()
+            );
+            let (ours_values, outside) = streamed(file, held_out);
+            println!("seed {seed}: {:.2} % of the held-out rows outside the fitted range {:?}", 100.0 * outside, model.fitted_range_c);
+            // The held-out session starts as cold as the calibration's: its first seconds may lie
+            // below the range the die estimate gives (with a 20 s lag, 2.4 % of the rows, measured).
+            assert!(outside <= 0.05, "seed {seed}: {outside} of the rows outside the range");
             let ours = band_error(held_out, |j, i| ours_values[j][i]);
             let plain =
                 calibrate_campaign("unit", &campaign_units(&campaign, false, false), &params, &silent)
@@ -467,7 +502,7 @@ fn a_campaign_with_temperature_saves_a_thermal_model_that_holds_when_streamed() 
             // Without the temperature the verdict may save nothing: the user then has the readings.
             let without = match &plain.saved {
                 Some(plain_file) => {
-                    let values = streamed(plain_file, held_out);
+                    let (values, _) = streamed(plain_file, held_out);
                     band_error(held_out, |j, i| values[j][i])
                 }
                 None => band_error(held_out, |j, i| reading(&held_out[j].recording, i)),
@@ -581,6 +616,16 @@ fn full_thermal_campaign(profile: &ThermalProfile) -> Vec<(u64, String, Vec<f64>
                 calibrate_campaign("unit", &units, &Params::default(), &silent).expect("thermal campaign");
             let thermal = out.result.thermal.as_ref().expect("a thermal model");
             assert!(thermal.without_temperature.is_empty());
+            println!(
+                "seed {seed}: thermal lag {} s, orders β {:?} ρ {:?}, {} sessions, spread {:.2e} m/s² (LR {:.1}), range {:?}",
+                thermal.fit.model.lag_s,
+                thermal.fit.terms.bias_orders,
+                thermal.fit.terms.scale_orders,
+                thermal.fit.sessions.count,
+                thermal.fit.sessions.spread_sd_mps2,
+                thermal.fit.sessions.likelihood_ratio,
+                thermal.fit.model.fitted_range_c
+            );
             let saved = out
                 .result
                 .saved
@@ -749,7 +794,7 @@ fn first_principles_unit(
     (recordings, sessions)
 }
 
-/// The thermal terms rule (issue 46 item 3) can fail both ways: over 40 draws of a unit whose β
+/// The thermal terms rule (issue 46 item 3) can fail both ways: over 60 draws of a unit whose β
 /// is linear on y and z and whose ρ is linear on every axis, with β₂ on x set at 5 of its
 /// standard errors, the fit (from orders 3 and 2) keeps β₂ on x in at least 90 % of draws and a
 /// term that is zero (β₂, β₃ on y and z; ρ₂ anywhere; β₃ on x) in at most 5 % of the axis-draws.
@@ -778,21 +823,24 @@ fn thermal_terms_rule_keeps_a_five_se_term_and_drops_a_zero_one() {
         };
         fit_thermal(&refs, &settings, STANDARD_GRAVITY).expect("thermal fit")
     };
-    // β₂'s standard error at the true orders, from the draws themselves.
-    let mut se: Vec<f64> = (0..10u64)
-        .into_par_iter()
-        .map(|seed| fit(9000 + seed, 0.0, Some([2, 1])).bias_per_c_se[0][1])
-        .collect();
-    se.sort_by(f64::total_cmp);
-    let beta2_x = 5.0 * se[se.len() / 2];
-    let draws = 40u64;
-    let kept: Vec<([usize; 3], [usize; 3])> = (0..draws)
+    // Per draw: β₂'s standard error at the true orders with β₂ = 0, then the same draw (same
+    // orientations and noise) with β₂ at 5 of them, fitted by the rule. At β₂ = 0 its error over
+    // its standard error has an RMS within [0.7, 1.4] (too large an error bar fails as well as
+    // too small).
+    let draws = 60u64;
+    let runs: Vec<(f64, f64, [usize; 3], [usize; 3])> = (0..draws)
         .into_par_iter()
         .map(|seed| {
-            let f = fit(9100 + seed, beta2_x, None);
-            (f.terms.bias_orders, f.terms.scale_orders)
+            let zero = fit(9100 + seed, 0.0, Some([2, 1]));
+            let se = zero.bias_per_c_se[0][1];
+            let f = fit(9100 + seed, 5.0 * se, None);
+            (zero.model.bias_per_c[0][1] / se, se, f.terms.bias_orders, f.terms.scale_orders)
         })
         .collect();
+    let rms_z = (runs.iter().map(|r| r.0 * r.0).sum::<f64>() / draws as f64).sqrt();
+    let mut se: Vec<f64> = runs.iter().map(|r| r.1).collect();
+    se.sort_by(f64::total_cmp);
+    let kept: Vec<([usize; 3], [usize; 3])> = runs.iter().map(|r| (r.2, r.3)).collect();
     let power = kept.iter().filter(|(b, _)| b[0] >= 2).count() as f64 / draws as f64;
     let zero_kept = kept
         .iter()
@@ -809,11 +857,13 @@ fn thermal_terms_rule_keeps_a_five_se_term_and_drops_a_zero_one() {
         .filter(|(b, s)| b.contains(&0) || s.contains(&0))
         .count();
     println!(
-        "β₂ on x at 5 se ({beta2_x:.3e} m/s²/°C², se {:.3e}): kept in {:.0} % of {draws} draws; zero terms kept in {:.1} % of axis-draws; a linear term lost in {linear_lost}",
+        "β₂ on x at 5 se (median se {:.3e} m/s²/°C²): kept in {:.0} % of {draws} draws; zero terms kept in {:.1} % of axis-draws; a linear term lost in {linear_lost}",
         se[se.len() / 2],
         100.0 * power,
         100.0 * false_alarms
     );
+    println!("β₂ (zero) at the true orders: RMS of estimate/se {rms_z:.2} over {draws} draws");
+    assert!((0.7..=1.4).contains(&rms_z), "RMS z {rms_z}");
     assert!(power >= 0.9, "β₂ at 5 se kept in {power}");
     assert!(false_alarms <= 0.05, "zero terms kept in {false_alarms}");
     assert_eq!(linear_lost, 0, "a linear term far above its error was dropped");
@@ -823,8 +873,8 @@ fn thermal_terms_rule_keeps_a_five_se_term_and_drops_a_zero_one() {
 /// a second warm-up, the poses in three power-on sessions whose bias offsets differ by 0.05 m/s²
 /// (the warm-up a fourth), the truth's β linear. Fitted as one session, the offsets between the
 /// poses' sessions read as a change with temperature; with the sessions named, the spread found
-/// is above zero and β₁ comes back within four of its standard errors on every axis, in each of
-/// three draws.
+/// is above zero and β₁ comes back within four of its standard errors on every axis, where the
+/// one-session fit misses it by more than four of them on some axis, in each of three draws.
 #[test]
 fn thermal_fit_separates_session_offsets_from_the_change_with_temperature() {
     let settings = ThermalSettings {
@@ -847,8 +897,10 @@ fn thermal_fit_separates_session_offsets_from_the_change_with_temperature() {
         let named = spincal::thermal::fit_thermal_in_sessions(&refs, &sessions, &settings, STANDARD_GRAVITY)
             .expect("thermal fit in sessions");
         let one = fit_thermal(&refs, &settings, STANDARD_GRAVITY).expect("thermal fit, one session");
+        // Both errors in the named fit's standard errors: the one-session fit's own are widened
+        // by its misfit (the blocks see the offsets), which is not what is judged here.
         let z = |f: &spincal::thermal::ThermalFit| -> [f64; 3] {
-            std::array::from_fn(|k| (f.model.bias_per_c[k][0] - beta1[k]) / f.bias_per_c_se[k][0])
+            std::array::from_fn(|k| (f.model.bias_per_c[k][0] - beta1[k]) / named.bias_per_c_se[k][0])
         };
         println!(
             "seed {seed}: sessions {} spread {:.4} m/s² (LR {:.1}); β₁ error / se named {:?}, one session {:?}",
