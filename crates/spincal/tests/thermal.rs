@@ -411,7 +411,10 @@ fn streamed(file: &CorrectorFile, held_out: &[ThermalRecording]) -> (Vec<Vec<[f6
                     match rows.correct(Some(rec.time_s[i]), reading(rec, i), None, temperature, |_| {
                         String::new()
                     }) {
-                        RowOutcome::Corrected { status: RowStatus::OutsideTemperatureRange, .. } => {
+                        RowOutcome::Corrected {
+                            status: RowStatus::OutsideTemperatureRange,
+                            ..
+                        } => {
                             outside += 1;
                             [f64::NAN; 3]
                         }
@@ -765,7 +768,10 @@ fn first_principles_unit(
                 .map(|&temp| {
                     let dt = temp - 25.0;
                     let z: f64 = StandardNormal.sample(rng);
-                    bias[k] + offset[k] + poly(beta[k], dt) + (1.0 + scale[k]) * (1.0 + poly(rho[k], dt)) * g * u[k]
+                    bias[k]
+                        + offset[k]
+                        + poly(beta[k], dt)
+                        + (1.0 + scale[k]) * (1.0 + poly(rho[k], dt)) * g * u[k]
                         + noise * z
                 })
                 .collect()
@@ -786,7 +792,11 @@ fn first_principles_unit(
         u = u.map(|x| x / norm);
         // Poses in time order through the sessions: a session's poses share a stretch of
         // temperature, as when the cold poses are recorded one day and the hot ones another.
-        let session = if offsets.len() > 1 { 1 + i * (offsets.len() - 1) / poses } else { 0 };
+        let session = if offsets.len() > 1 {
+            1 + i * (offsets.len() - 1) / poses
+        } else {
+            0
+        };
         let start = 3000.0 + 2400.0 * i as f64 / poses as f64 + rng.gen_range(0.0..5.0);
         recordings.push(record(start, 20.0, u, offsets[session], &mut rng));
         sessions.push(session);
@@ -805,7 +815,11 @@ fn thermal_terms_rule_keeps_a_five_se_term_and_drops_a_zero_one() {
         reference_c: Some(25.0),
         ..ThermalSettings::default()
     };
-    let beta1 = [2e-3 * STANDARD_GRAVITY, -1e-3 * STANDARD_GRAVITY, 1.5e-3 * STANDARD_GRAVITY];
+    let beta1 = [
+        2e-3 * STANDARD_GRAVITY,
+        -1e-3 * STANDARD_GRAVITY,
+        1.5e-3 * STANDARD_GRAVITY,
+    ];
     let rho1 = [1e-4, -2e-4, 1.5e-4];
     let fit = |seed: u64, beta2_x: f64, fixed: Option<[usize; 2]>| {
         let bx = [beta1[0], beta2_x];
@@ -834,7 +848,12 @@ fn thermal_terms_rule_keeps_a_five_se_term_and_drops_a_zero_one() {
             let zero = fit(9100 + seed, 0.0, Some([2, 1]));
             let se = zero.bias_per_c_se[0][1];
             let f = fit(9100 + seed, 5.0 * se, None);
-            (zero.model.bias_per_c[0][1] / se, se, f.terms.bias_orders, f.terms.scale_orders)
+            (
+                zero.model.bias_per_c[0][1] / se,
+                se,
+                f.terms.bias_orders,
+                f.terms.scale_orders,
+            )
         })
         .collect();
     let rms_z = (runs.iter().map(|r| r.0 * r.0).sum::<f64>() / draws as f64).sqrt();
@@ -883,8 +902,17 @@ fn thermal_fit_separates_session_offsets_from_the_change_with_temperature() {
         orders: Some([1, 1]),
         ..ThermalSettings::default()
     };
-    let beta1 = [2e-3 * STANDARD_GRAVITY, -1e-3 * STANDARD_GRAVITY, 1.5e-3 * STANDARD_GRAVITY];
-    let offsets = [[0.0; 3], [0.05, -0.04, 0.03], [-0.05, 0.02, -0.05], [0.02, 0.05, 0.04]];
+    let beta1 = [
+        2e-3 * STANDARD_GRAVITY,
+        -1e-3 * STANDARD_GRAVITY,
+        1.5e-3 * STANDARD_GRAVITY,
+    ];
+    let offsets = [
+        [0.0; 3],
+        [0.05, -0.04, 0.03],
+        [-0.05, 0.02, -0.05],
+        [0.02, 0.05, 0.04],
+    ];
     for seed in 0..3u64 {
         let (stills, sessions) = first_principles_unit(
             9500 + seed,
@@ -916,8 +944,15 @@ fn thermal_fit_separates_session_offsets_from_the_change_with_temperature() {
             "seed {seed}: spread {:?}",
             named.sessions
         );
-        assert!(z(&named).iter().all(|z| z.abs() < 4.0), "seed {seed}: {:?}", z(&named));
+        assert!(
+            z(&named).iter().all(|z| z.abs() < 4.0),
+            "seed {seed}: {:?}",
+            z(&named)
+        );
         let worst_one = z(&one).iter().fold(0.0f64, |a, z| a.max(z.abs()));
-        assert!(worst_one > 4.0, "seed {seed}: one session's β₁ off by only {worst_one} se");
+        assert!(
+            worst_one > 4.0,
+            "seed {seed}: one session's β₁ off by only {worst_one} se"
+        );
     }
 }

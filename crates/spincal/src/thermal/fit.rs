@@ -556,7 +556,8 @@ fn solve(windows: &[Window], orders: Orders, reference_c: f64, gravity: f64) -> 
     // lets in what the die temperature's estimate errs together, but with a block per pose and
     // two angles fitted to each it runs low (measured: 79 % coverage of 95 % intervals with the
     // die temperature logged exactly, where the classical one covers 95 %).
-    let classical = inverse_diagonal(&report.jtj).map(|d| d.into_iter().map(|x| x * sse / dof).collect::<Vec<f64>>());
+    let classical =
+        inverse_diagonal(&report.jtj).map(|d| d.into_iter().map(|x| x * sse / dof).collect::<Vec<f64>>());
     let robust = robust_covariance_diagonal(&problem, &report.params, &report.jtj);
     let covariance_diagonal = match (classical, robust) {
         (Some(c), Some(r)) => c.iter().zip(&r).map(|(c, r)| c.max(*r)).collect(),
@@ -796,9 +797,13 @@ pub fn fit_thermal_in_sessions(
     let se = |i: usize| solved.covariance_diagonal[i].max(0.0).sqrt();
     let threshold = term_threshold();
     Ok(ThermalFit {
-        bias_per_c_se: std::array::from_fn(|k| (0..orders.bias[k]).map(|j| se(orders.bias_index(k, j))).collect()),
+        bias_per_c_se: std::array::from_fn(|k| {
+            (0..orders.bias[k]).map(|j| se(orders.bias_index(k, j))).collect()
+        }),
         scale_per_c_se: std::array::from_fn(|k| {
-            (0..orders.scale[k]).map(|j| se(orders.scale_index(k, j))).collect()
+            (0..orders.scale[k])
+                .map(|j| se(orders.scale_index(k, j)))
+                .collect()
         }),
         model,
         bias_order: orders.bias.into_iter().max().unwrap_or(0),

@@ -30,8 +30,8 @@ use crate::input::recording::Recording;
 
 pub(crate) use fit::MIN_SPAN_C;
 pub use fit::{
-    fit_thermal, fit_thermal_in_sessions, TermTest, ThermalError, ThermalFit, ThermalSessions, ThermalSettings,
-    ThermalTerms,
+    fit_thermal, fit_thermal_in_sessions, TermTest, ThermalError, ThermalFit, ThermalSessions,
+    ThermalSettings, ThermalTerms,
 };
 
 /// Sensor parameters at the reference temperature that the thermal model carries (no
