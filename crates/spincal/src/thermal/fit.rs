@@ -25,9 +25,9 @@
 //!   it) is not determined by the recordings and the fit is refused ([`ThermalError::LagAtEdge`]).
 //! - The polynomial orders of β and ρ, per axis, by the campaign's one terms rule: from the
 //!   highest orders, each axis's highest coefficient of β and of ρ is kept when its Wald statistic
-//!   |c/se| on the fit's robust covariance (blocks of `smoothing_s` within a recording, where the
-//!   die temperature's estimate errs together) reaches [`crate::metrics::TERM_FALSE_ALARM`]'s
-//!   threshold; the ones that do not are dropped and the model refitted, until every axis's
+//!   |c/se| reaches [`crate::metrics::TERM_FALSE_ALARM`]'s threshold, se from the larger of the
+//!   classical and the block-robust variance (blocks of `smoothing_s` within a recording, where
+//!   the die temperature's estimate errs together; the sandwich alone runs low, see `solve`); the ones that do not are dropped and the model refitted, until every axis's
 //!   highest term passes ([`ThermalTerms`]). No held-out score decides an order.
 
 use faer::prelude::Solve;
