@@ -139,6 +139,16 @@ fn incomplete_beta(a: f64, b: f64, x: f64) -> f64 {
     }
 }
 
+/// Two-sided false-alarm probability of the Wald test that decides which terms a saved model
+/// carries (the accelerometer's q, the gyroscope's terms held at nominal, the thermal orders).
+/// Here, below both the campaign and the thermal fit, so that both use this one value.
+pub const TERM_FALSE_ALARM: f64 = 1e-3;
+
+/// The |estimate/se| a term must reach to be kept by the Wald test at [`TERM_FALSE_ALARM`].
+pub(crate) fn term_threshold() -> f64 {
+    student_t_quantile(1.0 - 0.5 * TERM_FALSE_ALARM, 1e6)
+}
+
 /// P(T > t) for Student's t with `nu` degrees of freedom, t ≥ 0.
 fn student_t_upper(t: f64, nu: f64) -> f64 {
     0.5 * incomplete_beta(nu / 2.0, 0.5, nu / (nu + t * t))

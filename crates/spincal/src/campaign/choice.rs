@@ -205,8 +205,12 @@ fn thermal_sentence(thermal: Option<&CampaignThermal>) -> String {
     };
     let [lo, hi] = t.fit.model.fitted_range_c;
     format!(
-        " Corrected for temperature first (bias order {}, gain order {}, chosen on the coldest and hottest fifths held out; sensor lag {:.0} s) over die temperatures {lo:.1}–{hi:.1} °C: rows outside that range, or without a temperature, are corrected as at {:.1} °C and marked.",
-        t.fit.bias_order, t.fit.scale_order, t.fit.model.lag_s, t.fit.model.reference_c
+        " Corrected for temperature first (bias orders {:?}, gain orders {:?} per axis, each term kept by the Wald test at false-alarm {:e}; sensor lag {:.0} s) over die temperatures {lo:.1}–{hi:.1} °C: rows outside that range, or without a temperature, are corrected as at {:.1} °C and marked.",
+        t.fit.terms.bias_orders,
+        t.fit.terms.scale_orders,
+        crate::metrics::TERM_FALSE_ALARM,
+        t.fit.model.lag_s,
+        t.fit.model.reference_c
     )
 }
 

@@ -33,9 +33,9 @@ use faer::Mat;
 use serde::{Deserialize, Serialize};
 
 use crate::campaign::joint::{mid_time, JointFit, JointParam, PoseInput, RunInput};
-use crate::campaign::verdict::{term_threshold, TERM_FALSE_ALARM};
 use crate::correctors::gyro::{GyroCorrector, GyroModel};
 use crate::input::inspect::{gyro_rails_hit, gyro_saturated_mask, GYRO_SATURATED_SHARE};
+use crate::metrics::{term_threshold, TERM_FALSE_ALARM};
 
 /// Settings of the gyroscope fit.
 #[derive(Debug, Clone, Serialize, Deserialize)]

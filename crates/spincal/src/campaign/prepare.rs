@@ -171,7 +171,7 @@ fn pose_input(rec: &Recording, name: String, start: usize, end: usize, session: 
 /// Each recording's power-on session: recordings with the same `session` label share one; a
 /// still recording without a label is a session of its own; a run without one has `None` (an
 /// offset of its own).
-fn session_indices(recordings: &[UnitRecording]) -> Vec<Option<usize>> {
+pub(crate) fn session_indices(recordings: &[UnitRecording]) -> Vec<Option<usize>> {
     let mut labels: Vec<&str> = Vec::new();
     let mut next = 0;
     recordings

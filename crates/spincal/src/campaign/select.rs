@@ -31,8 +31,8 @@ use crate::campaign::joint::{
 };
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
 use crate::campaign::thermal::{check_temperature_units, temperature_bands, thermal_stage, CampaignThermal};
-use crate::campaign::verdict::{term_threshold, TERM_FALSE_ALARM};
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
+use crate::metrics::{term_threshold, TERM_FALSE_ALARM};
 use crate::progress::{Observer, Progress};
 use crate::turntable::fit::RadiusPrior;
 use crate::turntable::segments::PhaseSegments;

@@ -1,10 +1,12 @@
 //! A campaign's thermal stage, before everything else: when its still recordings carry a
 //! temperature that spans at least `thermal::fit::MIN_SPAN_C` (fit_thermal's own check), the
-//! thermal model is fitted to their poses (`thermal::fit_thermal`, orders chosen on the coldest
-//! and hottest bands held out) and every
-//! recording with a temperature, runs included, is taken to the reference temperature. The joint
-//! fit, the candidates and the held-out verdict then run unchanged on those readings, and the
-//! saved model.json carries the thermal model for `correct` to apply first.
+//! thermal model is fitted to their poses (`thermal::fit_thermal_in_sessions`: each pose in its
+//! recording's power-on session as the joint fit has it, a `session` label or the file's own, the
+//! spread between sessions estimated from the windows; orders by the terms rule, a Wald test at
+//! `TERM_FALSE_ALARM` on the fit's robust covariance) and every recording with a temperature,
+//! runs included, is taken to the reference temperature. The joint fit, the candidates and the
+//! held-out verdict then run unchanged on those readings, and the saved model.json carries the
+//! thermal model for `correct` to apply first.
 //!
 //! The temperatures are checked first (`check_temperatures`, `thermal::checks`, the rules
 //! `correct` runs): implausible samples, glitches and resets are held at the last trusted value
@@ -15,18 +17,17 @@
 //!
 //! What it cannot see: the thermal coefficients are fitted on every still pose, so the
 //! temperature bands held out by the campaign (`temperature_bands`) test the static
-//! correctors across temperature, not the thermal coefficients themselves; those are tested by
-//! the fit's own held-out bands, which choose their orders.
+//! correctors across temperature, not the thermal coefficients themselves.
 
 use serde::{Deserialize, Serialize};
 
-use crate::campaign::prepare::{still_intervals, Prepared, UnitRecording};
+use crate::campaign::prepare::{session_indices, still_intervals, Prepared, UnitRecording};
 use crate::input::recording::Recording;
 use crate::thermal::checks::{
     check_track, check_unit, is_stuck, temperature_column, unit_of_column, FindingKind, TemperatureError,
     TemperatureFinding,
 };
-use crate::thermal::{fit_thermal, ThermalFit, ThermalSettings, MIN_SPAN_C};
+use crate::thermal::{fit_thermal_in_sessions, ThermalFit, ThermalSettings, MIN_SPAN_C};
 
 /// What the thermal stage did (results.json `thermal`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -147,11 +148,15 @@ pub(crate) fn check_temperatures(units: &[UnitRecording]) -> CheckedTemperatures
 }
 
 /// The still poses of every still recording that has a temperature, each as its own recording
-/// (fit_thermal takes one orientation per recording), on the recording's clock; a recording of
-/// one pose whole.
-fn still_poses(units: &[UnitRecording]) -> Vec<Recording> {
-    let mut out = Vec::new();
-    for unit in units.iter().filter(|u| u.turntable.is_none()) {
+/// (fit_thermal takes one orientation per recording), on the recording's clock, with its power-on
+/// session (the joint fit's: [`session_indices`]); a recording of one pose whole.
+fn still_poses(units: &[UnitRecording]) -> (Vec<Recording>, Vec<usize>) {
+    let sessions = session_indices(units);
+    let (mut out, mut out_sessions) = (Vec::new(), Vec::new());
+    for (unit, session) in units.iter().zip(sessions) {
+        let (Some(session), None) = (session, &unit.turntable) else {
+            continue;
+        };
         let rec = &unit.recording;
         let Some(temperature) = &rec.temperature_c else {
             continue;
@@ -163,6 +168,7 @@ fn still_poses(units: &[UnitRecording]) -> Vec<Recording> {
                 gyro_radps: None,
                 ..rec.clone()
             });
+            out_sessions.push(session);
             continue;
         }
         for interval in intervals {
@@ -174,9 +180,10 @@ fn still_poses(units: &[UnitRecording]) -> Vec<Recording> {
                 temperature_c: Some(temperature[a..b].to_vec()),
                 source: rec.source.clone(),
             });
+            out_sessions.push(session);
         }
     }
-    out
+    (out, out_sessions)
 }
 
 /// Fits the thermal model where the campaign allows and takes every recording with a temperature
@@ -206,14 +213,14 @@ pub(crate) fn thermal_stage(
         findings: findings.clone(),
         masked_samples,
     };
-    let poses = still_poses(units);
+    let (poses, sessions) = still_poses(units);
     if poses.is_empty() {
         return unchanged(Some(
             "no thermal model: no still recording with a temperature column".into(),
         ));
     }
     let refs: Vec<&Recording> = poses.iter().collect();
-    let fit = match fit_thermal(&refs, settings, gravity_mps2) {
+    let fit = match fit_thermal_in_sessions(&refs, &sessions, settings, gravity_mps2) {
         Ok(fit) => fit,
         // Too narrow a span of temperature among them (`ThermalError::NarrowRange`) included.
         Err(e) => return unchanged(Some(format!("no thermal model: {e}"))),

@@ -56,15 +56,6 @@ use crate::turntable::fit::RadiusPrior;
 /// a whole (the bias between poses) is the offset term's.
 const POSE_BLOCK_S: f64 = 1.0;
 
-/// Two-sided false-alarm probability of the Wald test that decides which terms a saved model
-/// carries (the accelerometer's q, the gyroscope's terms held at nominal).
-pub const TERM_FALSE_ALARM: f64 = 1e-3;
-
-/// The |estimate/se| a term must reach to be kept by the Wald test at [`TERM_FALSE_ALARM`].
-pub(crate) fn term_threshold() -> f64 {
-    student_t_quantile(1.0 - 0.5 * TERM_FALSE_ALARM, 1e6)
-}
-
 /// One-sided false-alarm probability of "worse than uncorrected" on one condition.
 pub(crate) const WORSE_FALSE_ALARM: f64 = 1e-3;
 /// How much worse than no correction a saved corrector may be on a held-out condition, as a share

@@ -440,12 +440,21 @@ fn thermal_section(r: &CampaignResult, h: &mut String) -> Result<(), PlotError> 
     let m = &t.fit.model;
     let _ = write!(
         h,
-        "<h2>Temperature</h2><p>Every recording with a temperature was taken to the reference temperature {:.1} °C before the rest of the calibration, and model.json applies the same change first. Bias order {}, gain order {}, chosen on the coldest and hottest fifths of the windows, held out (below {:.1} °C and above {:.1} °C); the reported temperature lags the die by τ = {:.0} s (chosen by residual among the candidates), undone as T + τ·dT/dt over {:.0} s. Validated over die temperatures {:.1}–{:.1} °C: <code>spincal correct</code> marks rows outside it. Residual RMS of the thermal fit {:.4} m/s² over {} windows. In the held-out figures above, <em>uncorrected</em> is the recording after this step.{}{}</p>",
+        "<h2>Temperature</h2><p>Every recording with a temperature was taken to the reference temperature {:.1} °C before the rest of the calibration, and model.json applies the same change first. Bias orders {:?} and gain orders {:?} (x, y, z), kept by the terms rule: {}. Power-on sessions among the still recordings: {}{}. The reported temperature lags the die by τ = {:.0} s (chosen by residual among the candidates), undone as T + τ·dT/dt over {:.0} s. Validated over die temperatures {:.1}–{:.1} °C: <code>spincal correct</code> marks rows outside it. Residual RMS of the thermal fit {:.4} m/s² over {} windows. In the held-out figures above, <em>uncorrected</em> is the recording after this step.{}{}</p>",
         m.reference_c,
-        t.fit.bias_order,
-        t.fit.scale_order,
-        t.fit.held_out_bands_c[0],
-        t.fit.held_out_bands_c[1],
+        t.fit.terms.bias_orders,
+        t.fit.terms.scale_orders,
+        escape(&t.fit.terms.rule),
+        t.fit.sessions.count,
+        if t.fit.sessions.count > 1 {
+            format!(
+                ", their bias offsets spread by {:.2e} m/s² (estimated from the windows{})",
+                t.fit.sessions.spread_sd_mps2,
+                if t.fit.sessions.at_lower_bound { ": none seen" } else { "" }
+            )
+        } else {
+            String::new()
+        },
         m.lag_s,
         m.smoothing_s,
         m.fitted_range_c[0],
@@ -463,13 +472,17 @@ fn thermal_section(r: &CampaignResult, h: &mut String) -> Result<(), PlotError> 
             format!(" {} samples lay outside the range and were taken to the reference from its nearest end.", t.clamped_samples)
         }
     );
-    if !t.fit.order_scores.is_empty() {
-        h.push_str("<table><tr><th>bias order</th><th>gain order</th><th>held-out RMS, m/s²</th></tr>");
-        for o in &t.fit.order_scores {
+    if !t.fit.terms.tests.is_empty() {
+        h.push_str("<table><tr><th>term</th><th>axis</th><th>order</th><th>c/se</th><th>kept</th></tr>");
+        for o in &t.fit.terms.tests {
             let _ = write!(
                 h,
-                "<tr><td>{}</td><td>{}</td><td>{:.5}</td></tr>",
-                o.bias_order, o.scale_order, o.held_out_rms_mps2
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td></tr>",
+                o.part,
+                ["x", "y", "z"][o.axis.min(2)],
+                o.order,
+                o.z,
+                if o.kept { "yes" } else { "no" }
             );
         }
         h.push_str("</table>");

@@ -29,7 +29,10 @@ use serde::{Deserialize, Serialize};
 use crate::input::recording::Recording;
 
 pub(crate) use fit::MIN_SPAN_C;
-pub use fit::{fit_thermal, OrderScore, ThermalError, ThermalFit, ThermalSettings};
+pub use fit::{
+    fit_thermal, fit_thermal_in_sessions, TermTest, ThermalError, ThermalFit, ThermalSessions,
+    ThermalSettings, ThermalTerms,
+};
 
 /// Sensor parameters at the reference temperature that the thermal model carries (no
 /// nonlinearity: still poses at 1 g cannot tell it from bias and scale).
@@ -316,9 +319,11 @@ impl ThermalModel {
 }
 
 /// The die temperature behind each recording's reported temperature (`None` without one).
-/// Recordings on one clock, each starting at most `smoothing_s` after the previous one ended (the
-/// poses of one logging session), are taken as one track: a temperature in whole degrees steps
-/// rarely, and a short pose alone may hold no step at all.
+/// Recordings on one clock, each starting at most `smoothing_s` after the previous one ended, are
+/// taken as one track: a temperature in whole degrees steps rarely, and a short pose alone may
+/// hold no step at all. The gap is the smoothing window's (a line over `smoothing_s` can span
+/// it), and it decides only the temperature's estimate: which recordings share a bias is their
+/// power-on session's ([`fit_thermal_in_sessions`]).
 pub fn die_temperatures(recordings: &[&Recording], lag_s: f64, smoothing_s: f64) -> Vec<Option<Vec<f64>>> {
     let mut order: Vec<usize> = (0..recordings.len())
         .filter(|&i| recordings[i].temperature_c.is_some() && !recordings[i].is_empty())
