@@ -3,7 +3,7 @@
 //! 45 rpm with the platter 1 % fast, accelerometer and gyroscope in each simple-experiment zip,
 //! the chip off the phone's centre, no radius stated. Motion and sensor from the independent
 //! forward model (`common::independent`). The gyro's scale about the spindle is not asserted: on
-//! seed 11 it is 0.83 % off, 7.2 of its standard errors (bench/accuracy/RESULTS.md).
+//! seed 11 it is left at nominal, traded with a cross term (bench/accuracy/RESULTS.md).
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
