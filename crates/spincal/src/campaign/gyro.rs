@@ -21,9 +21,10 @@
 //! Only what the campaign determines is kept: a term whose standard error moves a reading at the
 //! reference rate by more than the tolerance is fixed at its nominal value (the prior's centre:
 //! bias 0, K's diagonal 1, off-diagonal 0) and the rest refitted with it fixed, until every free
-//! term is determined. Flat runs alone, for instance, leave K's x and y columns to the prior,
-//! and a term fitted from the prior and a leak through the spindle's small tilt made the
-//! corrected gyro worse than raw during rotations about x or y.
+//! term is determined; the columns no run spun are fixed first, alone, so that their leak does
+//! not blur the spun column's terms. Flat runs alone, for instance, leave K's x and y columns to
+//! the prior, and a term fitted from the prior and a leak through the spindle's small tilt made
+//! the corrected gyro worse than raw during rotations about x or y.
 
 // Per-axis arrays are indexed together; iterators would obscure that.
 #![allow(clippy::needless_range_loop)]
