@@ -7,7 +7,6 @@
 use faer::Mat;
 
 use super::covariance::jackknife_score;
-
 use super::input::{PoseInput, RunInput};
 use super::kinematics::{PoseFrame, RunGeometry};
 use super::layout::{
