@@ -66,10 +66,10 @@ impl JointFit {
     }
 }
 
-/// H⁻¹ S H⁻¹ over the given parameters, the variance of each parameter that `floored` names
-/// raised to at least the model's own (H⁻¹: the residuals weighted by their measured noise,
-/// priors at their stated widths) by scaling its row and column; `None` when H is singular
-/// there.
+/// H⁻¹ S H⁻¹ over the given parameters (`inverse`: H⁻¹ from [`free_inverse`]), the variance of
+/// each parameter that `floored` names raised to at least the model's own (H⁻¹: the residuals
+/// weighted by their measured noise, priors at their stated widths) by scaling its row and
+/// column.
 ///
 /// The floor is for a run's own parameters: the sandwich guards them against coloured residuals
 /// (wow, drift), but a run of six blocks makes it an estimate of about five degrees of freedom,
@@ -77,14 +77,14 @@ impl JointFit {
 /// (Cramér–Rao) bound, 2.6 of them off the truth. White noise is the least a recording carries.
 /// The sensor's terms, informed by every block and pose, keep the sandwich as it is.
 pub(super) fn sandwich(
-    h: &Mat<f64>,
+    inverse: &Mat<f64>,
     s: &Mat<f64>,
     index: &[usize],
     floored: impl Fn(usize) -> bool,
-) -> Option<Mat<f64>> {
+) -> Mat<f64> {
     let n = index.len();
     let ss = Mat::from_fn(n, n, |a, b| s[(index[a], index[b])]);
-    let h_inv = inverse_on(h, index)?;
+    let h_inv = Mat::from_fn(n, n, |a, b| inverse[(index[a], index[b])]);
     let left = &h_inv * &ss;
     let robust = &left * &h_inv;
     let raise: Vec<f64> = (0..n)
@@ -97,7 +97,7 @@ pub(super) fn sandwich(
             }
         })
         .collect();
-    Some(Mat::from_fn(n, n, |a, b| raise[a] * robust[(a, b)] * raise[b]))
+    Mat::from_fn(n, n, |a, b| raise[a] * robust[(a, b)] * raise[b])
 }
 
 /// The inverse of the symmetric positive definite `h` restricted to `index` (rows and columns);

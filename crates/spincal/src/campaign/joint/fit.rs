@@ -404,8 +404,8 @@ fn robust_covariance(
         },
     );
     let runs = SENSOR_PARAMS..run_offset(problem.runs.len());
-    let cov = sandwich(jtj, &meat, &index, |k| runs.contains(&k));
-    (cov, index)
+    let cov = sandwich(&full, &meat, &index, |k| runs.contains(&k));
+    (Some(cov), index)
 }
 
 /// The sensor's, each run's and each pose's parameters with their standard errors, and each
