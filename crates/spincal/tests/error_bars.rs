@@ -11,12 +11,27 @@ use spincal::campaign::candidate::{candidate, CandidateKind, TrainingSet};
 use spincal::campaign::file::{SignedAxis, TurntableEntry};
 use spincal::campaign::joint::{fit_joint, JointSettings};
 use spincal::correctors::model_file::CorrectorModel;
-use spincal::correctors::physical::{predicted_to_help, PhysicalCorrector, SensorUncertainty};
+use spincal::correctors::physical::{
+    predicted_to_help, quadratic_from_datasheet, PhysicalCorrector, SensorUncertainty,
+};
 
 use crate::common::independent::{random_gravity, still_pose, turntable_run, Placement, Sensor, G};
 
 /// Held-out orientations per unit.
 const HELD_OUT: usize = 8;
+
+/// The joint fit's settings for the generator's sensor, a ±2 g part whose datasheet gives 0.5 %
+/// FS nonlinearity (the generator's q reaches 0.4 % of the reading at 1 g), as its campaign file
+/// would state it.
+fn datasheet_settings() -> JointSettings {
+    let mut sensor_prior_sd = JointSettings::default().sensor_prior_sd;
+    sensor_prior_sd[3] = quadratic_from_datasheet(0.5, 2.0);
+    JointSettings {
+        gravity_mps2: G,
+        sensor_prior_sd,
+        ..JointSettings::default()
+    }
+}
 
 /// The RMS over units, held-out orientations and axes of (corrected − true)/predicted sd, for
 /// units calibrated from `poses` still poses, each its own file (session), 800 samples each.
@@ -31,11 +46,7 @@ fn normalised_error_rms(poses: usize, seeds: std::ops::RangeInclusive<u64>) -> f
                 still_pose(&sensor, f, [0.0; 3], 800, p, 20.0 * p as f64, &mut rng)
             })
             .collect();
-        let settings = JointSettings {
-            gravity_mps2: G,
-            ..JointSettings::default()
-        };
-        let fit = fit_joint(&[], &inputs, &settings, &spincal::progress::silent).unwrap();
+        let fit = fit_joint(&[], &inputs, &datasheet_settings(), &spincal::progress::silent).unwrap();
         let corrector = PhysicalCorrector {
             sensor: fit.sensor,
             gravity_mps2: G,
@@ -60,14 +71,22 @@ fn normalised_error_rms(poses: usize, seeds: std::ops::RangeInclusive<u64>) -> f
     (z2 / n as f64).sqrt()
 }
 
-/// 24 poses, one file each: the error bars cover the systematic error on 12 units (RMS of
-/// error/sd within 0.7–1.4). With 12 poses (as many readings as the sensor's terms and the poses'
-/// angles) they are too narrow: 1.52 measured, not yet asserted.
+/// 12, 16 and 24 poses, one file each: the error bars cover the systematic error on 12 units
+/// (RMS of error/sd within 0.7–1.4; 1.19, 0.93 and 0.76 measured). At 12 poses the poses give as
+/// many readings as the sensor's terms and their own angles take, and the block sandwich alone,
+/// estimated from residuals with almost no degrees of freedom left, put the RMS at 2.1; the
+/// covariance's floor at the model's own and the poses' CR2 correction bring it into the band.
+/// Below 12 the datasheet's prior does the work and the bars err wide (0.57 at 9 poses).
 #[test]
 fn the_predicted_sd_covers_the_error_at_new_orientations() {
-    let rms = normalised_error_rms(24, 1..=12);
-    eprintln!("24 poses: RMS of error/predicted sd {rms:.3}");
-    assert!((0.7..1.4).contains(&rms), "RMS of error/predicted sd {rms}");
+    for poses in [12, 16, 24] {
+        let rms = normalised_error_rms(poses, 1..=12);
+        eprintln!("{poses} poses: RMS of error/predicted sd {rms:.3}");
+        assert!(
+            (0.7..1.4).contains(&rms),
+            "{poses} poses: RMS of error/predicted sd {rms}"
+        );
+    }
 }
 
 /// The RMS over units, held-out orientations and axes of (corrected − true)/predicted sd of the
@@ -119,10 +138,7 @@ fn linear_normalised_error_rms(
                 run_inputs.push(run.in_session(Some(0)));
             }
         }
-        let settings = JointSettings {
-            gravity_mps2: G,
-            ..JointSettings::default()
-        };
+        let settings = datasheet_settings();
         let training = TrainingSet::new(run_inputs, inputs, &settings);
         let trained = candidate(CandidateKind::Linear)
             .train(&training, &spincal::progress::silent)
@@ -173,13 +189,12 @@ struct LinearCoverage {
     better: f64,
 }
 
-/// linear-12's error bars cover its error at orientations the campaign never held: RMS of
-/// error/sd within 0.7–1.4 over 12 units from 24 one-file poses (0.98 measured). From 12 poses
-/// of one session with two turntable runs the physical kind's own error bars are too narrow on
-/// this generator (RMS 1.75 measured), and the map, which inherits the joint fit's covariance,
-/// is as narrow (1.98): asserted within 0.7–1.4 of the physical kind's RMS there, so that the map
-/// adds no overconfidence of its own. Each part of the map's covariance alone errs narrow
-/// (`campaign::candidate`'s `map_covariance` gives the figures).
+/// linear-12's error bars cover its error at orientations the campaign never held, and so do the
+/// physical kind's trained the same way: RMS of error/sd within 0.7–1.4 over 12 units, from 24
+/// one-file poses (0.95 and 0.76 measured) and from 12 poses of one session with two turntable
+/// runs (1.17 and 1.12; 1.98 and 1.75 before the covariance's floor at the model's own). Each part
+/// of the map's covariance alone errs narrow (`campaign::candidate`'s `map_covariance` gives the
+/// figures).
 #[test]
 fn the_linear_maps_predicted_sd_covers_its_error_at_new_orientations() {
     for (poses, runs) in [(24, false), (12, true)] {
@@ -191,17 +206,12 @@ fn the_linear_maps_predicted_sd_covers_its_error_at_new_orientations() {
             c.physical_rms,
             100.0 * c.better
         );
-        if runs {
-            let ratio = c.rms / c.physical_rms;
-            assert!(
-                (0.7..1.4).contains(&ratio),
-                "RMS {} against physical {}",
-                c.rms,
-                c.physical_rms
-            );
-        } else {
-            assert!((0.7..1.4).contains(&c.rms), "RMS of error/predicted sd {}", c.rms);
-        }
+        assert!((0.7..1.4).contains(&c.rms), "RMS of error/predicted sd {}", c.rms);
+        assert!(
+            (0.7..1.4).contains(&c.physical_rms),
+            "physical: {}",
+            c.physical_rms
+        );
         // A sensor with biases to 0.2 m/s² is worth correcting almost everywhere.
         assert!(c.better > 0.5, "predicted_better on {}", c.better);
     }

@@ -249,8 +249,8 @@ fn flat_runs_leave_the_x_and_y_columns_at_nominal() {
 }
 
 /// Runs about all three axes (each axis up in its own placement): the biases and every axis's
-/// own scale kept (seed 4's K_xx is just short of the tolerance, 1.14×, but 7 standard errors
-/// from one: kept). The accelerometer fixes one of each mounting's two tilts only
+/// own scale kept (seed 4's K_xx is just short of the tolerance, 1.14×, and 3.29 standard
+/// errors from one, on the Wald test's threshold: kept). The accelerometer fixes one of each mounting's two tilts only
 /// to about 1°, so one cross term per column stays undetermined (named, with the advice); those
 /// the data put far from nominal are kept, the others left there. The corrected gyro on held-out
 /// rotations about x, y and z: better than raw on each, and, summed over them, better than with
@@ -275,8 +275,9 @@ fn runs_about_three_axes_keep_every_term_they_determine() {
             }
             if left {
                 let se = free.std_error.unwrap();
+                let nominal = if i >= 3 && (i - 3) % 4 == 0 { 1.0 } else { 0.0 };
                 assert!(
-                    undetermined && free.value.abs() < z * se,
+                    undetermined && (free.value - nominal).abs() < z * se,
                     "seed {seed}: {}",
                     p.name
                 );

@@ -597,7 +597,9 @@ impl Trainer for LinearCandidate {
 /// Measured on the independent generator (tests/error_bars.rs, 12 units, RMS of error/sd at new
 /// orientations; 24 one-file poses | 12 poses and two runs): the sandwich alone 3.1 | –, the
 /// reference's error alone 9.6 | –, the departure alone 1.25 | 8.1, departure and reference
-/// 1.05 | 2.0, all three 0.98 | 1.98 (the physical kind's own: 0.78 | 1.75). So the reference's
+/// 1.05 | 2.0, all three 0.98 | 1.98 (the physical kind's own: 0.78 | 1.75); with the campaign
+/// file's datasheet prior on q and the joint covariance's floor at the model's own (the physical
+/// kind's 0.76 | 1.12), all three give 0.95 | 1.17. So the reference's
 /// error matters where runs crowd the readings, the departure where poses spread them, and the
 /// departure averaged over the training readings instead of the sphere erred narrow with runs
 /// (2.3).

@@ -161,16 +161,25 @@ pub(super) fn save_gyro_alone(gyro: Option<&GyroFit>) -> Option<(CorrectorFile, 
     ))
 }
 
-/// Why no candidate was saved although there were conditions to hold out.
+/// Why no candidate was saved although there were conditions to hold out; `set_aside`: the
+/// physical family's member the terms rule set aside and why.
 pub(super) fn nothing_saved_verdict(
     summaries: &[CandidateSummary],
+    set_aside: Option<(&str, String)>,
     prepared: &Prepared,
     undetermined: &[Advice],
     truth_check: Option<&TruthCheck>,
 ) -> String {
     let reasons: Vec<String> = summaries
         .iter()
-        .map(|s| format!("{}: {}", s.candidate, s.why_not.as_deref().unwrap_or("?")))
+        .map(|s| {
+            let why = match (&s.why_not, &set_aside) {
+                (Some(why), _) => why.as_str(),
+                (None, Some((name, why))) if *name == s.candidate => why.as_str(),
+                (None, _) => "eligible, but not chosen",
+            };
+            format!("{}: {why}", s.candidate)
+        })
         .collect();
     // A held-out group of poses that defeats every corrector: the rest could not pin the
     // sensor down without it.

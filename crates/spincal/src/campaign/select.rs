@@ -97,6 +97,20 @@ impl TermsRule {
         })
     }
 
+    /// Why the rule sets its member aside (the candidate summary's `why_not`).
+    fn why_set_aside(&self) -> String {
+        let z = self.nonlinearity_z.map(|z| format!("{z:.1}")).join(", ");
+        let family = if self.keeps_nonlinearity {
+            "physical"
+        } else {
+            "physical-linear"
+        };
+        format!(
+            "set aside by the terms rule: |q̂/se| per axis {z} against {:.2}, so the physical family's candidate is {family}",
+            self.threshold
+        )
+    }
+
     /// The physical family's member this rule sets aside.
     fn set_aside(&self) -> crate::campaign::candidate::CandidateKind {
         if self.keeps_nonlinearity {
@@ -414,7 +428,13 @@ pub fn calibrate_campaign(
         None if conditions.is_empty() => (None, no_conditions_verdict(&prepared, &undetermined)),
         None => (
             None,
-            nothing_saved_verdict(&summaries, &prepared, &undetermined, truth_check.as_ref()),
+            nothing_saved_verdict(
+                &summaries,
+                terms_rule.as_ref().map(|r| (r.set_aside().name(), r.why_set_aside())),
+                &prepared,
+                &undetermined,
+                truth_check.as_ref(),
+            ),
         ),
     };
     // With no candidate eligible, a contradicted radius is still a cause worth naming first.

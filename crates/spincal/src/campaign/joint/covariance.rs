@@ -1,7 +1,8 @@
 //! The robust (block-HAC sandwich) covariance and its parts the results expose.
 
+use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::prelude::Solve;
-use faer::{Mat, Side};
+use faer::{Mat, Par, Side};
 
 use super::layout::run_offset;
 use super::result::JointFit;
@@ -66,38 +67,82 @@ impl JointFit {
     }
 }
 
-/// H⁻¹ S H⁻¹ over the given parameters (`inverse`: H⁻¹ from [`free_inverse`]), the variance of
-/// each parameter that `floored` names raised to at least the model's own (H⁻¹: the residuals
-/// weighted by their measured noise, priors at their stated widths) by scaling its row and
-/// column.
+/// H⁻¹ S H⁻¹ over the given parameters (`inverse`: H⁻¹ from [`free_inverse`]), never below the
+/// model's own covariance H⁻¹ (the residuals weighted by their measured noise, priors at their
+/// stated widths): a run's parameter (`of_run`) has its variance raised to at least the model's
+/// by scaling its row and column; over the others (the sensor's, the poses', the sessions'), in
+/// the frame where H⁻¹ is the identity, each eigenvalue of the sandwich below one is set to one.
+/// `None` where H⁻¹ is not positive definite there.
 ///
-/// The floor is for a run's own parameters: the sandwich guards them against coloured residuals
-/// (wow, drift), but a run of six blocks makes it an estimate of about five degrees of freedom,
-/// and on a phone's 30 s runs it put a rate's standard error at half the white-noise
-/// (Cramér–Rao) bound, 2.6 of them off the truth. White noise is the least a recording carries.
-/// The sensor's terms, informed by every block and pose, keep the sandwich as it is.
+/// The sandwich guards against what the weights miss (coloured residuals, scatter between
+/// poses), but it is an estimate from the blocks' scores: a run of six blocks gives about five
+/// degrees of freedom, and a campaign of a few more one-file poses than the sensor's terms
+/// hardly more. On a phone's 30 s runs it put a rate's standard error at half the white-noise
+/// (Cramér–Rao) bound; at 16 one-file poses the q terms' standard errors scattered from a
+/// quarter to twice the true one between noise draws of one design. White noise is the least a
+/// recording carries; with few clusters the larger of the robust and the conventional variance
+/// is the usual remedy. For the sensor a floor on the diagonal alone is not enough: it keeps the
+/// sandwich's near-singular directions, along which held-out predictions then lie. A run's
+/// parameters keep the diagonal floor: the gyro's terms come from its rates alone, and the full
+/// floor there moved a scale across the terms rule's threshold.
 pub(super) fn sandwich(
     inverse: &Mat<f64>,
     s: &Mat<f64>,
     index: &[usize],
-    floored: impl Fn(usize) -> bool,
-) -> Mat<f64> {
+    of_run: impl Fn(usize) -> bool,
+) -> Option<Mat<f64>> {
     let n = index.len();
     let ss = Mat::from_fn(n, n, |a, b| s[(index[a], index[b])]);
     let h_inv = Mat::from_fn(n, n, |a, b| inverse[(index[a], index[b])]);
-    let left = &h_inv * &ss;
-    let robust = &left * &h_inv;
+    let robust = &h_inv * &ss * &h_inv;
     let raise: Vec<f64> = (0..n)
         .map(|a| {
             let ratio = h_inv[(a, a)] / robust[(a, a)];
-            if floored(index[a]) && ratio > 1.0 && ratio.is_finite() {
+            if of_run(index[a]) && ratio > 1.0 && ratio.is_finite() {
                 ratio.sqrt()
             } else {
                 1.0
             }
         })
         .collect();
-    Mat::from_fn(n, n, |a, b| raise[a] * robust[(a, b)] * raise[b])
+    let mut covariance = Mat::from_fn(n, n, |a, b| raise[a] * robust[(a, b)] * raise[b]);
+    let rest: Vec<usize> = (0..n).filter(|&a| !of_run(index[a])).collect();
+    let sub = |m: &Mat<f64>| Mat::from_fn(rest.len(), rest.len(), |a, b| m[(rest[a], rest[b])]);
+    let shortfall = loewner_shortfall(&sub(&robust), &sub(&h_inv))?;
+    for (a, &i) in rest.iter().enumerate() {
+        for (b, &j) in rest.iter().enumerate() {
+            covariance[(i, j)] += shortfall[(a, b)];
+        }
+    }
+    Some(covariance)
+}
+
+/// What `robust` lacks of `model` in every direction: F U max(1 − Λ, 0) Uᵀ Fᵀ, with F Fᵀ = model
+/// and U Λ Uᵀ = F⁻¹ robust F⁻ᵀ (positive semi-definite; added to `robust`, a covariance at least
+/// both). `None` where `model` is not positive definite.
+fn loewner_shortfall(robust: &Mat<f64>, model: &Mat<f64>) -> Option<Mat<f64>> {
+    let n = model.nrows();
+    // F = D L with D the diagonal's square root, for a well-conditioned factor.
+    let d: Vec<f64> = (0..n)
+        .map(|a| model[(a, a)].max(f64::MIN_POSITIVE).sqrt())
+        .collect();
+    let scaled = Mat::from_fn(n, n, |a, b| model[(a, b)] / (d[a] * d[b]));
+    let llt = scaled.llt(Side::Lower).ok()?;
+    let factor = Mat::from_fn(n, n, |a, b| d[a] * llt.L()[(a, b)]);
+    let solve = |mut m: Mat<f64>| {
+        solve_lower_triangular_in_place(factor.as_ref(), m.as_mut(), Par::Seq);
+        m
+    };
+    let whitened = solve(solve(robust.clone()).transpose().to_owned());
+    let whitened = Mat::from_fn(n, n, |a, b| 0.5 * (whitened[(a, b)] + whitened[(b, a)]));
+    let eigen = whitened.self_adjoint_eigen(Side::Lower).ok()?;
+    let (u, lambda) = (eigen.U(), eigen.S());
+    let lacking = Mat::from_fn(n, n, |a, b| {
+        (0..n)
+            .map(|k| u[(a, k)] * (1.0 - lambda[k]).max(0.0) * u[(b, k)])
+            .sum::<f64>()
+    });
+    Some(&factor * lacking * factor.transpose())
 }
 
 /// The inverse of the symmetric positive definite `h` restricted to `index` (rows and columns);

@@ -147,7 +147,7 @@ fn fit_joint_with(
         stop: report.stop,
         bias_spread,
         covariance: format!(
-            "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run (each block's score restored by the block jackknife, CR3), each still pose and each prior a block of its own (batch-means HAC), no run parameter's variance below the model's own H⁻¹; each pose weighted by its mean's error and the bias's wander between poses ({})",
+            "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run (each block's score restored by the block jackknife, CR3), each still pose and each prior a block of its own (batch-means HAC), no variance below the model's own H⁻¹ (a run parameter's; every direction of the sensor's, poses' and sessions'); each pose weighted by its mean's error and the bias's wander between poses ({})",
             settings.block_s,
             blocks,
             match walk {
@@ -337,7 +337,12 @@ fn reweight_poses(
 ) {
     let poses = problem.poses;
     let index: Vec<usize> = (0..p.len()).filter(|&k| free[k]).collect();
-    let leverage = free_inverse(jtj, &index).map(|inverse| problem.pose_leverage(p, &inverse));
+    let leverage = free_inverse(jtj, &index).map(|inverse| {
+        let hat = problem.pose_hat(p, &inverse);
+        hat.iter()
+            .map(|h| [h[0][0], h[1][1], h[2][2]])
+            .collect::<Vec<_>>()
+    });
     for session in 0..sessions(problem.runs, poses) {
         let members: Vec<usize> = (0..poses.len())
             .filter(|&i| poses[i].session == session)
@@ -377,6 +382,28 @@ fn reweight_poses(
     }
 }
 
+/// (I − H_bb)^(−½) for a pose's block H_bb of the hat matrix, each eigenvalue of I − H_bb taken
+/// as at least [`MIN_KEPT_VARIANCE`]: a residual vector that keeps the share λ of its variance
+/// along an eigenvector is scaled back by 1/√λ there (CR2). A diagonal per-axis correction would
+/// scale a random orientation's radial residual, all that its own angles leave, by up to √3.
+fn restoring(hat: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    let kept = Mat::from_fn(3, 3, |i, j| {
+        f64::from(u8::from(i == j)) - 0.5 * (hat[i][j] + hat[j][i])
+    });
+    let identity = std::array::from_fn(|i| std::array::from_fn(|j| f64::from(u8::from(i == j))));
+    let Ok(eigen) = kept.self_adjoint_eigen(faer::Side::Lower) else {
+        return identity;
+    };
+    let (u, lambda) = (eigen.U(), eigen.S());
+    std::array::from_fn(|i| {
+        std::array::from_fn(|j| {
+            (0..3)
+                .map(|k| u[(i, k)] * u[(j, k)] / lambda[k].max(MIN_KEPT_VARIANCE).sqrt())
+                .sum()
+        })
+    })
+}
+
 /// The sandwich covariance over the free parameters at `p` and those parameters' indices.
 fn robust_covariance(
     problem: &JointProblem<'_>,
@@ -389,23 +416,18 @@ fn robust_covariance(
     let Some(full) = free_inverse(jtj, &index) else {
         return (None, index);
     };
-    let pose_kept: Vec<[f64; 3]> = problem
-        .pose_leverage(p, &full)
-        .iter()
-        .map(|h| h.map(|h| (1.0 - h).max(MIN_KEPT_VARIANCE)))
-        .collect();
+    let pose_restore: Vec<[[f64; 3]; 3]> = problem.pose_hat(p, &full).iter().map(restoring).collect();
     let mut meat = Mat::<f64>::zeros(n, n);
     problem.evaluate(
         p,
         Want::Meat {
             meat: &mut meat,
-            pose_kept: &pose_kept,
+            pose_restore: &pose_restore,
             inverse: &full,
         },
     );
     let runs = SENSOR_PARAMS..run_offset(problem.runs.len());
-    let cov = sandwich(&full, &meat, &index, |k| runs.contains(&k));
-    (Some(cov), index)
+    (sandwich(&full, &meat, &index, |k| runs.contains(&k)), index)
 }
 
 /// The sensor's, each run's and each pose's parameters with their standard errors, and each

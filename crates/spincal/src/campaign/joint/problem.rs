@@ -168,9 +168,10 @@ fn model_row(
 pub(crate) enum Want<'a> {
     Sse,
     Normal(&'a mut Mat<f64>, &'a mut [f64]),
-    /// Σ over blocks of s sᵀ (s: the block's score Jᵀr), into the matrix; a pose's residual on
-    /// each axis divided by √(share of its variance the fit left it), `pose_kept` (HC2: few
-    /// poses and many parameters leave residuals well below the noise that made them).
+    /// Σ over blocks of s sᵀ (s: the block's score Jᵀr), into the matrix; a pose's three
+    /// residuals first multiplied by `pose_restore`, (I − H_bb)^(−½) over the pose's block of the
+    /// hat matrix (CR2: few poses and many parameters leave residuals well below the noise that
+    /// made them, and a pose's own angles take all but its radial part).
     ///
     /// A run's block score is first divided by what the fit left of it (CR3, the block
     /// jackknife, in parameter space): s̃ = (I − A P)⁻¹ s, with A the block's JᵀJ and P the
@@ -180,7 +181,7 @@ pub(crate) enum Want<'a> {
     /// the rate's standard error came out a third of the Cramér–Rao bound.
     Meat {
         meat: &'a mut Mat<f64>,
-        pose_kept: &'a [[f64; 3]],
+        pose_restore: &'a [[[f64; 3]; 3]],
         inverse: &'a Mat<f64>,
     },
 }
@@ -284,25 +285,29 @@ impl JointProblem<'_> {
         }
     }
 
-    /// Leverage of each pose's residual per axis: h = jᵀ (JᵀJ)⁻¹ j over the free parameters, with
-    /// `inverse` the weighted normal matrix's inverse at `p` (n × n, zero where fixed). The share
-    /// of that residual the fit itself absorbs.
-    pub(super) fn pose_leverage(&self, p: &[f64], inverse: &Mat<f64>) -> Vec<[f64; 3]> {
+    /// Each pose's block of the hat matrix, H_bb = J_b (JᵀJ)⁻¹ J_bᵀ over its three axes and the
+    /// free parameters, with `inverse` the weighted normal matrix's inverse at `p` (n × n, zero
+    /// where fixed): what the fit itself absorbs of that pose's residual. Its diagonal is each
+    /// axis's leverage.
+    pub(super) fn pose_hat(&self, p: &[f64], inverse: &Mat<f64>) -> Vec<[[f64; 3]; 3]> {
         let sensor = SensorModel::from_params(p);
         let mut out = Vec::with_capacity(self.poses.len());
         for pi in 0..self.poses.len() {
             let columns = self.pose_index(pi);
-            let mut h = [0.0; 3];
-            self.pose_rows(p, &sensor, pi, |k, row, _| {
-                let mut sum = 0.0;
-                for (a, &ka) in columns.iter().enumerate() {
-                    for (b, &kb) in columns.iter().enumerate() {
-                        sum += row[a] * inverse[(ka, kb)] * row[b];
+            let mut rows = [const { Vec::new() }; 3];
+            self.pose_rows(p, &sensor, pi, |k, row, _| rows[k] = row.to_vec());
+            let hat = std::array::from_fn(|i| {
+                std::array::from_fn(|j| {
+                    let mut sum = 0.0;
+                    for (a, &ka) in columns.iter().enumerate() {
+                        for (b, &kb) in columns.iter().enumerate() {
+                            sum += rows[i][a] * inverse[(ka, kb)] * rows[j][b];
+                        }
                     }
-                }
-                h[k] = sum;
+                    sum
+                })
             });
-            out.push(h);
+            out.push(hat);
         }
         out
     }
@@ -482,18 +487,25 @@ impl JointProblem<'_> {
         let index = self.pose_index(pi);
         let mut local = LocalSystem::new(index.clone());
         let mut block = vec![0.0; index.len()];
-        let kept = match &*want {
-            Want::Meat { pose_kept, .. } => pose_kept.get(pi).copied(),
+        let restore = match &*want {
+            Want::Meat { pose_restore, .. } => pose_restore.get(pi).copied(),
             _ => None,
-        }
-        .unwrap_or([1.0; 3]);
+        };
+        let mut rows = [const { Vec::new() }; 3];
+        let mut residual = [0.0; 3];
         self.pose_rows(p, sensor, pi, |k, row, r| {
             local.add_row(row, r);
-            let r = r / kept[k].sqrt();
-            for (b, v) in block.iter_mut().zip(row) {
-                *b += v * r;
-            }
+            rows[k] = row.to_vec();
+            residual[k] = r;
         });
+        if let Some(restore) = restore {
+            for (k, row) in rows.iter().enumerate() {
+                let r: f64 = (0..3).map(|j| restore[k][j] * residual[j]).sum();
+                for (b, v) in block.iter_mut().zip(row) {
+                    *b += v * r;
+                }
+            }
+        }
         match &mut *want {
             Want::Normal(jtj, jtr) => {
                 local.scatter(jtj, jtr);
