@@ -89,6 +89,35 @@ for metric, label in (("sample", "per sample"), ("second", "1 s means")):
         if "spincal-joint" in r:
             line += "  joint-by-hand/oracle %.3f" % (r["spincal-joint"][metric][k] / o[k])
         print(line)
+    # Pooled over the axes (RMS of the three), the issue's "mean" figure.
+    pool = lambda v: (sum(x * x for x in v) / 3) ** 0.5
+    po, ps, pf = pool(o), pool(r["spincal"][metric]), pool(r["flight"][metric])
+    print("  %-10s pooled: spincal/oracle %.3f  flight/oracle %.3f  excess ratio %.3f (quadrature %.3f)" % (
+        label, ps / po, pf / po, (ps - po) / (pf - po), max(ps * ps - po * po, 0) ** 0.5 / (pf * pf - po * po) ** 0.5))
+if "thermal_part_rms_mps2" in s:
+    o = r["oracle"]["sample"]
+    print("  thermal part alone (saved β, ρ against the truth's at the true die temperature): RMS %s m/s², as a ratio to the oracle per sample %s" % (
+        "/".join("%.4f" % v for v in s["thermal_part_rms_mps2"]),
+        "/".join("%.3f" % ((o[k] ** 2 + s["thermal_part_rms_mps2"][k] ** 2) ** 0.5 / o[k]) for k in range(3))))
 PY
 done
+# Over the seeds: the issue's two goals, per sample, worst axis and pooled.
+"$python" - "$out" "$first" "$seeds" <<'PY'
+import json, sys
+out, first, n = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+near, half, rows = 0, 0, []
+for seed in range(first, first + n):
+    r = json.load(open("%s/unit-%d/score.json" % (out, seed)))["rms_mps2"]
+    o, sp, fl = r["oracle"]["sample"], r["spincal"]["sample"], r["flight"]["sample"]
+    worst = max(sp[k] / o[k] for k in range(3))
+    pool = lambda v: (sum(x * x for x in v) / 3) ** 0.5
+    ratio = (pool(sp) - pool(o)) / (pool(fl) - pool(o))
+    near += worst <= 1.25
+    half += ratio <= 0.5
+    rows.append((worst, pool(sp) / pool(o), pool(fl) / pool(o), ratio))
+print("== over %d seeds (per sample): worst axis within 1.25x the oracle on %d; pooled excess at most half the flight stacks' on %d" % (n, near, half))
+print("   spincal/oracle worst axis %.3f–%.3f, pooled mean %.3f; flight/oracle pooled mean %.3f; excess ratio pooled %.3f–%.3f" % (
+    min(r[0] for r in rows), max(r[0] for r in rows), sum(r[1] for r in rows) / n, sum(r[2] for r in rows) / n,
+    min(r[3] for r in rows), max(r[3] for r in rows)))
+PY
 echo "== load after: $(uptime)"
