@@ -335,7 +335,7 @@ def evaluate(out):
         ref = thermal["reference_c"]
 
         def fitted(coeffs, dt):
-            return np.stack([sum(c * dt ** (j + 1) for j, c in enumerate(coeffs[k])) for k in range(3)], axis=1)
+            return np.stack([sum((c * dt ** (j + 1) for j, c in enumerate(coeffs[k])), np.zeros_like(dt)) for k in range(3)], axis=1)
 
         d = die[band_ours]
         beta_t, rho_t = np.array(sensor["beta"]), np.array(sensor["rho"])

@@ -1015,3 +1015,27 @@ fn thermal_fit_does_not_read_a_nonlinearity_as_session_offsets() {
         );
     }
 }
+
+/// The lag's identifiability is reported: the thermal tests' units warm along one curve (every
+/// warm-up the same exponential towards one temperature, so the die's rate is a linear function
+/// of its temperature), where a lag error only rescales the temperature axis; the fit says the
+/// lag is not determined there (`lag_rate_r2` above `LAG_RATE_R2_LIMIT`), for the die logged and
+/// for the default sensor (20 s lag, 1 °C steps).
+#[test]
+fn thermal_lag_on_warm_ups_of_one_shape_is_reported_undetermined() {
+    let campaign = simulate_thermal_campaign(&ThermalProfile::default(), 1000);
+    for (what, campaign) in [("reported", campaign.clone()), ("die logged", with_die_logged(&campaign))] {
+        let stills: Vec<&Recording> = std::iter::once(&campaign.warmup)
+            .chain(&campaign.poses)
+            .map(|r| &r.recording)
+            .collect();
+        let fit = fit_thermal(&stills, &ThermalSettings::default(), STANDARD_GRAVITY).expect("thermal fit");
+        println!(
+            "{what}: lag {} s, R² of rate on temperature {:?}",
+            fit.model.lag_s, fit.lag_rate_r2
+        );
+        let r2 = fit.lag_rate_r2.expect("blocks with a changing temperature");
+        assert!(r2 > spincal::thermal::LAG_RATE_R2_LIMIT, "{what}: {r2}");
+        assert!(!fit.lag_determined);
+    }
+}

@@ -183,6 +183,70 @@ pub struct ThermalFit {
     pub bias_per_c_se: [Vec<f64>; 3],
     pub scale_per_c_se: [Vec<f64>; 3],
     pub windows: usize,
+    /// Whether the recordings can determine the lag at all: R² of the die temperature's rate
+    /// against the die temperature over the blocks of `smoothing_s` (each block's rate the slope
+    /// of its windows' die temperatures in time), at the lag chosen; `None` with fewer than
+    /// [`LAG_RATE_MIN_BLOCKS`] blocks or no change of temperature. Near 1, every recording changes
+    /// temperature along one curve dT/dt = a + bT (warm-ups of one shape towards one
+    /// temperature): a lag error δτ then moves every die estimate by δτ(a + bT), a linear map of
+    /// T that β and ρ absorb, so the residual barely depends on the lag and its choice falls to
+    /// the die estimate's edge effects (measured: 0 to 40 s for a true 20 s on the thermal
+    /// tests' units, R² 1.000000 with the die logged). Still poses at a steady temperature at
+    /// the warm-up's ends, or warm-ups of different rates, break the line.
+    #[serde(default)]
+    pub lag_rate_r2: Option<f64>,
+    /// `lag_rate_r2` below [`LAG_RATE_R2_LIMIT`]: the recordings determine the lag.
+    #[serde(default)]
+    pub lag_determined: bool,
+}
+
+/// The R² of rate against temperature above which the lag is taken as not determined.
+pub const LAG_RATE_R2_LIMIT: f64 = 0.98;
+
+/// The fewest blocks `lag_rate_r2` is computed from.
+pub const LAG_RATE_MIN_BLOCKS: usize = 10;
+
+/// R² of the die temperature's rate against the die temperature, one point per block of
+/// windows (three windows or more, spanning at least half the block's own length); `None`
+/// with too few points or rates that do not vary (a campaign of steady temperatures).
+fn rate_temperature_r2(windows: &[Window]) -> Option<f64> {
+    let mut points: Vec<(f64, f64)> = Vec::new();
+    let mut start = 0;
+    while start < windows.len() {
+        let block = windows[start].block;
+        let end = start + windows[start..].iter().take_while(|w| w.block == block).count();
+        let members = &windows[start..end];
+        if members.len() >= 3 {
+            let n = members.len() as f64;
+            let mean_t = members.iter().map(|w| w.time_s).sum::<f64>() / n;
+            let mean_c = members.iter().map(|w| w.die_c).sum::<f64>() / n;
+            let sxx: f64 = members.iter().map(|w| (w.time_s - mean_t).powi(2)).sum();
+            let sxy: f64 = members
+                .iter()
+                .map(|w| (w.time_s - mean_t) * (w.die_c - mean_c))
+                .sum();
+            if sxx > 0.0 {
+                points.push((mean_c, sxy / sxx));
+            }
+        }
+        start = end;
+    }
+    if points.len() < LAG_RATE_MIN_BLOCKS {
+        return None;
+    }
+    let n = points.len() as f64;
+    let (mx, my) = (
+        points.iter().map(|p| p.0).sum::<f64>() / n,
+        points.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let syy: f64 = points.iter().map(|p| (p.1 - my).powi(2)).sum();
+    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    // Rates that do not vary (every block steady): nothing to tell a lag by.
+    if syy / n < 1e-12 || sxx <= 0.0 {
+        return None;
+    }
+    Some((sxy * sxy / (sxx * syy)).clamp(0.0, 1.0))
 }
 
 /// A window of one recording: its mean reading, its mean die temperature, its recording, its
@@ -194,6 +258,8 @@ struct Window {
     block: usize,
     reading: [f64; 3],
     die_c: f64,
+    /// The window's first sample's time, s.
+    time_s: f64,
 }
 
 impl ThermalSettings {
@@ -287,6 +353,7 @@ fn windows(
                 block,
                 reading,
                 die_c,
+                time_s: rec.time_s[start],
             });
             start = end;
         }
@@ -840,6 +907,7 @@ pub fn fit_thermal_in_sessions(
         (all, at_best_lag)
     };
     let range = [quantile(&temps, 0.0), quantile(&temps, 1.0)];
+    let lag_rate_r2 = rate_temperature_r2(&all);
     let (orders, problem, solved, tests) = if settings.orders.is_some() {
         let problem = problem(&all, highest, reference_c, gravity);
         (highest, problem, at_best_lag, Vec::new())
@@ -883,6 +951,8 @@ pub fn fit_thermal_in_sessions(
         sessions: solved.sessions,
         residual_rms_mps2: solved.rms,
         windows: all.len(),
+        lag_rate_r2,
+        lag_determined: lag_rate_r2.is_some_and(|r2| r2 < LAG_RATE_R2_LIMIT),
     })
 }
 
@@ -994,4 +1064,47 @@ fn best_lag(
     }
     let (_, all, at_best_lag, lag_s) = best.expect("at least one lag (checked)");
     Ok((lag_scores, all, at_best_lag, lag_s))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 2 s windows of one recording from `t0` for `seconds`, the die at `die(t)`, blocks of 60 s
+    /// numbered from `block`.
+    fn windows_of(recording: usize, block: usize, t0: f64, seconds: f64, die: impl Fn(f64) -> f64) -> Vec<Window> {
+        (0..(seconds / 2.0) as usize)
+            .map(|i| {
+                let t = t0 + 2.0 * i as f64;
+                Window {
+                    recording,
+                    session: 0,
+                    block: block + ((t - t0) / 60.0) as usize,
+                    reading: [0.0; 3],
+                    die_c: die(t),
+                    time_s: t,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_lag_is_undetermined_when_every_recording_warms_along_one_curve() {
+        let warm = |t: f64| 40.0 - 25.0 * (-t / 600.0).exp();
+        // Two warm-ups of one shape (rate = (40 − T)/600): a line.
+        let mut one_shape = windows_of(0, 0, 0.0, 1800.0, warm);
+        one_shape.extend(windows_of(1, 100, 5000.0, 1800.0, |t| warm(t - 5000.0)));
+        let r2 = rate_temperature_r2(&one_shape).unwrap();
+        assert!(r2 > 0.999, "{r2}");
+        // Still poses held at a steady temperature at both ends: rate 0 where the warm-up's is
+        // largest, and the line breaks.
+        let mut with_steady = windows_of(0, 0, 0.0, 1800.0, warm);
+        for (i, c) in [15.0, 15.0, 15.0, 40.0, 40.0, 40.0].into_iter().enumerate() {
+            with_steady.extend(windows_of(1 + i, 100 + 10 * i, 5000.0 + 100.0 * i as f64, 60.0, |_| c));
+        }
+        let r2 = rate_temperature_r2(&with_steady).unwrap();
+        assert!(r2 < LAG_RATE_R2_LIMIT, "{r2}");
+        // Nothing changes temperature: no rate to tell a lag by.
+        assert_eq!(rate_temperature_r2(&windows_of(0, 0, 0.0, 1800.0, |_| 25.0)), None);
+    }
 }
