@@ -17,12 +17,17 @@
 //! read as a change with temperature, and one that did not (σ at the search's low end) leaves the
 //! poses to inform β. No gap between recordings decides a session.
 //!
+//! **A nonlinearity** ([`ThermalSettings::fit_nonlinearity`], set by a campaign): each axis's q
+//! is fitted in a first pass and taken out of the readings, so that neither the sessions'
+//! offsets nor the lag take up the q·f² a pose carries.
+//!
 //! **Choices the data make.**
 //! - The lag τ: the value on `lags_s` with the smallest residual, at the fixed orders (`orders`)
 //!   or else the highest tried, with every recording in one session (an offset per pose file
 //!   would take up what a wrong lag leaves in that pose). When that is the grid's top (and not 0), the grid is extended by
 //!   doubling its top up to [`MAX_LAG_S`]; a lag still best at [`MAX_LAG_S`] (or at a top beyond
 //!   it) is not determined by the recordings and the fit is refused ([`ThermalError::LagAtEdge`]).
+//!   Whether the recordings can determine the lag at all is reported ([`ThermalFit::lag_rate_r2`]).
 //! - The polynomial orders of β and ρ, per axis, by the campaign's one terms rule: from the
 //!   highest orders, each axis's highest coefficient of β and of ρ is kept when its Wald statistic
 //!   |c/se| reaches [`crate::metrics::TERM_FALSE_ALARM`]'s threshold, se from the larger of the
@@ -59,11 +64,12 @@ pub struct ThermalSettings {
     pub reference_c: Option<f64>,
     /// The orders of β and ρ (every axis), when fixed instead of chosen by the terms rule.
     pub orders: Option<[usize; 2]>,
-    /// Fit each axis's quadratic nonlinearity q (m_k = w_k + q_k·w_k² on the gained reading w) as
-    /// a nuisance, not saved: [`ThermalModel`] carries no q. On in a campaign, whose joint fit
-    /// carries q and uses the thermal model only to take readings to T_ref: unmodelled, a pose's
-    /// q·f² is constant in that pose, and the sessions' offsets take it up as a spread (see
-    /// `QUADRATIC_PRIOR_SD_G`); a campaign's thermal stage always sets it. Off (the default)
+    /// Take each axis's quadratic nonlinearity q (m_k = w_k + q_k·w_k² on the gained reading w)
+    /// out of the readings first, fitted in a first pass as a nuisance and not saved:
+    /// [`ThermalModel`] carries no q. On in a campaign, whose joint fit carries q and uses the
+    /// thermal model only to take readings to T_ref: unmodelled, a pose's q·f² is constant in
+    /// that pose, and the sessions' offsets take it up as a spread (see `QUADRATIC_PRIOR_SD_G`);
+    /// a campaign's thermal stage always sets it. Off (the default)
     /// where the thermal model is the corrector on its own: its b, s and M fitted beside a q it
     /// does not apply would be worse than fitted without (measured: the worst of 20 units in
     /// `thermal_corrector_near_the_oracle_on_held_out_temperatures` went from 1.09 to 1.28× the
@@ -373,16 +379,16 @@ fn windows(
 struct Orders {
     bias: [usize; 3],
     scale: [usize; 3],
-    /// q fitted as a nuisance ([`ThermalSettings::fit_nonlinearity`]).
+    /// q fitted as a nuisance (the first pass of [`ThermalSettings::fit_nonlinearity`]).
     quadratic: bool,
 }
 
 impl Orders {
-    fn uniform(bias: usize, scale: usize, quadratic: bool) -> Orders {
+    fn uniform(bias: usize, scale: usize) -> Orders {
         Orders {
             bias: [bias; 3],
             scale: [scale; 3],
-            quadratic,
+            quadratic: false,
         }
     }
 
@@ -430,12 +436,13 @@ fn frame(direction: [f64; 3]) -> M3 {
 /// Nonzero entries of one residual's Jacobian row: at most 9 + 6 terms + q + offset + 2 angles.
 const ROW_ENTRIES: usize = 19;
 
-/// The prior SD of each axis's quadratic nonlinearity q, per m/s²: 1 % of the reading at 1 g,
-/// twice a consumer part's datasheet figure. q is a nuisance here (the campaign's joint fit
-/// carries it): unmodelled, a pose's q·f² is constant in that pose, and the sessions' offsets
-/// take it up as a spread (measured: 0.024 m/s² with LR 6170 on a unit of one power-on with q at
-/// 0.4 % of 1 g), which frees the cold poses from the hot ones and leaves β to the warm-up alone.
-/// The prior only keeps q finite where the poses' orientations do not determine it.
+/// The prior SD of each axis's quadratic nonlinearity q in the first pass of
+/// [`ThermalSettings::fit_nonlinearity`], as a share of the reading at 1 g (1 %, twice a
+/// consumer part's datasheet figure). q is a nuisance here (the campaign's joint fit carries
+/// it): unmodelled, a pose's q·f² is constant in that pose, and the sessions' offsets take it up
+/// as a spread (measured: 0.024 m/s² with LR 6170 on a unit of one power-on with q at 0.4 % of
+/// 1 g), which frees the cold poses from the hot ones and leaves β to the warm-up alone. The
+/// prior only keeps q finite where the poses' orientations do not determine it.
 const QUADRATIC_PRIOR_SD_G: f64 = 0.01;
 
 impl Problem<'_> {
@@ -891,7 +898,17 @@ pub fn fit_thermal_in_sessions(
         Some([kb, ks]) => (kb, ks),
         None => (settings.max_bias_order, settings.max_scale_order),
     };
-    let highest = Orders::uniform(kb, ks, settings.fit_nonlinearity);
+    // With `fit_nonlinearity`, the readings with q's term taken out, and the fit as without it.
+    let linearised: Vec<Recording>;
+    let linearised_refs: Vec<&Recording>;
+    let stills: &[&Recording] = if settings.fit_nonlinearity {
+        linearised = without_nonlinearity(stills, settings, gravity)?;
+        linearised_refs = linearised.iter().collect();
+        &linearised_refs
+    } else {
+        stills
+    };
+    let highest = Orders::uniform(kb, ks);
     // The lag on one session: a session's offset is constant, the lag's trace is not, but an
     // offset per pose file would take up the error a wrong lag leaves in that pose (measured: it
     // moved the lag from 20 s to 40 s on a unit with none, 1.65× the oracle on a run).
@@ -954,6 +971,53 @@ pub fn fit_thermal_in_sessions(
         lag_rate_r2,
         lag_determined: lag_rate_r2.is_some_and(|r2| r2 < LAG_RATE_R2_LIMIT),
     })
+}
+
+/// The still recordings with q's term taken out, for [`ThermalSettings::fit_nonlinearity`]: q
+/// and b fitted once, at the lag and the per-axis orders the fit without q chooses (one session;
+/// the terms rule has dropped what the windows do not determine), then every
+/// reading m becomes m − q(m − b)², to first order the reading of a linear sensor (what is left,
+/// 2q(m − b)·β and the like, is small beside the noise). Left free, or held, inside every later
+/// fit, q's curvature gave a weight to the directions no window determines (ρ₂ where the poses
+/// sit at two temperatures only: a ΔT⁴ trace) and the solve ran off to gains changing by 50–196 %
+/// (measured on bench/thermal/campaign.sh's seed 10); taken out, the problem is linear in them
+/// again and the terms rule drops them as it did.
+fn without_nonlinearity(
+    stills: &[&Recording],
+    settings: &ThermalSettings,
+    gravity: f64,
+) -> Result<Vec<Recording>, ThermalError> {
+    let plain = ThermalSettings {
+        fit_nonlinearity: false,
+        ..settings.clone()
+    };
+    // The orders and the lag as without q (one session); a fit that cannot be made leaves the
+    // readings as they are, for the main fit to say why.
+    let Ok(first) = fit_thermal(stills, &plain, gravity) else {
+        return Ok(stills.iter().map(|r| (*r).clone()).collect());
+    };
+    let one = vec![0; stills.len()];
+    let all = windows(stills, &one, settings, first.model.lag_s)?;
+    let orders = Orders {
+        bias: first.terms.bias_orders,
+        scale: first.terms.scale_orders,
+        quadratic: true,
+    };
+    let (problem, solved) = solve(&all, orders, first.model.reference_c, gravity);
+    let q: [f64; 3] = std::array::from_fn(|k| solved.params[problem.quadratic_index(k)]);
+    let b = [solved.params[0], solved.params[1], solved.params[2]];
+    Ok(stills
+        .iter()
+        .map(|rec| {
+            let mut out = (*rec).clone();
+            for k in 0..3 {
+                for m in out.accel_mps2[k].iter_mut() {
+                    *m -= q[k] * (*m - b[k]).powi(2);
+                }
+            }
+            out
+        })
+        .collect())
 }
 
 /// The terms rule, per axis: each axis's β and ρ have their own order, because their drifts
