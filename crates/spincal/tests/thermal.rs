@@ -985,8 +985,9 @@ fn thermal_fit_does_not_read_a_nonlinearity_as_session_offsets() {
         );
         let refs: Vec<&Recording> = stills.iter().collect();
         let each_its_own: Vec<usize> = (0..refs.len()).collect();
-        let fit = spincal::thermal::fit_thermal_in_sessions(&refs, &each_its_own, &settings, STANDARD_GRAVITY)
-            .expect("thermal fit");
+        let fit =
+            spincal::thermal::fit_thermal_in_sessions(&refs, &each_its_own, &settings, STANDARD_GRAVITY)
+                .expect("thermal fit");
         let z: [f64; 3] =
             std::array::from_fn(|k| (fit.model.bias_per_c[k][0] - beta1[k]) / fit.bias_per_c_se[k][0]);
         println!(
@@ -1024,7 +1025,10 @@ fn thermal_fit_does_not_read_a_nonlinearity_as_session_offsets() {
 #[test]
 fn thermal_lag_on_warm_ups_of_one_shape_is_reported_undetermined() {
     let campaign = simulate_thermal_campaign(&ThermalProfile::default(), 1000);
-    for (what, campaign) in [("reported", campaign.clone()), ("die logged", with_die_logged(&campaign))] {
+    for (what, campaign) in [
+        ("reported", campaign.clone()),
+        ("die logged", with_die_logged(&campaign)),
+    ] {
         let stills: Vec<&Recording> = std::iter::once(&campaign.warmup)
             .chain(&campaign.poses)
             .map(|r| &r.recording)

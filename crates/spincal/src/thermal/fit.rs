@@ -530,7 +530,11 @@ impl Problem<'_> {
                 // q on the gained reading w: m = b + β + w + q·w²; what moves w moves the
                 // reading by (1 + 2qw).
                 let w_k = gain[k] * v[k];
-                let q = if o.quadratic { p[self.quadratic_index(k)] } else { 0.0 };
+                let q = if o.quadratic {
+                    p[self.quadratic_index(k)]
+                } else {
+                    0.0
+                };
                 let curve = 1.0 + 2.0 * q * w_k;
                 let mut residual = window.reading[k] - predicted[k] - q * w_k * w_k;
                 if o.quadratic {
@@ -1136,7 +1140,13 @@ mod tests {
 
     /// 2 s windows of one recording from `t0` for `seconds`, the die at `die(t)`, blocks of 60 s
     /// numbered from `block`.
-    fn windows_of(recording: usize, block: usize, t0: f64, seconds: f64, die: impl Fn(f64) -> f64) -> Vec<Window> {
+    fn windows_of(
+        recording: usize,
+        block: usize,
+        t0: f64,
+        seconds: f64,
+        die: impl Fn(f64) -> f64,
+    ) -> Vec<Window> {
         (0..(seconds / 2.0) as usize)
             .map(|i| {
                 let t = t0 + 2.0 * i as f64;
@@ -1164,11 +1174,20 @@ mod tests {
         // largest, and the line breaks.
         let mut with_steady = windows_of(0, 0, 0.0, 1800.0, warm);
         for (i, c) in [15.0, 15.0, 15.0, 40.0, 40.0, 40.0].into_iter().enumerate() {
-            with_steady.extend(windows_of(1 + i, 100 + 10 * i, 5000.0 + 100.0 * i as f64, 60.0, |_| c));
+            with_steady.extend(windows_of(
+                1 + i,
+                100 + 10 * i,
+                5000.0 + 100.0 * i as f64,
+                60.0,
+                |_| c,
+            ));
         }
         let r2 = rate_temperature_r2(&with_steady).unwrap();
         assert!(r2 < LAG_RATE_R2_LIMIT, "{r2}");
         // Nothing changes temperature: no rate to tell a lag by.
-        assert_eq!(rate_temperature_r2(&windows_of(0, 0, 0.0, 1800.0, |_| 25.0)), None);
+        assert_eq!(
+            rate_temperature_r2(&windows_of(0, 0, 0.0, 1800.0, |_| 25.0)),
+            None
+        );
     }
 }
