@@ -734,14 +734,16 @@ fn thermal_lag_at_the_grid_top_extends_the_grid_then_is_refused() {
 /// orientation then `poses` still poses at random orientations through a second warm-up, the
 /// temperature reported exactly, white noise 0.02 m/s² at 50 Hz. `beta[k]` and `rho[k]` are the
 /// coefficients of ΔT¹, ΔT², …; `offsets[s]` is power-on session s's bias offset: the warm-up is
-/// session 0, the poses split in time order among the others. Returns the still
-/// recordings and each one's session.
+/// session 0, the poses split in time order among the others; `quadratic[k]` is q of
+/// m_k = w_k + q_k·w_k² on the gained reading w (1/(m/s²)). Returns the still recordings and each
+/// one's session.
 fn first_principles_unit(
     seed: u64,
     beta: [&[f64]; 3],
     rho: [&[f64]; 3],
     offsets: &[[f64; 3]],
     poses: usize,
+    quadratic: [f64; 3],
 ) -> (Vec<Recording>, Vec<usize>) {
     use rand::{Rng, SeedableRng};
     use rand_distr::{Distribution, StandardNormal};
@@ -761,11 +763,8 @@ fn first_principles_unit(
                 .map(|&temp| {
                     let dt = temp - 25.0;
                     let z: f64 = StandardNormal.sample(rng);
-                    bias[k]
-                        + offset[k]
-                        + poly(beta[k], dt)
-                        + (1.0 + scale[k]) * (1.0 + poly(rho[k], dt)) * g * u[k]
-                        + noise * z
+                    let w = (1.0 + scale[k]) * (1.0 + poly(rho[k], dt)) * g * u[k];
+                    bias[k] + offset[k] + poly(beta[k], dt) + w + quadratic[k] * w * w + noise * z
                 })
                 .collect()
         });
@@ -822,6 +821,7 @@ fn thermal_terms_rule_keeps_a_five_se_term_and_drops_a_zero_one() {
             [&[rho1[0]], &[rho1[1]], &[rho1[2]]],
             &[[0.0; 3]],
             24,
+            [0.0; 3],
         );
         let refs: Vec<&Recording> = stills.iter().collect();
         let settings = ThermalSettings {
@@ -913,6 +913,7 @@ fn thermal_fit_separates_session_offsets_from_the_change_with_temperature() {
             [&[1e-4], &[-2e-4], &[1.5e-4]],
             &offsets,
             24,
+            [0.0; 3],
         );
         let refs: Vec<&Recording> = stills.iter().collect();
         let named = spincal::thermal::fit_thermal_in_sessions(&refs, &sessions, &settings, STANDARD_GRAVITY)
@@ -947,5 +948,98 @@ fn thermal_fit_separates_session_offsets_from_the_change_with_temperature() {
             worst_one > 4.0,
             "seed {seed}: one session's β₁ off by only {worst_one} se"
         );
+    }
+}
+
+/// A nonlinearity is not a session offset: a unit of one power-on with q at 0.4 % of the reading
+/// at 1 g (a consumer part's), each pose its own file and so its own session as a campaign
+/// without `session` labels has it. A pose's q·f² is constant in that pose; unmodelled, the
+/// offsets took it up as a spread (0.024 m/s² with LR 6170 measured on bench/thermal/campaign.sh's
+/// seed 2), which freed each pose from the others and left β to the warm-up. With q fitted as a
+/// nuisance (`fit_nonlinearity`, as a campaign fits it) the spread stays at the noise's scale and
+/// β₁ comes back within four standard errors, in each of three draws; without, the spread is
+/// printed (the old behaviour, not asserted).
+#[test]
+fn thermal_fit_does_not_read_a_nonlinearity_as_session_offsets() {
+    let settings = ThermalSettings {
+        lags_s: vec![0.0],
+        reference_c: Some(25.0),
+        orders: Some([1, 1]),
+        fit_nonlinearity: true,
+        ..ThermalSettings::default()
+    };
+    let beta1 = [
+        2e-3 * STANDARD_GRAVITY,
+        -1e-3 * STANDARD_GRAVITY,
+        1.5e-3 * STANDARD_GRAVITY,
+    ];
+    let q = 0.004 / STANDARD_GRAVITY;
+    for seed in 0..3u64 {
+        let (stills, _) = first_principles_unit(
+            9600 + seed,
+            [&[beta1[0]], &[beta1[1]], &[beta1[2]]],
+            [&[1e-4], &[-2e-4], &[1.5e-4]],
+            &[[0.0; 3]],
+            24,
+            [q, -q, 0.75 * q],
+        );
+        let refs: Vec<&Recording> = stills.iter().collect();
+        let each_its_own: Vec<usize> = (0..refs.len()).collect();
+        let fit =
+            spincal::thermal::fit_thermal_in_sessions(&refs, &each_its_own, &settings, STANDARD_GRAVITY)
+                .expect("thermal fit");
+        let z: [f64; 3] =
+            std::array::from_fn(|k| (fit.model.bias_per_c[k][0] - beta1[k]) / fit.bias_per_c_se[k][0]);
+        println!(
+            "seed {seed}: {} sessions, spread {:.2e} m/s² (LR {:.1}); β₁ error / se {:?}",
+            fit.sessions.count,
+            fit.sessions.spread_sd_mps2,
+            fit.sessions.likelihood_ratio,
+            z.map(|v| (v * 10.0).round() / 10.0)
+        );
+        // A 20 s pose's mean at 50 Hz has a noise of 0.02/√1000 m/s²: no spread above 3 mm/s².
+        assert!(
+            fit.sessions.spread_sd_mps2 < 3e-3,
+            "seed {seed}: spread {:?}",
+            fit.sessions
+        );
+        assert!(z.iter().all(|z| z.abs() < 4.0), "seed {seed}: {z:?}");
+        let without = ThermalSettings {
+            fit_nonlinearity: false,
+            ..settings.clone()
+        };
+        let old = spincal::thermal::fit_thermal_in_sessions(&refs, &each_its_own, &without, STANDARD_GRAVITY)
+            .expect("thermal fit without q");
+        println!(
+            "seed {seed}, q not fitted: spread {:.2e} m/s² (LR {:.1})",
+            old.sessions.spread_sd_mps2, old.sessions.likelihood_ratio
+        );
+    }
+}
+
+/// The lag's identifiability is reported: the thermal tests' units warm along one curve (every
+/// warm-up the same exponential towards one temperature, so the die's rate is a linear function
+/// of its temperature), where a lag error only rescales the temperature axis; the fit says the
+/// lag is not determined there (`lag_rate_r2` above `LAG_RATE_R2_LIMIT`), for the die logged and
+/// for the default sensor (20 s lag, 1 °C steps).
+#[test]
+fn thermal_lag_on_warm_ups_of_one_shape_is_reported_undetermined() {
+    let campaign = simulate_thermal_campaign(&ThermalProfile::default(), 1000);
+    for (what, campaign) in [
+        ("reported", campaign.clone()),
+        ("die logged", with_die_logged(&campaign)),
+    ] {
+        let stills: Vec<&Recording> = std::iter::once(&campaign.warmup)
+            .chain(&campaign.poses)
+            .map(|r| &r.recording)
+            .collect();
+        let fit = fit_thermal(&stills, &ThermalSettings::default(), STANDARD_GRAVITY).expect("thermal fit");
+        println!(
+            "{what}: lag {} s, R² of rate on temperature {:?}",
+            fit.model.lag_s, fit.lag_rate_r2
+        );
+        let r2 = fit.lag_rate_r2.expect("blocks with a changing temperature");
+        assert!(r2 > spincal::thermal::LAG_RATE_R2_LIMIT, "{what}: {r2}");
+        assert!(!fit.lag_determined);
     }
 }

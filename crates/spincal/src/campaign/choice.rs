@@ -213,8 +213,15 @@ fn thermal_sentence(thermal: Option<&CampaignThermal>) -> String {
         return String::new();
     };
     let [lo, hi] = t.fit.model.fitted_range_c;
+    // The lag's identifiability (ThermalFit::lag_rate_r2): said only where it fails.
+    let lag_note = match t.fit.lag_rate_r2 {
+        Some(r2) if !t.fit.lag_determined => format!(
+            ", not determined by these recordings: their temperature changes along one curve (R² {r2:.3} of rate on temperature), so it holds for recordings that warm the same way; still poses at a steady temperature at each end of the range would determine it"
+        ),
+        _ => String::new(),
+    };
     format!(
-        " Corrected for temperature first (bias orders {:?}, gain orders {:?} per axis, each term kept by the Wald test at false-alarm {:e}; sensor lag {:.0} s) over die temperatures {lo:.1}–{hi:.1} °C: rows outside that range, or without a temperature, are corrected as at {:.1} °C and marked.",
+        " Corrected for temperature first (bias orders {:?}, gain orders {:?} per axis, each term kept by the Wald test at false-alarm {:e}; sensor lag {:.0} s{lag_note}) over die temperatures {lo:.1}–{hi:.1} °C: rows outside that range, or without a temperature, are corrected as at {:.1} °C and marked.",
         t.fit.terms.bias_orders,
         t.fit.terms.scale_orders,
         crate::metrics::TERM_FALSE_ALARM,

@@ -3,7 +3,8 @@
 //! thermal model is fitted to their poses (`thermal::fit_thermal_in_sessions`: each pose in its
 //! recording's power-on session as the joint fit has it, a `session` label or the file's own, the
 //! spread between sessions estimated from the windows; orders by the terms rule, a Wald test at
-//! `TERM_FALSE_ALARM` on the fit's robust covariance) and every recording with a temperature,
+//! `TERM_FALSE_ALARM` on the fit's robust covariance; each axis's nonlinearity q fitted first and
+//! taken out of the readings, `ThermalSettings::fit_nonlinearity`) and every recording with a temperature,
 //! runs included, is taken to the reference temperature. The joint fit, the candidates and the
 //! held-out verdict then run unchanged on those readings, and the saved model.json carries the
 //! thermal model for `correct` to apply first.
@@ -220,7 +221,12 @@ pub(crate) fn thermal_stage(
         ));
     }
     let refs: Vec<&Recording> = poses.iter().collect();
-    let fit = match fit_thermal_in_sessions(&refs, &sessions, settings, gravity_mps2) {
+    // The joint fit carries q; the thermal fit takes it out first (ThermalSettings docs).
+    let settings = ThermalSettings {
+        fit_nonlinearity: true,
+        ..settings.clone()
+    };
+    let fit = match fit_thermal_in_sessions(&refs, &sessions, &settings, gravity_mps2) {
         Ok(fit) => fit,
         // Too narrow a span of temperature among them (`ThermalError::NarrowRange`) included.
         Err(e) => return unchanged(Some(format!("no thermal model: {e}"))),

@@ -31,7 +31,7 @@ use crate::input::recording::Recording;
 pub(crate) use fit::MIN_SPAN_C;
 pub use fit::{
     fit_thermal, fit_thermal_in_sessions, TermTest, ThermalError, ThermalFit, ThermalSessions,
-    ThermalSettings, ThermalTerms,
+    ThermalSettings, ThermalTerms, LAG_RATE_MIN_BLOCKS, LAG_RATE_R2_LIMIT,
 };
 
 /// Sensor parameters at the reference temperature that the thermal model carries (no
