@@ -192,7 +192,7 @@ struct LinearCoverage {
 /// linear-12's error bars cover its error at orientations the campaign never held, and so do the
 /// physical kind's trained the same way: RMS of error/sd within 0.7–1.4 over 12 units, from 24
 /// one-file poses (0.95 and 0.76 measured) and from 12 poses of one session with two turntable
-/// runs (1.17 and 1.12; 1.98 and 1.75 before the covariance's floor at the model's own). Each part
+/// runs (1.17 and 1.12; 1.47 and 1.91 before the covariance's floor at the model's own). Each part
 /// of the map's covariance alone errs narrow (`campaign::candidate`'s `map_covariance` gives the
 /// figures).
 #[test]
