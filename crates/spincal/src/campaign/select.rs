@@ -99,7 +99,7 @@ impl TermsRule {
 
     /// Why the rule sets its member aside (the candidate summary's `why_not`).
     fn why_set_aside(&self) -> String {
-        let z = self.nonlinearity_z.map(|z| format!("{z:.1}")).join(", ");
+        let z = self.nonlinearity_z.map(|z| format!("{:.1}", z.abs())).join(", ");
         let family = if self.keeps_nonlinearity {
             "physical"
         } else {

@@ -495,8 +495,10 @@ impl JointProblem<'_> {
         let mut residual = [0.0; 3];
         self.pose_rows(p, sensor, pi, |k, row, r| {
             local.add_row(row, r);
-            rows[k] = row.to_vec();
-            residual[k] = r;
+            if restore.is_some() {
+                rows[k] = row.to_vec();
+                residual[k] = r;
+            }
         });
         if let Some(restore) = restore {
             for (k, row) in rows.iter().enumerate() {
