@@ -191,6 +191,40 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
+    /// The floored covariance is at least the robust one and the model's in every direction (both
+    /// differences positive semi-definite), equals the robust one where that already exceeds the
+    /// model's, and raises a direction the robust one nearly lacks to the model's there.
+    #[test]
+    fn the_floor_holds_every_direction_at_the_models_variance() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let n = 5;
+        let random_spd = |rng: &mut ChaCha8Rng, rank: usize| {
+            let a = Mat::from_fn(n, rank, |_, _| rng.gen_range(-1.0..1.0));
+            &a * a.transpose() + Mat::<f64>::identity(n, n) * 1e-9
+        };
+        let min_eigen = |m: &Mat<f64>| {
+            let sym = Mat::from_fn(n, n, |a, b| 0.5 * (m[(a, b)] + m[(b, a)]));
+            let values = sym.self_adjoint_eigenvalues(Side::Lower).unwrap();
+            values.iter().copied().fold(f64::INFINITY, f64::min)
+        };
+        for _ in 0..20 {
+            let model = random_spd(&mut rng, n);
+            // A sandwich from too few blocks: rank 2 of 5.
+            let robust = random_spd(&mut rng, 2);
+            let floored = &robust + loewner_shortfall(&robust, &model).unwrap();
+            assert!(min_eigen(&(&floored - &robust)) > -1e-9);
+            assert!(min_eigen(&(&floored - &model)) > -1e-9);
+            // Already above the model everywhere: unchanged.
+            let above = &model * 2.0;
+            let same = &above + loewner_shortfall(&above, &model).unwrap();
+            for a in 0..n {
+                for b in 0..n {
+                    assert!((same[(a, b)] - above[(a, b)]).abs() < 1e-9 * (1.0 + above[(a, b)].abs()));
+                }
+            }
+        }
+    }
+
     /// On a linear least-squares fit, P times the corrected score of a block equals the change
     /// in the fit when that block is left out, computed by refitting without it.
     #[test]

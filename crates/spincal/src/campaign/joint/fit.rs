@@ -494,3 +494,38 @@ fn fitted_params(
         .collect();
     (sensor_params, run_fits, pose_fits)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// CR2 on a pose's block: the radial residual a pose's own angles leave, which keeps the share
+    /// 1 − h of the noise's variance, is scaled back by 1/√(1 − h) whatever the pose's
+    /// orientation; a per-axis correction scales it by √(axes it touches) times that.
+    #[test]
+    fn a_restored_pose_residual_has_the_noises_variance() {
+        for (n, h) in [
+            ([0.6, 0.0, 0.8], 0.3),
+            ([0.48, 0.6, 0.64], 0.7),
+            ([0.0, 0.0, 1.0], 0.1),
+        ] {
+            // I − H_bb = (1 − h) n nᵀ: the angles take the two directions across the force n.
+            let hat: [[f64; 3]; 3] = std::array::from_fn(|i| {
+                std::array::from_fn(|j| f64::from(u8::from(i == j)) - (1.0 - h) * n[i] * n[j])
+            });
+            let r = restoring(&hat);
+            let restored: [f64; 3] = std::array::from_fn(|i| (0..3).map(|j| r[i][j] * n[j]).sum());
+            let norm = restored.iter().map(|v| v * v).sum::<f64>().sqrt();
+            assert!((norm - 1.0 / (1.0 - h).sqrt()).abs() < 1e-9, "{n:?}: {norm}");
+            let per_axis = (0..3)
+                .map(|k| n[k] * n[k] / (1.0 - hat[k][k]).max(MIN_KEPT_VARIANCE))
+                .sum::<f64>()
+                .sqrt();
+            let touched = n.iter().filter(|v| v.abs() > 0.0).count() as f64;
+            assert!(
+                (per_axis - touched.sqrt() * norm).abs() < 1e-9,
+                "{n:?}: per axis {per_axis}"
+            );
+        }
+    }
+}
