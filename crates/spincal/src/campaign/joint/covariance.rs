@@ -67,12 +67,23 @@ impl JointFit {
     }
 }
 
-/// H⁻¹ S H⁻¹ over the given parameters (`inverse`: H⁻¹ from [`free_inverse`]), never below the
-/// model's own covariance H⁻¹ (the residuals weighted by their measured noise, priors at their
-/// stated widths): a run's parameter (`of_run`) has its variance raised to at least the model's
-/// by scaling its row and column; over the others (the sensor's, the poses', the sessions'), in
-/// the frame where H⁻¹ is the identity, each eigenvalue of the sandwich below one is set to one.
-/// `None` where H⁻¹ is not positive definite there.
+/// How a parameter's robust variance is held at least at the model's own (see [`sandwich`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Floor {
+    /// Kept as the sandwich gives it.
+    None,
+    /// Its variance raised by scaling its row and column.
+    Variance,
+    /// Every direction of the block of parameters so marked.
+    EveryDirection,
+}
+
+/// H⁻¹ S H⁻¹ over the given parameters (`inverse`: H⁻¹ from [`free_inverse`]), held at least at
+/// the model's own covariance H⁻¹ (the residuals weighted by their measured noise, priors at their
+/// stated widths) as `floor` says of each: a run's parameters each on its variance (row and
+/// column scaled), the sensor's in every direction (in the frame where their block of H⁻¹ is the
+/// identity, each eigenvalue of the sandwich's block below one set to one). `None` where H⁻¹ is
+/// not positive definite there.
 ///
 /// The sandwich guards against what the weights miss (coloured residuals, scatter between
 /// poses), but it is an estimate from the blocks' scores: a run of six blocks gives about five
@@ -84,12 +95,14 @@ impl JointFit {
 /// is the usual remedy. For the sensor a floor on the diagonal alone is not enough: it keeps the
 /// sandwich's near-singular directions, along which held-out predictions then lie. A run's
 /// parameters keep the diagonal floor: the gyro's terms come from its rates alone, and the full
-/// floor there moved a scale across the terms rule's threshold.
+/// floor there moved a scale across the terms rule's threshold. The poses' angles and the
+/// sessions' offsets, which no correction carries, keep the sandwich (a full floor over them cost
+/// an eigendecomposition of hundreds of parameters per fit on one-file campaigns).
 pub(super) fn sandwich(
     inverse: &Mat<f64>,
     s: &Mat<f64>,
     index: &[usize],
-    of_run: impl Fn(usize) -> bool,
+    floor: impl Fn(usize) -> Floor,
 ) -> Option<Mat<f64>> {
     let n = index.len();
     let ss = Mat::from_fn(n, n, |a, b| s[(index[a], index[b])]);
@@ -98,7 +111,7 @@ pub(super) fn sandwich(
     let raise: Vec<f64> = (0..n)
         .map(|a| {
             let ratio = h_inv[(a, a)] / robust[(a, a)];
-            if of_run(index[a]) && ratio > 1.0 && ratio.is_finite() {
+            if floor(index[a]) == Floor::Variance && ratio > 1.0 && ratio.is_finite() {
                 ratio.sqrt()
             } else {
                 1.0
@@ -106,11 +119,13 @@ pub(super) fn sandwich(
         })
         .collect();
     let mut covariance = Mat::from_fn(n, n, |a, b| raise[a] * robust[(a, b)] * raise[b]);
-    let rest: Vec<usize> = (0..n).filter(|&a| !of_run(index[a])).collect();
-    let sub = |m: &Mat<f64>| Mat::from_fn(rest.len(), rest.len(), |a, b| m[(rest[a], rest[b])]);
+    let block: Vec<usize> = (0..n)
+        .filter(|&a| floor(index[a]) == Floor::EveryDirection)
+        .collect();
+    let sub = |m: &Mat<f64>| Mat::from_fn(block.len(), block.len(), |a, b| m[(block[a], block[b])]);
     let shortfall = loewner_shortfall(&sub(&robust), &sub(&h_inv))?;
-    for (a, &i) in rest.iter().enumerate() {
-        for (b, &j) in rest.iter().enumerate() {
+    for (a, &i) in block.iter().enumerate() {
+        for (b, &j) in block.iter().enumerate() {
             covariance[(i, j)] += shortfall[(a, b)];
         }
     }

@@ -5,7 +5,7 @@
 
 use faer::Mat;
 
-use super::covariance::{free_inverse, sandwich};
+use super::covariance::{free_inverse, sandwich, Floor};
 use super::input::{bias_random_walk, difference_noise, PoseInput, RunInput};
 use super::kinematics::{mounting_matrix, PoseFrame};
 use super::layout::{
@@ -147,7 +147,7 @@ fn fit_joint_with(
         stop: report.stop,
         bias_spread,
         covariance: format!(
-            "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run (each block's score restored by the block jackknife, CR3), each still pose and each prior a block of its own (batch-means HAC), no variance below the model's own H⁻¹ (a run parameter's; every direction of the sensor's, poses' and sessions'); each pose weighted by its mean's error and the bias's wander between poses ({})",
+            "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run (each block's score restored by the block jackknife, CR3), each still pose and each prior a block of its own (batch-means HAC), no variance below the model's own H⁻¹ (a run parameter's; every direction of the sensor's); each pose weighted by its mean's error and the bias's wander between poses ({})",
             settings.block_s,
             blocks,
             match walk {
@@ -427,7 +427,12 @@ fn robust_covariance(
         },
     );
     let runs = SENSOR_PARAMS..run_offset(problem.runs.len());
-    (sandwich(&full, &meat, &index, |k| runs.contains(&k)), index)
+    let floor = |k: usize| match k {
+        k if k < SENSOR_PARAMS => Floor::EveryDirection,
+        k if runs.contains(&k) => Floor::Variance,
+        _ => Floor::None,
+    };
+    (sandwich(&full, &meat, &index, floor), index)
 }
 
 /// The sensor's, each run's and each pose's parameters with their standard errors, and each

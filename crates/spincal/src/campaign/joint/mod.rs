@@ -29,8 +29,8 @@
 //! block are accounted for; a pose and each prior are blocks of their own. A run's block score
 //! is restored by the block jackknife (CR3; a run fits its own fifteen parameters from its few
 //! blocks) and a pose's three residuals by its block of the hat matrix (CR2). The result is never
-//! below the model's own H⁻¹: a run parameter's variance on the diagonal, the sensor's, poses'
-//! and sessions' in every direction (few blocks make a noisy estimate; white noise is the floor).
+//! below the model's own H⁻¹: a run parameter's variance on the diagonal, the sensor's in every
+//! direction (few blocks make a noisy estimate; white noise is the floor).
 
 mod advice;
 mod covariance;
