@@ -4,7 +4,8 @@
 //!
 //! The package is assembled in a temporary folder (the pure-Python sources plus the freshly built
 //! `lib_spincal.so` as `spincal/_spincal.abi3.so`) and put first on `PYTHONPATH`; the venv at the
-//! repository root (`bash scripts/setup.sh`) provides numpy, pytest, pandas, tqdm and ray. The
+//! repository root (`bash scripts/setup.sh`) provides numpy, pytest (and pytest-xdist: two
+//! processes), pandas, tqdm and ray. The
 //! tests compare against the `spincal` binary of the same build, and the Ray tests against the
 //! suite's one fleet (`SPINCAL_SUITE_FLEET`, made by the library if the library's tests have not).
 //!
@@ -144,6 +145,8 @@ fn pytest_suite_passes_against_this_build() {
     let mut command = Command::new(&python);
     command
         .args(["-m", "pytest", "-q", "-p", "no:cacheprovider", "-rs"])
+        // Two processes: cargo runs this binary alone, and the tests are mostly one-threaded.
+        .args(["-n", "2"])
         .arg(&tests)
         .current_dir(&package_root)
         .env("PYTHONPATH", &package_root)

@@ -484,20 +484,17 @@ fn the_verdict_is_the_same_without_truth_files() {
     }
 }
 
-/// Twenty default campaigns (seeds 0–19), each calibrated once with the physical model, the
-/// physical model without q and the 12-parameter map (the datasheet's nonlinearity as q's prior, as
-/// a campaign file states it), shared by the tests below.
+/// Twenty default campaigns (seeds 0–19), each calibrated once with the physical model and the
+/// 12-parameter map (the datasheet's nonlinearity as q's prior, as a campaign file states it),
+/// shared by the tests below. The physical model without q is left out here (it costs a third of
+/// the time): `examples/verdict_validation.rs` runs every candidate.
 fn twenty_campaigns() -> &'static [spincal::campaign::select::CampaignOutput] {
     static OUTPUTS: std::sync::OnceLock<Vec<spincal::campaign::select::CampaignOutput>> =
         std::sync::OnceLock::new();
     OUTPUTS.get_or_init(|| {
         let setup = CampaignSetup::default();
         let mut settings = Params {
-            candidates: vec![
-                CandidateKind::Physical,
-                CandidateKind::PhysicalLinear,
-                CandidateKind::Linear,
-            ],
+            candidates: vec![CandidateKind::Physical, CandidateKind::Linear],
             ..Params::default()
         };
         settings.joint.sensor_prior_sd[3] =
@@ -530,7 +527,7 @@ fn the_physical_model_with_nonlinearity_beats_the_linear_map_on_held_out_conditi
     assert!(wins * 10 >= outputs.len() * 8, "{wins}/{}", outputs.len());
 }
 
-/// Over the twenty campaigns, the physical family's truth-free figure (its physics residual with
+/// Over the twenty campaigns, the physical model's truth-free figure (its physics residual with
 /// the covariance's prediction, over the uncorrected signal against the same reference) lies
 /// within a factor 2 of the truth-based figure on at least 90 % of held-out conditions, and the
 /// choice made without truth is truth's (or within 10 % of its error against truth) in at least
@@ -566,7 +563,7 @@ fn the_truth_free_figure_tracks_the_truth_it_cannot_see() {
         "figures within a factor 2: {within}/{figures}; choices agree {agree}/{}",
         outputs.len()
     );
-    assert!(figures >= outputs.len() * 10 * 2, "{figures}");
+    assert!(figures >= outputs.len() * 10, "{figures}");
     assert!(within * 10 >= figures * 9, "{within}/{figures}");
     assert!(agree * 10 >= outputs.len() * 9, "{agree}/{}", outputs.len());
 }
