@@ -395,7 +395,9 @@ pub fn calibrate_campaign(
         .collect();
     share_determination(&mut summaries, &held_out);
     // The physical family's member the terms rule sets aside, with the reason.
-    let set_aside_why = terms_rule.as_ref().map(|r| (r.set_aside().name(), r.why_set_aside()));
+    let set_aside_why = terms_rule
+        .as_ref()
+        .map(|r| (r.set_aside().name(), r.why_set_aside()));
     let set_aside = set_aside_why.as_ref().map(|(name, _)| *name);
     let best = choose_by_physics(&summaries, set_aside);
     let truth_check = truth_check(&summaries, &held_out, best, conditions.len(), set_aside);
