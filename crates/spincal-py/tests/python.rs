@@ -5,9 +5,9 @@
 //! The package is assembled in a temporary folder (the pure-Python sources plus the freshly built
 //! `lib_spincal.so` as `spincal/_spincal.abi3.so`) and put first on `PYTHONPATH`; the venv at the
 //! repository root (`bash scripts/setup.sh`) provides numpy, pytest (and pytest-xdist: two
-//! processes), pandas, tqdm and ray. The
-//! tests compare against the `spincal` binary of the same build, and the Ray tests against the
-//! suite's one fleet (`SPINCAL_SUITE_FLEET`, made by the library if the library's tests have not).
+//! processes), pandas, tqdm and ray. The tests compare against the `spincal` binary of the same
+//! build, and the Ray tests against the suite's one fleet (`SPINCAL_SUITE_FLEET`, made by the
+//! library if the library's tests have not).
 //!
 //! Without the venv the test is skipped with the reason printed, unless
 //! `SPINCAL_REQUIRE_PYTHON=1` (CI), where it fails; pytest's own skips also fail then.

@@ -316,9 +316,8 @@ fn the_network_on_top_of_physics_is_trusted_only_where_it_was_trained() {
     assert!(a < 1.25 * b, "{a} vs {b}");
     // A network whose gain departs from one on a held-out fold is refused by that check, by
     // name; one that passes every check is saved and round-trips.
-    match out.saved.as_ref().map(|f| &f.corrector) {
-        Some(CorrectorModel::PhysicalAnn(_)) => {
-            let file = out.saved.as_ref().unwrap();
+    match &out.saved {
+        Some(file) if matches!(file.corrector, CorrectorModel::PhysicalAnn(_)) => {
             assert_eq!(
                 &CorrectorFile::from_json(&file.to_json(), "model.json").unwrap(),
                 file
