@@ -94,6 +94,10 @@ for metric, label in (("sample", "per sample"), ("second", "1 s means")):
     po, ps, pf = pool(o), pool(r["spincal"][metric]), pool(r["flight"][metric])
     print("  %-10s pooled: spincal/oracle %.3f  flight/oracle %.3f  excess ratio %.3f (quadrature %.3f)" % (
         label, ps / po, pf / po, (ps - po) / (pf - po), max(ps * ps - po * po, 0) ** 0.5 / (pf * pf - po * po) ** 0.5))
+if "error_bars" in s:
+    e = s["error_bars"]
+    print("  error bars: systematic error / predicted sd over %d held-out pose-axes in the band: RMS %.2f, largest %.2f" % (
+        e["poses_axes"], e["rms_z"], e["max_abs_z"]))
 if "thermal_part_rms_mps2" in s:
     o = r["oracle"]["sample"]
     print("  thermal part alone (saved β, ρ against the truth's at the true die temperature): RMS %s m/s², as a ratio to the oracle per sample %s" % (
@@ -115,6 +119,12 @@ for seed in range(first, first + n):
     near += worst <= 1.25
     half += ratio <= 0.5
     rows.append((worst, pool(sp) / pool(o), pool(fl) / pool(o), ratio))
+z2 = [json.load(open("%s/unit-%d/score.json" % (out, seed))).get("error_bars") for seed in range(first, first + n)]
+z2 = [e for e in z2 if e and e["poses_axes"]]
+if z2:
+    print("== error bars: systematic error / predicted sd, RMS %.2f over %d held-out pose-axes of %d units (issue 46: 0.7–1.4)" % (
+        (sum(e["rms_z"] ** 2 * e["poses_axes"] for e in z2) / sum(e["poses_axes"] for e in z2)) ** 0.5,
+        sum(e["poses_axes"] for e in z2), len(z2)))
 print("== over %d seeds (per sample): worst axis within 1.25x the oracle on %d; pooled excess at most half the flight stacks' on %d" % (n, near, half))
 print("   spincal/oracle worst axis %.3f–%.3f, pooled mean %.3f; flight/oracle pooled mean %.3f; excess ratio pooled %.3f–%.3f" % (
     min(r[0] for r in rows), max(r[0] for r in rows), sum(r[1] for r in rows) / n, sum(r[2] for r in rows) / n,

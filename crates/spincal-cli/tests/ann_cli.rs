@@ -136,7 +136,7 @@ fn correct_writes_a_bad_row_in_place_with_its_reason_and_exits_3() {
 
     // A model file from another format version is refused by name.
     let future = std::fs::read_to_string(&model).unwrap().replacen(
-        "\"format_version\": 3",
+        "\"format_version\": 4",
         "\"format_version\": 9",
         1,
     );

@@ -411,14 +411,14 @@ fn saved_models_round_trip_and_apply_identically() {
         assert!(back == file, "{} round trip is not exact", file.corrector.kind());
         assert!(back.corrector.correct(&measured) == file.corrector.correct(&measured));
         // The same file with another version is refused, naming the file and both versions.
-        let future = text.replacen("\"format_version\": 3", "\"format_version\": 4", 1);
+        let future = text.replacen("\"format_version\": 4", "\"format_version\": 5", 1);
         let message = CorrectorFile::from_json(&future, "future.json")
             .unwrap_err()
             .to_string();
         assert!(
             message.contains("future.json")
-                && message.contains("format_version 4")
-                && message.contains("format_version 1 to 3"),
+                && message.contains("format_version 5")
+                && message.contains("format_version 1 to 4"),
             "{message}"
         );
     }

@@ -243,7 +243,7 @@ fn the_gyro_is_saved_alone_when_no_accelerometer_correction_is_shown_to_help() {
         .expect("the campaign determines the gyro");
     assert_eq!(file.gyro.as_ref(), Some(gyro));
     let back = CorrectorFile::from_json(&file.to_json(), "model.json").unwrap();
-    assert_eq!(back.format_version, 3);
+    assert_eq!(back.format_version, 4);
     assert_eq!(back.gyro.as_ref(), Some(gyro));
     let bare = CorrectorFile { gyro: None, ..file };
     let refused = CorrectorFile::from_json(&bare.to_json(), "bare.json")

@@ -41,6 +41,7 @@ fn model() -> ThermalModel {
         lag_s: 18.0,
         smoothing_s: 60.0,
         fitted_range_c: [5.0, 55.0],
+        uncertainty: None,
     }
 }
 

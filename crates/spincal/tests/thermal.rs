@@ -388,6 +388,37 @@ fn rms_per_axis(values: &[Vec<f64>; 3]) -> [f64; 3] {
         .map(|e| (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt())
 }
 
+/// The mean predicted standard deviation per axis of the rows of `recording` that the thermal
+/// model corrects, streamed as `correct` streams them.
+fn mean_predicted_sd(file: &CorrectorFile, recording: &Recording) -> [f64; 3] {
+    let units = UnitFactors {
+        time_to_s: 1.0,
+        accel_to_mps2: 1.0,
+        gyro_to_radps: 1.0,
+    };
+    let mut rows = RowCorrector::new(file, units, false).expect("no gyro");
+    let (mut sum, mut n) = ([0.0; 3], 0usize);
+    for i in 0..recording.len() {
+        let temperature = recording.temperature_c.as_ref().map(|t| t[i]);
+        if let RowOutcome::Corrected {
+            status: RowStatus::Ok,
+            predicted: Some(predicted),
+            ..
+        } = rows.correct(
+            Some(recording.time_s[i]),
+            reading(recording, i),
+            None,
+            temperature,
+            |_| String::new(),
+        ) {
+            (0..3).for_each(|k| sum[k] += predicted.sd_mps2[k]);
+            n += 1;
+        }
+    }
+    assert!(n > 0, "no row with a predicted error");
+    sum.map(|v| v / n as f64)
+}
+
 /// The held-out session streamed through `spincal correct`'s row corrector in time order, as one
 /// logger file (the causal die estimate runs across its poses), and the share of its rows outside
 /// the model's temperature range: `correct` leaves those without the thermal correction and marks
@@ -471,6 +502,22 @@ fn a_campaign_with_temperature_saves_a_thermal_model_that_holds_when_streamed() 
                 .expect("model.json carries the thermal model");
             let [lo, hi] = model.fitted_range_c;
             assert!(hi - lo > 20.0, "fitted over {lo}–{hi} °C of a 25 °C warm-up");
+            // The thermal coefficients' error carried into the rows' error bars: one direction
+            // per coefficient kept, and wider bars on the held-out session (it starts cold, far
+            // from T_ref) than the same file without them.
+            let uncertainty = model.uncertainty.as_ref().expect("model.json carries the thermal uncertainty");
+            let kept: usize = thermal.fit.terms.bias_orders.iter().chain(&thermal.fit.terms.scale_orders).sum();
+            assert_eq!(uncertainty.directions.len(), kept, "seed {seed}");
+            let mut without = file.clone();
+            without.thermal.as_mut().unwrap().uncertainty = None;
+            let (wide, narrow) = (
+                mean_predicted_sd(file, &held_out[0].recording),
+                mean_predicted_sd(&without, &held_out[0].recording),
+            );
+            assert!(
+                (0..3).all(|k| wide[k] >= narrow[k]) && (0..3).any(|k| wide[k] > 1.05 * narrow[k]),
+                "seed {seed}: row sd with the thermal part's uncertainty {wide:?}, without {narrow:?}"
+            );
             assert!(
                 result.verdict.contains("°C"),
                 "the verdict states the range: {}",

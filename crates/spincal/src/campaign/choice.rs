@@ -128,7 +128,14 @@ pub(super) fn save_best(
                 truth_sentence(found.truth_check)
             );
             let mut file = CorrectorFile::new(model);
-            file.thermal = found.thermal.map(|t| t.fit.model.clone());
+            file.thermal = found.thermal.map(|t| {
+                let mut model = t.fit.model.clone();
+                // Its directions move a physical corrector's parameters; the other kinds have none.
+                if matches!(file.corrector, CorrectorModel::Physical(_)) {
+                    model.uncertainty = t.uncertainty.clone();
+                }
+                model
+            });
             let verdict = verdict + &thermal_sentence(found.thermal) + &with_gyro(&mut file, found.gyro);
             (Some(file), verdict)
         }

@@ -30,7 +30,9 @@ use crate::campaign::joint::{
     JointSettings, PlacementFit, GEOMETRY,
 };
 use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
-use crate::campaign::thermal::{check_temperature_units, temperature_bands, thermal_stage, CampaignThermal};
+use crate::campaign::thermal::{
+    check_temperature_units, propagated_uncertainty, temperature_bands, thermal_stage, CampaignThermal,
+};
 use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
 use crate::metrics::{term_threshold, TERM_FALSE_ALARM};
 use crate::progress::{Observer, Progress};
@@ -322,8 +324,9 @@ pub fn calibrate_campaign(
     check_temperature_units(units)?;
     let mut clock = Instant::now();
     // Temperature first: everything after runs on readings taken to the reference temperature.
-    let stage = thermal_stage(units, &settings.thermal, settings.joint.gravity_mps2);
-    let units = stage.normalised_units.as_deref().unwrap_or(units);
+    let mut stage = thermal_stage(units, &settings.thermal, settings.joint.gravity_mps2);
+    let normalised_units = stage.normalised_units.take();
+    let units = normalised_units.as_deref().unwrap_or(units);
     let prepared = prepare(units)?;
     check_poses_still(units, &prepared)?;
     check_prepared(&prepared, settings.joint.gravity_mps2)?;
@@ -341,6 +344,9 @@ pub fn calibrate_campaign(
     }
     let (joint, mut joint_settings, nonlinearity) =
         fit_with_nonlinearity_rule(&prepared, settings, observer)?;
+    if let Some(thermal) = stage.thermal.as_mut() {
+        thermal.uncertainty = propagated_uncertainty(thermal, &joint, &joint_settings);
+    }
     let terms_rule = TermsRule::of(&joint);
     // Every later fit (each fold's, the saved one) carries q only on the axes the rule keeps. The
     // saved model is trained from the campaign's fit with those terms; results.json reports the

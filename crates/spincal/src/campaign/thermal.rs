@@ -22,13 +22,21 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::campaign::joint::{fit_joint_from, JointFit, JointSettings};
+use crate::campaign::prepare::prepare;
 use crate::campaign::prepare::{session_indices, still_intervals, Prepared, UnitRecording};
 use crate::input::recording::Recording;
+use crate::progress::silent;
 use crate::thermal::checks::{
     check_track, check_unit, is_stuck, temperature_column, unit_of_column, FindingKind, TemperatureError,
     TemperatureFinding,
 };
-use crate::thermal::{fit_thermal_in_sessions, ThermalFit, ThermalSettings, MIN_SPAN_C};
+use crate::thermal::{
+    fit_thermal_in_sessions, ThermalDirection, ThermalFit, ThermalModel, ThermalSettings, ThermalUncertainty,
+    MIN_SPAN_C,
+};
+use faer::{Mat, Side};
+use rayon::prelude::*;
 
 /// What the thermal stage did (results.json `thermal`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -44,6 +52,14 @@ pub struct CampaignThermal {
     /// The die temperature per sample of each recording, °C (None without a temperature).
     #[serde(skip)]
     pub die_c: Vec<Option<Vec<f64>>>,
+    /// What the thermal coefficients' error moves in the joint fit's sensor, the saved model's
+    /// `thermal.uncertainty` ([`propagated_uncertainty`]); `None` without the coefficients'
+    /// covariance or where a refit failed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<ThermalUncertainty>,
+    /// The recordings as checked, before they were taken to T_ref.
+    #[serde(skip)]
+    checked: Vec<UnitRecording>,
 }
 
 /// The stage's outcome: the recordings to calibrate on, and what was fitted or why nothing was.
@@ -231,18 +247,44 @@ pub(crate) fn thermal_stage(
         // Too narrow a span of temperature among them (`ThermalError::NarrowRange`) included.
         Err(e) => return unchanged(Some(format!("no thermal model: {e}"))),
     };
-    let model = &fit.model;
     let recordings: Vec<&Recording> = units.iter().map(|u| &u.recording).collect();
-    let die_c = model.die_temperatures(&recordings);
+    let die_c = fit.model.die_temperatures(&recordings);
+    let (out, clamped_samples) = to_reference(units, &die_c, &fit.model);
+    let (normalised, without_temperature) = units
+        .iter()
+        .zip(&die_c)
+        .map(|(u, d)| (u.name.clone(), d.is_some()))
+        .partition::<Vec<_>, _>(|(_, has)| *has);
+    let names = |v: Vec<(String, bool)>| v.into_iter().map(|(n, _)| n).collect();
+    ThermalStage {
+        normalised_units: Some(out),
+        thermal: Some(CampaignThermal {
+            fit,
+            normalised: names(normalised),
+            without_temperature: names(without_temperature),
+            clamped_samples,
+            die_c,
+            uncertainty: None,
+            checked: units.to_vec(),
+        }),
+        note: None,
+        findings,
+        masked_samples,
+    }
+}
+
+/// `units` taken to `model`'s reference temperature at their die temperatures `die_c` (a
+/// sample outside the fitted range from the nearest end of it), and how many samples lay outside.
+fn to_reference(
+    units: &[UnitRecording],
+    die_c: &[Option<Vec<f64>>],
+    model: &ThermalModel,
+) -> (Vec<UnitRecording>, usize) {
     let [lo, hi] = model.fitted_range_c;
     let mut clamped_samples = 0;
     let mut out = units.to_vec();
-    let (mut normalised, mut without_temperature) = (Vec::new(), Vec::new());
-    for (unit, die) in out.iter_mut().zip(&die_c) {
-        let Some(die) = die else {
-            without_temperature.push(unit.name.clone());
-            continue;
-        };
+    for (unit, die) in out.iter_mut().zip(die_c) {
+        let Some(die) = die else { continue };
         let accel = &mut unit.recording.accel_mps2;
         for (s, &d) in die.iter().enumerate() {
             clamped_samples += usize::from(!model.covers(d));
@@ -251,22 +293,83 @@ pub(crate) fn thermal_stage(
                 accel[k][s] = m[k];
             }
         }
-        normalised.push(unit.name.clone());
     }
-    ThermalStage {
-        normalised_units: Some(out),
-        thermal: Some(CampaignThermal {
-            fit,
-            normalised,
-            without_temperature,
-            clamped_samples,
-            die_c,
-        }),
-        note: None,
-        findings,
-        masked_samples,
-    }
+    (out, clamped_samples)
 }
+
+/// The thermal coefficients' error carried into the joint fit's sensor: along each principal
+/// axis of their covariance (one standard deviation, `ThermalFit::coefficient_covariance`), the
+/// recordings are taken to T_ref again with the coefficients changed, and the joint fit is solved
+/// again from `joint` with `settings` (its own, the spread of the offsets held at what it found).
+/// The readings it normalised carry the coefficients' error into every pose together, which the
+/// joint fit's covariance, made as if they were exact, cannot hold: on bench/thermal/campaign.sh's
+/// seed 4 its misalignment and q lay 2.5–4.4 standard errors off. `None` without the covariance,
+/// or where a changed campaign no longer prepares into the same poses and runs or does not fit.
+pub(crate) fn propagated_uncertainty(
+    thermal: &CampaignThermal,
+    joint: &JointFit,
+    settings: &JointSettings,
+) -> Option<ThermalUncertainty> {
+    let fit = &thermal.fit;
+    let model = &fit.model;
+    let covariance = &fit.coefficient_covariance;
+    let n = covariance.len();
+    if n == 0 {
+        return None;
+    }
+    let matrix = Mat::from_fn(n, n, |a, b| 0.5 * (covariance[a][b] + covariance[b][a]));
+    let eigen = matrix.self_adjoint_eigen(Side::Lower).ok()?;
+    let (u, lambda) = (eigen.U(), eigen.S());
+    let largest = (0..n).map(|k| lambda[k]).fold(0.0, f64::max);
+    let axes: Vec<Vec<f64>> = (0..n)
+        .filter(|&k| lambda[k] > 1e-12 * largest)
+        .map(|k| (0..n).map(|a| lambda[k].sqrt() * u[(a, k)]).collect())
+        .collect();
+    let base = joint.sensor.params();
+    // From `joint`'s minimum a change this small is all but linear: a few Gauss–Newton steps.
+    let settings = &JointSettings {
+        max_iterations: REFIT_ITERATIONS,
+        ..settings.clone()
+    };
+    let directions: Option<Vec<ThermalDirection>> = axes
+        .par_iter()
+        .map(|delta| {
+            let mut values = delta.iter().copied();
+            let mut take = |orders: &[Vec<f64>; 3]| -> [Vec<f64>; 3] {
+                std::array::from_fn(|k| orders[k].iter().map(|_| values.next().unwrap_or(0.0)).collect())
+            };
+            let bias_per_c = take(&model.bias_per_c);
+            let scale_per_c = take(&model.scale_per_c);
+            let add = |a: &[Vec<f64>; 3], b: &[Vec<f64>; 3]| -> [Vec<f64>; 3] {
+                std::array::from_fn(|k| a[k].iter().zip(&b[k]).map(|(x, y)| x + y).collect())
+            };
+            let changed = ThermalModel {
+                bias_per_c: add(&model.bias_per_c, &bias_per_c),
+                scale_per_c: add(&model.scale_per_c, &scale_per_c),
+                ..model.clone()
+            };
+            let (units, _) = to_reference(&thermal.checked, &thermal.die_c, &changed);
+            let prepared = prepare(&units).ok()?;
+            let same_shape =
+                prepared.poses.len() == joint.poses.len() && prepared.runs.len() == joint.runs.len();
+            let refit = same_shape
+                .then(|| fit_joint_from(&prepared.runs, &prepared.poses, settings, Some(joint), &silent).ok())
+                .flatten()?;
+            let moved = refit.sensor.params();
+            Some(ThermalDirection {
+                bias_per_c,
+                scale_per_c,
+                sensor: moved.iter().zip(&base).map(|(a, b)| a - b).collect(),
+            })
+        })
+        .collect();
+    Some(ThermalUncertainty {
+        directions: directions?,
+    })
+}
+
+/// The most steps of each refit of [`propagated_uncertainty`].
+const REFIT_ITERATIONS: usize = 3;
 
 /// Fraction of the poses held out at each end of the temperature range.
 const BAND_FRACTION: f64 = 0.2;

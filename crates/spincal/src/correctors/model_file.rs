@@ -7,7 +7,10 @@
 //! to help (an older build refuses it by its version, not by an unknown kind). A `linear` map's
 //! optional `uncertainty` (a campaign's linear-12) came within format 3: a file without it reads
 //! as before, and an older build reading one with it ignores the field (`LinearModel` takes
-//! unknown fields), so it is a compatible change and the version stands.
+//! unknown fields), so it is a compatible change and the version stands. Format 4 added the
+//! thermal part's `uncertainty` (`ThermalUncertainty`: what the thermal coefficients' error moves
+//! in a physical corrector, for the rows' standard deviations); `ThermalModel` refuses unknown
+//! fields, so an older build must refuse such a file by its version.
 //!
 //! A new kind of corrector is one more variant of [`CorrectorModel`] and one more arm in its
 //! `Corrector` impl and in [`CorrectorModel::validate`] (both matches have no wildcard, so the
@@ -27,12 +30,12 @@ use crate::correctors::corrector::{
     join_field, Axis, CorrectedSample, Corrector, ModelError, SampleCorrector,
 };
 use crate::correctors::linear::LinearModel;
-use crate::correctors::physical::{PhysicalCorrector, SensorUncertainty};
+use crate::correctors::physical::{PhysicalCorrector, SensorUncertainty, SENSOR_PARAMS};
 use crate::correctors::physical_ann::PhysicalAnnCorrector;
 use crate::correctors::static_cal::StaticCalibration;
 
 /// The corrector file format this build writes.
-pub(crate) const FORMAT_VERSION: u32 = 3;
+pub(crate) const FORMAT_VERSION: u32 = 4;
 /// The oldest format this build still reads (every later one up to [`FORMAT_VERSION`] too).
 const OLDEST_READABLE_VERSION: u32 = 1;
 
@@ -339,6 +342,31 @@ impl CorrectorFile {
             ));
         }
         if let Some(thermal) = &self.thermal {
+            if let Some(uncertainty) = &thermal.uncertainty {
+                if !matches!(self.corrector, CorrectorModel::Physical(_)) {
+                    return Err(ModelError::new(
+                        "thermal.uncertainty",
+                        format!(
+                            "its directions change a physical corrector's sensor parameters, but the corrector is {}",
+                            self.corrector.kind()
+                        ),
+                    ));
+                }
+                if let Some((d, direction)) = uncertainty
+                    .directions
+                    .iter()
+                    .enumerate()
+                    .find(|(_, d)| d.sensor.len() != SENSOR_PARAMS)
+                {
+                    return Err(ModelError::new(
+                        format!("thermal.uncertainty.directions[{d}].sensor"),
+                        format!(
+                            "{} values: the physical corrector has {SENSOR_PARAMS} parameters",
+                            direction.sensor.len()
+                        ),
+                    ));
+                }
+            }
             thermal
                 .validate()
                 .map_err(|e| ModelError::new(e.field, e.reason).within("thermal"))?;
@@ -551,6 +579,35 @@ mod tests {
             message.contains(&format!(
                 "format_version {OLDEST_READABLE_VERSION} to {FORMAT_VERSION}"
             )),
+            "{message}"
+        );
+    }
+
+    /// A thermal part's uncertainty moves a physical corrector's parameters: beside another
+    /// kind it is refused by its field.
+    #[test]
+    fn a_thermal_uncertainty_needs_a_physical_corrector() {
+        let thermal = r#""thermal": {"reference_c": 25, "bias_mps2": [0, 0, 0], "scale_error": [0, 0, 0],
+            "misalignment_rad": [0, 0, 0], "bias_per_c": [[0.001], [0.001], [0.001]], "scale_per_c": [[], [], []],
+            "lag_s": 20, "smoothing_s": 60, "fitted_range_c": [10, 40], "uncertainty": {"directions": [
+            {"bias_per_c": [[1e-5], [0], [0]], "scale_per_c": [[], [], []], "sensor": [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]}]}}"#;
+        let physical = r#""kind": "physical", "sensor": {"bias_mps2": [0.1, 0, 0], "scale_error": [0, 0, 0],
+            "misalignment_rad": [0, 0, 0], "quadratic_per_mps2": [0, 0, 0]}, "gravity_mps2": 9.81,
+            "input_range_mps2": [[-10, 10], [-10, 10], [-10, 10]]"#;
+        let linear = r#""kind": "linear", "axes": ["x", "y", "z"], "offset_mps2": [0.1, 0, 0],
+            "matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "training": null"#;
+        let file = |corrector: &str| {
+            format!(
+                r#"{{"format_version": 4, "spincal_version": "0.2.0", "corrector": {{{corrector}}}, {thermal}}}"#
+            )
+        };
+        let read = CorrectorFile::from_json(&file(physical), "physical.json").unwrap();
+        assert_eq!(read.thermal.unwrap().uncertainty.unwrap().directions.len(), 1);
+        let message = CorrectorFile::from_json(&file(linear), "linear.json")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("linear.json") && message.contains("thermal.uncertainty"),
             "{message}"
         );
     }

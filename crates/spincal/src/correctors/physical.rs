@@ -353,6 +353,33 @@ impl PhysicalCorrector {
         Some(propagated_variance(&jac, &uncertainty.covariance).map(f64::sqrt))
     }
 
+    /// As [`PhysicalCorrector::predicted_sd`], with the variance of further changes added, each
+    /// one standard deviation and independent of the covariance's: of the sensor parameters and
+    /// of the reading `m` itself (a thermal part's directions, [`crate::thermal::ThermalUncertainty`]).
+    /// The reading enters the model as u in q u² + u = m, so its change acts as a bias change of
+    /// −Δm/(1 + 2 q u), with u ≈ m (the difference is of order q², 1e-5 of it).
+    pub fn predicted_sd_with<'p>(
+        &self,
+        m: [f64; 3],
+        changes: impl Iterator<Item = (&'p [f64], [f64; 3])>,
+    ) -> Option<[f64; 3]> {
+        let uncertainty = self.uncertainty.as_ref()?;
+        let (_, jac) = self.sensor.correct_with_jacobian(m)?;
+        let mut variance = propagated_variance(&jac, &uncertainty.covariance);
+        for (sensor, reading) in changes {
+            let mut params = [0.0; SENSOR_PARAMS];
+            params.iter_mut().zip(sensor).for_each(|(p, v)| *p = *v);
+            for k in 0..3 {
+                params[k] -= reading[k] / (1.0 + 2.0 * self.sensor.quadratic_per_mps2[k] * m[k]);
+            }
+            for k in 0..3 {
+                let change: f64 = (0..SENSOR_PARAMS).map(|j| jac[k][j] * params[j]).sum();
+                variance[k] += change * change;
+            }
+        }
+        Some(variance.map(f64::sqrt))
+    }
+
     /// Whether a reading lies beyond the covered range by more than 10 % of its width.
     pub fn outside_range(&self, m: [f64; 3]) -> bool {
         (0..3).any(|k| {
@@ -397,6 +424,62 @@ impl Corrector for PhysicalCorrector {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// With no further change `predicted_sd_with` is `predicted_sd`; a change of the reading alone
+    /// adds, per axis, the square of what it moves the correction (against `correct` at the moved
+    /// reading, a central difference), and a parameter change J·Δθ.
+    #[test]
+    fn predicted_sd_with_adds_each_change_s_move_of_the_correction() {
+        let mut covariance = [[0.0; SENSOR_PARAMS]; SENSOR_PARAMS];
+        for (a, row) in covariance.iter_mut().enumerate() {
+            row[a] = [
+                1e-6, 1e-6, 1e-6, 1e-8, 1e-8, 1e-8, 1e-8, 1e-8, 1e-8, 1e-10, 1e-10, 1e-10,
+            ][a];
+        }
+        let corrector = PhysicalCorrector {
+            sensor: sensor(),
+            gravity_mps2: 9.81,
+            input_range_mps2: [[-10.0, 10.0]; 3],
+            uncertainty: Some(SensorUncertainty {
+                covariance,
+                noise_sd_mps2: [0.02; 3],
+                session_spread_mps2: None,
+            }),
+        };
+        let m = [3.0, -7.5, 5.0];
+        let alone = corrector.predicted_sd(m).unwrap();
+        assert_eq!(corrector.predicted_sd_with(m, std::iter::empty()), Some(alone));
+        let reading = [2e-3, -1e-3, 3e-3];
+        let with = corrector
+            .predicted_sd_with(m, std::iter::once((&[0.0; SENSOR_PARAMS][..], reading)))
+            .unwrap();
+        let h = 1e-3;
+        let at = |s: f64| {
+            corrector
+                .sensor
+                .correct(std::array::from_fn(|k| m[k] + s * h * reading[k]))
+                .unwrap()
+        };
+        let (up, down) = (at(1.0), at(-1.0));
+        for k in 0..3 {
+            let moved = (up[k] - down[k]) / (2.0 * h);
+            let added = (with[k] * with[k] - alone[k] * alone[k]).sqrt();
+            assert!(
+                (added - moved.abs()).abs() < 1e-4 * moved.abs() + 1e-12,
+                "axis {k}: {added} against {moved}"
+            );
+        }
+        let mut params = [0.0; SENSOR_PARAMS];
+        params[3] = 1e-3;
+        let (_, jac) = corrector.sensor.correct_with_jacobian(m).unwrap();
+        let with = corrector
+            .predicted_sd_with(m, std::iter::once((&params[..], [0.0; 3])))
+            .unwrap();
+        for k in 0..3 {
+            let added = (with[k] * with[k] - alone[k] * alone[k]).max(0.0).sqrt();
+            assert!((added - (jac[k][3] * 1e-3).abs()).abs() < 1e-12, "axis {k}");
+        }
+    }
 
     fn sensor() -> SensorModel {
         SensorModel {

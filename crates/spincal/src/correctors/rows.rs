@@ -274,6 +274,8 @@ impl<'a> RowCorrector<'a> {
         let reading_mps2 = accel.map(|a| a * u.accel_to_mps2);
         let mut accel_mps2 = reading_mps2;
         let mut thermal_status = None;
+        // The die temperature the reading was taken to T_ref from, when it was.
+        let mut applied_die_c = None;
         if let Some(thermal) = &mut self.thermal {
             let model = thermal.model;
             let [lo, hi] = model.fitted_range_c;
@@ -284,6 +286,7 @@ impl<'a> RowCorrector<'a> {
                     SampleCheck::Implausible | SampleCheck::Discontinuous => {
                         if let Some(d) = thermal.last_die_c.filter(|&d| model.covers(d)) {
                             accel_mps2 = model.to_reference(accel_mps2, d);
+                            applied_die_c = Some(d);
                         }
                         Some(RowStatus::SuspectTemperature)
                     }
@@ -302,6 +305,7 @@ impl<'a> RowCorrector<'a> {
                         thermal.last_die_c = Some(d);
                         if model.covers(d) {
                             accel_mps2 = model.to_reference(accel_mps2, d);
+                            applied_die_c = Some(d);
                             None
                         } else {
                             Some(RowStatus::OutsideTemperatureRange)
@@ -331,8 +335,22 @@ impl<'a> RowCorrector<'a> {
         if let Some(why) = implausible(&self.axes, &sample.accel_mps2, rate.as_ref()) {
             return RowOutcome::Refused(why);
         }
+        let thermal_directions = self
+            .thermal
+            .as_ref()
+            .and_then(|t| Some((t.model, t.model.uncertainty.as_ref()?, applied_die_c?)));
         let predicted = self.error_model.and_then(|model| {
-            let sd_mps2 = model.predicted_sd(accel_mps2)?;
+            let sd_mps2 = match (model, thermal_directions) {
+                (ErrorModel::Physical(physical), Some((thermal, uncertainty, die_c))) => physical
+                    .predicted_sd_with(
+                        accel_mps2,
+                        uncertainty
+                            .directions
+                            .iter()
+                            .map(|d| (&d.sensor[..], thermal.reference_change(accel_mps2, die_c, d))),
+                    )?,
+                _ => model.predicted_sd(accel_mps2)?,
+            };
             let better = self.axes.iter().all(|axis| {
                 let k = axis.index();
                 predicted_to_help(sample.accel_mps2[k] - reading_mps2[k], sd_mps2[k])

@@ -251,6 +251,7 @@ pub fn simulate_thermal_campaign(profile: &ThermalProfile, seed: u64) -> Thermal
         lag_s: profile.sensor_lag_s,
         smoothing_s: 0.0,
         fitted_range_c: [profile.start_c, profile.start_c + profile.warmup_c],
+        uncertainty: None,
     };
     let tilt = draw3(0.05, &mut rng);
     let warmup = session(&truth, profile, "warmup", None, &mut rng, |_, _| {

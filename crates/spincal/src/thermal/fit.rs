@@ -188,6 +188,11 @@ pub struct ThermalFit {
     /// the reported temperature err together, and the blocks let that in.
     pub bias_per_c_se: [Vec<f64>; 3],
     pub scale_per_c_se: [Vec<f64>; 3],
+    /// The covariance of β and ρ, in the order β_x1, β_x2, …, β_z…, ρ_x1, …, ρ_z…: the variances
+    /// of the standard errors above with the classical fit's correlations (empty where the fit's
+    /// normal matrix is singular).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub coefficient_covariance: Vec<Vec<f64>>,
     pub windows: usize,
     /// Whether the recordings can determine the lag at all: R² of the die temperature's rate
     /// against the die temperature over the blocks of `smoothing_s` (each block's rate the slope
@@ -488,6 +493,7 @@ impl Problem<'_> {
             lag_s,
             smoothing_s,
             fitted_range_c: range,
+            uncertainty: None,
         }
     }
 
@@ -655,7 +661,36 @@ struct Solved {
     rms: f64,
     /// The robust covariance's diagonal.
     covariance_diagonal: Vec<f64>,
+    /// The correlations of the classical covariance H⁻¹ (every parameter's), `None` where H is
+    /// singular.
+    correlation: Option<Mat<f64>>,
     sessions: ThermalSessions,
+}
+
+impl Solved {
+    /// The covariance of the parameters at `index`: the classical correlations scaled to the
+    /// variances `covariance_diagonal` holds (the larger of the classical and the robust one, as
+    /// the terms rule reads them), so it is a covariance whatever the sandwich's own shape.
+    fn covariance_on(&self, index: &[usize]) -> Option<Vec<Vec<f64>>> {
+        let correlation = self.correlation.as_ref()?;
+        let sd: Vec<f64> = index
+            .iter()
+            .map(|&i| self.covariance_diagonal[i].sqrt())
+            .collect();
+        sd.iter().all(|v| v.is_finite()).then(|| {
+            index
+                .iter()
+                .enumerate()
+                .map(|(a, &i)| {
+                    index
+                        .iter()
+                        .enumerate()
+                        .map(|(b, &j)| sd[a] * sd[b] * correlation[(i, j)])
+                        .collect()
+                })
+                .collect()
+        })
+    }
 }
 
 /// The search's range for σ, as multiples of g: the joint fit's (10 µg to 5 % of g).
@@ -696,15 +731,20 @@ fn solve(windows: &[Window], orders: Orders, reference_c: f64, gravity: f64) -> 
     // two angles fitted to each it runs low (measured: 79 % coverage of 95 % intervals with the
     // die temperature logged exactly, where the classical one covers 95 %).
     let n = problem.n_params();
-    let covariance_diagonal = match report.jtj.llt(Side::Lower) {
+    let (covariance_diagonal, correlation) = match report.jtj.llt(Side::Lower) {
         Ok(llt) => {
             let inverse = llt.solve(Mat::<f64>::identity(n, n));
             let robust = robust_covariance_diagonal(&problem, &report.params, &inverse);
-            (0..n)
+            let diagonal = (0..n)
                 .map(|i| (inverse[(i, i)] * sse / dof).max(robust[i]))
-                .collect()
+                .collect();
+            let sd: Vec<f64> = (0..n)
+                .map(|i| inverse[(i, i)].max(f64::MIN_POSITIVE).sqrt())
+                .collect();
+            let correlation = Mat::from_fn(n, n, |i, j| inverse[(i, j)] / (sd[i] * sd[j]));
+            (diagonal, Some(correlation))
         }
-        Err(_) => vec![f64::NAN; n],
+        Err(_) => (vec![f64::NAN; n], None),
     };
     (
         problem,
@@ -712,6 +752,7 @@ fn solve(windows: &[Window], orders: Orders, reference_c: f64, gravity: f64) -> 
             params: report.params,
             rms: (sse / n_res).sqrt(),
             covariance_diagonal,
+            correlation,
             sessions,
         },
     )
@@ -942,7 +983,12 @@ pub fn fit_thermal_in_sessions(
     })?;
     let se = |i: usize| solved.covariance_diagonal[i].max(0.0).sqrt();
     let threshold = term_threshold();
+    let coefficients: Vec<usize> = (0..3)
+        .flat_map(|k| (0..orders.bias[k]).map(move |j| orders.bias_index(k, j)))
+        .chain((0..3).flat_map(|k| (0..orders.scale[k]).map(move |j| orders.scale_index(k, j))))
+        .collect();
     Ok(ThermalFit {
+        coefficient_covariance: solved.covariance_on(&coefficients).unwrap_or_default(),
         bias_per_c_se: std::array::from_fn(|k| {
             (0..orders.bias[k]).map(|j| se(orders.bias_index(k, j))).collect()
         }),

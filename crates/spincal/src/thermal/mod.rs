@@ -60,6 +60,33 @@ pub struct ThermalModel {
     pub smoothing_s: f64,
     /// The die temperatures the model was fitted on, °C (min, max).
     pub fitted_range_c: [f64; 2],
+    /// What the thermal part leaves uncertain, where a campaign found it (format 4).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<ThermalUncertainty>,
+}
+
+/// A campaign's thermal part's uncertainty in square-root form. Each direction is one standard
+/// deviation along a principal axis of the thermal fit's covariance of β and ρ, with the change
+/// it makes in the saved physical corrector's sensor parameters when the campaign's readings are
+/// taken to T_ref with it and the joint fit is solved again. A corrected row's variance gains
+/// Σ_k (Δf_k)², Δf_k the row's change along direction k: the thermal coefficients' own error at
+/// the row's temperature and what it moved in the static part, with their signs, so that the two
+/// cancel where they do (at the training poses' temperatures) and add where they do not.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThermalUncertainty {
+    pub directions: Vec<ThermalDirection>,
+}
+
+/// One direction of [`ThermalUncertainty`]: changes of β and ρ (the model's orders) and of the
+/// corrector's sensor parameters (`SensorModel::params` order; the model file checks their
+/// count against its corrector).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThermalDirection {
+    pub bias_per_c: [Vec<f64>; 3],
+    pub scale_per_c: [Vec<f64>; 3],
+    pub sensor: Vec<f64>,
 }
 
 /// `value ≤ limit`, false for NaN: a limit check that refuses what is not a number.
@@ -144,6 +171,30 @@ impl ThermalModel {
                         field,
                         format!("{} coefficients: at most {MAX_ORDER} (a cubic)", c.len()),
                     ));
+                }
+            }
+        }
+        if let Some(uncertainty) = &self.uncertainty {
+            for (d, direction) in uncertainty.directions.iter().enumerate() {
+                let field = |name: &str| format!("uncertainty.directions[{d}].{name}");
+                finite(&field("sensor"), &direction.sensor)?;
+                for (name, terms, model) in [
+                    ("bias_per_c", &direction.bias_per_c, &self.bias_per_c),
+                    ("scale_per_c", &direction.scale_per_c, &self.scale_per_c),
+                ] {
+                    for k in 0..3 {
+                        finite(&field(&format!("{name}[{k}]")), &terms[k])?;
+                        if terms[k].len() != model[k].len() {
+                            return Err(InvalidField::new(
+                                field(&format!("{name}[{k}]")),
+                                format!(
+                                    "{} coefficients where the model has {}",
+                                    terms[k].len(),
+                                    model[k].len()
+                                ),
+                            ));
+                        }
+                    }
                 }
             }
         }
@@ -297,6 +348,23 @@ impl ThermalModel {
         let x = v[0];
         let y = v[1] - m_yx * x;
         [x, y, v[2] - m_zx * x - m_zy * y]
+    }
+
+    /// The change in [`ThermalModel::to_reference`]'s value `reference` at `die_c` when β and ρ
+    /// change by `direction`'s (first order).
+    pub fn reference_change(
+        &self,
+        reference: [f64; 3],
+        die_c: f64,
+        direction: &ThermalDirection,
+    ) -> [f64; 3] {
+        let dt = die_c - self.reference_c;
+        let rho = self.scale_change(die_c);
+        std::array::from_fn(|k| {
+            let d_beta = polynomial(&direction.bias_per_c[k], dt);
+            let d_rho = polynomial(&direction.scale_per_c[k], dt);
+            -(d_beta + d_rho * (reference[k] - self.bias_mps2[k])) / (1.0 + rho[k])
+        })
     }
 
     /// The reading the sensor would have given at the reference temperature: m with the thermal
@@ -480,7 +548,86 @@ mod tests {
             lag_s: 20.0,
             smoothing_s: 60.0,
             fitted_range_c: [10.0, 40.0],
+            uncertainty: None,
         }
+    }
+
+    fn direction(scale: f64) -> ThermalDirection {
+        ThermalDirection {
+            bias_per_c: [
+                vec![2e-4 * scale, -3e-6 * scale],
+                vec![1e-4 * scale],
+                vec![-2e-4 * scale, 5e-6 * scale, 1e-7 * scale],
+            ],
+            scale_per_c: [vec![3e-5 * scale], vec![-2e-5 * scale, 1e-6 * scale], vec![]],
+            sensor: vec![0.0; 12],
+        }
+    }
+
+    /// `reference_change` is the first-order change of `to_reference` when β and ρ move along a
+    /// direction: against a model with the coefficients actually moved, by a central difference.
+    #[test]
+    fn reference_change_is_to_reference_s_derivative_along_a_direction() {
+        let m = model();
+        let moved = |h: f64| {
+            let d = direction(h);
+            let add = |a: &[Vec<f64>; 3], b: &[Vec<f64>; 3]| -> [Vec<f64>; 3] {
+                std::array::from_fn(|k| a[k].iter().zip(&b[k]).map(|(x, y)| x + y).collect())
+            };
+            ThermalModel {
+                bias_per_c: add(&m.bias_per_c, &d.bias_per_c),
+                scale_per_c: add(&m.scale_per_c, &d.scale_per_c),
+                ..m.clone()
+            }
+        };
+        for (reading, t) in [
+            ([1.0, -9.0, 2.5], 10.0),
+            ([-7.0, 3.0, -5.0], 38.0),
+            ([0.0, 0.0, 9.8], 25.0),
+        ] {
+            let reference = m.to_reference(reading, t);
+            let change = m.reference_change(reference, t, &direction(1.0));
+            let h = 1e-3;
+            let (up, down) = (
+                moved(h).to_reference(reading, t),
+                moved(-h).to_reference(reading, t),
+            );
+            for k in 0..3 {
+                let numeric = (up[k] - down[k]) / (2.0 * h);
+                assert!(
+                    (change[k] - numeric).abs() <= 1e-9 * numeric.abs().max(1e-6),
+                    "axis {k} at {t} °C: {change:?} against {numeric}"
+                );
+            }
+            if t == m.reference_c {
+                assert_eq!(change, [0.0; 3], "nothing changes at T_ref");
+            }
+        }
+    }
+
+    /// A direction whose orders differ from the model's is refused, naming the field.
+    #[test]
+    fn an_uncertainty_direction_of_other_orders_is_refused_by_name() {
+        let mut m = model();
+        m.uncertainty = Some(ThermalUncertainty {
+            directions: vec![ThermalDirection {
+                bias_per_c: [vec![0.0, 0.0], vec![0.0], vec![0.0, 0.0, 0.0]],
+                scale_per_c: [vec![0.0], vec![0.0, 0.0], vec![]],
+                sensor: vec![0.0; 12],
+            }],
+        });
+        m.validate().expect("the model's own orders");
+        let directions = &mut m.uncertainty.as_mut().unwrap().directions;
+        directions[0].scale_per_c[2] = vec![1e-6];
+        let error = m.validate().unwrap_err();
+        assert_eq!(error.field, "uncertainty.directions[0].scale_per_c[2]", "{error}");
+        let directions = &mut m.uncertainty.as_mut().unwrap().directions;
+        directions[0].scale_per_c[2] = vec![];
+        directions[0].sensor[4] = f64::NAN;
+        assert_eq!(
+            m.validate().unwrap_err().field,
+            "uncertainty.directions[0].sensor"
+        );
     }
 
     #[test]
