@@ -228,12 +228,49 @@ fn thermal_sentence(thermal: Option<&CampaignThermal>) -> String {
         _ => String::new(),
     };
     format!(
-        " Corrected for temperature first (bias orders {:?}, gain orders {:?} per axis, each term kept by the Wald test at false-alarm {:e}; sensor lag {:.0} s{lag_note}) over die temperatures {lo:.1}–{hi:.1} °C: rows outside that range, or without a temperature, are corrected as at {:.1} °C and marked.",
+        " Corrected for temperature first (bias orders {:?}, gain orders {:?} per axis, each term kept by the Wald test at false-alarm {:e}; sensor lag {:.0} s{lag_note}) over die temperatures {lo:.1}–{hi:.1} °C: rows outside that range, or without a temperature, are corrected as at {:.1} °C and marked.{}",
         t.fit.terms.bias_orders,
         t.fit.terms.scale_orders,
         crate::metrics::TERM_FALSE_ALARM,
         t.fit.model.lag_s,
-        t.fit.model.reference_c
+        t.fit.model.reference_c,
+        undetermined_thermal_terms(&t.fit.terms)
+    )
+}
+
+/// The thermal terms the recordings could not test at all (the fit with them singular: no
+/// standard error), what the model does instead, and what would determine them. A warm-up in one
+/// orientation and still poses at two temperatures determine the gain only at those two (a
+/// quadratic gain is then measured on bench/thermal/campaign.sh to leave 0.07 % mid-range).
+fn undetermined_thermal_terms(terms: &crate::thermal::ThermalTerms) -> String {
+    let mut named: Vec<(String, usize, Vec<&str>)> = Vec::new();
+    for test in terms.tests.iter().filter(|t| !t.z.is_finite()) {
+        let axis = ["x", "y", "z"][test.axis.min(2)];
+        match named
+            .iter_mut()
+            .find(|(part, order, _)| *part == test.part && *order == test.order)
+        {
+            Some((_, _, axes)) if !axes.contains(&axis) => axes.push(axis),
+            Some(_) => {}
+            None => named.push((test.part.clone(), test.order, vec![axis])),
+        }
+    }
+    if named.is_empty() {
+        return String::new();
+    }
+    let list: Vec<String> = named
+        .iter()
+        .map(|(part, order, axes)| format!("{part} order {order} on {}", axes.join(", ")))
+        .collect();
+    let gain = named.iter().any(|(part, _, _)| part == "gain");
+    format!(
+        " Not determined by these recordings (the fit with them has no standard error), so left out: {}.{}",
+        list.join("; "),
+        if gain {
+            " Between the still poses' temperatures the gain then changes as the orders kept say, and the rows' error bars do not hold what a curvature would add; still poses in several orientations at a temperature in between would determine it."
+        } else {
+            ""
+        }
     )
 }
 
