@@ -9,16 +9,18 @@ From first principles in numpy, nothing shared with `spincal::simulate`:
 - Clocks: each sensor samples on its own clock, 100 Hz nominal with the gyro's rate 2 % either
   side, its first sample a few ms after START, each stamp jittered (sd 10 % of an interval,
   clipped at 30 %). The true force is taken at the stamps as printed.
-- Still poses (8 s each, as independent.py's): the first half (up to six) are faces, screen up,
-  screen down, the right edge down, the top down, then the other two edges, each off level by
-  up to 2° (a table, a book); the rest are tilted 45° ± 5° from a random face about a random
-  axis perpendicular to it. For 7: four faces and three 45° poses; for 12: six and six.
-- Runs (45 s each): 33⅓ and 45 rpm, the platter 1 % fast and its spindle tilted 0.05–0.4°, in
-  two placements: A, the phone flat, screen up, its top (+y) away from the spindle, turned
-  ±3° about the spindle by eye and tilted ~0.5° on its mat; B, the same turned end for end
-  (180° about the spindle's direction through the phone's centre), re-placed with a new small
-  tilt. The phone's centre at 95–105 mm; the chip 30 mm at most off it in x and y, 4 mm in z.
-  No radius in the campaign file; `placement = "A"`/`"B"`.
+- Still poses (8 s each, as independent.py's): the first half (up to six) are faces, screen
+  up, screen down, the left edge down (+x up), the bottom edge down (+y up), then the right and
+  top edges down, each off level by a degree or two (a table, a book); the rest are tilted 45° ±
+  5° from a random face about a random axis perpendicular to it. For 7: four faces and three
+  45° poses; for 12: six and six.
+- Runs (45 s each): 33⅓ and 45 rpm, the platter turning clockwise from above (as record players
+  do) 1 % fast, its spindle tilted 0.05–0.4°, in two placements: A, the phone flat, screen up,
+  its top (+y) away from the spindle, turned ±3° about the spindle by eye and tilted ~0.5° on
+  its mat; B, the same turned end for end (180° about the spindle's direction through the
+  phone's centre), re-placed with a new small tilt. The phone's centre at 95–105 mm; the chip
+  30 mm at most off it in x and y, 4 mm in z. No radius in the campaign file; `placement =
+  "A"`/`"B"`.
 - Held out: eight still poses at uniformly random orientations and one 30 s run at 78 rpm (a
   speed the campaign never saw) in placement A as its training runs left it.
 Earth's rotation (7e-5 rad/s) and the platter's wow are left out.
@@ -32,7 +34,6 @@ ending "\\n"; then `meta/device.csv` (`"property","value"` rows) and `meta/time.
 decimals).
 """
 
-import io
 import os
 import zipfile
 
@@ -135,12 +136,13 @@ class Placement:
         theta0 = rng.uniform(0, 2 * np.pi)
         p = self.chip_in_platter()
         ta, tg = clocks(rng, seconds)
-        # World up in the turning platter frame turns backwards as the platter turns.
-        phase = tilt_direction - (theta0 + omega * ta)
+        # Record players turn clockwise seen from above: the platter's angle about up is −ω t, and
+        # world up's tilt, seen from the platter, turns the other way.
+        phase = tilt_direction + theta0 + omega * ta
         up = np.stack([np.sin(tilt) * np.cos(phase), np.sin(tilt) * np.sin(phase), np.full(len(ta), np.cos(tilt))], axis=1)
         f_platter = ind.G * up
         f_platter[:, :2] -= omega**2 * p[:2]
-        w_phone = self.m.T @ np.array([0, 0, omega])
+        w_phone = self.m.T @ np.array([0, 0, -omega])
         return ta, f_platter @ self.m, tg, np.tile(w_phone, (len(tg), 1))
 
 
