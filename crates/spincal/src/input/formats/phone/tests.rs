@@ -181,16 +181,26 @@ fn stored_member(name: &str, data: &[u8]) -> Vec<u8> {
 fn a_zip_is_a_workbook_by_its_member_names_not_by_bytes_inside_its_data() {
     // A phyphox zip whose data holds "xl/" (its deflated CSVs can, by chance) stays a phyphox zip.
     let phyphox = [
-        stored_member("Accelerometer.csv", b"\"Time (s)\",\"Acceleration x (m/s^2)\"\nxl/\n"),
+        stored_member(
+            "Accelerometer.csv",
+            b"\"Time (s)\",\"Acceleration x (m/s^2)\"\nxl/\n",
+        ),
         stored_member("meta/time.csv", b"\"event\""),
     ]
     .concat();
     assert_eq!(sniff(&phyphox).unwrap().format, Format::PhyphoxZip);
     // A workbook by its members, the first or a later one within the head.
-    for names in [["[Content_Types].xml", "_rels/.rels"], ["docProps/app.xml", "xl/workbook.xml"]] {
+    for names in [
+        ["[Content_Types].xml", "_rels/.rels"],
+        ["docProps/app.xml", "xl/workbook.xml"],
+    ] {
         let book = [stored_member(names[0], b"<x/>"), stored_member(names[1], b"<x/>")].concat();
         assert_eq!(sniff(&book).unwrap().format, Format::PhyphoxExcel, "{names:?}");
     }
-    let logger = [stored_member("Metadata.csv", b"version"), stored_member("Gyroscope.csv", b"t")].concat();
+    let logger = [
+        stored_member("Metadata.csv", b"version"),
+        stored_member("Gyroscope.csv", b"t"),
+    ]
+    .concat();
     assert_eq!(sniff(&logger).unwrap().format, Format::SensorLogger);
 }
