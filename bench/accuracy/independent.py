@@ -11,6 +11,7 @@ orientations and runs at new speeds, radii and mountings.
 
     python independent.py generate OUT SEED POSES [--one-file] [--session-sd MPS2] [--ruler-sd M] [--q QX,QY,QZ]
                                   [--sessions K [--session-keys]]
+    python independent.py generate OUT SEED POSES --phone   (phone.py: a phone's phyphox zips)
     python independent.py evaluate OUT          (after `spincal calibrate` and `spincal correct`)
 
 `evaluate` prints, per held-out file and axis, the RMS of corrected − truth over the RMS of the
@@ -218,16 +219,35 @@ def evaluate(out):
     for name in truth["held_out"]:
         f = np.load(os.path.join(out, "held_out", name + ".truth.npy"))
         o = np.load(os.path.join(out, "held_out", name + ".oracle.npy"))
-        raw = np.loadtxt(os.path.join(out, "held_out", name + ".csv"), delimiter=",", skiprows=1)[:, 1:4]
+        phone = truth.get("mode") == "phone"
+        if phone:
+            raw = np.load(os.path.join(out, "held_out", name + ".raw.npy"))
+        else:
+            raw = np.loadtxt(os.path.join(out, "held_out", name + ".csv"), delimiter=",", skiprows=1)[:, 1:4]
         path = os.path.join(out, "corrected", name + ".csv")
         sd = None
         if os.path.exists(path):
             with open(path) as fh:
                 header = fh.readline().strip().split(",")
-            data = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[header.index(c) for c in ("ax_corrected_mps2", "ay_corrected_mps2", "az_corrected_mps2")])
+            table = np.atleast_2d(np.genfromtxt(path, delimiter=",", skip_header=1))
+            if phone:
+                # A zip's two sensors are written on the accelerometer's stamps, those outside the
+                # gyro's span dropped: each corrected row is matched to its true force by time.
+                stamps = np.load(os.path.join(out, "held_out", name + ".time.npy"))
+                t = table[:, header.index("t_s")]
+                after = np.clip(np.searchsorted(stamps, t), 1, len(stamps) - 1)
+                near = np.where(np.abs(stamps[after] - t) < np.abs(stamps[after - 1] - t), after, after - 1)
+                if np.max(np.abs(stamps[near] - t)) > 1e-6:
+                    raise SystemExit("%s: corrected rows whose time is no accelerometer stamp" % path)
+                f, o, raw = f[near], o[near], raw[near]
+            # A model that saved the gyro alone leaves the accelerometer as read (no columns).
+            if "ax_corrected_mps2" in header:
+                data = table[:, [header.index(c) for c in ("ax_corrected_mps2", "ay_corrected_mps2", "az_corrected_mps2")]]
+            else:
+                data = raw
             if "ax_corrected_sd_mps2" in header:
-                sd = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[header.index("a%s_corrected_sd_mps2" % a) for a in "xyz"])
-                better = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[header.index("predicted_better")])
+                sd = table[:, [header.index("a%s_corrected_sd_mps2" % a) for a in "xyz"]]
+                better = table[:, header.index("predicted_better")]
         else:
             data = raw
         for k in range(3):
@@ -299,6 +319,13 @@ def evaluate(out):
                 "z_count": len(z),
             }
         )
+    if "placements" in truth and os.path.exists(results):
+        # The chip's radius per placement, found from the runs (no radius stated) against the truth.
+        found = {p["label"]: p for p in json.load(open(results)).get("placements", [])}
+        summary["placements"] = {
+            label: {"true_m": t["radius_m"], "found_m": found[label]["radius_m"] if label in found else None, "se_m": found[label]["radius_se_m"] if label in found else None}
+            for label, t in truth["placements"].items()
+        }
     print(json.dumps(summary))
 
 
@@ -309,6 +336,13 @@ if __name__ == "__main__":
         ruler_sd = float(args[args.index("--ruler-sd") + 1]) if "--ruler-sd" in args else 0.0
         q = [float(v) for v in args[args.index("--q") + 1].split(",")] if "--q" in args else None
         sessions = int(args[args.index("--sessions") + 1]) if "--sessions" in args else 0
-        generate(args[0], int(args[1]), int(args[2]), "--one-file" in args, sd, ruler_sd, q, sessions, "--session-keys" in args)
+        if "--phone" in args:
+            import phone
+
+            truth = phone.generate(args[0], int(args[1]), int(args[2]))
+            with open(os.path.join(args[0], "truth.json"), "w") as f:
+                json.dump(truth, f, indent=1)
+        else:
+            generate(args[0], int(args[1]), int(args[2]), "--one-file" in args, sd, ruler_sd, q, sessions, "--session-keys" in args)
     else:
         evaluate(sys.argv[2])

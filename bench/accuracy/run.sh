@@ -5,6 +5,7 @@
 # RMS(corrected − truth) / RMS(oracle − truth).
 #
 #   bash bench/accuracy/run.sh OUT_DIR UNITS POSES [independent.py generate's flags]
+#   bash bench/accuracy/run.sh OUT_DIR UNITS POSES --phone   (phone.py: phyphox zips, no radius stated)
 set -euo pipefail
 out=${1:?OUT_DIR}
 units=${2:-10}
@@ -24,8 +25,11 @@ for seed in $(seq 1 "$units"); do
     "$spincal" calibrate --campaign "$unit/campaign.toml" --out "$unit/cal" --quiet > "$unit/calibrate.log" 2>&1 || true
     mkdir -p "$unit/corrected"
     if [ -f "$unit/cal/model.json" ]; then
-        for f in "$unit"/held_out/*.csv; do
-            "$spincal" correct --model "$unit/cal/model.json" "$f" -o "$unit/corrected/$(basename "$f")" > /dev/null 2>&1
+        # Held-out CSVs, or with --phone phyphox zips (corrected into CSVs of the same base name).
+        for f in "$unit"/held_out/*.csv "$unit"/held_out/*.zip; do
+            [ -e "$f" ] || continue
+            base=$(basename "$f")
+            "$spincal" correct --model "$unit/cal/model.json" "$f" -o "$unit/corrected/${base%.*}.csv" > /dev/null 2>&1
         done
         saved=$(grep -o '"saved": *"[^"]*"' "$unit/cal/results.json" | head -1)
     else
@@ -43,6 +47,8 @@ if "share_determined" in s:
         100 * s["share_determined"], s["poses_outside"], s["held_out_inside"], "-" if inside is None else "%.2f" % inside,
         s["session_spread_mps2"], (s["z_sum_squares"] / max(s["z_count"], 1)) ** 0.5,
         (s["z_correction_sum_squares"] / max(s["z_count"], 1)) ** 0.5, s["z_count"])
+if "placements" in s:
+    line += "; chip radius found/true " + ", ".join("%s %s/%.2f mm" % (k, "-" if p["found_m"] is None else "%.2f" % (1e3 * p["found_m"]), 1e3 * p["true_m"]) for k, p in s["placements"].items())
 print(line)')"
 done
 # Over every unit: the RMS of systematic error / predicted sd (issue 46: within 0.7–1.4).

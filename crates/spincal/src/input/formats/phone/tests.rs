@@ -163,3 +163,44 @@ fn a_zip_is_detected_and_refused_by_name_without_the_phone_feature() {
     );
     assert!(e.to_string().contains("`phone` feature"), "{e}");
 }
+
+/// One stored zip member: its local file header (APPNOTE 4.3.7) and its bytes.
+fn stored_member(name: &str, data: &[u8]) -> Vec<u8> {
+    let mut out = ZIP_MAGIC.to_vec();
+    out.extend_from_slice(&[20, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]);
+    out.extend_from_slice(&(data.len() as u32).to_le_bytes());
+    out.extend_from_slice(&(data.len() as u32).to_le_bytes());
+    out.extend_from_slice(&(name.len() as u16).to_le_bytes());
+    out.extend_from_slice(&[0, 0]);
+    out.extend_from_slice(name.as_bytes());
+    out.extend_from_slice(data);
+    out
+}
+
+#[test]
+fn a_zip_is_a_workbook_by_its_member_names_not_by_bytes_inside_its_data() {
+    // A phyphox zip whose data holds "xl/" (its deflated CSVs can, by chance) stays a phyphox zip.
+    let phyphox = [
+        stored_member(
+            "Accelerometer.csv",
+            b"\"Time (s)\",\"Acceleration x (m/s^2)\"\nxl/\n",
+        ),
+        stored_member("meta/time.csv", b"\"event\""),
+    ]
+    .concat();
+    assert_eq!(sniff(&phyphox).unwrap().format, Format::PhyphoxZip);
+    // A workbook by its members, the first or a later one within the head.
+    for names in [
+        ["[Content_Types].xml", "_rels/.rels"],
+        ["docProps/app.xml", "xl/workbook.xml"],
+    ] {
+        let book = [stored_member(names[0], b"<x/>"), stored_member(names[1], b"<x/>")].concat();
+        assert_eq!(sniff(&book).unwrap().format, Format::PhyphoxExcel, "{names:?}");
+    }
+    let logger = [
+        stored_member("Metadata.csv", b"version"),
+        stored_member("Gyroscope.csv", b"t"),
+    ]
+    .concat();
+    assert_eq!(sniff(&logger).unwrap().format, Format::SensorLogger);
+}
