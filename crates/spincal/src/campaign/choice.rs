@@ -589,6 +589,41 @@ mod tests {
         s
     }
 
+    /// Terms with no standard error are named once per part and order, with the axes; a gain
+    /// among them brings what would determine it; tested terms bring nothing.
+    #[test]
+    fn the_verdict_names_the_thermal_terms_no_recording_could_test() {
+        use crate::thermal::{TermTest, ThermalTerms};
+        let test = |part: &str, axis: usize, order: usize, z: f64| TermTest {
+            part: part.into(),
+            axis,
+            order,
+            z,
+            kept: false,
+        };
+        let mut terms = ThermalTerms {
+            tests: (0..3)
+                .flat_map(|k| [test("bias", k, 3, f64::NAN), test("gain", k, 2, f64::NAN)])
+                .chain([test("bias", 0, 2, -58.0), test("gain", 2, 1, -1.4)])
+                .collect(),
+            ..ThermalTerms::default()
+        };
+        let sentence = undetermined_thermal_terms(&terms);
+        assert!(
+            sentence.contains("bias order 3 on x, y, z; gain order 2 on x, y, z.")
+                && sentence.contains("at a temperature in between"),
+            "{sentence}"
+        );
+        terms.tests.retain(|t| t.part == "bias" || t.z.is_finite());
+        let sentence = undetermined_thermal_terms(&terms);
+        assert!(
+            sentence.contains("bias order 3 on x, y, z.") && !sentence.contains("in between"),
+            "{sentence}"
+        );
+        terms.tests.retain(|t| t.z.is_finite());
+        assert_eq!(undetermined_thermal_terms(&terms), "");
+    }
+
     #[test]
     fn linear_12_is_ruled_out_where_physical_linear_is_predicted_to_lose() {
         let held_out = scores(1.25);
