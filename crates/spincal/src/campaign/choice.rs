@@ -244,7 +244,15 @@ fn thermal_sentence(thermal: Option<&CampaignThermal>) -> String {
 /// quadratic gain is then measured on bench/thermal/campaign.sh to leave 0.07 % mid-range).
 fn undetermined_thermal_terms(terms: &crate::thermal::ThermalTerms) -> String {
     let mut named: Vec<(String, usize, Vec<&str>)> = Vec::new();
-    for test in terms.tests.iter().filter(|t| !t.z.is_finite()) {
+    // A term tested again at lower orders of the others (where the fit is no longer singular)
+    // was determined after all.
+    let tested = |t: &crate::thermal::TermTest| {
+        terms
+            .tests
+            .iter()
+            .any(|u| u.z.is_finite() && u.part == t.part && u.axis == t.axis && u.order == t.order)
+    };
+    for test in terms.tests.iter().filter(|t| !t.z.is_finite() && !tested(t)) {
         let axis = ["x", "y", "z"][test.axis.min(2)];
         match named
             .iter_mut()
@@ -604,20 +612,24 @@ mod tests {
         let mut terms = ThermalTerms {
             tests: (0..3)
                 .flat_map(|k| [test("bias", k, 3, f64::NAN), test("gain", k, 2, f64::NAN)])
-                .chain([test("bias", 0, 2, -58.0), test("gain", 2, 1, -1.4)])
+                .chain([
+                    test("bias", 0, 2, -58.0),
+                    test("gain", 2, 1, -1.4),
+                    test("bias", 1, 3, 4.1),
+                ])
                 .collect(),
             ..ThermalTerms::default()
         };
         let sentence = undetermined_thermal_terms(&terms);
         assert!(
-            sentence.contains("bias order 3 on x, y, z; gain order 2 on x, y, z.")
+            sentence.contains("bias order 3 on x, z; gain order 2 on x, y, z.")
                 && sentence.contains("at a temperature in between"),
             "{sentence}"
         );
         terms.tests.retain(|t| t.part == "bias" || t.z.is_finite());
         let sentence = undetermined_thermal_terms(&terms);
         assert!(
-            sentence.contains("bias order 3 on x, y, z.") && !sentence.contains("in between"),
+            sentence.contains("bias order 3 on x, z.") && !sentence.contains("in between"),
             "{sentence}"
         );
         terms.tests.retain(|t| t.z.is_finite());
