@@ -302,9 +302,10 @@ fn to_reference(
 /// recordings are taken to T_ref again with the coefficients changed, and the joint fit is solved
 /// again from `joint` with `settings` (its own, the spread of the offsets held at what it found).
 /// The readings it normalised carry the coefficients' error into every pose together, which the
-/// joint fit's covariance, made as if they were exact, cannot hold: on bench/thermal/campaign.sh's
-/// seed 4 its misalignment and q lay 2.5–4.4 standard errors off. `None` without the covariance,
-/// or where a changed campaign no longer prepares into the same poses and runs or does not fit.
+/// joint fit's covariance, made as if they were exact, cannot hold (on bench/thermal/campaign.sh
+/// it moves the biases by at most 5e-4 m/s²: what leaves that bench's bars narrow is the terms
+/// the campaign cannot determine, bench/thermal/RESULTS.md). `None` without the covariance, or
+/// where a changed campaign no longer prepares into the same poses and runs or does not fit.
 pub(crate) fn propagated_uncertainty(
     thermal: &CampaignThermal,
     joint: &JointFit,
