@@ -52,9 +52,9 @@ pub struct CampaignThermal {
     /// The die temperature per sample of each recording, °C (None without a temperature).
     #[serde(skip)]
     pub die_c: Vec<Option<Vec<f64>>>,
-    /// What the thermal coefficients' error moves in the joint fit's sensor, the saved model's
-    /// `thermal.uncertainty` ([`propagated_uncertainty`]); `None` without the coefficients'
-    /// covariance or where a refit failed.
+    /// What the thermal coefficients' error moves in the joint fit's sensor (the campaign refitted
+    /// along each principal axis of their covariance), the saved model's `thermal.uncertainty`;
+    /// `None` without the coefficients' covariance or where a refit failed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub uncertainty: Option<ThermalUncertainty>,
     /// The recordings as checked, before they were taken to T_ref.
