@@ -388,8 +388,9 @@ fn rms_per_axis(values: &[Vec<f64>; 3]) -> [f64; 3] {
         .map(|e| (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt())
 }
 
-/// The mean predicted standard deviation per axis of the rows of `recording` that the thermal
-/// model corrects, streamed as `correct` streams them.
+/// The mean predicted standard deviation per axis of the first fifth of the rows of `recording`
+/// (its coldest, furthest from T_ref) that the thermal model corrects, streamed as `correct`
+/// streams them.
 fn mean_predicted_sd(file: &CorrectorFile, recording: &Recording) -> [f64; 3] {
     let units = UnitFactors {
         time_to_s: 1.0,
@@ -398,7 +399,7 @@ fn mean_predicted_sd(file: &CorrectorFile, recording: &Recording) -> [f64; 3] {
     };
     let mut rows = RowCorrector::new(file, units, false).expect("no gyro");
     let (mut sum, mut n) = ([0.0; 3], 0usize);
-    for i in 0..recording.len() {
+    for i in 0..recording.len() / 5 {
         let temperature = recording.temperature_c.as_ref().map(|t| t[i]);
         if let RowOutcome::Corrected {
             status: RowStatus::Ok,
