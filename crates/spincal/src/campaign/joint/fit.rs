@@ -48,7 +48,7 @@ pub fn fit_joint_from(
     start: Option<&JointFit>,
     observer: &Observer,
 ) -> Result<JointFit, JointError> {
-    fit_joint_with(runs, poses, settings, start, true, observer)
+    fit_joint_with(runs, poses, settings, start, FitPurpose::Calibration, observer)
 }
 
 /// One run's geometry alone, as a rigid platter would move a perfect sensor: radius within its
@@ -65,10 +65,27 @@ pub(crate) fn fit_run_geometry(run: &RunInput, settings: &JointSettings) -> Resu
         &[],
         &settings,
         None,
-        false,
+        FitPurpose::GeometryCheck,
         &crate::progress::silent,
     )
 }
+
+/// What a fit is for, which sets what it may move and how far it converges.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum FitPurpose {
+    /// The sensor model: every free parameter, converged until no step moves the cost by 1e-12 of
+    /// itself (standard errors and nested starts need the minimum itself).
+    Calibration,
+    /// A run's geometry alone (the runs' bias offsets and drifts held at zero), for its residual
+    /// only: stopped once a step gains less than `GEOMETRY_COST_TOLERANCE` of the cost. A
+    /// residual's RMS is then within about that share's square root of the minimum's, far inside
+    /// the check's own standard error, while the flat valley of a badly corrected run no longer
+    /// takes the iteration limit.
+    GeometryCheck,
+}
+
+/// The relative cost decrease below which a geometry check stops (see `FitPurpose`).
+const GEOMETRY_COST_TOLERANCE: f64 = 1e-7;
 
 /// The fit's stages: checks, starting values, a first pass at white-noise weights, reweighting
 /// from its residuals, a second pass, then the robust covariance and the result.
@@ -77,16 +94,20 @@ fn fit_joint_with(
     poses: &[PoseInput],
     settings: &JointSettings,
     start: Option<&JointFit>,
-    run_offsets_free: bool,
+    purpose: FitPurpose,
     observer: &Observer,
 ) -> Result<JointFit, JointError> {
+    let run_offsets_free = purpose == FitPurpose::Calibration;
     check_inputs(runs, poses, settings)?;
     let (p, directions) = starting_values(runs, poses, settings, start);
     let mut problem = first_pass_problem(runs, poses, settings, directions);
     let free = free_parameters(p.len(), runs.len(), settings, run_offsets_free);
     let options = LmOptions {
         max_iterations: settings.max_iterations,
-        cost_tolerance: 1e-12,
+        cost_tolerance: match purpose {
+            FitPurpose::Calibration => 1e-12,
+            FitPurpose::GeometryCheck => GEOMETRY_COST_TOLERANCE,
+        },
         step_tolerance: 1e-10,
         gradient_tolerance: 0.0,
         ..LmOptions::default()
@@ -121,7 +142,11 @@ fn fit_joint_with(
         // The residuals are now weighted to about unit variance, so these are standard errors:
         // stop where no Gauss–Newton step would move a parameter by 1e-8 of its own. (The first
         // pass only sets the weights, which its last 1e-5 SE hardly move.)
-        polish_se_tolerance: 1e-8,
+        polish_se_tolerance: match purpose {
+            FitPurpose::Calibration => 1e-8,
+            // Only the residual is wanted, which the parameters' last standard errors hardly move.
+            FitPurpose::GeometryCheck => 0.0,
+        },
         ..options.clone()
     };
     let report = levenberg_marquardt_normal(&problem, &p, Some(&free), &second, observer);
