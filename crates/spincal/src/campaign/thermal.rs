@@ -340,17 +340,12 @@ pub(crate) fn propagated_uncertainty(
             let mut take = |orders: &[Vec<f64>; 3]| -> [Vec<f64>; 3] {
                 std::array::from_fn(|k| orders[k].iter().map(|_| values.next().unwrap_or(0.0)).collect())
             };
-            let bias_per_c = take(&model.bias_per_c);
-            let scale_per_c = take(&model.scale_per_c);
-            let add = |a: &[Vec<f64>; 3], b: &[Vec<f64>; 3]| -> [Vec<f64>; 3] {
-                std::array::from_fn(|k| a[k].iter().zip(&b[k]).map(|(x, y)| x + y).collect())
+            let mut direction = ThermalDirection {
+                bias_per_c: take(&model.bias_per_c),
+                scale_per_c: take(&model.scale_per_c),
+                sensor: Vec::new(),
             };
-            let changed = ThermalModel {
-                bias_per_c: add(&model.bias_per_c, &bias_per_c),
-                scale_per_c: add(&model.scale_per_c, &scale_per_c),
-                ..model.clone()
-            };
-            let (units, _) = to_reference(&thermal.checked, &thermal.die_c, &changed);
+            let (units, _) = to_reference(&thermal.checked, &thermal.die_c, &model.moved_along(&direction));
             let prepared = prepare(&units).ok()?;
             let same_shape =
                 prepared.poses.len() == joint.poses.len() && prepared.runs.len() == joint.runs.len();
@@ -358,11 +353,8 @@ pub(crate) fn propagated_uncertainty(
                 .then(|| fit_joint_from(&prepared.runs, &prepared.poses, settings, Some(joint), &silent).ok())
                 .flatten()?;
             let moved = refit.sensor.params();
-            Some(ThermalDirection {
-                bias_per_c,
-                scale_per_c,
-                sensor: moved.iter().zip(&base).map(|(a, b)| a - b).collect(),
-            })
+            direction.sensor = moved.iter().zip(&base).map(|(a, b)| a - b).collect();
+            Some(direction)
         })
         .collect();
     Some(ThermalUncertainty {

@@ -350,6 +350,23 @@ impl ThermalModel {
         [x, y, v[2] - m_zx * x - m_zy * y]
     }
 
+    /// This model with β and ρ moved by `direction`'s changes (orders the direction lacks stay).
+    pub fn moved_along(&self, direction: &ThermalDirection) -> ThermalModel {
+        let add = |a: &[Vec<f64>; 3], b: &[Vec<f64>; 3]| -> [Vec<f64>; 3] {
+            std::array::from_fn(|k| {
+                a[k].iter()
+                    .enumerate()
+                    .map(|(j, x)| x + b[k].get(j).copied().unwrap_or(0.0))
+                    .collect()
+            })
+        };
+        ThermalModel {
+            bias_per_c: add(&self.bias_per_c, &direction.bias_per_c),
+            scale_per_c: add(&self.scale_per_c, &direction.scale_per_c),
+            ..self.clone()
+        }
+    }
+
     /// The change in [`ThermalModel::to_reference`]'s value `reference` at `die_c` when β and ρ
     /// change by `direction`'s (first order).
     pub fn reference_change(
@@ -569,17 +586,7 @@ mod tests {
     #[test]
     fn reference_change_is_to_reference_s_derivative_along_a_direction() {
         let m = model();
-        let moved = |h: f64| {
-            let d = direction(h);
-            let add = |a: &[Vec<f64>; 3], b: &[Vec<f64>; 3]| -> [Vec<f64>; 3] {
-                std::array::from_fn(|k| a[k].iter().zip(&b[k]).map(|(x, y)| x + y).collect())
-            };
-            ThermalModel {
-                bias_per_c: add(&m.bias_per_c, &d.bias_per_c),
-                scale_per_c: add(&m.scale_per_c, &d.scale_per_c),
-                ..m.clone()
-            }
-        };
+        let moved = |h: f64| m.moved_along(&direction(h));
         for (reading, t) in [
             ([1.0, -9.0, 2.5], 10.0),
             ([-7.0, 3.0, -5.0], 38.0),
