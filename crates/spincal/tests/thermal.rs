@@ -388,30 +388,41 @@ fn rms_per_axis(values: &[Vec<f64>; 3]) -> [f64; 3] {
         .map(|e| (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt())
 }
 
-/// The mean predicted standard deviation per axis of the first fifth of the rows of `recording`
-/// (its coldest, furthest from T_ref) that the thermal model corrects, streamed as `correct`
-/// streams them.
-fn mean_predicted_sd(file: &CorrectorFile, recording: &Recording) -> [f64; 3] {
+/// `correct`'s row corrector for readings already in SI units (s, m/s², no gyro).
+fn si_rows(file: &CorrectorFile) -> RowCorrector<'_> {
     let units = UnitFactors {
         time_to_s: 1.0,
         accel_to_mps2: 1.0,
         gyro_to_radps: 1.0,
     };
-    let mut rows = RowCorrector::new(file, units, false).expect("no gyro");
+    RowCorrector::new(file, units, false).expect("no gyro")
+}
+
+/// Row `i` of `recording` through `rows`, with its reported temperature.
+fn correct_row(rows: &mut RowCorrector<'_>, recording: &Recording, i: usize) -> RowOutcome {
+    let temperature = recording.temperature_c.as_ref().map(|t| t[i]);
+    rows.correct(
+        Some(recording.time_s[i]),
+        reading(recording, i),
+        None,
+        temperature,
+        |_| String::new(),
+    )
+}
+
+/// The mean predicted standard deviation per axis of the first fifth of the rows of `recording`
+/// (its coldest, furthest from T_ref) that the thermal model corrects, streamed as `correct`
+/// streams them.
+fn mean_predicted_sd(file: &CorrectorFile, recording: &Recording) -> [f64; 3] {
+    let mut rows = si_rows(file);
     let (mut sum, mut n) = ([0.0; 3], 0usize);
     for i in 0..recording.len() / 5 {
-        let temperature = recording.temperature_c.as_ref().map(|t| t[i]);
         if let RowOutcome::Corrected {
             status: RowStatus::Ok,
             predicted: Some(predicted),
             ..
-        } = rows.correct(
-            Some(recording.time_s[i]),
-            reading(recording, i),
-            None,
-            temperature,
-            |_| String::new(),
-        ) {
+        } = correct_row(&mut rows, recording, i)
+        {
             (0..3).for_each(|k| sum[k] += predicted.sd_mps2[k]);
             n += 1;
         }
@@ -426,33 +437,23 @@ fn mean_predicted_sd(file: &CorrectorFile, recording: &Recording) -> [f64; 3] {
 /// them, and here they are NaN, to be judged apart (the goal is at temperatures between those
 /// recorded).
 fn streamed(file: &CorrectorFile, held_out: &[ThermalRecording]) -> (Vec<Vec<[f64; 3]>>, f64) {
-    let units = UnitFactors {
-        time_to_s: 1.0,
-        accel_to_mps2: 1.0,
-        gyro_to_radps: 1.0,
-    };
-    let mut rows = RowCorrector::new(file, units, false).expect("no gyro");
+    let mut rows = si_rows(file);
     let mut outside = 0usize;
     let out = held_out
         .iter()
         .map(|r| {
             let rec = &r.recording;
             (0..rec.len())
-                .map(|i| {
-                    let temperature = rec.temperature_c.as_ref().map(|t| t[i]);
-                    match rows.correct(Some(rec.time_s[i]), reading(rec, i), None, temperature, |_| {
-                        String::new()
-                    }) {
-                        RowOutcome::Corrected {
-                            status: RowStatus::OutsideTemperatureRange,
-                            ..
-                        } => {
-                            outside += 1;
-                            [f64::NAN; 3]
-                        }
-                        RowOutcome::Corrected { accel_mps2, .. } => accel_mps2,
-                        RowOutcome::Refused(why) => panic!("row {i} refused: {why}"),
+                .map(|i| match correct_row(&mut rows, rec, i) {
+                    RowOutcome::Corrected {
+                        status: RowStatus::OutsideTemperatureRange,
+                        ..
+                    } => {
+                        outside += 1;
+                        [f64::NAN; 3]
                     }
+                    RowOutcome::Corrected { accel_mps2, .. } => accel_mps2,
+                    RowOutcome::Refused(why) => panic!("row {i} refused: {why}"),
                 })
                 .collect()
         })
