@@ -262,6 +262,9 @@ def evaluate(out):
                     "oracle_mse": float(oracle_rms**2),
                     "raw_ratio": float(np.sqrt(np.mean((raw[:, k] - f[:, k]) ** 2)) / oracle_rms),
                     "systematic_mps2": float(np.mean(err)),
+                    # The oracle's mean error on the same samples: the file's own noise (and drift)
+                    # averaged, which no correction's sd holds.
+                    "oracle_systematic_mps2": float(np.mean(o[:, k] - f[:, k])),
                     # The predicted sd of the correction (the parameters' part of the error).
                     "predicted_sd_mps2": None if sd is None else float(np.mean(sd[:, k])),
                     # The share of the file's rows `correct` flags as predicted to beat no correction.

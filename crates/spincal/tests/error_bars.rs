@@ -9,7 +9,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use spincal::campaign::candidate::{candidate, CandidateKind, TrainingSet};
 use spincal::campaign::file::{SignedAxis, TurntableEntry};
-use spincal::campaign::joint::{fit_joint, JointSettings};
+use spincal::campaign::joint::{fit_joint, JointSettings, SensorTerms};
+use spincal::campaign::select::TermsRule;
 use spincal::correctors::model_file::CorrectorModel;
 use spincal::correctors::physical::{
     predicted_to_help, quadratic_from_datasheet, PhysicalCorrector, SensorUncertainty,
@@ -215,4 +216,73 @@ fn the_linear_maps_predicted_sd_covers_its_error_at_new_orientations() {
         // A sensor with biases to 0.2 m/s² is worth correcting almost everywhere.
         assert!(c.better > 0.5, "predicted_better on {}", c.better);
     }
+}
+
+/// The RMS over units, held-out orientations and axes of (corrected − true)/predicted sd of the
+/// physical family's candidate where the terms rule holds q at zero on an axis, for units with
+/// `poses` still poses of one power-on session (800 samples each), and how many units left a q
+/// out. Units whose rule keeps every q are the full model's (the tests above) and are skipped.
+fn left_out_terms_normalised_error_rms(poses: usize, seeds: std::ops::RangeInclusive<u64>) -> (f64, usize) {
+    let (mut z2, mut n, mut units) = (0.0, 0usize, 0usize);
+    for seed in seeds {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let sensor = Sensor::draw(&mut rng);
+        let inputs: Vec<_> = (0..poses)
+            .map(|p| {
+                let f = random_gravity(&mut rng);
+                still_pose(&sensor, f, [0.0; 3], 800, 0, 10.0 * p as f64, &mut rng)
+            })
+            .collect();
+        let full = datasheet_settings();
+        let fit = fit_joint(&[], &inputs, &full, &spincal::progress::silent).unwrap();
+        let rule = TermsRule::of(&fit).expect("the fit has q");
+        if rule.nonlinearity_axes == [true; 3] {
+            continue;
+        }
+        units += 1;
+        let settings = JointSettings {
+            terms: SensorTerms {
+                nonlinearity_axes: rule.nonlinearity_axes,
+                ..full.terms
+            },
+            ..full
+        };
+        let kind = if rule.keeps_nonlinearity {
+            CandidateKind::Physical
+        } else {
+            CandidateKind::PhysicalLinear
+        };
+        let training = TrainingSet::with_fit(Vec::new(), inputs, &settings, fit);
+        let trained = candidate(kind)
+            .train(&training, &spincal::progress::silent)
+            .unwrap();
+        let Some(CorrectorModel::Physical(physical)) = trained.saved() else {
+            panic!("the physical family trains a physical model");
+        };
+        for _ in 0..HELD_OUT {
+            let f = random_gravity(&mut rng);
+            let reading = sensor.read(f, [0.0; 3]);
+            let corrected = physical.sensor.correct(reading).unwrap();
+            let sd = physical.predicted_sd(reading).unwrap();
+            for k in 0..3 {
+                z2 += ((corrected[k] - f[k]) / sd[k]).powi(2);
+                n += 1;
+            }
+        }
+    }
+    ((z2 / n.max(1) as f64).sqrt(), units)
+}
+
+/// Where the terms rule holds a q at zero, the saved model errs by what its kept terms absorbed of
+/// it, and its error bars say so: RMS of error/sd within 0.7–1.4 over the units of 24 whose rule
+/// left a q out (12 poses of one session).
+#[test]
+fn error_bars_hold_what_a_left_out_q_moved() {
+    let (rms, units) = left_out_terms_normalised_error_rms(12, 1..=24);
+    eprintln!("{units} of 24 units left a q out: RMS of error/predicted sd {rms:.3}");
+    assert!(
+        units >= 6,
+        "only {units} units left a q out: the test has no power"
+    );
+    assert!((0.7..1.4).contains(&rms), "RMS of error/predicted sd {rms}");
 }

@@ -403,13 +403,14 @@ fn physical_corrector(t: &TrainingSet<'_>, fit: &JointFit) -> PhysicalCorrector 
 }
 
 /// The covariance that a correction from `fit` (made with `terms`) takes for its error bars, and
-/// the sensor of the fuller fit it comes from. A model that leaves terms out (q at zero) errs by
-/// what it left out: its error bars take the fuller fit's covariance (what the kept terms may
-/// have absorbed of the left-out ones included), each left-out term's variance raised to its
-/// squared estimate where that is larger. On 7 one-file poses of the independent generator this
-/// errs wide (error/sd RMS 0.3–0.7); the left-out term and its alias alone with q² estimated as
-/// q̂² − se² erred narrow (2.3): q̂ from so few poses cannot tell q² apart from zero. The fuller
-/// fit has q on every axis, also where the terms rule holds it at zero.
+/// the sensor of the fuller fit it comes from (q on every axis, also where the terms rule holds it
+/// at zero). A model that leaves terms out errs by the fuller fit's error plus the move its kept
+/// terms made to absorb the left-out ones: the fuller fit's covariance plus d dᵀ, d the change of
+/// every parameter from the fuller fit, shrunk by (1 − k/W)₊ (W the Wald statistic of the k
+/// left-out terms jointly), the share of the move that noise alone would not make (E[W] = k where
+/// they are zero). On bench/accuracy's twelve phone poses, where the rule drops a q at 2.8–3
+/// standard errors, the fuller covariance alone left error/sd RMS 1.71; on seven one-file poses,
+/// where q is barely seen, it was 0.74 (bench/accuracy/RESULTS.md).
 fn error_bar_covariance(
     t: &TrainingSet<'_>,
     fit: &JointFit,
@@ -427,14 +428,35 @@ fn error_bar_covariance(
     let covariance = match (fit.sensor_covariance(), full.sensor_covariance()) {
         (Some(_), Some(mut covariance)) => {
             let (kept, theta) = (fit.sensor.params(), full.sensor.params());
-            for q in (0..SENSOR_PARAMS).filter(|&q| kept[q] == 0.0) {
-                covariance[q][q] = covariance[q][q].max(theta[q] * theta[q]);
+            let left_out: Vec<usize> = (0..SENSOR_PARAMS)
+                .filter(|&k| !terms.free(k) && full_terms.free(k))
+                .collect();
+            let share = wald_statistic(&covariance, &theta, &left_out)
+                .map_or(1.0, |w| (1.0 - left_out.len() as f64 / w).max(0.0));
+            let d: [f64; SENSOR_PARAMS] = std::array::from_fn(|k| kept[k] - theta[k]);
+            for a in 0..SENSOR_PARAMS {
+                for b in 0..SENSOR_PARAMS {
+                    covariance[a][b] += share * d[a] * d[b];
+                }
             }
             Some(covariance)
         }
         (own, _) => own,
     };
     Ok((covariance, full.sensor))
+}
+
+/// θ_oᵀ Σ_oo⁻¹ θ_o over the parameters `o`; `None` where there are none or Σ_oo is singular.
+fn wald_statistic(covariance: &SensorCovariance, theta: &[f64], o: &[usize]) -> Option<f64> {
+    if o.is_empty() {
+        return None;
+    }
+    use faer::prelude::Solve;
+    let sigma = faer::Mat::from_fn(o.len(), o.len(), |a, b| covariance[o[a]][o[b]]);
+    let llt = sigma.llt(faer::Side::Lower).ok()?;
+    let x = llt.solve(faer::Mat::from_fn(o.len(), 1, |a, _| theta[o[a]]));
+    let w: f64 = (0..o.len()).map(|a| theta[o[a]] * x[(a, 0)]).sum();
+    (w.is_finite() && w > 0.0).then_some(w)
 }
 
 struct PhysicalCandidate(SensorTerms);

@@ -77,7 +77,8 @@ pub struct TermsRule {
 }
 
 impl TermsRule {
-    fn of(joint: &JointFit) -> Option<TermsRule> {
+    /// The rule applied to `joint` (a fit with q on every axis); `None` where it has no q.
+    pub fn of(joint: &JointFit) -> Option<TermsRule> {
         if !joint.terms.nonlinearity {
             return None;
         }
