@@ -10,10 +10,7 @@ out=${1:?OUT_DIR}
 seeds=${2:-20}
 poses=${3:-12}
 here=$(cd "$(dirname "$0")" && pwd)
-root=$(cd "$here/../.." && pwd)
-python=${PYTHON:-$root/.venv/bin/python}
-cargo build --release -q -p spincal-cli --manifest-path "$root/Cargo.toml"
-spincal=$root/target/release/spincal
+source "$here/../lib.sh"
 mkdir -p "$out"
 for seed in $(seq 1 "$seeds"); do
     unit=$out/unit-$seed

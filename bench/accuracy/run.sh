@@ -12,11 +12,7 @@ units=${2:-10}
 poses=${3:-24}
 shift 3 || true
 here=$(cd "$(dirname "$0")" && pwd)
-root=$(cd "$here/../.." && pwd)
-python=${PYTHON:-$root/.venv/bin/python}
-cargo build --release -q -p spincal-cli --manifest-path "$root/Cargo.toml"
-spincal=$root/target/release/spincal
-uptime
+source "$here/../lib.sh"
 mkdir -p "$out"
 for seed in $(seq 1 "$units"); do
     unit=$out/unit-$seed
@@ -59,4 +55,4 @@ z2 = sum(s.get("z_sum_squares", 0.0) for s in scores)
 n = sum(s.get("z_count", 0) for s in scores)
 if n:
     print("all units: systematic error / predicted sd, RMS %.2f over %d file-axes" % ((z2 / n) ** 0.5, n))'
-uptime
+echo "== load after: $(uptime)"

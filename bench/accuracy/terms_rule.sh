@@ -11,10 +11,7 @@ out=${1:?OUT_DIR}
 draws=${2:-20}
 q=${3:-1e-4}
 here=$(cd "$(dirname "$0")" && pwd)
-root=$(cd "$here/../.." && pwd)
-python=${PYTHON:-$root/.venv/bin/python}
-cargo build --release -q -p spincal-cli --manifest-path "$root/Cargo.toml"
-spincal=$root/target/release/spincal
+source "$here/../lib.sh"
 mkdir -p "$out"
 for seed in $(seq 1 "$draws"); do
     unit=$out/draw-$seed

@@ -8,39 +8,24 @@
 # and the flight stacks' method at die temperatures between the recorded poses'.
 #
 #   bash bench/thermal/campaign.sh OUT_DIR [SEEDS] [FIRST_SEED]      (default 5 seeds from 1)
-# Env: PYTHON (numpy + scipy; default bench/.venv, else ../main/.venv), SPINCAL (a built binary;
-#      default: built here into target/release).
+# Env: PYTHON, SPINCAL (bench/lib.sh).
 set -euo pipefail
 out=${1:?OUT_DIR}
 seeds=${2:-5}
 first=${3:-1}
 here=$(cd "$(dirname "$0")" && pwd)
-root=$(cd "$here/../.." && pwd)
-python=${PYTHON:-}
-if [ -z "$python" ]; then
-    for p in "$root/bench/.venv/bin/python" "$root/.venv/bin/python" "$root/../main/.venv/bin/python"; do
-        if [ -x "$p" ] && "$p" -c "import numpy, scipy" 2>/dev/null; then python=$p; break; fi
-    done
-fi
-[ -n "$python" ] || { echo "no python with numpy and scipy: run bench/setup_venv.sh or set PYTHON" >&2; exit 1; }
-if [ -z "${SPINCAL:-}" ]; then
-    cargo build --release -q -p spincal-cli --manifest-path "$root/Cargo.toml"
-    SPINCAL=$root/target/release/spincal
-fi
-echo "== machine: $(lscpu | sed -n 's/^Model name: *//p' | head -1), $(getconf _NPROCESSORS_ONLN) CPUs"
-echo "== commit: $(git -C "$root" rev-parse --short HEAD)$(git -C "$root" diff --quiet HEAD -- crates && echo '' || echo ' + uncommitted changes in crates/')"
-echo "== load before: $(uptime)"
+source "$here/../lib.sh"
 mkdir -p "$out"
 for seed in $(seq "$first" $((first + seeds - 1))); do
     unit=$out/unit-$seed
     rm -rf "$unit"
     "$python" "$here/campaign.py" generate "$unit" "$seed"
     start=$(date +%s.%N)
-    "$SPINCAL" calibrate --campaign "$unit/campaign.toml" --out "$unit/cal" --quiet > "$unit/calibrate.log" 2>&1 || true
+    "$spincal" calibrate --campaign "$unit/campaign.toml" --out "$unit/cal" --quiet > "$unit/calibrate.log" 2>&1 || true
     seconds=$(echo "$(date +%s.%N) - $start" | bc)
     mkdir -p "$unit/corrected"
     if [ -f "$unit/cal/model.json" ]; then
-        "$SPINCAL" correct --quiet --model "$unit/cal/model.json" "$unit/held_out/warmup2.csv" -o "$unit/corrected/warmup2.csv" > /dev/null 2>&1
+        "$spincal" correct --quiet --model "$unit/cal/model.json" "$unit/held_out/warmup2.csv" -o "$unit/corrected/warmup2.csv" > /dev/null 2>&1
         # The diagnostic: the joint fit's physical model (with q) in place of the saved sensor.
         "$python" - "$unit/cal" <<'PY'
 import json, sys
@@ -53,7 +38,7 @@ if model["corrector"].get("kind") == "physical":
     json.dump(model, open(d + "/model-joint.json", "w"))
 PY
         if [ -f "$unit/cal/model-joint.json" ]; then
-            "$SPINCAL" correct --quiet --model "$unit/cal/model-joint.json" "$unit/held_out/warmup2.csv" -o "$unit/corrected/warmup2-joint.csv" > /dev/null 2>&1 || true
+            "$spincal" correct --quiet --model "$unit/cal/model-joint.json" "$unit/held_out/warmup2.csv" -o "$unit/corrected/warmup2-joint.csv" > /dev/null 2>&1 || true
         fi
     fi
     "$python" "$here/campaign.py" evaluate "$unit" > "$unit/score.json"
