@@ -34,6 +34,21 @@ fn datasheet_settings() -> JointSettings {
     }
 }
 
+/// Σ over `HELD_OUT` random orientations and the three axes of ((corrected − true)/predicted sd)².
+fn held_out_squared_z(corrector: &PhysicalCorrector, sensor: &Sensor, rng: &mut ChaCha8Rng) -> f64 {
+    let mut z2 = 0.0;
+    for _ in 0..HELD_OUT {
+        let f = random_gravity(rng);
+        let reading = sensor.read(f, [0.0; 3]);
+        let corrected = corrector.sensor.correct(reading).unwrap();
+        let sd = corrector.predicted_sd(reading).unwrap();
+        z2 += (0..3)
+            .map(|k| ((corrected[k] - f[k]) / sd[k]).powi(2))
+            .sum::<f64>();
+    }
+    z2
+}
+
 /// The RMS over units, held-out orientations and axes of (corrected − true)/predicted sd, for
 /// units calibrated from `poses` still poses, each its own file (session), 800 samples each.
 fn normalised_error_rms(poses: usize, seeds: std::ops::RangeInclusive<u64>) -> f64 {
@@ -58,16 +73,8 @@ fn normalised_error_rms(poses: usize, seeds: std::ops::RangeInclusive<u64>) -> f
                 session_spread_mps2: None,
             }),
         };
-        for _ in 0..HELD_OUT {
-            let f = random_gravity(&mut rng);
-            let reading = sensor.read(f, [0.0; 3]);
-            let corrected = corrector.sensor.correct(reading).unwrap();
-            let sd = corrector.predicted_sd(reading).unwrap();
-            for k in 0..3 {
-                z2 += ((corrected[k] - f[k]) / sd[k]).powi(2);
-                n += 1;
-            }
-        }
+        z2 += held_out_squared_z(&corrector, &sensor, &mut rng);
+        n += 3 * HELD_OUT;
     }
     (z2 / n as f64).sqrt()
 }
@@ -259,16 +266,8 @@ fn left_out_terms_normalised_error_rms(poses: usize, seeds: std::ops::RangeInclu
         let Some(CorrectorModel::Physical(physical)) = trained.saved() else {
             panic!("the physical family trains a physical model");
         };
-        for _ in 0..HELD_OUT {
-            let f = random_gravity(&mut rng);
-            let reading = sensor.read(f, [0.0; 3]);
-            let corrected = physical.sensor.correct(reading).unwrap();
-            let sd = physical.predicted_sd(reading).unwrap();
-            for k in 0..3 {
-                z2 += ((corrected[k] - f[k]) / sd[k]).powi(2);
-                n += 1;
-            }
-        }
+        z2 += held_out_squared_z(physical, &sensor, &mut rng);
+        n += 3 * HELD_OUT;
     }
     ((z2 / n.max(1) as f64).sqrt(), units)
 }
