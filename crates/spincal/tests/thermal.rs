@@ -505,11 +505,11 @@ fn a_campaign_with_temperature_saves_a_thermal_model_that_holds_when_streamed() 
             let [lo, hi] = model.fitted_range_c;
             assert!(hi - lo > 20.0, "fitted over {lo}–{hi} °C of a 25 °C warm-up");
             // The thermal coefficients' error carried into the rows' error bars: one direction
-            // per coefficient kept, and wider bars on the held-out session (it starts cold, far
-            // from T_ref) than the same file without them.
+            // per coefficient kept and per left-out term the windows saw, and wider bars on the
+            // held-out session (it starts cold, far from T_ref) than the same file without them.
             let uncertainty = model.uncertainty.as_ref().expect("model.json carries the thermal uncertainty");
             let kept: usize = thermal.fit.terms.bias_orders.iter().chain(&thermal.fit.terms.scale_orders).sum();
-            assert_eq!(uncertainty.directions.len(), kept, "seed {seed}");
+            assert_eq!(uncertainty.directions.len(), kept + thermal.fit.left_out_moves.len(), "seed {seed}");
             let mut without = file.clone();
             without.thermal.as_mut().unwrap().uncertainty = None;
             let (wide, narrow) = (

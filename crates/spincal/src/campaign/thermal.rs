@@ -304,7 +304,8 @@ fn to_reference(
 /// The readings it normalised carry the coefficients' error into every pose together, which the
 /// joint fit's covariance, made as if they were exact, cannot hold (on bench/thermal/campaign.sh
 /// it moves the biases by at most 5e-4 m/s²: what leaves that bench's bars narrow is the terms
-/// the campaign cannot determine, bench/thermal/RESULTS.md). `None` without the covariance, or
+/// the campaign cannot determine, bench/thermal/RESULTS.md). The same for each term the rule
+/// dropped that the windows still saw (`ThermalFit::left_out_moves`). `None` without either, or
 /// where a changed campaign no longer prepares into the same poses and runs or does not fit.
 pub(crate) fn propagated_uncertainty(
     thermal: &CampaignThermal,
@@ -315,16 +316,35 @@ pub(crate) fn propagated_uncertainty(
     let model = &fit.model;
     let covariance = &fit.coefficient_covariance;
     let n = covariance.len();
-    if n == 0 {
+    if n == 0 && fit.left_out_moves.is_empty() {
         return None;
     }
-    let matrix = Mat::from_fn(n, n, |a, b| 0.5 * (covariance[a][b] + covariance[b][a]));
-    let eigen = matrix.self_adjoint_eigen(Side::Lower).ok()?;
-    let (u, lambda) = (eigen.U(), eigen.S());
-    let largest = (0..n).map(|k| lambda[k]).fold(0.0, f64::max);
-    let axes: Vec<Vec<f64>> = (0..n)
-        .filter(|&k| lambda[k] > 1e-12 * largest)
-        .map(|k| (0..n).map(|a| lambda[k].sqrt() * u[(a, k)]).collect())
+    let mut axes: Vec<Vec<f64>> = Vec::new();
+    if n > 0 {
+        let matrix = Mat::from_fn(n, n, |a, b| 0.5 * (covariance[a][b] + covariance[b][a]));
+        let eigen = matrix.self_adjoint_eigen(Side::Lower).ok()?;
+        let (u, lambda) = (eigen.U(), eigen.S());
+        let largest = (0..n).map(|k| lambda[k]).fold(0.0, f64::max);
+        axes = (0..n)
+            .filter(|&k| lambda[k] > 1e-12 * largest)
+            .map(|k| (0..n).map(|a| lambda[k].sqrt() * u[(a, k)]).collect())
+            .collect();
+    }
+    // Each principal axis as a change of the coefficients, then each left-out term's move.
+    let moves: Vec<ThermalDirection> = axes
+        .iter()
+        .map(|delta| {
+            let mut values = delta.iter().copied();
+            let mut take = |orders: &[Vec<f64>; 3]| -> [Vec<f64>; 3] {
+                std::array::from_fn(|k| orders[k].iter().map(|_| values.next().unwrap_or(0.0)).collect())
+            };
+            ThermalDirection {
+                bias_per_c: take(&model.bias_per_c),
+                scale_per_c: take(&model.scale_per_c),
+                sensor: Vec::new(),
+            }
+        })
+        .chain(fit.left_out_moves.iter().cloned())
         .collect();
     let base = joint.sensor.params();
     // From `joint`'s minimum a change this small is all but linear: one Gauss–Newton step per pass
@@ -333,18 +353,9 @@ pub(crate) fn propagated_uncertainty(
         max_iterations: REFIT_ITERATIONS,
         ..settings.clone()
     };
-    let directions: Option<Vec<ThermalDirection>> = axes
-        .par_iter()
-        .map(|delta| {
-            let mut values = delta.iter().copied();
-            let mut take = |orders: &[Vec<f64>; 3]| -> [Vec<f64>; 3] {
-                std::array::from_fn(|k| orders[k].iter().map(|_| values.next().unwrap_or(0.0)).collect())
-            };
-            let mut direction = ThermalDirection {
-                bias_per_c: take(&model.bias_per_c),
-                scale_per_c: take(&model.scale_per_c),
-                sensor: Vec::new(),
-            };
+    let directions: Option<Vec<ThermalDirection>> = moves
+        .into_par_iter()
+        .map(|mut direction| {
             let (units, _) = to_reference(&thermal.checked, &thermal.die_c, &model.moved_along(&direction));
             let prepared = prepare(&units).ok()?;
             let same_shape =

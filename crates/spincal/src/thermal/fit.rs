@@ -39,7 +39,7 @@ use faer::prelude::Solve;
 use faer::{Mat, Side};
 use serde::{Deserialize, Serialize};
 
-use super::{ThermalModel, MAX_LAG_S, REFERENCE_PARAMS};
+use super::{ThermalDirection, ThermalModel, MAX_LAG_S, REFERENCE_PARAMS};
 use crate::geometry::{cross, unit, M3};
 use crate::input::recording::Recording;
 use crate::metrics::{term_threshold, TERM_FALSE_ALARM};
@@ -176,6 +176,11 @@ pub struct ThermalFit {
     /// (τ, RMS residual at the fixed or the highest orders) for each lag tried (`lags_s`, then
     /// any the search extended it by).
     pub lag_scores: Vec<(f64, f64)>,
+    /// Each term the rule dropped that the windows still saw, as the change of the coefficients
+    /// its return would make (longer than the model's where the term is of a higher order; see
+    /// `left_out_moves`). The campaign carries them into the rows' error bars.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub left_out_moves: Vec<ThermalDirection>,
     /// The terms rule's tests and the orders it kept.
     #[serde(default)]
     pub terms: ThermalTerms,
@@ -987,7 +992,9 @@ pub fn fit_thermal_in_sessions(
         .flat_map(|k| (0..orders.bias[k]).map(move |j| orders.bias_index(k, j)))
         .chain((0..3).flat_map(|k| (0..orders.scale[k]).map(move |j| orders.scale_index(k, j))))
         .collect();
+    let left_out_moves = left_out_moves(&all, orders, &model, &tests, reference_c, gravity);
     Ok(ThermalFit {
+        left_out_moves,
         coefficient_covariance: solved.covariance_on(&coefficients).unwrap_or_default(),
         bias_per_c_se: std::array::from_fn(|k| {
             (0..orders.bias[k]).map(|j| se(orders.bias_index(k, j))).collect()
@@ -1068,6 +1075,66 @@ fn without_nonlinearity(
             out
         })
         .collect())
+}
+
+/// The terms the rule dropped that the windows still saw: per axis and part, the last order
+/// dropped, added back alone. Where its |z| then exceeds 1, the thermal model with it minus the
+/// kept one, scaled by √(1 − 1/z²): the share of its squared move that noise alone would not make
+/// (E[z²] = 1 where the term is zero), as for a left-out q (`campaign::candidate`'s
+/// error_bar_covariance). A term the windows cannot determine (z NaN or near zero, the gain's
+/// curvature of a warm-up in one orientation) gives none.
+fn left_out_moves(
+    all: &[Window],
+    orders: Orders,
+    kept: &ThermalModel,
+    tests: &[TermTest],
+    reference_c: f64,
+    gravity: f64,
+) -> Vec<ThermalDirection> {
+    tests
+        .iter()
+        .filter(|t| !t.kept)
+        .filter_map(|t| {
+            let gain = t.part == "gain";
+            let mut with = orders;
+            let order = if gain {
+                &mut with.scale[t.axis]
+            } else {
+                &mut with.bias[t.axis]
+            };
+            if t.order != *order + 1 {
+                return None;
+            }
+            *order = t.order;
+            let (problem, solved) = solve(all, with, reference_c, gravity);
+            let index = if gain {
+                with.scale_index(t.axis, t.order - 1)
+            } else {
+                with.bias_index(t.axis, t.order - 1)
+            };
+            let z = solved.params[index] / solved.covariance_diagonal[index].sqrt();
+            let share = 1.0 - 1.0 / (z * z);
+            // NaN fails too.
+            if !(share > 0.0) {
+                return None;
+            }
+            let moved = problem.model(&solved.params, kept.lag_s, kept.smoothing_s, kept.fitted_range_c);
+            let scale = share.sqrt();
+            let change = |a: &[Vec<f64>; 3], b: &[Vec<f64>; 3]| -> [Vec<f64>; 3] {
+                std::array::from_fn(|k| {
+                    a[k].iter()
+                        .enumerate()
+                        .map(|(j, x)| scale * (x - b[k].get(j).copied().unwrap_or(0.0)))
+                        .collect()
+                })
+            };
+            Some(ThermalDirection {
+                bias_per_c: change(&moved.bias_per_c, &kept.bias_per_c),
+                scale_per_c: change(&moved.scale_per_c, &kept.scale_per_c),
+                sensor: Vec::new(),
+            })
+        })
+        .collect()
 }
 
 /// The terms rule, per axis: each axis's β and ρ have their own order, because their drifts

@@ -184,11 +184,12 @@ impl ThermalModel {
                 ] {
                     for k in 0..3 {
                         finite(&field(&format!("{name}[{k}]")), &terms[k])?;
-                        if terms[k].len() != model[k].len() {
+                        // The model's orders, or more where a left-out term's move adds one.
+                        if !(model[k].len()..=MAX_ORDER).contains(&terms[k].len()) {
                             return Err(InvalidField::new(
                                 field(&format!("{name}[{k}]")),
                                 format!(
-                                    "{} coefficients where the model has {}",
+                                    "{} coefficients where the model has {} (at most {MAX_ORDER})",
                                     terms[k].len(),
                                     model[k].len()
                                 ),
@@ -350,13 +351,13 @@ impl ThermalModel {
         [x, y, v[2] - m_zx * x - m_zy * y]
     }
 
-    /// This model with β and ρ moved by `direction`'s changes (orders the direction lacks stay).
+    /// This model with β and ρ moved by `direction`'s changes (a direction of higher orders, a
+    /// left-out term's move, adds them).
     pub fn moved_along(&self, direction: &ThermalDirection) -> ThermalModel {
         let add = |a: &[Vec<f64>; 3], b: &[Vec<f64>; 3]| -> [Vec<f64>; 3] {
             std::array::from_fn(|k| {
-                a[k].iter()
-                    .enumerate()
-                    .map(|(j, x)| x + b[k].get(j).copied().unwrap_or(0.0))
+                (0..a[k].len().max(b[k].len()))
+                    .map(|j| a[k].get(j).copied().unwrap_or(0.0) + b[k].get(j).copied().unwrap_or(0.0))
                     .collect()
             })
         };
@@ -612,7 +613,8 @@ mod tests {
         }
     }
 
-    /// A direction whose orders differ from the model's is refused, naming the field.
+    /// A direction of fewer orders than the model's, or more than a cubic, is refused, naming the
+    /// field; one order more (a left-out term's move) reads.
     #[test]
     fn an_uncertainty_direction_of_other_orders_is_refused_by_name() {
         let mut m = model();
@@ -626,9 +628,18 @@ mod tests {
         m.validate().expect("the model's own orders");
         let directions = &mut m.uncertainty.as_mut().unwrap().directions;
         directions[0].scale_per_c[2] = vec![1e-6];
-        let error = m.validate().unwrap_err();
-        assert_eq!(error.field, "uncertainty.directions[0].scale_per_c[2]", "{error}");
+        m.validate().expect("a left-out term's move adds an order");
         let directions = &mut m.uncertainty.as_mut().unwrap().directions;
+        directions[0].scale_per_c[1] = vec![1e-6];
+        let error = m.validate().unwrap_err();
+        assert_eq!(error.field, "uncertainty.directions[0].scale_per_c[1]", "{error}");
+        let directions = &mut m.uncertainty.as_mut().unwrap().directions;
+        directions[0].scale_per_c[1] = vec![0.0, 0.0];
+        directions[0].bias_per_c[0] = vec![0.0; MAX_ORDER + 1];
+        let error = m.validate().unwrap_err();
+        assert_eq!(error.field, "uncertainty.directions[0].bias_per_c[0]", "{error}");
+        let directions = &mut m.uncertainty.as_mut().unwrap().directions;
+        directions[0].bias_per_c[0] = vec![0.0, 0.0];
         directions[0].scale_per_c[2] = vec![];
         directions[0].sensor[4] = f64::NAN;
         assert_eq!(
