@@ -1114,8 +1114,8 @@ fn left_out_moves(
             };
             let z = solved.params[index] / solved.covariance_diagonal[index].sqrt();
             let share = 1.0 - 1.0 / (z * z);
-            // NaN fails too.
-            if !(share > 0.0) {
+            // A NaN z (a term the windows do not determine) gives no move either.
+            if share.is_nan() || share <= 0.0 {
                 return None;
             }
             let moved = problem.model(&solved.params, kept.lag_s, kept.smoothing_s, kept.fitted_range_c);
