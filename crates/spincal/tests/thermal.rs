@@ -972,7 +972,8 @@ fn thermal_error_bars_hold_a_left_out_term() {
     };
     let draws = 40u64;
     // Per draw and ΔT: (error, sd with the left-out moves, sd without), and whether a move was made.
-    let per_draw: Vec<(Vec<(f64, f64, f64)>, bool)> = (0..draws)
+    type Draw = (Vec<(f64, f64, f64)>, bool);
+    let per_draw: Vec<Draw> = (0..draws)
         .into_par_iter()
         .map(|seed| {
             let se = fit(9300 + seed, 0.0, Some([2, 1])).bias_per_c_se[0][1];
