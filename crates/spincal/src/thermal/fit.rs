@@ -39,7 +39,7 @@ use faer::prelude::Solve;
 use faer::{Mat, Side};
 use serde::{Deserialize, Serialize};
 
-use super::{ThermalDirection, ThermalModel, MAX_LAG_S, REFERENCE_PARAMS};
+use super::{coefficientwise, ThermalDirection, ThermalModel, MAX_LAG_S, REFERENCE_PARAMS};
 use crate::geometry::{cross, unit, M3};
 use crate::input::recording::Recording;
 use crate::metrics::{term_threshold, TERM_FALSE_ALARM};
@@ -1120,17 +1120,10 @@ fn left_out_moves(
             }
             let moved = problem.model(&solved.params, kept.lag_s, kept.smoothing_s, kept.fitted_range_c);
             let scale = share.sqrt();
-            let change = |a: &[Vec<f64>; 3], b: &[Vec<f64>; 3]| -> [Vec<f64>; 3] {
-                std::array::from_fn(|k| {
-                    a[k].iter()
-                        .enumerate()
-                        .map(|(j, x)| scale * (x - b[k].get(j).copied().unwrap_or(0.0)))
-                        .collect()
-                })
-            };
+            let change = |with: f64, without: f64| scale * (with - without);
             Some(ThermalDirection {
-                bias_per_c: change(&moved.bias_per_c, &kept.bias_per_c),
-                scale_per_c: change(&moved.scale_per_c, &kept.scale_per_c),
+                bias_per_c: coefficientwise(&moved.bias_per_c, &kept.bias_per_c, change),
+                scale_per_c: coefficientwise(&moved.scale_per_c, &kept.scale_per_c, change),
                 sensor: Vec::new(),
             })
         })

@@ -94,6 +94,25 @@ fn at_most(value: f64, limit: f64) -> bool {
     value <= limit
 }
 
+/// `f(a, b)` per axis and power of ΔT, over the longer of the two (a missing order is zero):
+/// coefficients of different orders combined.
+pub(crate) fn coefficientwise(
+    a: &[Vec<f64>; 3],
+    b: &[Vec<f64>; 3],
+    f: impl Fn(f64, f64) -> f64,
+) -> [Vec<f64>; 3] {
+    std::array::from_fn(|k| {
+        (0..a[k].len().max(b[k].len()))
+            .map(|j| {
+                f(
+                    a[k].get(j).copied().unwrap_or(0.0),
+                    b[k].get(j).copied().unwrap_or(0.0),
+                )
+            })
+            .collect()
+    })
+}
+
 fn polynomial(coefficients: &[f64], dt: f64) -> f64 {
     coefficients.iter().rev().fold(0.0, |acc, c| (acc + c) * dt)
 }
@@ -354,16 +373,10 @@ impl ThermalModel {
     /// This model with β and ρ moved by `direction`'s changes (a direction of higher orders, a
     /// left-out term's move, adds them).
     pub fn moved_along(&self, direction: &ThermalDirection) -> ThermalModel {
-        let add = |a: &[Vec<f64>; 3], b: &[Vec<f64>; 3]| -> [Vec<f64>; 3] {
-            std::array::from_fn(|k| {
-                (0..a[k].len().max(b[k].len()))
-                    .map(|j| a[k].get(j).copied().unwrap_or(0.0) + b[k].get(j).copied().unwrap_or(0.0))
-                    .collect()
-            })
-        };
+        let add = |a: f64, b: f64| a + b;
         ThermalModel {
-            bias_per_c: add(&self.bias_per_c, &direction.bias_per_c),
-            scale_per_c: add(&self.scale_per_c, &direction.scale_per_c),
+            bias_per_c: coefficientwise(&self.bias_per_c, &direction.bias_per_c, add),
+            scale_per_c: coefficientwise(&self.scale_per_c, &direction.scale_per_c, add),
             ..self.clone()
         }
     }
