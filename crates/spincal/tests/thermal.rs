@@ -24,7 +24,7 @@ use spincal::simulate::campaign::{simulate_campaign, CampaignSetup};
 use spincal::simulate::thermal::{
     sensor_reports, simulate_thermal_campaign, ThermalCampaign, ThermalProfile, ThermalRecording,
 };
-use spincal::thermal::{fit_thermal, ThermalError, ThermalModel, ThermalSettings};
+use spincal::thermal::{fit_thermal, ThermalError, ThermalFit, ThermalModel, ThermalSettings};
 
 /// RMS over the held-out bands of 1 s means of (corrected − true) force, m/s², and the
 /// per-sample RMS (noise in); `correct(j, i)` is sample i of held-out recording j, corrected. A
@@ -800,7 +800,6 @@ fn first_principles_unit(
     let (rate, noise, g) = (50.0, 0.02, STANDARD_GRAVITY);
     let bias = [0.05, -0.08, 0.12];
     let scale = [0.004, -0.003, 0.005];
-    let poly = |c: &[f64], dt: f64| c.iter().rev().fold(0.0, |acc, c| (acc + c) * dt);
     let warm = |t: f64| 15.0 + 25.0 * (1.0 - (-t / 600.0).exp());
     let record = |t0: f64, seconds: f64, u: [f64; 3], offset: [f64; 3], rng: &mut rand_chacha::ChaCha8Rng| {
         let n = (seconds * rate) as usize;
@@ -812,8 +811,13 @@ fn first_principles_unit(
                 .map(|&temp| {
                     let dt = temp - 25.0;
                     let z: f64 = StandardNormal.sample(rng);
-                    let w = (1.0 + scale[k]) * (1.0 + poly(rho[k], dt)) * g * u[k];
-                    bias[k] + offset[k] + poly(beta[k], dt) + w + quadratic[k] * w * w + noise * z
+                    let w = (1.0 + scale[k]) * (1.0 + polynomial_change(rho[k], dt)) * g * u[k];
+                    bias[k]
+                        + offset[k]
+                        + polynomial_change(beta[k], dt)
+                        + w
+                        + quadratic[k] * w * w
+                        + noise * z
                 })
                 .collect()
         });
@@ -845,40 +849,44 @@ fn first_principles_unit(
     (recordings, sessions)
 }
 
+/// β₁ of the terms-rule unit per axis, m/s²/°C; its ρ₁ is `TERMS_UNIT_RHO1`.
+const TERMS_UNIT_BETA1: [f64; 3] = [
+    2e-3 * STANDARD_GRAVITY,
+    -1e-3 * STANDARD_GRAVITY,
+    1.5e-3 * STANDARD_GRAVITY,
+];
+const TERMS_UNIT_RHO1: [f64; 3] = [1e-4, -2e-4, 1.5e-4];
+
+/// The thermal fit (lag 0, T_ref 25 °C; at `orders` when given, else by the terms rule) of the
+/// terms-rule unit: `first_principles_unit` of draw `seed`, one session, 24 poses, β and ρ linear
+/// but for β₂ on x at `beta2_x`.
+fn terms_unit_fit(seed: u64, beta2_x: f64, orders: Option<[usize; 2]>) -> ThermalFit {
+    let [b, r] = [TERMS_UNIT_BETA1, TERMS_UNIT_RHO1];
+    let (stills, _) = first_principles_unit(
+        seed,
+        [&[b[0], beta2_x], &[b[1]], &[b[2]]],
+        [&[r[0]], &[r[1]], &[r[2]]],
+        &[[0.0; 3]],
+        24,
+        [0.0; 3],
+    );
+    let refs: Vec<&Recording> = stills.iter().collect();
+    let settings = ThermalSettings {
+        lags_s: vec![0.0],
+        reference_c: Some(25.0),
+        orders,
+        ..ThermalSettings::default()
+    };
+    fit_thermal(&refs, &settings, STANDARD_GRAVITY).expect("thermal fit")
+}
+
 /// The thermal terms rule (issue 46 item 3) can fail both ways: over 60 draws of a unit whose β
 /// is linear on y and z and whose ρ is linear on every axis, with β₂ on x set at 5 of its
 /// standard errors, the fit (from orders 3 and 2) keeps β₂ on x in at least 90 % of draws and a
 /// term that is zero (β₂, β₃ on y and z; ρ₂ anywhere; β₃ on x) in at most 5 % of the axis-draws.
 #[test]
 fn thermal_terms_rule_keeps_a_five_se_term_and_drops_a_zero_one() {
-    let settings = ThermalSettings {
-        lags_s: vec![0.0],
-        reference_c: Some(25.0),
-        ..ThermalSettings::default()
-    };
-    let beta1 = [
-        2e-3 * STANDARD_GRAVITY,
-        -1e-3 * STANDARD_GRAVITY,
-        1.5e-3 * STANDARD_GRAVITY,
-    ];
-    let rho1 = [1e-4, -2e-4, 1.5e-4];
-    let fit = |seed: u64, beta2_x: f64, fixed: Option<[usize; 2]>| {
-        let bx = [beta1[0], beta2_x];
-        let (stills, _) = first_principles_unit(
-            seed,
-            [&bx, &[beta1[1]], &[beta1[2]]],
-            [&[rho1[0]], &[rho1[1]], &[rho1[2]]],
-            &[[0.0; 3]],
-            24,
-            [0.0; 3],
-        );
-        let refs: Vec<&Recording> = stills.iter().collect();
-        let settings = ThermalSettings {
-            orders: fixed,
-            ..settings.clone()
-        };
-        fit_thermal(&refs, &settings, STANDARD_GRAVITY).expect("thermal fit")
-    };
+    let fit = terms_unit_fit;
     // Per draw: β₂'s standard error at the true orders with β₂ = 0, then the same draw (same
     // orientations and noise) with β₂ at 5 of them, fitted by the rule. At β₂ = 0 its error over
     // its standard error has an RMS within [0.7, 1.4] (too large an error bar fails as well as
@@ -930,8 +938,8 @@ fn thermal_terms_rule_keeps_a_five_se_term_and_drops_a_zero_one() {
     assert_eq!(linear_lost, 0, "a linear term far above its error was dropped");
 }
 
-/// The change of x's bias from T_ref to `dt` of `coefficients` (β₁, β₂, … of ΔT¹, ΔT², …).
-fn bias_change(coefficients: &[f64], dt: f64) -> f64 {
+/// The change from T_ref to `dt` of a polynomial without constant (β₁, β₂, … of ΔT¹, ΔT², …).
+fn polynomial_change(coefficients: &[f64], dt: f64) -> f64 {
     coefficients.iter().rev().fold(0.0, |acc, c| (acc + c) * dt)
 }
 
@@ -942,34 +950,8 @@ fn bias_change(coefficients: &[f64], dt: f64) -> f64 {
 /// coefficients' covariance alone errs narrow (above 1.4).
 #[test]
 fn thermal_error_bars_hold_a_left_out_term() {
-    let settings = ThermalSettings {
-        lags_s: vec![0.0],
-        reference_c: Some(25.0),
-        ..ThermalSettings::default()
-    };
-    let beta1 = [
-        2e-3 * STANDARD_GRAVITY,
-        -1e-3 * STANDARD_GRAVITY,
-        1.5e-3 * STANDARD_GRAVITY,
-    ];
-    let rho1 = [1e-4, -2e-4, 1.5e-4];
-    let fit = |seed: u64, beta2_x: f64, fixed: Option<[usize; 2]>| {
-        let bx = [beta1[0], beta2_x];
-        let (stills, _) = first_principles_unit(
-            seed,
-            [&bx, &[beta1[1]], &[beta1[2]]],
-            [&[rho1[0]], &[rho1[1]], &[rho1[2]]],
-            &[[0.0; 3]],
-            24,
-            [0.0; 3],
-        );
-        let refs: Vec<&Recording> = stills.iter().collect();
-        let settings = ThermalSettings {
-            orders: fixed,
-            ..settings.clone()
-        };
-        fit_thermal(&refs, &settings, STANDARD_GRAVITY).expect("thermal fit")
-    };
+    let fit = terms_unit_fit;
+    let beta1 = TERMS_UNIT_BETA1;
     let draws = 40u64;
     // Per draw and ΔT: (error, sd with the left-out moves, sd without), and whether a move was made.
     type Draw = (Vec<(f64, f64, f64)>, bool);
@@ -992,9 +974,10 @@ fn thermal_error_bars_hold_a_left_out_term() {
                     let moves: f64 = f
                         .left_out_moves
                         .iter()
-                        .map(|m| bias_change(&m.bias_per_c[0], dt).powi(2))
+                        .map(|m| polynomial_change(&m.bias_per_c[0], dt).powi(2))
                         .sum();
-                    let error = bias_change(&f.model.bias_per_c[0], dt) - bias_change(&[beta1[0], beta2], dt);
+                    let error = polynomial_change(&f.model.bias_per_c[0], dt)
+                        - polynomial_change(&[beta1[0], beta2], dt);
                     (error, (own + moves).sqrt(), own.sqrt())
                 })
                 .collect();
