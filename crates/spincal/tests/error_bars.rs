@@ -9,7 +9,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use spincal::campaign::candidate::{candidate, CandidateKind, TrainingSet};
 use spincal::campaign::file::{SignedAxis, TurntableEntry};
-use spincal::campaign::joint::{fit_joint, JointSettings, SensorTerms};
+use spincal::campaign::joint::{fit_joint, JointSettings, PoseInput, SensorTerms};
 use spincal::campaign::select::TermsRule;
 use spincal::correctors::model_file::CorrectorModel;
 use spincal::correctors::physical::{
@@ -34,6 +34,24 @@ fn datasheet_settings() -> JointSettings {
     }
 }
 
+/// `poses` still poses at random orientations, 800 samples each, `spacing_s` apart: one power-on
+/// session when `one_session`, else a session per file.
+fn random_poses(
+    sensor: &Sensor,
+    poses: usize,
+    one_session: bool,
+    spacing_s: f64,
+    rng: &mut ChaCha8Rng,
+) -> Vec<PoseInput> {
+    (0..poses)
+        .map(|p| {
+            let f = random_gravity(rng);
+            let session = if one_session { 0 } else { p };
+            still_pose(sensor, f, [0.0; 3], 800, session, spacing_s * p as f64, rng)
+        })
+        .collect()
+}
+
 /// Σ over `HELD_OUT` random orientations and the three axes of ((corrected − true)/predicted sd)².
 fn held_out_squared_z(corrector: &PhysicalCorrector, sensor: &Sensor, rng: &mut ChaCha8Rng) -> f64 {
     let mut z2 = 0.0;
@@ -56,12 +74,7 @@ fn normalised_error_rms(poses: usize, seeds: std::ops::RangeInclusive<u64>) -> f
     for seed in seeds {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let sensor = Sensor::draw(&mut rng);
-        let inputs: Vec<_> = (0..poses)
-            .map(|p| {
-                let f = random_gravity(&mut rng);
-                still_pose(&sensor, f, [0.0; 3], 800, p, 20.0 * p as f64, &mut rng)
-            })
-            .collect();
+        let inputs = random_poses(&sensor, poses, false, 20.0, &mut rng);
         let fit = fit_joint(&[], &inputs, &datasheet_settings(), &spincal::progress::silent).unwrap();
         let corrector = PhysicalCorrector {
             sensor: fit.sensor,
@@ -112,14 +125,8 @@ fn linear_normalised_error_rms(
     for seed in seeds {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let sensor = Sensor::draw(&mut rng);
-        // With runs, one power-on throughout (poses 10 s apart); without, a session per file.
-        let inputs: Vec<_> = (0..poses)
-            .map(|p| {
-                let f = random_gravity(&mut rng);
-                let session = if runs { 0 } else { p };
-                still_pose(&sensor, f, [0.0; 3], 800, session, 20.0 * p as f64, &mut rng)
-            })
-            .collect();
+        // With runs, one power-on throughout (poses 20 s apart); without, a session per file.
+        let inputs = random_poses(&sensor, poses, runs, 20.0, &mut rng);
         let mut run_inputs = Vec::new();
         if runs {
             let placement = Placement {
@@ -234,12 +241,7 @@ fn left_out_terms_normalised_error_rms(poses: usize, seeds: std::ops::RangeInclu
     for seed in seeds {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let sensor = Sensor::draw(&mut rng);
-        let inputs: Vec<_> = (0..poses)
-            .map(|p| {
-                let f = random_gravity(&mut rng);
-                still_pose(&sensor, f, [0.0; 3], 800, 0, 10.0 * p as f64, &mut rng)
-            })
-            .collect();
+        let inputs = random_poses(&sensor, poses, true, 10.0, &mut rng);
         let full = datasheet_settings();
         let fit = fit_joint(&[], &inputs, &full, &spincal::progress::silent).unwrap();
         let rule = TermsRule::of(&fit).expect("the fit has q");
