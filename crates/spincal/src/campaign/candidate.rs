@@ -93,6 +93,9 @@ pub struct TrainingSet<'a> {
     /// One recording and the reference it should read, for the kinds that learn a map from it.
     series: Option<ReferenceSeries<'a>>,
     full_fit: std::sync::OnceLock<Result<JointFit, String>>,
+    /// The fit with q on every axis where the settings' terms hold some at zero: the fuller fit
+    /// every physical kind's error bars take (`error_bar_covariance`), made once.
+    every_q_fit: std::sync::OnceLock<Result<JointFit, String>>,
 }
 
 /// A recording, the reference it should read at the same samples, and how its samples divide
@@ -113,6 +116,7 @@ impl<'a> TrainingSet<'a> {
             joint,
             series: None,
             full_fit: std::sync::OnceLock::new(),
+            every_q_fit: std::sync::OnceLock::new(),
         }
     }
 
@@ -155,15 +159,21 @@ impl<'a> TrainingSet<'a> {
             });
             return fit.as_ref().map(std::borrow::Cow::Borrowed).map_err(Clone::clone);
         }
-        let settings = JointSettings {
-            terms,
-            ..self.joint.clone()
+        let refit = || {
+            let settings = JointSettings {
+                terms,
+                ..self.joint.clone()
+            };
+            // A nested model starts where the full one ended.
+            let full = self.fit(self.joint.terms, observer).ok();
+            fit_joint_from(&self.runs, &self.poses, &settings, full.as_deref(), observer)
+                .map_err(|e| e.to_string())
         };
-        // A nested model starts where the full one ended.
-        let full = self.fit(self.joint.terms, observer).ok();
-        fit_joint_from(&self.runs, &self.poses, &settings, full.as_deref(), observer)
-            .map(std::borrow::Cow::Owned)
-            .map_err(|e| e.to_string())
+        if terms == every_q(self.joint.terms) {
+            let fit = self.every_q_fit.get_or_init(refit);
+            return fit.as_ref().map(std::borrow::Cow::Borrowed).map_err(Clone::clone);
+        }
+        refit().map(std::borrow::Cow::Owned)
     }
 }
 
@@ -417,10 +427,7 @@ fn error_bar_covariance(
     terms: SensorTerms,
     observer: &Observer,
 ) -> Result<(Option<SensorCovariance>, SensorModel), String> {
-    let full_terms = SensorTerms {
-        nonlinearity_axes: [true; 3],
-        ..t.joint.terms
-    };
+    let full_terms = every_q(t.joint.terms);
     if terms == full_terms {
         return Ok((fit.sensor_covariance(), fit.sensor));
     }
@@ -444,6 +451,14 @@ fn error_bar_covariance(
         (own, _) => own,
     };
     Ok((covariance, full.sensor))
+}
+
+/// `terms` with q on every axis (where they fit q at all).
+fn every_q(terms: SensorTerms) -> SensorTerms {
+    SensorTerms {
+        nonlinearity_axes: [true; 3],
+        ..terms
+    }
 }
 
 /// θ_oᵀ Σ_oo⁻¹ θ_o over the parameters `o`; `None` where there are none or Σ_oo is singular.
