@@ -261,7 +261,9 @@ fn left_out_terms_normalised_error_rms(poses: usize, seeds: std::ops::RangeInclu
         } else {
             CandidateKind::PhysicalLinear
         };
-        let training = TrainingSet::with_fit(Vec::new(), inputs, &settings, fit);
+        // The model is fitted with the rule's terms, as the campaign's saved one is (`fit` has q
+        // on every axis).
+        let training = TrainingSet::new(Vec::new(), inputs, &settings);
         let trained = candidate(kind)
             .train(&training, &spincal::progress::silent)
             .unwrap();
