@@ -233,6 +233,12 @@ fn the_gyro_is_saved_alone_when_no_accelerometer_correction_is_shown_to_help() {
         "{}",
         r.verdict
     );
+    // A file is saved, so the verdict does not open with "Nothing saved".
+    assert!(
+        r.verdict.starts_with("No accelerometer correction saved"),
+        "{}",
+        r.verdict
+    );
     let file = out.saved.expect("the gyro part is saved");
     assert!(matches!(file.corrector, CorrectorModel::Uncorrected(_)));
     assert!(file.corrector.corrected_axes().is_empty());

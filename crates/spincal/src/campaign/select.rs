@@ -463,7 +463,14 @@ pub fn calibrate_campaign(
         .then(|| save_gyro_alone(gyro.as_ref()))
         .flatten();
     let (saved, verdict) = match (saved, gyro_alone) {
-        (None, Some((file, sentence))) => (Some(file), verdict + &sentence),
+        // Something is saved, so the verdict must not open with "Nothing saved".
+        (None, Some((file, sentence))) => {
+            let verdict = match verdict.strip_prefix("Nothing saved") {
+                Some(rest) => format!("No accelerometer correction saved{rest}"),
+                None => verdict,
+            };
+            (Some(file), verdict + &sentence)
+        }
         (saved, _) => (saved, verdict),
     };
     lap("final training", &mut stages);
