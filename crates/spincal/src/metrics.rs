@@ -149,6 +149,14 @@ pub(crate) fn term_threshold() -> f64 {
     student_t_quantile(1.0 - 0.5 * TERM_FALSE_ALARM, 1e6)
 }
 
+/// The share of a left-out term's squared move that noise alone would not make: (1 − k/W)₊ for
+/// the Wald statistic W of k terms left out (E[W] = k where they are zero). A saved model that
+/// leaves terms out adds that share of its move to its error bars: the accelerometer's q
+/// (`campaign::candidate`) and the thermal orders (`thermal::fit`). 0 where W is NaN.
+pub(crate) fn share_beyond_noise(wald: f64, terms: usize) -> f64 {
+    (1.0 - terms as f64 / wald).max(0.0)
+}
+
 /// P(T > t) for Student's t with `nu` degrees of freedom, t ≥ 0.
 fn student_t_upper(t: f64, nu: f64) -> f64 {
     0.5 * incomplete_beta(nu / 2.0, 0.5, nu / (nu + t * t))

@@ -439,7 +439,7 @@ fn error_bar_covariance(
                 .filter(|&k| !terms.free(k) && full_terms.free(k))
                 .collect();
             let share = wald_statistic(&covariance, &theta, &left_out)
-                .map_or(1.0, |w| (1.0 - left_out.len() as f64 / w).max(0.0));
+                .map_or(1.0, |w| crate::metrics::share_beyond_noise(w, left_out.len()));
             let d: [f64; SENSOR_PARAMS] = std::array::from_fn(|k| kept[k] - theta[k]);
             for a in 0..SENSOR_PARAMS {
                 for b in 0..SENSOR_PARAMS {

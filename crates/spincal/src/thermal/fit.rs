@@ -42,7 +42,7 @@ use serde::{Deserialize, Serialize};
 use super::{coefficientwise, ThermalDirection, ThermalModel, MAX_LAG_S, REFERENCE_PARAMS};
 use crate::geometry::{cross, unit, M3};
 use crate::input::recording::Recording;
-use crate::metrics::{term_threshold, TERM_FALSE_ALARM};
+use crate::metrics::{share_beyond_noise, term_threshold, TERM_FALSE_ALARM};
 use crate::optim::{levenberg_marquardt_normal, LmOptions, NormalEquations};
 
 /// How the thermal model is fitted.
@@ -1113,9 +1113,9 @@ fn left_out_moves(
                 with.bias_index(t.axis, t.order - 1)
             };
             let z = solved.params[index] / solved.covariance_diagonal[index].sqrt();
-            let share = 1.0 - 1.0 / (z * z);
             // A NaN z (a term the windows do not determine) gives no move either.
-            if share.is_nan() || share <= 0.0 {
+            let share = share_beyond_noise(z * z, 1);
+            if share <= 0.0 {
                 return None;
             }
             let moved = problem.model(&solved.params, kept.lag_s, kept.smoothing_s, kept.fitted_range_c);
