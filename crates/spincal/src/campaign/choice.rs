@@ -112,7 +112,7 @@ pub(super) fn save_best(
     match candidate(kind).train(&training, observer) {
         Ok(Trained::Dynamic(_)) => (
             None,
-            format!("Nothing saved: {} cannot be saved as a corrector", kind.name()),
+            format!("{NOTHING_SAVED}: {} cannot be saved as a corrector", kind.name()),
         ),
         Ok(Trained::Corrector(model)) => {
             let verdict = format!(
@@ -141,7 +141,10 @@ pub(super) fn save_best(
         }
         Err(e) => (
             None,
-            format!("Nothing saved: the final training of {} failed: {e}", kind.name()),
+            format!(
+                "{NOTHING_SAVED}: the final training of {} failed: {e}",
+                kind.name()
+            ),
         ),
     }
 }
@@ -153,18 +156,26 @@ fn with_gyro(file: &mut CorrectorFile, gyro: Option<&GyroFit>) -> String {
     gyro.map(GyroFit::nominal_sentence).unwrap_or_default()
 }
 
+/// How a verdict that saves no file opens.
+pub(super) const NOTHING_SAVED: &str = "Nothing saved";
+
 /// Where no accelerometer corrector is saved: the gyro part the campaign determines, alone (format
-/// 3, the accelerometer left as read), and the verdict's sentence on it; `None` when the campaign
+/// 3, the accelerometer left as read), and `verdict` (why nothing else was saved) with its
+/// sentence on it, opening with what was saved since a file now is; `None` when the campaign
 /// determines no gyro term.
-pub(super) fn save_gyro_alone(gyro: Option<&GyroFit>) -> Option<(CorrectorFile, String)> {
+pub(super) fn save_gyro_alone(gyro: Option<&GyroFit>, verdict: &str) -> Option<(CorrectorFile, String)> {
     gyro.and_then(GyroFit::saved_model)?;
     let mut file = CorrectorFile::new(CorrectorModel::Uncorrected(Box::new(Uncorrected {
         reason: "no accelerometer correction was shown to help on the campaign's held-out conditions".into(),
     })));
     let sentence = with_gyro(&mut file, gyro);
+    let why = verdict.strip_prefix(NOTHING_SAVED).map_or_else(
+        || verdict.to_string(),
+        |rest| format!("No accelerometer correction saved{rest}"),
+    );
     Some((
         file,
-        format!(" Saved the gyroscope's calibration alone (the accelerometer left as read: kind `uncorrected`).{sentence}"),
+        format!("{why} Saved the gyroscope's calibration alone (the accelerometer left as read: kind `uncorrected`).{sentence}"),
     ))
 }
 
@@ -208,7 +219,7 @@ pub(super) fn nothing_saved_verdict(
         String::new()
     };
     format!(
-        "Nothing saved: no candidate holds on every held-out condition, judged without truth ({}).{next}{}",
+        "{NOTHING_SAVED}: no candidate holds on every held-out condition, judged without truth ({}).{next}{}",
         reasons.join("; "),
         truth_sentence(truth_check)
     )
@@ -296,7 +307,7 @@ pub(super) fn no_conditions_verdict(prepared: &Prepared, undetermined: &[Advice]
         }
     }
     format!(
-        "Nothing saved: with no second condition to hold out, no corrector can be shown to hold on data it never saw. Record next: {}.",
+        "{NOTHING_SAVED}: with no second condition to hold out, no corrector can be shown to hold on data it never saw. Record next: {}.",
         next.join("; ")
     )
 }

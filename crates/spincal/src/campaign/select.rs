@@ -22,6 +22,7 @@ use crate::campaign::checks::{check_poses_still, check_prepared, check_recording
 use crate::campaign::choice::{
     choose_by_physics, no_conditions_verdict, nothing_saved_verdict, save_best, save_gyro_alone,
     share_determination, summarise, truth_check, CandidateSummary, Found, HeldOutScore, TruthCheck,
+    NOTHING_SAVED,
 };
 use crate::campaign::evaluate::{conditions, Condition, Evaluation, HeldOutEvaluation};
 use crate::campaign::gyro::{fit_gyro, GyroFit};
@@ -427,7 +428,7 @@ pub fn calibrate_campaign(
         Some(_) if !contradicted.is_empty() => (
             None,
             format!(
-                "Nothing saved: {}. Measure the radius to the chip again, or leave `radius_m` out and record a second speed in the same placement so that the runs give it.",
+                "{NOTHING_SAVED}: {}. Measure the radius to the chip again, or leave `radius_m` out and record a second speed in the same placement so that the runs give it.",
                 contradicted.join("; ")
             ),
         ),
@@ -460,18 +461,11 @@ pub fn calibrate_campaign(
     // No accelerometer correction shown to help: the gyro part the campaign determines is saved
     // alone (format 3), where no stated radius is contradicted.
     let gyro_alone = (saved.is_none() && contradicted.is_empty())
-        .then(|| save_gyro_alone(gyro.as_ref()))
+        .then(|| save_gyro_alone(gyro.as_ref(), &verdict))
         .flatten();
-    let (saved, verdict) = match (saved, gyro_alone) {
-        // Something is saved, so the verdict must not open with "Nothing saved".
-        (None, Some((file, sentence))) => {
-            let verdict = match verdict.strip_prefix("Nothing saved") {
-                Some(rest) => format!("No accelerometer correction saved{rest}"),
-                None => verdict,
-            };
-            (Some(file), verdict + &sentence)
-        }
-        (saved, _) => (saved, verdict),
+    let (saved, verdict) = match gyro_alone {
+        Some((file, verdict)) => (Some(file), verdict),
+        None => (saved, verdict),
     };
     lap("final training", &mut stages);
     let error_map = saved
