@@ -10,9 +10,12 @@ with `--session-keys`) carries its own bias offset; every held-out file has one 
 orientations and runs at new speeds, radii and mountings.
 
     python independent.py generate OUT SEED POSES [--one-file] [--session-sd MPS2] [--ruler-sd M] [--q QX,QY,QZ]
-                                  [--sessions K [--session-keys]]
-    python independent.py generate OUT SEED POSES --phone   (phone.py: a phone's phyphox zips)
+                                  [--sessions K [--session-keys]] [--datasheet]
+    python independent.py generate OUT SEED POSES --phone [--datasheet]   (phone.py: a phone's phyphox zips)
     python independent.py evaluate OUT          (after `spincal calibrate` and `spincal correct`)
+
+`--datasheet` also states the bounds draw_sensor draws within as the datasheet's zero-g offset,
+sensitivity tolerance and cross-axis sensitivity (DATASHEET_BOUNDS).
 
 `evaluate` prints, per held-out file and axis, the RMS of corrected − truth over the RMS of the
 oracle's (the true model inverted on the same samples), and the still poses' systematic error.
@@ -50,6 +53,11 @@ def small_rotation(angles):
     k = np.array(angles) / theta
     kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
     return np.eye(3) + np.sin(theta) * kx + (1 - np.cos(theta)) * kx @ kx
+
+
+# The datasheet figures draw_sensor's bounds give, as a campaign file states them (--datasheet):
+# the zero-g offset 0.2 m/s² in mg, the sensitivity tolerance 2 %, the cross-axis sensitivity 1 %.
+DATASHEET_BOUNDS = ["zero_g_offset_mg = %.2f" % (0.2 / G * 1000), "sensitivity_tolerance_pct = 2", "cross_axis_pct = 1"]
 
 
 def draw_sensor(rng):
@@ -130,7 +138,7 @@ HELD_OUT_RUNS = [(45.0, 0.12, "-x", "+z"), (33.333, 0.075, "+x", "-z")]
 HELD_OUT_POSES = 8
 
 
-def generate(out, seed, poses, one_file, session_sd, ruler_sd, quadratic=None, sessions=0, session_keys=False):
+def generate(out, seed, poses, one_file, session_sd, ruler_sd, quadratic=None, sessions=0, session_keys=False, datasheet=False):
     rng = np.random.default_rng(seed)
     # The radius as a ruler reads it: its own stream, so the recordings stay those of ruler_sd = 0.
     ruler = np.random.default_rng(seed + 1_000_000)
@@ -139,7 +147,7 @@ def generate(out, seed, poses, one_file, session_sd, ruler_sd, quadratic=None, s
         # A set nonlinearity (the terms rule's experiment), drawn values discarded.
         sensor["q"] = np.asarray(quadratic, dtype=float)
     os.makedirs(os.path.join(out, "held_out"), exist_ok=True)
-    lines = ['unit = "independent-%d"' % seed, "range_g = 2", "nonlinearity_pct_fs = 0.5", ""]
+    lines = ['unit = "independent-%d"' % seed, "range_g = 2", "nonlinearity_pct_fs = 0.5"] + (DATASHEET_BOUNDS if datasheet else []) + [""]
     truth = {"sensor": {k: np.asarray(v).tolist() for k, v in sensor.items()}, "held_out": []}
 
     def offset():
@@ -342,10 +350,10 @@ if __name__ == "__main__":
         if "--phone" in args:
             import phone
 
-            truth = phone.generate(args[0], int(args[1]), int(args[2]))
+            truth = phone.generate(args[0], int(args[1]), int(args[2]), "--datasheet" in args)
             with open(os.path.join(args[0], "truth.json"), "w") as f:
                 json.dump(truth, f, indent=1)
         else:
-            generate(args[0], int(args[1]), int(args[2]), "--one-file" in args, sd, ruler_sd, q, sessions, "--session-keys" in args)
+            generate(args[0], int(args[1]), int(args[2]), "--one-file" in args, sd, ruler_sd, q, sessions, "--session-keys" in args, "--datasheet" in args)
     else:
         evaluate(sys.argv[2])

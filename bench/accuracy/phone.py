@@ -188,12 +188,12 @@ def write_zip(path, ta, accel, tg, gyro, start_unix_s):
         z.writestr("meta/time.csv", time)
 
 
-def generate(out, seed, poses):
+def generate(out, seed, poses, datasheet=False):
     rng = np.random.default_rng(seed)
     sensor = ind.draw_sensor(rng)
     gyro = draw_gyro(rng)
     os.makedirs(os.path.join(out, "held_out"), exist_ok=True)
-    lines = ['unit = "phone-%d"' % seed, "range_g = 2", "nonlinearity_pct_fs = 0.5", ""]
+    lines = ['unit = "phone-%d"' % seed, "range_g = 2", "nonlinearity_pct_fs = 0.5"] + (ind.DATASHEET_BOUNDS if datasheet else []) + [""]
     clock = [1.8e9 + rng.uniform(0, 1e6)]  # Unix time of the next START
 
     def record(path, ta, f, tg, w):

@@ -56,9 +56,13 @@ fn the_breakout_template_reads_a_log_in_the_layout_it_asks_for() {
     }
     let campaign = Campaign::read_path(&path).unwrap();
     assert_eq!(campaign.unit, "mpu-6050 #2");
+    let datasheet = campaign.datasheet;
     assert!(
-        campaign.nonlinearity.is_some(),
-        "the MPU-6050's datasheet is stated"
+        datasheet.nonlinearity.is_some()
+            && datasheet.zero_g_offset_mg == Some(80.0)
+            && datasheet.sensitivity_tolerance_pct == Some(3.0)
+            && datasheet.cross_axis_pct == Some(2.0),
+        "the MPU-6050's datasheet is stated: {datasheet:?}"
     );
     let loaded = load_campaign(&campaign).unwrap();
     assert_eq!(loaded.len(), 4);

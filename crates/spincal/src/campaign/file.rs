@@ -4,7 +4,11 @@
 //! unit = "imu-07"
 //! gravity_mps2 = 9.80665          # optional, local gravity
 //! range_g = 5                     # optional, with the next: the datasheet's range (± g) and
-//! nonlinearity_pct_fs = 0.2       # nonlinearity (% of full scale), the width of q's prior
+//! nonlinearity_pct_fs = 0.2       # nonlinearity (% of full scale), the bound on q
+//! zero_g_offset_mg = 50           # optional: the datasheet's zero-g offset (± mg), the bound on
+//!                                 # the bias
+//! sensitivity_tolerance_pct = 3   # optional: its sensitivity tolerance (± %), on the scale errors
+//! cross_axis_pct = 2              # optional: its cross-axis sensitivity (± %), on the misalignments
 //! [[recording]]
 //! file = "still-1.csv"            # relative to this file
 //! kind = "static"                 # one or more still poses (found in the file)
@@ -162,9 +166,22 @@ pub struct Campaign {
     /// The campaign file itself.
     pub path: PathBuf,
     pub gravity_mps2: f64,
-    /// The datasheet's nonlinearity, when given: it sizes the prior of the quadratic term.
-    pub nonlinearity: Option<DatasheetNonlinearity>,
+    /// What the file gives of the part's datasheet.
+    pub datasheet: Datasheet,
     pub recordings: Vec<CampaignEntry>,
+}
+
+/// A part's datasheet as a campaign file gives it: each figure given is a bound on its sensor
+/// term, which the joint fit takes as that term's prior (`JointSettings::set_datasheet_priors`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Datasheet {
+    pub nonlinearity: Option<DatasheetNonlinearity>,
+    /// Zero-g offset, ± mg (`zero_g_offset_mg`).
+    pub zero_g_offset_mg: Option<f64>,
+    /// Sensitivity tolerance, ± % (`sensitivity_tolerance_pct`).
+    pub sensitivity_tolerance_pct: Option<f64>,
+    /// Cross-axis sensitivity, ± % (`cross_axis_pct`).
+    pub cross_axis_pct: Option<f64>,
 }
 
 /// A datasheet's nonlinearity: `pct_fs` % of full scale over ±`range_g`.
@@ -210,6 +227,9 @@ struct RawCampaign {
     gravity_mps2: Option<Spanned<f64>>,
     range_g: Option<Spanned<f64>>,
     nonlinearity_pct_fs: Option<Spanned<f64>>,
+    zero_g_offset_mg: Option<Spanned<f64>>,
+    sensitivity_tolerance_pct: Option<Spanned<f64>>,
+    cross_axis_pct: Option<Spanned<f64>>,
     #[serde(default)]
     recording: Vec<Spanned<RawEntry>>,
 }
@@ -340,7 +360,7 @@ impl Campaign {
         let base = path.parent().unwrap_or(Path::new(""));
         let unit = at.unit(&raw, path)?;
         let gravity_mps2 = at.gravity(&raw)?;
-        let nonlinearity = at.nonlinearity(&raw)?;
+        let datasheet = at.datasheet(&raw)?;
         if raw.recording.is_empty() {
             return Err(CampaignError::Entry {
                 file,
@@ -357,7 +377,7 @@ impl Campaign {
             unit,
             path: path.to_path_buf(),
             gravity_mps2,
-            nonlinearity,
+            datasheet,
             recordings,
         })
     }
@@ -396,6 +416,36 @@ impl Locator {
                 "local gravity lies between 9.7 and 9.9 m/s²",
             )?,
             None => STANDARD_GRAVITY,
+        })
+    }
+
+    fn datasheet(&self, raw: &RawCampaign) -> Result<Datasheet, CampaignError> {
+        let bound = |value: &Option<Spanned<f64>>, key: &str, ok: fn(f64) -> bool, why: &str| {
+            value
+                .as_ref()
+                .map(|_| self.number(value, 0..0, key, ok, why))
+                .transpose()
+        };
+        Ok(Datasheet {
+            nonlinearity: self.nonlinearity(raw)?,
+            zero_g_offset_mg: bound(
+                &raw.zero_g_offset_mg,
+                "zero_g_offset_mg",
+                |v| v > 0.0 && v <= 2000.0,
+                "a zero-g offset lies above 0 and at most 2000 mg",
+            )?,
+            sensitivity_tolerance_pct: bound(
+                &raw.sensitivity_tolerance_pct,
+                "sensitivity_tolerance_pct",
+                |v| v > 0.0 && v <= 50.0,
+                "a sensitivity tolerance lies above 0 and at most 50 %",
+            )?,
+            cross_axis_pct: bound(
+                &raw.cross_axis_pct,
+                "cross_axis_pct",
+                |v| v > 0.0 && v <= 20.0,
+                "a cross-axis sensitivity lies above 0 and at most 20 %",
+            )?,
         })
     }
 
@@ -871,10 +921,10 @@ up = "-z"
     fn the_datasheet_nonlinearity_needs_both_numbers_in_range() {
         let with = |extra: &str| GOOD.replace("unit = \"imu-07\"\n", &format!("unit = \"imu-07\"\n{extra}"));
         let c = parse(&with("range_g = 5\nnonlinearity_pct_fs = 0.2\n")).unwrap();
-        let q = c.nonlinearity.unwrap().quadratic_per_mps2();
+        let q = c.datasheet.nonlinearity.unwrap().quadratic_per_mps2();
         // 0.2 % of 5 g at the range's end is 1.5 × that over the full scale.
         assert!((q - 1.5 * 0.002 / (5.0 * STANDARD_GRAVITY)).abs() < 1e-15, "{q}");
-        assert!(parse(GOOD).unwrap().nonlinearity.is_none());
+        assert!(parse(GOOD).unwrap().datasheet.nonlinearity.is_none());
         for (extra, start) in [
             (
                 "range_g = 5\n",
@@ -892,6 +942,34 @@ up = "-z"
                 "range_g = 5\nnonlinearity_pct_fs = 120\n",
                 "runs/c.toml:4: `nonlinearity_pct_fs`",
             ),
+        ] {
+            let e = parse(&with(extra)).unwrap_err().to_string();
+            assert!(e.starts_with(start), "{e} (wanted {start})");
+        }
+    }
+
+    #[test]
+    fn the_datasheet_tolerances_are_read_and_checked() {
+        let with = |extra: &str| GOOD.replace("unit = \"imu-07\"\n", &format!("unit = \"imu-07\"\n{extra}"));
+        let c = parse(&with("zero_g_offset_mg = 50\ncross_axis_pct = 2\n")).unwrap();
+        assert_eq!(
+            c.datasheet,
+            Datasheet {
+                zero_g_offset_mg: Some(50.0),
+                cross_axis_pct: Some(2.0),
+                ..Datasheet::default()
+            }
+        );
+        for (extra, start) in [
+            (
+                "zero_g_offset_mg = 0\n",
+                "runs/c.toml:3: `zero_g_offset_mg`: 0: a zero-g offset",
+            ),
+            (
+                "sensitivity_tolerance_pct = 80\n",
+                "runs/c.toml:3: `sensitivity_tolerance_pct`: 80: a sensitivity tolerance",
+            ),
+            ("cross_axis_pct = nan\n", "runs/c.toml:3: `cross_axis_pct`: NaN"),
         ] {
             let e = parse(&with(extra)).unwrap_err().to_string();
             assert!(e.starts_with(start), "{e} (wanted {start})");

@@ -43,13 +43,11 @@ impl Campaign {
     }
 
     /// The settings the campaign is calibrated with: `base` with the file's own gravity and, when
-    /// it gives the datasheet's, the nonlinearity prior.
+    /// it gives the datasheet's figures, the priors they bound.
     pub fn params(&self, base: &Params) -> Params {
         let mut settings = base.clone();
         settings.joint.gravity_mps2 = self.gravity_mps2;
-        if let Some(datasheet) = self.nonlinearity {
-            settings.joint.sensor_prior_sd[3] = datasheet.quadratic_per_mps2();
-        }
+        settings.joint.set_datasheet_priors(&self.datasheet);
         settings
     }
 }

@@ -155,7 +155,7 @@ fn fit_with_nonlinearity_rule(
 ) -> Result<(JointFit, JointSettings, NonlinearitySource), CampaignCalError> {
     let prior = settings.joint.sensor_prior_sd[3];
     let rule = format!(
-        "q is first fitted with a prior of {DATA_ONLY_Q_PRIOR_SD:e} /(m/s²); the spread its estimates show beyond their standard errors, w² = mean(q̂² − se²), replaces the prior of {prior:.2e} /(m/s²) (the datasheet's, or 0.5 % FS over ±8 g) when larger"
+        "q is first fitted with a prior of {DATA_ONLY_Q_PRIOR_SD:e} /(m/s²); the spread its estimates show beyond their standard errors, w² = mean(q̂² − se²), replaces the prior of {prior:.2e} /(m/s²) (the datasheet's bound, the covariance taking its rectangular spread bound/√3, or 0.5 % FS over ±8 g as a standard deviation) when larger"
     );
     let source = |decided_by: &str, prior_sd: f64, data_only_se: Option<[f64; 3]>| NonlinearitySource {
         decided_by: decided_by.into(),
@@ -177,6 +177,7 @@ fn fit_with_nonlinearity_rule(
     }
     let mut wide = settings.joint.clone();
     wide.sensor_prior_sd[3] = prior.max(DATA_ONLY_Q_PRIOR_SD);
+    wide.sensor_prior_is_bound[3] = false;
     let data_only = fit_joint(&prepared.runs, &prepared.poses, &wide, observer)?;
     let settings_found = spread_found(&data_only);
     let q: [(f64, f64); 3] = std::array::from_fn(|k| {
@@ -187,14 +188,11 @@ fn fit_with_nonlinearity_rule(
     let spread = q.iter().map(|(v, se)| v * v - se * se).sum::<f64>() / 3.0;
     let width = spread.max(0.0).sqrt();
     let chosen = if width.is_finite() && width > prior {
-        JointSettings {
-            sensor_prior_sd: {
-                let mut sd = settings.joint.sensor_prior_sd;
-                sd[3] = width;
-                sd
-            },
-            ..settings_found
-        }
+        let mut chosen = settings_found;
+        chosen.sensor_prior_sd[3] = width;
+        // The spread the data show is a standard deviation.
+        chosen.sensor_prior_is_bound[3] = false;
+        chosen
     } else {
         settings_found
     };

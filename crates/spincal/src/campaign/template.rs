@@ -137,9 +137,13 @@ const PHONE: &str = r#"# spincal campaign: a smartphone on a record player (from
 #   (out = "+x", the same two speeds) the offset across it as well.
 #   Phones' gyros usually reach ±2000 °/s, well above 45 rpm (270 °/s).
 #
-# Optional: the datasheet of the phone's accelerometer, if you know the part:
+# Optional: the datasheet of the phone's accelerometer, if you know the part. Each figure bounds
+# its term where the recordings say little (range and nonlinearity together):
 # range_g = 8
 # nonlinearity_pct_fs = 0.5
+# zero_g_offset_mg = 40
+# sensitivity_tolerance_pct = 2
+# cross_axis_pct = 1
 @UNIT@
 
 [[recording]]
@@ -218,10 +222,15 @@ const BREAKOUT: &str = r#"# spincal campaign: a breakout board (MPU-6050-like) o
 #   - the radius: from the spindle's centre to the chip's centre (the package's middle) with a
 #     ruler, ± 2 mm.
 #
-# The MPU-6050's datasheet (±2 g range, 0.5 % nonlinearity), which sizes the prior of the
-# scale's curvature; change it for another part or range.
+# The MPU-6050's datasheet (product specification rev. 3.4, accelerometer table): ±2 g range,
+# 0.5 % nonlinearity, zero-g tolerance ±80 mg (z; ±50 mg x and y), sensitivity tolerance ±3 %,
+# cross-axis sensitivity ±2 %. Each bounds its term where the recordings say little; change them
+# for another part or range.
 range_g = 2
 nonlinearity_pct_fs = 0.5
+zero_g_offset_mg = 80
+sensitivity_tolerance_pct = 3
+cross_axis_pct = 2
 @UNIT@
 
 [[recording]]

@@ -79,11 +79,11 @@ pub(super) enum Floor {
 }
 
 /// H⁻¹ S H⁻¹ over the given parameters (`inverse`: H⁻¹ from [`free_inverse`]), held at least at
-/// the model's own covariance H⁻¹ (the residuals weighted by their measured noise, priors at their
-/// stated widths) as `floor` says of each: a run's parameters each on its variance (row and
-/// column scaled), the sensor's in every direction (in the frame where their block of H⁻¹ is the
-/// identity, each eigenvalue of the sandwich's block below one set to one). `None` where H⁻¹ is
-/// not positive definite there.
+/// the model's own covariance `model` (the residuals weighted by their measured noise, priors at
+/// their stated spreads; H⁻¹ where each prior's spread is its penalty's width) as `floor` says of
+/// each: a run's parameters each on its variance (row and column scaled), the sensor's in every
+/// direction (in the frame where their block of `model` is the identity, each eigenvalue of the
+/// sandwich's block below one set to one). `None` where `model` is not positive definite there.
 ///
 /// The sandwich guards against what the weights miss (coloured residuals, scatter between
 /// poses), but it is an estimate from the blocks' scores: a run of six blocks gives about five
@@ -101,6 +101,7 @@ pub(super) enum Floor {
 pub(super) fn sandwich(
     inverse: &Mat<f64>,
     s: &Mat<f64>,
+    model: &Mat<f64>,
     index: &[usize],
     floor: impl Fn(usize) -> Floor,
 ) -> Option<Mat<f64>> {
@@ -108,9 +109,10 @@ pub(super) fn sandwich(
     let ss = Mat::from_fn(n, n, |a, b| s[(index[a], index[b])]);
     let h_inv = Mat::from_fn(n, n, |a, b| inverse[(index[a], index[b])]);
     let robust = &h_inv * &ss * &h_inv;
+    let model = Mat::from_fn(n, n, |a, b| model[(index[a], index[b])]);
     let raise: Vec<f64> = (0..n)
         .map(|a| {
-            let ratio = h_inv[(a, a)] / robust[(a, a)];
+            let ratio = model[(a, a)] / robust[(a, a)];
             if floor(index[a]) == Floor::Variance && ratio > 1.0 && ratio.is_finite() {
                 ratio.sqrt()
             } else {
@@ -123,7 +125,7 @@ pub(super) fn sandwich(
         .filter(|&a| floor(index[a]) == Floor::EveryDirection)
         .collect();
     let sub = |m: &Mat<f64>| Mat::from_fn(block.len(), block.len(), |a, b| m[(block[a], block[b])]);
-    let shortfall = loewner_shortfall(&sub(&robust), &sub(&h_inv))?;
+    let shortfall = loewner_shortfall(&sub(&robust), &sub(&model))?;
     for (a, &i) in block.iter().enumerate() {
         for (b, &j) in block.iter().enumerate() {
             covariance[(i, j)] += shortfall[(a, b)];

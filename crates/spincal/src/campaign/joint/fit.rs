@@ -172,7 +172,7 @@ fn fit_joint_with(
         stop: report.stop,
         bias_spread,
         covariance: format!(
-            "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run (each block's score restored by the block jackknife, CR3), each still pose and each prior a block of its own (batch-means HAC), no variance below the model's own H⁻¹ (a run parameter's; every direction of the sensor's); each pose weighted by its mean's error and the bias's wander between poses ({})",
+            "robust sandwich H⁻¹SH⁻¹, S from scores summed over blocks of {:.1} s ({} samples) of each run (each block's score restored by the block jackknife, CR3), each still pose and each prior a block of its own (batch-means HAC; a bound's prior at its rectangular spread), no variance below the model's own covariance (a run parameter's; every direction of the sensor's); each pose weighted by its mean's error and the bias's wander between poses ({})",
             settings.block_s,
             blocks,
             match walk {
@@ -301,6 +301,14 @@ fn first_pass_problem<'a>(
         bias_sigma: settings.bias_instability_mps2,
         mount_tilt_sigma: settings.mount_tilt_rad,
         sensor_prior_sd: settings.sensor_prior_sd,
+        sensor_prior_spread: std::array::from_fn(|g| {
+            let sd = settings.sensor_prior_sd[g];
+            if settings.sensor_prior_is_bound[g] {
+                sd / 3f64.sqrt()
+            } else {
+                sd
+            }
+        }),
         sensor_free: std::array::from_fn(|k| settings.terms.free(k)),
         directions,
         mountings,
@@ -441,6 +449,7 @@ fn robust_covariance(
     let Some(full) = free_inverse(jtj, &index) else {
         return (None, index);
     };
+    let model = model_covariance(problem, &full);
     let pose_restore: Vec<[[f64; 3]; 3]> = problem.pose_hat(p, &full).iter().map(restoring).collect();
     let mut meat = Mat::<f64>::zeros(n, n);
     problem.evaluate(
@@ -457,7 +466,29 @@ fn robust_covariance(
         k if runs.contains(&k) => Floor::Variance,
         _ => Floor::None,
     };
-    (sandwich(&full, &meat, &index, floor), index)
+    (sandwich(&full, &meat, &model, &index, floor), index)
+}
+
+/// The model's own covariance of the penalised estimate, H⁻¹ (H − Δ) H⁻¹ = H⁻¹ − H⁻¹ Δ H⁻¹
+/// (`full`: H⁻¹), where each sensor prior's score has the variance its spread gives,
+/// spread²/σ⁴, not its penalty's 1/σ² (Δ the difference, on the diagonal; zero where they agree).
+/// Where the prior decides a term this is spread², where the data do it is theirs.
+fn model_covariance(problem: &JointProblem<'_>, full: &Mat<f64>) -> Mat<f64> {
+    let n = full.nrows();
+    let mut model = full.clone();
+    for k in (0..SENSOR_PARAMS).filter(|&k| problem.sensor_free[k]) {
+        let (sd, spread) = (problem.sensor_prior_sd[k / 3], problem.sensor_prior_spread[k / 3]);
+        let delta = (1.0 - (spread / sd).powi(2)) / (sd * sd);
+        if delta == 0.0 {
+            continue;
+        }
+        for a in 0..n {
+            for b in 0..n {
+                model[(a, b)] -= delta * full[(a, k)] * full[(k, b)];
+            }
+        }
+    }
+    model
 }
 
 /// The sensor's, each run's and each pose's parameters with their standard errors, and each

@@ -26,8 +26,11 @@ pub(crate) struct JointProblem<'a> {
     pub(super) gravity: f64,
     pub(super) bias_sigma: f64,
     pub(super) mount_tilt_sigma: f64,
-    /// Prior widths of bias, scale, misalignment and nonlinearity.
+    /// Prior widths of bias, scale, misalignment and nonlinearity: the penalty's.
     pub(super) sensor_prior_sd: [f64; 4],
+    /// The same priors' standard deviations as distributions, which the covariance takes
+    /// ([`super::JointSettings::sensor_prior_is_bound`]).
+    pub(super) sensor_prior_spread: [f64; 4],
     pub(super) sensor_free: [bool; SENSOR_PARAMS],
     pub(super) directions: Vec<f64>,
     pub(super) mountings: Vec<M3>,
@@ -529,7 +532,14 @@ impl JointProblem<'_> {
             if !self.sensor_free[k] {
                 continue;
             }
-            sse += want.add_prior(k, p[k], self.sensor_prior_sd[k / 3]);
+            let sd = self.sensor_prior_sd[k / 3];
+            let sigma = match want {
+                // The penalty's score, p/σ², varies as the term does between units: spread²/σ⁴,
+                // the information of a prior of width σ²/spread.
+                Want::Meat { .. } => sd * sd / self.sensor_prior_spread[k / 3],
+                _ => sd,
+            };
+            sse += want.add_prior(k, p[k], sigma);
         }
         // Each still session's bias offset within the instability, and its drift rate within the
         // instability per SESSION_DRIFT_S (poses alone say little about a slope).
