@@ -446,6 +446,7 @@ pub fn calibrate_campaign(
                 set_aside_why,
                 &prepared,
                 &undetermined,
+                settings.joint.sensor_prior_is_bound,
                 truth_check.as_ref(),
             ),
         ),
