@@ -57,12 +57,14 @@ fn the_breakout_template_reads_a_log_in_the_layout_it_asks_for() {
     let campaign = Campaign::read_path(&path).unwrap();
     assert_eq!(campaign.unit, "mpu-6050 #2");
     let datasheet = campaign.datasheet;
+    // The datasheet's range and nonlinearity are stated; its offset, sensitivity and cross-axis
+    // figures are typical values, so the template leaves them as comments.
     assert!(
         datasheet.nonlinearity.is_some()
-            && datasheet.zero_g_offset_mg == Some(80.0)
-            && datasheet.sensitivity_tolerance_pct == Some(3.0)
-            && datasheet.cross_axis_pct == Some(2.0),
-        "the MPU-6050's datasheet is stated: {datasheet:?}"
+            && datasheet.zero_g_offset_mg.is_none()
+            && datasheet.sensitivity_tolerance_pct.is_none()
+            && datasheet.cross_axis_pct.is_none(),
+        "{datasheet:?}"
     );
     let loaded = load_campaign(&campaign).unwrap();
     assert_eq!(loaded.len(), 4);
