@@ -173,6 +173,15 @@ fn a_fleet_recovers_each_unit_flags_the_faulty_one_and_reports_broken_ones() {
         &spincal::progress::silent,
     )
     .unwrap();
+    // The simulated campaign file states the datasheet's range and nonlinearity: q's prior is
+    // that bound, the other terms keep the generic widths.
+    let priors = &alone.result.sensor_priors;
+    assert_eq!(priors.is_bound, [false, false, false, true], "{priors:?}");
+    assert_eq!(
+        priors.width[3],
+        campaign.datasheet.nonlinearity.unwrap().quadratic_per_mps2(),
+        "{priors:?}"
+    );
     let mut value = serde_json::to_value(&alone.result).unwrap();
     value.as_object_mut().unwrap().remove("seconds_total");
     value.as_object_mut().unwrap().remove("stage_seconds");

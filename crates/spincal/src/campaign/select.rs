@@ -128,6 +128,17 @@ impl TermsRule {
     }
 }
 
+/// The priors on the sensor's terms the joint fit took (results.json): where the recordings leave
+/// a term undetermined, its error bar is its prior's.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct SensorPriors {
+    /// Widths about zero: bias (m/s²), scale error, misalignment (rad), q (1/(m/s²)).
+    pub width: [f64; 4],
+    /// Which widths are a datasheet's bounds (the covariance takes bound/√3); the others are
+    /// standard deviations.
+    pub is_bound: [bool; 4],
+}
+
 /// Who decided the nonlinearity q (results.json).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct NonlinearitySource {
@@ -241,6 +252,9 @@ pub struct CampaignResult {
     pub undetermined: Vec<Advice>,
     /// Whether the data or the prior decided the nonlinearity q.
     pub nonlinearity: NonlinearitySource,
+    /// The priors the joint fit held the sensor's terms to.
+    #[serde(default)]
+    pub sensor_priors: SensorPriors,
     /// Which of the physical family's terms the saved model carries, and why.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub terms_rule: Option<TermsRule>,
@@ -496,6 +510,10 @@ pub fn calibrate_campaign(
             split_runs: prepared.split_runs.clone(),
             undetermined,
             nonlinearity,
+            sensor_priors: SensorPriors {
+                width: settings.joint.sensor_prior_sd,
+                is_bound: settings.joint.sensor_prior_is_bound,
+            },
             terms_rule,
             gyro,
             gyro_error,
