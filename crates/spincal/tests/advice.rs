@@ -182,8 +182,8 @@ fn the_advice_followed_in_simulation_brings_the_standard_error_to_its_prediction
 /// every parameter the advice predicts to drop by 5 % or more, followed in simulation on 6 seeds.
 /// Measured: 64 of 67 within 20 % of the prediction, median ratio 1.005; the three outside (1.53,
 /// 1.61, 2.38) are refitted robust standard errors resting on a few poses' realised residuals
-/// (63 of 68 before q's datasheet bound was read as rectangular, bench/accuracy/RESULTS.md). The test holds at least 85 % within 20 % and the median
-/// within 10 %, and never a held pose named.
+/// (63 of 68 before q's datasheet bound was read as rectangular, bench/accuracy/RESULTS.md). The
+/// test holds at least 85 % within 20 % and the median within 10 %, and never a held pose named.
 #[test]
 fn the_advice_on_random_poses_mostly_holds_its_prediction() {
     let mut ratios = Vec::new();
