@@ -5,8 +5,11 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use spincal::campaign::error_map::{error_map, next_pose};
 use spincal::campaign::file::{Datasheet, DatasheetNonlinearity};
 use spincal::campaign::joint::{fit_joint, Advice, JointFit, JointSettings, PoseInput, HELD_POSE_DEG};
+use spincal::correctors::model_file::ErrorModel;
+use spincal::correctors::physical::{PhysicalCorrector, SensorUncertainty};
 
 use crate::common::independent::{random_gravity, still_pose, Sensor, G};
 
@@ -309,4 +312,97 @@ fn a_bound_on_q_gives_its_rectangular_spread_where_the_poses_say_nothing() {
             "seed {seed}: {faces_as_sd:e}"
         );
     }
+}
+
+/// The physical corrector a campaign would save from `fit`: its sensor and its covariance, the
+/// generator's noise.
+fn corrector_of(fit: &JointFit, sensor: &Sensor) -> PhysicalCorrector {
+    PhysicalCorrector {
+        sensor: fit.sensor,
+        gravity_mps2: G,
+        input_range_mps2: [[-2.0 * G, 2.0 * G]; 3],
+        uncertainty: fit.sensor_covariance().map(|covariance| SensorUncertainty {
+            covariance,
+            noise_sd_mps2: [sensor.noise_mps2; 3],
+            session_spread_mps2: None,
+        }),
+    }
+}
+
+/// The error map's advice (issue 46 items 4 and 5): where the saved model is trusted over part
+/// of the sphere only, the still pose that most widens it. Seven, eight and nine poses at random
+/// orientations, one file per pose, six seeds each. Followed in simulation (the same sensor, the
+/// pose as a file of its own, refitted), the refitted model's map reaches what the advice
+/// predicted. Measured: the share trusted within 0.02 of the prediction and the median predicted
+/// error within 1 % on 16 of 18; the other two (nine poses) fall short, 0.22 and 0.45 for 0.52
+/// and 0.59 predicted, where the refit's robust covariance rests on a few poses' realised
+/// residuals (as in the per-parameter advice above). The test holds at least 80 % within 0.1 of
+/// the share and 20 % of the median, while every prediction is a fall of the median by a quarter
+/// or more: the check is not vacuous. It never names a held pose.
+#[test]
+fn the_map_advice_followed_in_simulation_widens_the_trusted_region_as_predicted() {
+    let (mut cases, mut held) = (0, 0);
+    for n_poses in [7, 8, 9] {
+        for seed in 1..=6 {
+            let directions: Vec<[f64; 3]> = {
+                let mut r = ChaCha8Rng::seed_from_u64(300 + seed);
+                (0..n_poses).map(|_| unit(random_gravity(&mut r))).collect()
+            };
+            let (sensor, mut poses, mut rng) = campaign(seed, &directions, 2.0);
+            one_file_per_pose(&mut poses);
+            let fitted = fit(&poses);
+            let corrector = corrector_of(&fitted, &sensor);
+            let map = error_map(ErrorModel::Physical(&corrector), G, &poses);
+            let next = next_pose(&corrector, &fitted, &poses).unwrap_or_else(|| {
+                panic!(
+                    "{n_poses} poses, seed {seed}: no advice at share {}",
+                    map.share_determined
+                )
+            });
+            let u = next.pose_direction;
+            for p in &poses {
+                let m = unit(p.mean_mps2);
+                let angle = (u[0] * m[0] + u[1] * m[1] + u[2] * m[2])
+                    .clamp(-1.0, 1.0)
+                    .acos()
+                    .to_degrees();
+                assert!(
+                    angle >= HELD_POSE_DEG,
+                    "{angle:.1}° from {}: {}",
+                    p.name,
+                    next.sentence
+                );
+            }
+            let [median_now, median_predicted] = next.median_sd_over_noise;
+            assert!(
+                median_predicted < 0.75 * median_now,
+                "{n_poses} poses, seed {seed}: {next:?}"
+            );
+            let session = poses.iter().map(|p| p.session).max().unwrap() + 1;
+            let mut more = poses.clone();
+            more.push(still_pose(
+                &sensor,
+                u.map(|v| G * v),
+                [0.0; 3],
+                SAMPLES,
+                session,
+                1000.0,
+                &mut rng,
+            ));
+            let refit = fit(&more);
+            let after = error_map(ErrorModel::Physical(&corrector_of(&refit, &sensor)), G, &more);
+            let median_after = after.median_sd_over_noise.unwrap();
+            eprintln!(
+                "{n_poses} poses, seed {seed}: share {:.2} → predicted {:.2}, refit {:.2}; median {median_now:.2} → predicted {median_predicted:.2}, refit {median_after:.2}",
+                map.share_determined, next.share_determined_after, after.share_determined
+            );
+            cases += 1;
+            held += usize::from(
+                (after.share_determined - next.share_determined_after).abs() <= 0.1
+                    && (0.8..1.2).contains(&(median_after / median_predicted)),
+            );
+        }
+    }
+    eprintln!("{held} of {cases} as predicted");
+    assert!(held as f64 >= 0.8 * cases as f64, "{held} of {cases}");
 }

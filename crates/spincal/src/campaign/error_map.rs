@@ -4,8 +4,11 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::campaign::joint::PoseInput;
+use crate::campaign::joint::advice::{pose_information, unit, PosePlan, CANDIDATES, WORTHWHILE_DROP};
+use crate::campaign::joint::{JointFit, PoseInput, HELD_POSE_DEG};
 use crate::correctors::model_file::ErrorModel;
+use crate::correctors::physical::{PhysicalCorrector, SensorCovariance, SENSOR_PARAMS};
+use crate::geometry::{dot, lattice_direction};
 
 /// A direction is determined where, on every axis, the predicted standard deviation of the
 /// correction is at most this share of one reading's noise: the corrected reading's error is then
@@ -18,6 +21,10 @@ const LONGITUDE_STEP_DEG: f64 = 30.0;
 
 /// Directions evenly spread over the sphere (a Fibonacci lattice) for the determined share.
 const SHARE_POINTS: usize = 4000;
+
+/// Directions over which each candidate for the next pose is judged (coarser than the share's:
+/// every one of `CANDIDATES` is tried against each).
+const OBJECTIVE_POINTS: usize = 500;
 
 /// The predicted error over the directions of gravity.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -33,10 +40,38 @@ pub struct ErrorMap {
     pub threshold: f64,
     /// The share of all directions of gravity where every axis is within the threshold.
     pub share_determined: f64,
+    /// The median over all directions of gravity of the worst axis's predicted sd over the noise
+    /// (`None` in a results.json from before it was reported).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub median_sd_over_noise: Option<f64>,
     /// The noise of one reading per axis, m/s² (the campaign's).
     pub noise_sd_mps2: [f64; 3],
     /// Every recorded still pose on the map.
     pub poses: Vec<PoseOnMap>,
+    /// The still pose that would most widen the trusted region ([`next_pose`]); `None` where
+    /// every direction is trusted, no single pose helps, or the model is not the physical one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub next_pose: Option<NextPose>,
+}
+
+/// The still pose advised to widen where a saved physical model is trusted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NextPose {
+    /// Gravity's direction in the sensor frame (unit; component k is the sine of axis k's
+    /// elevation above level).
+    pub pose_direction: [f64; 3],
+    /// How long to hold it (the campaign's median pose), s, when the poses say.
+    pub hold_s: Option<f64>,
+    /// The share of the directions of gravity trusted once it is recorded, as predicted.
+    pub share_determined_after: f64,
+    /// The median over the directions of gravity of the worst axis's predicted sd over the noise:
+    /// now, and predicted once the pose is recorded.
+    pub median_sd_over_noise: [f64; 2],
+    /// The new pose's bias offset from the others assumed (a file of its own, the spread the
+    /// campaign found), m/s².
+    pub offset_sd_mps2: f64,
+    /// What to record, in words a user can follow.
+    pub sentence: String,
 }
 
 /// A recorded still pose on the error map.
@@ -97,8 +132,12 @@ impl ErrorMap {
                     .join(", ")
             )
         };
+        let next = self
+            .next_pose
+            .as_ref()
+            .map_or(String::new(), |n| format!(" {}.", n.sentence));
         format!(
-            "Trusted where the error its covariance predicts is at most {:.2}× the noise of one reading: {:.0} % of the directions of gravity{poses}.",
+            "Trusted where the error its covariance predicts is at most {:.2}× the noise of one reading: {:.0} % of the directions of gravity{poses}.{next}",
             self.threshold,
             100.0 * self.share_determined
         )
@@ -135,6 +174,7 @@ pub fn error_map(model: ErrorModel<'_>, gravity_mps2: f64, poses: &[PoseInput]) 
     let longitude_deg: Vec<f64> = (0..columns)
         .map(|c| -180.0 + (c as f64 + 0.5) * LONGITUDE_STEP_DEG)
         .collect();
+    let (share_determined, median_sd_over_noise) = over_the_sphere(model, gravity_mps2);
     let worst_sd_over_noise = latitude_deg
         .iter()
         .flat_map(|&lat| {
@@ -143,12 +183,6 @@ pub fn error_map(model: ErrorModel<'_>, gravity_mps2: f64, poses: &[PoseInput]) 
                 .map(move |&lon| worst_ratio(model, noise, still(direction(lat, lon))))
         })
         .collect();
-    let determined = (0..SHARE_POINTS)
-        .filter(|&i| {
-            let n = crate::geometry::lattice_direction(i, SHARE_POINTS);
-            worst_ratio(model, noise, still(n)) <= DETERMINED_SD_OVER_NOISE
-        })
-        .count();
     let poses = poses
         .iter()
         .map(|pose| {
@@ -167,10 +201,144 @@ pub fn error_map(model: ErrorModel<'_>, gravity_mps2: f64, poses: &[PoseInput]) 
         longitude_deg,
         worst_sd_over_noise,
         threshold: DETERMINED_SD_OVER_NOISE,
-        share_determined: determined as f64 / SHARE_POINTS as f64,
+        share_determined,
+        median_sd_over_noise: Some(median_sd_over_noise),
         noise_sd_mps2: noise,
         poses,
+        next_pose: None,
     }
+}
+
+/// Over directions evenly spread over the sphere: the share where every axis's predicted sd is
+/// within the threshold, and the median of the worst axis's.
+fn over_the_sphere(model: ErrorModel<'_>, gravity_mps2: f64) -> (f64, f64) {
+    let noise = model.uncertainty().noise_sd_mps2;
+    let mut worst: Vec<f64> = (0..SHARE_POINTS)
+        .map(|i| {
+            let n = lattice_direction(i, SHARE_POINTS);
+            worst_ratio(model, noise, model.reading_of(n.map(|v| gravity_mps2 * v)))
+        })
+        .collect();
+    let determined = worst.iter().filter(|&&r| r <= DETERMINED_SD_OVER_NOISE).count();
+    worst.sort_by(f64::total_cmp);
+    (determined as f64 / SHARE_POINTS as f64, worst[SHARE_POINTS / 2])
+}
+
+/// The still pose, at least `HELD_POSE_DEG` from every held one, that most widens where
+/// `corrector` is trusted. Each candidate direction's information (as the per-parameter advice
+/// has it: a file of its own, held as long as the campaign's poses, `fit`'s bias spread) updates
+/// the covariance by Sherman–Morrison; the candidate that most lowers the mean over the
+/// directions of gravity of max(worst sd / noise, threshold) is taken, a measure that counts
+/// directions brought inside the region and, where none can be, the error left outside it. The
+/// saved covariance is updated as if every term were free (a term held at zero carries its left-out
+/// move there, which a new pose shrinks too). `None` where every direction is trusted already or
+/// no candidate lowers that mean by `WORTHWHILE_DROP`.
+pub fn next_pose(corrector: &PhysicalCorrector, fit: &JointFit, poses: &[PoseInput]) -> Option<NextPose> {
+    let uncertainty = corrector.uncertainty.as_ref()?;
+    let c = &uncertainty.covariance;
+    let noise = uncertainty.noise_sd_mps2;
+    let g = corrector.gravity_mps2;
+    let sensor = &corrector.sensor;
+    // Each direction's Jacobian of the correction per axis, over that axis's noise.
+    let rows: Vec<[[f64; SENSOR_PARAMS]; 3]> = (0..OBJECTIVE_POINTS)
+        .filter_map(|i| {
+            let n = lattice_direction(i, OBJECTIVE_POINTS);
+            let (_, jac) = sensor.correct_with_jacobian(sensor.measure(n.map(|v| g * v)))?;
+            Some(std::array::from_fn(|k| {
+                std::array::from_fn(|p| jac[k][p] / noise[k].max(f64::MIN_POSITIVE))
+            }))
+        })
+        .collect();
+    if rows.is_empty() {
+        return None;
+    }
+    let quadratic = |j: &[f64; SENSOR_PARAMS]| -> f64 {
+        (0..SENSOR_PARAMS)
+            .map(|a| j[a] * (0..SENSOR_PARAMS).map(|b| c[a][b] * j[b]).sum::<f64>())
+            .sum()
+    };
+    let base: Vec<[f64; 3]> = rows
+        .iter()
+        .map(|j| std::array::from_fn(|k| quadratic(&j[k])))
+        .collect();
+    // Worst axis's sd over the noise per direction, after an update by (C a, aᵀ C a).
+    let worst = |update: Option<(&[f64; SENSOR_PARAMS], f64)>| -> Vec<f64> {
+        rows.iter()
+            .zip(&base)
+            .map(|(j, v)| {
+                (0..3)
+                    .map(|k| {
+                        let drop = update.map_or(0.0, |(ca, aca)| {
+                            let jca: f64 = (0..SENSOR_PARAMS).map(|p| j[k][p] * ca[p]).sum();
+                            jca * jca / (1.0 + aca)
+                        });
+                        (v[k] - drop).max(0.0).sqrt()
+                    })
+                    .fold(0.0, f64::max)
+            })
+            .collect()
+    };
+    let measure = |w: &[f64]| -> f64 {
+        w.iter()
+            .map(|r| r.max(DETERMINED_SD_OVER_NOISE) / DETERMINED_SD_OVER_NOISE)
+            .sum::<f64>()
+            / w.len() as f64
+    };
+    let before = measure(&worst(None));
+    if before <= 1.0 + 1e-12 {
+        return None;
+    }
+    let plan = PosePlan::of(fit, poses);
+    let held: Vec<[f64; 3]> = poses.iter().filter_map(|p| unit(p.mean_mps2)).collect();
+    let near = HELD_POSE_DEG.to_radians().cos();
+    let mut best: Option<(f64, [f64; 3], [f64; SENSOR_PARAMS], f64)> = None;
+    for i in 0..CANDIDATES {
+        let u = lattice_direction(i, CANDIDATES);
+        if held.iter().any(|h| dot(h, &u) > near) {
+            continue;
+        }
+        let Some(a) = pose_information(sensor, u, g, &plan) else {
+            continue;
+        };
+        let ca: [f64; SENSOR_PARAMS] =
+            std::array::from_fn(|r| (0..SENSOR_PARAMS).map(|p| c[r][p] * a[p]).sum());
+        let aca: f64 = (0..SENSOR_PARAMS).map(|p| a[p] * ca[p]).sum();
+        if !(aca.is_finite() && aca >= 0.0) {
+            continue;
+        }
+        let after = measure(&worst(Some((&ca, aca))));
+        if after.is_finite() && best.is_none_or(|(b, ..)| after < b) {
+            best = Some((after, u, ca, aca));
+        }
+    }
+    let (after, u, ca, aca) = best?;
+    if after > (1.0 - WORTHWHILE_DROP) * before {
+        return None;
+    }
+    let updated: SensorCovariance =
+        std::array::from_fn(|r| std::array::from_fn(|p| c[r][p] - ca[r] * ca[p] / (1.0 + aca)));
+    let mut with_pose = corrector.clone();
+    if let Some(u) = with_pose.uncertainty.as_mut() {
+        u.covariance = updated;
+    }
+    let (share_after, median_after) = over_the_sphere(ErrorModel::Physical(&with_pose), g);
+    let (_, median_now) = over_the_sphere(ErrorModel::Physical(corrector), g);
+    let median_sd_over_noise = [median_now, median_after];
+    Some(NextPose {
+        pose_direction: u,
+        hold_s: plan.hold_s,
+        share_determined_after: share_after,
+        median_sd_over_noise,
+        offset_sd_mps2: plan.offset_sd,
+        sentence: format!(
+            "To widen it, record next {}: predicted trusted over {:.0} % of the directions of gravity, the median predicted error {:.2} → {:.2}× the noise{}",
+            plan.describe(u),
+            100.0 * share_after,
+            median_sd_over_noise[0],
+            median_sd_over_noise[1],
+            plan.assumption()
+        ),
+    })
 }
 
 #[cfg(test)]

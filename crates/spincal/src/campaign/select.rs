@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::campaign::error_map::{error_map, ErrorMap};
+use crate::campaign::error_map::{error_map, next_pose, ErrorMap};
 use crate::campaign::paper::{PaperProtocol, PaperSignals};
 use crate::campaign::params::{ParamError, Params};
 
@@ -34,7 +34,7 @@ use crate::campaign::prepare::{prepare, PrepareError, Prepared, UnitRecording};
 use crate::campaign::thermal::{
     check_temperature_units, propagated_uncertainty, temperature_bands, thermal_stage, CampaignThermal,
 };
-use crate::correctors::model_file::{CorrectorFile, CorrectorModel};
+use crate::correctors::model_file::{CorrectorFile, CorrectorModel, ErrorModel};
 use crate::metrics::{term_threshold, TERM_FALSE_ALARM};
 use crate::progress::{Observer, Progress};
 use crate::turntable::fit::RadiusPrior;
@@ -484,7 +484,13 @@ pub fn calibrate_campaign(
     let error_map = saved
         .as_ref()
         .and_then(|file| file.corrector.error_model())
-        .map(|model| error_map(model, settings.joint.gravity_mps2, &prepared.poses));
+        .map(|model| {
+            let mut map = error_map(model, settings.joint.gravity_mps2, &prepared.poses);
+            if let ErrorModel::Physical(physical) = model {
+                map.next_pose = next_pose(physical, &joint, &prepared.poses);
+            }
+            map
+        });
     // The verdict leads with where the saved correction can be trusted.
     let verdict = match &error_map {
         Some(map) => format!("{} {verdict}", map.sentence()),

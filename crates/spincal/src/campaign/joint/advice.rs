@@ -20,11 +20,11 @@ use crate::correctors::physical::{SensorModel, SENSOR_PARAMS};
 use crate::geometry::{cross, dot, lattice_direction};
 
 /// Candidate directions of gravity over the sphere.
-const CANDIDATES: usize = 2000;
+pub(crate) const CANDIDATES: usize = 2000;
 /// A candidate within this angle of a held pose's direction is not advised (it is that pose).
 pub const HELD_POSE_DEG: f64 = 20.0;
 /// Below this relative drop of the standard error, no single new pose is worth advising.
-const WORTHWHILE_DROP: f64 = 0.05;
+pub(crate) const WORTHWHILE_DROP: f64 = 0.05;
 /// Without any still pose to copy, a new pose is taken as 10 s at 100 Hz.
 const DEFAULT_POSE_SAMPLES: f64 = 1000.0;
 
@@ -165,15 +165,15 @@ impl JointFit {
 }
 
 /// How a new pose would be recorded: as long as the campaign's, in a power-on of its own.
-struct PosePlan {
+pub(crate) struct PosePlan {
     /// σ²/N of its mean per axis, (m/s²)².
     mean_var: [f64; 3],
-    hold_s: Option<f64>,
-    offset_sd: f64,
+    pub(crate) hold_s: Option<f64>,
+    pub(crate) offset_sd: f64,
 }
 
 impl PosePlan {
-    fn of(fit: &JointFit, poses: &[PoseInput]) -> PosePlan {
+    pub(crate) fn of(fit: &JointFit, poses: &[PoseInput]) -> PosePlan {
         let median = |mut v: Vec<f64>| {
             v.retain(|x| x.is_finite() && *x > 0.0);
             v.sort_by(f64::total_cmp);
@@ -202,7 +202,7 @@ impl PosePlan {
     }
 
     /// The pose in user terms: each axis's elevation above level.
-    fn describe(&self, u: [f64; 3]) -> String {
+    pub(crate) fn describe(&self, u: [f64; 3]) -> String {
         let axes = ["x", "y", "z"];
         let elevations: Vec<String> = (0..3)
             .map(|k| {
@@ -230,7 +230,7 @@ impl PosePlan {
         )
     }
 
-    fn assumption(&self) -> String {
+    pub(crate) fn assumption(&self) -> String {
         format!(
             " (as a file of its own: its bias offset from the others taken as {:.1e} m/s², the spread the campaign found)",
             self.offset_sd
@@ -277,7 +277,7 @@ fn best_poses(
 
 /// The vector a of a still pose with gravity along `u` (information a aᵀ on the sensor's
 /// parameters once its two angles and its bias offset are taken out); `None` where degenerate.
-fn pose_information(
+pub(crate) fn pose_information(
     sensor: &SensorModel,
     u: [f64; 3],
     gravity: f64,
@@ -319,7 +319,7 @@ fn pose_information(
     }))
 }
 
-fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
+pub(crate) fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
     let n = dot(&v, &v).sqrt();
     (n.is_finite() && n > 0.0).then(|| v.map(|x| x / n))
 }

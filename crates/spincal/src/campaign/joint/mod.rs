@@ -32,7 +32,7 @@
 //! below the model's own H⁻¹: a run parameter's variance on the diagonal, the sensor's in every
 //! direction (few blocks make a noisy estimate; white noise is the floor).
 
-mod advice;
+pub(crate) mod advice;
 mod covariance;
 mod fit;
 mod input;
