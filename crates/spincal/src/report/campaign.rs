@@ -73,11 +73,23 @@ fn error_map_section(r: &CampaignResult, h: &mut String) -> Result<(), PlotError
     .decimals(1)
     .value_range(0.0, (2.0 * map.threshold).max(1.0))
     .mark(cells)
+    .advise(
+        map.next_pose
+            .iter()
+            .map(|n| {
+                let u = n.pose_direction;
+                map.cell_of(
+                    u[2].clamp(-1.0, 1.0).asin().to_degrees(),
+                    u[1].atan2(u[0]).to_degrees(),
+                )
+            })
+            .collect(),
+    )
     .size(900, 560);
     h.push_str(&figure(
         &plot,
         &format!(
-            "Each cell: the standard deviation that the saved model's parameter covariance predicts for the corrected reading of a still sensor with gravity along the cell's direction, over the noise of one reading, largest over the three axes (capped at 9.9). At most {:.2} the corrected reading's error is within 1.25× what the true model would leave. Outlined in red: cells holding a recorded still pose. Noise of one reading: {:.4}, {:.4}, {:.4} m/s².",
+            "Each cell: the standard deviation that the saved model's parameter covariance predicts for the corrected reading of a still sensor with gravity along the cell's direction, over the noise of one reading, largest over the three axes (capped at 9.9). At most {:.2} the corrected reading's error is within 1.25× what the true model would leave. Outlined in red: cells holding a recorded still pose; in blue, inside: the still pose advised next. Noise of one reading: {:.4}, {:.4}, {:.4} m/s².",
             map.threshold, map.noise_sd_mps2[0], map.noise_sd_mps2[1], map.noise_sd_mps2[2]
         ),
     )?);

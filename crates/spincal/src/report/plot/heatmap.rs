@@ -33,6 +33,8 @@ pub struct HeatMap {
     pub size: (u32, u32),
     /// Cells (row, column) outlined, e.g. where a recording was made.
     pub marked: Vec<(usize, usize)>,
+    /// Cells outlined in a second colour, e.g. where the next recording is advised.
+    pub advised: Vec<(usize, usize)>,
 }
 
 impl HeatMap {
@@ -99,12 +101,19 @@ impl HeatMap {
             value_range: None,
             size: (760, 520),
             marked: Vec::new(),
+            advised: Vec::new(),
         }
     }
 
     /// Outlines these cells (row, column).
     pub fn mark(mut self, cells: Vec<(usize, usize)>) -> HeatMap {
         self.marked = cells;
+        self
+    }
+
+    /// Outlines these cells (row, column) in blue, inset within [`HeatMap::mark`]'s red.
+    pub fn advise(mut self, cells: Vec<(usize, usize)>) -> HeatMap {
+        self.advised = cells;
         self
     }
 
@@ -269,13 +278,17 @@ impl sealed::Render for HeatMap {
             }
         }
 
-        for &(r, c) in self.marked.iter().filter(|&&(r, c)| r < rows && c < cols) {
+        let outlines = self
+            .marked
+            .iter()
+            .map(|cell| (cell, RED, 0.06))
+            .chain(self.advised.iter().map(|cell| (cell, BLUE, 0.18)));
+        for (&(r, c), colour, inset) in outlines.filter(|((r, c), ..)| *r < rows && *c < cols) {
             let (x, y) = (c as f64, r as f64);
-            let inset = 0.06;
             chart
                 .draw_series([Rectangle::new(
                     [(x + inset, y + inset), (x + 1.0 - inset, y + 1.0 - inset)],
-                    RED.stroke_width(3),
+                    colour.stroke_width(3),
                 )])
                 .map_err(render_error)?;
         }
