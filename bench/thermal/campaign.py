@@ -123,6 +123,9 @@ class Clock:
 # THERMAL_HOT_FACES=0: the hot poses at random orientations instead of the six faces (18 distinct
 # orientations rather than 12), to measure what the design determines.
 HOT_FACES = os.environ.get("THERMAL_HOT_FACES", "1") != "0"
+# THERMAL_NEXT_POSE="x,y,z": one more hot pose, gravity along that direction in the sensor frame
+# (a verdict's error_map.next_pose), to measure what following the advice brings.
+NEXT_POSE = np.array([float(v) for v in os.environ["THERMAL_NEXT_POSE"].split(",")]) if os.environ.get("THERMAL_NEXT_POSE") else None
 
 
 def face(name, rng):
@@ -159,8 +162,8 @@ def generate(out, seed):
     lines = ['unit = "thermal-%d"' % seed, "range_g = 2", "nonlinearity_pct_fs = 0.5", ""]
     files = {"faces": [], "poses": [], "warmup": None}
 
-    def record(name, idx, f):
-        write_csv(os.path.join(out, name), clock.t[idx], read(sensor, f, clock.die[idx], rng), clock.reported[idx])
+    def record(name, idx, f, noise=rng):
+        write_csv(os.path.join(out, name), clock.t[idx], read(sensor, f, clock.die[idx], noise), clock.reported[idx])
 
     def still_block(label):
         for p in range(9):
@@ -193,6 +196,14 @@ def generate(out, seed):
     files["warmup"] = "warmup.csv"
     clock.at += gap_s
     still_block("hot")
+    if NEXT_POSE is not None:
+        # The pose a verdict advised, recorded hot after the rest: its own noise stream, so every
+        # other file, the held-out one included, stays as without it.
+        idx = clock.take(pose_s, gap_s)
+        u = NEXT_POSE / np.linalg.norm(NEXT_POSE)
+        record("hot-pose-next.csv", idx, np.tile(G * u, (len(idx), 1)), np.random.default_rng([seed, 3]))
+        lines.extend(["[[recording]]", 'file = "hot-pose-next.csv"', 'kind = "static"', ""])
+        files["poses"].append("hot-pose-next.csv")
     with open(os.path.join(out, "campaign.toml"), "w") as fh:
         fh.write("\n".join(lines))
 
