@@ -462,7 +462,7 @@ fn every_q(terms: SensorTerms) -> SensorTerms {
 }
 
 /// θ_oᵀ Σ_oo⁻¹ θ_o over the parameters `o`; `None` where there are none or Σ_oo is singular.
-fn wald_statistic(covariance: &SensorCovariance, theta: &[f64], o: &[usize]) -> Option<f64> {
+pub(crate) fn wald_statistic(covariance: &SensorCovariance, theta: &[f64], o: &[usize]) -> Option<f64> {
     if o.is_empty() {
         return None;
     }

@@ -4,11 +4,13 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::campaign::candidate::wald_statistic;
 use crate::campaign::joint::advice::{pose_information, unit, PosePlan, CANDIDATES, WORTHWHILE_DROP};
 use crate::campaign::joint::{JointFit, PoseInput, HELD_POSE_DEG};
 use crate::correctors::model_file::ErrorModel;
 use crate::correctors::physical::{PhysicalCorrector, SensorCovariance, SENSOR_PARAMS};
 use crate::geometry::{dot, lattice_direction};
+use crate::metrics::{share_beyond_noise, term_threshold};
 
 /// A direction is determined where, on every axis, the predicted standard deviation of the
 /// correction is at most this share of one reading's noise: the corrected reading's error is then
@@ -225,20 +227,23 @@ fn over_the_sphere(model: ErrorModel<'_>, gravity_mps2: f64) -> (f64, f64) {
 }
 
 /// The still pose, at least `HELD_POSE_DEG` from every held one, that most widens where
-/// `corrector` is trusted. Each candidate direction's information (as the per-parameter advice
-/// has it: a file of its own, held as long as the campaign's poses, `fit`'s bias spread) updates
-/// the covariance by Sherman–Morrison; the candidate that most lowers the mean over the
-/// directions of gravity of max(worst sd / noise, threshold) is taken, a measure that counts
-/// directions brought inside the region and, where none can be, the error left outside it. The
-/// saved covariance is updated as if every term were free (a term held at zero carries its left-out
-/// move there, which a new pose shrinks too). `None` where every direction is trusted already or
-/// no candidate lowers that mean by `WORTHWHILE_DROP`.
-pub fn next_pose(corrector: &PhysicalCorrector, fit: &JointFit, poses: &[PoseInput]) -> Option<NextPose> {
+/// `corrector` is trusted. `fuller` is the fit the terms rule judged (q on every axis): the saved
+/// covariance is its covariance C plus the share (1 − k/W)₊ of the move d dᵀ that holding the
+/// left-out q at zero made (`candidate::error_bar_covariance`). Each candidate direction's
+/// information a (as the per-parameter advice has it: a file of its own, held as long as the
+/// campaign's poses, the campaign's bias spread) updates C by Sherman–Morrison; where every
+/// left-out q would then pass the terms rule the move goes, else it stays with the share its new
+/// Wald statistic gives. The candidate that most lowers the mean over the directions of gravity of
+/// max(worst sd / noise, threshold) is taken: a measure that counts directions brought inside the
+/// region and, where none can be, the error left outside it. `None` where every direction is
+/// trusted already or no candidate lowers that mean by `WORTHWHILE_DROP`.
+pub fn next_pose(corrector: &PhysicalCorrector, fuller: &JointFit, poses: &[PoseInput]) -> Option<NextPose> {
     let uncertainty = corrector.uncertainty.as_ref()?;
-    let c = &uncertainty.covariance;
     let noise = uncertainty.noise_sd_mps2;
     let g = corrector.gravity_mps2;
     let sensor = &corrector.sensor;
+    let left = LeftOut::of(corrector, fuller);
+    let c = &left.covariance;
     // Each direction's Jacobian of the correction per axis, over that axis's noise.
     let rows: Vec<[[f64; SENSOR_PARAMS]; 3]> = (0..OBJECTIVE_POINTS)
         .filter_map(|i| {
@@ -252,27 +257,25 @@ pub fn next_pose(corrector: &PhysicalCorrector, fit: &JointFit, poses: &[PoseInp
     if rows.is_empty() {
         return None;
     }
-    let quadratic = |j: &[f64; SENSOR_PARAMS]| -> f64 {
-        (0..SENSOR_PARAMS)
-            .map(|a| j[a] * (0..SENSOR_PARAMS).map(|b| c[a][b] * j[b]).sum::<f64>())
-            .sum()
+    let dot12 = |x: &[f64; SENSOR_PARAMS], y: &[f64; SENSOR_PARAMS]| -> f64 {
+        (0..SENSOR_PARAMS).map(|p| x[p] * y[p]).sum()
     };
-    let base: Vec<[f64; 3]> = rows
+    let times_c =
+        |x: &[f64; SENSOR_PARAMS]| -> [f64; SENSOR_PARAMS] { std::array::from_fn(|r| dot12(&c[r], x)) };
+    // Per direction and axis: J C Jᵀ and J d.
+    let base: Vec<[(f64, f64); 3]> = rows
         .iter()
-        .map(|j| std::array::from_fn(|k| quadratic(&j[k])))
+        .map(|j| std::array::from_fn(|k| (dot12(&j[k], &times_c(&j[k])), dot12(&j[k], &left.change))))
         .collect();
-    // Worst axis's sd over the noise per direction, after an update by (C a, aᵀ C a).
-    let worst = |update: Option<(&[f64; SENSOR_PARAMS], f64)>| -> Vec<f64> {
+    // Worst axis's sd over the noise per direction, C updated by (C a, aᵀ C a), the move's share.
+    let worst = |update: Option<(&[f64; SENSOR_PARAMS], f64)>, share: f64| -> Vec<f64> {
         rows.iter()
             .zip(&base)
             .map(|(j, v)| {
                 (0..3)
                     .map(|k| {
-                        let drop = update.map_or(0.0, |(ca, aca)| {
-                            let jca: f64 = (0..SENSOR_PARAMS).map(|p| j[k][p] * ca[p]).sum();
-                            jca * jca / (1.0 + aca)
-                        });
-                        (v[k] - drop).max(0.0).sqrt()
+                        let drop = update.map_or(0.0, |(ca, aca)| dot12(&j[k], ca).powi(2) / (1.0 + aca));
+                        (v[k].0 - drop + share * v[k].1 * v[k].1).max(0.0).sqrt()
                     })
                     .fold(0.0, f64::max)
             })
@@ -284,14 +287,14 @@ pub fn next_pose(corrector: &PhysicalCorrector, fit: &JointFit, poses: &[PoseInp
             .sum::<f64>()
             / w.len() as f64
     };
-    let before = measure(&worst(None));
+    let before = measure(&worst(None, left.share(None)));
     if before <= 1.0 + 1e-12 {
         return None;
     }
-    let plan = PosePlan::of(fit, poses);
+    let plan = PosePlan::of(fuller, poses);
     let held: Vec<[f64; 3]> = poses.iter().filter_map(|p| unit(p.mean_mps2)).collect();
     let near = HELD_POSE_DEG.to_radians().cos();
-    let mut best: Option<(f64, [f64; 3], [f64; SENSOR_PARAMS], f64)> = None;
+    let mut best: Option<(f64, [f64; 3], [f64; SENSOR_PARAMS], f64, f64)> = None;
     for i in 0..CANDIDATES {
         let u = lattice_direction(i, CANDIDATES);
         if held.iter().any(|h| dot(h, &u) > near) {
@@ -300,26 +303,28 @@ pub fn next_pose(corrector: &PhysicalCorrector, fit: &JointFit, poses: &[PoseInp
         let Some(a) = pose_information(sensor, u, g, &plan) else {
             continue;
         };
-        let ca: [f64; SENSOR_PARAMS] =
-            std::array::from_fn(|r| (0..SENSOR_PARAMS).map(|p| c[r][p] * a[p]).sum());
-        let aca: f64 = (0..SENSOR_PARAMS).map(|p| a[p] * ca[p]).sum();
+        let ca = times_c(&a);
+        let aca = dot12(&a, &ca);
         if !(aca.is_finite() && aca >= 0.0) {
             continue;
         }
-        let after = measure(&worst(Some((&ca, aca))));
+        let share = left.share(Some((&ca, aca)));
+        let after = measure(&worst(Some((&ca, aca)), share));
         if after.is_finite() && best.is_none_or(|(b, ..)| after < b) {
-            best = Some((after, u, ca, aca));
+            best = Some((after, u, ca, aca, share));
         }
     }
-    let (after, u, ca, aca) = best?;
+    let (after, u, ca, aca, share) = best?;
     if after > (1.0 - WORTHWHILE_DROP) * before {
         return None;
     }
-    let updated: SensorCovariance =
-        std::array::from_fn(|r| std::array::from_fn(|p| c[r][p] - ca[r] * ca[p] / (1.0 + aca)));
     let mut with_pose = corrector.clone();
-    if let Some(u) = with_pose.uncertainty.as_mut() {
-        u.covariance = updated;
+    if let Some(w) = with_pose.uncertainty.as_mut() {
+        w.covariance = std::array::from_fn(|r| {
+            std::array::from_fn(|p| {
+                c[r][p] - ca[r] * ca[p] / (1.0 + aca) + share * left.change[r] * left.change[p]
+            })
+        });
     }
     let (share_after, median_after) = over_the_sphere(ErrorModel::Physical(&with_pose), g);
     let (_, median_now) = over_the_sphere(ErrorModel::Physical(corrector), g);
@@ -339,6 +344,71 @@ pub fn next_pose(corrector: &PhysicalCorrector, fit: &JointFit, poses: &[PoseInp
             plan.assumption()
         ),
     })
+}
+
+/// The saved model's covariance taken apart: the fuller fit's covariance, and the move its
+/// left-out q made (none where it leaves none out, or the fuller fit has no covariance: then the
+/// saved covariance alone, updated as if every term were free).
+struct LeftOut {
+    covariance: SensorCovariance,
+    /// θ_fuller, whose left-out q the terms rule tests.
+    theta: [f64; SENSOR_PARAMS],
+    /// The q the saved model holds at zero and the fuller fit estimates.
+    terms: Vec<usize>,
+    /// d = θ_saved − θ_fuller.
+    change: [f64; SENSOR_PARAMS],
+}
+
+impl LeftOut {
+    fn of(corrector: &PhysicalCorrector, fuller: &JointFit) -> LeftOut {
+        let saved = corrector.sensor.params();
+        let theta = fuller.sensor.params();
+        let terms: Vec<usize> = (9..SENSOR_PARAMS)
+            .filter(|&k| {
+                saved[k] == 0.0 && theta[k] != 0.0 && fuller.sensor_params.get(k).is_some_and(|p| p.free)
+            })
+            .collect();
+        match fuller.sensor_covariance() {
+            Some(covariance) if !terms.is_empty() => LeftOut {
+                covariance,
+                theta,
+                terms,
+                change: std::array::from_fn(|k| saved[k] - theta[k]),
+            },
+            _ => LeftOut {
+                covariance: corrector
+                    .uncertainty
+                    .as_ref()
+                    .map_or([[0.0; SENSOR_PARAMS]; SENSOR_PARAMS], |u| u.covariance),
+                theta,
+                terms: Vec::new(),
+                change: [0.0; SENSOR_PARAMS],
+            },
+        }
+    }
+
+    /// The share of the move d dᵀ in the covariance after the update (C a, aᵀ C a), or now: none
+    /// where every left-out q would pass the terms rule, else (1 − k/W)₊.
+    fn share(&self, update: Option<(&[f64; SENSOR_PARAMS], f64)>) -> f64 {
+        if self.terms.is_empty() {
+            return 0.0;
+        }
+        let c: SensorCovariance = std::array::from_fn(|r| {
+            std::array::from_fn(|p| {
+                self.covariance[r][p] - update.map_or(0.0, |(ca, aca)| ca[r] * ca[p] / (1.0 + aca))
+            })
+        });
+        let threshold = term_threshold();
+        if update.is_some()
+            && self
+                .terms
+                .iter()
+                .all(|&k| self.theta[k].abs() >= threshold * c[k][k].max(0.0).sqrt())
+        {
+            return 0.0;
+        }
+        wald_statistic(&c, &self.theta, &self.terms).map_or(1.0, |w| share_beyond_noise(w, self.terms.len()))
+    }
 }
 
 #[cfg(test)]
