@@ -294,7 +294,9 @@ pub fn next_pose(corrector: &PhysicalCorrector, fuller: &JointFit, poses: &[Pose
     let plan = PosePlan::of(fuller, poses);
     let held: Vec<[f64; 3]> = poses.iter().filter_map(|p| unit(p.mean_mps2)).collect();
     let near = HELD_POSE_DEG.to_radians().cos();
-    let mut best: Option<(f64, [f64; 3], [f64; SENSOR_PARAMS], f64, f64)> = None;
+    // (measure after, direction, C a, aᵀ C a, the move's share)
+    type Scored = (f64, [f64; 3], [f64; SENSOR_PARAMS], f64, f64);
+    let mut best: Option<Scored> = None;
     for i in 0..CANDIDATES {
         let u = lattice_direction(i, CANDIDATES);
         if held.iter().any(|h| dot(h, &u) > near) {
