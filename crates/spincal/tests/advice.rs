@@ -122,21 +122,21 @@ fn one_file_per_pose(poses: &mut [PoseInput]) {
 /// Every advised pose at least `HELD_POSE_DEG` from every held pose's reading.
 fn assert_away_from_held(advice: &[Advice], poses: &[PoseInput]) {
     for a in advice {
-        let Some(u) = a.pose_direction else { continue };
-        for p in poses {
-            let m = unit(p.mean_mps2);
-            let angle = (u[0] * m[0] + u[1] * m[1] + u[2] * m[2])
-                .clamp(-1.0, 1.0)
-                .acos()
-                .to_degrees();
-            assert!(
-                angle >= HELD_POSE_DEG,
-                "{}: {angle:.1}° from {}: {}",
-                a.parameter,
-                p.name,
-                a.sentence
-            );
+        if let Some(u) = a.pose_direction {
+            assert_direction_away_from_held(u, poses, &format!("{}: {}", a.parameter, a.sentence));
         }
+    }
+}
+
+/// `u` at least `HELD_POSE_DEG` from every held pose's reading.
+fn assert_direction_away_from_held(u: [f64; 3], poses: &[PoseInput], what: &str) {
+    for p in poses {
+        let m = unit(p.mean_mps2);
+        let angle = (u[0] * m[0] + u[1] * m[1] + u[2] * m[2])
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees();
+        assert!(angle >= HELD_POSE_DEG, "{angle:.1}° from {}: {what}", p.name);
     }
 }
 
@@ -360,19 +360,7 @@ fn the_map_advice_followed_in_simulation_widens_the_trusted_region_as_predicted(
                 )
             });
             let u = next.pose_direction;
-            for p in &poses {
-                let m = unit(p.mean_mps2);
-                let angle = (u[0] * m[0] + u[1] * m[1] + u[2] * m[2])
-                    .clamp(-1.0, 1.0)
-                    .acos()
-                    .to_degrees();
-                assert!(
-                    angle >= HELD_POSE_DEG,
-                    "{angle:.1}° from {}: {}",
-                    p.name,
-                    next.sentence
-                );
-            }
+            assert_direction_away_from_held(u, &poses, &next.sentence);
             let [median_now, median_predicted] = next.median_sd_over_noise;
             assert!(
                 median_predicted < 0.75 * median_now,
