@@ -340,11 +340,12 @@ def evaluate(out):
     print(json.dumps(summary))
 
 
-def follow(unit, to, seed):
+def follow(unit, to, seed, name="pose-next.csv"):
     """The campaign of `unit` with the pose its verdict advises next (results.json's
-    error_map.next_pose) recorded as a file of its own, 8 s, by the same sensor (truth.json),
-    written to `to` with the held-out files copied: calibrated again, it shows whether the advice
-    widened the trusted region as predicted. Returns False where no pose was advised."""
+    error_map.next_pose) recorded as a file of its own, `name`, 8 s, by the same sensor
+    (truth.json), written to `to` with the held-out files copied: calibrated again, it shows
+    whether the advice widened the trusted region as predicted. Returns False where no pose was
+    advised."""
     import shutil
 
     results = json.load(open(os.path.join(unit, "cal", "results.json")))
@@ -356,18 +357,18 @@ def follow(unit, to, seed):
     shutil.copytree(unit, to, ignore=shutil.ignore_patterns("cal", "corrected", "score.json", "calibrate.log"))
     truth = json.load(open(os.path.join(unit, "truth.json")))
     sensor = {k: np.asarray(v) for k, v in truth["sensor"].items()}
-    rng = np.random.default_rng([seed, 2])
+    rng = np.random.default_rng([seed, 2, sum(map(ord, name))])
     n = int(8.0 * RATE_HZ)
     f = np.tile(G * np.asarray(next_pose["pose_direction"]), (n, 1))
-    write_csv(os.path.join(to, "pose-next.csv"), np.arange(n) / RATE_HZ, read(sensor, f, rng, np.zeros(3)))
+    write_csv(os.path.join(to, name), np.arange(n) / RATE_HZ, read(sensor, f, rng, np.zeros(3)))
     with open(os.path.join(to, "campaign.toml"), "a") as fh:
-        fh.write('\n[[recording]]\nfile = "pose-next.csv"\nkind = "static"\n')
+        fh.write('\n[[recording]]\nfile = "%s"\nkind = "static"\n' % name)
     return True
 
 
 if __name__ == "__main__":
     if sys.argv[1] == "follow":
-        sys.exit(0 if follow(sys.argv[2], sys.argv[3], int(sys.argv[4])) else 3)
+        sys.exit(0 if follow(sys.argv[2], sys.argv[3], int(sys.argv[4]), *sys.argv[5:6]) else 3)
     if sys.argv[1] == "generate":
         args = sys.argv[2:]
         sd = float(args[args.index("--session-sd") + 1]) if "--session-sd" in args else 0.0
