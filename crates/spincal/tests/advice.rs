@@ -353,7 +353,7 @@ fn the_map_advice_followed_in_simulation_widens_the_trusted_region_as_predicted(
             let fitted = fit(&poses);
             let corrector = corrector_of(&fitted, &sensor);
             let map = error_map(ErrorModel::Physical(&corrector), G, &poses);
-            let next = next_pose(&corrector, &fitted, &poses).unwrap_or_else(|| {
+            let next = next_pose(&map, &corrector, &fitted, &poses).unwrap_or_else(|| {
                 panic!(
                     "{n_poses} poses, seed {seed}: no advice at share {}",
                     map.share_determined

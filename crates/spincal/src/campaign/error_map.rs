@@ -227,7 +227,8 @@ fn over_the_sphere(model: ErrorModel<'_>, gravity_mps2: f64) -> (f64, f64) {
 }
 
 /// The still pose, at least `HELD_POSE_DEG` from every held one, that most widens where
-/// `corrector` is trusted. `fuller` is the fit the terms rule judged (q on every axis): the saved
+/// `corrector` is trusted (`map`: its error map, whose median is the "now" of the prediction).
+/// `fuller` is the fit the terms rule judged (q on every axis): the saved
 /// covariance is its covariance C plus the share (1 − k/W)₊ of the move d dᵀ that holding the
 /// left-out q at zero made (`candidate::error_bar_covariance`). Each candidate direction's
 /// information a (as the per-parameter advice has it: a file of its own, held as long as the
@@ -237,7 +238,12 @@ fn over_the_sphere(model: ErrorModel<'_>, gravity_mps2: f64) -> (f64, f64) {
 /// max(worst sd / noise, threshold) is taken: a measure that counts directions brought inside the
 /// region and, where none can be, the error left outside it. `None` where every direction is
 /// trusted already or no candidate lowers that mean by `WORTHWHILE_DROP`.
-pub fn next_pose(corrector: &PhysicalCorrector, fuller: &JointFit, poses: &[PoseInput]) -> Option<NextPose> {
+pub fn next_pose(
+    map: &ErrorMap,
+    corrector: &PhysicalCorrector,
+    fuller: &JointFit,
+    poses: &[PoseInput],
+) -> Option<NextPose> {
     let uncertainty = corrector.uncertainty.as_ref()?;
     let noise = uncertainty.noise_sd_mps2;
     let g = corrector.gravity_mps2;
@@ -329,8 +335,7 @@ pub fn next_pose(corrector: &PhysicalCorrector, fuller: &JointFit, poses: &[Pose
         });
     }
     let (share_after, median_after) = over_the_sphere(ErrorModel::Physical(&with_pose), g);
-    let (_, median_now) = over_the_sphere(ErrorModel::Physical(corrector), g);
-    let median_sd_over_noise = [median_now, median_after];
+    let median_sd_over_noise = [map.median_sd_over_noise?, median_after];
     Some(NextPose {
         pose_direction: u,
         hold_s: plan.hold_s,
@@ -359,6 +364,8 @@ struct LeftOut {
     terms: Vec<usize>,
     /// d = θ_saved − θ_fuller.
     change: [f64; SENSOR_PARAMS],
+    /// The terms rule's |q̂/se| threshold, solved once (every candidate pose is tested against it).
+    threshold: f64,
 }
 
 impl LeftOut {
@@ -376,6 +383,7 @@ impl LeftOut {
                 theta,
                 terms,
                 change: std::array::from_fn(|k| saved[k] - theta[k]),
+                threshold: term_threshold(),
             },
             _ => LeftOut {
                 covariance: corrector
@@ -385,6 +393,7 @@ impl LeftOut {
                 theta,
                 terms: Vec::new(),
                 change: [0.0; SENSOR_PARAMS],
+                threshold: term_threshold(),
             },
         }
     }
@@ -400,12 +409,11 @@ impl LeftOut {
                 self.covariance[r][p] - update.map_or(0.0, |(ca, aca)| ca[r] * ca[p] / (1.0 + aca))
             })
         });
-        let threshold = term_threshold();
         if update.is_some()
             && self
                 .terms
                 .iter()
-                .all(|&k| self.theta[k].abs() >= threshold * c[k][k].max(0.0).sqrt())
+                .all(|&k| self.theta[k].abs() >= self.threshold * c[k][k].max(0.0).sqrt())
         {
             return 0.0;
         }

@@ -487,7 +487,7 @@ pub fn calibrate_campaign(
         .map(|model| {
             let mut map = error_map(model, settings.joint.gravity_mps2, &prepared.poses);
             if let ErrorModel::Physical(physical) = model {
-                map.next_pose = next_pose(physical, &joint, &prepared.poses);
+                map.next_pose = next_pose(&map, physical, &joint, &prepared.poses);
             }
             map
         });
